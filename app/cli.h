@@ -1,0 +1,23 @@
+#pragma once
+// The `handson` command line: subcommands, each in its own file.
+#include <string>
+#include <vector>
+
+namespace handson::cli {
+
+using Words = std::vector<std::string>;
+
+/// Runs the command line; returns the process exit status (0 ok, 1 failure, 2 usage error).
+int run(int argc, char** argv);
+
+int cmdInfo(const Words& args);
+int cmdPhantom(const Words& args);
+int cmdResample(const Words& args);
+int cmdDevices(const Words& args);
+int cmdRender(const Words& args);
+int cmdPick(const Words& args);
+int cmdBench(const Words& args);
+/// No subcommand: the main job (until the window lands: render the default scene headless).
+int cmdDefault(const Words& args);
+
+}  // namespace handson::cli

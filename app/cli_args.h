@@ -1,0 +1,47 @@
+#pragma once
+// A small, strict command-line parser: options are --name VALUE or --name=VALUE, flags are --name,
+// everything else is positional. Unknown options and malformed values are usage errors.
+#include <optional>
+#include <ostream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace handson::cli {
+
+/// Thrown for bad command lines (exit status 2, with the command's usage hint).
+class UsageError : public std::runtime_error {
+ public:
+  explicit UsageError(const std::string& what) : std::runtime_error(what) {}
+};
+
+class Args {
+ public:
+  /// args: the words after the subcommand. valueOptions: options that take a value; flagOptions: those that do not.
+  Args(std::vector<std::string> args, std::vector<std::string> valueOptions, std::vector<std::string> flagOptions);
+
+  bool flag(const std::string& name) const;
+  std::optional<std::string> value(const std::string& name) const;
+  std::string valueOr(const std::string& name, const std::string& fallback) const;
+  const std::vector<std::string>& positional() const { return positional_; }
+  bool help() const { return help_; }
+
+  double number(const std::string& name, double fallback, double lo, double hi) const;
+  long integer(const std::string& name, long fallback, long lo, long hi) const;
+
+ private:
+  std::vector<std::pair<std::string, std::string>> values_;
+  std::vector<std::string> flags_;
+  std::vector<std::string> positional_;
+  bool help_ = false;
+};
+
+/// Where a command's usage text goes: stdout for --help, else stderr after "error: wrong arguments".
+std::ostream& usageStream(const Args& args);
+
+/// Parses "a,b,c" into numbers (each finite); throws UsageError naming `what`.
+std::vector<double> parseNumberList(const std::string& text, const std::string& what);
+/// Parses "WxH" (1..16384 each).
+void parseSize(const std::string& text, int& width, int& height);
+
+}  // namespace handson::cli

@@ -1,0 +1,881 @@
+#include "app/dicom_io.h"
+
+#include <gdcmDataSet.h>
+#include <gdcmDirectory.h>
+#include <gdcmImage.h>
+#include <gdcmImageReader.h>
+#include <gdcmPhotometricInterpretation.h>
+#include <gdcmPixelFormat.h>
+#include <gdcmScanner.h>
+#include <gdcmTag.h>
+#include <gdcmTrace.h>
+#include <gdcmTransferSyntax.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <system_error>
+#include <type_traits>
+
+#include "sim/error.h"
+
+namespace handson {
+namespace {
+
+namespace fs = std::filesystem;
+
+const gdcm::Tag kSeriesInstanceUid(0x0020, 0x000e);
+const gdcm::Tag kSeriesDescription(0x0008, 0x103e);
+const gdcm::Tag kSopInstanceUid(0x0008, 0x0018);
+const gdcm::Tag kImagePosition(0x0020, 0x0032);
+const gdcm::Tag kImageOrientation(0x0020, 0x0037);
+const gdcm::Tag kRows(0x0028, 0x0010);
+const gdcm::Tag kColumns(0x0028, 0x0011);
+const gdcm::Tag kPixelSpacing(0x0028, 0x0030);
+const gdcm::Tag kNumberOfFrames(0x0028, 0x0008);
+const gdcm::Tag kSliceThickness(0x0018, 0x0050);
+const gdcm::Tag kSpacingBetweenSlices(0x0018, 0x0088);
+const gdcm::Tag kRescaleIntercept(0x0028, 0x1052);
+const gdcm::Tag kRescaleSlope(0x0028, 0x1053);
+
+std::string trim(const std::string& s) {
+  const char* ws = " \t\r\n";
+  const auto b = s.find_first_not_of(ws);
+  if (b == std::string::npos) return {};
+  const auto e = s.find_last_not_of(ws);
+  std::string out = s.substr(b, e - b + 1);
+  // UIDs are padded with NUL.
+  while (!out.empty() && out.back() == '\0') out.pop_back();
+  return out;
+}
+
+/// Parses a backslash-separated list of decimal strings (DS / IS). Returns nullopt if any part is
+/// not a finite number.
+std::optional<std::vector<double>> parseNumbers(const std::string& text) {
+  std::vector<double> out;
+  std::string t = trim(text);
+  if (t.empty()) return std::nullopt;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t end = t.find('\\', start);
+    const std::string part = trim(t.substr(start, end == std::string::npos ? std::string::npos : end - start));
+    if (part.empty()) return std::nullopt;
+    char* stop = nullptr;
+    const double v = std::strtod(part.c_str(), &stop);
+    if (stop == part.c_str() || *stop != '\0' || !std::isfinite(v)) return std::nullopt;
+    out.push_back(v);
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  return out;
+}
+
+std::string tagText(const gdcm::Scanner& scanner, const std::string& file, const gdcm::Tag& tag) {
+  const char* v = scanner.GetValue(file.c_str(), tag);
+  return v ? trim(v) : std::string();
+}
+
+std::string datasetText(const gdcm::DataSet& ds, const gdcm::Tag& tag) {
+  if (!ds.FindDataElement(tag)) return {};
+  const gdcm::DataElement& de = ds.GetDataElement(tag);
+  const gdcm::ByteValue* bv = de.GetByteValue();
+  if (!bv || bv->GetLength() == 0) return {};
+  return trim(std::string(bv->GetPointer(), bv->GetLength()));
+}
+
+std::string fileName(const std::string& path) { return fs::path(path).filename().string(); }
+
+std::string formatMm(double v) {
+  std::ostringstream s;
+  s.precision(4);
+  s << v;
+  return s.str();
+}
+
+/// LPS (DICOM patient) to RAS (NIfTI world): negate x and y.
+Eigen::Vector3d lpsToRas(const Eigen::Vector3d& v) { return {0.0 - v.x(), 0.0 - v.y(), v.z()}; }
+
+/// Header values of one DICOM image file, from the scanner.
+struct SliceHeader {
+  std::string path;
+  std::string seriesUid;
+  std::string sopUid;
+  int rows = 0, columns = 0;
+  int frames = 1;
+  std::optional<std::vector<double>> pixelSpacing;  // row spacing \ column spacing
+  std::optional<std::vector<double>> orientation;   // row cosine, column cosine (LPS)
+  std::optional<std::vector<double>> position;      // LPS mm
+  double key = 0.0;                                 // position along the slice normal
+};
+
+/// Redirects GDCM's warning and error output into a buffer while alive, so that a broken file
+/// gives one clear handson::Error instead of library noise on stderr. The warnings are also how
+/// GDCM signals uncompressed pixel data cut short ("Incomplete Pixel Data").
+class GdcmTraceCapture {
+ public:
+  GdcmTraceCapture()
+      : oldWarning_(&gdcm::Trace::GetWarningStream()),
+        oldError_(&gdcm::Trace::GetErrorStream()),
+        warningFlag_(gdcm::Trace::GetWarningFlag()),
+        errorFlag_(gdcm::Trace::GetErrorFlag()) {
+    gdcm::Trace::SetWarningStream(buffer_);
+    gdcm::Trace::SetErrorStream(buffer_);
+    gdcm::Trace::SetWarning(true);
+    gdcm::Trace::SetError(true);
+  }
+  ~GdcmTraceCapture() {
+    gdcm::Trace::SetWarning(warningFlag_);
+    gdcm::Trace::SetError(errorFlag_);
+    gdcm::Trace::SetWarningStream(*oldWarning_);
+    gdcm::Trace::SetErrorStream(*oldError_);
+  }
+  GdcmTraceCapture(const GdcmTraceCapture&) = delete;
+  GdcmTraceCapture& operator=(const GdcmTraceCapture&) = delete;
+
+  /// Everything GDCM wrote since the last call.
+  std::string take() {
+    std::string text = buffer_.str();
+    buffer_.str({});
+    buffer_.clear();
+    return text;
+  }
+
+ private:
+  std::ostringstream buffer_;
+  std::ostream* oldWarning_;
+  std::ostream* oldError_;
+  bool warningFlag_, errorFlag_;
+};
+
+std::string transferSyntaxText(const gdcm::TransferSyntax& ts) {
+  static const std::map<std::string, const char*> names = {
+      {"1.2.840.10008.1.2", "Implicit VR Little Endian"},
+      {"1.2.840.10008.1.2.1", "Explicit VR Little Endian"},
+      {"1.2.840.10008.1.2.1.99", "Deflated Explicit VR Little Endian"},
+      {"1.2.840.10008.1.2.2", "Explicit VR Big Endian"},
+      {"1.2.840.10008.1.2.4.50", "JPEG Baseline (Process 1)"},
+      {"1.2.840.10008.1.2.4.51", "JPEG Extended (Process 2 & 4)"},
+      {"1.2.840.10008.1.2.4.57", "JPEG Lossless, Non-Hierarchical (Process 14)"},
+      {"1.2.840.10008.1.2.4.70", "JPEG Lossless, First-Order Prediction (Process 14 [Selection Value 1])"},
+      {"1.2.840.10008.1.2.4.80", "JPEG-LS Lossless"},
+      {"1.2.840.10008.1.2.4.81", "JPEG-LS Near-Lossless"},
+      {"1.2.840.10008.1.2.4.90", "JPEG 2000 Image Compression (Lossless Only)"},
+      {"1.2.840.10008.1.2.4.91", "JPEG 2000 Image Compression"},
+      {"1.2.840.10008.1.2.4.92", "JPEG 2000 Part 2 Multi-component Image Compression (Lossless Only)"},
+      {"1.2.840.10008.1.2.4.93", "JPEG 2000 Part 2 Multi-component Image Compression"},
+      {"1.2.840.10008.1.2.5", "RLE Lossless"},
+  };
+  const char* uid = gdcm::TransferSyntax::GetTSString(ts);
+  std::string out = uid ? trim(uid) : std::string();
+  if (out.empty()) return "unknown";
+  if (const auto it = names.find(out); it != names.end()) out += std::string(" (") + it->second + ")";
+  return out;
+}
+
+/// Converts one decoded slice to rescaled values. Returns false (leaving `out` partially written)
+/// as soon as a value is not an integer in int16 range when `out` is int16.
+template <class Raw, class Out>
+bool convertSlice(const char* buffer, std::size_t count, double slope, double intercept, Out* out) {
+  for (std::size_t n = 0; n < count; ++n) {
+    Raw raw;
+    std::memcpy(&raw, buffer + n * sizeof(Raw), sizeof(Raw));
+    const double v = double(raw) * slope + intercept;
+    if constexpr (std::is_same_v<Out, std::int16_t>) {
+      if (!(v >= -32768.0 && v <= 32767.0) || v != std::nearbyint(v)) return false;
+      out[n] = static_cast<std::int16_t>(v);
+    } else {
+      out[n] = static_cast<float>(v);
+    }
+  }
+  return true;
+}
+
+template <class Out>
+bool convertSlice(gdcm::PixelFormat::ScalarType type, const char* buffer, std::size_t count, double slope,
+                  double intercept, Out* out) {
+  switch (type) {
+    case gdcm::PixelFormat::UINT8: return convertSlice<std::uint8_t>(buffer, count, slope, intercept, out);
+    case gdcm::PixelFormat::INT8: return convertSlice<std::int8_t>(buffer, count, slope, intercept, out);
+    case gdcm::PixelFormat::UINT16: return convertSlice<std::uint16_t>(buffer, count, slope, intercept, out);
+    case gdcm::PixelFormat::INT16: return convertSlice<std::int16_t>(buffer, count, slope, intercept, out);
+    case gdcm::PixelFormat::UINT32: return convertSlice<std::uint32_t>(buffer, count, slope, intercept, out);
+    case gdcm::PixelFormat::INT32: return convertSlice<std::int32_t>(buffer, count, slope, intercept, out);
+    case gdcm::PixelFormat::FLOAT32: return convertSlice<float>(buffer, count, slope, intercept, out);
+    case gdcm::PixelFormat::FLOAT64: return convertSlice<double>(buffer, count, slope, intercept, out);
+    default: break;
+  }
+  throw Error("internal error: unsupported DICOM pixel type");
+}
+
+std::size_t pixelTypeSize(gdcm::PixelFormat::ScalarType type) {
+  switch (type) {
+    case gdcm::PixelFormat::UINT8:
+    case gdcm::PixelFormat::INT8: return 1;
+    case gdcm::PixelFormat::UINT16:
+    case gdcm::PixelFormat::INT16: return 2;
+    case gdcm::PixelFormat::UINT32:
+    case gdcm::PixelFormat::INT32:
+    case gdcm::PixelFormat::FLOAT32: return 4;
+    case gdcm::PixelFormat::FLOAT64: return 8;
+    default: return 0;
+  }
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/// Walks a file's DICOM element structure (headers and declared lengths only, values are skipped)
+/// before GDCM sees it. Debian's GDCM is built with assertions, and a DICOM file cut short inside
+/// its header aborts the process in gdcm::Reader; this check turns such files into a clear error.
+class DicomStructureCheck {
+ public:
+  enum class Verdict {
+    Ok,        ///< structure complete (or deflated, which cannot be walked): safe to hand to GDCM
+    NotDicom,  ///< no DICOM structure at all: skip the file
+    Broken,    ///< a DICOM file (has the "DICM" signature) that is truncated or malformed
+  };
+
+  explicit DicomStructureCheck(const std::string& path) : path_(path) {}
+
+  Verdict run() {
+    std::error_code ec;
+    const std::uintmax_t size = fs::file_size(path_, ec);
+    if (ec) {
+      problem_ = "cannot determine its size: " + ec.message();
+      return Verdict::NotDicom;
+    }
+    size_ = size;
+    in_.open(path_, std::ios::binary);
+    if (!in_) {
+      problem_ = "cannot be opened";
+      return Verdict::NotDicom;
+    }
+    unsigned char magic[4] = {0, 0, 0, 0};
+    const bool part10 = size_ >= 132 && seek(128) && readBytes(magic, 4) && std::memcmp(magic, "DICM", 4) == 0;
+    if (!part10) {
+      // A raw data set without preamble (old files): accept only if it parses completely.
+      if (!seek(0)) return Verdict::NotDicom;
+      unsigned char head[8];
+      if (!readBytes(head, 8)) return Verdict::NotDicom;
+      const std::uint16_t group = std::uint16_t(head[0] | (head[1] << 8));
+      if (group != 0x0002 && group != 0x0008) return Verdict::NotDicom;
+      const bool explicitVr = isVr(head[4], head[5]);
+      if (!seek(0)) return Verdict::NotDicom;
+      return walkElements(explicitVr, false, 0) && elements_ > 0 ? Verdict::Ok : Verdict::NotDicom;
+    }
+    // File meta information: group 0002, explicit VR little endian.
+    std::string transferSyntax;
+    int metaElements = 0;
+    while (true) {
+      const std::uint64_t at = pos_;
+      unsigned char g[2];
+      if (!readBytes(g, 2)) break;
+      if ((g[0] | (g[1] << 8)) != 0x0002) {
+        seek(at);
+        break;
+      }
+      seek(at);
+      Header h;
+      if (!readHeader(h, true)) return Verdict::Broken;
+      if (h.length == kUndefined) return fail("undefined length in the file meta information");
+      if (h.group == 0x0002 && h.element == 0x0010 && h.length < 256) {
+        std::string v(h.length, '\0');
+        if (!readBytes(reinterpret_cast<unsigned char*>(v.data()), h.length))
+          return fail("the file ends inside the transfer syntax UID");
+        transferSyntax = trim(v);
+      } else if (!skip(h, h.length)) {
+        return Verdict::Broken;
+      }
+      ++metaElements;
+    }
+    if (metaElements == 0) return fail("no file meta information after the DICM signature");
+    if (transferSyntax == "1.2.840.10008.1.2.1.99") return Verdict::Ok;  // deflated: GDCM inflates it
+    bool explicitVr = transferSyntax != "1.2.840.10008.1.2";
+    bigEndian_ = transferSyntax == "1.2.840.10008.1.2.2";
+    if (transferSyntax.empty()) {
+      unsigned char head[6];
+      const std::uint64_t at = pos_;
+      explicitVr = readBytes(head, 6) && isVr(head[4], head[5]);
+      seek(at);
+    }
+    const std::uint64_t start = pos_;
+    if (walkElements(explicitVr, false, 0) && elements_ > 0) return Verdict::Ok;
+    // Some writers encode the data set unlike their transfer syntax says; GDCM copes with that.
+    const std::string firstProblem = problem_.empty() ? "no data set after the file meta information" : problem_;
+    elements_ = 0;
+    hasPixelData_ = false;
+    if (seek(start) && walkElements(!explicitVr, false, 0) && elements_ > 0) return Verdict::Ok;
+    problem_ = firstProblem;
+    return Verdict::Broken;
+  }
+
+  const std::string& problem() const { return problem_; }
+  /// Whether the top-level data set holds pixel data (7FE0,0008/0009/0010).
+  bool hasPixelData() const { return hasPixelData_; }
+
+ private:
+  static constexpr std::uint32_t kUndefined = 0xffffffffu;
+  static constexpr int kMaxDepth = 64;
+
+  struct Header {
+    std::uint16_t group = 0, element = 0;
+    char vr[2] = {0, 0};
+    bool hasVr = false;
+    std::uint32_t length = 0;
+  };
+
+  static bool isVr(unsigned char a, unsigned char b) {
+    static const char* const vrs[] = {"AE", "AS", "AT", "CS", "DA", "DS", "DT", "FD", "FL", "IS", "LO",
+                                      "LT", "OB", "OD", "OF", "OL", "OV", "OW", "PN", "SH", "SL", "SQ",
+                                      "SS", "ST", "SV", "TM", "UC", "UI", "UL", "UN", "UR", "US", "UT", "UV"};
+    for (const char* v : vrs)
+      if (v[0] == char(a) && v[1] == char(b)) return true;
+    return false;
+  }
+  static bool isLongVr(const char* vr) {
+    static const char* const vrs[] = {"OB", "OD", "OF", "OL", "OV", "OW", "SQ", "SV", "UC", "UN", "UR", "UT", "UV"};
+    for (const char* v : vrs)
+      if (v[0] == vr[0] && v[1] == vr[1]) return true;
+    return false;
+  }
+
+  Verdict fail(const std::string& why) {
+    problem_ = why;
+    return Verdict::Broken;
+  }
+  bool failed(const std::string& why) {
+    if (problem_.empty()) problem_ = why;
+    return false;
+  }
+
+  bool seek(std::uint64_t p) {
+    if (p > size_) return false;
+    in_.clear();
+    in_.seekg(std::streamoff(p));
+    pos_ = p;
+    return bool(in_);
+  }
+  bool readBytes(unsigned char* dst, std::uint64_t n) {
+    if (pos_ + n > size_) return false;
+    in_.read(reinterpret_cast<char*>(dst), std::streamsize(n));
+    if (!in_) return false;
+    pos_ += n;
+    return true;
+  }
+  bool skip(const Header& h, std::uint64_t n) {
+    if (pos_ + n > size_) {
+      std::ostringstream msg;
+      msg << "element (" << std::hex;
+      msg.width(4);
+      msg.fill('0');
+      msg << h.group << ",";
+      msg.width(4);
+      msg << h.element << std::dec << ") declares " << n << " bytes but only " << (size_ - pos_)
+          << " remain in the file";
+      return failed(msg.str());
+    }
+    return seek(pos_ + n);
+  }
+  std::uint16_t u16(const unsigned char* p, bool big) const {
+    return big ? std::uint16_t((p[0] << 8) | p[1]) : std::uint16_t(p[0] | (p[1] << 8));
+  }
+  std::uint32_t u32(const unsigned char* p, bool big) const {
+    return big ? (std::uint32_t(p[0]) << 24) | (std::uint32_t(p[1]) << 16) | (std::uint32_t(p[2]) << 8) | p[3]
+               : std::uint32_t(p[0]) | (std::uint32_t(p[1]) << 8) | (std::uint32_t(p[2]) << 16) |
+                     (std::uint32_t(p[3]) << 24);
+  }
+
+  bool readHeader(Header& h, bool explicitVr) {
+    const bool big = bigEndian_;
+    unsigned char b[8];
+    if (!readBytes(b, 8)) return failed("the file ends inside an element header");
+    h.group = u16(b, big);
+    h.element = u16(b + 2, big);
+    h.hasVr = false;
+    if (h.group == 0xfffe) {
+      h.length = u32(b + 4, big);
+    } else if (explicitVr && isVr(b[4], b[5])) {
+      h.hasVr = true;
+      h.vr[0] = char(b[4]);
+      h.vr[1] = char(b[5]);
+      if (isLongVr(h.vr)) {
+        unsigned char l[4];
+        if (!readBytes(l, 4)) return failed("the file ends inside an element header");
+        h.length = u32(l, big);
+      } else {
+        h.length = u16(b + 6, big);
+      }
+    } else {
+      h.length = u32(b + 4, big);  // implicit VR (also explicit files with implicit private elements)
+    }
+    return true;
+  }
+  /// Elements until the end of the file (top level) or an item delimitation item (inItem).
+  bool walkElements(bool explicitVr, bool inItem, int depth) {
+    if (depth > kMaxDepth) return failed("sequences nested too deeply");
+    while (true) {
+      if (!inItem && pos_ == size_) return true;
+      Header h;
+      if (!readHeader(h, explicitVr)) return false;
+      if (h.group == 0xfffe) {
+        if (h.element == 0xe00d && inItem) return true;
+        if (!inItem && (h.element == 0xe00d || h.element == 0xe0dd)) {  // stray delimiter: tolerated
+          if (h.length != kUndefined && !skip(h, h.length)) return false;
+          continue;
+        }
+        return failed("misplaced item tag in the data set");
+      }
+      ++elements_;
+      if (!inItem && h.group == 0x7fe0 && (h.element == 0x0008 || h.element == 0x0009 || h.element == 0x0010))
+        hasPixelData_ = true;
+      if (h.length == kUndefined) {
+        const bool encapsulated = h.group == 0x7fe0 && h.element == 0x0010;
+        const bool unknownVr = h.hasVr && h.vr[0] == 'U' && h.vr[1] == 'N';
+        if (!walkSequence(explicitVr && !unknownVr, depth + 1, encapsulated)) return false;
+      } else if (!skip(h, h.length)) {
+        return false;
+      }
+    }
+  }
+
+  /// Items of an undefined-length sequence (or encapsulated pixel data) up to its delimiter.
+  bool walkSequence(bool explicitVr, int depth, bool encapsulated) {
+    if (depth > kMaxDepth) return failed("sequences nested too deeply");
+    while (true) {
+      Header h;
+      if (!readHeader(h, explicitVr)) return failed("the file ends inside a sequence");
+      if (h.group != 0xfffe) return failed("a sequence item is missing its item tag");
+      if (h.element == 0xe0dd) return true;
+      if (h.element != 0xe000) return failed("unexpected delimiter inside a sequence");
+      if (h.length == kUndefined) {
+        if (encapsulated) return failed("a pixel data fragment has undefined length");
+        if (!walkElements(explicitVr, true, depth + 1)) return false;
+      } else if (!skip(h, h.length)) {
+        return false;
+      }
+    }
+  }
+
+  std::string path_;
+  std::ifstream in_;
+  std::uint64_t size_ = 0, pos_ = 0;
+  bool bigEndian_ = false;
+  bool hasPixelData_ = false;
+  int elements_ = 0;
+  std::string problem_;
+};
+
+struct DirectoryListing {
+  std::vector<std::string> files;    ///< regular files (symbolic links followed), sorted
+  std::vector<std::string> subdirs;  ///< subdirectories, sorted (not searched)
+};
+
+DirectoryListing listDirectory(const std::string& directory) {
+  DirectoryListing out;
+  std::error_code ec;
+  fs::directory_iterator it(directory, ec);
+  if (ec) throw Error("cannot list DICOM directory '" + directory + "': " + ec.message());
+  for (; it != fs::directory_iterator(); it.increment(ec)) {
+    if (ec) throw Error("cannot list DICOM directory '" + directory + "': " + ec.message());
+    std::error_code sec;
+    if (it->is_regular_file(sec))
+      out.files.push_back(it->path().string());
+    else if (it->is_directory(sec))
+      out.subdirs.push_back(it->path().string());
+  }
+  if (ec) throw Error("cannot list DICOM directory '" + directory + "': " + ec.message());
+  std::sort(out.files.begin(), out.files.end());
+  std::sort(out.subdirs.begin(), out.subdirs.end());
+  return out;
+}
+
+/// A hint for a directory whose images may sit in subdirectories (not searched).
+std::string subdirectoryHint(const DirectoryListing& listing) {
+  if (listing.subdirs.empty()) return {};
+  return "; subdirectories are not searched: give the directory of one series, for example '" +
+         listing.subdirs.front() + "'";
+}
+
+}  // namespace
+
+Volume readDicomSeries(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress) {
+  DicomReadReport report;
+  std::error_code ec;
+  const fs::file_status st = fs::status(directory, ec);
+  if (directory.empty() || ec || !fs::exists(st)) throw Error("DICOM directory '" + directory + "' does not exist");
+  if (!fs::is_directory(st))
+    throw Error("'" + directory +
+                "' is not a directory: give the directory that holds the DICOM series' slice files, not a single file");
+
+  reportProgress(progress, 0.0, "scanning DICOM directory");
+  const DirectoryListing listing = listDirectory(directory);
+  const std::vector<std::string>& files = listing.files;
+  if (files.empty())
+    throw Error("DICOM directory '" + directory + "' holds no files: no DICOM images found" + subdirectoryHint(listing));
+
+  // --- Check each file's structure first: GDCM aborts on some truncated headers.
+  std::vector<std::string> candidates;
+  std::set<std::string> withPixelData;
+  int skipped = 0;
+  for (std::size_t f = 0; f < files.size(); ++f) {
+    DicomStructureCheck check(files[f]);
+    switch (check.run()) {
+      case DicomStructureCheck::Verdict::Ok:
+        candidates.push_back(files[f]);
+        if (check.hasPixelData()) withPixelData.insert(files[f]);
+        break;
+      case DicomStructureCheck::Verdict::NotDicom: ++skipped; break;
+      case DicomStructureCheck::Verdict::Broken:
+        throw Error("DICOM file '" + files[f] + "' is truncated or corrupt (" + check.problem() +
+                    "); remove or replace it");
+    }
+  }
+  if (candidates.empty()) {
+    std::ostringstream msg;
+    msg << "no DICOM images found in '" << directory << "' (" << files.size() << " file"
+        << (files.size() == 1 ? "" : "s") << " checked, none is a DICOM file)" << subdirectoryHint(listing);
+    throw Error(msg.str());
+  }
+
+  GdcmTraceCapture quiet;
+
+  // --- Scan headers and group the image files by series.
+  gdcm::Scanner scanner;
+  for (const gdcm::Tag& t : {kSeriesInstanceUid, kSeriesDescription, kSopInstanceUid, kImagePosition,
+                             kImageOrientation, kRows, kColumns, kPixelSpacing, kNumberOfFrames, kSliceThickness,
+                             kSpacingBetweenSlices})
+    scanner.AddTag(t);
+  scanner.Scan(candidates);
+
+  std::map<std::string, std::vector<SliceHeader>> bySeries;
+  std::map<std::string, std::string> descriptions;
+  for (const std::string& f : candidates) {
+    if (!scanner.IsKey(f.c_str())) {
+      ++skipped;
+      continue;
+    }
+    SliceHeader h;
+    h.path = f;
+    const std::string rowsText = tagText(scanner, f, kRows), colsText = tagText(scanner, f, kColumns);
+    if (rowsText.empty() && colsText.empty()) {
+      ++skipped;  // DICOM, but not an image (DICOMDIR, structured report, ...)
+      continue;
+    }
+    // An image whose header or pixel data stops early: cut at an element boundary, so GDCM would
+    // read it without complaint.
+    const auto rows = parseNumbers(rowsText);
+    const auto cols = parseNumbers(colsText);
+    if (!rows || !cols || rows->size() != 1 || cols->size() != 1 || (*rows)[0] < 1 || (*cols)[0] < 1)
+      throw Error("DICOM file '" + f + "' is truncated or corrupt (no valid Rows and Columns); remove or replace it");
+    if (!withPixelData.count(f))
+      throw Error("DICOM file '" + f + "' is truncated or corrupt (an image without pixel data); remove or replace it");
+    h.rows = int((*rows)[0]);
+    h.columns = int((*cols)[0]);
+    h.seriesUid = tagText(scanner, f, kSeriesInstanceUid);
+    h.sopUid = tagText(scanner, f, kSopInstanceUid);
+    if (const auto fr = parseNumbers(tagText(scanner, f, kNumberOfFrames)); fr && fr->size() == 1 && (*fr)[0] >= 1)
+      h.frames = int((*fr)[0]);
+    h.pixelSpacing = parseNumbers(tagText(scanner, f, kPixelSpacing));
+    h.orientation = parseNumbers(tagText(scanner, f, kImageOrientation));
+    h.position = parseNumbers(tagText(scanner, f, kImagePosition));
+    if (!descriptions.count(h.seriesUid)) descriptions[h.seriesUid] = tagText(scanner, f, kSeriesDescription);
+    bySeries[h.seriesUid].push_back(std::move(h));
+  }
+  if (bySeries.empty()) {
+    std::ostringstream msg;
+    msg << "no DICOM images found in '" << directory << "' (" << files.size() << " file"
+        << (files.size() == 1 ? "" : "s") << " checked, none is a readable DICOM image)" << subdirectoryHint(listing);
+    throw Error(msg.str());
+  }
+
+  for (const auto& [uid, slices] : bySeries)
+    report.seriesFound.push_back(DicomSeriesInfo{uid, descriptions[uid], int(slices.size())});
+  std::stable_sort(report.seriesFound.begin(), report.seriesFound.end(),
+                   [](const DicomSeriesInfo& a, const DicomSeriesInfo& b) { return a.fileCount > b.fileCount; });
+  report.chosen = report.seriesFound.front();
+  auto seriesName = [](const DicomSeriesInfo& s) {
+    std::string n = s.seriesInstanceUid.empty() ? std::string("(no SeriesInstanceUID)") : s.seriesInstanceUid;
+    if (!s.description.empty()) n += " \"" + s.description + "\"";
+    return n;
+  };
+  if (report.seriesFound.size() > 1) {
+    std::ostringstream w;
+    w << report.seriesFound.size() << " DICOM series found in '" << directory << "'; loading the largest, "
+      << seriesName(report.chosen) << " (" << report.chosen.fileCount << " files). Others:";
+    for (std::size_t s = 1; s < report.seriesFound.size(); ++s)
+      w << (s > 1 ? "," : "") << " " << seriesName(report.seriesFound[s]) << " (" << report.seriesFound[s].fileCount
+        << " files)";
+    report.warnings.push_back(w.str());
+  }
+  if (skipped > 0)
+    report.warnings.push_back(std::to_string(skipped) + " file" + (skipped == 1 ? "" : "s") + " in '" + directory +
+                              "' ignored: not DICOM images");
+
+  std::vector<SliceHeader> slices = std::move(bySeries[report.chosen.seriesInstanceUid]);
+
+  // --- Check the slices agree on size, pixel spacing and orientation.
+  const SliceHeader ref = slices.front();  // a copy: `slices` is rebuilt below
+  for (const SliceHeader& h : slices) {
+    if (h.frames > 1)
+      throw Error("DICOM file '" + h.path + "' holds " + std::to_string(h.frames) +
+                  " frames: multi-frame (enhanced) DICOM is not supported, only one slice per file");
+    if (h.rows != ref.rows || h.columns != ref.columns)
+      throw Error("DICOM slices differ in size: '" + fileName(ref.path) + "' is " + std::to_string(ref.columns) + "x" +
+                  std::to_string(ref.rows) + " but '" + fileName(h.path) + "' is " + std::to_string(h.columns) + "x" +
+                  std::to_string(h.rows) + " (in '" + directory + "')");
+    auto differ = [](const std::optional<std::vector<double>>& a, const std::optional<std::vector<double>>& b,
+                     double tol) {
+      if (a.has_value() != b.has_value()) return true;
+      if (!a) return false;
+      if (a->size() != b->size()) return true;
+      for (std::size_t n = 0; n < a->size(); ++n)
+        if (std::abs((*a)[n] - (*b)[n]) > tol * std::max(1.0, std::abs((*a)[n]))) return true;
+      return false;
+    };
+    if (differ(h.pixelSpacing, ref.pixelSpacing, 1e-4))
+      throw Error("DICOM slices differ in pixel spacing: '" + fileName(ref.path) + "' and '" + fileName(h.path) +
+                  "' (in '" + directory + "')");
+    if (differ(h.orientation, ref.orientation, 1e-4))
+      throw Error("DICOM slices differ in orientation (ImageOrientationPatient): '" + fileName(ref.path) + "' and '" +
+                  fileName(h.path) + "' (in '" + directory + "')");
+  }
+
+  // Pixel spacing: DICOM gives "row spacing \ column spacing".
+  double rowSpacing = 1.0, columnSpacing = 1.0;
+  if (ref.pixelSpacing && ref.pixelSpacing->size() == 2 && (*ref.pixelSpacing)[0] > 0 && (*ref.pixelSpacing)[1] > 0) {
+    rowSpacing = (*ref.pixelSpacing)[0];
+    columnSpacing = (*ref.pixelSpacing)[1];
+  } else {
+    report.warnings.push_back("DICOM series has no valid PixelSpacing (0028,0030); assuming 1 mm pixels");
+  }
+
+  // Orientation (converted to RAS right away; dot and cross products are unaffected).
+  Eigen::Vector3d rowDir(-1, 0, 0), colDir(0, -1, 0);  // RAS of LPS identity
+  if (ref.orientation && ref.orientation->size() == 6) {
+    const auto& o = *ref.orientation;
+    Eigen::Vector3d r = lpsToRas({o[0], o[1], o[2]}), c = lpsToRas({o[3], o[4], o[5]});
+    if (r.norm() < 0.5 || c.norm() < 0.5 || std::abs(r.normalized().dot(c.normalized())) > 1e-2)
+      throw Error("DICOM ImageOrientationPatient of '" + fileName(ref.path) +
+                  "' is not a pair of perpendicular unit vectors");
+    rowDir = r.normalized();
+    colDir = c.normalized();
+  } else if (slices.size() > 1) {
+    throw Error("DICOM series in '" + directory +
+                "' has no valid ImageOrientationPatient (0020,0037): the slices cannot be placed in space");
+  } else {
+    report.warnings.push_back("DICOM image has no valid ImageOrientationPatient; assuming axial orientation");
+  }
+  const Eigen::Vector3d normal = rowDir.cross(colDir).normalized();
+
+  // --- Sort by position along the normal.
+  std::vector<Eigen::Vector3d> positions;
+  for (SliceHeader& h : slices) {
+    if (!h.position || h.position->size() != 3) {
+      if (slices.size() > 1)
+        throw Error("DICOM file '" + h.path + "' has no valid ImagePositionPatient (0020,0032): the slices cannot be "
+                    "ordered");
+      report.warnings.push_back("DICOM image has no valid ImagePositionPatient; placing it at the origin");
+      h.position = std::vector<double>{0.0, 0.0, 0.0};
+    }
+    const Eigen::Vector3d p = lpsToRas({(*h.position)[0], (*h.position)[1], (*h.position)[2]});
+    h.key = p.dot(normal);
+  }
+  std::stable_sort(slices.begin(), slices.end(), [](const SliceHeader& a, const SliceHeader& b) { return a.key < b.key; });
+
+  // Duplicate positions: the same instance twice is dropped, two different images are refused.
+  {
+    std::vector<SliceHeader> unique;
+    for (SliceHeader& h : slices) {
+      if (!unique.empty() && std::abs(h.key - unique.back().key) < 1e-3) {
+        const SliceHeader& prev = unique.back();
+        if (!h.sopUid.empty() && h.sopUid == prev.sopUid) {
+          report.warnings.push_back("DICOM file '" + fileName(h.path) + "' is a copy of '" + fileName(prev.path) +
+                                    "' (same SOP Instance UID); ignored");
+          continue;
+        }
+        throw Error("DICOM files '" + fileName(prev.path) + "' and '" + fileName(h.path) + "' in '" + directory +
+                    "' are different images at the same slice position (" + formatMm(h.key) +
+                    " mm along the slice normal): the series holds more than one volume (several acquisitions, "
+                    "echoes or time points?). Put each volume's files in a directory of its own");
+      }
+      unique.push_back(std::move(h));
+    }
+    slices = std::move(unique);
+  }
+  const int n = int(slices.size());
+  for (const SliceHeader& h : slices) positions.push_back(lpsToRas({(*h.position)[0], (*h.position)[1], (*h.position)[2]}));
+
+  // --- Slice spacing and the k axis.
+  double kSpacing = 1.0;
+  Eigen::Vector3d kDir = normal;
+  if (n > 1) {
+    std::vector<double> steps;
+    for (int s = 0; s + 1 < n; ++s) steps.push_back(slices[s + 1].key - slices[s].key);
+    const double med = median(steps);
+    report.minStepMm = *std::min_element(steps.begin(), steps.end());
+    report.maxStepMm = *std::max_element(steps.begin(), steps.end());
+    report.sliceStepMm = med;
+    for (double s : steps)
+      if (std::abs(s - med) > 0.1 * med) report.spacingGaps = true;
+    if (report.spacingGaps) {
+      report.warnings.push_back("DICOM slice spacing is uneven: steps range from " + formatMm(report.minStepMm) +
+                                " to " + formatMm(report.maxStepMm) + " mm (missing slices?); using the median step " +
+                                formatMm(med) + " mm, so slices beyond a gap are misplaced");
+    }
+    const Eigen::Vector3d span = positions.back() - positions.front();
+    kDir = span.normalized();
+    const double cosTilt = kDir.dot(normal);
+    if (!(cosTilt > 0.1))
+      throw Error("DICOM slice positions in '" + directory + "' do not advance along the slice normal");
+    kSpacing = med / cosTilt;
+    if (cosTilt < std::cos(0.5 * 3.14159265358979 / 180.0)) {
+      std::ostringstream w;
+      w << "DICOM slices are sheared (gantry tilt of " << formatMm(std::acos(std::min(1.0, cosTilt)) * 180.0 / 3.14159265358979)
+        << " degrees); the volume keeps the tilted slice axis";
+      report.warnings.push_back(w.str());
+    }
+    // Slices far off the line from the first to the last position.
+    double offLine = 0.0;
+    for (const Eigen::Vector3d& p : positions) {
+      const Eigen::Vector3d d = p - positions.front();
+      offLine = std::max(offLine, (d - d.dot(kDir) * kDir).norm());
+    }
+    if (offLine > 0.5 * std::min(rowSpacing, columnSpacing))
+      report.warnings.push_back("DICOM slice positions do not lie on one line (up to " + formatMm(offLine) +
+                                " mm off); the volume assumes they do");
+  } else {
+    const auto thick = parseNumbers(tagText(scanner, slices[0].path, kSliceThickness));
+    const auto between = parseNumbers(tagText(scanner, slices[0].path, kSpacingBetweenSlices));
+    std::string source = "no slice thickness given; using 1 mm";
+    if (thick && thick->size() == 1 && (*thick)[0] > 0) {
+      kSpacing = (*thick)[0];
+      source = "using its SliceThickness " + formatMm(kSpacing) + " mm as the slice spacing";
+    } else if (between && between->size() == 1 && (*between)[0] > 0) {
+      kSpacing = (*between)[0];
+      source = "using its SpacingBetweenSlices " + formatMm(kSpacing) + " mm as the slice spacing";
+    }
+    report.sliceStepMm = report.minStepMm = report.maxStepMm = kSpacing;
+    report.warnings.push_back("DICOM series has a single slice; " + source);
+  }
+  report.slices = n;
+
+  VolumeGeometry geom;
+  geom.dims = Eigen::Vector3i(ref.columns, ref.rows, n);
+  geom.spacing = Eigen::Vector3d(columnSpacing, rowSpacing, kSpacing);
+  geom.origin = positions.front();
+  geom.direction.col(0) = rowDir;
+  geom.direction.col(1) = colDir;
+  geom.direction.col(2) = kDir;
+  geom.validate();
+
+  const std::size_t sliceVoxels = std::size_t(ref.columns) * std::size_t(ref.rows);
+  const std::size_t voxels = geom.voxelCount();
+  checkAllocation(voxels, voxels * sizeof(std::int16_t), "DICOM series in '" + directory + "'");
+  Volume volume(geom, ScalarType::Int16);
+
+  // --- Read and rescale the pixel data slice by slice.
+  std::vector<char> buffer;
+  bool warnedMono1 = false, warnedMixedSyntax = false;
+  for (int s = 0; s < n; ++s) {
+    const std::string& path = slices[s].path;
+    gdcm::ImageReader reader;
+    reader.SetFileName(path.c_str());
+    quiet.take();
+    if (!reader.Read())
+      throw Error("cannot read DICOM file '" + path + "': the file is corrupt or truncated");
+    const bool incomplete = quiet.take().find("Incomplete Pixel Data") != std::string::npos;
+    const gdcm::Image& image = reader.GetImage();
+    const std::string syntax = transferSyntaxText(image.GetTransferSyntax());
+    if (s == 0) {
+      report.transferSyntax = syntax;
+    } else if (syntax != report.transferSyntax && !warnedMixedSyntax) {
+      report.warnings.push_back("DICOM slices use different transfer syntaxes (" + report.transferSyntax + ", " +
+                                syntax + ")");
+      warnedMixedSyntax = true;
+    }
+    if (image.GetNumberOfDimensions() == 3 && image.GetDimension(2) > 1)
+      throw Error("DICOM file '" + path + "' holds several frames: multi-frame DICOM is not supported");
+    if (int(image.GetColumns()) != ref.columns || int(image.GetRows()) != ref.rows)
+      throw Error("DICOM file '" + path + "' has a pixel matrix of " + std::to_string(image.GetColumns()) + "x" +
+                  std::to_string(image.GetRows()) + ", unlike the rest of the series (" + std::to_string(ref.columns) +
+                  "x" + std::to_string(ref.rows) + ")");
+    const gdcm::PixelFormat& pf = image.GetPixelFormat();
+    if (pf.GetSamplesPerPixel() != 1)
+      throw Error("DICOM file '" + path + "' holds colour images (" + std::to_string(pf.GetSamplesPerPixel()) +
+                  " samples per pixel): only greyscale volumes are supported");
+    const gdcm::PixelFormat::ScalarType pixelType = pf.GetScalarType();
+    const std::size_t pixelSize = pixelTypeSize(pixelType);
+    if (pixelSize == 0)
+      throw Error("DICOM file '" + path + "' uses an unsupported pixel format (" + pf.GetScalarTypeAsString() + ")");
+    if (image.GetPhotometricInterpretation() == gdcm::PhotometricInterpretation::MONOCHROME1 && !warnedMono1) {
+      report.warnings.push_back("DICOM series is MONOCHROME1 (low values display white); values are kept as stored");
+      warnedMono1 = true;
+    }
+    const std::size_t expected = sliceVoxels * pixelSize;
+    if (image.GetBufferLength() != expected)
+      throw Error("DICOM file '" + path + "': unexpected pixel data size (" + std::to_string(image.GetBufferLength()) +
+                  " bytes instead of " + std::to_string(expected) + ")");
+    const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
+    if (!ds.FindDataElement(gdcm::Tag(0x7fe0, 0x0010)))
+      throw Error("DICOM file '" + path + "' has no pixel data: the file is truncated or not an image");
+    {
+      // Uncompressed pixel data shorter than the image: GDCM may accept a truncated file.
+      const gdcm::DataElement& pd = ds.GetDataElement(gdcm::Tag(0x7fe0, 0x0010));
+      const gdcm::ByteValue* bv = pd.GetByteValue();
+      std::error_code sizeError;
+      const std::uintmax_t fileSize = fs::file_size(path, sizeError);
+      if (bv && (incomplete || bv->GetLength() < expected || (!sizeError && fileSize < expected)))
+        throw Error("DICOM file '" + path + "' is truncated: its pixel data is shorter than the " +
+                    std::to_string(ref.columns) + "x" + std::to_string(ref.rows) + " image it declares");
+      if (!bv && !pd.GetSequenceOfFragments())
+        throw Error("DICOM file '" + path + "' has empty pixel data: the file is truncated or corrupt");
+    }
+    buffer.resize(expected);
+    if (!image.GetBuffer(buffer.data()))
+      throw Error("cannot decode the pixel data of DICOM file '" + path + "' (transfer syntax " + syntax +
+                  "): the file is truncated or corrupt, or the compression is not supported");
+
+    double slope = 1.0, intercept = 0.0;
+    if (const auto v = parseNumbers(datasetText(ds, kRescaleSlope)); v && !v->empty() && (*v)[0] != 0.0)
+      slope = (*v)[0];
+    if (const auto v = parseNumbers(datasetText(ds, kRescaleIntercept)); v && !v->empty()) intercept = (*v)[0];
+
+    const std::size_t offset = std::size_t(s) * sliceVoxels;
+    bool stored = false;
+    if (volume.type() == ScalarType::Int16)
+      stored = convertSlice(pixelType, buffer.data(), sliceVoxels, slope, intercept,
+                            volume.data<std::int16_t>() + offset);
+    if (!stored) {
+      if (volume.type() == ScalarType::Int16) {
+        // A value that does not fit int16: switch to float32, keeping the slices read so far.
+        checkAllocation(voxels, voxels * (sizeof(float) + sizeof(std::int16_t)),
+                        "DICOM series in '" + directory + "' (as float32)");
+        Volume promoted(geom, ScalarType::Float32);
+        const std::int16_t* src = volume.data<std::int16_t>();
+        float* dst = promoted.data<float>();
+        for (std::size_t v = 0; v < offset; ++v) dst[v] = float(src[v]);
+        volume = std::move(promoted);
+      }
+      convertSlice(pixelType, buffer.data(), sliceVoxels, slope, intercept, volume.data<float>() + offset);
+    }
+    reportProgress(progress, double(s + 1) / double(n), "reading DICOM slices");
+  }
+
+  if (reportOut) *reportOut = std::move(report);
+  return volume;
+}
+
+}  // namespace handson

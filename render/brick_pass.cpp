@@ -1,0 +1,50 @@
+#include "compute_passes.h"
+#include "shaders/shared.h"
+#include "shaders/spirv.h"
+#include "vk_context.h"
+#include "vk_graph_executor.h"
+#include "volume_texture.h"
+
+namespace handson::vk {
+
+namespace {
+struct BrickPush {
+  glm::ivec4 dims;
+  glm::ivec4 brickDims;
+};
+static_assert(sizeof(BrickPush) == 32, "push constant layout of brick_minmax.comp");
+}  // namespace
+
+BrickPass::BrickPass(const Context& ctx)
+    : ctx_(ctx),
+      pipeline_(ctx, shaders::brickMinMax(),
+                {{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+                 {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}},
+                sizeof(BrickPush)) {}
+
+void BrickPass::add(fg::FrameGraph& graph, fg::ResourceHandle volume, fg::ResourceHandle ranges, const Image& volumeImage,
+                    const Sampler& sampler) {
+  const fg::ImageDesc d = volumeImage.desc();
+  int bx, by, bz;
+  brickDims(Eigen::Vector3i(int(d.width), int(d.height), int(d.depth)), bx, by, bz);
+  const BrickPush push{glm::ivec4(int(d.width), int(d.height), int(d.depth), 0), glm::ivec4(bx, by, bz, 0)};
+  const std::uint32_t count = std::uint32_t(bx) * std::uint32_t(by) * std::uint32_t(bz);
+  graph.addPass(
+      "brick-minmax",
+      [&](fg::PassBuilder& b) {
+        b.read(volume, fg::Access::Sampled);
+        b.write(ranges, fg::Access::StorageWrite);
+      },
+      [this, volume, ranges, push, count, &sampler](fg::Executor& e) {
+        GraphExecutor& x = vulkanExecutor(e);
+        vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_.pipeline());
+        DescriptorWriter()
+            .sampledImage(0, x.image(volume).view(), sampler.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
+            .buffer(1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(ranges).handle())
+            .push(ctx_, x.cmd(), pipeline_);
+        vkCmdPushConstants(x.cmd(), pipeline_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(BrickPush), &push);
+        vkCmdDispatch(x.cmd(), (count + gpu::kBrickGroupX - 1) / gpu::kBrickGroupX, 1, 1);
+      });
+}
+
+}  // namespace handson::vk

@@ -1,0 +1,194 @@
+#include "raymarch_reference.h"
+
+#include <algorithm>
+#include <cmath>
+#include <thread>
+
+namespace handson {
+
+namespace {
+
+struct Sampler {
+  const QuantizedVolume& v;
+  const std::vector<glm::vec4>& lut;
+  const std::vector<std::uint32_t>& occ;
+  const gpu::RenderParams& P;
+
+  float texel(int i, int j, int k) const {
+    const auto& d = v.geometry.dims;
+    i = std::clamp(i, 0, d.x() - 1);
+    j = std::clamp(j, 0, d.y() - 1);
+    k = std::clamp(k, 0, d.z() - 1);
+    return float(v.data[std::size_t(i) + std::size_t(d.x()) * (std::size_t(j) + std::size_t(d.y()) * std::size_t(k))]) / 65535.0f;
+  }
+  // Vulkan linear filtering at texture coordinate (idx + 0.5) / dims: texel space x = idx.
+  float sample(glm::vec3 idx) const {
+    const glm::vec3 f0 = glm::floor(idx);
+    const glm::vec3 f = idx - f0;
+    const int i = int(f0.x), j = int(f0.y), k = int(f0.z);
+    float acc = 0.0f;
+    for (int dz = 0; dz < 2; ++dz)
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          const float w = (dx ? f.x : 1 - f.x) * (dy ? f.y : 1 - f.y) * (dz ? f.z : 1 - f.z);
+          acc += w * texel(i + dx, j + dy, k + dz);
+        }
+    return acc;
+  }
+  glm::vec4 transfer(float val) const {
+    const float x = std::clamp(val, 0.0f, 1.0f) * float(gpu::kTfEntries - 1);
+    const int i0 = int(std::floor(x));
+    const int i1 = std::min(i0 + 1, int(gpu::kTfEntries) - 1);
+    return glm::mix(lut[std::size_t(i0)], lut[std::size_t(i1)], x - float(i0));
+  }
+  bool setupRay(glm::vec2 ndc, glm::vec3& originW, glm::vec3& dirW, float& t0, float& t1) const {
+    const glm::vec4 nearH = P.invViewProj * glm::vec4(ndc, 0.0f, 1.0f);
+    const glm::vec4 farH = P.invViewProj * glm::vec4(ndc, 1.0f, 1.0f);
+    originW = glm::vec3(P.cameraPos);
+    dirW = glm::normalize(glm::vec3(farH) / farH.w - glm::vec3(nearH) / nearH.w);
+    const glm::vec3 o = glm::vec3(P.worldToIndex * glm::vec4(originW, 1.0f));
+    const glm::vec3 d = glm::mat3(P.worldToIndex) * dirW;
+    const glm::vec3 lo(-0.5f), hi = glm::vec3(P.dims) - 0.5f;
+    const glm::vec3 inv = 1.0f / d;
+    const glm::vec3 ta = (lo - o) * inv, tb = (hi - o) * inv;
+    const glm::vec3 tmin = glm::min(ta, tb), tmax = glm::max(ta, tb);
+    t0 = std::max(std::max(std::max(tmin.x, tmin.y), tmin.z), 0.0f);
+    t1 = std::min(std::min(tmax.x, tmax.y), tmax.z);
+    return t1 > t0;
+  }
+  bool brickOccupied(glm::vec3 idx, glm::ivec3& brick) const {
+    brick = glm::clamp(glm::ivec3(glm::floor((idx + 0.5f) / float(gpu::kBrickSize))), glm::ivec3(0), glm::ivec3(P.brickDims) - 1);
+    return occ[std::size_t((brick.z * P.brickDims.y + brick.y) * P.brickDims.x + brick.x)] != 0u;
+  }
+  float brickExit(glm::vec3 o, glm::vec3 d, glm::ivec3 brick) const {
+    const glm::vec3 lo = glm::vec3(brick) * float(gpu::kBrickSize) - 0.5f;
+    const glm::vec3 hi = lo + float(gpu::kBrickSize);
+    const glm::vec3 inv = 1.0f / d;
+    const glm::vec3 tmax = glm::max((lo - o) * inv, (hi - o) * inv);
+    return std::min(std::min(tmax.x, tmax.y), tmax.z);
+  }
+  float correctedAlpha(float a) const { return 1.0f - std::pow(std::max(1.0f - a, 0.0f), P.march.x / P.march.y); }
+  glm::vec3 gradientIndex(glm::vec3 idx) const {
+    return 0.5f * glm::vec3(sample(idx + glm::vec3(1, 0, 0)) - sample(idx - glm::vec3(1, 0, 0)),
+                            sample(idx + glm::vec3(0, 1, 0)) - sample(idx - glm::vec3(0, 1, 0)),
+                            sample(idx + glm::vec3(0, 0, 1)) - sample(idx - glm::vec3(0, 0, 1)));
+  }
+
+  // Advances sample counter n past an empty brick; returns true if the sample at n must be skipped.
+  bool skip(glm::vec3 o, glm::vec3 d, float t0, float step, glm::vec3 idx, std::uint32_t& n) const {
+    glm::ivec3 brick;
+    if (brickOccupied(idx, brick)) return false;
+    const float te = brickExit(o, d, brick);
+    n = std::max(n + 1u, std::uint32_t(std::ceil((te - t0) / step - 0.5f)));
+    return true;
+  }
+
+  glm::vec4 shadePixel(glm::vec2 ndc) const {
+    const std::uint32_t flags = P.control.x;
+    glm::vec3 color(0.0f);
+    float alpha = 0.0f;
+    glm::vec3 originW, dirW;
+    float t0, t1;
+    if (setupRay(ndc, originW, dirW, t0, t1)) {
+      const glm::vec3 o = glm::vec3(P.worldToIndex * glm::vec4(originW, 1.0f));
+      const glm::vec3 d = glm::mat3(P.worldToIndex) * dirW;
+      const glm::mat3 gradToWorld = glm::transpose(glm::mat3(P.worldToIndex));
+      const float step = P.march.x;
+      std::uint32_t n = 0, taken = 0;
+      while (taken < P.control.z) {
+        const float t = t0 + (float(n) + 0.5f) * step;
+        if (t >= t1) break;
+        const glm::vec3 idx = o + t * d;
+        ++taken;
+        if ((flags & gpu::kFlagEmptySpaceSkipping) && skip(o, d, t0, step, idx, n)) continue;
+        ++n;
+        const glm::vec4 s = transfer(sample(idx));
+        if (s.a <= 0.0f) continue;
+        const float a = correctedAlpha(s.a);
+        glm::vec3 c(s);
+        if (flags & gpu::kFlagShading) {
+          const glm::vec3 g = gradToWorld * gradientIndex(idx);
+          const float gl = glm::length(g);
+          if (gl > 1e-6f) {
+            const float ndl = std::abs(glm::dot(g / gl, dirW));
+            c = c * (P.light.x + P.light.y * ndl) + glm::vec3(P.light.z * std::pow(ndl, P.light.w));
+          } else {
+            c = c * (P.light.x + P.light.y);
+          }
+        }
+        color += (1.0f - alpha) * a * c;
+        alpha += (1.0f - alpha) * a;
+        if ((flags & gpu::kFlagEarlyTermination) && alpha >= P.march.z) break;
+      }
+    }
+    const glm::vec3 out = color + (1.0f - alpha) * glm::vec3(P.background) * P.background.a;
+    return glm::vec4(glm::clamp(out, 0.0f, 1.0f), 1.0f);
+  }
+
+  gpu::PickResult pick(glm::vec2 ndc) const {
+    gpu::PickResult r{};
+    r.world = glm::vec4(0.0f);
+    r.voxel = glm::ivec4(-1, -1, -1, 0);
+    glm::vec3 originW, dirW;
+    float t0, t1;
+    if (std::isnan(ndc.x) || std::isnan(ndc.y) || !setupRay(ndc, originW, dirW, t0, t1)) return r;
+    const glm::vec3 o = glm::vec3(P.worldToIndex * glm::vec4(originW, 1.0f));
+    const glm::vec3 d = glm::mat3(P.worldToIndex) * dirW;
+    const float step = P.march.x;
+    float alpha = 0.0f;
+    std::uint32_t n = 0, taken = 0;
+    while (taken < P.control.z) {
+      const float t = t0 + (float(n) + 0.5f) * step;
+      if (t >= t1) break;
+      const glm::vec3 idx = o + t * d;
+      ++taken;
+      if (skip(o, d, t0, step, idx, n)) continue;
+      ++n;
+      const glm::vec4 s = transfer(sample(idx));
+      if (s.a <= 0.0f) continue;
+      const float before = alpha;
+      alpha += (1.0f - alpha) * correctedAlpha(s.a);
+      if (alpha >= P.march.w) {
+        const float f = std::clamp((P.march.w - before) / std::max(alpha - before, 1e-6f), 0.0f, 1.0f);
+        const float th = std::max(t - step + f * step, t0);
+        r.world = glm::vec4(originW + th * dirW, 1.0f);
+        r.voxel = glm::ivec4(glm::ivec3(glm::floor(o + th * d + 0.5f)), int(taken));
+        break;
+      }
+    }
+    return r;
+  }
+};
+
+}  // namespace
+
+std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const gpu::RenderParams& params) {
+  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params};
+  const int w = params.dims.w, h = params.brickDims.w;
+  std::vector<std::uint8_t> img(std::size_t(w) * h * 4);
+  auto rows = [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < w; ++x) {
+        const glm::vec2 ndc((float(x) + 0.5f) / float(w) * 2.0f - 1.0f, (float(y) + 0.5f) / float(h) * 2.0f - 1.0f);
+        const glm::vec4 c = s.shadePixel(ndc);
+        std::uint8_t* p = &img[(std::size_t(y) * w + x) * 4];
+        for (int ch = 0; ch < 4; ++ch) p[ch] = std::uint8_t(std::lround(c[ch] * 255.0f));
+      }
+  };
+  const int threads = std::max(1u, std::min(8u, std::thread::hardware_concurrency()));
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) pool.emplace_back(rows, h * t / threads, h * (t + 1) / threads);
+  for (auto& th : pool) th.join();
+  return img;
+}
+
+std::vector<gpu::PickResult> pickReference(const ReferenceScene& scene, const gpu::RenderParams& params,
+                                           const std::vector<glm::vec2>& ndcPoints) {
+  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params};
+  std::vector<gpu::PickResult> out;
+  out.reserve(ndcPoints.size());
+  for (const auto& p : ndcPoints) out.push_back(s.pick(p));
+  return out;
+}
+
+}  // namespace handson

@@ -1,0 +1,28 @@
+#pragma once
+// CPU references of the raymarch and pick passes (shaders/raymarch.comp, shaders/pick.comp): the
+// same ray setup, sampling, transfer function, compositing, shading, skipping and termination,
+// written in C++ for GPU-vs-CPU tests. Trilinear sampling follows Vulkan's clamp-to-edge linear
+// filter rule; GPUs may filter with reduced weight precision, hence tolerances in the tests.
+#include <glm/glm.hpp>
+#include <cstdint>
+#include <vector>
+
+#include "shaders/shared.h"
+#include "volume_texture.h"
+
+namespace handson {
+
+struct ReferenceScene {
+  const QuantizedVolume* volume = nullptr;
+  const std::vector<glm::vec4>* lut = nullptr;
+  const std::vector<std::uint32_t>* occupancy = nullptr;
+};
+
+/// RGBA8 image (width = params.dims.w, height = params.brickDims.w), row 0 at the top.
+std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const gpu::RenderParams& params);
+
+/// One result per NDC point, as pick.comp writes them.
+std::vector<gpu::PickResult> pickReference(const ReferenceScene& scene, const gpu::RenderParams& params,
+                                           const std::vector<glm::vec2>& ndcPoints);
+
+}  // namespace handson

@@ -1,0 +1,52 @@
+#include "render_params.h"
+
+#include <cmath>
+
+#include "sim/error.h"
+#include "volume_texture.h"
+
+namespace handson {
+
+namespace {
+glm::mat4 toGlm(const Eigen::Matrix4d& m) {
+  glm::mat4 out;
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) out[c][r] = float(m(r, c));
+  return out;
+}
+}  // namespace
+
+gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::mat4& view, const glm::mat4& proj,
+                                   const glm::vec3& eye, const RenderSettings& s, std::uint32_t pickCount) {
+  if (s.width <= 0 || s.height <= 0 || s.width > 16384 || s.height > 16384)
+    throw Error("image size must be between 1x1 and 16384x16384");
+  if (!(s.stepFactor > 0.0f) || !std::isfinite(s.stepFactor)) throw Error("ray step factor must be > 0");
+  gpu::RenderParams p{};
+  const glm::mat4 viewProj = proj * view;
+  p.invViewProj = glm::inverse(viewProj);
+  p.worldToIndex = toGlm(geometry.worldToIndex());
+  p.indexToWorld = toGlm(geometry.indexToWorld());
+  p.cameraPos = glm::vec4(eye, 1.0f);
+  int bx, by, bz;
+  brickDims(geometry.dims, bx, by, bz);
+  p.dims = glm::ivec4(geometry.dims.x(), geometry.dims.y(), geometry.dims.z(), s.width);
+  p.brickDims = glm::ivec4(bx, by, bz, s.height);
+  const float step = float(geometry.spacing.minCoeff()) * s.stepFactor;
+  p.march = glm::vec4(step, 1.0f, s.terminationAlpha, s.pickThreshold);
+  p.background = s.background;
+  p.light = s.light;
+  std::uint32_t flags = 0;
+  if (s.emptySpaceSkipping) flags |= gpu::kFlagEmptySpaceSkipping;
+  if (s.earlyTermination) flags |= gpu::kFlagEarlyTermination;
+  if (s.shading) flags |= gpu::kFlagShading;
+  const double diag = geometry.diagonalMm();
+  const std::uint32_t maxSteps = std::uint32_t(std::ceil(diag / step)) * 2u + 64u;
+  p.control = glm::uvec4(flags, pickCount, maxSteps, 0u);
+  return p;
+}
+
+glm::vec2 pixelToNdc(float x, float y, int width, int height) {
+  return glm::vec2((x + 0.5f) / float(width) * 2.0f - 1.0f, (y + 0.5f) / float(height) * 2.0f - 1.0f);
+}
+
+}  // namespace handson

@@ -1,0 +1,33 @@
+#pragma once
+// Building the raymarch/pick uniform block (gpu::RenderParams) from a volume's geometry and a
+// camera. Plain data: shared by the Vulkan passes and their CPU references.
+#include <glm/glm.hpp>
+
+#include "shaders/shared.h"
+#include "sim/volume.h"
+
+namespace handson {
+
+struct RenderSettings {
+  int width = 512, height = 512;
+  /// Ray step as a fraction of the smallest voxel spacing.
+  float stepFactor = 0.5f;
+  bool emptySpaceSkipping = true;
+  bool earlyTermination = true;
+  bool shading = true;
+  float terminationAlpha = 0.99f;
+  /// Accumulated opacity at which a pick ray reports its surface.
+  float pickThreshold = 0.5f;
+  glm::vec4 background{0.08f, 0.09f, 0.11f, 1.0f};
+  glm::vec4 light{0.35f, 0.75f, 0.25f, 24.0f};  ///< ambient, diffuse, specular, shininess
+};
+
+/// view: world -> eye (right-handed, camera looks down -z); proj: eye -> Vulkan clip (z in [0,1],
+/// NDC y down). eye: camera position in world (mm).
+gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::mat4& view, const glm::mat4& proj,
+                                   const glm::vec3& eye, const RenderSettings& settings, std::uint32_t pickCount = 0);
+
+/// Pixel centre (x, y) of a width x height image to NDC (x right, y down).
+glm::vec2 pixelToNdc(float x, float y, int width, int height);
+
+}  // namespace handson

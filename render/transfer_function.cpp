@@ -1,0 +1,121 @@
+#include "transfer_function.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "shaders/shared.h"
+#include "sim/error.h"
+
+namespace handson {
+
+glm::vec4 TransferFunction::evaluate(float value) const {
+  if (points.empty()) return glm::vec4(0.0f);
+  if (value <= points.front().value) return points.front().rgba;
+  if (value >= points.back().value) return points.back().rgba;
+  for (std::size_t i = 1; i < points.size(); ++i) {
+    const TfPoint& a = points[i - 1];
+    const TfPoint& b = points[i];
+    if (value <= b.value) {
+      const float span = b.value - a.value;
+      const float t = span > 0.0f ? (value - a.value) / span : 1.0f;
+      return glm::mix(a.rgba, b.rgba, t);
+    }
+  }
+  return points.back().rgba;
+}
+
+std::vector<glm::vec4> TransferFunction::lookupTable(const QuantizedVolume& volume) const {
+  float base = 0.0f, scale = 1.0f;
+  if (relative) {
+    base = volume.percentile(0.01);
+    scale = std::max(volume.percentile(0.99) - base, 1e-6f);
+  }
+  std::vector<glm::vec4> lut(gpu::kTfEntries);
+  for (std::uint32_t i = 0; i < gpu::kTfEntries; ++i) {
+    const float v = volume.toValue(float(i) / float(gpu::kTfEntries - 1));
+    lut[i] = glm::clamp(evaluate(relative ? (v - base) / scale : v), glm::vec4(0.0f), glm::vec4(1.0f));
+  }
+  return lut;
+}
+
+TransferFunction transferFunctionPreset(const std::string& name) {
+  TransferFunction tf;
+  tf.name = name;
+  if (name == "ct-abdomen") {
+    // Fat faint yellow, soft tissue and organs translucent red-brown, contrast-enhanced vessels and
+    // kidney cortex bright, bone white and opaque.
+    tf.points = {{-1024, {0, 0, 0, 0}},
+                 {-200, {0, 0, 0, 0}},
+                 {-120, {0.85f, 0.75f, 0.45f, 0.0f}},
+                 {-80, {0.85f, 0.75f, 0.45f, 0.002f}},
+                 {-40, {0.80f, 0.55f, 0.40f, 0.0f}},
+                 {0, {0.75f, 0.35f, 0.28f, 0.0f}},
+                 {40, {0.75f, 0.35f, 0.28f, 0.002f}},
+                 {90, {0.85f, 0.45f, 0.35f, 0.006f}},
+                 {140, {0.95f, 0.30f, 0.25f, 0.15f}},
+                 {300, {1.0f, 0.55f, 0.45f, 0.4f}},
+                 {500, {1.0f, 0.95f, 0.88f, 0.8f}},
+                 {3071, {1.0f, 1.0f, 1.0f, 0.95f}}};
+  } else if (name == "ct-bone") {
+    tf.points = {{-1024, {0, 0, 0, 0}}, {150, {0, 0, 0, 0}}, {250, {0.9f, 0.8f, 0.65f, 0.3f}}, {700, {1, 0.97f, 0.9f, 0.9f}},
+                 {3071, {1, 1, 1, 1}}};
+  } else if (name == "mri") {
+    // Generic: percentiles of the image's own range, dark background transparent.
+    tf.relative = true;
+    tf.points = {{0.0f, {0, 0, 0, 0}}, {0.12f, {0, 0, 0, 0}}, {0.3f, {0.6f, 0.5f, 0.45f, 0.03f}}, {0.6f, {0.9f, 0.8f, 0.7f, 0.15f}},
+                 {1.0f, {1, 1, 1, 0.5f}}};
+  } else {
+    std::ostringstream msg;
+    msg << "unknown transfer-function preset '" << name << "' (available:";
+    for (const auto& n : transferFunctionPresetNames()) msg << ' ' << n;
+    msg << ")";
+    throw Error(msg.str());
+  }
+  return tf;
+}
+
+std::vector<std::string> transferFunctionPresetNames() { return {"ct-abdomen", "ct-bone", "mri"}; }
+
+TransferFunction thresholdTransferFunction(float threshold) {
+  TransferFunction tf;
+  tf.name = "threshold";
+  tf.points = {{threshold - 1e-3f, {0, 0, 0, 0}}, {threshold, {1, 1, 1, 1}}};
+  return tf;
+}
+
+TransferFunction loadTransferFunction(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error("cannot open transfer function file '" + path + "'");
+  TransferFunction tf;
+  tf.name = path;
+  std::string line;
+  int lineNo = 0;
+  while (std::getline(in, line)) {
+    ++lineNo;
+    if (auto c = line.find('#'); c != std::string::npos) line.resize(c);
+    std::istringstream ls(line);
+    std::string first;
+    if (!(ls >> first)) continue;
+    if (first == "relative") {
+      tf.relative = true;
+      continue;
+    }
+    TfPoint p{};
+    try {
+      p.value = std::stof(first);
+    } catch (...) {
+      throw Error(path + ":" + std::to_string(lineNo) + ": expected 'value r g b a'");
+    }
+    if (!(ls >> p.rgba.r >> p.rgba.g >> p.rgba.b >> p.rgba.a) || !std::isfinite(p.value))
+      throw Error(path + ":" + std::to_string(lineNo) + ": expected 'value r g b a'");
+    if (!tf.points.empty() && p.value < tf.points.back().value)
+      throw Error(path + ":" + std::to_string(lineNo) + ": values must be increasing");
+    tf.points.push_back(p);
+  }
+  if (tf.points.empty()) throw Error("transfer function file '" + path + "' has no points");
+  return tf;
+}
+
+}  // namespace handson

@@ -1,0 +1,367 @@
+#include "vk_context.h"
+
+#include <algorithm>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+#include <sstream>
+
+#include "sim/error.h"
+
+namespace handson::vk {
+
+const char* resultName(VkResult r) {
+  switch (r) {
+    case VK_SUCCESS: return "VK_SUCCESS";
+    case VK_NOT_READY: return "VK_NOT_READY";
+    case VK_TIMEOUT: return "VK_TIMEOUT";
+    case VK_ERROR_OUT_OF_HOST_MEMORY: return "VK_ERROR_OUT_OF_HOST_MEMORY";
+    case VK_ERROR_OUT_OF_DEVICE_MEMORY: return "VK_ERROR_OUT_OF_DEVICE_MEMORY";
+    case VK_ERROR_INITIALIZATION_FAILED: return "VK_ERROR_INITIALIZATION_FAILED";
+    case VK_ERROR_DEVICE_LOST: return "VK_ERROR_DEVICE_LOST";
+    case VK_ERROR_LAYER_NOT_PRESENT: return "VK_ERROR_LAYER_NOT_PRESENT";
+    case VK_ERROR_EXTENSION_NOT_PRESENT: return "VK_ERROR_EXTENSION_NOT_PRESENT";
+    case VK_ERROR_FEATURE_NOT_PRESENT: return "VK_ERROR_FEATURE_NOT_PRESENT";
+    case VK_ERROR_INCOMPATIBLE_DRIVER: return "VK_ERROR_INCOMPATIBLE_DRIVER";
+    case VK_ERROR_FORMAT_NOT_SUPPORTED: return "VK_ERROR_FORMAT_NOT_SUPPORTED";
+    case VK_ERROR_OUT_OF_DATE_KHR: return "VK_ERROR_OUT_OF_DATE_KHR";
+    case VK_SUBOPTIMAL_KHR: return "VK_SUBOPTIMAL_KHR";
+    case VK_ERROR_SURFACE_LOST_KHR: return "VK_ERROR_SURFACE_LOST_KHR";
+    default: return "VkResult error";
+  }
+}
+
+void check(VkResult r, const char* what) {
+  if (r == VK_SUCCESS) return;
+  std::ostringstream msg;
+  msg << "Vulkan: " << what << " failed (" << resultName(r) << ", " << int(r) << ")";
+  if (r == VK_ERROR_DEVICE_LOST) msg << ": the GPU device was lost";
+  if (r == VK_ERROR_OUT_OF_DEVICE_MEMORY || r == VK_ERROR_OUT_OF_HOST_MEMORY) msg << ": out of memory";
+  throw Error(msg.str());
+}
+
+const char* deviceTypeName(VkPhysicalDeviceType t) {
+  switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete GPU";
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return "integrated GPU";
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "virtual GPU";
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return "CPU";
+    default: return "other";
+  }
+}
+
+namespace {
+
+bool hasLayer(const char* name) {
+  std::uint32_t n = 0;
+  vkEnumerateInstanceLayerProperties(&n, nullptr);
+  std::vector<VkLayerProperties> layers(n);
+  vkEnumerateInstanceLayerProperties(&n, layers.data());
+  for (const auto& l : layers)
+    if (std::strcmp(l.layerName, name) == 0) return true;
+  return false;
+}
+
+bool envFlag(const char* name) {
+  const char* v = std::getenv(name);
+  return v && *v && std::strcmp(v, "0") != 0;
+}
+
+int typeScore(VkPhysicalDeviceType t) {
+  switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 4;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 3;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 1;
+    default: return 0;
+  }
+}
+
+VkInstance createBareInstance() {
+  VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+  app.pApplicationName = "handson";
+  app.apiVersion = VK_API_VERSION_1_3;
+  VkInstanceCreateInfo ci{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+  ci.pApplicationInfo = &app;
+  VkInstance inst = VK_NULL_HANDLE;
+  if (vkCreateInstance(&ci, nullptr, &inst) != VK_SUCCESS) return VK_NULL_HANDLE;
+  return inst;
+}
+
+}  // namespace
+
+std::vector<DeviceSummary> Context::listDevices() {
+  std::vector<DeviceSummary> out;
+  VkInstance inst = createBareInstance();
+  if (!inst) return out;
+  std::uint32_t n = 0;
+  vkEnumeratePhysicalDevices(inst, &n, nullptr);
+  std::vector<VkPhysicalDevice> devs(n);
+  vkEnumeratePhysicalDevices(inst, &n, devs.data());
+  for (auto d : devs) {
+    VkPhysicalDeviceProperties p;
+    vkGetPhysicalDeviceProperties(d, &p);
+    out.push_back({p.deviceName, p.deviceType, p.apiVersion});
+  }
+  vkDestroyInstance(inst, nullptr);
+  return out;
+}
+
+VKAPI_ATTR VkBool32 VKAPI_CALL Context::debugCallback(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                                     VkDebugUtilsMessageTypeFlagsEXT /*types*/,
+                                                     const VkDebugUtilsMessengerCallbackDataEXT* data, void* user) {
+  auto* self = static_cast<Context*>(user);
+  if (severity < VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) return VK_FALSE;
+  const std::string text = data && data->pMessage ? data->pMessage : "(no message)";
+  self->messageCount_.fetch_add(1);
+  {
+    std::lock_guard<std::mutex> lock(self->messageMutex_);
+    if (self->messages_.size() < 64) self->messages_.push_back(text);
+  }
+  std::cerr << "[vulkan validation] " << text << "\n";
+  return VK_FALSE;
+}
+
+std::vector<std::string> Context::validationMessages() const {
+  std::lock_guard<std::mutex> lock(messageMutex_);
+  return messages_;
+}
+
+void Context::resetValidationMessages() {
+  std::lock_guard<std::mutex> lock(messageMutex_);
+  messages_.clear();
+  messageCount_ = 0;
+}
+
+Context::Context(const ContextOptions& options) {
+  const bool wantValidation = options.validation || envFlag("HANDSON_VALIDATION");
+  validation_ = wantValidation && hasLayer("VK_LAYER_KHRONOS_validation");
+  if (wantValidation && !validation_) {
+    if (options.requireValidation)
+      throw Error("Vulkan validation was requested but VK_LAYER_KHRONOS_validation is not installed "
+                  "(Debian: apt-get install vulkan-validationlayers)");
+    std::cerr << "warning: VK_LAYER_KHRONOS_validation not found; running without validation\n";
+  }
+
+  VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+  app.pApplicationName = "handson";
+  app.applicationVersion = VK_MAKE_VERSION(0, 1, 0);
+  app.pEngineName = "handson";
+  app.apiVersion = VK_API_VERSION_1_3;
+
+  std::vector<const char*> layers;
+  std::vector<const char*> exts;
+  for (const auto& e : options.instanceExtensions) exts.push_back(e.c_str());
+  if (validation_) {
+    layers.push_back("VK_LAYER_KHRONOS_validation");
+    exts.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  }
+  VkDebugUtilsMessengerCreateInfoEXT dbg{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+  dbg.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+  dbg.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                    VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+  dbg.pfnUserCallback = &Context::debugCallback;
+  dbg.pUserData = this;
+
+  VkInstanceCreateInfo ci{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+  ci.pApplicationInfo = &app;
+  ci.enabledLayerCount = std::uint32_t(layers.size());
+  ci.ppEnabledLayerNames = layers.data();
+  ci.enabledExtensionCount = std::uint32_t(exts.size());
+  ci.ppEnabledExtensionNames = exts.data();
+  if (validation_) ci.pNext = &dbg;
+  VkResult r = vkCreateInstance(&ci, nullptr, &instance_);
+  if (r == VK_ERROR_INCOMPATIBLE_DRIVER || r == VK_ERROR_INITIALIZATION_FAILED)
+    throw Error("no Vulkan 1.3 driver found (on Debian: apt-get install mesa-vulkan-drivers for the CPU driver lavapipe)");
+  check(r, "vkCreateInstance");
+  try {
+    if (validation_) {
+      auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
+          vkGetInstanceProcAddr(instance_, "vkCreateDebugUtilsMessengerEXT"));
+      if (create) check(create(instance_, &dbg, nullptr, &messenger_), "vkCreateDebugUtilsMessengerEXT");
+    }
+    pickDevice(options);
+  } catch (...) {
+    release();
+    throw;
+  }
+}
+
+void Context::pickDevice(const ContextOptions& options) {
+  std::uint32_t n = 0;
+  check(vkEnumeratePhysicalDevices(instance_, &n, nullptr), "vkEnumeratePhysicalDevices");
+  if (n == 0) throw Error("no Vulkan device found (on Debian: apt-get install mesa-vulkan-drivers for lavapipe)");
+  std::vector<VkPhysicalDevice> devs(n);
+  check(vkEnumeratePhysicalDevices(instance_, &n, devs.data()), "vkEnumeratePhysicalDevices");
+
+  std::string want = options.device;
+  if (want.empty())
+    if (const char* env = std::getenv("HANDSON_DEVICE")) want = env;
+
+  struct Candidate {
+    VkPhysicalDevice dev;
+    VkPhysicalDeviceProperties props;
+    std::uint32_t family;
+    int index;
+  };
+  std::vector<Candidate> usable;
+  for (std::uint32_t i = 0; i < n; ++i) {
+    VkPhysicalDeviceProperties p;
+    vkGetPhysicalDeviceProperties(devs[i], &p);
+    if (p.apiVersion < VK_API_VERSION_1_3) continue;
+    std::uint32_t qn = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(devs[i], &qn, nullptr);
+    std::vector<VkQueueFamilyProperties> q(qn);
+    vkGetPhysicalDeviceQueueFamilyProperties(devs[i], &qn, q.data());
+    int family = -1;
+    // Prefer a family that can also draw (the window path presents from it), else compute only.
+    for (std::uint32_t f = 0; f < qn && family < 0; ++f)
+      if ((q[f].queueFlags & VK_QUEUE_COMPUTE_BIT) && (q[f].queueFlags & VK_QUEUE_GRAPHICS_BIT)) family = int(f);
+    for (std::uint32_t f = 0; f < qn && family < 0; ++f)
+      if (q[f].queueFlags & VK_QUEUE_COMPUTE_BIT) family = int(f);
+    if (family < 0) continue;
+    // Push descriptors are required.
+    std::uint32_t en = 0;
+    vkEnumerateDeviceExtensionProperties(devs[i], nullptr, &en, nullptr);
+    std::vector<VkExtensionProperties> ext(en);
+    vkEnumerateDeviceExtensionProperties(devs[i], nullptr, &en, ext.data());
+    bool ok = std::any_of(ext.begin(), ext.end(),
+                          [](const auto& e) { return std::strcmp(e.extensionName, VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME) == 0; });
+    for (const auto& need : options.deviceExtensions)
+      ok = ok && std::any_of(ext.begin(), ext.end(), [&](const auto& e) { return need == e.extensionName; });
+    if (!ok) continue;
+    usable.push_back({devs[i], p, std::uint32_t(family), int(i)});
+  }
+  if (usable.empty()) throw Error("no Vulkan 1.3 device with compute and VK_KHR_push_descriptor was found");
+
+  const Candidate* chosen = nullptr;
+  if (want.empty()) {
+    chosen = &*std::max_element(usable.begin(), usable.end(), [](const Candidate& a, const Candidate& b) {
+      return typeScore(a.props.deviceType) < typeScore(b.props.deviceType);
+    });
+  } else {
+    std::string lw = want;
+    std::transform(lw.begin(), lw.end(), lw.begin(), ::tolower);
+    const bool numeric = std::all_of(lw.begin(), lw.end(), ::isdigit);
+    for (const auto& c : usable) {
+      std::string name = c.props.deviceName;
+      std::transform(name.begin(), name.end(), name.begin(), ::tolower);
+      const bool isCpu = c.props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+      if ((lw == "cpu" && isCpu) || (lw == "gpu" && !isCpu) || (numeric && std::to_string(c.index) == lw) ||
+          (!numeric && lw != "cpu" && lw != "gpu" && name.find(lw) != std::string::npos)) {
+        if (!chosen || typeScore(c.props.deviceType) > typeScore(chosen->props.deviceType)) chosen = &c;
+      }
+    }
+    if (!chosen) {
+      std::ostringstream msg;
+      msg << "no Vulkan device matches '" << want << "'; available:";
+      for (const auto& c : usable) msg << " [" << c.index << "] " << c.props.deviceName << " (" << deviceTypeName(c.props.deviceType) << ")";
+      throw Error(msg.str());
+    }
+  }
+
+  physical_ = chosen->dev;
+  props_ = chosen->props;
+  queueFamily_ = chosen->family;
+  summary_ = {props_.deviceName, props_.deviceType, props_.apiVersion};
+  vkGetPhysicalDeviceMemoryProperties(physical_, &memProps_);
+  {
+    std::uint32_t qn = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(physical_, &qn, nullptr);
+    std::vector<VkQueueFamilyProperties> q(qn);
+    vkGetPhysicalDeviceQueueFamilyProperties(physical_, &qn, q.data());
+    timestampPeriod_ = q[queueFamily_].timestampValidBits ? double(props_.limits.timestampPeriod) : 0.0;
+  }
+  if (options.verbose)
+    std::cerr << "Vulkan device: " << props_.deviceName << " (" << deviceTypeName(props_.deviceType) << ")\n";
+
+  const float priority = 1.0f;
+  VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+  qci.queueFamilyIndex = queueFamily_;
+  qci.queueCount = 1;
+  qci.pQueuePriorities = &priority;
+  std::vector<const char*> dexts{VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME};
+  for (const auto& e : options.deviceExtensions) dexts.push_back(e.c_str());
+  VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
+  f13.synchronization2 = VK_TRUE;
+  VkPhysicalDeviceFeatures2 f2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+  f2.pNext = &f13;
+  VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+  dci.pNext = &f2;
+  dci.queueCreateInfoCount = 1;
+  dci.pQueueCreateInfos = &qci;
+  dci.enabledExtensionCount = std::uint32_t(dexts.size());
+  dci.ppEnabledExtensionNames = dexts.data();
+  check(vkCreateDevice(physical_, &dci, nullptr, &device_), "vkCreateDevice");
+  vkGetDeviceQueue(device_, queueFamily_, 0, &queue_);
+  cmdPushDescriptorSet =
+      reinterpret_cast<PFN_vkCmdPushDescriptorSetKHR>(vkGetDeviceProcAddr(device_, "vkCmdPushDescriptorSetKHR"));
+  if (!cmdPushDescriptorSet) throw Error("Vulkan: vkCmdPushDescriptorSetKHR is not available");
+  VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT | VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
+  pci.queueFamilyIndex = queueFamily_;
+  check(vkCreateCommandPool(device_, &pci, nullptr, &pool_), "vkCreateCommandPool");
+}
+
+Context::~Context() { release(); }
+
+void Context::release() {
+  if (device_) {
+    vkDeviceWaitIdle(device_);
+    if (pool_) vkDestroyCommandPool(device_, pool_, nullptr);
+    vkDestroyDevice(device_, nullptr);
+    device_ = VK_NULL_HANDLE;
+  }
+  if (messenger_) {
+    auto destroy = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
+        vkGetInstanceProcAddr(instance_, "vkDestroyDebugUtilsMessengerEXT"));
+    if (destroy) destroy(instance_, messenger_, nullptr);
+    messenger_ = VK_NULL_HANDLE;
+  }
+  if (instance_) {
+    vkDestroyInstance(instance_, nullptr);
+    instance_ = VK_NULL_HANDLE;
+  }
+}
+
+std::uint32_t Context::findMemoryType(std::uint32_t typeBits, VkMemoryPropertyFlags want) const {
+  for (std::uint32_t i = 0; i < memProps_.memoryTypeCount; ++i)
+    if ((typeBits & (1u << i)) && (memProps_.memoryTypes[i].propertyFlags & want) == want) return i;
+  throw Error("Vulkan: no memory type with the required properties");
+}
+
+void Context::submitAndWait(const std::function<void(VkCommandBuffer)>& record) const {
+  std::lock_guard<std::mutex> lock(submitMutex_);
+  VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  ai.commandPool = pool_;
+  ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  ai.commandBufferCount = 1;
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  check(vkAllocateCommandBuffers(device_, &ai, &cmd), "vkAllocateCommandBuffers");
+  VkFence fence = VK_NULL_HANDLE;
+  auto cleanup = [&] {
+    if (fence) vkDestroyFence(device_, fence, nullptr);
+    vkFreeCommandBuffers(device_, pool_, 1, &cmd);
+  };
+  try {
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    check(vkBeginCommandBuffer(cmd, &bi), "vkBeginCommandBuffer");
+    record(cmd);
+    check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+    VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    check(vkCreateFence(device_, &fci, nullptr, &fence), "vkCreateFence");
+    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &cmd;
+    check(vkQueueSubmit(queue_, 1, &si, fence), "vkQueueSubmit");
+    check(vkWaitForFences(device_, 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+  } catch (...) {
+    vkQueueWaitIdle(queue_);
+    cleanup();
+    throw;
+  }
+  cleanup();
+}
+
+}  // namespace handson::vk

@@ -1,0 +1,103 @@
+#pragma once
+// Vulkan instance and device: device choice (discrete GPU, then integrated, then CPU/lavapipe,
+// overridable), the Khronos validation layer with a messenger that counts every message, one
+// compute-capable queue, and helpers for one-shot command submission. Headless: no surface needed.
+#include <vulkan/vulkan.h>
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace handson::vk {
+
+/// Throws handson::Error naming `what` if r is not VK_SUCCESS.
+void check(VkResult r, const char* what);
+const char* resultName(VkResult r);
+
+struct ContextOptions {
+  /// Enable VK_LAYER_KHRONOS_validation. Default: on if HANDSON_VALIDATION=1 or in debug builds.
+  bool validation = false;
+  /// Fail if validation was requested but the layer is missing (tests want this).
+  bool requireValidation = false;
+  /// Device choice: "" = automatic (discrete > integrated > virtual > CPU), "gpu" = any non-CPU
+  /// device, "cpu" = a CPU implementation (lavapipe), a number = index in enumeration order, or
+  /// any other text = a substring of the device name. The HANDSON_DEVICE environment variable
+  /// is used when this is empty.
+  std::string device;
+  /// Print the chosen device on stderr.
+  bool verbose = false;
+  /// Instance extensions the caller needs (e.g. from SDL_Vulkan_GetInstanceExtensions).
+  std::vector<std::string> instanceExtensions;
+  /// Device extensions the caller needs (e.g. VK_KHR_swapchain).
+  std::vector<std::string> deviceExtensions;
+};
+
+struct DeviceSummary {
+  std::string name;
+  VkPhysicalDeviceType type;
+  std::uint32_t apiVersion;
+};
+
+const char* deviceTypeName(VkPhysicalDeviceType t);
+
+class Context {
+ public:
+  explicit Context(const ContextOptions& options = {});
+  ~Context();
+  Context(const Context&) = delete;
+  Context& operator=(const Context&) = delete;
+
+  VkInstance instance() const { return instance_; }
+  VkPhysicalDevice physicalDevice() const { return physical_; }
+  VkDevice device() const { return device_; }
+  VkQueue queue() const { return queue_; }
+  std::uint32_t queueFamily() const { return queueFamily_; }
+  const VkPhysicalDeviceProperties& properties() const { return props_; }
+  const DeviceSummary& summary() const { return summary_; }
+  bool validationEnabled() const { return validation_; }
+  /// Nanoseconds per timestamp tick, 0 if the queue has no timestamps.
+  double timestampPeriodNs() const { return timestampPeriod_; }
+
+  /// Number of validation messages (warnings and errors) since creation or the last reset.
+  std::uint64_t validationMessageCount() const { return messageCount_.load(); }
+  std::vector<std::string> validationMessages() const;
+  void resetValidationMessages();
+
+  std::uint32_t findMemoryType(std::uint32_t typeBits, VkMemoryPropertyFlags want) const;
+  /// Records with `record` into a fresh command buffer, submits, waits. For uploads and tools.
+  void submitAndWait(const std::function<void(VkCommandBuffer)>& record) const;
+
+  PFN_vkCmdPushDescriptorSetKHR cmdPushDescriptorSet = nullptr;
+
+  /// All devices visible to the loader (for `handson devices` and error messages).
+  static std::vector<DeviceSummary> listDevices();
+
+ private:
+  static VKAPI_ATTR VkBool32 VKAPI_CALL debugCallback(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                                      VkDebugUtilsMessageTypeFlagsEXT types,
+                                                      const VkDebugUtilsMessengerCallbackDataEXT* data, void* user);
+  void pickDevice(const ContextOptions& options);
+  void release();
+
+  VkInstance instance_ = VK_NULL_HANDLE;
+  VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
+  VkPhysicalDevice physical_ = VK_NULL_HANDLE;
+  VkDevice device_ = VK_NULL_HANDLE;
+  VkQueue queue_ = VK_NULL_HANDLE;
+  VkCommandPool pool_ = VK_NULL_HANDLE;
+  std::uint32_t queueFamily_ = 0;
+  VkPhysicalDeviceProperties props_{};
+  VkPhysicalDeviceMemoryProperties memProps_{};
+  DeviceSummary summary_{};
+  bool validation_ = false;
+  double timestampPeriod_ = 0.0;
+  std::atomic<std::uint64_t> messageCount_{0};
+  mutable std::mutex messageMutex_;
+  std::vector<std::string> messages_;
+  mutable std::mutex submitMutex_;
+};
+
+}  // namespace handson::vk

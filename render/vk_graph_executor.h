@@ -1,0 +1,94 @@
+#pragma once
+// The frame graph's Vulkan backend: turns the graph's barriers into vkCmdPipelineBarrier2 calls,
+// allocates transient resources (one set per frame in flight), binds imported ones, and times each
+// pass with timestamp queries. Frames are double-buffered: beginFrame() waits only for the frame
+// that used the same slot two submissions ago, so the CPU never waits for the frame it just sent.
+#include <vulkan/vulkan.h>
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "frame_graph.h"
+#include "vk_resources.h"
+
+namespace handson::vk {
+
+class Context;
+
+struct PassTiming {
+  std::string name;
+  double gpuMs = 0.0;
+};
+
+class GraphExecutor final : public fg::Executor {
+ public:
+  explicit GraphExecutor(const Context& ctx, std::uint32_t framesInFlight = 2, std::uint32_t maxPasses = 32);
+  ~GraphExecutor() override;
+  GraphExecutor(const GraphExecutor&) = delete;
+  GraphExecutor& operator=(const GraphExecutor&) = delete;
+
+  /// Starts recording the next frame slot. Waits for that slot's previous submission (if any),
+  /// and collects its pass timings into completedTimings(). Clears bindings.
+  void beginFrame();
+  VkCommandBuffer cmd() const;
+  /// Index of the current slot (0 .. framesInFlight-1), for per-slot resources kept by passes.
+  std::uint32_t slot() const { return current_; }
+  std::uint32_t framesInFlight() const { return std::uint32_t(slots_.size()); }
+
+  void bindImage(fg::ResourceHandle h, const Image& image);
+  void bindBuffer(fg::ResourceHandle h, const Buffer& buffer);
+  const Image& image(fg::ResourceHandle h) const;
+  const Buffer& buffer(fg::ResourceHandle h) const;
+
+  /// Ends and submits the frame. Optional semaphores for the window path.
+  void submit(VkSemaphore wait = VK_NULL_HANDLE, VkPipelineStageFlags2 waitStage = 0, VkSemaphore signal = VK_NULL_HANDLE);
+  /// Blocks until the last submitted frame has finished and collects its timings.
+  void waitLastFrame();
+  /// Blocks until a slot's last submission has finished and collects its timings.
+  void waitSlot(std::uint32_t slot);
+  /// Per-pass GPU times of the most recently completed frame (empty without timestamp support).
+  const std::vector<PassTiming>& completedTimings() const { return completed_; }
+  /// Per-pass GPU times of the last completed frame of a slot.
+  const std::vector<PassTiming>& slotTimings(std::uint32_t slot) const { return slots_.at(slot).timings; }
+
+  // fg::Executor
+  void realizeTransient(fg::ResourceHandle handle, const fg::ResourceInfo& info) override;
+  void beginPass(const fg::PassInfo& pass) override;
+  void barriers(const std::vector<fg::Barrier>& list) override;
+  void endPass(const fg::PassInfo& pass) override;
+  void finalBarriers(const std::vector<fg::Barrier>& list) override;
+
+  /// The graph this frame executes (needed to map handles to descriptions in barriers).
+  void setGraph(const fg::FrameGraph* graph) { graph_ = graph; }
+
+ private:
+  struct Slot {
+    VkCommandBuffer cmd = VK_NULL_HANDLE;
+    VkFence fence = VK_NULL_HANDLE;
+    VkQueryPool queries = VK_NULL_HANDLE;
+    bool pending = false;
+    std::vector<std::string> passNames;
+    std::vector<PassTiming> timings;
+    std::map<std::string, std::unique_ptr<Image>> transientImages;
+    std::map<std::string, std::unique_ptr<Buffer>> transientBuffers;
+  };
+  void collect(Slot& s);
+  void release();
+  void recordBarriers(const std::vector<fg::Barrier>& list);
+
+  const Context& ctx_;
+  VkCommandPool pool_ = VK_NULL_HANDLE;
+  std::vector<Slot> slots_;
+  std::uint32_t current_ = 0;
+  std::uint32_t lastSubmitted_ = UINT32_MAX;
+  std::uint32_t maxPasses_;
+  bool recording_ = false;
+  const fg::FrameGraph* graph_ = nullptr;
+  std::map<std::uint32_t, const Image*> images_;
+  std::map<std::uint32_t, const Buffer*> buffers_;
+  std::vector<PassTiming> completed_;
+};
+
+}  // namespace handson::vk

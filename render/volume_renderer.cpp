@@ -1,0 +1,202 @@
+#include "volume_renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "sim/error.h"
+#include "vk_context.h"
+
+namespace handson {
+
+using vk::Buffer;
+
+VolumeRenderer::VolumeRenderer(const vk::Context& ctx, std::uint32_t framesInFlight)
+    : ctx_(ctx),
+      executor_(ctx, framesInFlight),
+      raymarch_(ctx),
+      pick_(ctx),
+      brick_(ctx),
+      linear_(ctx, true),
+      slots_(framesInFlight == 0 ? 1 : framesInFlight) {}
+
+VolumeRenderer::~VolumeRenderer() {
+  try {
+    executor_.waitLastFrame();
+  } catch (...) {
+    // Device lost while shutting down: nothing more to wait for.
+  }
+}
+
+void VolumeRenderer::ensureBuffer(std::unique_ptr<Buffer>& b, VkDeviceSize size, VkBufferUsageFlags usage) {
+  if (b && b->size() >= size) return;
+  b = std::make_unique<Buffer>(ctx_, size, usage, Buffer::Memory::HostVisible);
+}
+
+void VolumeRenderer::setVolume(const QuantizedVolume& volume, const ProgressFn& progress) {
+  const auto& d = volume.geometry.dims;
+  if (volume.data.size() != volume.geometry.voxelCount() || volume.data.empty())
+    throw Error("renderer: volume data does not match its dimensions");
+  executor_.waitLastFrame();
+  reportProgress(progress, 0.0, "uploading volume");
+  const fg::ImageDesc desc{std::uint32_t(d.x()), std::uint32_t(d.y()), std::uint32_t(d.z()), fg::Format::R16Unorm};
+  volume_ = vk::Image(ctx_, desc, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
+  vk::uploadToImage(ctx_, volume_, volume.data.data(), volume.data.size() * sizeof(std::uint16_t),
+                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  reportProgress(progress, 0.6, "computing empty-space bricks");
+
+  // Brick ranges on the GPU, through the graph, read back once.
+  bricks_ = BrickGrid{};
+  brickDims(d, bricks_.bx, bricks_.by, bricks_.bz);
+  const VkDeviceSize rangeBytes = bricks_.count() * 2 * sizeof(std::uint32_t);
+  Buffer ranges(ctx_, rangeBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, Buffer::Memory::Device);
+  Buffer readback(ctx_, rangeBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::HostVisible);
+  fg::FrameGraph g;
+  auto hVol = g.importImage("volume", desc, fg::Access::Sampled);
+  auto hRanges = g.importBuffer("brick-ranges", {rangeBytes}, fg::Access::None);
+  auto hRead = g.importBuffer("brick-ranges-host", {rangeBytes}, fg::Access::None);
+  brick_.add(g, hVol, hRanges, volume_, linear_);
+  vk::addReadbackPass(g, "brick-readback", hRanges, hRead);
+  g.compile();
+  executor_.beginFrame();
+  executor_.setGraph(&g);
+  executor_.bindImage(hVol, volume_);
+  executor_.bindBuffer(hRanges, ranges);
+  executor_.bindBuffer(hRead, readback);
+  g.execute(executor_);
+  executor_.submit();
+  executor_.waitLastFrame();
+  readback.invalidate();
+  bricks_.ranges.resize(bricks_.count() * 2);
+  std::memcpy(bricks_.ranges.data(), readback.mapped(), rangeBytes);
+  hasVolume_ = true;
+  occupancy_.clear();
+  hasTf_ = false;
+  reportProgress(progress, 1.0, "volume ready");
+}
+
+void VolumeRenderer::setTransferFunction(const std::vector<glm::vec4>& lut) {
+  if (!hasVolume_) throw Error("renderer: setVolume() must come before setTransferFunction()");
+  if (lut.size() != gpu::kTfEntries) throw Error("renderer: transfer function table has the wrong size");
+  executor_.waitLastFrame();
+  std::vector<float> alpha(lut.size());
+  for (std::size_t i = 0; i < lut.size(); ++i) alpha[i] = lut[i].a;
+  occupancy_ = brickOccupancy(bricks_, alpha);
+  const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  tf_ = Buffer(ctx_, lut.size() * sizeof(glm::vec4), usage, Buffer::Memory::Device);
+  vk::uploadToBuffer(ctx_, tf_, lut.data(), lut.size() * sizeof(glm::vec4));
+  occupancyBuffer_ = Buffer(ctx_, occupancy_.size() * sizeof(std::uint32_t), usage, Buffer::Memory::Device);
+  vk::uploadToBuffer(ctx_, occupancyBuffer_, occupancy_.data(), occupancy_.size() * sizeof(std::uint32_t));
+  hasTf_ = true;
+}
+
+void VolumeRenderer::harvest(std::uint32_t slot, std::vector<FrameResult>& out) {
+  Slot& s = slots_[slot];
+  if (!s.frame) return;
+  FrameResult r;
+  r.frame = *s.frame;
+  r.width = s.width;
+  r.height = s.height;
+  if (s.wantImage) {
+    s.imageReadback->invalidate();
+    r.rgba.resize(std::size_t(s.width) * s.height * 4);
+    std::memcpy(r.rgba.data(), s.imageReadback->mapped(), r.rgba.size());
+  }
+  if (s.pickCount) {
+    s.pickReadback->invalidate();
+    r.picks.resize(s.pickCount);
+    std::memcpy(r.picks.data(), s.pickReadback->mapped(), s.pickCount * sizeof(gpu::PickResult));
+  }
+  r.timings = executor_.slotTimings(slot);
+  s.frame.reset();
+  out.push_back(std::move(r));
+}
+
+std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
+  if (!hasVolume_ || !hasTf_) throw Error("renderer: no volume or transfer function");
+  const int w = req.params.dims.w, h = req.params.brickDims.w;
+  if (w <= 0 || h <= 0) throw Error("renderer: invalid output size");
+
+  executor_.beginFrame();  // waits only for the frame that last used this slot
+  harvest(executor_.slot(), completed_);
+  Slot& s = slots_[executor_.slot()];
+
+  const VkBufferUsageFlags hostUsage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  ensureBuffer(s.params, sizeof(gpu::RenderParams), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+  gpu::RenderParams params = req.params;
+  params.control.y = std::uint32_t(req.pickPoints.size());
+  std::memcpy(s.params->mapped(), &params, sizeof(params));
+  s.params->flush();
+
+  fg::FrameGraph g;
+  const fg::ImageDesc volDesc = volume_.desc();
+  vk::MarchInputs in;
+  in.params = g.importBuffer("params", {sizeof(gpu::RenderParams)}, fg::Access::HostWrite);
+  in.volume = g.importImage("volume", volDesc, fg::Access::Sampled);
+  in.tf = g.importBuffer("transfer-function", {tf_.size()}, fg::Access::StorageRead);
+  in.occupancy = g.importBuffer("occupancy", {occupancyBuffer_.size()}, fg::Access::StorageRead);
+  auto color = g.createImage("color", {std::uint32_t(w), std::uint32_t(h), 1, fg::Format::Rgba8Unorm});
+  raymarch_.add(g, in, color, linear_);
+
+  fg::ResourceHandle imageHost, pickIn, pickOut, pickHost;
+  s.width = w;
+  s.height = h;
+  s.wantImage = req.readbackImage;
+  if (req.readbackImage) {
+    ensureBuffer(s.imageReadback, VkDeviceSize(w) * h * 4, hostUsage);
+    imageHost = g.importBuffer("image-readback", {s.imageReadback->size()}, fg::Access::None);
+    vk::addReadbackPass(g, "image-readback", color, imageHost);
+  } else {
+    g.exportResource(color, fg::Access::TransferSrc);
+  }
+  s.pickCount = req.pickPoints.size();
+  if (!req.pickPoints.empty()) {
+    const std::uint32_t n = std::uint32_t(req.pickPoints.size());
+    ensureBuffer(s.pickPoints, n * sizeof(glm::vec4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    ensureBuffer(s.pickReadback, n * sizeof(gpu::PickResult), hostUsage);
+    auto* pts = static_cast<glm::vec4*>(s.pickPoints->mapped());
+    for (std::uint32_t i = 0; i < n; ++i) pts[i] = glm::vec4(req.pickPoints[i], 0.0f, 0.0f);
+    s.pickPoints->flush();
+    pickIn = g.importBuffer("pick-points", {s.pickPoints->size()}, fg::Access::HostWrite);
+    pickOut = g.createBuffer("pick-results", {n * sizeof(gpu::PickResult)});
+    pickHost = g.importBuffer("pick-readback", {s.pickReadback->size()}, fg::Access::None);
+    pick_.add(g, in, pickIn, pickOut, n, linear_);
+    vk::addReadbackPass(g, "pick-readback", pickOut, pickHost);
+  }
+  g.compile();
+  executor_.setGraph(&g);
+  executor_.bindBuffer(in.params, *s.params);
+  executor_.bindImage(in.volume, volume_);
+  executor_.bindBuffer(in.tf, tf_);
+  executor_.bindBuffer(in.occupancy, occupancyBuffer_);
+  if (imageHost.valid()) executor_.bindBuffer(imageHost, *s.imageReadback);
+  if (pickIn.valid()) {
+    executor_.bindBuffer(pickIn, *s.pickPoints);
+    executor_.bindBuffer(pickHost, *s.pickReadback);
+  }
+  g.execute(executor_);
+  executor_.setGraph(nullptr);
+  executor_.submit();
+  s.frame = nextFrame_++;
+  return *s.frame;
+}
+
+std::vector<FrameResult> VolumeRenderer::takeCompleted() { return std::exchange(completed_, {}); }
+
+FrameResult VolumeRenderer::waitLast() {
+  executor_.waitLastFrame();
+  std::vector<FrameResult> out;
+  // Every slot has finished once the last one has (one queue); collect each slot's fence.
+  for (std::uint32_t i = 0; i < slots_.size(); ++i) {
+    executor_.waitSlot(i);
+    harvest(i, out);
+  }
+  if (out.empty()) throw Error("renderer: no frame was submitted");
+  std::sort(out.begin(), out.end(), [](const FrameResult& a, const FrameResult& b) { return a.frame < b.frame; });
+  FrameResult last = std::move(out.back());
+  out.pop_back();
+  for (auto& r : out) completed_.push_back(std::move(r));
+  return last;
+}
+
+}  // namespace handson

@@ -1,0 +1,86 @@
+#pragma once
+// Wires the passes into one frame graph per frame: raymarch (-> optional image readback) and
+// picking (-> pick readback). Uploads the volume once (R16_UNORM 3D image), computes the brick
+// ranges on the GPU, and keeps per-frame-in-flight uniform and readback buffers so that the CPU
+// never waits for the frame it just submitted: results arrive when their slot comes round again
+// (poll) or on an explicit wait.
+#include <glm/glm.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "compute_passes.h"
+#include "shaders/shared.h"
+#include "sim/progress.h"
+#include "vk_graph_executor.h"
+#include "vk_resources.h"
+#include "volume_texture.h"
+
+namespace handson {
+
+struct FrameRequest {
+  gpu::RenderParams params{};
+  std::vector<glm::vec2> pickPoints;  ///< NDC (x right, y down)
+  bool readbackImage = true;
+};
+
+struct FrameResult {
+  std::uint64_t frame = 0;  ///< sequence number returned by submit()
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> rgba;  ///< empty unless the frame asked for it
+  std::vector<gpu::PickResult> picks;
+  std::vector<vk::PassTiming> timings;
+};
+
+class VolumeRenderer {
+ public:
+  explicit VolumeRenderer(const vk::Context& ctx, std::uint32_t framesInFlight = 2);
+  ~VolumeRenderer();
+
+  /// Uploads the volume and computes its brick grid on the GPU (read back for occupancy updates).
+  void setVolume(const QuantizedVolume& volume, const ProgressFn& progress = {});
+  /// Uploads a lookup table (gpu::kTfEntries entries) and the brick occupancy it implies.
+  void setTransferFunction(const std::vector<glm::vec4>& lut);
+
+  /// Records and submits one frame; blocks only if the slot it reuses is still in flight.
+  std::uint64_t submit(const FrameRequest& request);
+  /// Results that completed since the last call (non-blocking; from slots that came round again).
+  std::vector<FrameResult> takeCompleted();
+  /// Waits for the last submitted frame and returns its results.
+  FrameResult waitLast();
+
+  const BrickGrid& bricks() const { return bricks_; }
+  const std::vector<std::uint32_t>& occupancy() const { return occupancy_; }
+  const vk::Context& context() const { return ctx_; }
+
+ private:
+  struct Slot {
+    std::unique_ptr<vk::Buffer> params;
+    std::unique_ptr<vk::Buffer> pickPoints, pickReadback, imageReadback;
+    std::optional<std::uint64_t> frame;
+    int width = 0, height = 0;
+    std::size_t pickCount = 0;
+    bool wantImage = false;
+  };
+  void harvest(std::uint32_t slot, std::vector<FrameResult>& out);
+  void ensureBuffer(std::unique_ptr<vk::Buffer>& b, VkDeviceSize size, VkBufferUsageFlags usage);
+
+  const vk::Context& ctx_;
+  vk::GraphExecutor executor_;
+  vk::RaymarchPass raymarch_;
+  vk::PickPass pick_;
+  vk::BrickPass brick_;
+  vk::Sampler linear_;
+  vk::Image volume_;
+  vk::Buffer tf_, occupancyBuffer_;
+  BrickGrid bricks_;
+  std::vector<std::uint32_t> occupancy_;
+  std::vector<Slot> slots_;
+  std::vector<FrameResult> completed_;
+  std::uint64_t nextFrame_ = 1;
+  bool hasVolume_ = false, hasTf_ = false;
+};
+
+}  // namespace handson

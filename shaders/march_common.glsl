@@ -1,0 +1,59 @@
+// Ray setup, sampling, transfer function and empty-space skipping shared by raymarch.comp and
+// pick.comp. The CPU reference in render/raymarch_reference.cpp implements the same steps.
+// Needs: #include "shared.h" and the bindings declared below.
+
+layout(std140, set = 0, binding = kBindParams) uniform Params { RenderParams P; };
+layout(set = 0, binding = kBindVolume) uniform sampler3D uVolume;
+layout(std430, set = 0, binding = kBindTf) readonly buffer Tf { vec4 tf[]; };
+layout(std430, set = 0, binding = kBindOccupancy) readonly buffer Occ { uint occupancy[]; };
+
+// Normalized value at a continuous voxel index (voxel centres at integers), clamped at the edges.
+float sampleVolume(vec3 idx) {
+  return textureLod(uVolume, (idx + 0.5) / vec3(P.dims.xyz), 0.0).r;
+}
+
+// Transfer function: linear interpolation between lookup entries.
+vec4 transfer(float v) {
+  float x = clamp(v, 0.0, 1.0) * float(kTfEntries - 1);
+  int i0 = int(floor(x));
+  int i1 = min(i0 + 1, int(kTfEntries) - 1);
+  return mix(tf[i0], tf[i1], x - float(i0));
+}
+
+// Ray through a point in NDC (x right, y down, both in [-1, 1]); returns false if it misses the
+// volume box. Box in index space: [-0.5, dims - 0.5]. t is the distance along the world ray (mm).
+bool setupRay(vec2 ndc, out vec3 originW, out vec3 dirW, out float t0, out float t1) {
+  vec4 nearH = P.invViewProj * vec4(ndc, 0.0, 1.0);
+  vec4 farH = P.invViewProj * vec4(ndc, 1.0, 1.0);
+  originW = P.cameraPos.xyz;
+  dirW = normalize(farH.xyz / farH.w - nearH.xyz / nearH.w);
+  vec3 o = (P.worldToIndex * vec4(originW, 1.0)).xyz;
+  vec3 d = mat3(P.worldToIndex) * dirW;
+  vec3 lo = vec3(-0.5), hi = vec3(P.dims.xyz) - 0.5;
+  vec3 inv = 1.0 / d;  // IEEE: +-inf for axis-parallel rays, handled by min/max below
+  vec3 ta = (lo - o) * inv, tb = (hi - o) * inv;
+  vec3 tmin = min(ta, tb), tmax = max(ta, tb);
+  t0 = max(max(max(tmin.x, tmin.y), tmin.z), 0.0);
+  t1 = min(min(tmax.x, tmax.y), tmax.z);
+  return t1 > t0;
+}
+
+// Brick of a continuous index, and whether it may contain visible samples.
+bool brickOccupied(vec3 idx, out ivec3 brick) {
+  brick = clamp(ivec3(floor((idx + 0.5) / float(kBrickSize))), ivec3(0), P.brickDims.xyz - 1);
+  return occupancy[(brick.z * P.brickDims.y + brick.y) * P.brickDims.x + brick.x] != 0u;
+}
+
+// Distance along the ray at which it leaves a brick's box (index space).
+float brickExit(vec3 o, vec3 d, ivec3 brick) {
+  vec3 lo = vec3(brick) * float(kBrickSize) - 0.5;
+  vec3 hi = lo + float(kBrickSize);
+  vec3 inv = 1.0 / d;
+  vec3 tmax = max((lo - o) * inv, (hi - o) * inv);
+  return min(min(tmax.x, tmax.y), tmax.z);
+}
+
+// Opacity of one sample, corrected from the reference step to the actual step.
+float correctedAlpha(float a) {
+  return 1.0 - pow(max(1.0 - a, 0.0), P.march.x / P.march.y);
+}

@@ -1,0 +1,80 @@
+// Shared between C++ and GLSL: workgroup sizes, binding numbers and the uniform-block layouts of
+// the compute passes. C++ includes it with glm types; GLSL includes it with GL_GOOGLE_include_directive.
+// Every block uses only 16-byte members (mat4, vec4, ivec4, uvec4), so std140 and C++ agree; the
+// static_asserts below keep them so.
+#ifndef HANDSON_SHADERS_SHARED_H
+#define HANDSON_SHADERS_SHARED_H
+
+#ifdef __cplusplus
+#include <cstdint>
+#include <glm/glm.hpp>
+namespace handson::gpu {
+using mat4 = glm::mat4;
+using vec4 = glm::vec4;
+using ivec4 = glm::ivec4;
+using uvec4 = glm::uvec4;
+using uint = std::uint32_t;
+#define HS_CONST constexpr std::uint32_t
+#else
+#define HS_CONST const uint
+#endif
+
+// Workgroup sizes. Macros, because GLSL's local_size_x needs a literal (a constant would become
+// LocalSizeId, which needs maintenance4).
+#define HANDSON_RAYMARCH_GROUP_X 8
+#define HANDSON_RAYMARCH_GROUP_Y 8
+#define HANDSON_PICK_GROUP_X 64
+#define HANDSON_BRICK_GROUP_X 64
+HS_CONST kRaymarchGroupX = HANDSON_RAYMARCH_GROUP_X;
+HS_CONST kRaymarchGroupY = HANDSON_RAYMARCH_GROUP_Y;
+HS_CONST kPickGroupX = HANDSON_PICK_GROUP_X;
+HS_CONST kBrickGroupX = HANDSON_BRICK_GROUP_X;
+
+// Empty-space skipping: bricks of kBrickSize^3 voxels, each with the min/max normalized value over
+// the brick plus a one-voxel apron (every voxel a trilinear sample inside the brick can touch).
+HS_CONST kBrickSize = 8;
+
+// Transfer-function lookup table: kTfEntries RGBA entries spanning the volume's value window.
+HS_CONST kTfEntries = 4096;
+
+// Render flags.
+HS_CONST kFlagEmptySpaceSkipping = 1u;
+HS_CONST kFlagEarlyTermination = 2u;
+HS_CONST kFlagShading = 4u;
+
+// Bindings of the raymarch and pick passes (one push-descriptor set).
+HS_CONST kBindParams = 0;     // uniform RenderParams
+HS_CONST kBindVolume = 1;     // sampler3D, R16_UNORM, normalized value window
+HS_CONST kBindTf = 2;         // storage buffer vec4[kTfEntries]
+HS_CONST kBindOccupancy = 3;  // storage buffer uint[brick count], 1 = brick may be visible
+HS_CONST kBindOutput = 4;     // raymarch: rgba8 storage image; pick: storage buffer PickResult[]
+HS_CONST kBindPickInput = 5;  // pick: storage buffer vec4[] (xy = NDC point)
+
+// Camera and volume, for raymarching and picking.
+// World space is the volume's physical space (RAS+, mm).
+struct RenderParams {
+  mat4 invViewProj;   // clip (Vulkan NDC, z in [0,1]) -> world
+  mat4 worldToIndex;  // world (mm) -> continuous voxel index (voxel centres at integers)
+  mat4 indexToWorld;  // inverse of the above
+  vec4 cameraPos;     // xyz world position of the eye, w unused
+  ivec4 dims;         // xyz voxel counts, w = output width
+  ivec4 brickDims;    // xyz brick counts, w = output height
+  vec4 march;         // x = step (mm), y = opacity reference step (mm), z = early-termination alpha, w = pick threshold
+  vec4 background;    // rgba composited behind the volume
+  vec4 light;         // x = ambient, y = diffuse, z = specular, w = shininess
+  uvec4 control;      // x = flags, y = pick count, z = max steps, w unused
+};
+
+// One picked point: world.w = 1 on a hit, 0 on a miss; voxel.xyz = nearest voxel index, voxel.w = step count.
+struct PickResult {
+  vec4 world;
+  ivec4 voxel;
+};
+
+#ifdef __cplusplus
+static_assert(sizeof(RenderParams) == 3 * 64 + 7 * 16, "RenderParams must match std140");
+static_assert(sizeof(PickResult) == 32, "PickResult must match std430");
+}  // namespace handson::gpu
+#endif
+#undef HS_CONST
+#endif

@@ -1,0 +1,13 @@
+#include "spirv.h"
+
+#include "brick_minmax.spv.h"
+#include "pick.spv.h"
+#include "raymarch.spv.h"
+
+namespace handson::shaders {
+
+std::span<const std::uint32_t> raymarch() { return spirv::raymarch; }
+std::span<const std::uint32_t> pick() { return spirv::pick; }
+std::span<const std::uint32_t> brickMinMax() { return spirv::brick_minmax; }
+
+}  // namespace handson::shaders

@@ -1,0 +1,13 @@
+#pragma once
+// Embedded SPIR-V of the compute passes (compiled from shaders/*.comp at build time).
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+namespace handson::shaders {
+
+std::span<const std::uint32_t> raymarch();
+std::span<const std::uint32_t> pick();
+std::span<const std::uint32_t> brickMinMax();
+
+}  // namespace handson::shaders

@@ -1,0 +1,106 @@
+#pragma once
+// A scalar 3D image in the style of ITK's Image: an extent (voxel counts), a spacing (mm), an origin
+// (the physical position of voxel (0,0,0)'s centre) and a direction matrix whose columns are the
+// physical directions of the i, j and k axes. Physical coordinates are NIfTI world coordinates
+// (RAS+, millimetres).
+//
+//   world = origin + direction * diag(spacing) * index          (index may be fractional)
+//
+// Values keep the file's type (uint8 labels, int16 Hounsfield units, float32 otherwise) and are
+// stored x-fastest: linear = i + nx * (j + ny * k).
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace handson {
+
+enum class ScalarType : std::uint8_t { UInt8, Int16, Float32 };
+
+const char* scalarTypeName(ScalarType t);
+std::size_t scalarTypeSize(ScalarType t);
+
+/// Placement of a voxel grid in physical space.
+struct VolumeGeometry {
+  Eigen::Vector3i dims{0, 0, 0};
+  Eigen::Vector3d spacing{1, 1, 1};
+  Eigen::Vector3d origin{0, 0, 0};
+  Eigen::Matrix3d direction = Eigen::Matrix3d::Identity();
+
+  std::size_t voxelCount() const;
+  /// 4x4 affine taking homogeneous voxel index to world (mm).
+  Eigen::Matrix4d indexToWorld() const;
+  /// Inverse of indexToWorld(). Throws handson::Error if the direction is singular.
+  Eigen::Matrix4d worldToIndex() const;
+  Eigen::Vector3d toWorld(const Eigen::Vector3d& index) const;
+  Eigen::Vector3d toIndex(const Eigen::Vector3d& world) const;
+  bool contains(const Eigen::Vector3i& index) const;
+  /// Physical centre of the grid (midpoint of the first and last voxel centres).
+  Eigen::Vector3d center() const;
+  /// Length of the grid's bounding box diagonal in mm (voxel edges included).
+  double diagonalMm() const;
+  /// Throws handson::Error if dims, spacing or direction are unusable (zero, NaN, singular...).
+  void validate() const;
+};
+
+/// Upper bound on voxels we accept in one volume (2^31, ~4 GiB as int16). Larger is refused.
+constexpr std::size_t kMaxVoxels = std::size_t{1} << 31;
+
+/// Throws handson::Error if `bytes` cannot reasonably be allocated on this machine (more than
+/// about 80 % of physical memory) or `voxels` exceeds kMaxVoxels. `what` names the request.
+void checkAllocation(std::size_t voxels, std::size_t bytes, const std::string& what);
+
+class Volume {
+ public:
+  Volume() = default;
+  /// Zero-filled volume. Throws handson::Error on invalid geometry or an impossible allocation.
+  Volume(const VolumeGeometry& geometry, ScalarType type);
+
+  const VolumeGeometry& geometry() const { return geometry_; }
+  VolumeGeometry& geometry() { return geometry_; }
+  const Eigen::Vector3i& dims() const { return geometry_.dims; }
+  std::size_t voxelCount() const { return geometry_.voxelCount(); }
+  ScalarType type() const { return type_; }
+  bool empty() const { return storage_.empty(); }
+
+  std::size_t linearIndex(int i, int j, int k) const {
+    return static_cast<std::size_t>(i) +
+           static_cast<std::size_t>(geometry_.dims.x()) *
+               (static_cast<std::size_t>(j) + static_cast<std::size_t>(geometry_.dims.y()) * static_cast<std::size_t>(k));
+  }
+
+  /// Value at a voxel as float, whatever the stored type. No bounds check.
+  float value(std::size_t linear) const;
+  float value(int i, int j, int k) const { return value(linearIndex(i, j, k)); }
+  /// Stores v (rounded and clamped for integer types). No bounds check.
+  void setValue(std::size_t linear, float v);
+  void setValue(int i, int j, int k, float v) { setValue(linearIndex(i, j, k), v); }
+  /// Value with indices clamped to the grid (edge extension).
+  float valueClamped(int i, int j, int k) const;
+  /// Trilinear interpolation at a fractional index, clamped to the grid.
+  float sampleLinear(const Eigen::Vector3d& index) const;
+
+  /// Typed access. Throws handson::Error if T does not match type().
+  template <class T> T* data();
+  template <class T> const T* data() const;
+  std::byte* bytes() { return storage_.data(); }
+  const std::byte* bytes() const { return storage_.data(); }
+  std::size_t byteSize() const { return storage_.size(); }
+
+  /// (min, max) over all voxels; NaN voxels are ignored. (0,0) for an empty volume.
+  std::pair<float, float> valueRange() const;
+
+ private:
+  VolumeGeometry geometry_;
+  ScalarType type_ = ScalarType::Float32;
+  std::vector<std::byte> storage_;
+};
+
+template <class T> constexpr ScalarType scalarTypeOf();
+template <> constexpr ScalarType scalarTypeOf<std::uint8_t>() { return ScalarType::UInt8; }
+template <> constexpr ScalarType scalarTypeOf<std::int16_t>() { return ScalarType::Int16; }
+template <> constexpr ScalarType scalarTypeOf<float>() { return ScalarType::Float32; }
+
+}  // namespace handson

@@ -1,0 +1,121 @@
+// The handson command line on good and bad input: exit status and one clear message, no crash.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "app/nifti_io.h"
+#include "app/png_io.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CliRun {
+  int status = -1;
+  std::string output;
+};
+
+// Runs the handson executable with a shell command line; stderr is merged into output.
+CliRun runHandson(const std::string& args) {
+  CliRun r;
+  const std::string cmd = std::string("timeout 120 ") + HANDSON_EXE + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  while (fgets(buf.data(), int(buf.size()), p)) r.output += buf.data();
+  const int st = pclose(p);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+  return r;
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  fs::path dir;
+  void SetUp() override {
+    dir = fs::temp_directory_path() / ("handson_cli_" + std::to_string(::getpid()) + "_" +
+                                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  std::string p(const char* name) const { return (dir / name).string(); }
+};
+
+}  // namespace
+
+TEST_F(Cli, HelpEverywhere) {
+  for (const char* c : {"--help", "info --help", "render --help", "pick --help", "phantom --help", "resample --help", "bench --help"}) {
+    const CliRun r = runHandson(c);
+    EXPECT_EQ(r.status, 0) << c;
+    EXPECT_NE(r.output.find("usage"), std::string::npos) << c;
+  }
+}
+
+TEST_F(Cli, PhantomRoundTripsThroughInfo) {
+  const CliRun w = runHandson("phantom -o " + p("ct.nii.gz") + " --labels-out " + p("labels.nii.gz") + " --spacing 8");
+  ASSERT_EQ(w.status, 0) << w.output;
+  const CliRun i = runHandson("info " + p("ct.nii.gz"));
+  ASSERT_EQ(i.status, 0) << i.output;
+  EXPECT_NE(i.output.find("48 x 36 x 30"), std::string::npos) << i.output;
+  EXPECT_NE(i.output.find("int16"), std::string::npos);
+  const handson::Volume labels = handson::readNifti(p("labels.nii.gz"));
+  EXPECT_EQ(labels.type(), handson::ScalarType::UInt8);
+}
+
+TEST_F(Cli, RenderWritesAPngOfTheRequestedSize) {
+  const CliRun r = runHandson("render -o " + p("f.png") + " --size 48x32 --validation --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
+  int w = 0, h = 0;
+  const auto px = handson::readPng(p("f.png"), w, h);
+  EXPECT_EQ(w, 48);
+  EXPECT_EQ(h, 32);
+  EXPECT_EQ(r.output.find("validation"), std::string::npos) << r.output;
+}
+
+TEST_F(Cli, PickReportsHitsAndMisses) {
+  const CliRun r = runHandson("pick --at '32,32;0,0' --size 64x64 --json --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("{\"x\":32.000,\"y\":32.000,\"hit\":true"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("{\"x\":0.000,\"y\":0.000,\"hit\":false}"), std::string::npos) << r.output;
+}
+
+TEST_F(Cli, BadInputGivesOneClearMessageAndNonZeroExit) {
+  std::ofstream(p("garbage.nii")) << "this is not a NIfTI file at all, just some text padding padding padding";
+  {
+    std::ofstream t(p("truncated.nii.gz"), std::ios::binary);
+    t << "\x1f\x8b\x08";
+  }
+  fs::create_directories(dir / "empty-dir");
+  struct Case {
+    std::string args;
+    int status;
+    const char* mentions;
+  } cases[] = {
+      {"info " + p("missing.nii.gz"), 1, "does not exist"},
+      {"info " + p("garbage.nii"), 1, "garbage.nii"},
+      {"info " + p("truncated.nii.gz"), 1, "truncated.nii.gz"},
+      {"info " + (dir / "empty-dir").string(), 1, "DICOM"},
+      {"info", 2, "usage"},
+      {"frobnicate", 2, "unknown command"},
+      {"render --size 0x10 -o " + p("x.png"), 2, "--size"},
+      {"render --size 64x64 --camera a,b -o " + p("x.png"), 2, "--camera"},
+      {"render --preset nope -o " + p("x.png"), 1, "unknown transfer-function preset"},
+      {"render --size 16x16 -o /nonexistent-dir/x.png --quiet", 1, "does not exist"},
+      {"render --device no-such-gpu --size 16x16 -o " + p("x.png"), 1, "no Vulkan device matches"},
+      {"phantom -o " + p("p.nii.gz") + " --spacing nan", 2, "--spacing"},
+      {"resample " + p("missing.nii") + " --voxels 1000 -o " + p("r.nii.gz"), 1, "does not exist"},
+      {"pick --at 1,2,3", 2, "--at"},
+  };
+  for (const auto& c : cases) {
+    const CliRun r = runHandson(c.args);
+    EXPECT_EQ(r.status, c.status) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.mentions), std::string::npos) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find("error"), std::string::npos) << c.args;
+  }
+  EXPECT_FALSE(fs::exists(p("x.png")));  // no half-written outputs
+}

@@ -1,0 +1,196 @@
+// Frame-graph logic without a GPU: a recording executor checks culling, ordering and barriers.
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "render/frame_graph.h"
+#include "sim/error.h"
+
+using namespace handson::fg;
+
+namespace {
+
+struct MockExecutor : Executor {
+  std::vector<std::string> log;
+  std::vector<std::vector<Barrier>> barrierCalls;
+  std::vector<std::string> realized;
+  const FrameGraph* graph = nullptr;
+  void realizeTransient(ResourceHandle, const ResourceInfo& info) override { realized.push_back(info.name); }
+  void beginPass(const PassInfo& p) override { log.push_back("begin " + p.name); }
+  void barriers(const std::vector<Barrier>& list) override {
+    log.push_back("barrier x" + std::to_string(list.size()));
+    barrierCalls.push_back(list);
+  }
+  void endPass(const PassInfo& p) override { log.push_back("end " + p.name); }
+  void finalBarriers(const std::vector<Barrier>& list) override {
+    log.push_back("final x" + std::to_string(list.size()));
+    barrierCalls.push_back(list);
+  }
+};
+
+const ImageDesc kImg{64, 64, 1, Format::Rgba8Unorm};
+const ImageDesc kVol{32, 32, 32, Format::R16Unorm};
+
+}  // namespace
+
+TEST(FrameGraph, CullsPassesWhoseOutputsNobodyUses) {
+  FrameGraph g;
+  auto vol = g.importImage("volume", kVol, Access::Sampled);
+  auto a = g.createImage("a", kImg);
+  auto b = g.createImage("b", kImg);
+  auto c = g.createImage("c", kImg);
+  std::vector<std::string> ran;
+  g.addPass("make-a", [&](PassBuilder& p) { p.read(vol, Access::Sampled); p.write(a, Access::StorageWrite); }, [&](Executor&) { ran.push_back("make-a"); });
+  g.addPass("make-b", [&](PassBuilder& p) { p.read(a, Access::StorageRead); p.write(b, Access::StorageWrite); }, [&](Executor&) { ran.push_back("make-b"); });
+  g.addPass("unused", [&](PassBuilder& p) { p.read(a, Access::StorageRead); p.write(c, Access::StorageWrite); }, [&](Executor&) { ran.push_back("unused"); });
+  g.exportResource(b, Access::TransferSrc);
+  g.compile();
+  EXPECT_FALSE(g.isCulled(0));
+  EXPECT_FALSE(g.isCulled(1));
+  EXPECT_TRUE(g.isCulled(2));
+  MockExecutor ex;
+  g.execute(ex);
+  EXPECT_EQ(ran, (std::vector<std::string>{"make-a", "make-b"}));
+  // The culled pass's transient output is never allocated.
+  EXPECT_EQ(ex.realized, (std::vector<std::string>{"a", "b"}));
+}
+
+TEST(FrameGraph, SideEffectAndImportedWritesKeepPassesAlive) {
+  FrameGraph g;
+  auto persistent = g.importBuffer("mask", {1024}, Access::None);
+  auto t = g.createBuffer("scratch", {1024});
+  g.addPass("write-imported", [&](PassBuilder& p) { p.write(persistent, Access::StorageWrite); }, nullptr);
+  g.addPass("side-effect", [&](PassBuilder& p) { p.write(t, Access::StorageWrite); p.sideEffect(); }, nullptr);
+  g.addPass("dead", [&](PassBuilder& p) { p.write(g.createBuffer("x", {4}), Access::StorageWrite); }, nullptr);
+  g.compile();
+  EXPECT_FALSE(g.isCulled(0));
+  EXPECT_FALSE(g.isCulled(1));
+  EXPECT_TRUE(g.isCulled(2));
+}
+
+TEST(FrameGraph, ReadAfterWriteGetsOneBarrierWithLayoutTransition) {
+  FrameGraph g;
+  auto img = g.createImage("color", kImg);
+  auto host = g.importBuffer("readback", {64 * 64 * 4}, Access::None);
+  g.addPass("raymarch", [&](PassBuilder& p) { p.write(img, Access::StorageWrite); }, nullptr);
+  g.addPass("copy", [&](PassBuilder& p) { p.read(img, Access::TransferSrc); p.write(host, Access::TransferDst); p.sideEffect(); }, nullptr);
+  g.exportResource(host, Access::HostRead);
+  g.compile();
+  const auto& cp = g.compiled();
+  ASSERT_EQ(cp.size(), 2u);
+  // First use of a transient: Undefined -> General, nothing to wait for.
+  ASSERT_EQ(cp[0].barriers.size(), 1u);
+  EXPECT_EQ(cp[0].barriers[0].src, 0u);
+  EXPECT_EQ(cp[0].barriers[0].oldLayout, Layout::Undefined);
+  EXPECT_EQ(cp[0].barriers[0].newLayout, Layout::General);
+  // Copy: the image waits for the storage write and moves to TransferSrc; the imported buffer
+  // (state None, layout-free) needs no barrier.
+  ASSERT_EQ(cp[1].barriers.size(), 1u);
+  const Barrier& b = cp[1].barriers[0];
+  EXPECT_EQ(b.resource, img);
+  EXPECT_EQ(b.src, accessBit(Access::StorageWrite));
+  EXPECT_EQ(b.dst, Access::TransferSrc);
+  EXPECT_EQ(b.oldLayout, Layout::General);
+  EXPECT_EQ(b.newLayout, Layout::TransferSrc);
+  // End of frame: the host read waits for the transfer write.
+  ASSERT_EQ(g.finalBarriers().size(), 1u);
+  EXPECT_EQ(g.finalBarriers()[0].resource, host);
+  EXPECT_EQ(g.finalBarriers()[0].src, accessBit(Access::TransferDst));
+  EXPECT_EQ(g.finalBarriers()[0].dst, Access::HostRead);
+  MockExecutor ex;
+  g.execute(ex);
+  EXPECT_EQ(ex.log, (std::vector<std::string>{"begin raymarch", "barrier x1", "end raymarch", "begin copy", "barrier x1", "end copy", "final x1"}));
+}
+
+TEST(FrameGraph, RepeatedReadsOfTheSameKindNeedNoNewBarrier) {
+  FrameGraph g;
+  auto buf = g.createBuffer("positions", {4096});
+  auto o1 = g.createBuffer("o1", {16});
+  auto o2 = g.createBuffer("o2", {16});
+  g.addPass("interpolate", [&](PassBuilder& p) { p.write(buf, Access::StorageWrite); }, nullptr);
+  g.addPass("resample", [&](PassBuilder& p) { p.read(buf, Access::StorageRead); p.write(o1, Access::StorageWrite); }, nullptr);
+  g.addPass("mask", [&](PassBuilder& p) { p.read(buf, Access::StorageRead); p.write(o2, Access::StorageWrite); }, nullptr);
+  g.exportResource(o1, Access::StorageRead);
+  g.exportResource(o2, Access::StorageRead);
+  g.compile();
+  const auto& cp = g.compiled();
+  ASSERT_EQ(cp.size(), 3u);
+  auto barriersOn = [&](std::size_t pass, ResourceHandle h) {
+    int n = 0;
+    for (const auto& b : cp[pass].barriers) n += b.resource == h;
+    return n;
+  };
+  EXPECT_EQ(barriersOn(1, buf), 1);  // RAW
+  EXPECT_EQ(barriersOn(2, buf), 0);  // already visible to storage reads
+}
+
+TEST(FrameGraph, WriteAfterReadWaitsForTheReads) {
+  FrameGraph g;
+  auto vol = g.importImage("deformed", kVol, Access::Sampled);
+  auto out = g.createImage("color", kImg);
+  g.addPass("raymarch", [&](PassBuilder& p) { p.read(vol, Access::Sampled); p.write(out, Access::StorageWrite); }, nullptr);
+  g.addPass("resample", [&](PassBuilder& p) { p.write(vol, Access::StorageWrite); }, nullptr);
+  g.exportResource(out, Access::TransferSrc);
+  g.compile();
+  const auto& cp = g.compiled();
+  ASSERT_EQ(cp.size(), 2u);
+  ASSERT_EQ(cp[0].barriers.size(), 1u);  // only the output's first-use transition
+  EXPECT_EQ(cp[0].barriers[0].resource, out);
+  ASSERT_EQ(cp[1].barriers.size(), 1u);
+  const Barrier& b = cp[1].barriers[0];
+  EXPECT_EQ(b.src, accessBit(Access::Sampled));
+  EXPECT_EQ(b.oldLayout, Layout::ShaderReadOnly);
+  EXPECT_EQ(b.newLayout, Layout::General);
+  EXPECT_EQ(g.stateAfterFrame(vol), Access::StorageWrite);
+}
+
+TEST(FrameGraph, WriteAfterWriteAndReadWriteMerge) {
+  FrameGraph g;
+  auto mask = g.createImage("mask", kVol);
+  g.addPass("clear", [&](PassBuilder& p) { p.write(mask, Access::TransferDst); }, nullptr);
+  g.addPass("grow", [&](PassBuilder& p) { p.read(mask, Access::StorageRead); p.write(mask, Access::StorageReadWrite); }, nullptr);
+  g.exportResource(mask, Access::Sampled);
+  g.compile();
+  const auto& cp = g.compiled();
+  ASSERT_EQ(cp.size(), 2u);
+  // One merged barrier on the mask in "grow": waits for the clear, ends in General for read-write.
+  ASSERT_EQ(cp[1].barriers.size(), 1u);
+  EXPECT_EQ(cp[1].barriers[0].src & accessBit(Access::TransferDst), accessBit(Access::TransferDst));
+  EXPECT_EQ(cp[1].barriers[0].dst, Access::StorageReadWrite);
+  EXPECT_EQ(cp[1].barriers[0].oldLayout, Layout::TransferDst);
+  EXPECT_EQ(cp[1].barriers[0].newLayout, Layout::General);
+  ASSERT_EQ(g.finalBarriers().size(), 1u);
+  EXPECT_EQ(g.finalBarriers()[0].newLayout, Layout::ShaderReadOnly);
+  EXPECT_EQ(g.finalBarriers()[0].src, accessBit(Access::StorageReadWrite));
+}
+
+TEST(FrameGraph, ImportedImageInRightLayoutNeedsNoBarrierForReads) {
+  FrameGraph g;
+  auto vol = g.importImage("volume", kVol, Access::Sampled);
+  auto out = g.createImage("color", kImg);
+  g.addPass("raymarch", [&](PassBuilder& p) { p.read(vol, Access::Sampled); p.write(out, Access::StorageWrite); }, nullptr);
+  g.exportResource(out, Access::TransferSrc);
+  g.compile();
+  for (const auto& b : g.compiled()[0].barriers) EXPECT_NE(b.resource, vol);
+}
+
+TEST(FrameGraph, MisuseIsReported) {
+  {
+    FrameGraph g;
+    auto t = g.createImage("never-written", kImg);
+    auto o = g.createImage("o", kImg);
+    g.addPass("reads-undefined", [&](PassBuilder& p) { p.read(t, Access::StorageRead); p.write(o, Access::StorageWrite); }, nullptr);
+    g.exportResource(o, Access::TransferSrc);
+    EXPECT_THROW(g.compile(), handson::Error);
+  }
+  {
+    FrameGraph g;
+    auto t = g.createImage("t", kImg);
+    EXPECT_THROW(g.addPass("bad-write", [&](PassBuilder& p) { p.write(t, Access::Sampled); }, nullptr), handson::Error);
+    EXPECT_THROW(g.addPass("bad-read", [&](PassBuilder& p) { p.read(t, Access::StorageWrite); }, nullptr), handson::Error);
+    EXPECT_THROW(g.addPass("bad-handle", [&](PassBuilder& p) { p.read(ResourceHandle{99}, Access::StorageRead); }, nullptr), handson::Error);
+    MockExecutor ex;
+    EXPECT_THROW(g.execute(ex), handson::Error);  // not compiled
+  }
+}

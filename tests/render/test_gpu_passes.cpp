@@ -1,0 +1,248 @@
+// GPU passes against their CPU references on whatever Vulkan device is present (lavapipe in CI),
+// with the validation layer on; and GPU depth picking against the phantom's analytic surfaces.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "gpu_test_env.h"
+#include "interaction/camera.h"
+#include "render/raymarch_reference.h"
+#include "render/render_params.h"
+#include "render/transfer_function.h"
+#include "render/volume_renderer.h"
+#include "sim/phantom.h"
+
+using namespace handson;
+
+namespace {
+
+struct Scene {
+  Phantom phantom;
+  QuantizedVolume q;
+  std::unique_ptr<VolumeRenderer> renderer;
+  std::vector<glm::vec4> lut;
+};
+
+// A coarse phantom (4 mm voxels, 96x72x60) keeps lavapipe fast.
+Scene& scene() {
+  static Scene s = [] {
+    Scene sc;
+    PhantomOptions o;
+    o.spacingMm = 4.0;
+    sc.phantom = makePhantom(o);
+    sc.q = quantizeVolume(sc.phantom.ct);
+    sc.renderer = std::make_unique<VolumeRenderer>(test::gpuContext());
+    sc.renderer->setVolume(sc.q);
+    return sc;
+  }();
+  return s;
+}
+
+void useTf(Scene& s, const TransferFunction& tf) {
+  s.lut = tf.lookupTable(s.q);
+  s.renderer->setTransferFunction(s.lut);
+}
+
+gpu::RenderParams paramsFor(const Scene& s, const OrbitCamera& cam, RenderSettings rs, std::uint32_t picks = 0) {
+  return makeRenderParams(s.phantom.ct.geometry(), cam.view(), cam.projection(double(rs.width) / rs.height), glm::vec3(cam.eye()), rs, picks);
+}
+
+FrameResult renderGpu(Scene& s, const gpu::RenderParams& p, const std::vector<glm::vec2>& picks = {}) {
+  FrameRequest req;
+  req.params = p;
+  req.pickPoints = picks;
+  s.renderer->submit(req);
+  return s.renderer->waitLast();
+}
+
+struct ImageDiff {
+  int maxDiff = 0;
+  double meanDiff = 0.0;
+  double fractionOver2 = 0.0;  // pixels with any channel differing by more than 2/255
+};
+
+ImageDiff compare(const std::vector<std::uint8_t>& a, const std::vector<std::uint8_t>& b) {
+  ImageDiff d;
+  EXPECT_EQ(a.size(), b.size());
+  std::size_t over = 0;
+  double sum = 0;
+  for (std::size_t p = 0; p + 3 < std::min(a.size(), b.size()); p += 4) {
+    int m = 0;
+    for (int c = 0; c < 3; ++c) {
+      const int diff = std::abs(int(a[p + c]) - int(b[p + c]));
+      m = std::max(m, diff);
+      sum += diff;
+    }
+    d.maxDiff = std::max(d.maxDiff, m);
+    over += m > 2;
+  }
+  d.meanDiff = sum / double(a.size() / 4 * 3);
+  d.fractionOver2 = double(over) / double(a.size() / 4);
+  return d;
+}
+
+class GpuPasses : public test::GpuTest {};
+
+}  // namespace
+
+TEST_F(GpuPasses, BrickRangesMatchCpuReferenceExactly) {
+  Scene& s = scene();
+  const BrickGrid cpu = computeBrickGrid(s.q);
+  const BrickGrid& gpu = s.renderer->bricks();
+  ASSERT_EQ(gpu.bx, cpu.bx);
+  ASSERT_EQ(gpu.by, cpu.by);
+  ASSERT_EQ(gpu.bz, cpu.bz);
+  EXPECT_EQ(gpu.ranges, cpu.ranges);
+}
+
+TEST_F(GpuPasses, RaymarchMatchesCpuReference) {
+  Scene& s = scene();
+  useTf(s, transferFunctionPreset("ct-abdomen"));
+  RenderSettings rs;
+  rs.width = rs.height = 96;
+  const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), glm::radians(25.0), glm::radians(15.0));
+  const gpu::RenderParams p = paramsFor(s, cam, rs);
+  const FrameResult r = renderGpu(s, p);
+  const ReferenceScene ref{&s.q, &s.lut, &s.renderer->occupancy()};
+  const auto cpu = raymarchReference(ref, p);
+  const ImageDiff d = compare(r.rgba, cpu);
+  // Tolerance: the GPU's texture unit filters with its own weight precision and the shader's
+  // float operations may be fused or reordered, so a few samples of a ray differ in the last
+  // bits; that moves a channel by at most a few 1/255 steps on a small fraction of pixels.
+  EXPECT_LE(d.meanDiff, 0.5) << "mean |GPU - CPU| in 1/255 units";
+  EXPECT_LE(d.fractionOver2, 0.01) << "fraction of pixels off by more than 2/255";
+  EXPECT_LE(d.maxDiff, 24);
+  // Not a blank image: the phantom covers a good part of the frame.
+  int lit = 0;
+  for (std::size_t i = 0; i < r.rgba.size(); i += 4) lit += r.rgba[i] > 40;
+  EXPECT_GT(lit, int(r.rgba.size() / 4 / 10));
+}
+
+TEST_F(GpuPasses, EmptySpaceSkippingChangesNothingButWork) {
+  Scene& s = scene();
+  useTf(s, transferFunctionPreset("ct-bone"));
+  RenderSettings rs;
+  rs.width = rs.height = 80;
+  rs.earlyTermination = false;
+  const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), glm::radians(-40.0), glm::radians(30.0));
+  rs.emptySpaceSkipping = false;
+  const FrameResult plain = renderGpu(s, paramsFor(s, cam, rs));
+  rs.emptySpaceSkipping = true;
+  const FrameResult skip = renderGpu(s, paramsFor(s, cam, rs));
+  // Same sample positions, and skipped samples have exactly zero opacity: identical images.
+  EXPECT_EQ(compare(plain.rgba, skip.rgba).maxDiff, 0);
+  // Early termination stops at 99 % opacity: what it leaves out weighs at most 1 % (2.55/255).
+  rs.earlyTermination = true;
+  const FrameResult ert = renderGpu(s, paramsFor(s, cam, rs));
+  EXPECT_LE(compare(plain.rgba, ert.rgba).maxDiff, 4);
+}
+
+TEST_F(GpuPasses, PickMatchesCpuReference) {
+  Scene& s = scene();
+  useTf(s, transferFunctionPreset("ct-abdomen"));
+  RenderSettings rs;
+  rs.width = rs.height = 64;
+  const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), glm::radians(10.0), glm::radians(5.0));
+  std::vector<glm::vec2> pts;
+  for (int y = 0; y < 64; y += 4)
+    for (int x = 0; x < 64; x += 4) pts.push_back(pixelToNdc(float(x), float(y), 64, 64));
+  pts.push_back(glm::vec2(std::nanf(""), 0.0f));  // bad input: a miss, not a crash
+  const gpu::RenderParams p = paramsFor(s, cam, rs, std::uint32_t(pts.size()));
+  const FrameResult r = renderGpu(s, p, pts);
+  const auto cpu = pickReference({&s.q, &s.lut, &s.renderer->occupancy()}, p, pts);
+  ASSERT_EQ(r.picks.size(), cpu.size());
+  int hits = 0, agree = 0;
+  const float step = p.march.x;
+  for (std::size_t i = 0; i < cpu.size(); ++i) {
+    const bool hg = r.picks[i].world.w > 0.5f, hc = cpu[i].world.w > 0.5f;
+    hits += hc;
+    if (hg != hc) continue;
+    // Same hit/miss, and the same sample or its neighbour (threshold crossings may move by one
+    // step when filtering differs in the last bits).
+    if (!hg || glm::distance(glm::vec3(r.picks[i].world), glm::vec3(cpu[i].world)) <= 1.01f * step) ++agree;
+  }
+  EXPECT_GT(hits, 15);
+  EXPECT_GE(agree, int(cpu.size()) - 2);
+  EXPECT_EQ(r.picks.back().world.w, 0.0f);
+}
+
+TEST_F(GpuPasses, PickLandsOnAnalyticSurfacesWithinOneVoxel) {
+  Scene& s = scene();
+  const double voxel = s.phantom.ct.geometry().spacing.x();
+  const PhantomGeometry& geo = s.phantom.geometry;
+  RenderSettings rs;
+  rs.width = rs.height = 128;
+  // Body surface: fat (-100 HU) against air (-1000 HU); an opaque step at -500 HU.
+  useTf(s, thresholdTransferFunction(-500.0f));
+  for (double az : {0.0, 37.0, 90.0, 200.0}) {
+    const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), glm::radians(az), glm::radians(12.0));
+    std::vector<glm::vec2> pts;
+    for (int y = 8; y < 128; y += 12)
+      for (int x = 8; x < 128; x += 12) pts.push_back(pixelToNdc(float(x), float(y), 128, 128));
+    const FrameResult r = renderGpu(s, paramsFor(s, cam, rs, std::uint32_t(pts.size())), pts);
+    const glm::dvec3 eye = cam.eye();
+    int checked = 0;
+    for (const auto& pk : r.picks) {
+      if (pk.world.w < 0.5f) continue;
+      const Eigen::Vector3d o(eye.x, eye.y, eye.z);
+      const Eigen::Vector3d dir = Eigen::Vector3d(pk.world.x, pk.world.y, pk.world.z) - o;
+      if (!geo.intersectBody(o, dir.normalized())) continue;  // an end cap of the cylinder: no analytic answer here
+      // Distance from the picked point to the elliptic cylinder x^2/a^2 + y^2/b^2 = 1, to first
+      // order |F| / |grad F| (exact enough within a voxel of the surface).
+      const double x = pk.world.x, y = pk.world.y, a2 = geo.bodyA * geo.bodyA, b2 = geo.bodyB * geo.bodyB;
+      const double dist = std::abs(x * x / a2 + y * y / b2 - 1.0) / std::hypot(2 * x / a2, 2 * y / b2);
+      EXPECT_LE(dist, voxel) << "azimuth " << az;
+      ++checked;
+    }
+    EXPECT_GT(checked, 15) << "azimuth " << az;
+  }
+  // Aorta (+280 HU) seen from the front, through fat, muscle and cavity (all below 200 HU).
+  useTf(s, thresholdTransferFunction(200.0f));
+  const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), 0.0, 0.0);
+  const glm::mat4 vp = cam.projection(1.0) * cam.view();
+  std::vector<glm::vec2> pts;
+  for (double dz : {-60.0, -20.0, 0.0, 30.0, 70.0}) {
+    const glm::vec4 c = vp * glm::vec4(float(geo.aortaCenter.x()), float(geo.aortaCenter.y() + geo.aortaRadius), float(dz), 1.0f);
+    pts.push_back(glm::vec2(c) / c.w);
+  }
+  const FrameResult r = renderGpu(s, paramsFor(s, cam, rs, std::uint32_t(pts.size())), pts);
+  const glm::dvec3 eye = cam.eye();
+  for (const auto& pk : r.picks) {
+    ASSERT_GT(pk.world.w, 0.5f);
+    const Eigen::Vector3d o(eye.x, eye.y, eye.z);
+    const Eigen::Vector3d dir = (Eigen::Vector3d(pk.world.x, pk.world.y, pk.world.z) - o).normalized();
+    const auto t = geo.intersectAorta(o, dir);
+    ASSERT_TRUE(t.has_value());
+    EXPECT_LE(std::abs(std::hypot(pk.world.x - geo.aortaCenter.x(), pk.world.y - geo.aortaCenter.y()) - geo.aortaRadius), voxel);
+    // The voxel index names a voxel of the aorta or right at its surface.
+    const Eigen::Vector3d vw = s.phantom.ct.geometry().toWorld(Eigen::Vector3d(pk.voxel.x, pk.voxel.y, pk.voxel.z));
+    EXPECT_LE(std::abs(std::hypot(vw.x() - geo.aortaCenter.x(), vw.y() - geo.aortaCenter.y()) - geo.aortaRadius), voxel);
+  }
+}
+
+TEST_F(GpuPasses, FramesInFlightDoNotStallAndArriveInOrder) {
+  Scene& s = scene();
+  useTf(s, transferFunctionPreset("ct-abdomen"));
+  RenderSettings rs;
+  rs.width = rs.height = 32;
+  const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry());
+  std::vector<std::uint64_t> ids;
+  FrameRequest req;
+  req.params = paramsFor(s, cam, rs, 1);
+  req.pickPoints = {glm::vec2(0.0f)};
+  for (int i = 0; i < 4; ++i) ids.push_back(s.renderer->submit(req));
+  // With two slots, submitting frame n+2 harvested frame n: two results are already waiting.
+  auto done = s.renderer->takeCompleted();
+  ASSERT_EQ(done.size(), 2u);
+  EXPECT_EQ(done[0].frame, ids[0]);
+  EXPECT_EQ(done[1].frame, ids[1]);
+  const FrameResult last = s.renderer->waitLast();
+  EXPECT_EQ(last.frame, ids[3]);
+  auto rest = s.renderer->takeCompleted();
+  ASSERT_EQ(rest.size(), 1u);
+  EXPECT_EQ(rest[0].frame, ids[2]);
+  EXPECT_EQ(last.picks.size(), 1u);
+  EXPECT_GT(last.picks[0].world.w, 0.5f);  // the centre ray hits the phantom
+  EXPECT_FALSE(last.timings.empty());
+}
