@@ -75,10 +75,16 @@ struct Sampler {
   }
 
   // Advances sample counter n past an empty brick; returns true if the sample at n must be skipped.
-  bool skip(glm::vec3 o, glm::vec3 d, float t0, float step, glm::vec3 idx, std::uint32_t& n) const {
+  // Advances sample counter n past an empty brick; returns true if the sample at n must be
+  // skipped. For an occupied brick, sets occupiedUntil to the ray distance where it is left.
+  bool skip(glm::vec3 o, glm::vec3 d, float t0, float step, glm::vec3 idx, std::uint32_t& n, float& occupiedUntil) const {
     glm::ivec3 brick;
-    if (brickOccupied(idx, brick)) return false;
+    const bool occupied = brickOccupied(idx, brick);
     const float te = brickExit(o, d, brick);
+    if (occupied) {
+      occupiedUntil = te;
+      return false;
+    }
     n = std::max(n + 1u, std::uint32_t(std::ceil((te - t0) / step - 0.5f)));
     return true;
   }
@@ -95,12 +101,13 @@ struct Sampler {
       const glm::mat3 gradToWorld = glm::transpose(glm::mat3(P.worldToIndex));
       const float step = P.march.x;
       std::uint32_t n = 0, taken = 0;
+      float occupiedUntil = -1.0f;
       while (taken < P.control.z) {
         const float t = t0 + (float(n) + 0.5f) * step;
         if (t >= t1) break;
         const glm::vec3 idx = o + t * d;
         ++taken;
-        if ((flags & gpu::kFlagEmptySpaceSkipping) && skip(o, d, t0, step, idx, n)) continue;
+        if ((flags & gpu::kFlagEmptySpaceSkipping) && t >= occupiedUntil && skip(o, d, t0, step, idx, n, occupiedUntil)) continue;
         ++n;
         const glm::vec4 s = transfer(sample(idx));
         if (s.a <= 0.0f) continue;
@@ -137,12 +144,13 @@ struct Sampler {
     const float step = P.march.x;
     float alpha = 0.0f;
     std::uint32_t n = 0, taken = 0;
+    float occupiedUntil = -1.0f;
     while (taken < P.control.z) {
       const float t = t0 + (float(n) + 0.5f) * step;
       if (t >= t1) break;
       const glm::vec3 idx = o + t * d;
       ++taken;
-      if (skip(o, d, t0, step, idx, n)) continue;
+      if (t >= occupiedUntil && skip(o, d, t0, step, idx, n, occupiedUntil)) continue;
       ++n;
       const glm::vec4 s = transfer(sample(idx));
       if (s.a <= 0.0f) continue;

@@ -23,16 +23,21 @@ void main() {
     float step = P.march.x;
     float alpha = 0.0;
     uint n = 0u, taken = 0u;
+    float occupiedUntil = -1.0;
     while (taken < P.control.z) {
       float t = t0 + (float(n) + 0.5) * step;
       if (t >= t1) break;
       vec3 idx = o + t * d;
-      ivec3 brick;
-      if (!brickOccupied(idx, brick)) {
+      if (t >= occupiedUntil) {
+        ivec3 brick;
+        bool occupied = brickOccupied(idx, brick);
         float te = brickExit(o, d, brick);
-        n = max(n + 1u, uint(ceil((te - t0) / step - 0.5)));
-        ++taken;
-        continue;
+        if (!occupied) {
+          n = max(n + 1u, uint(ceil((te - t0) / step - 0.5)));
+          ++taken;
+          continue;
+        }
+        occupiedUntil = te;
       }
       ++taken;
       ++n;

@@ -33,16 +33,21 @@ void main() {
     // nothing but the work done.
     uint n = 0u;
     uint taken = 0u;
+    float occupiedUntil = -1.0;  // ray distance up to which the current brick is known occupied
     while (taken < maxSteps) {
       float t = t0 + (float(n) + 0.5) * step;
       if (t >= t1) break;
       vec3 idx = o + t * d;
-      ivec3 brick;
-      if ((flags & kFlagEmptySpaceSkipping) != 0u && !brickOccupied(idx, brick)) {
+      if ((flags & kFlagEmptySpaceSkipping) != 0u && t >= occupiedUntil) {
+        ivec3 brick;
+        bool occupied = brickOccupied(idx, brick);
         float te = brickExit(o, d, brick);
-        n = max(n + 1u, uint(ceil((te - t0) / step - 0.5)));
-        ++taken;
-        continue;
+        if (!occupied) {
+          n = max(n + 1u, uint(ceil((te - t0) / step - 0.5)));
+          ++taken;
+          continue;
+        }
+        occupiedUntil = te;
       }
       ++taken;
       ++n;
