@@ -1,13 +1,17 @@
 #pragma once
-// Writing a file so that a failure never leaves a half-written result: write to a temporary file
-// beside the destination, then rename it into place with commit(). Without commit() the
-// temporary file is removed.
+// Writing a file so that a failure never leaves a half-written result: the data goes to a unique
+// temporary file beside the destination (mkstemp), which commit() renames into place. Without
+// commit() the temporary file is removed.
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
-#include <random>
 #include <string>
 #include <system_error>
+#include <vector>
 
 #include "sim/error.h"
 
@@ -21,14 +25,17 @@ class AtomicFile {
     const auto dir = p.has_parent_path() ? p.parent_path() : std::filesystem::path(".");
     std::error_code ec;
     if (!std::filesystem::is_directory(dir, ec)) throw Error("cannot write '" + path_ + "': directory '" + dir.string() + "' does not exist");
-    std::random_device rd;
-    temp_ = path_ + ".tmp-" + std::to_string(rd() % 1000000u);
+    std::string templ = path_ + ".tmp-XXXXXX";
+    std::vector<char> name(templ.begin(), templ.end());
+    name.push_back('\0');
+    const int fd = mkstemp(name.data());
+    if (fd < 0) throw Error("cannot write '" + path_ + "': " + std::strerror(errno));
+    ::close(fd);  // reopened by name by the writer (libpng takes a FILE*)
+    temp_ = name.data();
+    ::chmod(temp_.c_str(), 0644);  // mkstemp creates 0600
   }
   ~AtomicFile() {
-    if (!committed_) {
-      std::error_code ec;
-      std::filesystem::remove(temp_, ec);
-    }
+    if (!committed_) ::unlink(temp_.c_str());
   }
   AtomicFile(const AtomicFile&) = delete;
   AtomicFile& operator=(const AtomicFile&) = delete;
@@ -36,9 +43,7 @@ class AtomicFile {
   const std::string& tempPath() const { return temp_; }
   const std::string& path() const { return path_; }
   void commit() {
-    std::error_code ec;
-    std::filesystem::rename(temp_, path_, ec);
-    if (ec) throw Error("cannot write '" + path_ + "': " + ec.message());
+    if (std::rename(temp_.c_str(), path_.c_str()) != 0) throw Error("cannot write '" + path_ + "': " + std::strerror(errno));
     committed_ = true;
   }
 

@@ -134,7 +134,12 @@ void Context::resetValidationMessages() {
 }
 
 Context::Context(const ContextOptions& options) {
-  const bool wantValidation = options.validation || envFlag("HANDSON_VALIDATION");
+#ifndef NDEBUG
+  const bool debugBuild = !envFlag("HANDSON_NO_VALIDATION");  // debug builds validate by default
+#else
+  const bool debugBuild = false;
+#endif
+  const bool wantValidation = options.validation || debugBuild || envFlag("HANDSON_VALIDATION");
   validation_ = wantValidation && hasLayer("VK_LAYER_KHRONOS_validation");
   if (wantValidation && !validation_) {
     if (options.requireValidation)
