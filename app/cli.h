@@ -17,7 +17,9 @@ int cmdDevices(const Words& args);
 int cmdRender(const Words& args);
 int cmdPick(const Words& args);
 int cmdBench(const Words& args);
-/// No subcommand: the main job (until the window lands: render the default scene headless).
+int cmdView(const Words& args);
+int cmdReplay(const Words& args);
+/// No subcommand: the app on the default phantom, or the headless demo when there is no display.
 int cmdDefault(const Words& args);
 
 }  // namespace handson::cli

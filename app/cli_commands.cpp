@@ -23,9 +23,12 @@ const char* const kMainHelp =
     "\n"
     "usage: handson [COMMAND] [OPTIONS]\n"
     "\n"
-    "With no command, renders the built-in abdominal phantom headless to handson-default.png.\n"
+    "With no command, opens the built-in abdominal phantom in a window; with no display, runs the\n"
+    "headless demo (the orbit-and-zoom gesture script) and writes its frames to handson-demo/.\n"
     "\n"
     "commands:\n"
+    "  view [PATH]                   open a volume in the touch app (omitted: the built-in phantom)\n"
+    "  replay [SCRIPT]               play a session script headless: PNG frames and a timing log\n"
     "  info PATH                     dimensions, spacing, orientation and value range of a volume\n"
     "  render [PATH] -o OUT.png      render one frame headless (PATH: NIfTI file or DICOM directory;\n"
     "                                omitted: the built-in phantom)\n"
@@ -146,6 +149,8 @@ int run(int argc, char** argv) {
     if (cmd == "devices") return cmdDevices(rest);
     if (cmd == "render") return cmdRender(rest);
     if (cmd == "pick") return cmdPick(rest);
+    if (cmd == "view") return cmdView(rest);
+    if (cmd == "replay") return cmdReplay(rest);
     if (cmd == "bench") return cmdBench(rest);
     std::cerr << "error: unknown command '" << cmd << "'\n\n" << kMainHelp;
     return 2;

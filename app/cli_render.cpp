@@ -56,21 +56,6 @@ int cmdRender(const Words& words) {
   return rc;
 }
 
-int cmdDefault(const Words& words) {
-  Args args(words, withExtra(kRenderValueOptions, {"-o"}), kRenderFlagOptions);
-  if (args.help()) {
-    usageStream(args) << "usage: handson [-o OUT.png] [options]\n  Renders the built-in phantom headless (default handson-default.png).\n"
-              << kRenderOptionsHelp;
-    return 0;
-  }
-  if (!args.positional().empty()) throw UsageError("unexpected argument '" + args.positional()[0] + "'");
-  const std::string out = args.valueOr("-o", "handson-default.png");
-  std::cerr << "no window yet: rendering the default scene headless\n";
-  const int rc = renderToPng("", args, out);
-  if (rc == 0) std::cout << "wrote " << out << "\n";
-  return rc;
-}
-
 int cmdPick(const Words& words) {
   Args args(words, withExtra(kRenderValueOptions, {"--at", "--threshold"}), withExtra(kRenderFlagOptions, {"--json"}));
   if (args.help() || !args.value("--at") || args.positional().size() > 1) {

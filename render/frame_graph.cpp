@@ -11,7 +11,8 @@ bool isWrite(Access a) {
     case Access::StorageWrite:
     case Access::StorageReadWrite:
     case Access::TransferDst:
-    case Access::HostWrite: return true;
+    case Access::HostWrite:
+    case Access::ColorAttachmentWrite: return true;
     default: return false;
   }
 }
@@ -37,6 +38,7 @@ Layout accessLayout(Access a) {
     case Access::TransferSrc: return Layout::TransferSrc;
     case Access::TransferDst: return Layout::TransferDst;
     case Access::Present: return Layout::PresentSrc;
+    case Access::ColorAttachmentWrite: return Layout::ColorAttachment;
     default: return Layout::General;
   }
 }
@@ -53,6 +55,7 @@ const char* accessName(Access a) {
     case Access::TransferDst: return "transfer-dst";
     case Access::HostRead: return "host-read";
     case Access::HostWrite: return "host-write";
+    case Access::ColorAttachmentWrite: return "color-attachment-write";
     case Access::Present: return "present";
   }
   return "?";

@@ -35,10 +35,11 @@ enum class Access : std::uint8_t {
   TransferDst,
   HostRead,  ///< mapped and read by the CPU after the frame's fence
   HostWrite,
+  ColorAttachmentWrite,  ///< drawn by a render pass (the UI overlay), loading the old contents
   Present,  ///< swapchain image handed to the presentation engine
 };
 
-enum class Layout : std::uint8_t { Undefined, General, ShaderReadOnly, TransferSrc, TransferDst, PresentSrc };
+enum class Layout : std::uint8_t { Undefined, General, ShaderReadOnly, TransferSrc, TransferDst, ColorAttachment, PresentSrc };
 
 bool isWrite(Access a);
 bool isRead(Access a);

@@ -185,6 +185,10 @@ Context::Context(const ContextOptions& options) {
           vkGetInstanceProcAddr(instance_, "vkCreateDebugUtilsMessengerEXT"));
       if (create) check(create(instance_, &dbg, nullptr, &messenger_), "vkCreateDebugUtilsMessengerEXT");
     }
+    if (options.makeSurface) {
+      surface_ = options.makeSurface(instance_);
+      if (!surface_) throw Error("could not create a Vulkan surface for the window");
+    }
     pickDevice(options);
   } catch (...) {
     release();
@@ -220,9 +224,14 @@ void Context::pickDevice(const ContextOptions& options) {
     vkGetPhysicalDeviceQueueFamilyProperties(devs[i], &qn, q.data());
     int family = -1;
     // Prefer a family that can also draw (the window path presents from it), else compute only.
+    auto canPresent = [&](std::uint32_t f) {
+      if (!surface_) return true;
+      VkBool32 ok = VK_FALSE;
+      return vkGetPhysicalDeviceSurfaceSupportKHR(devs[i], f, surface_, &ok) == VK_SUCCESS && ok;
+    };
     for (std::uint32_t f = 0; f < qn && family < 0; ++f)
-      if ((q[f].queueFlags & VK_QUEUE_COMPUTE_BIT) && (q[f].queueFlags & VK_QUEUE_GRAPHICS_BIT)) family = int(f);
-    for (std::uint32_t f = 0; f < qn && family < 0; ++f)
+      if ((q[f].queueFlags & VK_QUEUE_COMPUTE_BIT) && (q[f].queueFlags & VK_QUEUE_GRAPHICS_BIT) && canPresent(f)) family = int(f);
+    for (std::uint32_t f = 0; f < qn && family < 0 && !surface_; ++f)
       if (q[f].queueFlags & VK_QUEUE_COMPUTE_BIT) family = int(f);
     if (family < 0) continue;
     // Push descriptors are required.
@@ -237,7 +246,9 @@ void Context::pickDevice(const ContextOptions& options) {
     if (!ok) continue;
     usable.push_back({devs[i], p, std::uint32_t(family), int(i)});
   }
-  if (usable.empty()) throw Error("no Vulkan 1.3 device with compute and VK_KHR_push_descriptor was found");
+  if (usable.empty())
+    throw Error(surface_ ? "no Vulkan 1.3 device can present to this window with compute and VK_KHR_push_descriptor"
+                         : "no Vulkan 1.3 device with compute and VK_KHR_push_descriptor was found");
 
   const Candidate* chosen = nullptr;
   if (want.empty()) {
@@ -316,6 +327,10 @@ void Context::release() {
     if (pool_) vkDestroyCommandPool(device_, pool_, nullptr);
     vkDestroyDevice(device_, nullptr);
     device_ = VK_NULL_HANDLE;
+  }
+  if (surface_) {
+    vkDestroySurfaceKHR(instance_, surface_, nullptr);
+    surface_ = VK_NULL_HANDLE;
   }
   if (messenger_) {
     auto destroy = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(

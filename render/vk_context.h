@@ -33,6 +33,9 @@ struct ContextOptions {
   std::vector<std::string> instanceExtensions;
   /// Device extensions the caller needs (e.g. VK_KHR_swapchain).
   std::vector<std::string> deviceExtensions;
+  /// Window path: creates the presentation surface once the instance exists. The chosen queue
+  /// family must then be able to present to it. The context owns and destroys the surface.
+  std::function<VkSurfaceKHR(VkInstance)> makeSurface;
 };
 
 struct DeviceSummary {
@@ -54,6 +57,7 @@ class Context {
   VkPhysicalDevice physicalDevice() const { return physical_; }
   VkDevice device() const { return device_; }
   VkQueue queue() const { return queue_; }
+  VkSurfaceKHR surface() const { return surface_; }
   std::uint32_t queueFamily() const { return queueFamily_; }
   const VkPhysicalDeviceProperties& properties() const { return props_; }
   const DeviceSummary& summary() const { return summary_; }
@@ -84,6 +88,7 @@ class Context {
 
   VkInstance instance_ = VK_NULL_HANDLE;
   VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
+  VkSurfaceKHR surface_ = VK_NULL_HANDLE;
   VkPhysicalDevice physical_ = VK_NULL_HANDLE;
   VkDevice device_ = VK_NULL_HANDLE;
   VkQueue queue_ = VK_NULL_HANDLE;

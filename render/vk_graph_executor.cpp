@@ -28,6 +28,8 @@ VkAccess toVk(fg::Access a) {
     case Access::TransferDst: return {VK_PIPELINE_STAGE_2_COPY_BIT | VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT};
     case Access::HostRead: return {VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT};
     case Access::HostWrite: return {VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_WRITE_BIT};
+    case Access::ColorAttachmentWrite:
+      return {VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT};
     case Access::Present: return {VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE};
   }
   return {VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT};
@@ -51,6 +53,7 @@ VkImageLayout toVk(fg::Layout l) {
     case fg::Layout::ShaderReadOnly: return VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
     case fg::Layout::TransferSrc: return VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
     case fg::Layout::TransferDst: return VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    case fg::Layout::ColorAttachment: return VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
     case fg::Layout::PresentSrc: return VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
   }
   return VK_IMAGE_LAYOUT_GENERAL;
@@ -146,6 +149,7 @@ void GraphExecutor::beginFrame() {
   if (s.queries) vkCmdResetQueryPool(s.cmd, s.queries, 0, 2 * maxPasses_);
   s.passNames.clear();
   images_.clear();
+  rawImages_.clear();
   buffers_.clear();
   recording_ = true;
 }
@@ -154,6 +158,7 @@ VkCommandBuffer GraphExecutor::cmd() const { return slots_[current_].cmd; }
 
 void GraphExecutor::bindImage(fg::ResourceHandle h, const Image& image) { images_[h.id] = &image; }
 void GraphExecutor::bindBuffer(fg::ResourceHandle h, const Buffer& buffer) { buffers_[h.id] = &buffer; }
+void GraphExecutor::bindRawImage(fg::ResourceHandle h, VkImage image) { rawImages_[h.id] = image; }
 
 const Image& GraphExecutor::image(fg::ResourceHandle h) const {
   auto it = images_.find(h.id);
@@ -215,7 +220,8 @@ void GraphExecutor::recordBarriers(const std::vector<fg::Barrier>& list) {
       m.oldLayout = toVk(b.oldLayout);
       m.newLayout = toVk(b.newLayout);
       m.srcQueueFamilyIndex = m.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-      m.image = image(b.resource).handle();
+      auto raw = rawImages_.find(b.resource.id);
+      m.image = raw != rawImages_.end() ? raw->second : image(b.resource).handle();
       m.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
       ib.push_back(m);
     } else {

@@ -39,6 +39,8 @@ class GraphExecutor final : public fg::Executor {
 
   void bindImage(fg::ResourceHandle h, const Image& image);
   void bindBuffer(fg::ResourceHandle h, const Buffer& buffer);
+  /// An image not owned by a vk::Image (a swapchain image): known to the executor for barriers only.
+  void bindRawImage(fg::ResourceHandle h, VkImage image);
   const Image& image(fg::ResourceHandle h) const;
   const Buffer& buffer(fg::ResourceHandle h) const;
 
@@ -87,6 +89,7 @@ class GraphExecutor final : public fg::Executor {
   bool recording_ = false;
   const fg::FrameGraph* graph_ = nullptr;
   std::map<std::uint32_t, const Image*> images_;
+  std::map<std::uint32_t, VkImage> rawImages_;
   std::map<std::uint32_t, const Buffer*> buffers_;
   std::vector<PassTiming> completed_;
 };

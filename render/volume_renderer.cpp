@@ -146,9 +146,10 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
     ensureBuffer(s.imageReadback, VkDeviceSize(w) * h * 4, hostUsage);
     imageHost = g.importBuffer("image-readback", {s.imageReadback->size()}, fg::Access::None);
     vk::addReadbackPass(g, "image-readback", color, imageHost);
-  } else {
+  } else if (!req.extension) {
     g.exportResource(color, fg::Access::TransferSrc);
   }
+  if (req.extension) req.extension->addPasses(g, color);
   s.pickCount = req.pickPoints.size();
   if (!req.pickPoints.empty()) {
     const std::uint32_t n = std::uint32_t(req.pickPoints.size());
@@ -174,9 +175,11 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
     executor_.bindBuffer(pickIn, *s.pickPoints);
     executor_.bindBuffer(pickHost, *s.pickReadback);
   }
+  if (req.extension) req.extension->bind(executor_);
   g.execute(executor_);
   executor_.setGraph(nullptr);
-  executor_.submit();
+  if (req.extension) executor_.submit(req.extension->waitSemaphore, req.extension->waitStage, req.extension->signalSemaphore);
+  else executor_.submit();
   s.frame = nextFrame_++;
   return *s.frame;
 }

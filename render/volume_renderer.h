@@ -20,10 +20,25 @@
 
 namespace handson {
 
+/// Passes a caller adds after the raymarch (presenting to a window, drawing the UI), and the
+/// semaphores the frame's submission waits on and signals.
+class FrameExtension {
+ public:
+  virtual ~FrameExtension() = default;
+  /// Declares the extra passes; `color` is the raymarched image (RGBA8).
+  virtual void addPasses(fg::FrameGraph& graph, fg::ResourceHandle color) = 0;
+  /// Binds the imported resources the extra passes declared.
+  virtual void bind(vk::GraphExecutor& executor) = 0;
+  VkSemaphore waitSemaphore = VK_NULL_HANDLE;
+  VkPipelineStageFlags2 waitStage = VK_PIPELINE_STAGE_2_TRANSFER_BIT;
+  VkSemaphore signalSemaphore = VK_NULL_HANDLE;
+};
+
 struct FrameRequest {
   gpu::RenderParams params{};
   std::vector<glm::vec2> pickPoints;  ///< NDC (x right, y down)
   bool readbackImage = true;
+  FrameExtension* extension = nullptr;
 };
 
 struct FrameResult {

@@ -1,0 +1,121 @@
+// `handson view`, `handson replay` and the default command.
+#include <iostream>
+
+#include "app/cli.h"
+#include "app/cli_args.h"
+#include "app/replay.h"
+#include "app/viewer.h"
+#include "render/transfer_function.h"
+#include "sim/error.h"
+
+namespace handson::cli {
+
+namespace {
+
+const char* const kViewHelp =
+    "usage: handson view [PATH] [options]\n"
+    "  Opens a volume (NIfTI file or DICOM directory; omitted: the built-in phantom) in the touch app.\n"
+    "  Touch: one finger orbits; two fingers pinch to zoom, pan and twist to roll (navigate mode).\n"
+    "  Mouse: left drag = one finger; Shift = two fingers moving together; Ctrl = two fingers\n"
+    "  mirrored about the window centre (pinch, twist); Ctrl+Shift = three fingers; wheel zooms.\n"
+    "  Keys: 1/2/3 navigate/select/manipulate, R reset view, Esc quit.\n"
+    "  --size WxH              window size in points (default 1280x800)\n"
+    "  --present-mode MODE     fifo (vsync, default), mailbox or immediate\n"
+    "  --render-scale F        raymarch resolution relative to the window (default 1 on a GPU, 0.5 on a CPU)\n"
+    "  --frames-in-flight N    1 (lowest latency), 2 (default) or 3\n"
+    "  --preset NAME           ct-abdomen, ct-bone or mri\n"
+    "  --frames N              render N frames and exit\n"
+    "  --screenshot OUT.png    with --frames: save the last presented frame (UI included)\n"
+    "  --record SCRIPT.json    write what the user did as a session script\n"
+    "  --timings LOG.csv       per-frame latency log (input, CPU, GPU passes, submit, present)\n"
+    "  --play SCRIPT.json      feed a session script in as live input, in real time; exits after it\n"
+    "  --play-repeat N         play it N times in a row, resetting the view in between (default 1)\n"
+    "  --device NAME, --validation, --quiet, --print-camera\n";
+
+const char* const kReplayHelp =
+    "usage: handson replay [SCRIPT] [--volume PATH] [--frames-out DIR] [--timings LOG.csv] [options]\n"
+    "  Plays a session script headless (no window, any Vulkan device): frames at --fps of script\n"
+    "  time (default 30) written as DIR/frame_NNNNN.png, and the per-frame timing log. SCRIPT\n"
+    "  omitted: the built-in orbit-and-zoom demo. The same script on the same driver gives\n"
+    "  bit-identical frames.\n"
+    "  --volume PATH       replay on another volume than the script's\n"
+    "  --size WxH          output size (touches are scaled from the script's viewport)\n"
+    "  --fps F             frames per second of script time\n"
+    "  --device NAME, --validation, --quiet, --print-camera\n";
+
+}  // namespace
+
+int cmdView(const Words& words) {
+  Args args(words,
+            {"--size", "--present-mode", "--render-scale", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
+             "--frames-in-flight", "--play-repeat"},
+            {"--validation", "--quiet", "--print-camera"});
+  if (args.help() || args.positional().size() > 1) {
+    usageStream(args) << kViewHelp;
+    return args.help() ? 0 : 2;
+  }
+  ViewerOptions o;
+  if (!args.positional().empty()) o.path = args.positional()[0];
+  if (auto s = args.value("--size")) parseSize(*s, o.width, o.height);
+  o.presentMode = args.valueOr("--present-mode", "fifo");
+  if (o.presentMode != "fifo" && o.presentMode != "mailbox" && o.presentMode != "immediate")
+    throw UsageError("--present-mode must be fifo, mailbox or immediate");
+  o.renderScale = args.number("--render-scale", 0.0, 0.05, 4.0);
+  o.preset = args.valueOr("--preset", "");
+  if (!o.preset.empty()) transferFunctionPreset(o.preset);  // validates the name
+  o.frames = int(args.integer("--frames", 0, 1, 100000000));
+  o.screenshot = args.valueOr("--screenshot", "");
+  if (!o.screenshot.empty() && o.frames <= 0) throw UsageError("--screenshot needs --frames N");
+  o.record = args.valueOr("--record", "");
+  o.timings = args.valueOr("--timings", "");
+  o.play = args.valueOr("--play", "");
+  o.framesInFlight = int(args.integer("--frames-in-flight", 2, 1, 3));
+  o.playRepeat = int(args.integer("--play-repeat", 1, 1, 100000));
+  o.device = args.valueOr("--device", "");
+  o.validation = args.flag("--validation");
+  o.quiet = args.flag("--quiet");
+  o.printCamera = args.flag("--print-camera");
+  if (!displayAvailable()) throw Error("no display available (DISPLAY and WAYLAND_DISPLAY are unset): use 'handson replay' to run headless");
+  return runViewer(o);
+}
+
+int cmdReplay(const Words& words) {
+  Args args(words, {"--volume", "--frames-out", "--timings", "--fps", "--size", "--device"}, {"--validation", "--quiet", "--print-camera"});
+  if (args.help() || args.positional().size() > 1) {
+    usageStream(args) << kReplayHelp;
+    return args.help() ? 0 : 2;
+  }
+  ReplayOptions o;
+  if (!args.positional().empty()) o.script = args.positional()[0];
+  o.volume = args.valueOr("--volume", "");
+  o.framesOut = args.valueOr("--frames-out", "");
+  o.timings = args.valueOr("--timings", "");
+  o.fps = args.number("--fps", 30.0, 0.01, 1000.0);
+  if (auto s = args.value("--size")) parseSize(*s, o.width, o.height);
+  o.device = args.valueOr("--device", "");
+  o.validation = args.flag("--validation");
+  o.quiet = args.flag("--quiet");
+  o.printCamera = args.flag("--print-camera");
+  return runReplay(o);
+}
+
+int cmdDefault(const Words& words) {
+  if (displayAvailable()) return cmdView(words);
+  Args args(words, {"--frames-out", "--timings", "--fps", "--size", "--device"}, {"--validation", "--quiet"});
+  if (args.help()) return cmdView({"--help"});
+  if (!args.positional().empty()) throw UsageError("unexpected argument '" + args.positional()[0] + "'");
+  std::cerr << "no display available: running the headless demo (the built-in orbit-and-zoom gesture script on the phantom)\n";
+  ReplayOptions o;
+  o.framesOut = args.valueOr("--frames-out", "handson-demo");
+  o.timings = args.valueOr("--timings", o.framesOut + "/timings.csv");
+  o.fps = args.number("--fps", 10.0, 0.01, 1000.0);
+  if (auto s = args.value("--size")) parseSize(*s, o.width, o.height);
+  o.device = args.valueOr("--device", "");
+  o.validation = args.flag("--validation");
+  o.quiet = args.flag("--quiet");
+  const int rc = runReplay(o);
+  if (rc == 0) std::cout << "frames and timings.csv are in " << o.framesOut << "/\n";
+  return rc;
+}
+
+}  // namespace handson::cli

@@ -1,0 +1,45 @@
+#pragma once
+// The per-frame timing log for latency studies: the input events a frame consumed, CPU frame start
+// and end, each GPU pass's time, submit and present times, and input-to-present latency. Times are
+// seconds on one steady clock; durations in milliseconds. CSV with a header; summary() gives
+// median, p95 and p99.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace handson {
+
+struct FrameTiming {
+  std::uint64_t frame = 0;
+  int inputCount = 0;
+  double inputFirst = -1.0, inputLast = -1.0;  ///< clock times of the consumed input events (-1: none)
+  double cpuStart = 0.0, cpuEnd = 0.0;         ///< frame loop start and end of recording
+  double submit = 0.0, present = 0.0;          ///< queue submit and present (or readback) times
+  double waitMs = 0.0;                         ///< time the CPU spent blocked (fences, acquire, vsync)
+  std::vector<std::pair<std::string, double>> gpuMs;  ///< per pass
+
+  double frameMs() const { return (present - cpuStart) * 1e3; }
+  /// Input-to-present latency (ms) from the oldest consumed event; negative without input.
+  double latencyMs() const { return inputFirst < 0.0 ? -1.0 : (present - inputFirst) * 1e3; }
+};
+
+class LatencyLog {
+ public:
+  void add(FrameTiming t) { frames_.push_back(std::move(t)); }
+  /// GPU times arrive a frame or two later (non-blocking readback): attach them afterwards.
+  void setGpuTimes(std::uint64_t frame, const std::vector<std::pair<std::string, double>>& passes);
+  const std::vector<FrameTiming>& frames() const { return frames_; }
+
+  void writeCsv(const std::string& path) const;
+  /// Median, p95, p99 of frame time and input-to-present latency, and the share of the frame spent
+  /// waiting rather than working.
+  std::string summary() const;
+
+ private:
+  std::vector<FrameTiming> frames_;
+};
+
+/// Percentile (0..1) by nearest rank of a copy of v; 0 for an empty v.
+double percentile(std::vector<double> v, double p);
+
+}  // namespace handson

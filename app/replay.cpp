@@ -1,0 +1,139 @@
+#include "replay.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+
+#include "app/console.h"
+#include "app/demo_script.h"
+#include "app/headless_scene.h"
+#include "app/latency_log.h"
+#include "app/png_io.h"
+#include "app/session.h"
+#include "app/volume_io.h"
+#include "sim/error.h"
+#include "sim/phantom.h"
+
+namespace handson {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double seconds(Clock::time_point t, Clock::time_point t0) { return std::chrono::duration<double>(t - t0).count(); }
+}  // namespace
+
+SessionScript builtInDemoScript() { return parseSessionScript(kOrbitAndZoomScript, "built-in orbit-and-zoom script"); }
+
+int runReplay(const ReplayOptions& o) {
+  if (!(o.fps > 0.0 && o.fps <= 1000.0)) throw Error("--fps must be in (0, 1000]");
+  SessionScript script = o.script.empty() ? builtInDemoScript() : readSessionScript(o.script);
+  const ProgressFn progress = o.quiet ? ProgressFn{} : consoleProgress();
+
+  // The volume: --volume, else the script's (a relative path is tried as given, then beside the script).
+  Volume volume;
+  std::string source = o.volume;
+  if (source.empty() && script.volumeSource == "file") {
+    source = script.volumePath;
+    if (!std::filesystem::exists(source) && !o.script.empty()) {
+      const auto beside = std::filesystem::path(o.script).parent_path() / script.volumePath;
+      if (std::filesystem::exists(beside)) source = beside.string();
+    }
+  }
+  if (source.empty() || source == "phantom") {
+    volume = makePhantom().ct;
+  } else {
+    LoadReport rep;
+    volume = loadVolume(source, &rep, progress);
+    for (const auto& w : rep.warnings) std::cerr << "warning: " << w << "\n";
+  }
+
+  // Output size; touches recorded in the script's viewport are scaled to it.
+  Viewport vp = script.viewport;
+  if (o.width > 0 && o.height > 0) vp = {o.width, o.height};
+  const glm::dvec2 touchScale(double(vp.width) / script.viewport.width, double(vp.height) / script.viewport.height);
+
+  vk::ContextOptions co;
+  co.validation = o.validation;
+  co.device = o.device;
+  co.verbose = !o.quiet;
+  vk::Context ctx(co);
+  const QuantizedVolume q = quantizeVolume(volume);
+  VolumeRenderer renderer(ctx);
+  renderer.setVolume(q, progress);
+
+  Session session(volume.geometry(), vp, script.preset.empty() ? defaultPresetFor(volume) : script.preset);
+  if (script.camera) script.camera->applyTo(session.camera());
+  {
+    ScriptEvent mode;
+    mode.isTouch = false;
+    mode.action = "set-mode";
+    mode.value = script.mode;
+    session.apply(mode);
+  }
+  renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
+  if (!o.framesOut.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(o.framesOut, ec);
+    if (ec || !std::filesystem::is_directory(o.framesOut)) throw Error("cannot create the frames directory '" + o.framesOut + "'");
+  }
+
+  const int frames = int(std::floor(script.duration() * o.fps)) + 2;  // through the last event, plus one
+  std::size_t next = 0, refused = 0;
+  LatencyLog log;
+  const auto t0 = Clock::now();
+  for (int k = 0; k < frames; ++k) {
+    const double frameTime = k / o.fps;
+    FrameTiming ft;
+    ft.cpuStart = seconds(Clock::now(), t0);
+    while (next < script.events.size() && script.events[next].t <= frameTime) {
+      ScriptEvent e = script.events[next++];
+      e.touch.px *= touchScale;
+      const double now = seconds(Clock::now(), t0);
+      if (!session.apply(e)) ++refused;
+      if (ft.inputFirst < 0) ft.inputFirst = now;
+      ft.inputLast = now;
+      ++ft.inputCount;
+    }
+    if (session.takePresetChanged()) renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
+    RenderSettings rs;
+    rs.width = vp.width;
+    rs.height = vp.height;
+    const OrbitCamera& cam = session.camera();
+    FrameRequest req;
+    req.params = makeRenderParams(volume.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);
+    req.readbackImage = !o.framesOut.empty();
+    ft.cpuEnd = seconds(Clock::now(), t0);
+    renderer.submit(req);
+    ft.submit = seconds(Clock::now(), t0);
+    const auto w0 = Clock::now();
+    const FrameResult r = renderer.waitLast();
+    ft.present = seconds(Clock::now(), t0);
+    ft.waitMs = seconds(Clock::now(), w0) * 1e3;
+    ft.frame = r.frame;
+    for (const auto& p : r.timings) ft.gpuMs.emplace_back(p.name, p.gpuMs);
+    if (!o.framesOut.empty()) {
+      char name[32];
+      std::snprintf(name, sizeof(name), "frame_%05d.png", k);
+      writePng((std::filesystem::path(o.framesOut) / name).string(), r.width, r.height, r.rgba);
+    }
+    log.add(ft);
+    reportProgress(progress, double(k + 1) / frames, "replaying");
+  }
+  if (!o.timings.empty()) log.writeCsv(o.timings);
+  if (!o.quiet) {
+    std::cerr << "replayed " << script.events.size() << " events";
+    if (refused) std::cerr << " (" << refused << " refused)";
+    std::cerr << " in " << frames << " frames at " << o.fps << " fps on " << ctx.summary().name << "\n" << log.summary() << "\n";
+  }
+  if (!o.framesOut.empty()) std::cout << "wrote " << frames << " frames to " << o.framesOut << "\n";
+  if (o.printCamera) std::cout << describeCamera(session.camera()) << "\n";
+  if (ctx.validationMessageCount() > 0) {
+    std::cerr << "error: " << ctx.validationMessageCount() << " Vulkan validation message(s)\n";
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace handson

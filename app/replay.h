@@ -1,0 +1,30 @@
+#pragma once
+// Headless replay of a session script on any Vulkan device (lavapipe included), with no window:
+// the same session logic and frame graph as the app, frames rendered at a fixed rate of script
+// time, written as numbered PNGs with a timing log. The same script on the same driver gives
+// bit-identical frames.
+#include <string>
+
+#include "app/session_script.h"
+
+namespace handson {
+
+struct ReplayOptions {
+  std::string script;      ///< path; empty: the built-in orbit-and-zoom demo
+  std::string volume;      ///< overrides the script's volume
+  std::string framesOut;   ///< directory for frame_NNNNN.png (created); empty: no PNGs
+  std::string timings;     ///< timing log CSV
+  double fps = 30.0;       ///< frames per second of script time
+  int width = 0, height = 0;  ///< output size; 0: the script's viewport (touches are scaled)
+  std::string device;
+  bool validation = false;
+  bool quiet = false;
+  bool printCamera = false;
+};
+
+/// The built-in demo script (assets/gestures/orbit-and-zoom.json, embedded at build time).
+SessionScript builtInDemoScript();
+
+int runReplay(const ReplayOptions& options);
+
+}  // namespace handson

@@ -1,0 +1,49 @@
+#pragma once
+// What a running session is, for the window and for headless replay alike: the camera, the gesture
+// recognizer, the interaction mode and the transfer-function preset, changed only through
+// apply(ScriptEvent). Both the live app and `handson replay` drive it with the same events, so a
+// recorded session replays to the same camera and the same frames.
+#include <string>
+
+#include "app/session_script.h"
+#include "interaction/gesture.h"
+#include "sim/volume.h"
+
+namespace handson {
+
+class Session {
+ public:
+  Session(const VolumeGeometry& geometry, const Viewport& viewport, std::string preset);
+
+  /// Applies a touch or UI event. Returns false if it was refused (bad touch, unknown preset).
+  bool apply(const ScriptEvent& e);
+  void setViewport(const Viewport& v);
+  void resetCamera();
+
+  OrbitCamera& camera() { return camera_; }
+  const OrbitCamera& camera() const { return camera_; }
+  GestureRecognizer& gestures() { return gestures_; }
+  const std::string& preset() const { return preset_; }
+  /// True once after the preset changed (the renderer re-uploads the table).
+  bool takePresetChanged() { return std::exchange(presetChanged_, false); }
+
+  /// Recording: every applied event is appended (with its time) to a script.
+  void startRecording(const SessionScript& header);
+  bool recording() const { return recording_; }
+  const SessionScript& script() const { return script_; }
+
+ private:
+  VolumeGeometry geometry_;
+  OrbitCamera camera_;
+  GestureRecognizer gestures_;
+  std::string preset_;
+  bool presetChanged_ = false;
+  bool recording_ = false;
+  SessionScript script_;
+};
+
+/// One line for tests and scripting: "camera azimuth_deg=... elevation_deg=... roll_deg=...
+/// distance=... target=x,y,z".
+std::string describeCamera(const OrbitCamera& c);
+
+}  // namespace handson

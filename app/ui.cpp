@@ -1,0 +1,168 @@
+#include "ui.h"
+
+#include <imgui.h>
+#include <backends/imgui_impl_sdl.h>
+#include <backends/imgui_impl_vulkan.h>
+
+#include <algorithm>
+#include <cstdio>
+
+#include "render/transfer_function.h"
+#include "render/vk_context.h"
+#include "render/vk_swapchain.h"
+#include "sim/error.h"
+
+namespace handson {
+
+namespace {
+void checkVk(VkResult r) {
+  if (r != VK_SUCCESS) vk::check(r, "ImGui Vulkan backend");
+}
+}  // namespace
+
+Ui::Ui(SDL_Window* window, const vk::Context& ctx, const vk::Swapchain& swapchain, float scale)
+    : ctx_(ctx), renderPass_(swapchain.uiRenderPass()), scale_(std::clamp(scale, 0.5f, 4.0f)) {
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGuiIO& io = ImGui::GetIO();
+  io.IniFilename = nullptr;  // no imgui.ini next to the user's files
+  ImGui::StyleColorsDark();
+  ImGuiStyle& style = ImGui::GetStyle();
+  style.WindowRounding = 6.0f;
+  style.FrameRounding = 6.0f;
+  style.FramePadding = ImVec2(14, 12);
+  style.ItemSpacing = ImVec2(10, 10);
+  style.TouchExtraPadding = ImVec2(4, 4);
+  style.ScaleAllSizes(scale_);
+  ImFontConfig font;
+  font.SizePixels = 20.0f * scale_;
+  io.Fonts->AddFontDefault(&font);
+
+  const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 16}};
+  VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+  pi.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;
+  pi.maxSets = 16;
+  pi.poolSizeCount = 1;
+  pi.pPoolSizes = sizes;
+  vk::check(vkCreateDescriptorPool(ctx.device(), &pi, nullptr, &pool_), "vkCreateDescriptorPool");
+
+  if (!ImGui_ImplSDL2_InitForVulkan(window)) throw Error("ImGui: SDL2 backend initialisation failed");
+  ImGui_ImplVulkan_InitInfo info{};
+  info.Instance = ctx.instance();
+  info.PhysicalDevice = ctx.physicalDevice();
+  info.Device = ctx.device();
+  info.QueueFamily = ctx.queueFamily();
+  info.Queue = ctx.queue();
+  info.DescriptorPool = pool_;
+  info.MinImageCount = std::max(2u, swapchain.minImageCount());
+  info.ImageCount = std::max(info.MinImageCount, swapchain.imageCount());
+  info.MSAASamples = VK_SAMPLE_COUNT_1_BIT;
+  info.CheckVkResultFn = checkVk;
+  if (!ImGui_ImplVulkan_Init(&info, renderPass_)) throw Error("ImGui: Vulkan backend initialisation failed");
+  ctx.submitAndWait([](VkCommandBuffer cmd) { ImGui_ImplVulkan_CreateFontsTexture(cmd); });
+  ImGui_ImplVulkan_DestroyFontUploadObjects();
+}
+
+Ui::~Ui() {
+  vkDeviceWaitIdle(ctx_.device());
+  ImGui_ImplVulkan_Shutdown();
+  ImGui_ImplSDL2_Shutdown();
+  ImGui::DestroyContext();
+  if (pool_) vkDestroyDescriptorPool(ctx_.device(), pool_, nullptr);
+}
+
+void Ui::processEvent(const SDL_Event& e) { ImGui_ImplSDL2_ProcessEvent(&e); }
+
+bool Ui::wantsPointer() const { return ImGui::GetIO().WantCaptureMouse; }
+bool Ui::wantsKeyboard() const { return ImGui::GetIO().WantCaptureKeyboard; }
+bool Ui::covers(double x, double y) const {
+  const float px = float(x) / pixelsPerPoint_, py = float(y) / pixelsPerPoint_;
+  for (const Rect& r : panels_)
+    if (px >= r.x0 && px <= r.x1 && py >= r.y0 && py <= r.y1) return true;
+  return false;
+}
+
+void Ui::swapchainRecreated(const vk::Swapchain& swapchain) {
+  ImGui_ImplVulkan_SetMinImageCount(std::max(2u, swapchain.minImageCount()));
+}
+
+void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& actions) {
+  ImGui_ImplVulkan_NewFrame();
+  ImGui_ImplSDL2_NewFrame();
+  ImGui::NewFrame();
+  pixelsPerPoint_ = ImGui::GetIO().DisplayFramebufferScale.x > 0 ? ImGui::GetIO().DisplayFramebufferScale.x : 1.0f;
+  panels_.clear();
+  auto remember = [&] {
+    const ImVec2 p = ImGui::GetWindowPos(), sz = ImGui::GetWindowSize();
+    panels_.push_back({p.x, p.y, p.x + sz.x, p.y + sz.y});
+  };
+  auto action = [&](const char* name, const std::string& value) {
+    ScriptEvent e;
+    e.t = time;
+    e.isTouch = false;
+    e.action = name;
+    e.value = value;
+    actions.push_back(e);
+  };
+  const float s = scale_;
+  const ImVec2 button(std::max(kMinTarget, 150.0f) * s, std::max(kMinTarget, 56.0f) * s);
+  const ImGuiWindowFlags panel = ImGuiWindowFlags_NoTitleBar | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoMove |
+                                 ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoFocusOnAppearing;
+
+  // Mode bar, top left.
+  ImGui::SetNextWindowPos(ImVec2(10 * s, 10 * s));
+  ImGui::SetNextWindowBgAlpha(0.75f);
+  ImGui::Begin("modes", nullptr, panel);
+  for (const char* m : {"navigate", "select", "manipulate"}) {
+    const bool active = st.mode == m;
+    if (active) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
+    char label[32];
+    std::snprintf(label, sizeof(label), "%c%s", m[0] - 32, m + 1);
+    if (ImGui::Button(label, button) && !active) action("set-mode", m);
+    if (active) ImGui::PopStyleColor();
+    ImGui::SameLine();
+  }
+  if (ImGui::Button("Reset view", button)) action("reset-camera", "");
+  remember();
+  ImGui::End();
+
+  // Transfer-function presets and the handle list, right side.
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  ImGui::SetNextWindowPos(ImVec2(display.x - 10 * s, 0.5f * display.y), ImGuiCond_Always, ImVec2(1.0f, 0.5f));
+  ImGui::SetNextWindowBgAlpha(0.75f);
+  ImGui::Begin("presets", nullptr, panel);
+  ImGui::TextUnformatted("Transfer function");
+  for (const auto& p : transferFunctionPresetNames()) {
+    const bool active = st.preset == p;
+    if (active) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
+    if (ImGui::Button(p.c_str(), button) && !active) action("set-preset", p);
+    if (active) ImGui::PopStyleColor();
+  }
+  ImGui::Separator();
+  ImGui::TextUnformatted("Handles");
+  ImGui::TextDisabled("none yet");
+  remember();
+  ImGui::End();
+
+  // Frame-time overlay, bottom left.
+  ImGui::SetNextWindowPos(ImVec2(10 * s, display.y - 10 * s), ImGuiCond_Always, ImVec2(0.0f, 1.0f));
+  ImGui::SetNextWindowBgAlpha(0.55f);
+  ImGui::Begin("timing", nullptr, panel | ImGuiWindowFlags_NoInputs);
+  ImGui::Text("%.1f fps   CPU %.1f ms   raymarch %.1f ms", st.fps, st.cpuFrameMs, st.gpuRaymarchMs);
+  if (st.latencyMs >= 0) ImGui::Text("input to present %.1f ms", st.latencyMs);
+  ImGui::Text("%s   %dx%d   fingers %d", st.device.c_str(), st.renderWidth, st.renderHeight, st.fingers);
+  ImGui::End();
+  ImGui::Render();
+}
+
+void Ui::record(VkCommandBuffer cmd, VkFramebuffer framebuffer, VkExtent2D extent) {
+  VkRenderPassBeginInfo rb{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
+  rb.renderPass = renderPass_;
+  rb.framebuffer = framebuffer;
+  rb.renderArea = {{0, 0}, extent};
+  vkCmdBeginRenderPass(cmd, &rb, VK_SUBPASS_CONTENTS_INLINE);
+  ImGui_ImplVulkan_RenderDrawData(ImGui::GetDrawData(), cmd);
+  vkCmdEndRenderPass(cmd);
+}
+
+}  // namespace handson

@@ -1,0 +1,63 @@
+#pragma once
+// The touch UI (Dear ImGui, Debian's libimgui-dev with its SDL2 and Vulkan backends): a mode bar,
+// transfer-function presets, a frame-time overlay and the (for now empty) handle list. Every
+// target is at least 48 px at 100 % scale and grows with the display scale. UI actions come out
+// as script events, so they are recorded and replayed like touches.
+#include <SDL2/SDL.h>
+#include <vulkan/vulkan.h>
+
+#include <string>
+#include <vector>
+
+#include "app/session_script.h"
+
+namespace handson {
+namespace vk {
+class Context;
+class Swapchain;
+}  // namespace vk
+
+struct UiStatus {
+  std::string mode, preset, device;
+  double cpuFrameMs = 0, gpuRaymarchMs = 0, latencyMs = -1, fps = 0;
+  int fingers = 0;
+  int renderWidth = 0, renderHeight = 0;
+};
+
+class Ui {
+ public:
+  /// scale: display scale (HiDPI factor) applied to sizes and fonts.
+  Ui(SDL_Window* window, const vk::Context& ctx, const vk::Swapchain& swapchain, float scale);
+  ~Ui();
+  Ui(const Ui&) = delete;
+  Ui& operator=(const Ui&) = delete;
+
+  /// Feeds an SDL event to the UI.
+  void processEvent(const SDL_Event& e);
+  /// True while the pointer or a touch is over a UI window (presses there are the UI's).
+  bool wantsPointer() const;
+  /// True if a point (drawable pixels) lies on one of the UI's panels as last drawn. Unlike
+  /// wantsPointer(), this is exact for the first event of a touch.
+  bool covers(double x, double y) const;
+  bool wantsKeyboard() const;
+  /// Builds this frame's widgets; UI actions are appended to `actions` stamped with `time`.
+  void build(const UiStatus& status, double time, std::vector<ScriptEvent>& actions);
+  /// Records the UI into the swapchain framebuffer (inside its own render pass).
+  void record(VkCommandBuffer cmd, VkFramebuffer framebuffer, VkExtent2D extent);
+  void swapchainRecreated(const vk::Swapchain& swapchain);
+
+  static constexpr float kMinTarget = 48.0f;  ///< smallest touch target, pixels at 100 %
+
+ private:
+  const vk::Context& ctx_;
+  VkRenderPass renderPass_;
+  VkDescriptorPool pool_ = VK_NULL_HANDLE;
+  float scale_;
+  float pixelsPerPoint_ = 1.0f;
+  struct Rect {
+    float x0, y0, x1, y1;
+  };
+  std::vector<Rect> panels_;  // in ImGui points, from the last build()
+};
+
+}  // namespace handson

@@ -1,0 +1,61 @@
+#pragma once
+// The gesture recognizer: a state machine with three modes. In Navigate mode fingers drive the
+// camera; Select and Manipulate forward the fingers to handlers that the selection and
+// manipulation features plug in.
+//
+// Navigate:
+//  - one finger orbits: a drag across the viewport's height turns the view by 180 degrees, the
+//    object following the finger (right drag: azimuth grows; down drag: elevation grows);
+//  - two fingers act as a similarity of the screen: the spread zooms, the twist rolls and the
+//    centroid pans, computed from the positions at the last change of finger count (no drift), so
+//    that the points of the plane through the camera target that lay under the two fingers stay
+//    under them;
+//  - further fingers are ignored in navigation; adding or lifting a finger re-anchors without a jump.
+#include <functional>
+
+#include "camera.h"
+#include "touch.h"
+
+namespace handson {
+
+enum class InteractionMode : std::uint8_t { Navigate, Select, Manipulate };
+const char* modeName(InteractionMode m);
+/// Parses "navigate", "select", "manipulate"; false on anything else.
+bool parseMode(const std::string& s, InteractionMode& out);
+
+class GestureRecognizer {
+ public:
+  /// Called in Select / Manipulate mode after each accepted event, with the current fingers.
+  using Handler = std::function<void(const TouchEvent&, const TouchInput&)>;
+
+  explicit GestureRecognizer(OrbitCamera& camera) : camera_(camera) {}
+
+  void setViewport(const Viewport& v);
+  const Viewport& viewport() const { return input_.viewport(); }
+  void setMode(InteractionMode m);
+  InteractionMode mode() const { return mode_; }
+  void setHandler(InteractionMode m, Handler h);
+
+  /// Feeds one event; returns false if the input layer refused it.
+  bool handle(const TouchEvent& e);
+  /// Lifts every finger (focus lost, reset).
+  void cancel();
+
+  const TouchInput& input() const { return input_; }
+  /// Radians of orbit per pixel of one-finger drag (default: pi per viewport height).
+  double orbitRadiansPerPixel() const;
+
+ private:
+  void anchor();
+  void navigate();
+
+  OrbitCamera& camera_;
+  TouchInput input_;
+  InteractionMode mode_ = InteractionMode::Navigate;
+  Handler selectHandler_, manipulateHandler_;
+  // Anchor: the camera and finger positions when the finger count last changed.
+  OrbitCamera anchorCamera_;
+  std::vector<Finger> anchorFingers_;
+};
+
+}  // namespace handson

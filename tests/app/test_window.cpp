@@ -1,0 +1,153 @@
+// The app in a real window, run under xvfb-run by ctest. Xvfb has no touch device
+// (SDL_GetNumTouchDevices() is 0 there), so multi-touch is injected with SDL_PushEvent as SDL's
+// own finger events, and a one-finger drag comes from xdotool's mouse with SDL_MOUSE_TOUCH_EVENTS=1.
+#include <gtest/gtest.h>
+
+#include <SDL2/SDL.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "app/png_io.h"
+#include "app/session.h"
+#include "app/viewer.h"
+
+using namespace handson;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr SDL_TouchID kTouch = 77;
+
+void pushFinger(Uint32 type, SDL_FingerID id, float x, float y) {
+  SDL_Event e{};
+  e.type = type;
+  e.tfinger.touchId = kTouch;
+  e.tfinger.fingerId = id;
+  e.tfinger.x = x;
+  e.tfinger.y = y;
+  e.tfinger.pressure = 1.0f;
+  ASSERT_EQ(SDL_PushEvent(&e), 1) << SDL_GetError();
+}
+
+ViewerOptions smallWindow() {
+  ViewerOptions o;
+  o.width = 640;
+  o.height = 480;
+  o.quiet = true;
+  o.validation = true;
+  return o;
+}
+
+class Window : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!displayAvailable()) GTEST_SKIP() << "no display: run under xvfb-run (ctest does)";
+  }
+};
+
+}  // namespace
+
+TEST_F(Window, InjectedTwoFingerPinchZoomsAndTwistRolls) {
+  Viewer v(smallWindow());
+  ASSERT_TRUE(v.step());
+  const OrbitCamera start = v.session().camera();
+  // Pinch open: fingers 0.2 apart -> 0.4 apart, about the window centre.
+  pushFinger(SDL_FINGERDOWN, 1, 0.4f, 0.5f);
+  pushFinger(SDL_FINGERDOWN, 2, 0.6f, 0.5f);
+  ASSERT_TRUE(v.step());
+  pushFinger(SDL_FINGERMOTION, 1, 0.3f, 0.5f);
+  pushFinger(SDL_FINGERMOTION, 2, 0.7f, 0.5f);
+  ASSERT_TRUE(v.step());
+  const OrbitCamera zoomed = v.session().camera();
+  EXPECT_NEAR(zoomed.distance, start.distance / 2.0, start.distance * 1e-3);
+  EXPECT_NEAR(zoomed.roll, start.roll, 1e-6);
+  // Twist: rotate the pair by 30 degrees clockwise on screen (pixels, so the aspect matters).
+  const double a = glm::radians(30.0), r = 0.2 * 640;
+  const float x1 = float((320 - r * std::cos(a)) / 640), y1 = float((240 - r * std::sin(a)) / 480);
+  const float x2 = float((320 + r * std::cos(a)) / 640), y2 = float((240 + r * std::sin(a)) / 480);
+  pushFinger(SDL_FINGERMOTION, 1, x1, y1);
+  pushFinger(SDL_FINGERMOTION, 2, x2, y2);
+  ASSERT_TRUE(v.step());
+  EXPECT_NEAR(v.session().camera().roll, start.roll - a, 1e-3);
+  EXPECT_NEAR(v.session().camera().distance, zoomed.distance, zoomed.distance * 1e-3);
+  pushFinger(SDL_FINGERUP, 1, x1, y1);
+  pushFinger(SDL_FINGERUP, 2, x2, y2);
+  // Hostile input through the real event path: an up without a down, NaN, far outside.
+  pushFinger(SDL_FINGERUP, 9, 0.5f, 0.5f);
+  pushFinger(SDL_FINGERDOWN, 10, std::nanf(""), 0.5f);
+  pushFinger(SDL_FINGERDOWN, 11, 50.0f, -30.0f);
+  pushFinger(SDL_FINGERUP, 11, 50.0f, -30.0f);
+  ASSERT_TRUE(v.step());
+  EXPECT_TRUE(v.session().gestures().input().fingers().empty());
+  EXPECT_TRUE(std::isfinite(v.session().camera().distance));
+  EXPECT_EQ(v.finish(), 0);  // zero validation messages
+}
+
+TEST_F(Window, TouchesOnTheUiDoNotMoveTheCamera) {
+  Viewer v(smallWindow());
+  ASSERT_TRUE(v.step());
+  const double az = v.session().camera().azimuth;
+  // The mode bar is at the top left.
+  pushFinger(SDL_FINGERDOWN, 1, 0.05f, 0.05f);
+  ASSERT_TRUE(v.step());
+  pushFinger(SDL_FINGERMOTION, 1, 0.3f, 0.3f);
+  pushFinger(SDL_FINGERUP, 1, 0.3f, 0.3f);
+  ASSERT_TRUE(v.step());
+  EXPECT_EQ(v.session().camera().azimuth, az);
+  EXPECT_EQ(v.finish(), 0);
+}
+
+TEST_F(Window, ScreenshotOfTheWindowIsNotEmpty) {
+  const fs::path shot = fs::temp_directory_path() / ("handson_shot_" + std::to_string(getpid()) + ".png");
+  ViewerOptions o = smallWindow();
+  o.frames = 3;
+  o.screenshot = shot.string();
+  Viewer v(o);
+  while (v.step()) {
+  }
+  EXPECT_EQ(v.finish(), 0);
+  int w = 0, h = 0;
+  const auto px = readPng(shot.string(), w, h);
+  EXPECT_EQ(w, 640);
+  EXPECT_EQ(h, 480);
+  // The phantom (reddish) and the UI (blue buttons) are both there.
+  std::size_t red = 0, blue = 0;
+  for (std::size_t i = 0; i < px.size(); i += 4) {
+    red += px[i] > 100 && px[i] > px[i + 2] + 30;
+    blue += px[i + 2] > 150 && px[i + 2] > px[i] + 60;
+  }
+  EXPECT_GT(red, 500u);
+  EXPECT_GT(blue, 500u);
+  fs::remove(shot);
+}
+
+TEST_F(Window, XdotoolMouseDragArrivesAsOneFingerAndOrbits) {
+  if (std::system("command -v xdotool > /dev/null") != 0) GTEST_SKIP() << "xdotool is not installed";
+  const fs::path dir = fs::temp_directory_path() / ("handson_xdo_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const std::string script = (dir / "drag.sh").string();
+  std::ofstream(script) << "#!/bin/sh\n"
+                        << "SDL_MOUSE_TOUCH_EVENTS=1 " << HANDSON_EXE
+                        << " view --size 800x600 --frames 2000 --quiet --print-camera --validation --record " << (dir / "rec.json").string()
+                        << " > " << (dir / "out.txt").string() << " 2>&1 &\n"
+                        << "APP=$!\n"
+                        << "W=$(timeout 60 xdotool search --sync --name '^Handson$' | head -1)\n"
+                        << "sleep 1\n"
+                        << "xdotool mousemove --window $W 250 350 mousedown 1\n"
+                        << "for x in 270 290 310 330 350 370 390 410; do xdotool mousemove --window $W $x 350; sleep 0.1; done\n"
+                        << "xdotool mouseup 1\nsleep 0.5\nxdotool key --window $W Escape\nwait $APP\n";
+  ASSERT_EQ(std::system(("sh " + script).c_str()), 0);
+  std::ifstream in(dir / "out.txt");
+  const std::string out((std::istreambuf_iterator<char>(in)), {});
+  const auto pos = out.find("camera azimuth_deg=");
+  ASSERT_NE(pos, std::string::npos) << out;
+  const double az = std::stod(out.substr(pos + 19));
+  // 160 px of drag in a 600 px high window: 160 / 600 * 180 = 48 degrees more than the default 25.
+  EXPECT_NEAR(az, 25.0 + 48.0, 1.0) << out;
+  EXPECT_EQ(out.find("validation"), std::string::npos) << out;
+  fs::remove_all(dir);
+}
