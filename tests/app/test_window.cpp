@@ -151,3 +151,22 @@ TEST_F(Window, XdotoolMouseDragArrivesAsOneFingerAndOrbits) {
   EXPECT_EQ(out.find("validation"), std::string::npos) << out;
   fs::remove_all(dir);
 }
+
+TEST_F(Window, ResizingRecreatesTheSwapchainAndKeepsRendering) {
+  const fs::path shot = fs::temp_directory_path() / ("handson_resize_" + std::to_string(getpid()) + ".png");
+  ViewerOptions o = smallWindow();
+  o.frames = 6;
+  o.screenshot = shot.string();
+  Viewer v(o);
+  ASSERT_TRUE(v.step());
+  SDL_SetWindowSize(v.window(), 400, 300);
+  while (v.step()) {
+  }
+  EXPECT_EQ(v.finish(), 0);
+  int w = 0, h = 0;
+  readPng(shot.string(), w, h);
+  EXPECT_EQ(w, 400);
+  EXPECT_EQ(h, 300);
+  EXPECT_EQ(v.session().gestures().viewport().width, 400);
+  fs::remove(shot);
+}
