@@ -313,14 +313,14 @@ bool Viewer::Impl::step() {
       const double now = seconds(Clock::now(), t0);
       const glm::dvec2 k(double(vp.width) / play->viewport.width, double(vp.height) / play->viewport.height);
       while (playNext < play->events.size() && playStart + play->events[playNext].t <= now) {
-        ScriptEvent e = play->events[playNext++];
-        e.t += playStart;
-        if (e.isTouch) {
-          e.touch.px *= k;
-          e.touch.time = e.t;
-          touches.push_back(e.touch);
+        ScriptEvent pe = play->events[playNext++];
+        pe.t += playStart;
+        if (pe.isTouch) {
+          pe.touch.px *= k;
+          pe.touch.time = pe.t;
+          touches.push_back(pe.touch);
         } else {
-          actions.push_back(e);
+          actions.push_back(pe);
         }
       }
       if (playNext >= play->events.size() && now > playStart + play->duration() + 0.5) {

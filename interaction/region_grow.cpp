@@ -1,0 +1,155 @@
+#include "region_grow.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "sim/error.h"
+
+namespace handson {
+
+const char* growCriterionName(GrowCriterion c) { return c == GrowCriterion::Paper ? "paper" : "smoothed"; }
+
+bool parseGrowCriterion(const std::string& s, GrowCriterion& out) {
+  if (s == "paper") out = GrowCriterion::Paper;
+  else if (s == "smoothed") out = GrowCriterion::Smoothed;
+  else return false;
+  return true;
+}
+
+std::uint32_t growKeyBound(GrowCriterion c, double extentMm, const Eigen::Vector3d& spacing) {
+  if (!(extentMm >= 0.0)) return 0;
+  if (c == GrowCriterion::Paper) return std::uint32_t(std::min(1e9, std::floor(extentMm / spacing.minCoeff() + 1e-9)));
+  const float d2 = float(extentMm) * float(extentMm);
+  std::uint32_t bits;
+  std::memcpy(&bits, &d2, 4);
+  return bits;
+}
+
+float growDistance2(const Eigen::Vector3i& v, const Eigen::Vector3i& s, const Eigen::Vector3f& sp) {
+  // The same operations, in the same order, as region_grow.comp (whose result is `precise`).
+  const float dx = float(v.x() - s.x()) * sp.x();
+  const float dy = float(v.y() - s.y()) * sp.y();
+  const float dz = float(v.z() - s.z()) * sp.z();
+  const float xx = dx * dx, yy = dy * dy, zz = dz * dz;
+  return (xx + yy) + zz;
+}
+
+namespace {
+std::uint32_t floatKey(float f) {
+  std::uint32_t b;
+  std::memcpy(&b, &f, 4);
+  return b;
+}
+}  // namespace
+
+RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i& seed, const GrowParams& params)
+    : vol_(volume), params_(params) {
+  const auto& g = volume.geometry;
+  if (!g.contains(seed)) throw Error("region growing: the seed voxel lies outside the volume");
+  if (!(params.hMax > 0.0) || !std::isfinite(params.hMax)) throw Error("region growing: h_max must be a positive number");
+  if (!(params.sigmaFloor >= 0.0) || !std::isfinite(params.sigmaFloor)) throw Error("region growing: the sigma floor must be >= 0");
+  setup_.seed = seed;
+  setup_.criterion = params.criterion;
+  setup_.spacing = g.spacing.cast<float>();
+  // Seed statistics over the 3x3x3 neighbourhood (edges clamped).
+  double sum = 0, sum2 = 0;
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int i = std::clamp(seed.x() + dx, 0, g.dims.x() - 1), j = std::clamp(seed.y() + dy, 0, g.dims.y() - 1),
+                  k = std::clamp(seed.z() + dz, 0, g.dims.z() - 1);
+        const double u = vol_.data[std::size_t(i) + std::size_t(g.dims.x()) * (std::size_t(j) + std::size_t(g.dims.y()) * std::size_t(k))];
+        sum += u;
+        sum2 += u * u;
+      }
+  const double mean = sum / 27.0;
+  const double sigma = std::max(std::sqrt(std::max(0.0, sum2 / 27.0 - mean * mean)), params.sigmaFloor * 65535.0);
+  const double tol = params.hMax * sigma;
+  if (params.criterion == GrowCriterion::Paper) {
+    setup_.seedValue = float(vol_.data[vol_.geometry.voxelCount() ? std::size_t(seed.x()) + std::size_t(g.dims.x()) * (std::size_t(seed.y()) + std::size_t(g.dims.y()) * std::size_t(seed.z())) : 0]);
+    setup_.tolerance = float(tol);
+  } else {
+    setup_.seedValue = float(sum);      // 3x3x3 sum: the mean times 27, exact in float
+    setup_.tolerance = float(27.0 * tol);
+  }
+  keys_.assign(g.voxelCount(), kUnreached);
+  const std::size_t s = std::size_t(seed.x()) + std::size_t(g.dims.x()) * (std::size_t(seed.y()) + std::size_t(g.dims.y()) * std::size_t(seed.z()));
+  keys_[s] = 0;  // the seed is always selected (key 0 in both criteria: step 0, distance 0)
+  front_.push({0, s});
+}
+
+float RegionGrower::value(int i, int j, int k) const {
+  const auto& d = vol_.geometry.dims;
+  auto at = [&](int x, int y, int z) {
+    return float(vol_.data[std::size_t(x) + std::size_t(d.x()) * (std::size_t(y) + std::size_t(d.y()) * std::size_t(z))]);
+  };
+  if (setup_.criterion == GrowCriterion::Paper) return at(i, j, k);
+  float sum = 0.0f;  // integers below 2^24: exact in any order
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx)
+        sum += at(std::clamp(i + dx, 0, d.x() - 1), std::clamp(j + dy, 0, d.y() - 1), std::clamp(k + dz, 0, d.z() - 1));
+  return sum;
+}
+
+bool RegionGrower::accepts(std::size_t linear) const {
+  const auto& d = vol_.geometry.dims;
+  const int i = int(linear % std::size_t(d.x()));
+  const int j = int((linear / std::size_t(d.x())) % std::size_t(d.y()));
+  const int k = int(linear / (std::size_t(d.x()) * std::size_t(d.y())));
+  return std::abs(value(i, j, k) - setup_.seedValue) < setup_.tolerance;
+}
+
+std::uint32_t RegionGrower::bound(double extentMm) const { return growKeyBound(setup_.criterion, extentMm, vol_.geometry.spacing); }
+
+void RegionGrower::growTo(double extentMm) {
+  if (!std::isfinite(extentMm) || extentMm < 0.0) throw Error("region growing: the extent must be a finite number >= 0");
+  if (extentMm <= grown_) return;
+  const std::uint32_t limit = bound(extentMm);
+  const auto& d = vol_.geometry.dims;
+  const std::size_t sx = 1, sy = std::size_t(d.x()), sz = std::size_t(d.x()) * std::size_t(d.y());
+  // Label-setting search (Dijkstra; for unit steps it is breadth-first): entries come out in key
+  // order, so a voxel's first settled key is final. Entries beyond the limit wait for a later call.
+  while (!front_.empty() && front_.top().first <= limit) {
+    const auto [key, v] = front_.top();
+    front_.pop();
+    if (key != keys_[v]) continue;  // superseded
+    const int i = int(v % sy), j = int((v / sy) % std::size_t(d.y())), k = int(v / sz);
+    const int ni[6] = {i - 1, i + 1, i, i, i, i}, nj[6] = {j, j, j - 1, j + 1, j, j}, nk[6] = {k, k, k, k, k - 1, k + 1};
+    for (int n = 0; n < 6; ++n) {
+      if (ni[n] < 0 || nj[n] < 0 || nk[n] < 0 || ni[n] >= d.x() || nj[n] >= d.y() || nk[n] >= d.z()) continue;
+      const std::size_t u = std::size_t(ni[n]) * sx + std::size_t(nj[n]) * sy + std::size_t(nk[n]) * sz;
+      std::uint32_t nkey;
+      if (setup_.criterion == GrowCriterion::Paper) {
+        nkey = key + 1;
+      } else {
+        nkey = std::max(key, floatKey(growDistance2(Eigen::Vector3i(ni[n], nj[n], nk[n]), setup_.seed, setup_.spacing)));
+      }
+      if (nkey >= keys_[u]) continue;
+      if (std::abs(value(ni[n], nj[n], nk[n]) - setup_.seedValue) >= setup_.tolerance) continue;
+      push(u, nkey);
+    }
+  }
+  grown_ = extentMm;
+}
+
+void RegionGrower::push(std::size_t v, std::uint32_t key) {
+  keys_[v] = key;
+  front_.push({key, v});
+}
+
+std::vector<std::uint8_t> RegionGrower::mask(double extentMm) const {
+  const std::uint32_t b = bound(extentMm);
+  std::vector<std::uint8_t> m(keys_.size());
+  for (std::size_t i = 0; i < keys_.size(); ++i) m[i] = keys_[i] <= b ? 1 : 0;
+  return m;
+}
+
+std::size_t RegionGrower::count(double extentMm) const {
+  const std::uint32_t b = bound(extentMm);
+  return std::size_t(std::count_if(keys_.begin(), keys_.end(), [b](std::uint32_t k) { return k <= b; }));
+}
+
+}  // namespace handson

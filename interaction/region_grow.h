@@ -1,0 +1,91 @@
+#pragma once
+// Seeded region growing (spec: methods.md section 2) on the GPU's 16-bit view of the volume
+// (sim/quantized_volume.h), as the CPU reference of the region-growing compute pass.
+//
+// Seed statistics: delta_seed and sigma_seed are the mean and the standard deviation of the 3x3x3
+// neighbourhood of the seed voxel (edges clamped), sigma_seed >= a floor so a flat region still
+// grows. A candidate is homogeneous if |value - delta_seed| < h_max * sigma_seed.
+//
+// Two criteria:
+//  - Paper: value = the voxel's own value compared with the seed voxel's own value; 6-neighbour
+//    breadth-first passes; a voxel's key is its pass number (steps from the seed), and the
+//    selection for an extent d is every reached voxel with key <= floor(d / min spacing).
+//  - Smoothed (default): value = the 3x3x3 mean around the voxel, compared with the seed's 3x3x3
+//    mean (noise drops by ~5x, so one noisy sample no longer decides); growth is bounded by the
+//    physical distance from the seed: a voxel's key is the smallest radius (squared, mm^2) of a ball
+//    about the seed within which a path of homogeneous voxels joins it to the seed. The selection
+//    for an extent d is {key <= d^2}: the connected homogeneous region inside the ball of radius d.
+// In both, shrinking is a threshold on stored keys and growing resumes where the last call stopped.
+#include <cstdint>
+#include <queue>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sim/quantized_volume.h"
+
+namespace handson {
+
+enum class GrowCriterion : std::uint8_t { Paper, Smoothed };
+const char* growCriterionName(GrowCriterion c);
+bool parseGrowCriterion(const std::string& s, GrowCriterion& out);
+
+struct GrowParams {
+  GrowCriterion criterion = GrowCriterion::Smoothed;
+  double hMax = 1.1;
+  /// Floor of sigma_seed as a fraction of the 16-bit range (0.002 of a CT window of ~4000 HU is ~8 HU).
+  double sigmaFloor = 0.002;
+};
+
+/// Key of a voxel never reached.
+constexpr std::uint32_t kUnreached = 0xffffffffu;
+
+/// What the GPU pass needs to reproduce the grower exactly.
+struct GrowSetup {
+  Eigen::Vector3i seed{0, 0, 0};
+  GrowCriterion criterion = GrowCriterion::Smoothed;
+  float seedValue = 0;   ///< u16 units: the seed's own value (paper) or its 3x3x3 sum (smoothed)
+  float tolerance = 0;   ///< accept |value - seedValue| < tolerance (same units)
+  Eigen::Vector3f spacing{1, 1, 1};
+};
+
+/// Key bound for an extent in mm: steps (paper) or the bits of the float d^2 (smoothed), which
+/// order like the floats for non-negative values.
+std::uint32_t growKeyBound(GrowCriterion c, double extentMm, const Eigen::Vector3d& spacing);
+/// Squared distance from the seed in mm^2, computed in float exactly as the shader does.
+float growDistance2(const Eigen::Vector3i& voxel, const Eigen::Vector3i& seed, const Eigen::Vector3f& spacing);
+
+class RegionGrower {
+ public:
+  /// Throws handson::Error if the seed lies outside the volume or the parameters are invalid.
+  RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i& seed, const GrowParams& params = {});
+
+  const GrowSetup& setup() const { return setup_; }
+  /// Grows until every voxel with key <= the extent's bound has its final key.
+  void growTo(double extentMm);
+  /// Is a voxel homogeneous with the seed (the acceptance test alone)?
+  bool accepts(std::size_t linear) const;
+
+  /// Per-voxel keys (kUnreached where not reached); final for keys <= the grown bound.
+  const std::vector<std::uint32_t>& keys() const { return keys_; }
+  std::uint32_t bound(double extentMm) const;
+  /// Selection for an extent no larger than the grown one: 1 inside, 0 outside.
+  std::vector<std::uint8_t> mask(double extentMm) const;
+  std::size_t count(double extentMm) const;
+  double grownExtent() const { return grown_; }
+
+ private:
+  float value(int i, int j, int k) const;  // u16 value or 3x3x3 sum, per criterion
+  void push(std::size_t v, std::uint32_t key);
+
+  const QuantizedVolume& vol_;
+  GrowParams params_;
+  GrowSetup setup_;
+  std::vector<std::uint32_t> keys_;
+  double grown_ = -1.0;
+  // Resumable front: (key, voxel), smallest key first.
+  using Entry = std::pair<std::uint32_t, std::size_t>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> front_;
+};
+
+}  // namespace handson
