@@ -17,6 +17,8 @@ int cmdDevices(const Words& args);
 int cmdRender(const Words& args);
 int cmdPick(const Words& args);
 int cmdBench(const Words& args);
+int cmdSelect(const Words& args);
+int cmdBenchSelection(const Words& args);
 int cmdView(const Words& args);
 int cmdReplay(const Words& args);
 /// No subcommand: the app on the default phantom, or the headless demo when there is no display.

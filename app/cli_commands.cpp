@@ -33,6 +33,7 @@ const char* const kMainHelp =
     "  render [PATH] -o OUT.png      render one frame headless (PATH: NIfTI file or DICOM directory;\n"
     "                                omitted: the built-in phantom)\n"
     "  pick [PATH] --at X,Y[;X,Y..]  GPU depth picking of pixels: first visible surface point of each\n"
+    "  select PATH --seed-voxel I,J,K --extent-mm D -o MASK.nii.gz   seeded region growing\n"
     "  phantom -o CT.nii.gz          write the built-in phantom (and --labels-out LABELS.nii.gz)\n"
     "  resample PATH --voxels N -o OUT.nii.gz   resample to about N voxels\n"
     "  bench [PATH]                  raymarch benchmark: plain vs empty-space skipping + early termination\n"
@@ -150,6 +151,7 @@ int run(int argc, char** argv) {
     if (cmd == "render") return cmdRender(rest);
     if (cmd == "pick") return cmdPick(rest);
     if (cmd == "view") return cmdView(rest);
+    if (cmd == "select") return cmdSelect(rest);
     if (cmd == "replay") return cmdReplay(rest);
     if (cmd == "bench") return cmdBench(rest);
     std::cerr << "error: unknown command '" << cmd << "'\n\n" << kMainHelp;

@@ -9,33 +9,6 @@
 
 namespace handson {
 
-const char* growCriterionName(GrowCriterion c) { return c == GrowCriterion::Paper ? "paper" : "smoothed"; }
-
-bool parseGrowCriterion(const std::string& s, GrowCriterion& out) {
-  if (s == "paper") out = GrowCriterion::Paper;
-  else if (s == "smoothed") out = GrowCriterion::Smoothed;
-  else return false;
-  return true;
-}
-
-std::uint32_t growKeyBound(GrowCriterion c, double extentMm, const Eigen::Vector3d& spacing) {
-  if (!(extentMm >= 0.0)) return 0;
-  if (c == GrowCriterion::Paper) return std::uint32_t(std::min(1e9, std::floor(extentMm / spacing.minCoeff() + 1e-9)));
-  const float d2 = float(extentMm) * float(extentMm);
-  std::uint32_t bits;
-  std::memcpy(&bits, &d2, 4);
-  return bits;
-}
-
-float growDistance2(const Eigen::Vector3i& v, const Eigen::Vector3i& s, const Eigen::Vector3f& sp) {
-  // The same operations, in the same order, as region_grow.comp (whose result is `precise`).
-  const float dx = float(v.x() - s.x()) * sp.x();
-  const float dy = float(v.y() - s.y()) * sp.y();
-  const float dz = float(v.z() - s.z()) * sp.z();
-  const float xx = dx * dx, yy = dy * dy, zz = dz * dz;
-  return (xx + yy) + zz;
-}
-
 namespace {
 std::uint32_t floatKey(float f) {
   std::uint32_t b;
@@ -74,9 +47,43 @@ RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i&
     setup_.seedValue = float(sum);      // 3x3x3 sum: the mean times 27, exact in float
     setup_.tolerance = float(27.0 * tol);
   }
-  keys_.assign(g.voxelCount(), kUnreached);
-  const std::size_t s = std::size_t(seed.x()) + std::size_t(g.dims.x()) * (std::size_t(seed.y()) + std::size_t(g.dims.y()) * std::size_t(seed.z()));
+  restart();
+  if (params.criterion == GrowCriterion::Smoothed) {
+    if (params.refinements < 0 || params.refinements > 10 || !(params.probeRadiusMm > 0.0) || !(params.hRegion > 0.0))
+      throw Error("region growing: invalid refinement parameters");
+    for (int r = 0; r < params.refinements; ++r) {
+      growTo(params.probeRadiusMm);
+      // Statistics of the raw values of the region (integer sums: exact).
+      std::uint64_t n = 0, s1 = 0, s2 = 0;
+      const std::uint32_t probe = bound(params.probeRadiusMm);
+      for (std::size_t v : touched_)
+        if (keys_[v] <= probe) {
+          const std::uint64_t u = vol_.data[v];
+          ++n;
+          s1 += u;
+          s2 += u * u;
+        }
+      if (n < 27) break;  // too small a region to say more than the seed did
+      const double m = double(s1) / double(n);
+      const double sd = std::sqrt(std::max(0.0, double(s2) / double(n) - m * m));
+      setup_.seedValue = float(27.0 * m);
+      setup_.tolerance = float(27.0 * std::max(params.hRegion * sd, tol));
+      restart();
+    }
+  }
+}
+
+void RegionGrower::restart() {
+  if (keys_.size() != vol_.geometry.voxelCount()) keys_.assign(vol_.geometry.voxelCount(), kUnreached);
+  for (std::size_t v : touched_) keys_[v] = kUnreached;  // only what the last growth reached
+  touched_.clear();
+  front_ = {};
+  grown_ = -1.0;
+  const auto& g = vol_.geometry;
+  const std::size_t s = std::size_t(setup_.seed.x()) +
+                        std::size_t(g.dims.x()) * (std::size_t(setup_.seed.y()) + std::size_t(g.dims.y()) * std::size_t(setup_.seed.z()));
   keys_[s] = 0;  // the seed is always selected (key 0 in both criteria: step 0, distance 0)
+  touched_.push_back(s);
   front_.push({0, s});
 }
 
@@ -136,6 +143,7 @@ void RegionGrower::growTo(double extentMm) {
 }
 
 void RegionGrower::push(std::size_t v, std::uint32_t key) {
+  if (keys_[v] == kUnreached) touched_.push_back(v);
   keys_[v] = key;
   front_.push({key, v});
 }
@@ -149,7 +157,7 @@ std::vector<std::uint8_t> RegionGrower::mask(double extentMm) const {
 
 std::size_t RegionGrower::count(double extentMm) const {
   const std::uint32_t b = bound(extentMm);
-  return std::size_t(std::count_if(keys_.begin(), keys_.end(), [b](std::uint32_t k) { return k <= b; }));
+  return std::size_t(std::count_if(touched_.begin(), touched_.end(), [&](std::size_t v) { return keys_[v] <= b; }));
 }
 
 }  // namespace handson

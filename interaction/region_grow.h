@@ -16,44 +16,32 @@
 //    about the seed within which a path of homogeneous voxels joins it to the seed. The selection
 //    for an extent d is {key <= d^2}: the connected homogeneous region inside the ball of radius d.
 // In both, shrinking is a threshold on stored keys and growing resumes where the last call stopped.
+// The smoothed criterion then refines its statistics from the region it grows near the seed (see
+// GrowParams); the paper criterion is the paper's rule, unchanged.
 #include <cstdint>
 #include <queue>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "sim/grow_setup.h"
 #include "sim/quantized_volume.h"
 
 namespace handson {
-
-enum class GrowCriterion : std::uint8_t { Paper, Smoothed };
-const char* growCriterionName(GrowCriterion c);
-bool parseGrowCriterion(const std::string& s, GrowCriterion& out);
 
 struct GrowParams {
   GrowCriterion criterion = GrowCriterion::Smoothed;
   double hMax = 1.1;
   /// Floor of sigma_seed as a fraction of the 16-bit range (0.002 of a CT window of ~4000 HU is ~8 HU).
   double sigmaFloor = 0.002;
+  /// Smoothed criterion: refine the statistics this many times from the region grown within
+  /// probeRadiusMm (mean and standard deviation of its voxels; tolerance hRegion * sigma, never
+  /// below the seed's), then grow afresh. Organs are not uniform (renal cortex and medulla,
+  /// vessel walls): the region's own spread says how much variation belongs to the organ.
+  int refinements = 2;
+  double probeRadiusMm = 10.0;
+  double hRegion = 2.0;
 };
-
-/// Key of a voxel never reached.
-constexpr std::uint32_t kUnreached = 0xffffffffu;
-
-/// What the GPU pass needs to reproduce the grower exactly.
-struct GrowSetup {
-  Eigen::Vector3i seed{0, 0, 0};
-  GrowCriterion criterion = GrowCriterion::Smoothed;
-  float seedValue = 0;   ///< u16 units: the seed's own value (paper) or its 3x3x3 sum (smoothed)
-  float tolerance = 0;   ///< accept |value - seedValue| < tolerance (same units)
-  Eigen::Vector3f spacing{1, 1, 1};
-};
-
-/// Key bound for an extent in mm: steps (paper) or the bits of the float d^2 (smoothed), which
-/// order like the floats for non-negative values.
-std::uint32_t growKeyBound(GrowCriterion c, double extentMm, const Eigen::Vector3d& spacing);
-/// Squared distance from the seed in mm^2, computed in float exactly as the shader does.
-float growDistance2(const Eigen::Vector3i& voxel, const Eigen::Vector3i& seed, const Eigen::Vector3f& spacing);
 
 class RegionGrower {
  public:
@@ -77,11 +65,13 @@ class RegionGrower {
  private:
   float value(int i, int j, int k) const;  // u16 value or 3x3x3 sum, per criterion
   void push(std::size_t v, std::uint32_t key);
+  void restart();
 
   const QuantizedVolume& vol_;
   GrowParams params_;
   GrowSetup setup_;
   std::vector<std::uint32_t> keys_;
+  std::vector<std::size_t> touched_;  // voxels with a key (to reset and count without a full scan)
   double grown_ = -1.0;
   // Resumable front: (key, voxel), smallest key first.
   using Entry = std::pair<std::uint32_t, std::size_t>;

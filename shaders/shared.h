@@ -25,6 +25,8 @@ using uint = std::uint32_t;
 #define HANDSON_RAYMARCH_GROUP_Y 8
 #define HANDSON_PICK_GROUP_X 64
 #define HANDSON_BRICK_GROUP_X 64
+#define HANDSON_GROW_BRICK 8          // region growing: bricks of 8^3 voxels, one workgroup each
+#define HANDSON_COMPACT_GROUP_X 64
 HS_CONST kRaymarchGroupX = HANDSON_RAYMARCH_GROUP_X;
 HS_CONST kRaymarchGroupY = HANDSON_RAYMARCH_GROUP_Y;
 HS_CONST kPickGroupX = HANDSON_PICK_GROUP_X;
@@ -71,7 +73,24 @@ struct PickResult {
   ivec4 voxel;
 };
 
+// Region growing (shaders/region_grow.comp, region_compact.comp). Keys are uint per voxel of a
+// box around the seed: steps (paper criterion) or the float bits of the squared distance in mm^2
+// (smoothed criterion); 0xffffffff = unreached. See interaction/region_grow.h.
+HS_CONST kGrowUnreached = 0xffffffffu;
+HS_CONST kGrowListHeader = 4;  // active-brick lists start with {groups x, 1, 1, 0} (indirect dispatch)
+HS_CONST kGrowMaxLocalIterations = 24;
+
+struct GrowPush {
+  ivec4 boxMin;     // xyz: first voxel of the box in the volume
+  ivec4 boxDims;    // xyz: box size in voxels, w: criterion (0 paper, 1 smoothed)
+  ivec4 brickDims;  // xyz: bricks over the box
+  ivec4 seed;       // xyz: seed voxel in the volume, w: key bound
+  vec4 spacing;     // xyz mm, w: seed value (u16 units, or 3x3x3 sum)
+  vec4 tolerance;   // x: accept |value - seed value| < x
+};
+
 #ifdef __cplusplus
+static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
 static_assert(sizeof(RenderParams) == 3 * 64 + 7 * 16, "RenderParams must match std140");
 static_assert(sizeof(PickResult) == 32, "PickResult must match std430");
 }  // namespace handson::gpu

@@ -9,5 +9,7 @@ namespace handson::shaders {
 std::span<const std::uint32_t> raymarch();
 std::span<const std::uint32_t> pick();
 std::span<const std::uint32_t> brickMinMax();
+std::span<const std::uint32_t> regionGrow();
+std::span<const std::uint32_t> regionCompact();
 
 }  // namespace handson::shaders

@@ -91,6 +91,7 @@ TEST_F(Cli, BadInputGivesOneClearMessageAndNonZeroExit) {
     t << "\x1f\x8b\x08";
   }
   fs::create_directories(dir / "empty-dir");
+  ASSERT_EQ(runHandson("phantom -o " + p("ct.nii.gz") + " --spacing 8").status, 0);
   struct Case {
     std::string args;
     int status;
@@ -110,6 +111,12 @@ TEST_F(Cli, BadInputGivesOneClearMessageAndNonZeroExit) {
       {"phantom -o " + p("p.nii.gz") + " --spacing nan", 2, "--spacing"},
       {"resample " + p("missing.nii") + " --voxels 1000 -o " + p("r.nii.gz"), 1, "does not exist"},
       {"pick --at 1,2,3", 2, "--at"},
+      {"select " + p("ct.nii.gz") + " --seed-voxel 500,1,1 --extent-mm 10 -o " + p("m.nii.gz"), 1, "outside the volume"},
+      {"select " + p("ct.nii.gz") + " --seed-voxel 0,0,0 --extent-mm 10 -o " + p("m.nii.gz"), 1, "air"},
+      {"select " + p("ct.nii.gz") + " --seed-voxel 24,18,15 --extent-mm 0 -o " + p("m.nii.gz"), 2, "--extent-mm"},
+      {"select " + p("ct.nii.gz") + " --seed-voxel 24,18,15 --extent-mm nan -o " + p("m.nii.gz"), 2, "--extent-mm"},
+      {"select " + p("ct.nii.gz") + " --seed-mm 1e9,0,0 --extent-mm 5 -o " + p("m.nii.gz"), 1, "outside the volume"},
+      {"select " + p("ct.nii.gz") + " --seed-voxel 1.5,2,3 --extent-mm 5 -o " + p("m.nii.gz"), 2, "integers"},
   };
   for (const auto& c : cases) {
     const CliRun r = runHandson(c.args);
@@ -118,4 +125,30 @@ TEST_F(Cli, BadInputGivesOneClearMessageAndNonZeroExit) {
     EXPECT_NE(r.output.find("error"), std::string::npos) << c.args;
   }
   EXPECT_FALSE(fs::exists(p("x.png")));  // no half-written outputs
+  EXPECT_FALSE(fs::exists(p("m.nii.gz")));
+}
+
+TEST_F(Cli, SelectWritesAMaskOnTheInputGridWithCpuAndGpuAgreeing) {
+  ASSERT_EQ(runHandson("phantom -o " + p("ct.nii.gz") + " --labels-out " + p("labels.nii.gz") + " --spacing 6").status, 0);
+  // The right kidney's centre in RAS mm (sim/phantom.h): (78, -55, -14).
+  for (const char* backend : {"cpu", "gpu"}) {
+    const CliRun r = runHandson(std::string("select ") + p("ct.nii.gz") + " --seed-mm 78,-55,-14 --extent-mm 30 --validation --quiet --backend " +
+                                backend + " -o " + p((std::string("mask-") + backend + ".nii.gz").c_str()));
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("selected"), std::string::npos) << r.output;
+  }
+  const handson::Volume cpu = handson::readNifti(p("mask-cpu.nii.gz"));
+  const handson::Volume gpu = handson::readNifti(p("mask-gpu.nii.gz"));
+  const handson::Volume labels = handson::readNifti(p("labels.nii.gz"));
+  ASSERT_EQ(cpu.type(), handson::ScalarType::UInt8);
+  ASSERT_EQ(cpu.dims(), labels.dims());
+  EXPECT_LT((cpu.geometry().origin - labels.geometry().origin).norm(), 1e-4);
+  std::size_t selected = 0, inKidney = 0;
+  for (std::size_t i = 0; i < cpu.voxelCount(); ++i) {
+    EXPECT_EQ(cpu.value(i), gpu.value(i));
+    selected += cpu.value(i) > 0;
+    inKidney += cpu.value(i) > 0 && labels.value(i) == 4.0f;
+  }
+  EXPECT_GT(selected, 20u);
+  EXPECT_GE(double(inKidney) / double(selected), 0.9);
 }

@@ -1,0 +1,108 @@
+#include "selection_eval.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "sim/distance_transform.h"
+#include "sim/error.h"
+#include "sim/quantized_volume.h"
+
+namespace handson {
+
+Eigen::Vector3i deepestVoxel(const Volume& labels, int label, const Volume& ct) {
+  // The organ's bounding box, with a one-voxel margin so the box edge counts as outside.
+  const auto& d = labels.dims();
+  Eigen::Vector3i lo = d, hi(-1, -1, -1);
+  std::vector<float> values;
+  for (int k = 0; k < d.z(); ++k)
+    for (int j = 0; j < d.y(); ++j)
+      for (int i = 0; i < d.x(); ++i)
+        if (labels.value(i, j, k) == float(label)) {
+          lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
+          hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
+          values.push_back(ct.value(i, j, k));
+        }
+  if (values.empty()) return {-1, -1, -1};
+  std::sort(values.begin(), values.end());
+  const float q1 = values[values.size() / 4], q3 = values[values.size() * 3 / 4];
+  lo = (lo.array() - 1).max(0);
+  hi = (hi.array() + 1).min(d.array() - 1);
+  const Eigen::Vector3i bd = hi - lo + Eigen::Vector3i::Ones();
+  std::vector<std::uint8_t> inside(std::size_t(bd.prod()));
+  auto box = [&](int i, int j, int k) { return std::size_t(i) + std::size_t(bd.x()) * (std::size_t(j) + std::size_t(bd.y()) * std::size_t(k)); };
+  for (int k = 0; k < bd.z(); ++k)
+    for (int j = 0; j < bd.y(); ++j)
+      for (int i = 0; i < bd.x(); ++i) inside[box(i, j, k)] = labels.value(lo.x() + i, lo.y() + j, lo.z() + k) == float(label) ? 1 : 0;
+  // Voxels on the volume's own border have no outside neighbour in the box: that is as intended
+  // (the scan ends there, the organ may not).
+  const auto d2 = squaredDistanceToOutside(inside, bd, labels.geometry().spacing);
+  std::size_t best = inside.size();
+  Eigen::Vector3i bestVoxel(-1, -1, -1);
+  for (int k = 0; k < bd.z(); ++k)
+    for (int j = 0; j < bd.y(); ++j)
+      for (int i = 0; i < bd.x(); ++i) {
+        const std::size_t v = box(i, j, k);
+        if (!inside[v] || (best < inside.size() && d2[v] <= d2[best])) continue;
+        float sum = 0;
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) sum += ct.valueClamped(lo.x() + i + dx, lo.y() + j + dy, lo.z() + k + dz);
+        const float mean = sum / 27.0f;
+        if (mean >= q1 && mean <= q3) {
+          best = v;
+          bestVoxel = lo + Eigen::Vector3i(i, j, k);
+        }
+      }
+  return bestVoxel;
+}
+
+std::vector<SelectionAccuracy> evaluateSelection(const std::string& dataset, const Volume& ct, const Volume& labels,
+                                                 const std::vector<OrganLabel>& organs, const std::vector<double>& extentsMm,
+                                                 const std::vector<GrowCriterion>& criteria, double hMax) {
+  if (ct.dims() != labels.dims()) throw Error("selection accuracy: the label map is not on the CT's grid");
+  const QuantizedVolume q = quantizeVolume(ct);
+  const auto& g = ct.geometry();
+  std::vector<SelectionAccuracy> rows;
+  for (const auto& organ : organs) {
+    const Eigen::Vector3i seed = deepestVoxel(labels, organ.label, ct);
+    if (seed.x() < 0) continue;
+    for (GrowCriterion c : criteria) {
+      GrowParams p;
+      p.criterion = c;
+      p.hMax = hMax;
+      RegionGrower grower(q, seed, p);
+      for (double extent : extentsMm) {
+        const auto t0 = std::chrono::steady_clock::now();
+        grower.growTo(extent);
+        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        const std::uint32_t bound = grower.bound(extent);
+        const auto& keys = grower.keys();
+        std::size_t selected = 0, selectedInOrgan = 0, organInBall = 0, selectedOrganInBall = 0;
+        // Only voxels within the ball can be selected (smoothed) or within extent steps (paper,
+        // a diamond inside the ball): scan the ball's bounding box.
+        const Eigen::Vector3i r = (Eigen::Vector3d::Constant(extent).array() / g.spacing.array()).ceil().cast<int>();
+        const Eigen::Vector3i lo = (seed - r).cwiseMax(Eigen::Vector3i::Zero());
+        const Eigen::Vector3i hi = (seed + r).cwiseMin(g.dims - Eigen::Vector3i::Ones());
+        for (int k = lo.z(); k <= hi.z(); ++k)
+          for (int j = lo.y(); j <= hi.y(); ++j)
+            for (int i = lo.x(); i <= hi.x(); ++i) {
+              const std::size_t v = ct.linearIndex(i, j, k);
+              const bool sel = keys[v] <= bound;
+              const bool in = labels.value(v) == float(organ.label);
+              const Eigen::Vector3d dmm = (Eigen::Vector3d(i, j, k) - seed.cast<double>()).cwiseProduct(g.spacing);
+              const bool inBall = dmm.squaredNorm() <= extent * extent;
+              selected += sel;
+              selectedInOrgan += sel && in;
+              organInBall += in && inBall;
+              selectedOrganInBall += sel && in && inBall;
+            }
+        rows.push_back({dataset, organ.name, c, extent, seed, selected, organInBall,
+                        selected ? double(selectedInOrgan) / double(selected) : 0.0,
+                        organInBall ? double(selectedOrganInBall) / double(organInBall) : 0.0, ms});
+      }
+    }
+  }
+  return rows;
+}
+
+}  // namespace handson

@@ -1,0 +1,81 @@
+#include "distance_transform.h"
+
+#include <limits>
+
+namespace handson {
+
+namespace {
+
+// 1D squared distance transform of f (sampled every `step` mm) into d: d[q] = min_p (q-p)^2 step^2 + f[p].
+void edt1d(const std::vector<double>& f, std::vector<double>& d, double step, std::vector<int>& v, std::vector<double>& z) {
+  const int n = int(f.size());
+  const double inf = std::numeric_limits<double>::infinity();
+  int k = 0;
+  v[0] = 0;
+  z[0] = -inf;
+  z[1] = inf;
+  auto sep = [&](int p, int q) {  // abscissa where the parabolas from p and q intersect
+    return ((f[q] + q * q * step * step) - (f[p] + p * p * step * step)) / (2.0 * step * step * (q - p));
+  };
+  for (int q = 1; q < n; ++q) {
+    if (f[q] == inf) continue;
+    if (f[v[k]] == inf) {  // only infinite parabolas so far: replace
+      v[k] = q;
+      continue;
+    }
+    double s = sep(v[k], q);
+    while (k > 0 && s <= z[k]) {
+      --k;
+      s = sep(v[k], q);
+    }
+    ++k;
+    v[k] = q;
+    z[k] = s;
+    z[k + 1] = inf;
+  }
+  k = 0;
+  for (int q = 0; q < n; ++q) {
+    while (z[k + 1] < q) ++k;
+    const double dq = (q - v[k]) * step;
+    d[q] = f[v[k]] == inf ? inf : dq * dq + f[v[k]];
+  }
+}
+
+}  // namespace
+
+std::vector<float> squaredDistanceToOutside(const std::vector<std::uint8_t>& inside, const Eigen::Vector3i& dims,
+                                            const Eigen::Vector3d& spacing) {
+  const std::size_t nx = std::size_t(dims.x()), ny = std::size_t(dims.y()), nz = std::size_t(dims.z());
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> g(inside.size());
+  for (std::size_t i = 0; i < inside.size(); ++i) g[i] = inside[i] ? inf : 0.0;
+  const std::size_t maxn = std::max({nx, ny, nz});
+  std::vector<double> f(maxn), d(maxn), z(maxn + 1);
+  std::vector<int> v(maxn);
+  auto pass = [&](std::size_t n, std::size_t stride, double step, auto&& lines) {
+    f.resize(n);
+    d.resize(n);
+    lines([&](std::size_t base) {
+      for (std::size_t q = 0; q < n; ++q) f[q] = g[base + q * stride];
+      edt1d(f, d, step, v, z);
+      for (std::size_t q = 0; q < n; ++q) g[base + q * stride] = d[q];
+    });
+  };
+  pass(nx, 1, spacing.x(), [&](auto&& line) {
+    for (std::size_t k = 0; k < nz; ++k)
+      for (std::size_t j = 0; j < ny; ++j) line(nx * (j + ny * k));
+  });
+  pass(ny, nx, spacing.y(), [&](auto&& line) {
+    for (std::size_t k = 0; k < nz; ++k)
+      for (std::size_t i = 0; i < nx; ++i) line(i + nx * ny * k);
+  });
+  pass(nz, nx * ny, spacing.z(), [&](auto&& line) {
+    for (std::size_t j = 0; j < ny; ++j)
+      for (std::size_t i = 0; i < nx; ++i) line(i + nx * j);
+  });
+  std::vector<float> out(g.size());
+  for (std::size_t i = 0; i < g.size(); ++i) out[i] = g[i] == inf ? std::numeric_limits<float>::max() : float(g[i]);
+  return out;
+}
+
+}  // namespace handson
