@@ -35,7 +35,18 @@ double seconds(Clock::time_point t, Clock::time_point t0) { return std::chrono::
 struct SdlVideo {
   SdlVideo() {
     SDL_SetHint(SDL_HINT_VIDEO_X11_NET_WM_BYPASS_COMPOSITOR, "0");
-    if (SDL_Init(SDL_INIT_VIDEO | SDL_INIT_EVENTS) != 0) throw Error(std::string("cannot open a window: ") + SDL_GetError());
+    // With a display, SDL must use it: if connecting fails for a moment (a busy X server), SDL
+    // would quietly fall back to its window-less "offscreen" driver. Retry, then say so.
+    for (int attempt = 0;; ++attempt) {
+      if (SDL_Init(SDL_INIT_VIDEO | SDL_INIT_EVENTS) != 0) throw Error(std::string("cannot open a window: ") + SDL_GetError());
+      const char* driver = SDL_GetCurrentVideoDriver();
+      const bool windowless = driver && (std::strcmp(driver, "offscreen") == 0 || std::strcmp(driver, "dummy") == 0);
+      if (!windowless || !displayAvailable()) break;
+      std::cerr << "warning: SDL chose its '" << driver << "' video driver; retrying the display\n";
+      SDL_Quit();
+      if (attempt == 4) throw Error("cannot connect to the display (SDL fell back to its offscreen driver)");
+      SDL_Delay(200);
+    }
   }
   ~SdlVideo() { SDL_Quit(); }
 };

@@ -16,6 +16,8 @@ struct MarchInputs {
   fg::ResourceHandle volume;     ///< 3D R16_UNORM image, sampled
   fg::ResourceHandle tf;         ///< storage buffer, vec4[kTfEntries]
   fg::ResourceHandle occupancy;  ///< storage buffer, uint per brick
+  fg::ResourceHandle mask;       ///< 3D R8_UNORM image of handle ids, sampled (texelFetch)
+  fg::ResourceHandle handles;    ///< storage buffer, vec4 tint per handle id
 };
 
 /// Direct volume rendering into an RGBA8 storage image (shaders/raymarch.comp).

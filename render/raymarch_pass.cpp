@@ -21,6 +21,8 @@ std::vector<VkDescriptorSetLayoutBinding> marchBindings(VkDescriptorType outputT
       {gpu::kBindTf, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
       {gpu::kBindOccupancy, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
       {gpu::kBindOutput, outputType, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {gpu::kBindMask, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {gpu::kBindHandles, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
   };
   if (pickInput) b.push_back({gpu::kBindPickInput, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
   return b;
@@ -36,6 +38,8 @@ void declareMarchInputs(fg::PassBuilder& b, const MarchInputs& in) {
   b.read(in.volume, fg::Access::Sampled);
   b.read(in.tf, fg::Access::StorageRead);
   b.read(in.occupancy, fg::Access::StorageRead);
+  b.read(in.mask, fg::Access::Sampled);
+  b.read(in.handles, fg::Access::StorageRead);
 }
 
 DescriptorWriter marchDescriptors(GraphExecutor& x, const MarchInputs& in, const Sampler& sampler) {
@@ -43,7 +47,9 @@ DescriptorWriter marchDescriptors(GraphExecutor& x, const MarchInputs& in, const
   w.buffer(gpu::kBindParams, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, x.buffer(in.params).handle())
       .sampledImage(gpu::kBindVolume, x.image(in.volume).view(), sampler.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
       .buffer(gpu::kBindTf, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.tf).handle())
-      .buffer(gpu::kBindOccupancy, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.occupancy).handle());
+      .buffer(gpu::kBindOccupancy, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.occupancy).handle())
+      .sampledImage(gpu::kBindMask, x.image(in.mask).view(), sampler.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
+      .buffer(gpu::kBindHandles, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.handles).handle());
   return w;
 }
 

@@ -13,6 +13,15 @@ struct Sampler {
   const std::vector<glm::vec4>& lut;
   const std::vector<std::uint32_t>& occ;
   const gpu::RenderParams& P;
+  const std::vector<std::uint8_t>* mask;
+  const std::vector<glm::vec4>* tints;
+
+  std::uint32_t handleAt(glm::vec3 idx) const {
+    if (!mask) return 0;
+    const auto& d = v.geometry.dims;
+    const glm::ivec3 c = glm::clamp(glm::ivec3(glm::floor(idx + 0.5f)), glm::ivec3(0), glm::ivec3(d.x(), d.y(), d.z()) - 1);
+    return (*mask)[std::size_t(c.x) + std::size_t(d.x()) * (std::size_t(c.y) + std::size_t(d.y()) * std::size_t(c.z))];
+  }
 
   float texel(int i, int j, int k) const {
     const auto& d = v.geometry.dims;
@@ -113,6 +122,7 @@ struct Sampler {
         if (s.a <= 0.0f) continue;
         const float a = correctedAlpha(s.a);
         glm::vec3 c(s);
+        if (const std::uint32_t id = handleAt(idx); id != 0 && tints) c = glm::mix(c, glm::vec3((*tints)[id]), (*tints)[id].a);
         if (flags & gpu::kFlagShading) {
           const glm::vec3 g = gradToWorld * gradientIndex(idx);
           const float gl = glm::length(g);
@@ -160,7 +170,7 @@ struct Sampler {
         const float f = std::clamp((P.march.w - before) / std::max(alpha - before, 1e-6f), 0.0f, 1.0f);
         const float th = std::max(t - step + f * step, t0);
         r.world = glm::vec4(originW + th * dirW, 1.0f);
-        r.voxel = glm::ivec4(glm::ivec3(glm::floor(o + th * d + 0.5f)), int(taken));
+        r.voxel = glm::ivec4(glm::ivec3(glm::floor(o + th * d + 0.5f)), int(handleAt(o + th * d)));
         break;
       }
     }
@@ -171,7 +181,7 @@ struct Sampler {
 }  // namespace
 
 std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const gpu::RenderParams& params) {
-  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params};
+  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints};
   const int w = params.dims.w, h = params.brickDims.w;
   std::vector<std::uint8_t> img(std::size_t(w) * h * 4);
   auto rows = [&](int y0, int y1) {
@@ -192,7 +202,7 @@ std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const g
 
 std::vector<gpu::PickResult> pickReference(const ReferenceScene& scene, const gpu::RenderParams& params,
                                            const std::vector<glm::vec2>& ndcPoints) {
-  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params};
+  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints};
   std::vector<gpu::PickResult> out;
   out.reserve(ndcPoints.size());
   for (const auto& p : ndcPoints) out.push_back(s.pick(p));

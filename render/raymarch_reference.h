@@ -16,6 +16,8 @@ struct ReferenceScene {
   const QuantizedVolume* volume = nullptr;
   const std::vector<glm::vec4>* lut = nullptr;
   const std::vector<std::uint32_t>* occupancy = nullptr;
+  const std::vector<std::uint8_t>* mask = nullptr;         ///< handle ids on the volume grid (null: none)
+  const std::vector<glm::vec4>* handleTints = nullptr;     ///< gpu::kMaxHandleIds entries
 };
 
 /// RGBA8 image (width = params.dims.w, height = params.brickDims.w), row 0 at the top.

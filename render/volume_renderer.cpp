@@ -69,7 +69,11 @@ void VolumeRenderer::setVolume(const QuantizedVolume& volume, const ProgressFn& 
   readback.invalidate();
   bricks_.ranges.resize(bricks_.count() * 2);
   std::memcpy(bricks_.ranges.data(), readback.mapped(), rangeBytes);
+  mask_ = vk::Image(ctx_, {desc.width, desc.height, desc.depth, fg::Format::R8Unorm}, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                    true);
   hasVolume_ = true;
+  clearMask();
+  setHandleTints(std::vector<glm::vec4>(gpu::kMaxHandleIds, glm::vec4(0.0f)));
   occupancy_.clear();
   hasTf_ = false;
   reportProgress(progress, 1.0, "volume ready");
@@ -88,6 +92,28 @@ void VolumeRenderer::setTransferFunction(const std::vector<glm::vec4>& lut) {
   occupancyBuffer_ = Buffer(ctx_, occupancy_.size() * sizeof(std::uint32_t), usage, Buffer::Memory::Device);
   vk::uploadToBuffer(ctx_, occupancyBuffer_, occupancy_.data(), occupancy_.size() * sizeof(std::uint32_t));
   hasTf_ = true;
+}
+
+void VolumeRenderer::setHandleTints(const std::vector<glm::vec4>& tints) {
+  if (tints.size() != gpu::kMaxHandleIds) throw Error("renderer: the handle tint table has the wrong size");
+  executor_.waitLastFrame();
+  for (std::uint32_t i = 0; i < slots_.size(); ++i) executor_.waitSlot(i);
+  if (!handleTints_.handle())
+    handleTints_ = Buffer(ctx_, tints.size() * sizeof(glm::vec4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                          Buffer::Memory::Device);
+  vk::uploadToBuffer(ctx_, handleTints_, tints.data(), tints.size() * sizeof(glm::vec4));
+}
+
+void VolumeRenderer::clearMask() {
+  if (!hasVolume_) throw Error("renderer: no volume");
+  for (std::uint32_t i = 0; i < slots_.size(); ++i) executor_.waitSlot(i);
+  ctx_.submitAndWait([&](VkCommandBuffer cmd) {
+    vk::transitionImage(cmd, mask_.handle(), VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    const VkClearColorValue zero{};
+    const VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdClearColorImage(cmd, mask_.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &zero, 1, &range);
+    vk::transitionImage(cmd, mask_.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  });
 }
 
 void VolumeRenderer::harvest(std::uint32_t slot, std::vector<FrameResult>& out) {
@@ -135,6 +161,36 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   in.volume = g.importImage("volume", volDesc, fg::Access::Sampled);
   in.tf = g.importBuffer("transfer-function", {tf_.size()}, fg::Access::StorageRead);
   in.occupancy = g.importBuffer("occupancy", {occupancyBuffer_.size()}, fg::Access::StorageRead);
+  in.mask = g.importImage("handle-mask", mask_.desc(), fg::Access::Sampled);
+  in.handles = g.importBuffer("handle-tints", {handleTints_.size()}, fg::Access::StorageRead);
+  fg::ResourceHandle maskStaging;
+  if (req.maskUpload) {
+    const MaskUpload& up = *req.maskUpload;
+    const fg::ImageDesc md = mask_.desc();
+    const Eigen::Vector3i mdims(int(md.width), int(md.height), int(md.depth));
+    if ((up.min.array() < 0).any() || (up.dims.array() <= 0).any() || ((up.min + up.dims).array() > mdims.array()).any() ||
+        up.ids.size() != std::size_t(up.dims.prod()))
+      throw Error("renderer: the mask upload does not fit the volume");
+    ensureBuffer(s.maskStaging, up.ids.size(), VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+    std::memcpy(s.maskStaging->mapped(), up.ids.data(), up.ids.size());
+    s.maskStaging->flush();
+    maskStaging = g.importBuffer("mask-staging", {s.maskStaging->size()}, fg::Access::HostWrite);
+    const Eigen::Vector3i mn = up.min, dm = up.dims;
+    g.addPass(
+        "mask-upload",
+        [&](fg::PassBuilder& b) {
+          b.read(maskStaging, fg::Access::TransferSrc);
+          b.write(in.mask, fg::Access::TransferDst);
+        },
+        [this, maskStaging, mn, dm](fg::Executor& e) {
+          auto& x = vk::vulkanExecutor(e);
+          VkBufferImageCopy r{};
+          r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+          r.imageOffset = {mn.x(), mn.y(), mn.z()};
+          r.imageExtent = {std::uint32_t(dm.x()), std::uint32_t(dm.y()), std::uint32_t(dm.z())};
+          vkCmdCopyBufferToImage(x.cmd(), x.buffer(maskStaging).handle(), mask_.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
+        });
+  }
   auto color = g.createImage("color", {std::uint32_t(w), std::uint32_t(h), 1, fg::Format::Rgba8Unorm});
   raymarch_.add(g, in, color, linear_);
 
@@ -170,6 +226,9 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   executor_.bindImage(in.volume, volume_);
   executor_.bindBuffer(in.tf, tf_);
   executor_.bindBuffer(in.occupancy, occupancyBuffer_);
+  executor_.bindImage(in.mask, mask_);
+  executor_.bindBuffer(in.handles, handleTints_);
+  if (maskStaging.valid()) executor_.bindBuffer(maskStaging, *s.maskStaging);
   if (imageHost.valid()) executor_.bindBuffer(imageHost, *s.imageReadback);
   if (pickIn.valid()) {
     executor_.bindBuffer(pickIn, *s.pickPoints);

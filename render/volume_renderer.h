@@ -34,8 +34,15 @@ class FrameExtension {
   VkSemaphore signalSemaphore = VK_NULL_HANDLE;
 };
 
+/// A box of the handle-id mask to overwrite this frame (uploaded inside the frame graph).
+struct MaskUpload {
+  Eigen::Vector3i min{0, 0, 0}, dims{0, 0, 0};
+  std::vector<std::uint8_t> ids;  ///< dims.prod() bytes, x-fastest
+};
+
 struct FrameRequest {
   gpu::RenderParams params{};
+  const MaskUpload* maskUpload = nullptr;
   std::vector<glm::vec2> pickPoints;  ///< NDC (x right, y down)
   bool readbackImage = true;
   FrameExtension* extension = nullptr;
@@ -58,6 +65,12 @@ class VolumeRenderer {
   void setVolume(const QuantizedVolume& volume, const ProgressFn& progress = {});
   /// Uploads a lookup table (gpu::kTfEntries entries) and the brick occupancy it implies.
   void setTransferFunction(const std::vector<glm::vec4>& lut);
+  /// Tint per handle id (gpu::kMaxHandleIds entries: rgb, weight; id 0 unused).
+  void setHandleTints(const std::vector<glm::vec4>& tints);
+  /// Clears the handle-id mask (synchronously; for a new volume or a reset).
+  void clearMask();
+  const vk::Image& volumeImage() const { return volume_; }
+  const vk::Sampler& sampler() const { return linear_; }
 
   /// Records and submits one frame; blocks only if the slot it reuses is still in flight.
   std::uint64_t submit(const FrameRequest& request);
@@ -73,7 +86,7 @@ class VolumeRenderer {
  private:
   struct Slot {
     std::unique_ptr<vk::Buffer> params;
-    std::unique_ptr<vk::Buffer> pickPoints, pickReadback, imageReadback;
+    std::unique_ptr<vk::Buffer> pickPoints, pickReadback, imageReadback, maskStaging;
     std::optional<std::uint64_t> frame;
     int width = 0, height = 0;
     std::size_t pickCount = 0;
@@ -88,8 +101,8 @@ class VolumeRenderer {
   vk::PickPass pick_;
   vk::BrickPass brick_;
   vk::Sampler linear_;
-  vk::Image volume_;
-  vk::Buffer tf_, occupancyBuffer_;
+  vk::Image volume_, mask_;
+  vk::Buffer tf_, occupancyBuffer_, handleTints_;
   BrickGrid bricks_;
   std::vector<std::uint32_t> occupancy_;
   std::vector<Slot> slots_;

@@ -6,6 +6,14 @@ layout(std140, set = 0, binding = kBindParams) uniform Params { RenderParams P; 
 layout(set = 0, binding = kBindVolume) uniform sampler3D uVolume;
 layout(std430, set = 0, binding = kBindTf) readonly buffer Tf { vec4 tf[]; };
 layout(std430, set = 0, binding = kBindOccupancy) readonly buffer Occ { uint occupancy[]; };
+layout(set = 0, binding = kBindMask) uniform sampler3D uMask;
+layout(std430, set = 0, binding = kBindHandles) readonly buffer Handles { vec4 handleTint[]; };
+
+// Handle id of the voxel nearest to a continuous index (0: none).
+uint handleAt(vec3 idx) {
+  ivec3 v = clamp(ivec3(floor(idx + 0.5)), ivec3(0), P.dims.xyz - 1);
+  return uint(round(texelFetch(uMask, v, 0).r * 255.0));
+}
 
 // Normalized value at a continuous voxel index (voxel centres at integers), clamped at the edges.
 float sampleVolume(vec3 idx) {

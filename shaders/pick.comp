@@ -50,7 +50,7 @@ void main() {
         float f = clamp((P.march.w - before) / max(alpha - before, 1e-6), 0.0, 1.0);
         float th = max(t - step + f * step, t0);
         r.world = vec4(originW + th * dirW, 1.0);
-        r.voxel = ivec4(ivec3(floor(o + th * d + 0.5)), int(taken));
+        r.voxel = ivec4(ivec3(floor(o + th * d + 0.5)), int(handleAt(o + th * d)));
         break;
       }
     }

@@ -55,6 +55,8 @@ void main() {
       if (s.a <= 0.0) continue;
       float a = correctedAlpha(s.a);
       vec3 c = s.rgb;
+      uint id = handleAt(idx);
+      if (id != 0u) c = mix(c, handleTint[id].rgb, handleTint[id].a);
       if ((flags & kFlagShading) != 0u) {
         vec3 g = gradToWorld * gradientIndex(idx);
         float gl = length(g);

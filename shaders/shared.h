@@ -51,6 +51,9 @@ HS_CONST kBindTf = 2;         // storage buffer vec4[kTfEntries]
 HS_CONST kBindOccupancy = 3;  // storage buffer uint[brick count], 1 = brick may be visible
 HS_CONST kBindOutput = 4;     // raymarch: rgba8 storage image; pick: storage buffer PickResult[]
 HS_CONST kBindPickInput = 5;  // pick: storage buffer vec4[] (xy = NDC point)
+HS_CONST kBindMask = 6;       // sampler3D, R8_UNORM handle ids (id / 255), same grid as the volume
+HS_CONST kBindHandles = 7;    // storage buffer vec4[kMaxHandleIds]: rgb tint, a = tint weight (0: none)
+HS_CONST kMaxHandleIds = 256; // id 0 = no handle
 
 // Camera and volume, for raymarching and picking.
 // World space is the volume's physical space (RAS+, mm).
@@ -67,7 +70,8 @@ struct RenderParams {
   uvec4 control;      // x = flags, y = pick count, z = max steps, w unused
 };
 
-// One picked point: world.w = 1 on a hit, 0 on a miss; voxel.xyz = nearest voxel index, voxel.w = step count.
+// One picked point: world.w = 1 on a hit, 0 on a miss; voxel.xyz = nearest voxel index, voxel.w =
+// the handle id at the hit (0: none).
 struct PickResult {
   vec4 world;
   ivec4 voxel;
