@@ -41,7 +41,7 @@ const char* const kReplayHelp =
     "  --volume PATH       replay on another volume than the script's\n"
     "  --size WxH          output size (touches are scaled from the script's viewport)\n"
     "  --fps F             frames per second of script time\n"
-    "  --device NAME, --validation, --quiet, --print-camera\n";
+    "  --device NAME, --validation, --quiet, --print-camera, --print-handles\n";
 
 }  // namespace
 
@@ -80,7 +80,8 @@ int cmdView(const Words& words) {
 }
 
 int cmdReplay(const Words& words) {
-  Args args(words, {"--volume", "--frames-out", "--timings", "--fps", "--size", "--device"}, {"--validation", "--quiet", "--print-camera"});
+  Args args(words, {"--volume", "--frames-out", "--timings", "--fps", "--size", "--device"},
+            {"--validation", "--quiet", "--print-camera", "--print-handles"});
   if (args.help() || args.positional().size() > 1) {
     usageStream(args) << kReplayHelp;
     return args.help() ? 0 : 2;
@@ -96,6 +97,7 @@ int cmdReplay(const Words& words) {
   o.validation = args.flag("--validation");
   o.quiet = args.flag("--quiet");
   o.printCamera = args.flag("--print-camera");
+  o.printHandles = args.flag("--print-handles");
   return runReplay(o);
 }
 

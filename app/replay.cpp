@@ -13,6 +13,7 @@
 #include "app/latency_log.h"
 #include "app/png_io.h"
 #include "app/session.h"
+#include "app/selection_controller.h"
 #include "app/volume_io.h"
 #include "sim/error.h"
 #include "sim/phantom.h"
@@ -73,6 +74,7 @@ int runReplay(const ReplayOptions& o) {
     session.apply(mode);
   }
   renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
+  SelectionController selection(q, session, renderer);
   if (!o.framesOut.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(o.framesOut, ec);
@@ -104,11 +106,14 @@ int runReplay(const ReplayOptions& o) {
     FrameRequest req;
     req.params = makeRenderParams(volume.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);
     req.readbackImage = !o.framesOut.empty();
+    selection.prepareFrame(req, vp);
     ft.cpuEnd = seconds(Clock::now(), t0);
-    renderer.submit(req);
+    selection.submitted(renderer.submit(req));
     ft.submit = seconds(Clock::now(), t0);
     const auto w0 = Clock::now();
     const FrameResult r = renderer.waitLast();
+    for (const auto& older : renderer.takeCompleted()) selection.onFrameResult(older);
+    selection.onFrameResult(r);
     ft.present = seconds(Clock::now(), t0);
     ft.waitMs = seconds(Clock::now(), w0) * 1e3;
     ft.frame = r.frame;
@@ -129,6 +134,9 @@ int runReplay(const ReplayOptions& o) {
   }
   if (!o.framesOut.empty()) std::cout << "wrote " << frames << " frames to " << o.framesOut << "\n";
   if (o.printCamera) std::cout << describeCamera(session.camera()) << "\n";
+  if (o.printHandles)
+    for (const auto& h : selection.handles().handles())
+      std::cout << "handle " << h.id << " " << handleStatusName(h.status) << " " << h.voxels.size() << " voxels\n";
   if (ctx.validationMessageCount() > 0) {
     std::cerr << "error: " << ctx.validationMessageCount() << " Vulkan validation message(s)\n";
     return 1;

@@ -20,6 +20,7 @@ struct ReplayOptions {
   bool validation = false;
   bool quiet = false;
   bool printCamera = false;
+  bool printHandles = false;
 };
 
 /// The built-in demo script (assets/gestures/orbit-and-zoom.json, embedded at build time).

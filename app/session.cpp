@@ -42,7 +42,7 @@ bool Session::apply(const ScriptEvent& e) {
   } else if (e.action == "reset-camera") {
     resetCamera();
   } else {
-    ok = false;
+    ok = uiExtension_ && uiExtension_(e);
   }
   if (ok && recording_) script_.events.push_back(e);
   return ok;

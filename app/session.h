@@ -3,6 +3,7 @@
 // recognizer, the interaction mode and the transfer-function preset, changed only through
 // apply(ScriptEvent). Both the live app and `handson replay` drive it with the same events, so a
 // recorded session replays to the same camera and the same frames.
+#include <functional>
 #include <string>
 
 #include "app/session_script.h"
@@ -27,6 +28,10 @@ class Session {
   /// True once after the preset changed (the renderer re-uploads the table).
   bool takePresetChanged() { return std::exchange(presetChanged_, false); }
 
+  /// UI actions the session does not know itself (handle edits) go here; it returns whether the
+  /// action was applied.
+  void setUiExtension(std::function<bool(const ScriptEvent&)> f) { uiExtension_ = std::move(f); }
+
   /// Recording: every applied event is appended (with its time) to a script.
   void startRecording(const SessionScript& header);
   bool recording() const { return recording_; }
@@ -40,6 +45,7 @@ class Session {
   bool presetChanged_ = false;
   bool recording_ = false;
   SessionScript script_;
+  std::function<bool(const ScriptEvent&)> uiExtension_;
 };
 
 /// One line for tests and scripting: "camera azimuth_deg=... elevation_deg=... roll_deg=...

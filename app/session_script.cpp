@@ -1,6 +1,8 @@
 #include "session_script.h"
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -143,8 +145,11 @@ SessionScript parseSessionScript(const std::string& text, const std::string& nam
       if (ev.action == "set-mode") {
         InteractionMode m;
         if (!parseMode(ev.value, m)) p.fail(where + ": unknown mode \"" + ev.value + "\"");
-      } else if (ev.action != "set-preset" && ev.action != "reset-camera") {
-        p.fail(where + ": unknown UI action \"" + ev.action + "\"");
+      } else {
+        static const char* const kActions[] = {"set-preset", "reset-camera", "handle-status", "handle-delete", "handle-union",
+                                                "handle-difference", "undo", "redo"};
+        if (std::find(std::begin(kActions), std::end(kActions), ev.action) == std::end(kActions))
+          p.fail(where + ": unknown UI action \"" + ev.action + "\"");
       }
     }
     s.events.push_back(std::move(ev));

@@ -17,7 +17,10 @@
 //     {"t": 0.40, "touch": "up", "id": 0, "x": 300, "y": 250},
 //     {"t": 0.50, "ui": "set-mode", "value": "select"},     // navigate | select | manipulate
 //     {"t": 0.60, "ui": "set-preset", "value": "ct-bone"},  // a transfer-function preset
-//     {"t": 0.70, "ui": "reset-camera"}
+//     {"t": 0.70, "ui": "reset-camera"},
+//     {"t": 0.80, "ui": "handle-status", "value": "1:fixed"},  // handle edits: handle-status ID:STATUS,
+//                                                               // handle-delete ID, handle-union A,B,
+//                                                               // handle-difference A,B, undo, redo
 //   ]
 // }
 #include <optional>
@@ -35,7 +38,7 @@ struct ScriptEvent {
   double t = 0.0;
   bool isTouch = true;
   TouchEvent touch;     ///< when isTouch (touch.time == t)
-  std::string action;   ///< when !isTouch: "set-mode", "set-preset", "reset-camera"
+  std::string action;   ///< when !isTouch: "set-mode", "set-preset", "reset-camera", handle edits
   std::string value;
 };
 

@@ -140,7 +140,38 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   }
   ImGui::Separator();
   ImGui::TextUnformatted("Handles");
-  ImGui::TextDisabled("none yet");
+  if (st.liveVoxels) ImGui::TextColored(ImVec4(0.3f, 1.0f, 0.4f, 1.0f), "selecting: %zu voxels", st.liveVoxels);
+  if (!st.feedback.empty()) ImGui::TextColored(ImVec4(1.0f, 0.5f, 0.3f, 1.0f), "%s", st.feedback.c_str());
+  if (st.handles.empty()) ImGui::TextDisabled("none: pinch an organ in Select mode");
+  const ImVec2 small(std::max(kMinTarget, 64.0f) * s, kMinTarget * s);
+  for (const auto& h : st.handles) {
+    ImGui::PushID(h.id);
+    ImGui::Text("#%d %s, %zu voxels", h.id, h.status.c_str(), h.voxels);
+    for (const char* stName : {"active", "fixed", "idle"}) {
+      const bool on = h.status == stName;
+      if (on) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
+      const char label[2] = {char(stName[0] - 32), 0};
+      if (ImGui::Button(label, small) && !on) action("handle-status", std::to_string(h.id) + ":" + stName);
+      if (on) ImGui::PopStyleColor();
+      ImGui::SameLine();
+    }
+    if (ImGui::Button("Del", small)) action("handle-delete", std::to_string(h.id));
+    ImGui::PopID();
+  }
+  if (st.handles.size() >= 2) {
+    const int a = st.handles[st.handles.size() - 2].id, b = st.handles.back().id;
+    if (ImGui::Button(("#" + std::to_string(a) + " + #" + std::to_string(b)).c_str(), button)) action("handle-union", std::to_string(a) + "," + std::to_string(b));
+    ImGui::SameLine();
+    if (ImGui::Button(("#" + std::to_string(a) + " - #" + std::to_string(b)).c_str(), button))
+      action("handle-difference", std::to_string(a) + "," + std::to_string(b));
+  }
+  ImGui::BeginDisabled(!st.canUndo);
+  if (ImGui::Button("Undo", small)) action("undo", "");
+  ImGui::EndDisabled();
+  ImGui::SameLine();
+  ImGui::BeginDisabled(!st.canRedo);
+  if (ImGui::Button("Redo", small)) action("redo", "");
+  ImGui::EndDisabled();
   remember();
   ImGui::End();
 

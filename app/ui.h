@@ -22,6 +22,15 @@ struct UiStatus {
   double cpuFrameMs = 0, gpuRaymarchMs = 0, latencyMs = -1, fps = 0;
   int fingers = 0;
   int renderWidth = 0, renderHeight = 0;
+  struct HandleRow {
+    int id;
+    std::string status;
+    std::size_t voxels;
+  };
+  std::vector<HandleRow> handles;
+  bool canUndo = false, canRedo = false;
+  std::string feedback;        ///< e.g. a refused pinch
+  std::size_t liveVoxels = 0;  ///< the selection being pinched
 };
 
 class Ui {

@@ -17,6 +17,7 @@
 #include "app/latency_log.h"
 #include "app/png_io.h"
 #include "app/sdl_input.h"
+#include "app/selection_controller.h"
 #include "app/session.h"
 #include "app/ui.h"
 #include "app/volume_io.h"
@@ -161,6 +162,7 @@ struct Viewer::Impl {
   std::unique_ptr<SdlInput> input;
   std::unique_ptr<Session> session;
   std::unique_ptr<PresentExtension> present;
+  std::unique_ptr<SelectionController> selection;
   double scale = 1.0;
   LatencyLog log;
   Clock::time_point t0 = Clock::now();
@@ -251,6 +253,7 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts) {
     std::cerr << "window " << dw << "x" << dh << ", present mode " << vk::presentModeName(swapchain->presentMode()) << ", "
               << o.framesInFlight << " frame(s) in flight, raymarch at " << scale * 100 << " %\n";
   present = std::make_unique<PresentExtension>(*ctx, *swapchain, *ui);
+  selection = std::make_unique<SelectionController>(q, *session, *renderer);
   status.device = ctx->summary().name;
   if (!o.play.empty()) play = readSessionScript(o.play);
   t0 = Clock::now();
@@ -360,6 +363,12 @@ bool Viewer::Impl::step() {
     status.mode = modeName(session->gestures().mode());
     status.preset = session->preset();
     status.fingers = int(session->gestures().input().fingers().size());
+    status.handles.clear();
+    for (const auto& h : selection->handles().handles()) status.handles.push_back({h.id, handleStatusName(h.status), h.voxels.size()});
+    status.canUndo = selection->handles().canUndo();
+    status.canRedo = selection->handles().canRedo();
+    status.feedback = selection->pinch().feedback();
+    status.liveVoxels = selection->liveVoxelCount();
     ui->build(status, seconds(Clock::now(), t0), actions);
     for (const auto& a : actions) session->apply(a);
     if (session->takePresetChanged()) renderer->setTransferFunction(transferFunctionPreset(session->preset()).lookupTable(q));
@@ -374,6 +383,7 @@ bool Viewer::Impl::step() {
     req.params = makeRenderParams(volume.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);
     req.readbackImage = false;
     req.extension = present.get();
+    selection->prepareFrame(req, vp);
     const bool lastFrame = o.frames > 0 && int(frameNo) + 1 == o.frames;
     if (lastFrame && !o.screenshot.empty())
       shot = std::make_unique<vk::Buffer>(*ctx, VkDeviceSize(vp.width) * vp.height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
@@ -382,6 +392,7 @@ bool Viewer::Impl::step() {
     ft.cpuEnd = seconds(Clock::now(), t0);
     const auto s0 = Clock::now();
     ft.frame = renderer->submit(req);  // waits only for the frame two submissions back
+    selection->submitted(ft.frame);
     ft.submit = seconds(Clock::now(), t0);
     wait += seconds(Clock::now(), s0);
     const auto p0 = Clock::now();
@@ -390,6 +401,7 @@ bool Viewer::Impl::step() {
     wait += seconds(Clock::now(), p0);
     ft.waitMs = wait * 1e3;
     for (const auto& r : renderer->takeCompleted()) {
+      selection->onFrameResult(r);
       std::vector<std::pair<std::string, double>> passes;
       for (const auto& p : r.timings) {
         passes.emplace_back(p.name, p.gpuMs);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <string>
 
 #include "sim/error.h"
@@ -16,6 +17,41 @@ std::uint32_t floatKey(float f) {
   return b;
 }
 }  // namespace
+
+Eigen::Vector3i mostHomogeneousNear(const QuantizedVolume& volume, const Eigen::Vector3i& near, int radius) {
+  const auto& d = volume.geometry.dims;
+  auto at = [&](int i, int j, int k) {
+    i = std::clamp(i, 0, d.x() - 1);
+    j = std::clamp(j, 0, d.y() - 1);
+    k = std::clamp(k, 0, d.z() - 1);
+    return double(volume.data[std::size_t(i) + std::size_t(d.x()) * (std::size_t(j) + std::size_t(d.y()) * std::size_t(k))]);
+  };
+  Eigen::Vector3i best = near;
+  double bestVar = std::numeric_limits<double>::infinity();
+  int bestDist = 0;
+  for (int dz = -radius; dz <= radius; ++dz)
+    for (int dy = -radius; dy <= radius; ++dy)
+      for (int dx = -radius; dx <= radius; ++dx) {
+        const Eigen::Vector3i c = near + Eigen::Vector3i(dx, dy, dz);
+        if (!volume.geometry.contains(c)) continue;
+        double s1 = 0, s2 = 0;
+        for (int z = -1; z <= 1; ++z)
+          for (int y = -1; y <= 1; ++y)
+            for (int x = -1; x <= 1; ++x) {
+              const double u = at(c.x() + x, c.y() + y, c.z() + z);
+              s1 += u;
+              s2 += u * u;
+            }
+        const double var = s2 / 27.0 - (s1 / 27.0) * (s1 / 27.0);
+        const int dist = dx * dx + dy * dy + dz * dz;
+        if (var < bestVar - 1e-9 || (std::abs(var - bestVar) <= 1e-9 && dist < bestDist)) {
+          bestVar = var;
+          best = c;
+          bestDist = dist;
+        }
+      }
+  return best;
+}
 
 RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i& seed, const GrowParams& params)
     : vol_(volume), params_(params) {

@@ -43,6 +43,10 @@ struct GrowParams {
   double hRegion = 2.0;
 };
 
+/// The voxel within `radius` voxels (a cube) of `near` whose 3x3x3 neighbourhood has the smallest
+/// standard deviation; the nearest one on ties. For seeds that land on an edge.
+Eigen::Vector3i mostHomogeneousNear(const QuantizedVolume& volume, const Eigen::Vector3i& near, int radius);
+
 class RegionGrower {
  public:
   /// Throws handson::Error if the seed lies outside the volume or the parameters are invalid.
@@ -61,6 +65,8 @@ class RegionGrower {
   std::vector<std::uint8_t> mask(double extentMm) const;
   std::size_t count(double extentMm) const;
   double grownExtent() const { return grown_; }
+  /// Voxels that have a key (the only candidates for any selection).
+  const std::vector<std::size_t>& touched() const { return touched_; }
 
  private:
   float value(int i, int j, int k) const;  // u16 value or 3x3x3 sum, per criterion

@@ -72,3 +72,25 @@ TEST(Replay, ScriptOnAnotherVolumeAndBadInput) {
   EXPECT_EQ(run("replay --fps 0", &out), 2);
   fs::remove_all(dir);
 }
+
+TEST(Replay, PinchInSelectModeMakesAHandleAndHandleEditsReplay) {
+  const fs::path script = fs::path(HANDSON_SOURCE_DIR) / "assets/gestures/select-kidney-pinch.json";
+  std::string out;
+  ASSERT_EQ(run("replay " + script.string() + " --fps 10 --size 256x256 --quiet --validation --print-handles", &out), 0) << out;
+  // One handle, made fixed by the script's last UI action.
+  EXPECT_NE(out.find("handle 1 fixed"), std::string::npos) << out;
+  EXPECT_EQ(out.find("handle 2"), std::string::npos) << out;
+  // The same pinch in empty space (top-left corner) is refused: no handle.
+  const fs::path dir = fs::temp_directory_path() / ("handson_pinch_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  std::string text = slurp(script);
+  for (const char* from : {"\"x\": 192, \"y\": 270", "\"x\": 212, \"y\": 270"}) {
+    const auto pos = text.find(from);
+    ASSERT_NE(pos, std::string::npos);
+    text.replace(pos, std::string(from).size(), "\"x\": 3, \"y\": 3");
+  }
+  std::ofstream(dir / "empty.json") << text;
+  ASSERT_EQ(run("replay " + (dir / "empty.json").string() + " --fps 10 --size 256x256 --quiet --print-handles", &out), 0) << out;
+  EXPECT_EQ(out.find("handle 1"), std::string::npos) << out;
+  fs::remove_all(dir);
+}

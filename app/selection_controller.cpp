@@ -1,0 +1,138 @@
+#include "selection_controller.h"
+
+#include <algorithm>
+#include <sstream>
+
+
+namespace handson {
+
+SelectionController::SelectionController(const QuantizedVolume& volume, Session& session, VolumeRenderer& renderer, const GrowParams& params)
+    : volume_(volume), session_(session), renderer_(renderer), pinch_(volume, params), mask_(volume.data.size(), 0) {
+  dirtyMin_ = volume.geometry.dims;
+  dirtyMax_ = Eigen::Vector3i(-1, -1, -1);
+  session_.gestures().setHandler(InteractionMode::Select, [this](const TouchEvent& e, const TouchInput& input) {
+    pinch_.onTouch(e, input, session_.camera(), session_.gestures().viewport());
+    if (pinch_.changed()) refreshLive();
+  });
+  session_.setUiExtension([this](const ScriptEvent& e) { return applyUi(e); });
+}
+
+void SelectionController::repaint(const std::vector<std::uint32_t>& voxels) {
+  const auto& d = volume_.geometry.dims;
+  for (std::uint32_t v : voxels) {
+    const Eigen::Vector3i p(int(v % std::uint32_t(d.x())), int((v / std::uint32_t(d.x())) % std::uint32_t(d.y())), int(v / (std::uint32_t(d.x()) * d.y())));
+    dirtyMin_ = dirtyMin_.cwiseMin(p);
+    dirtyMax_ = dirtyMax_.cwiseMax(p);
+    mask_[v] = 0;
+  }
+  for (const auto& h : handles_.handles())
+    for (std::uint32_t v : h.voxels) mask_[v] = std::uint8_t(h.id);  // only voxels in the dirty box matter
+  for (std::uint32_t v : live_) mask_[v] = HandleSet::kLiveSelectionId;
+}
+
+void SelectionController::refreshLive() {
+  std::vector<std::uint32_t> old = std::move(live_);
+  live_ = pinch_.state() == PinchSelection::State::Growing ? pinch_.liveVoxels() : std::vector<std::uint32_t>{};
+  if (auto done = pinch_.takeFinished()) {
+    const auto before = handles_.handles();
+    handles_.add(std::move(*done));
+    old.insert(old.end(), live_.begin(), live_.end());
+    const auto changed = HandleSet::changedVoxels(before, handles_.handles());
+    old.insert(old.end(), changed.begin(), changed.end());
+    tintsDirty_ = true;
+  }
+  old.insert(old.end(), live_.begin(), live_.end());
+  repaint(old);
+}
+
+void SelectionController::syncTints() {
+  if (!tintsDirty_) return;
+  renderer_.setHandleTints(handles_.tints());
+  tintsDirty_ = false;
+}
+
+bool SelectionController::applyUi(const ScriptEvent& e) {
+  auto ids = [&](int& a, int& b) {
+    char comma = 0;
+    std::istringstream in(e.value);
+    return bool(in >> a >> comma >> b) && comma == ',';
+  };
+  const auto before = handles_.handles();
+  bool ok = false;
+  if (e.action == "handle-status") {
+    const auto colon = e.value.find(':');
+    HandleStatus st;
+    if (colon != std::string::npos && parseHandleStatus(e.value.substr(colon + 1), st)) {
+      try {
+        ok = handles_.setStatus(std::stoi(e.value.substr(0, colon)), st);
+      } catch (...) {
+        ok = false;
+      }
+    }
+    if (ok) tintsDirty_ = true;
+    return ok;
+  } else if (e.action == "handle-delete") {
+    try {
+      ok = handles_.remove(std::stoi(e.value));
+    } catch (...) {
+      ok = false;
+    }
+  } else if (e.action == "handle-union" || e.action == "handle-difference") {
+    int a = 0, b = 0;
+    ok = ids(a, b) && (e.action == "handle-union" ? handles_.unite(a, b) : handles_.subtract(a, b));
+  } else if (e.action == "undo") {
+    ok = handles_.undo();
+  } else if (e.action == "redo") {
+    ok = handles_.redo();
+  } else {
+    return false;
+  }
+  if (ok) {
+    repaint(HandleSet::changedVoxels(before, handles_.handles()));
+    tintsDirty_ = true;
+  }
+  return ok;
+}
+
+void SelectionController::prepareFrame(FrameRequest& req, const Viewport& vp) {
+  syncTints();
+  pickInRequest_ = false;
+  const auto pts = pinch_.takePickRequest();
+  if (!pts.empty()) {
+    pickOffset_ = req.pickPoints.size();
+    for (const auto& p : pts) req.pickPoints.push_back(glm::vec2(vp.toNdc(p)));  // finger positions are continuous pixels
+    pickInRequest_ = true;
+  }
+  if ((dirtyMin_.array() <= dirtyMax_.array()).all()) {
+    upload_.min = dirtyMin_;
+    upload_.dims = dirtyMax_ - dirtyMin_ + Eigen::Vector3i::Ones();
+    upload_.ids.resize(std::size_t(upload_.dims.prod()));
+    const auto& d = volume_.geometry.dims;
+    std::size_t o = 0;
+    for (int k = dirtyMin_.z(); k <= dirtyMax_.z(); ++k)
+      for (int j = dirtyMin_.y(); j <= dirtyMax_.y(); ++j) {
+        const std::size_t row = std::size_t(dirtyMin_.x()) + std::size_t(d.x()) * (std::size_t(j) + std::size_t(d.y()) * std::size_t(k));
+        std::copy_n(mask_.begin() + std::ptrdiff_t(row), upload_.dims.x(), upload_.ids.begin() + std::ptrdiff_t(o));
+        o += std::size_t(upload_.dims.x());
+      }
+    req.maskUpload = &upload_;
+    dirtyMin_ = d;
+    dirtyMax_ = Eigen::Vector3i(-1, -1, -1);
+  }
+}
+
+void SelectionController::submitted(std::uint64_t frame) {
+  if (pickInRequest_) pickFrame_ = frame;
+}
+
+void SelectionController::onFrameResult(const FrameResult& r) {
+  if (!pickFrame_ || r.frame != *pickFrame_) return;
+  pickFrame_.reset();
+  std::vector<std::optional<glm::dvec3>> world;
+  for (std::size_t i = pickOffset_; i < pickOffset_ + 2 && i < r.picks.size(); ++i)
+    world.push_back(r.picks[i].world.w > 0.5f ? std::optional<glm::dvec3>(glm::dvec3(r.picks[i].world)) : std::nullopt);
+  pinch_.onPicks(world, session_.camera(), session_.gestures().viewport());
+  if (pinch_.changed()) refreshLive();
+}
+
+}  // namespace handson

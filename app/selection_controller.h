@@ -1,0 +1,56 @@
+#pragma once
+// Wires selection into a running session, for the window and for replay alike: the pinch's
+// depth-pick requests ride on the next frame and their answers come back with its results; the
+// live selection and the handles are painted into a CPU copy of the handle-id mask whose changed
+// box is uploaded inside the next frame; handle edits come in as UI actions (recorded and replayed
+// like touches):
+//   handle-status "ID:active|fixed|idle", handle-delete "ID", handle-union "A,B" (A := A ∪ B),
+//   handle-difference "A,B" (A := A \ B), undo, redo.
+#include <optional>
+#include <vector>
+
+#include "app/session.h"
+#include "interaction/handles.h"
+#include "interaction/selection.h"
+#include "render/volume_renderer.h"
+
+namespace handson {
+
+class SelectionController {
+ public:
+  SelectionController(const QuantizedVolume& volume, Session& session, VolumeRenderer& renderer, const GrowParams& params = {});
+
+  /// Before submitting a frame: appends pending pick points (NDC) and sets the mask upload.
+  void prepareFrame(FrameRequest& request, const Viewport& viewport);
+  /// After submitting it, with the frame id the renderer returned.
+  void submitted(std::uint64_t frame);
+  /// With every completed frame's results.
+  void onFrameResult(const FrameResult& result);
+  /// Handle edits; false for actions that are not the controller's or that were refused.
+  bool applyUi(const ScriptEvent& e);
+
+  const HandleSet& handles() const { return handles_; }
+  const PinchSelection& pinch() const { return pinch_; }
+  std::size_t liveVoxelCount() const { return live_.size(); }
+
+ private:
+  void repaint(const std::vector<std::uint32_t>& voxels);
+  void refreshLive();
+  void syncTints();
+
+  const QuantizedVolume& volume_;
+  Session& session_;
+  VolumeRenderer& renderer_;
+  PinchSelection pinch_;
+  HandleSet handles_;
+  std::vector<std::uint8_t> mask_;           // handle ids on the volume grid (CPU copy)
+  std::vector<std::uint32_t> live_;          // voxels of the live selection
+  Eigen::Vector3i dirtyMin_, dirtyMax_;      // box to upload (empty when min > max)
+  MaskUpload upload_;
+  bool tintsDirty_ = true;
+  std::optional<std::uint64_t> pickFrame_;   // frame carrying the pinch's picks
+  std::size_t pickOffset_ = 0;
+  bool pickInRequest_ = false;
+};
+
+}  // namespace handson

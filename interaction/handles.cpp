@@ -1,0 +1,140 @@
+#include "handles.h"
+
+#include <algorithm>
+#include <iterator>
+
+namespace handson {
+
+const char* handleStatusName(HandleStatus s) {
+  switch (s) {
+    case HandleStatus::Active: return "active";
+    case HandleStatus::Fixed: return "fixed";
+    case HandleStatus::Idle: return "idle";
+  }
+  return "?";
+}
+
+bool parseHandleStatus(const std::string& s, HandleStatus& out) {
+  for (auto v : {HandleStatus::Active, HandleStatus::Fixed, HandleStatus::Idle})
+    if (s == handleStatusName(v)) {
+      out = v;
+      return true;
+    }
+  return false;
+}
+
+void HandleSet::snapshot() {
+  undo_.push_back(handles_);
+  if (undo_.size() > 64) undo_.erase(undo_.begin());
+  redo_.clear();
+}
+
+Handle* HandleSet::get(int id) {
+  for (auto& h : handles_)
+    if (h.id == id) return &h;
+  return nullptr;
+}
+
+const Handle* HandleSet::find(int id) const {
+  for (const auto& h : handles_)
+    if (h.id == id) return &h;
+  return nullptr;
+}
+
+int HandleSet::add(std::vector<std::uint32_t> voxels) {
+  if (voxels.empty() || int(handles_.size()) >= kMaxHandles) return 0;
+  int id = 1;
+  while (find(id)) ++id;
+  std::sort(voxels.begin(), voxels.end());
+  voxels.erase(std::unique(voxels.begin(), voxels.end()), voxels.end());
+  snapshot();
+  for (auto& h : handles_) {  // the last claimer wins
+    std::vector<std::uint32_t> rest;
+    std::set_difference(h.voxels.begin(), h.voxels.end(), voxels.begin(), voxels.end(), std::back_inserter(rest));
+    h.voxels = std::move(rest);
+  }
+  handles_.erase(std::remove_if(handles_.begin(), handles_.end(), [](const Handle& h) { return h.voxels.empty(); }), handles_.end());
+  handles_.push_back({id, HandleStatus::Active, std::move(voxels)});
+  return id;
+}
+
+bool HandleSet::remove(int id) {
+  if (!find(id)) return false;
+  snapshot();
+  handles_.erase(std::remove_if(handles_.begin(), handles_.end(), [id](const Handle& h) { return h.id == id; }), handles_.end());
+  return true;
+}
+
+bool HandleSet::setStatus(int id, HandleStatus s) {
+  Handle* h = get(id);
+  if (!h || h->status == s) return false;
+  snapshot();
+  get(id)->status = s;
+  return true;
+}
+
+bool HandleSet::unite(int a, int b) {
+  if (a == b || !find(a) || !find(b)) return false;
+  snapshot();
+  Handle* ha = get(a);
+  const Handle* hb = find(b);
+  std::vector<std::uint32_t> all;
+  std::set_union(ha->voxels.begin(), ha->voxels.end(), hb->voxels.begin(), hb->voxels.end(), std::back_inserter(all));
+  ha->voxels = std::move(all);
+  handles_.erase(std::remove_if(handles_.begin(), handles_.end(), [b](const Handle& h) { return h.id == b; }), handles_.end());
+  return true;
+}
+
+bool HandleSet::subtract(int a, int b) {
+  if (a == b || !find(a) || !find(b)) return false;
+  std::vector<std::uint32_t> rest;
+  std::set_difference(find(a)->voxels.begin(), find(a)->voxels.end(), find(b)->voxels.begin(), find(b)->voxels.end(), std::back_inserter(rest));
+  if (rest.empty()) return false;
+  snapshot();
+  get(a)->voxels = std::move(rest);
+  return true;
+}
+
+bool HandleSet::undo() {
+  if (undo_.empty()) return false;
+  redo_.push_back(handles_);
+  handles_ = std::move(undo_.back());
+  undo_.pop_back();
+  return true;
+}
+
+bool HandleSet::redo() {
+  if (redo_.empty()) return false;
+  undo_.push_back(handles_);
+  handles_ = std::move(redo_.back());
+  redo_.pop_back();
+  return true;
+}
+
+std::vector<glm::vec4> HandleSet::tints(int highlight) const {
+  std::vector<glm::vec4> t(256, glm::vec4(0.0f));
+  for (const auto& h : handles_) {
+    glm::vec4 c;
+    switch (h.status) {
+      case HandleStatus::Active: c = {1.0f, 0.75f, 0.1f, 0.7f}; break;
+      case HandleStatus::Fixed: c = {0.2f, 0.45f, 1.0f, 0.7f}; break;
+      case HandleStatus::Idle: c = {0.6f, 0.6f, 0.6f, 0.45f}; break;
+    }
+    if (h.id == highlight) c.a = 0.95f;
+    t[std::size_t(h.id)] = c;
+  }
+  t[kLiveSelectionId] = {0.2f, 1.0f, 0.3f, 0.8f};
+  return t;
+}
+
+std::vector<std::uint32_t> HandleSet::changedVoxels(const std::vector<Handle>& before, const std::vector<Handle>& after) {
+  // Voxels of any handle on either side; the caller repaints them from `after`.
+  std::vector<std::uint32_t> all;
+  for (const auto* side : {&before, &after})
+    for (const auto& h : *side) all.insert(all.end(), h.voxels.begin(), h.voxels.end());
+  std::sort(all.begin(), all.end());
+  all.erase(std::unique(all.begin(), all.end()), all.end());
+  return all;
+}
+
+}  // namespace handson

@@ -1,0 +1,105 @@
+#include "selection.h"
+
+#include <cmath>
+
+namespace handson {
+
+void PinchSelection::onTouch(const TouchEvent& e, const TouchInput& input, const OrbitCamera& camera, const Viewport& viewport) {
+  (void)camera;
+  (void)viewport;
+  const auto& f = input.fingers();
+  switch (state_) {
+    case State::Idle:
+      if (e.phase == TouchPhase::Down && f.size() == 2) {
+        fingerA_ = f[0].id;
+        fingerB_ = f[1].id;
+        pickA_ = f[0].px;
+        pickB_ = f[1].px;
+        requestPending_ = true;
+        state_ = State::WaitingForPicks;
+        feedback_.clear();
+      }
+      break;
+    case State::WaitingForPicks:
+    case State::Growing: {
+      const bool bothDown = input.find(fingerA_) && input.find(fingerB_);
+      if (!bothDown) {  // a finger lifted: the selection ends
+        if (state_ == State::Growing && grower_) {
+          finished_ = liveVoxels();
+          changed_ = true;
+        }
+        grower_.reset();
+        state_ = State::Idle;
+        requestPending_ = false;
+        break;
+      }
+      if (state_ == State::Growing && e.phase == TouchPhase::Move) updateExtent(input);
+      break;
+    }
+  }
+}
+
+std::vector<glm::dvec2> PinchSelection::takePickRequest() {
+  if (!requestPending_) return {};
+  requestPending_ = false;
+  return {pickA_, pickB_};
+}
+
+void PinchSelection::onPicks(const std::vector<std::optional<glm::dvec3>>& world, const OrbitCamera& camera, const Viewport& viewport) {
+  if (state_ != State::WaitingForPicks) return;
+  if (world.size() != 2 || !world[0] || !world[1]) {
+    feedback_ = "Pinch on visible anatomy: a finger was not on the volume";
+    state_ = State::Idle;
+    changed_ = true;
+    return;
+  }
+  const glm::dvec3 seedWorld = 0.5 * (*world[0] + *world[1]);
+  const Eigen::Vector3d idx = volume_.geometry.toIndex(Eigen::Vector3d(seedWorld.x, seedWorld.y, seedWorld.z)).array().round();
+  if (!idx.allFinite() || !volume_.geometry.contains(Eigen::Vector3i(idx.cast<int>()))) {
+    feedback_ = "Pinch on visible anatomy: the seed fell outside the volume";
+    state_ = State::Idle;
+    changed_ = true;
+    return;
+  }
+  // The midpoint of two surface points lies on the organ's surface, where the 3x3x3 statistics
+  // straddle the edge; snap to the most homogeneous voxel within two voxels (smallest 3x3x3
+  // standard deviation, the nearest on ties).
+  const Eigen::Vector3i seed = mostHomogeneousNear(volume_, idx.cast<int>(), 2);
+  const double depth = glm::dot(seedWorld - camera.eye(), camera.forward());
+  pixelMm_ = camera.pixelSizeAt(std::max(depth, 1e-3), viewport.height);
+  grower_ = std::make_unique<RegionGrower>(volume_, seed, params_);
+  state_ = State::Growing;
+  extent_ = 0.0;
+  feedback_.clear();
+  // The fingers' current spread decides the first extent.
+  extent_ = pixelMm_ * glm::length(pickA_ - pickB_);
+  grower_->growTo(extent_);
+  changed_ = true;
+}
+
+void PinchSelection::updateExtent(const TouchInput& input) {
+  const Finger* a = input.find(fingerA_);
+  const Finger* b = input.find(fingerB_);
+  if (!a || !b || !grower_) return;
+  pickA_ = a->px;
+  pickB_ = b->px;
+  const double e = pixelMm_ * glm::length(a->px - b->px);
+  if (!std::isfinite(e) || std::abs(e - extent_) < 1e-9) return;
+  extent_ = std::min(e, 500.0);
+  if (extent_ > grower_->grownExtent()) grower_->growTo(extent_);
+  changed_ = true;
+}
+
+std::vector<std::uint32_t> PinchSelection::liveVoxels() const {
+  std::vector<std::uint32_t> out;
+  if (!grower_) return out;
+  const std::uint32_t bound = grower_->bound(extent_);
+  const auto& keys = grower_->keys();
+  for (std::size_t v : grower_->touched())
+    if (keys[v] <= bound) out.push_back(std::uint32_t(v));
+  return out;
+}
+
+std::optional<std::vector<std::uint32_t>> PinchSelection::takeFinished() { return std::exchange(finished_, std::nullopt); }
+
+}  // namespace handson

@@ -1,0 +1,136 @@
+#include <gtest/gtest.h>
+
+#include "interaction/handles.h"
+#include "interaction/selection.h"
+#include "sim/phantom.h"
+#include "sim/quantized_volume.h"
+
+using namespace handson;
+
+TEST(HandleSet, LastClaimerWinsAndEditsUndo) {
+  HandleSet h;
+  const int a = h.add({5, 1, 3, 3, 7});
+  ASSERT_EQ(a, 1);
+  EXPECT_EQ(h.find(a)->voxels, (std::vector<std::uint32_t>{1, 3, 5, 7}));
+  const int b = h.add({7, 9});
+  EXPECT_EQ(h.find(a)->voxels, (std::vector<std::uint32_t>{1, 3, 5}));  // 7 now belongs to b
+  EXPECT_EQ(h.find(b)->voxels, (std::vector<std::uint32_t>{7, 9}));
+  EXPECT_TRUE(h.setStatus(b, HandleStatus::Fixed));
+  EXPECT_FALSE(h.setStatus(b, HandleStatus::Fixed));  // no change, no undo step
+  EXPECT_TRUE(h.subtract(a, b));  // disjoint: a keeps all its voxels (a valid, if idle, edit)
+  EXPECT_EQ(h.find(a)->voxels, (std::vector<std::uint32_t>{1, 3, 5}));
+  EXPECT_TRUE(h.undo());
+  EXPECT_TRUE(h.unite(a, b));
+  EXPECT_EQ(h.find(a)->voxels, (std::vector<std::uint32_t>{1, 3, 5, 7, 9}));
+  EXPECT_EQ(h.find(b), nullptr);
+  EXPECT_TRUE(h.undo());  // the union
+  ASSERT_NE(h.find(b), nullptr);
+  EXPECT_EQ(h.find(b)->status, HandleStatus::Fixed);
+  EXPECT_TRUE(h.undo());  // the status
+  EXPECT_EQ(h.find(b)->status, HandleStatus::Active);
+  EXPECT_TRUE(h.redo());
+  EXPECT_EQ(h.find(b)->status, HandleStatus::Fixed);
+  EXPECT_TRUE(h.remove(b));
+  EXPECT_FALSE(h.remove(b));
+  EXPECT_EQ(h.handles().size(), 1u);
+  // A handle whose voxels are all claimed by a new one disappears.
+  h.add({1, 3, 5});
+  EXPECT_EQ(h.find(a), nullptr);
+  EXPECT_FALSE(h.unite(a, a));
+  EXPECT_EQ(h.add({}), 0);
+  const auto t = h.tints();
+  EXPECT_EQ(t.size(), 256u);
+  EXPECT_GT(t[HandleSet::kLiveSelectionId].a, 0.0f);
+}
+
+TEST(HandleSet, DifferenceRemovesTheOtherHandlesVoxelsAndKeepsIt) {
+  HandleSet h;
+  const int a = h.add({1, 2, 3, 4});
+  const int b = h.add({10, 11});
+  ASSERT_TRUE(h.unite(a, b));  // a = {1,2,3,4,10,11}
+  const int c = h.add({20});
+  EXPECT_TRUE(h.subtract(a, c));
+  EXPECT_EQ(h.find(a)->voxels.size(), 6u);
+  ASSERT_TRUE(h.undo());  // back to before the subtraction
+  ASSERT_TRUE(h.undo());  // before c
+  ASSERT_TRUE(h.undo());  // before the union
+  ASSERT_NE(h.find(b), nullptr);
+  // a \ b where b overlaps a: claim {3, 4} for a new handle d, unite it back into... use a fresh set.
+  HandleSet g;
+  const int x = g.add({1, 2, 3});
+  const int y = g.add({5});
+  ASSERT_TRUE(g.unite(x, y));  // x = {1,2,3,5}
+  const int z = g.add({7});
+  EXPECT_TRUE(g.subtract(x, z));            // nothing shared: x unchanged
+  EXPECT_EQ(g.find(x)->voxels.size(), 4u);
+  EXPECT_NE(g.find(z), nullptr);             // the subtrahend stays
+  HandleSet only;
+  const int p = only.add({1});
+  const int r = only.add({2});
+  ASSERT_TRUE(only.unite(p, r));
+  EXPECT_FALSE(only.subtract(p, p));
+}
+
+TEST(PinchSelection, GrowsFromTheMidpointAndEndsWhenAFingerLifts) {
+  const Phantom ph = makePhantom();  // 2 mm voxels, CT-like noise: the 7 mm cortex spans a few voxels
+  const QuantizedVolume q = quantizeVolume(ph.ct);
+  PinchSelection sel(q, GrowParams{});
+  OrbitCamera cam = OrbitCamera::framing(ph.ct.geometry(), glm::radians(90.0), 0.0);
+  const Viewport vp{512, 512};
+  TouchInput in;
+  in.setViewport(vp);
+  auto feed = [&](TouchPhase p, int id, double x, double y) {
+    TouchEvent e{p, id, {x, y}, 1.0, 0.0};
+    ASSERT_TRUE(in.apply(e));
+    sel.onTouch(e, in, cam, vp);
+  };
+  feed(TouchPhase::Down, 1, 200, 270);
+  EXPECT_TRUE(sel.takePickRequest().empty());  // one finger: nothing yet
+  feed(TouchPhase::Down, 2, 220, 270);
+  const auto req = sel.takePickRequest();
+  ASSERT_EQ(req.size(), 2u);
+  EXPECT_TRUE(sel.takePickRequest().empty());  // sent once
+  // Both picks on the right kidney's surface (from the right, +x): seed at the kidney.
+  const Eigen::Vector3d k = ph.geometry.kidneyRightCenter;
+  sel.onPicks({glm::dvec3(k.x() + 20, k.y() - 3, k.z()), glm::dvec3(k.x() + 20, k.y() + 3, k.z())}, cam, vp);
+  ASSERT_EQ(sel.state(), PinchSelection::State::Growing);
+  const double e0 = sel.extentMm();
+  EXPECT_NEAR(e0, 20 * cam.pixelSizeAt(cam.distance - k.x() - 20, 512), 0.05);
+  const std::size_t n0 = sel.liveVoxels().size();
+  feed(TouchPhase::Move, 2, 240, 270);  // spread: grows
+  EXPECT_GT(sel.extentMm(), e0);
+  EXPECT_GT(sel.liveVoxels().size(), n0);
+  feed(TouchPhase::Move, 2, 225, 270);  // close: shrinks (a threshold)
+  EXPECT_LT(sel.liveVoxels().size(), sel.grower()->count(sel.grower()->grownExtent()) + 1);
+  std::size_t inKidney = 0;
+  for (std::uint32_t v : sel.liveVoxels()) inKidney += ph.labels.value(v) == float(label::kKidneyRight);
+  EXPECT_GE(double(inKidney) / double(sel.liveVoxels().size()), 0.9);  // precision, as for region growing
+  feed(TouchPhase::Up, 1, 200, 270);
+  EXPECT_EQ(sel.state(), PinchSelection::State::Idle);
+  const auto done = sel.takeFinished();
+  ASSERT_TRUE(done.has_value());
+  EXPECT_GT(done->size(), 10u);
+  EXPECT_FALSE(sel.takeFinished().has_value());
+}
+
+TEST(PinchSelection, APinchInEmptySpaceIsRefusedWithFeedback) {
+  PhantomOptions o;
+  o.spacingMm = 8.0;
+  const Phantom ph = makePhantom(o);
+  const QuantizedVolume q = quantizeVolume(ph.ct);
+  PinchSelection sel(q, GrowParams{});
+  const OrbitCamera cam = OrbitCamera::framing(ph.ct.geometry());
+  const Viewport vp{100, 100};
+  TouchInput in;
+  in.setViewport(vp);
+  for (int id : {1, 2}) {
+    TouchEvent e{TouchPhase::Down, id, {double(id), 1.0}, 1.0, 0.0};
+    in.apply(e);
+    sel.onTouch(e, in, cam, vp);
+  }
+  ASSERT_EQ(sel.takePickRequest().size(), 2u);
+  sel.onPicks({std::nullopt, glm::dvec3(0.0)}, cam, vp);
+  EXPECT_EQ(sel.state(), PinchSelection::State::Idle);
+  EXPECT_NE(sel.feedback().find("visible anatomy"), std::string::npos);
+  EXPECT_FALSE(sel.takeFinished().has_value());
+}
