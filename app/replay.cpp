@@ -1,5 +1,6 @@
 #include "replay.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -136,7 +137,8 @@ int runReplay(const ReplayOptions& o) {
   if (o.printCamera) std::cout << describeCamera(session.camera()) << "\n";
   if (o.printHandles)
     for (const auto& h : selection.handles().handles())
-      std::cout << "handle " << h.id << " " << handleStatusName(h.status) << " " << h.voxels.size() << " voxels\n";
+      std::cout << "handle " << h.id << " " << handleStatusName(h.status) << " " << h.voxels.size() << " voxels"
+                << (std::find(selection.picked().begin(), selection.picked().end(), h.id) != selection.picked().end() ? " picked" : "") << "\n";
   if (ctx.validationMessageCount() > 0) {
     std::cerr << "error: " << ctx.validationMessageCount() << " Vulkan validation message(s)\n";
     return 1;

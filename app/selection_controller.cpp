@@ -12,6 +12,7 @@ SelectionController::SelectionController(const QuantizedVolume& volume, Session&
   dirtyMax_ = Eigen::Vector3i(-1, -1, -1);
   session_.gestures().setHandler(InteractionMode::Select, [this](const TouchEvent& e, const TouchInput& input) {
     pinch_.onTouch(e, input, session_.camera(), session_.gestures().viewport());
+    detectTap(e, input);
     if (pinch_.changed()) refreshLive();
   });
   session_.setUiExtension([this](const ScriptEvent& e) { return applyUi(e); });
@@ -45,9 +46,26 @@ void SelectionController::refreshLive() {
   repaint(old);
 }
 
+void SelectionController::detectTap(const TouchEvent& e, const TouchInput& input) {
+  if (e.phase == TouchPhase::Down) {
+    if (input.fingers().size() == 1) {
+      tapFinger_ = e.id;
+      tapStart_ = e.px;
+      tapTime_ = e.time;
+      tapSpoiled_ = false;
+    } else {
+      tapSpoiled_ = true;  // a second finger: a pinch, not a tap
+    }
+  } else if (e.id == tapFinger_) {
+    if (glm::length(e.px - tapStart_) > 12.0 || e.time - tapTime_ > 0.3) tapSpoiled_ = true;
+    if (e.phase == TouchPhase::Up && !tapSpoiled_ && input.fingers().empty()) tapRequest_ = e.px;
+    if (e.phase == TouchPhase::Up || e.phase == TouchPhase::Cancel) tapFinger_ = -1;
+  }
+}
+
 void SelectionController::syncTints() {
   if (!tintsDirty_) return;
-  renderer_.setHandleTints(handles_.tints());
+  renderer_.setHandleTints(handles_.tints(picked_.empty() ? 0 : picked_.back()));
   tintsDirty_ = false;
 }
 
@@ -89,6 +107,7 @@ bool SelectionController::applyUi(const ScriptEvent& e) {
   }
   if (ok) {
     repaint(HandleSet::changedVoxels(before, handles_.handles()));
+    picked_.erase(std::remove_if(picked_.begin(), picked_.end(), [&](int id) { return !handles_.find(id); }), picked_.end());
     tintsDirty_ = true;
   }
   return ok;
@@ -97,6 +116,13 @@ bool SelectionController::applyUi(const ScriptEvent& e) {
 void SelectionController::prepareFrame(FrameRequest& req, const Viewport& vp) {
   syncTints();
   pickInRequest_ = false;
+  tapInRequest_ = false;
+  if (tapRequest_) {
+    tapOffset_ = req.pickPoints.size();
+    req.pickPoints.push_back(glm::vec2(vp.toNdc(*tapRequest_)));
+    tapRequest_.reset();
+    tapInRequest_ = true;
+  }
   const auto pts = pinch_.takePickRequest();
   if (!pts.empty()) {
     pickOffset_ = req.pickPoints.size();
@@ -123,9 +149,22 @@ void SelectionController::prepareFrame(FrameRequest& req, const Viewport& vp) {
 
 void SelectionController::submitted(std::uint64_t frame) {
   if (pickInRequest_) pickFrame_ = frame;
+  if (tapInRequest_) tapFrame_ = frame;
 }
 
 void SelectionController::onFrameResult(const FrameResult& r) {
+  if (tapFrame_ && r.frame == *tapFrame_) {
+    tapFrame_.reset();
+    if (tapOffset_ < r.picks.size() && r.picks[tapOffset_].world.w > 0.5f) {
+      const int id = r.picks[tapOffset_].voxel.w;
+      if (id > 0 && handles_.find(id)) {
+        picked_.erase(std::remove(picked_.begin(), picked_.end(), id), picked_.end());
+        picked_.push_back(id);
+        if (picked_.size() > 2) picked_.erase(picked_.begin());
+        tintsDirty_ = true;
+      }
+    }
+  }
   if (!pickFrame_ || r.frame != *pickFrame_) return;
   pickFrame_.reset();
   std::vector<std::optional<glm::dvec3>> world;

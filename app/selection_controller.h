@@ -30,6 +30,8 @@ class SelectionController {
   bool applyUi(const ScriptEvent& e);
 
   const HandleSet& handles() const { return handles_; }
+  /// Handles picked by tapping them (most recent last, at most two): union and difference act on them.
+  const std::vector<int>& picked() const { return picked_; }
   const PinchSelection& pinch() const { return pinch_; }
   std::size_t liveVoxelCount() const { return live_.size(); }
 
@@ -51,6 +53,17 @@ class SelectionController {
   std::optional<std::uint64_t> pickFrame_;   // frame carrying the pinch's picks
   std::size_t pickOffset_ = 0;
   bool pickInRequest_ = false;
+  // Taps (a finger down and up again within 0.3 s and 12 px, alone) pick the handle under them.
+  void detectTap(const TouchEvent& e, const TouchInput& input);
+  std::optional<glm::dvec2> tapRequest_;
+  std::optional<std::uint64_t> tapFrame_;
+  std::size_t tapOffset_ = 0;
+  bool tapInRequest_ = false;
+  std::int64_t tapFinger_ = -1;
+  glm::dvec2 tapStart_{0.0};
+  double tapTime_ = 0.0;
+  bool tapSpoiled_ = false;
+  std::vector<int> picked_;
 };
 
 }  // namespace handson

@@ -143,10 +143,12 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   if (st.liveVoxels) ImGui::TextColored(ImVec4(0.3f, 1.0f, 0.4f, 1.0f), "selecting: %zu voxels", st.liveVoxels);
   if (!st.feedback.empty()) ImGui::TextColored(ImVec4(1.0f, 0.5f, 0.3f, 1.0f), "%s", st.feedback.c_str());
   if (st.handles.empty()) ImGui::TextDisabled("none: pinch an organ in Select mode");
+  else if (st.picked.size() < 2) ImGui::TextDisabled("tap two handles to unite or subtract them");
   const ImVec2 small(std::max(kMinTarget, 64.0f) * s, kMinTarget * s);
   for (const auto& h : st.handles) {
     ImGui::PushID(h.id);
-    ImGui::Text("#%d %s, %zu voxels", h.id, h.status.c_str(), h.voxels);
+    const bool isPicked = std::find(st.picked.begin(), st.picked.end(), h.id) != st.picked.end();
+    ImGui::Text("%s#%d %s, %zu voxels", isPicked ? "> " : "", h.id, h.status.c_str(), h.voxels);
     for (const char* stName : {"active", "fixed", "idle"}) {
       const bool on = h.status == stName;
       if (on) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
@@ -158,8 +160,8 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
     if (ImGui::Button("Del", small)) action("handle-delete", std::to_string(h.id));
     ImGui::PopID();
   }
-  if (st.handles.size() >= 2) {
-    const int a = st.handles[st.handles.size() - 2].id, b = st.handles.back().id;
+  if (st.picked.size() == 2) {
+    const int a = st.picked[0], b = st.picked[1];
     if (ImGui::Button(("#" + std::to_string(a) + " + #" + std::to_string(b)).c_str(), button)) action("handle-union", std::to_string(a) + "," + std::to_string(b));
     ImGui::SameLine();
     if (ImGui::Button(("#" + std::to_string(a) + " - #" + std::to_string(b)).c_str(), button))

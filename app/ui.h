@@ -28,6 +28,7 @@ struct UiStatus {
     std::size_t voxels;
   };
   std::vector<HandleRow> handles;
+  std::vector<int> picked;     ///< handles picked by tapping (union / difference act on the last two)
   bool canUndo = false, canRedo = false;
   std::string feedback;        ///< e.g. a refused pinch
   std::size_t liveVoxels = 0;  ///< the selection being pinched

@@ -365,6 +365,7 @@ bool Viewer::Impl::step() {
     status.fingers = int(session->gestures().input().fingers().size());
     status.handles.clear();
     for (const auto& h : selection->handles().handles()) status.handles.push_back({h.id, handleStatusName(h.status), h.voxels.size()});
+    status.picked = selection->picked();
     status.canUndo = selection->handles().canUndo();
     status.canRedo = selection->handles().canRedo();
     status.feedback = selection->pinch().feedback();

@@ -77,8 +77,9 @@ TEST(Replay, PinchInSelectModeMakesAHandleAndHandleEditsReplay) {
   const fs::path script = fs::path(HANDSON_SOURCE_DIR) / "assets/gestures/select-kidney-pinch.json";
   std::string out;
   ASSERT_EQ(run("replay " + script.string() + " --fps 10 --size 256x256 --quiet --validation --print-handles", &out), 0) << out;
-  // One handle, made fixed by the script's last UI action.
+  // One handle, made fixed by a UI action, then picked by a tap on it (a GPU handle-id pick).
   EXPECT_NE(out.find("handle 1 fixed"), std::string::npos) << out;
+  EXPECT_NE(out.find("picked"), std::string::npos) << out;
   EXPECT_EQ(out.find("handle 2"), std::string::npos) << out;
   // The same pinch in empty space (top-left corner) is refused: no handle.
   const fs::path dir = fs::temp_directory_path() / ("handson_pinch_" + std::to_string(getpid()));
