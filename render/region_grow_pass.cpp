@@ -35,6 +35,19 @@ void fullBarrier(VkCommandBuffer cmd) {
   vkCmdPipelineBarrier2(cmd, &dep);
 }
 
+// Copies made visible to the host.
+void hostReadBarrier(VkCommandBuffer cmd) {
+  VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+  m.srcStageMask = VK_PIPELINE_STAGE_2_TRANSFER_BIT;
+  m.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  m.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
+  m.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.memoryBarrierCount = 1;
+  dep.pMemoryBarriers = &m;
+  vkCmdPipelineBarrier2(cmd, &dep);
+}
+
 }  // namespace
 
 GpuRegionGrower::GpuRegionGrower(const Context& ctx, const Image& volume, const Sampler& sampler)
@@ -144,15 +157,7 @@ void GpuRegionGrower::record(VkCommandBuffer cmd, int rounds, bool dense, bool r
   // Active count for the host: the header of the list the next round would use.
   VkBufferCopy c{0, 0, 4};
   vkCmdCopyBuffer(cmd, listA_.handle(), readback_.handle(), 1, &c);
-  VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-  m.srcStageMask = VK_PIPELINE_STAGE_2_TRANSFER_BIT;
-  m.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  m.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
-  m.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.memoryBarrierCount = 1;
-  dep.pMemoryBarriers = &m;
-  vkCmdPipelineBarrier2(cmd, &dep);
+  hostReadBarrier(cmd);
 }
 
 int GpuRegionGrower::growTo(std::uint32_t bound, bool dense, int roundsPerSubmit) {
@@ -179,15 +184,7 @@ std::vector<std::uint32_t> GpuRegionGrower::readKeys() const {
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
     VkBufferCopy c{0, 0, keys_.size()};
     vkCmdCopyBuffer(cmd, keys_.handle(), host.handle(), 1, &c);
-    VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-    m.srcStageMask = VK_PIPELINE_STAGE_2_TRANSFER_BIT;
-    m.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    m.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
-    m.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
-    VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-    dep.memoryBarrierCount = 1;
-    dep.pMemoryBarriers = &m;
-    vkCmdPipelineBarrier2(cmd, &dep);
+    hostReadBarrier(cmd);
   });
   host.invalidate();
   std::vector<std::uint32_t> out(keys_.size() / 4);
