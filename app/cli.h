@@ -18,6 +18,7 @@ int cmdRender(const Words& args);
 int cmdPick(const Words& args);
 int cmdBench(const Words& args);
 int cmdSelect(const Words& args);
+int cmdGestureSolve(const Words& args);
 int cmdBenchSelection(const Words& args);
 int cmdView(const Words& args);
 int cmdReplay(const Words& args);

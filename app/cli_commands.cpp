@@ -34,6 +34,7 @@ const char* const kMainHelp =
     "                                omitted: the built-in phantom)\n"
     "  pick [PATH] --at X,Y[;X,Y..]  GPU depth picking of pixels: first visible surface point of each\n"
     "  select PATH --seed-voxel I,J,K --extent-mm D -o MASK.nii.gz   seeded region growing\n"
+    "  gesture-solve --input FILE|-  one rigid gesture solve (JSON in, JSON out)\n"
     "  phantom -o CT.nii.gz          write the built-in phantom (and --labels-out LABELS.nii.gz)\n"
     "  resample PATH --voxels N -o OUT.nii.gz   resample to about N voxels\n"
     "  bench [PATH]                  raymarch benchmark: plain vs empty-space skipping + early termination\n"
@@ -152,6 +153,7 @@ int run(int argc, char** argv) {
     if (cmd == "pick") return cmdPick(rest);
     if (cmd == "view") return cmdView(rest);
     if (cmd == "select") return cmdSelect(rest);
+    if (cmd == "gesture-solve") return cmdGestureSolve(rest);
     if (cmd == "replay") return cmdReplay(rest);
     if (cmd == "bench") return cmdBench(rest);
     std::cerr << "error: unknown command '" << cmd << "'\n\n" << kMainHelp;

@@ -152,3 +152,29 @@ TEST_F(Cli, SelectWritesAMaskOnTheInputGridWithCpuAndGpuAgreeing) {
   EXPECT_GT(selected, 20u);
   EXPECT_GE(double(inKidney) / double(selected), 0.9);
 }
+
+TEST_F(Cli, GestureSolveReadsJsonAndRecoversAMotion) {
+  // Two fingers at depth 400 mm move by a known twist and translation; LM recovers them.
+  std::ofstream(p("case.json")) << R"({"projection": [[2.1, 0, 0], [0, 3.17, 0]],
+    "points": [[0, 0, 400], [50, 0, 400]], "targets": [[0.01, 0], [0.27, 0.01]], "solver": "lm"})";
+  CliRun r = runHandson("gesture-solve --input " + p("case.json"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("\"rotation\":[["), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"translation\":["), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"ok\":true"), std::string::npos) << r.output;
+  const std::pair<const char*, const char*> bad[] = {
+      {"{nope", "not valid JSON"},
+      {R"({"projection": [[1, 0, 0]], "points": [[0, 0, 1]], "targets": [[0, 0]]})", "2x3"},
+      {R"({"projection": [[1, 0, 0], [0, 1, 0]], "points": [[0, 0, 1]], "targets": []})", "same length"},
+      {R"({"projection": [[1, 0, 0], [0, 1, 0]], "points": [[0, 0]], "targets": [[0, 0]]})", "[x, y, z]"},
+      {R"({"projection": [[1, 0, 0], [0, 1, 0]], "points": [[0, 0, 1]], "targets": [[0, 0]], "locks": ["spin"]})", "unknown lock"},
+      {R"({"projection": [[1, 0, 0], [0, 1, 0]], "points": [[0, 0, 1]], "targets": [[0, 0]], "solver": "magic"})", "solver"},
+      {R"({"projection": [[1, 0, 0], [0, 1, 0]], "points": [[0, 0, -1]], "targets": [[0, 0]]})", "behind the camera"},
+  };
+  for (const auto& [text, mention] : bad) {
+    std::ofstream(p("bad.json")) << text;
+    r = runHandson("gesture-solve --input " + p("bad.json"));
+    EXPECT_EQ(r.status, 1) << text;
+    EXPECT_NE(r.output.find(mention), std::string::npos) << text << "\n" << r.output;
+  }
+}
