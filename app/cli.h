@@ -20,6 +20,7 @@ int cmdBench(const Words& args);
 int cmdSelect(const Words& args);
 int cmdGestureSolve(const Words& args);
 int cmdBenchSelection(const Words& args);
+int cmdBenchGesture(const Words& args);
 int cmdView(const Words& args);
 int cmdReplay(const Words& args);
 /// No subcommand: the app on the default phantom, or the headless demo when there is no display.

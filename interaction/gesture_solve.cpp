@@ -111,23 +111,26 @@ RigidIncrement solveLinearized(const GestureProblem& p, const LinearizedOptions&
     meanDepth += q.z();
   }
   meanDepth /= double(p.points.size());
-  // Reduced system on the allowed columns, damped.
-  std::vector<int> idx;
+  // Only the allowed columns: the locked ones become identity rows with a zero right-hand side
+  // (a fixed-size 6x6 solve, no allocation), then damping.
+  double diag = 0;
+  int n = 0;
   for (int i = 0; i < 6; ++i)
-    if (dofs(i)) idx.push_back(i);
-  const int n = int(idx.size());
-  Eigen::MatrixXd Ar(n, n);
-  Eigen::VectorXd br(n);
-  for (int i = 0; i < n; ++i) {
-    br(i) = b(idx[i]);
-    for (int k = 0; k < n; ++k) Ar(i, k) = A(idx[i], idx[k]);
+    if (dofs(i)) {
+      diag += A(i, i);
+      ++n;
+    }
+  const double lambda = 1e-9 * diag / n + 1e-12;
+  for (int i = 0; i < 6; ++i) {
+    if (dofs(i)) continue;
+    A.row(i).setZero();
+    A.col(i).setZero();
+    A(i, i) = 1.0;
+    b(i) = 0.0;
   }
-  const double lambda = 1e-9 * Ar.diagonal().mean() + 1e-12;
-  Ar.diagonal().array() += lambda;
-  const Eigen::VectorXd xr = Ar.ldlt().solve(br);
-  if (!xr.allFinite()) return refused("the system is singular (degenerate finger layout)");
-  Eigen::Matrix<double, 6, 1> x = Eigen::Matrix<double, 6, 1>::Zero();
-  for (int i = 0; i < n; ++i) x(idx[i]) = xr(i);
+  A.diagonal().array() += lambda;
+  const Eigen::Matrix<double, 6, 1> x = A.ldlt().solve(b);
+  if (!x.allFinite()) return refused("the system is singular (degenerate finger layout)");
   Eigen::Vector3d t = x.head<3>(), r = x.tail<3>();
   RigidIncrement out;
   // Per-event clamp: large steps break the linearization (and can invert elements downstream).
