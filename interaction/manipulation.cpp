@@ -1,0 +1,49 @@
+#include "manipulation.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace handson {
+
+void HandleManipulator::anchor(const std::vector<FingerAnchor>& fingers, const RigidPose& pose) {
+  anchors_.clear();
+  for (const auto& f : fingers)
+    if (f.world.allFinite()) anchors_.emplace_back(f.finger, pose.toRest(f.world));
+}
+
+std::optional<RigidPose> HandleManipulator::move(const std::vector<std::pair<std::int64_t, glm::dvec2>>& fingers, const RigidPose& pose,
+                                                 const OrbitCamera& camera, double aspect, unsigned locks, std::string* why) const {
+  auto fail = [&](const std::string& reason) -> std::optional<RigidPose> {
+    if (why) *why = reason;
+    return std::nullopt;
+  };
+  if (anchors_.empty()) return fail("no finger is anchored on the handle");
+  // The solver's camera frame: x right, y down (as NDC), z forward (depth); B's columns in world.
+  const glm::dvec3 e = camera.eye(), r = camera.right(), u = camera.up(), f = camera.forward();
+  Eigen::Matrix3d B;
+  B << r.x, -u.x, f.x, r.y, -u.y, f.y, r.z, -u.z, f.z;
+  const Eigen::Vector3d eye(e.x, e.y, e.z);
+  const double tanHalf = std::tan(0.5 * camera.fovY);
+  GestureProblem p;
+  p.projection << 1.0 / (tanHalf * aspect), 0, 0, 0, 1.0 / tanHalf, 0;
+  p.locks = locks;
+  for (const auto& [id, rest] : anchors_) {
+    const auto it = std::find_if(fingers.begin(), fingers.end(), [id = id](const auto& fp) { return fp.first == id; });
+    if (it == fingers.end()) return fail("an anchored finger is missing: re-anchor first");
+    p.points.push_back(B.transpose() * (pose.apply(rest) - eye));
+    p.targets.emplace_back(it->second.x, it->second.y);
+  }
+  const RigidIncrement inc = solveLinearizedSubsteps(p);
+  if (!inc.ok) return fail(inc.reason);
+  // Back to world: x' = B R B^T x + (eye - B R B^T eye + B t).
+  const Eigen::Matrix3d Rw = B * inc.rotation * B.transpose();
+  const Eigen::Vector3d tw = eye - Rw * eye + B * inc.translation;
+  RigidPose next;
+  next.rotation = Rw * pose.rotation;
+  next.translation = Rw * pose.translation + tw;
+  if (!next.rotation.allFinite() || !next.translation.allFinite()) return fail("the increment is not finite");
+  if (why) *why = inc.reason;
+  return next;
+}
+
+}  // namespace handson
