@@ -1,6 +1,7 @@
 #include "replay.h"
 
 #include <algorithm>
+#include <Eigen/Geometry>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -138,7 +139,9 @@ int runReplay(const ReplayOptions& o) {
   if (o.printHandles)
     for (const auto& h : selection.handles().handles())
       std::cout << "handle " << h.id << " " << handleStatusName(h.status) << " " << h.voxels.size() << " voxels"
-                << (std::find(selection.picked().begin(), selection.picked().end(), h.id) != selection.picked().end() ? " picked" : "") << "\n";
+                << (std::find(selection.picked().begin(), selection.picked().end(), h.id) != selection.picked().end() ? " picked" : "")
+                << " translation " << h.pose.translation.x() << "," << h.pose.translation.y() << "," << h.pose.translation.z() << " rotation_deg "
+                << Eigen::AngleAxisd(h.pose.rotation).angle() * 180.0 / M_PI << "\n";
   if (ctx.validationMessageCount() > 0) {
     std::cerr << "error: " << ctx.validationMessageCount() << " Vulkan validation message(s)\n";
     return 1;

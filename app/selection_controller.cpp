@@ -15,6 +15,7 @@ SelectionController::SelectionController(const QuantizedVolume& volume, Session&
     detectTap(e, input);
     if (pinch_.changed()) refreshLive();
   });
+  session_.gestures().setHandler(InteractionMode::Manipulate, [this](const TouchEvent& e, const TouchInput& input) { manipulate(e, input); });
   session_.setUiExtension([this](const ScriptEvent& e) { return applyUi(e); });
 }
 
@@ -61,6 +62,36 @@ void SelectionController::detectTap(const TouchEvent& e, const TouchInput& input
     if (e.phase == TouchPhase::Up && !tapSpoiled_ && input.fingers().empty()) tapRequest_ = e.px;
     if (e.phase == TouchPhase::Up || e.phase == TouchPhase::Cancel) tapFinger_ = -1;
   }
+}
+
+void SelectionController::manipulate(const TouchEvent& e, const TouchInput& input) {
+  const Viewport& vp = session_.gestures().viewport();
+  if (e.phase != TouchPhase::Move) {
+    // The finger set changed: re-anchor on the fingers now down (their points are picked anew).
+    manipulator_.release();
+    grabRequest_.clear();
+    for (const auto& f : input.fingers()) grabRequest_.push_back({f.id, f.px});
+    grabPending_ = !grabRequest_.empty();
+    grabUndoable_ = e.phase == TouchPhase::Down && input.fingers().size() == 1;  // a new gesture
+    if (input.fingers().empty()) manipulated_ = 0;
+    return;
+  }
+  if (!manipulator_.active() || !manipulated_) return;
+  const Handle* h = handles_.find(manipulated_);
+  if (!h) return;
+  std::vector<std::pair<std::int64_t, glm::dvec2>> ndc;
+  for (const auto& f : input.fingers()) ndc.push_back({f.id, vp.toNdc(f.px)});
+  std::string why;
+  const auto pose = manipulator_.move(ndc, h->pose, session_.camera(), double(vp.width) / vp.height, kLockNone, &why);
+  if (pose) handles_.setPose(manipulated_, *pose, false);
+  manipulationNote_ = why;
+}
+
+std::vector<MovingHandlePose> SelectionController::movingHandles() const {
+  std::vector<MovingHandlePose> out;
+  for (const auto& h : handles_.handles())
+    if (!h.pose.isIdentity()) out.push_back({std::uint32_t(h.id), h.pose.rotation, h.pose.translation});
+  return out;
 }
 
 void SelectionController::syncTints() {
@@ -123,6 +154,14 @@ void SelectionController::prepareFrame(FrameRequest& req, const Viewport& vp) {
     tapRequest_.reset();
     tapInRequest_ = true;
   }
+  grabInRequest_ = false;
+  if (grabPending_) {
+    grabOffset_ = req.pickPoints.size();
+    for (const auto& [id, px] : grabRequest_) req.pickPoints.push_back(glm::vec2(vp.toNdc(px)));
+    grabPending_ = false;
+    grabInRequest_ = true;
+  }
+  setMovingHandles(req.params, volume_.geometry, movingHandles());
   const auto pts = pinch_.takePickRequest();
   if (!pts.empty()) {
     pickOffset_ = req.pickPoints.size();
@@ -150,9 +189,34 @@ void SelectionController::prepareFrame(FrameRequest& req, const Viewport& vp) {
 void SelectionController::submitted(std::uint64_t frame) {
   if (pickInRequest_) pickFrame_ = frame;
   if (tapInRequest_) tapFrame_ = frame;
+  if (grabInRequest_) grabFrame_ = frame;
 }
 
 void SelectionController::onFrameResult(const FrameResult& r) {
+  if (grabFrame_ && r.frame == *grabFrame_) {
+    grabFrame_.reset();
+    // The handle under the fingers: the one already being moved if a finger is on it, else the
+    // first handle hit. Fingers on that handle anchor; the others ride along unanchored.
+    int target = 0;
+    for (std::size_t i = 0; i < grabRequest_.size() && grabOffset_ + i < r.picks.size(); ++i) {
+      const int id = r.picks[grabOffset_ + i].world.w > 0.5f ? r.picks[grabOffset_ + i].voxel.w : 0;
+      if (id > 0 && handles_.find(id) && (target == 0 || id == manipulated_)) target = id;
+    }
+    std::vector<FingerAnchor> anchors;
+    for (std::size_t i = 0; i < grabRequest_.size() && grabOffset_ + i < r.picks.size(); ++i) {
+      const auto& pk = r.picks[grabOffset_ + i];
+      if (target && pk.world.w > 0.5f && pk.voxel.w == target) anchors.push_back({grabRequest_[i].first, Eigen::Vector3d(pk.world.x, pk.world.y, pk.world.z)});
+    }
+    if (target && !anchors.empty() && session_.gestures().input().fingers().size() == grabRequest_.size()) {
+      manipulated_ = target;
+      const Handle* h = handles_.find(target);
+      if (grabUndoable_) handles_.setPose(target, h->pose, true);  // one undo step per gesture
+      manipulator_.anchor(anchors, handles_.find(target)->pose);
+      manipulationNote_.clear();
+    } else if (!target) {
+      manipulationNote_ = "Touch a handle to move it";
+    }
+  }
   if (tapFrame_ && r.frame == *tapFrame_) {
     tapFrame_.reset();
     if (tapOffset_ < r.picks.size() && r.picks[tapOffset_].world.w > 0.5f) {

@@ -12,7 +12,9 @@
 #include "app/session.h"
 #include "interaction/handles.h"
 #include "interaction/selection.h"
+#include "render/render_params.h"
 #include "render/volume_renderer.h"
+#include "interaction/manipulation.h"
 
 namespace handson {
 
@@ -32,6 +34,9 @@ class SelectionController {
   const HandleSet& handles() const { return handles_; }
   /// Handles picked by tapping them (most recent last, at most two): union and difference act on them.
   const std::vector<int>& picked() const { return picked_; }
+  /// Handles with a pose, for the raymarch (drawn moved rigidly until the simulation lands).
+  std::vector<MovingHandlePose> movingHandles() const;
+  const std::string& manipulationNote() const { return manipulationNote_; }
   const PinchSelection& pinch() const { return pinch_; }
   std::size_t liveVoxelCount() const { return live_.size(); }
 
@@ -53,6 +58,16 @@ class SelectionController {
   std::optional<std::uint64_t> pickFrame_;   // frame carrying the pinch's picks
   std::size_t pickOffset_ = 0;
   bool pickInRequest_ = false;
+  // Manipulation: fingers landing on a handle in manipulate mode pick their points on it; moves
+  // solve the rigid increment that keeps those points under the fingers.
+  void manipulate(const TouchEvent& e, const TouchInput& input);
+  HandleManipulator manipulator_;
+  int manipulated_ = 0;                         // handle being moved (0: none)
+  std::vector<std::pair<std::int64_t, glm::dvec2>> grabRequest_;  // fingers (px) to pick
+  bool grabPending_ = false, grabInRequest_ = false, grabUndoable_ = false;
+  std::optional<std::uint64_t> grabFrame_;
+  std::size_t grabOffset_ = 0;
+  std::string manipulationNote_;
   // Taps (a finger down and up again within 0.3 s and 12 px, alone) pick the handle under them.
   void detectTap(const TouchEvent& e, const TouchInput& input);
   std::optional<glm::dvec2> tapRequest_;

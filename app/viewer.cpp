@@ -368,7 +368,7 @@ bool Viewer::Impl::step() {
     status.picked = selection->picked();
     status.canUndo = selection->handles().canUndo();
     status.canRedo = selection->handles().canRedo();
-    status.feedback = selection->pinch().feedback();
+    status.feedback = !selection->pinch().feedback().empty() ? selection->pinch().feedback() : selection->manipulationNote();
     status.liveVoxels = selection->liveVoxelCount();
     ui->build(status, seconds(Clock::now(), t0), actions);
     for (const auto& a : actions) session->apply(a);

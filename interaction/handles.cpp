@@ -95,6 +95,13 @@ bool HandleSet::subtract(int a, int b) {
   return true;
 }
 
+bool HandleSet::setPose(int id, const RigidPose& pose, bool undoable) {
+  if (!find(id) || !pose.rotation.allFinite() || !pose.translation.allFinite()) return false;
+  if (undoable) snapshot();
+  get(id)->pose = pose;
+  return true;
+}
+
 bool HandleSet::undo() {
   if (undo_.empty()) return false;
   redo_.push_back(handles_);

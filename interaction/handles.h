@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "manipulation.h"
+
 namespace handson {
 
 enum class HandleStatus : std::uint8_t { Active, Fixed, Idle };
@@ -19,7 +21,8 @@ bool parseHandleStatus(const std::string& s, HandleStatus& out);
 struct Handle {
   int id = 0;                        ///< 1..254 (0: none; 255: the live selection)
   HandleStatus status = HandleStatus::Active;
-  std::vector<std::uint32_t> voxels;  ///< sorted linear indices
+  std::vector<std::uint32_t> voxels;  ///< sorted linear indices (rest position)
+  RigidPose pose;                     ///< cumulative rigid transform from the manipulation (R_m, t_m)
 };
 
 class HandleSet {
@@ -36,6 +39,8 @@ class HandleSet {
   bool unite(int a, int b);
   /// a := a \ b (b unchanged). False if either is missing, a == b, or nothing would remain of a.
   bool subtract(int a, int b);
+  /// Sets a handle's pose; `undoable` makes it an undo step (once per gesture, not per event).
+  bool setPose(int id, const RigidPose& pose, bool undoable);
   bool undo();
   bool redo();
   bool canUndo() const { return !undo_.empty(); }

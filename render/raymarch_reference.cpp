@@ -31,6 +31,30 @@ struct Sampler {
     return float(v.data[std::size_t(i) + std::size_t(d.x()) * (std::size_t(j) + std::size_t(d.y()) * std::size_t(k))]) / 65535.0f;
   }
   // Vulkan linear filtering at texture coordinate (idx + 0.5) / dims: texel space x = idx.
+  bool isMoving(std::uint32_t id) const {
+    for (std::uint32_t m = 0; m < P.control.w; ++m)
+      if (P.moving[m].id.x == id) return true;
+    return false;
+  }
+  // As march_common.glsl's materialAt: moved handles leave their place empty and bring their
+  // material along. Negative: nothing here.
+  float materialAt(glm::vec3 idx, std::uint32_t& id) const {
+    id = handleAt(idx);
+    float val = sample(idx);
+    if (P.control.w == 0) return val;
+    if (id != 0 && isMoving(id)) {
+      id = 0;
+      val = -1.0f;
+    }
+    for (std::uint32_t m = 0; m < P.control.w; ++m) {
+      const glm::vec3 rest = glm::vec3(P.moving[m].currentToRest * glm::vec4(idx, 1.0f));
+      if (handleAt(rest) == P.moving[m].id.x) {
+        id = P.moving[m].id.x;
+        val = sample(rest);
+      }
+    }
+    return val;
+  }
   float sample(glm::vec3 idx) const {
     const glm::vec3 f0 = glm::floor(idx);
     const glm::vec3 f = idx - f0;
@@ -116,13 +140,17 @@ struct Sampler {
         if (t >= t1) break;
         const glm::vec3 idx = o + t * d;
         ++taken;
-        if ((flags & gpu::kFlagEmptySpaceSkipping) && t >= occupiedUntil && skip(o, d, t0, step, idx, n, occupiedUntil)) continue;
+        if ((flags & gpu::kFlagEmptySpaceSkipping) && P.control.w == 0 && t >= occupiedUntil && skip(o, d, t0, step, idx, n, occupiedUntil))
+          continue;
         ++n;
-        const glm::vec4 s = transfer(sample(idx));
+        std::uint32_t id = 0;
+        const float value = materialAt(idx, id);
+        if (value < 0.0f) continue;
+        const glm::vec4 s = transfer(value);
         if (s.a <= 0.0f) continue;
         const float a = correctedAlpha(s.a);
         glm::vec3 c(s);
-        if (const std::uint32_t id = handleAt(idx); id != 0 && tints) c = glm::mix(c, glm::vec3((*tints)[id]), (*tints)[id].a);
+        if (id != 0 && tints) c = glm::mix(c, glm::vec3((*tints)[id]), (*tints)[id].a);
         if (flags & gpu::kFlagShading) {
           const glm::vec3 g = gradToWorld * gradientIndex(idx);
           const float gl = glm::length(g);
@@ -160,9 +188,12 @@ struct Sampler {
       if (t >= t1) break;
       const glm::vec3 idx = o + t * d;
       ++taken;
-      if (t >= occupiedUntil && skip(o, d, t0, step, idx, n, occupiedUntil)) continue;
+      if (P.control.w == 0 && t >= occupiedUntil && skip(o, d, t0, step, idx, n, occupiedUntil)) continue;
       ++n;
-      const glm::vec4 s = transfer(sample(idx));
+      std::uint32_t id = 0;
+      const float value = materialAt(idx, id);
+      if (value < 0.0f) continue;
+      const glm::vec4 s = transfer(value);
       if (s.a <= 0.0f) continue;
       const float before = alpha;
       alpha += (1.0f - alpha) * correctedAlpha(s.a);
@@ -170,7 +201,7 @@ struct Sampler {
         const float f = std::clamp((P.march.w - before) / std::max(alpha - before, 1e-6f), 0.0f, 1.0f);
         const float th = std::max(t - step + f * step, t0);
         r.world = glm::vec4(originW + th * dirW, 1.0f);
-        r.voxel = glm::ivec4(glm::ivec3(glm::floor(o + th * d + 0.5f)), int(handleAt(o + th * d)));
+        r.voxel = glm::ivec4(glm::ivec3(glm::floor(o + th * d + 0.5f)), int(id));
         break;
       }
     }

@@ -45,6 +45,22 @@ gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::ma
   return p;
 }
 
+void setMovingHandles(gpu::RenderParams& params, const VolumeGeometry& geometry, const std::vector<MovingHandlePose>& handles) {
+  std::uint32_t n = 0;
+  const Eigen::Matrix4d i2w = geometry.indexToWorld(), w2i = geometry.worldToIndex();
+  for (const auto& h : handles) {
+    if (n >= gpu::kMaxMovingHandles) break;
+    if ((h.rotation - Eigen::Matrix3d::Identity()).norm() < 1e-12 && h.translation.norm() < 1e-12) continue;
+    Eigen::Matrix4d inv = Eigen::Matrix4d::Identity();  // world now -> world at rest
+    inv.block<3, 3>(0, 0) = h.rotation.transpose();
+    inv.block<3, 1>(0, 3) = -h.rotation.transpose() * h.translation;
+    params.moving[n].currentToRest = toGlm(w2i * inv * i2w);
+    params.moving[n].id = glm::uvec4(h.id, 0, 0, 0);
+    ++n;
+  }
+  params.control.w = n;
+}
+
 glm::vec2 pixelToNdc(float x, float y, int width, int height) {
   return glm::vec2((x + 0.5f) / float(width) * 2.0f - 1.0f, (y + 0.5f) / float(height) * 2.0f - 1.0f);
 }

@@ -3,6 +3,8 @@
 // camera. Plain data: shared by the Vulkan passes and their CPU references.
 #include <glm/glm.hpp>
 
+#include <vector>
+
 #include "shaders/shared.h"
 #include "sim/volume.h"
 
@@ -26,6 +28,16 @@ struct RenderSettings {
 /// NDC y down). eye: camera position in world (mm).
 gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::mat4& view, const glm::mat4& proj,
                                    const glm::vec3& eye, const RenderSettings& settings, std::uint32_t pickCount = 0);
+
+/// A handle drawn at a rigid pose: world_now = rotation * world_rest + translation.
+struct MovingHandlePose {
+  std::uint32_t id = 0;
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+};
+
+/// Fills params.moving and control.w (at most gpu::kMaxMovingHandles; identity poses are skipped).
+void setMovingHandles(gpu::RenderParams& params, const VolumeGeometry& geometry, const std::vector<MovingHandlePose>& handles);
 
 /// Pixel centre (x, y) of a width x height image to NDC (x right, y down).
 glm::vec2 pixelToNdc(float x, float y, int width, int height);

@@ -15,9 +15,37 @@ uint handleAt(vec3 idx) {
   return uint(round(texelFetch(uMask, v, 0).r * 255.0));
 }
 
+
+
 // Normalized value at a continuous voxel index (voxel centres at integers), clamped at the edges.
 float sampleVolume(vec3 idx) {
   return textureLod(uVolume, (idx + 0.5) / vec3(P.dims.xyz), 0.0).r;
+}
+
+bool isMoving(uint id) {
+  for (uint m = 0u; m < P.control.w; ++m)
+    if (P.moving[m].id.x == id) return true;
+  return false;
+}
+
+// The material at a sample, with handles moved rigidly: a moved handle's own place is empty, and
+// where its material now is, the value comes from its rest position. Returns the value and sets id.
+float materialAt(vec3 idx, out uint id) {
+  id = handleAt(idx);
+  float v = sampleVolume(idx);
+  if (P.control.w == 0u) return v;
+  if (id != 0u && isMoving(id)) {
+    id = 0u;
+    v = -1.0;  // nothing here any more (transparent below)
+  }
+  for (uint m = 0u; m < P.control.w; ++m) {
+    vec3 rest = (P.moving[m].currentToRest * vec4(idx, 1.0)).xyz;
+    if (handleAt(rest) == P.moving[m].id.x) {
+      id = P.moving[m].id.x;
+      v = sampleVolume(rest);
+    }
+  }
+  return v;
 }
 
 // Transfer function: linear interpolation between lookup entries.

@@ -28,7 +28,7 @@ void main() {
       float t = t0 + (float(n) + 0.5) * step;
       if (t >= t1) break;
       vec3 idx = o + t * d;
-      if (t >= occupiedUntil) {
+      if (P.control.w == 0u && t >= occupiedUntil) {
         ivec3 brick;
         bool occupied = brickOccupied(idx, brick);
         float te = brickExit(o, d, brick);
@@ -41,7 +41,10 @@ void main() {
       }
       ++taken;
       ++n;
-      vec4 s = transfer(sampleVolume(idx));
+      uint id;
+      float value = materialAt(idx, id);
+      if (value < 0.0) continue;
+      vec4 s = transfer(value);
       if (s.a <= 0.0) continue;
       float before = alpha;
       alpha += (1.0 - alpha) * correctedAlpha(s.a);
@@ -50,7 +53,7 @@ void main() {
         float f = clamp((P.march.w - before) / max(alpha - before, 1e-6), 0.0, 1.0);
         float th = max(t - step + f * step, t0);
         r.world = vec4(originW + th * dirW, 1.0);
-        r.voxel = ivec4(ivec3(floor(o + th * d + 0.5)), int(handleAt(o + th * d)));
+        r.voxel = ivec4(ivec3(floor(o + th * d + 0.5)), int(id));
         break;
       }
     }

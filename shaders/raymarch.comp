@@ -38,7 +38,8 @@ void main() {
       float t = t0 + (float(n) + 0.5) * step;
       if (t >= t1) break;
       vec3 idx = o + t * d;
-      if ((flags & kFlagEmptySpaceSkipping) != 0u && t >= occupiedUntil) {
+      // Moved handles carry material into bricks the occupancy calls empty: no skipping then.
+      if ((flags & kFlagEmptySpaceSkipping) != 0u && P.control.w == 0u && t >= occupiedUntil) {
         ivec3 brick;
         bool occupied = brickOccupied(idx, brick);
         float te = brickExit(o, d, brick);
@@ -51,11 +52,13 @@ void main() {
       }
       ++taken;
       ++n;
-      vec4 s = transfer(sampleVolume(idx));
+      uint id;
+      float value = materialAt(idx, id);
+      if (value < 0.0) continue;  // the place a moved handle left
+      vec4 s = transfer(value);
       if (s.a <= 0.0) continue;
       float a = correctedAlpha(s.a);
       vec3 c = s.rgb;
-      uint id = handleAt(idx);
       if (id != 0u) c = mix(c, handleTint[id].rgb, handleTint[id].a);
       if ((flags & kFlagShading) != 0u) {
         vec3 g = gradToWorld * gradientIndex(idx);

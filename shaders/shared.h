@@ -54,6 +54,14 @@ HS_CONST kBindPickInput = 5;  // pick: storage buffer vec4[] (xy = NDC point)
 HS_CONST kBindMask = 6;       // sampler3D, R8_UNORM handle ids (id / 255), same grid as the volume
 HS_CONST kBindHandles = 7;    // storage buffer vec4[kMaxHandleIds]: rgb tint, a = tint weight (0: none)
 HS_CONST kMaxHandleIds = 256; // id 0 = no handle
+HS_CONST kMaxMovingHandles = 8;  // handles drawn at a rigid pose (RenderParams.moving, count in control.w)
+
+// A handle drawn moved rigidly (until the simulation deforms the tissue around it): for a sample at
+// voxel index x, currentToRest * x is where the handle's material was.
+struct MovingHandle {
+  mat4 currentToRest;  // index space -> index space
+  uvec4 id;            // x: handle id
+};
 
 // Camera and volume, for raymarching and picking.
 // World space is the volume's physical space (RAS+, mm).
@@ -67,7 +75,8 @@ struct RenderParams {
   vec4 march;         // x = step (mm), y = opacity reference step (mm), z = early-termination alpha, w = pick threshold
   vec4 background;    // rgba composited behind the volume
   vec4 light;         // x = ambient, y = diffuse, z = specular, w = shininess
-  uvec4 control;      // x = flags, y = pick count, z = max steps, w unused
+  uvec4 control;      // x = flags, y = pick count, z = max steps, w = moving handle count
+  MovingHandle moving[kMaxMovingHandles];
 };
 
 // One picked point: world.w = 1 on a hit, 0 on a miss; voxel.xyz = nearest voxel index, voxel.w =
@@ -95,7 +104,8 @@ struct GrowPush {
 
 #ifdef __cplusplus
 static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
-static_assert(sizeof(RenderParams) == 3 * 64 + 7 * 16, "RenderParams must match std140");
+static_assert(sizeof(MovingHandle) == 80, "MovingHandle must match std140");
+static_assert(sizeof(RenderParams) == 3 * 64 + 7 * 16 + 8 * 80, "RenderParams must match std140");
 static_assert(sizeof(PickResult) == 32, "PickResult must match std430");
 }  // namespace handson::gpu
 #endif

@@ -3,6 +3,7 @@
 
 #include <sys/wait.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -77,9 +78,18 @@ TEST(Replay, PinchInSelectModeMakesAHandleAndHandleEditsReplay) {
   const fs::path script = fs::path(HANDSON_SOURCE_DIR) / "assets/gestures/select-kidney-pinch.json";
   std::string out;
   ASSERT_EQ(run("replay " + script.string() + " --fps 10 --size 256x256 --quiet --validation --print-handles", &out), 0) << out;
-  // One handle, made fixed by a UI action, then picked by a tap on it (a GPU handle-id pick).
+  // One handle, made fixed by a UI action, then picked by a tap on it (a GPU handle-id pick),
+  // then dragged 40 px to the right with one finger in manipulate mode. Seen from the patient's
+  // right (+x), screen right is anterior (+y); at the kidney's depth (~810 mm) a pixel is ~1 mm.
   EXPECT_NE(out.find("handle 1 fixed"), std::string::npos) << out;
   EXPECT_NE(out.find("picked"), std::string::npos) << out;
+  const auto at = out.find("translation ");
+  ASSERT_NE(at, std::string::npos) << out;
+  double tx = 0, ty = 0, tz = 0;
+  ASSERT_EQ(std::sscanf(out.c_str() + at, "translation %lf,%lf,%lf", &tx, &ty, &tz), 3) << out;
+  EXPECT_NEAR(tx, 0.0, 0.5) << "one finger never moves in depth";
+  EXPECT_NEAR(ty, 40.0, 4.0);
+  EXPECT_NEAR(tz, 0.0, 0.5);
   EXPECT_EQ(out.find("handle 2"), std::string::npos) << out;
   // The same pinch in empty space (top-left corner) is refused: no handle.
   const fs::path dir = fs::temp_directory_path() / ("handson_pinch_" + std::to_string(getpid()));

@@ -291,6 +291,29 @@ TEST_F(GpuPasses, HandleTintMatchesCpuAndPicksReportTheHandleId) {
   EXPECT_EQ(p.picks[0].voxel.w, 1);
   const auto cpuPick = pickReference({&s.q, &s.lut, &s.renderer->occupancy(), &up.ids, &tints}, req.params, picks);
   EXPECT_EQ(cpuPick[0].voxel.w, 1);
+  // Move the handle rigidly by 30 mm anterior (+y): drawn at its new place, its old place empty.
+  useTf(s, transferFunctionPreset("ct-abdomen"));
+  MovingHandlePose moved;
+  moved.id = 1;
+  moved.translation = Eigen::Vector3d(0, 30, 0);
+  req.params = paramsFor(s, cam, rs, 2);
+  setMovingHandles(req.params, s.phantom.ct.geometry(), {moved});
+  ASSERT_EQ(req.params.control.w, 1u);
+  const glm::vec4 c2 = vp * glm::vec4(float(kc.x()), float(kc.y() + 30.0), float(kc.z()), 1.0f);
+  req.pickPoints = {glm::vec2(c) / c.w, glm::vec2(c2) / c2.w};
+  s.renderer->submit(req);
+  const FrameResult mv = s.renderer->waitLast();
+  const auto cpuMoved = raymarchReference(ref, req.params);
+  const ImageDiff dm = compare(mv.rgba, cpuMoved);
+  EXPECT_LE(dm.meanDiff, 0.5);
+  EXPECT_LE(dm.fractionOver2, 0.01);
+  EXPECT_GT(compare(mv.rgba, r.rgba).meanDiff, 0.2);  // the picture changed
+  const auto cpuMovedPicks = pickReference(ref, req.params, req.pickPoints);
+  ASSERT_EQ(mv.picks.size(), 2u);
+  EXPECT_NE(mv.picks[0].voxel.w, 1);  // the old place shows no handle
+  EXPECT_EQ(mv.picks[1].voxel.w, 1);  // the new place does
+  EXPECT_EQ(cpuMovedPicks[0].voxel.w, mv.picks[0].voxel.w);
+  EXPECT_EQ(cpuMovedPicks[1].voxel.w, mv.picks[1].voxel.w);
   // Leave the shared scene as it was.
   s.renderer->clearMask();
   s.renderer->setHandleTints(std::vector<glm::vec4>(gpu::kMaxHandleIds, glm::vec4(0.0f)));
