@@ -82,7 +82,7 @@ void SelectionController::manipulate(const TouchEvent& e, const TouchInput& inpu
   std::vector<std::pair<std::int64_t, glm::dvec2>> ndc;
   for (const auto& f : input.fingers()) ndc.push_back({f.id, vp.toNdc(f.px)});
   std::string why;
-  const auto pose = manipulator_.move(ndc, h->pose, session_.camera(), double(vp.width) / vp.height, kLockNone, &why);
+  const auto pose = manipulator_.move(ndc, h->pose, session_.camera(), double(vp.width) / vp.height, locks_, &why);
   if (pose) handles_.setPose(manipulated_, *pose, false);
   manipulationNote_ = why;
 }
@@ -129,6 +129,11 @@ bool SelectionController::applyUi(const ScriptEvent& e) {
   } else if (e.action == "handle-union" || e.action == "handle-difference") {
     int a = 0, b = 0;
     ok = ids(a, b) && (e.action == "handle-union" ? handles_.unite(a, b) : handles_.subtract(a, b));
+  } else if (e.action == "toggle-lock") {
+    unsigned lock = 0;
+    if (!parseGestureLock(e.value, lock)) return false;
+    locks_ ^= lock;
+    return true;
   } else if (e.action == "undo") {
     ok = handles_.undo();
   } else if (e.action == "redo") {

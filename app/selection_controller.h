@@ -5,7 +5,7 @@
 // box is uploaded inside the next frame; handle edits come in as UI actions (recorded and replayed
 // like touches):
 //   handle-status "ID:active|fixed|idle", handle-delete "ID", handle-union "A,B" (A := A ∪ B),
-//   handle-difference "A,B" (A := A \ B), undo, redo.
+//   handle-difference "A,B" (A := A \ B), undo, redo, toggle-lock "z-translation|z-rotation|xy-translation".
 #include <optional>
 #include <vector>
 
@@ -37,6 +37,8 @@ class SelectionController {
   /// Handles with a pose, for the raymarch (drawn moved rigidly until the simulation lands).
   std::vector<MovingHandlePose> movingHandles() const;
   const std::string& manipulationNote() const { return manipulationNote_; }
+  /// Locks of the manipulation (GestureLock bits), toggled by the "toggle-lock" UI action.
+  unsigned locks() const { return locks_; }
   const PinchSelection& pinch() const { return pinch_; }
   std::size_t liveVoxelCount() const { return live_.size(); }
 
@@ -68,6 +70,7 @@ class SelectionController {
   std::optional<std::uint64_t> grabFrame_;
   std::size_t grabOffset_ = 0;
   std::string manipulationNote_;
+  unsigned locks_ = kLockNone;
   // Taps (a finger down and up again within 0.3 s and 12 px, alone) pick the handle under them.
   void detectTap(const TouchEvent& e, const TouchInput& input);
   std::optional<glm::dvec2> tapRequest_;

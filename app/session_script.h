@@ -20,7 +20,8 @@
 //     {"t": 0.70, "ui": "reset-camera"},
 //     {"t": 0.80, "ui": "handle-status", "value": "1:fixed"},  // handle edits: handle-status ID:STATUS,
 //                                                               // handle-delete ID, handle-union A,B,
-//                                                               // handle-difference A,B, undo, redo
+//                                                               // handle-difference A,B, undo, redo,
+//                                                               // toggle-lock z-translation|z-rotation|xy-translation
 //   ]
 // }
 #include <optional>

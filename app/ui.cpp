@@ -123,6 +123,20 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
     ImGui::SameLine();
   }
   if (ImGui::Button("Reset view", button)) action("reset-camera", "");
+  if (st.mode == "manipulate") {
+    // Axis locks for the manipulation (the finger count chooses the rest).
+    ImGui::NewLine();
+    const std::pair<unsigned, const char*> locks[] = {{1u, "z-translation"}, {2u, "z-rotation"}, {4u, "xy-translation"}};
+    for (const auto& [bit, name] : locks) {
+      const bool on = (st.locks & bit) != 0;
+      if (on) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.85f, 0.45f, 0.20f, 1.0f));
+      const std::string label = std::string("Lock ") + name;
+      if (ImGui::Button(label.c_str(), ImVec2(button.x * 1.4f, button.y))) action("toggle-lock", name);
+      if (on) ImGui::PopStyleColor();
+      ImGui::SameLine();
+    }
+    ImGui::NewLine();
+  }
   remember();
   ImGui::End();
 

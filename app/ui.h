@@ -32,6 +32,7 @@ struct UiStatus {
   bool canUndo = false, canRedo = false;
   std::string feedback;        ///< e.g. a refused pinch
   std::size_t liveVoxels = 0;  ///< the selection being pinched
+  unsigned locks = 0;          ///< manipulation locks (GestureLock bits)
 };
 
 class Ui {

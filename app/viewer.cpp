@@ -366,6 +366,7 @@ bool Viewer::Impl::step() {
     status.handles.clear();
     for (const auto& h : selection->handles().handles()) status.handles.push_back({h.id, handleStatusName(h.status), h.voxels.size()});
     status.picked = selection->picked();
+    status.locks = selection->locks();
     status.canUndo = selection->handles().canUndo();
     status.canRedo = selection->handles().canRedo();
     status.feedback = !selection->pinch().feedback().empty() ? selection->pinch().feedback() : selection->manipulationNote();
