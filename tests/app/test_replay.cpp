@@ -77,7 +77,7 @@ TEST(Replay, ScriptOnAnotherVolumeAndBadInput) {
 TEST(Replay, PinchInSelectModeMakesAHandleAndHandleEditsReplay) {
   const fs::path script = fs::path(HANDSON_SOURCE_DIR) / "assets/gestures/select-kidney-pinch.json";
   std::string out;
-  ASSERT_EQ(run("replay " + script.string() + " --fps 10 --size 256x256 --quiet --validation --print-handles", &out), 0) << out;
+  ASSERT_EQ(run("replay " + script.string() + " --fps 10 --size 128x128 --quiet --validation --print-handles", &out), 0) << out;
   // One handle, made fixed by a UI action, then picked by a tap on it (a GPU handle-id pick),
   // then dragged 40 px to the right with one finger in manipulate mode. Seen from the patient's
   // right (+x), screen right is anterior (+y); at the kidney's depth (~810 mm) a pixel is ~1 mm.
@@ -101,7 +101,7 @@ TEST(Replay, PinchInSelectModeMakesAHandleAndHandleEditsReplay) {
     text.replace(pos, std::string(from).size(), "\"x\": 3, \"y\": 3");
   }
   std::ofstream(dir / "empty.json") << text;
-  ASSERT_EQ(run("replay " + (dir / "empty.json").string() + " --fps 10 --size 256x256 --quiet --print-handles", &out), 0) << out;
+  ASSERT_EQ(run("replay " + (dir / "empty.json").string() + " --fps 10 --size 128x128 --quiet --print-handles", &out), 0) << out;
   EXPECT_EQ(out.find("handle 1"), std::string::npos) << out;
   fs::remove_all(dir);
 }
