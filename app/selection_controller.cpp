@@ -90,7 +90,17 @@ void SelectionController::manipulate(const TouchEvent& e, const TouchInput& inpu
 std::vector<MovingHandlePose> SelectionController::movingHandles() const {
   std::vector<MovingHandlePose> out;
   for (const auto& h : handles_.handles())
-    if (!h.pose.isIdentity()) out.push_back({std::uint32_t(h.id), h.pose.rotation, h.pose.translation});
+    if (!h.pose.isIdentity()) {
+      MovingHandlePose m{std::uint32_t(h.id), h.pose.rotation, h.pose.translation};
+      const auto& d = volume_.geometry.dims;
+      m.restMin = d;
+      for (std::uint32_t v : h.voxels) {
+        const Eigen::Vector3i p(int(v % std::uint32_t(d.x())), int((v / std::uint32_t(d.x())) % std::uint32_t(d.y())), int(v / (std::uint32_t(d.x()) * d.y())));
+        m.restMin = m.restMin.cwiseMin(p);
+        m.restMax = m.restMax.cwiseMax(p);
+      }
+      out.push_back(m);
+    }
   return out;
 }
 

@@ -91,7 +91,12 @@ struct Sampler {
   }
   bool brickOccupied(glm::vec3 idx, glm::ivec3& brick) const {
     brick = glm::clamp(glm::ivec3(glm::floor((idx + 0.5f) / float(gpu::kBrickSize))), glm::ivec3(0), glm::ivec3(P.brickDims) - 1);
-    return occ[std::size_t((brick.z * P.brickDims.y + brick.y) * P.brickDims.x + brick.x)] != 0u;
+    if (occ[std::size_t((brick.z * P.brickDims.y + brick.y) * P.brickDims.x + brick.x)] != 0u) return true;
+    const glm::vec3 lo = glm::vec3(brick) * float(gpu::kBrickSize) - 0.5f, hi = lo + float(gpu::kBrickSize);
+    for (std::uint32_t m = 0; m < P.control.w; ++m)
+      if (glm::all(glm::lessThanEqual(glm::vec3(P.moving[m].boxMin), hi)) && glm::all(glm::greaterThanEqual(glm::vec3(P.moving[m].boxMax), lo)))
+        return true;
+    return false;
   }
   float brickExit(glm::vec3 o, glm::vec3 d, glm::ivec3 brick) const {
     const glm::vec3 lo = glm::vec3(brick) * float(gpu::kBrickSize) - 0.5f;
@@ -140,8 +145,7 @@ struct Sampler {
         if (t >= t1) break;
         const glm::vec3 idx = o + t * d;
         ++taken;
-        if ((flags & gpu::kFlagEmptySpaceSkipping) && P.control.w == 0 && t >= occupiedUntil && skip(o, d, t0, step, idx, n, occupiedUntil))
-          continue;
+        if ((flags & gpu::kFlagEmptySpaceSkipping) && t >= occupiedUntil && skip(o, d, t0, step, idx, n, occupiedUntil)) continue;
         ++n;
         std::uint32_t id = 0;
         const float value = materialAt(idx, id);
@@ -188,7 +192,7 @@ struct Sampler {
       if (t >= t1) break;
       const glm::vec3 idx = o + t * d;
       ++taken;
-      if (P.control.w == 0 && t >= occupiedUntil && skip(o, d, t0, step, idx, n, occupiedUntil)) continue;
+      if (t >= occupiedUntil && skip(o, d, t0, step, idx, n, occupiedUntil)) continue;
       ++n;
       std::uint32_t id = 0;
       const float value = materialAt(idx, id);

@@ -1,5 +1,6 @@
 #include "render_params.h"
 
+#include <Eigen/Geometry>
 #include <cmath>
 
 #include "sim/error.h"
@@ -56,6 +57,27 @@ void setMovingHandles(gpu::RenderParams& params, const VolumeGeometry& geometry,
     inv.block<3, 1>(0, 3) = -h.rotation.transpose() * h.translation;
     params.moving[n].currentToRest = toGlm(w2i * inv * i2w);
     params.moving[n].id = glm::uvec4(h.id, 0, 0, 0);
+    // Where the handle is now: its rest bounds' corners moved, with a voxel and a half of margin
+    // (trilinear support and rounding); empty-space skipping keeps those bricks.
+    Eigen::Matrix4d fwd = Eigen::Matrix4d::Identity();
+    fwd.block<3, 3>(0, 0) = h.rotation;
+    fwd.block<3, 1>(0, 3) = h.translation;
+    const Eigen::Matrix4d restToCurrent = w2i * fwd * i2w;
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e30), hi = Eigen::Vector3d::Constant(-1e30);
+    const bool bounded = (h.restMin.array() <= h.restMax.array()).all();
+    for (int c = 0; c < 8; ++c) {
+      const Eigen::Vector3d corner((c & 1) ? h.restMax.x() : h.restMin.x(), (c & 2) ? h.restMax.y() : h.restMin.y(),
+                                   (c & 4) ? h.restMax.z() : h.restMin.z());
+      const Eigen::Vector3d p = (restToCurrent * corner.homogeneous()).head<3>();
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+    if (!bounded) {  // unknown extent: the whole volume
+      lo = Eigen::Vector3d::Constant(-1e30);
+      hi = Eigen::Vector3d::Constant(1e30);
+    }
+    params.moving[n].boxMin = glm::vec4(glm::vec3(lo.x() - 1.5, lo.y() - 1.5, lo.z() - 1.5), 0.0f);
+    params.moving[n].boxMax = glm::vec4(glm::vec3(hi.x() + 1.5, hi.y() + 1.5, hi.z() + 1.5), 0.0f);
     ++n;
   }
   params.control.w = n;

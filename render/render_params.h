@@ -34,6 +34,7 @@ struct MovingHandlePose {
   std::uint32_t id = 0;
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Eigen::Vector3i restMin{0, 0, 0}, restMax{-1, -1, -1};  ///< the handle's voxel bounds at rest (index)
 };
 
 /// Fills params.moving and control.w (at most gpu::kMaxMovingHandles; identity poses are skipped).

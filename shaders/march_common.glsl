@@ -74,10 +74,15 @@ bool setupRay(vec2 ndc, out vec3 originW, out vec3 dirW, out float t0, out float
   return t1 > t0;
 }
 
-// Brick of a continuous index, and whether it may contain visible samples.
+// Brick of a continuous index, and whether it may contain visible samples: by the transfer
+// function's occupancy, or because a moved handle's material is now there.
 bool brickOccupied(vec3 idx, out ivec3 brick) {
   brick = clamp(ivec3(floor((idx + 0.5) / float(kBrickSize))), ivec3(0), P.brickDims.xyz - 1);
-  return occupancy[(brick.z * P.brickDims.y + brick.y) * P.brickDims.x + brick.x] != 0u;
+  if (occupancy[(brick.z * P.brickDims.y + brick.y) * P.brickDims.x + brick.x] != 0u) return true;
+  vec3 lo = vec3(brick) * float(kBrickSize) - 0.5, hi = lo + float(kBrickSize);
+  for (uint m = 0u; m < P.control.w; ++m)
+    if (all(lessThanEqual(P.moving[m].boxMin.xyz, hi)) && all(greaterThanEqual(P.moving[m].boxMax.xyz, lo))) return true;
+  return false;
 }
 
 // Distance along the ray at which it leaves a brick's box (index space).

@@ -28,7 +28,7 @@ void main() {
       float t = t0 + (float(n) + 0.5) * step;
       if (t >= t1) break;
       vec3 idx = o + t * d;
-      if (P.control.w == 0u && t >= occupiedUntil) {
+      if (t >= occupiedUntil) {
         ivec3 brick;
         bool occupied = brickOccupied(idx, brick);
         float te = brickExit(o, d, brick);

@@ -38,8 +38,7 @@ void main() {
       float t = t0 + (float(n) + 0.5) * step;
       if (t >= t1) break;
       vec3 idx = o + t * d;
-      // Moved handles carry material into bricks the occupancy calls empty: no skipping then.
-      if ((flags & kFlagEmptySpaceSkipping) != 0u && P.control.w == 0u && t >= occupiedUntil) {
+      if ((flags & kFlagEmptySpaceSkipping) != 0u && t >= occupiedUntil) {
         ivec3 brick;
         bool occupied = brickOccupied(idx, brick);
         float te = brickExit(o, d, brick);

@@ -61,6 +61,8 @@ HS_CONST kMaxMovingHandles = 8;  // handles drawn at a rigid pose (RenderParams.
 struct MovingHandle {
   mat4 currentToRest;  // index space -> index space
   uvec4 id;            // x: handle id
+  vec4 boxMin;         // xyz: where the handle now is, index space (a bound with a voxel's margin)
+  vec4 boxMax;
 };
 
 // Camera and volume, for raymarching and picking.
@@ -104,8 +106,8 @@ struct GrowPush {
 
 #ifdef __cplusplus
 static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
-static_assert(sizeof(MovingHandle) == 80, "MovingHandle must match std140");
-static_assert(sizeof(RenderParams) == 3 * 64 + 7 * 16 + 8 * 80, "RenderParams must match std140");
+static_assert(sizeof(MovingHandle) == 112, "MovingHandle must match std140");
+static_assert(sizeof(RenderParams) == 3 * 64 + 7 * 16 + 8 * 112, "RenderParams must match std140");
 static_assert(sizeof(PickResult) == 32, "PickResult must match std430");
 }  // namespace handson::gpu
 #endif

@@ -296,6 +296,14 @@ TEST_F(GpuPasses, HandleTintMatchesCpuAndPicksReportTheHandleId) {
   MovingHandlePose moved;
   moved.id = 1;
   moved.translation = Eigen::Vector3d(0, 30, 0);
+  moved.restMin = s.phantom.ct.dims();
+  for (std::size_t i = 0; i < up.ids.size(); ++i)
+    if (up.ids[i]) {
+      const auto& dd = s.phantom.ct.dims();
+      const Eigen::Vector3i vox(int(i % std::size_t(dd.x())), int((i / std::size_t(dd.x())) % std::size_t(dd.y())), int(i / (std::size_t(dd.x()) * dd.y())));
+      moved.restMin = moved.restMin.cwiseMin(vox);
+      moved.restMax = moved.restMax.cwiseMax(vox);
+    }
   req.params = paramsFor(s, cam, rs, 2);
   setMovingHandles(req.params, s.phantom.ct.geometry(), {moved});
   ASSERT_EQ(req.params.control.w, 1u);
@@ -308,6 +316,32 @@ TEST_F(GpuPasses, HandleTintMatchesCpuAndPicksReportTheHandleId) {
   EXPECT_LE(dm.meanDiff, 0.5);
   EXPECT_LE(dm.fractionOver2, 0.01);
   EXPECT_GT(compare(mv.rgba, r.rgba).meanDiff, 0.2);  // the picture changed
+  // Empty-space skipping stays exact with the handle moved out of the body into air, where every
+  // brick is empty by the transfer function.
+  {
+    MovingHandlePose far = moved;
+    far.translation = Eigen::Vector3d(90, 0, 0);  // toward the camera, partly past the skin
+    RenderSettings plain = rs;
+    plain.emptySpaceSkipping = false;
+    plain.earlyTermination = false;
+    RenderSettings fast = plain;
+    fast.emptySpaceSkipping = true;
+    gpu::RenderParams pp = paramsFor(s, cam, plain), pf = paramsFor(s, cam, fast);
+    setMovingHandles(pp, s.phantom.ct.geometry(), {far});
+    setMovingHandles(pf, s.phantom.ct.geometry(), {far});
+    const auto a = raymarchReference(ref, pp), b = raymarchReference(ref, pf);
+    EXPECT_EQ(compare(a, b).maxDiff, 0);
+    FrameRequest fr;
+    fr.params = pf;
+    s.renderer->submit(fr);
+    EXPECT_EQ(compare(s.renderer->waitLast().rgba, b).maxDiff <= 24, true);
+    // Without the moved handle's bounds the skipping would lose it: the image would equal the
+    // one with the handle simply removed.
+    gpu::RenderParams noBounds = pf;
+    noBounds.moving[0].boxMin = glm::vec4(1e9f);
+    noBounds.moving[0].boxMax = glm::vec4(1e9f);
+    EXPECT_GT(compare(raymarchReference(ref, noBounds), b).maxDiff, 20);
+  }
   const auto cpuMovedPicks = pickReference(ref, req.params, req.pickPoints);
   ASSERT_EQ(mv.picks.size(), 2u);
   EXPECT_NE(mv.picks[0].voxel.w, 1);  // the old place shows no handle
