@@ -63,4 +63,9 @@ void addReadbackPass(fg::FrameGraph& graph, const char* name, fg::ResourceHandle
 /// The GraphExecutor behind an fg::Executor (passes are recorded only by the Vulkan backend).
 GraphExecutor& vulkanExecutor(fg::Executor& e);
 
+// Shared by the raymarch and pick passes (march_inputs.cpp).
+std::vector<VkDescriptorSetLayoutBinding> marchBindingsFor(bool pick);
+void declareMarchInputs(fg::PassBuilder& b, const MarchInputs& in);
+DescriptorWriter marchDescriptors(GraphExecutor& x, const MarchInputs& in, const Sampler& sampler);
+
 }  // namespace handson::vk

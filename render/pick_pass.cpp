@@ -6,10 +6,6 @@
 
 namespace handson::vk {
 
-std::vector<VkDescriptorSetLayoutBinding> marchBindingsFor(bool pick);
-void declareMarchInputs(fg::PassBuilder& b, const MarchInputs& in);
-DescriptorWriter marchDescriptors(GraphExecutor& x, const MarchInputs& in, const Sampler& sampler);
-
 PickPass::PickPass(const Context& ctx) : ctx_(ctx), pipeline_(ctx, shaders::pick(), marchBindingsFor(true), 0) {}
 
 void PickPass::add(fg::FrameGraph& graph, const MarchInputs& in, fg::ResourceHandle points, fg::ResourceHandle results,

@@ -7,52 +7,6 @@
 
 namespace handson::vk {
 
-GraphExecutor& vulkanExecutor(fg::Executor& e) {
-  auto* x = dynamic_cast<GraphExecutor*>(&e);
-  if (!x) throw Error("frame graph: a Vulkan pass was executed by a non-Vulkan executor");
-  return *x;
-}
-
-namespace {
-std::vector<VkDescriptorSetLayoutBinding> marchBindings(VkDescriptorType outputType, bool pickInput) {
-  std::vector<VkDescriptorSetLayoutBinding> b = {
-      {gpu::kBindParams, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
-      {gpu::kBindVolume, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
-      {gpu::kBindTf, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
-      {gpu::kBindOccupancy, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
-      {gpu::kBindOutput, outputType, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
-      {gpu::kBindMask, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
-      {gpu::kBindHandles, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
-  };
-  if (pickInput) b.push_back({gpu::kBindPickInput, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
-  return b;
-}
-}  // namespace
-
-std::vector<VkDescriptorSetLayoutBinding> marchBindingsFor(bool pick) {
-  return marchBindings(pick ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, pick);
-}
-
-void declareMarchInputs(fg::PassBuilder& b, const MarchInputs& in) {
-  b.read(in.params, fg::Access::UniformRead);
-  b.read(in.volume, fg::Access::Sampled);
-  b.read(in.tf, fg::Access::StorageRead);
-  b.read(in.occupancy, fg::Access::StorageRead);
-  b.read(in.mask, fg::Access::Sampled);
-  b.read(in.handles, fg::Access::StorageRead);
-}
-
-DescriptorWriter marchDescriptors(GraphExecutor& x, const MarchInputs& in, const Sampler& sampler) {
-  DescriptorWriter w;
-  w.buffer(gpu::kBindParams, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, x.buffer(in.params).handle())
-      .sampledImage(gpu::kBindVolume, x.image(in.volume).view(), sampler.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-      .buffer(gpu::kBindTf, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.tf).handle())
-      .buffer(gpu::kBindOccupancy, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.occupancy).handle())
-      .sampledImage(gpu::kBindMask, x.image(in.mask).view(), sampler.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-      .buffer(gpu::kBindHandles, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.handles).handle());
-  return w;
-}
-
 RaymarchPass::RaymarchPass(const Context& ctx) : ctx_(ctx), pipeline_(ctx, shaders::raymarch(), marchBindingsFor(false), 0) {}
 
 void RaymarchPass::add(fg::FrameGraph& graph, const MarchInputs& in, fg::ResourceHandle output, const Sampler& sampler) {
