@@ -20,9 +20,8 @@ SelectionController::SelectionController(const QuantizedVolume& volume, Session&
 }
 
 void SelectionController::repaint(const std::vector<std::uint32_t>& voxels) {
-  const auto& d = volume_.geometry.dims;
   for (std::uint32_t v : voxels) {
-    const Eigen::Vector3i p(int(v % std::uint32_t(d.x())), int((v / std::uint32_t(d.x())) % std::uint32_t(d.y())), int(v / (std::uint32_t(d.x()) * d.y())));
+    const Eigen::Vector3i p = volume_.geometry.voxelOf(v);
     dirtyMin_ = dirtyMin_.cwiseMin(p);
     dirtyMax_ = dirtyMax_.cwiseMax(p);
     mask_[v] = 0;
@@ -92,10 +91,9 @@ std::vector<MovingHandlePose> SelectionController::movingHandles() const {
   for (const auto& h : handles_.handles())
     if (!h.pose.isIdentity()) {
       MovingHandlePose m{std::uint32_t(h.id), h.pose.rotation, h.pose.translation};
-      const auto& d = volume_.geometry.dims;
-      m.restMin = d;
+      m.restMin = volume_.geometry.dims;
       for (std::uint32_t v : h.voxels) {
-        const Eigen::Vector3i p(int(v % std::uint32_t(d.x())), int((v / std::uint32_t(d.x())) % std::uint32_t(d.y())), int(v / (std::uint32_t(d.x()) * d.y())));
+        const Eigen::Vector3i p = volume_.geometry.voxelOf(v);
         m.restMin = m.restMin.cwiseMin(p);
         m.restMax = m.restMax.cwiseMax(p);
       }

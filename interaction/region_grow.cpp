@@ -138,11 +138,8 @@ float RegionGrower::value(int i, int j, int k) const {
 }
 
 bool RegionGrower::accepts(std::size_t linear) const {
-  const auto& d = vol_.geometry.dims;
-  const int i = int(linear % std::size_t(d.x()));
-  const int j = int((linear / std::size_t(d.x())) % std::size_t(d.y()));
-  const int k = int(linear / (std::size_t(d.x()) * std::size_t(d.y())));
-  return std::abs(value(i, j, k) - setup_.seedValue) < setup_.tolerance;
+  const Eigen::Vector3i v = vol_.geometry.voxelOf(linear);
+  return std::abs(value(v.x(), v.y(), v.z()) - setup_.seedValue) < setup_.tolerance;
 }
 
 std::uint32_t RegionGrower::bound(double extentMm) const { return growKeyBound(setup_.criterion, extentMm, vol_.geometry.spacing); }
@@ -159,7 +156,8 @@ void RegionGrower::growTo(double extentMm) {
     const auto [key, v] = front_.top();
     front_.pop();
     if (key != keys_[v]) continue;  // superseded
-    const int i = int(v % sy), j = int((v / sy) % std::size_t(d.y())), k = int(v / sz);
+    const Eigen::Vector3i vox = vol_.geometry.voxelOf(v);
+    const int i = vox.x(), j = vox.y(), k = vox.z();
     const int ni[6] = {i - 1, i + 1, i, i, i, i}, nj[6] = {j, j, j - 1, j + 1, j, j}, nk[6] = {k, k, k, k, k - 1, k + 1};
     for (int n = 0; n < 6; ++n) {
       if (ni[n] < 0 || nj[n] < 0 || nk[n] < 0 || ni[n] >= d.x() || nj[n] >= d.y() || nk[n] >= d.z()) continue;

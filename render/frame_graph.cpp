@@ -81,40 +81,34 @@ ResourceHandle FrameGraph::addResource(ResourceInfo info) {
   return ResourceHandle{static_cast<std::uint32_t>(resources_.size() - 1)};
 }
 
-ResourceHandle FrameGraph::importImage(std::string name, const ImageDesc& desc, Access currentAccess) {
+namespace {
+ResourceInfo makeResource(std::string name, ResourceKind kind, const ImageDesc& image, const BufferDesc& buffer, bool imported,
+                          Access currentAccess) {
   ResourceInfo r;
   r.name = std::move(name);
-  r.kind = ResourceKind::Image;
-  r.image = desc;
-  r.imported = true;
+  r.kind = kind;
+  r.image = image;
+  r.buffer = buffer;
+  r.imported = imported;
   r.initialAccess = currentAccess;
-  return addResource(std::move(r));
+  return r;
+}
+}  // namespace
+
+ResourceHandle FrameGraph::importImage(std::string name, const ImageDesc& desc, Access currentAccess) {
+  return addResource(makeResource(std::move(name), ResourceKind::Image, desc, {}, true, currentAccess));
 }
 
 ResourceHandle FrameGraph::importBuffer(std::string name, const BufferDesc& desc, Access currentAccess) {
-  ResourceInfo r;
-  r.name = std::move(name);
-  r.kind = ResourceKind::Buffer;
-  r.buffer = desc;
-  r.imported = true;
-  r.initialAccess = currentAccess;
-  return addResource(std::move(r));
+  return addResource(makeResource(std::move(name), ResourceKind::Buffer, {}, desc, true, currentAccess));
 }
 
 ResourceHandle FrameGraph::createImage(std::string name, const ImageDesc& desc) {
-  ResourceInfo r;
-  r.name = std::move(name);
-  r.kind = ResourceKind::Image;
-  r.image = desc;
-  return addResource(std::move(r));
+  return addResource(makeResource(std::move(name), ResourceKind::Image, desc, {}, false, Access::None));
 }
 
 ResourceHandle FrameGraph::createBuffer(std::string name, const BufferDesc& desc) {
-  ResourceInfo r;
-  r.name = std::move(name);
-  r.kind = ResourceKind::Buffer;
-  r.buffer = desc;
-  return addResource(std::move(r));
+  return addResource(makeResource(std::move(name), ResourceKind::Buffer, {}, desc, false, Access::None));
 }
 
 void FrameGraph::checkHandle(ResourceHandle h) const {

@@ -37,6 +37,11 @@ struct VolumeGeometry {
   Eigen::Vector3d toWorld(const Eigen::Vector3d& index) const;
   Eigen::Vector3d toIndex(const Eigen::Vector3d& world) const;
   bool contains(const Eigen::Vector3i& index) const;
+  /// Voxel index of a linear (x-fastest) index.
+  Eigen::Vector3i voxelOf(std::size_t linear) const {
+    const std::size_t nx = std::size_t(dims.x()), ny = std::size_t(dims.y());
+    return {int(linear % nx), int((linear / nx) % ny), int(linear / (nx * ny))};
+  }
   /// Physical centre of the grid (midpoint of the first and last voxel centres).
   Eigen::Vector3d center() const;
   /// Length of the grid's bounding box diagonal in mm (voxel edges included).
