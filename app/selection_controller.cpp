@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <sstream>
 
+#include "render/raymarch_reference.h"
+
 
 namespace handson {
 
@@ -16,6 +18,7 @@ SelectionController::SelectionController(const QuantizedVolume& volume, Session&
     if (pinch_.changed()) refreshLive();
   });
   session_.gestures().setHandler(InteractionMode::Manipulate, [this](const TouchEvent& e, const TouchInput& input) { manipulate(e, input); });
+  session_.gestures().setGrabProbe([this](glm::dvec2 px) { return onActiveHandle(px); });
   session_.setUiExtension([this](const ScriptEvent& e) { return applyUi(e); });
 }
 
@@ -84,6 +87,17 @@ void SelectionController::manipulate(const TouchEvent& e, const TouchInput& inpu
   const auto pose = manipulator_.move(ndc, h->pose, session_.camera(), double(vp.width) / vp.height, locks_, &why);
   if (pose) handles_.setPose(manipulated_, *pose, false);
   manipulationNote_ = why;
+}
+
+bool SelectionController::onActiveHandle(glm::dvec2 px) const {
+  if (!haveParams_ || renderer_.transferFunction().empty()) return false;
+  const bool any = std::any_of(handles_.handles().begin(), handles_.handles().end(), [](const Handle& h) { return h.status == HandleStatus::Active; });
+  if (!any) return false;
+  const ReferenceScene scene{&volume_, &renderer_.transferFunction(), &renderer_.occupancy(), &mask_, nullptr};
+  const auto hit = pickReference(scene, lastParams_, {glm::vec2(session_.gestures().viewport().toNdc(px))});
+  if (hit.empty() || hit[0].world.w <= 0.5f) return false;
+  const Handle* h = handles_.find(int(hit[0].voxel.w));
+  return h && h->status == HandleStatus::Active;
 }
 
 std::vector<MovingHandlePose> SelectionController::movingHandles() const {
@@ -175,6 +189,8 @@ void SelectionController::prepareFrame(FrameRequest& req, const Viewport& vp) {
     grabInRequest_ = true;
   }
   setMovingHandles(req.params, volume_.geometry, movingHandles());
+  lastParams_ = req.params;
+  haveParams_ = true;
   const auto pts = pinch_.takePickRequest();
   if (!pts.empty()) {
     pickOffset_ = req.pickPoints.size();

@@ -63,6 +63,12 @@ class SelectionController {
   // Manipulation: fingers landing on a handle in manipulate mode pick their points on it; moves
   // solve the rigid increment that keeps those points under the fingers.
   void manipulate(const TouchEvent& e, const TouchInput& input);
+  // In navigate mode a gesture starting on an active handle moves it: decided at once on the CPU
+  // (the pick pass's reference on the last frame's parameters and this mask), so the camera
+  // never moves first; the GPU picks then anchor the fingers as in manipulate mode.
+  bool onActiveHandle(glm::dvec2 px) const;
+  gpu::RenderParams lastParams_{};
+  bool haveParams_ = false;
   HandleManipulator manipulator_;
   int manipulated_ = 0;                         // handle being moved (0: none)
   std::vector<std::pair<std::int64_t, glm::dvec2>> grabRequest_;  // fingers (px) to pick

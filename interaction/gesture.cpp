@@ -34,6 +34,7 @@ void GestureRecognizer::setViewport(const Viewport& v) {
 void GestureRecognizer::setMode(InteractionMode m) {
   if (m == mode_) return;
   mode_ = m;
+  grabbing_ = false;
   anchor();  // fingers already down continue from where they are, in the new mode
 }
 
@@ -44,6 +45,12 @@ void GestureRecognizer::setHandler(InteractionMode m, Handler h) {
 
 void GestureRecognizer::cancel() {
   input_.cancelAll();
+  if (grabbing_ && manipulateHandler_) {
+    TouchEvent lifted;
+    lifted.phase = TouchPhase::Cancel;
+    manipulateHandler_(lifted, input_);  // the manipulation lets go
+  }
+  grabbing_ = false;
   anchor();
 }
 
@@ -60,7 +67,13 @@ bool GestureRecognizer::handle(const TouchEvent& e) {
   if (input_.fingers().size() != before) anchor();
   switch (mode_) {
     case InteractionMode::Navigate:
-      if (e.phase == TouchPhase::Move) navigate();
+      if (e.phase == TouchPhase::Down && before == 0 && grabProbe_ && manipulateHandler_) grabbing_ = grabProbe_(e.px);
+      if (grabbing_) {
+        manipulateHandler_(e, input_);
+        if (input_.fingers().empty()) grabbing_ = false;
+      } else if (e.phase == TouchPhase::Move) {
+        navigate();
+      }
       break;
     case InteractionMode::Select:
       if (selectHandler_) selectHandler_(e, input_);

@@ -11,6 +11,8 @@
 //    that the points of the plane through the camera target that lay under the two fingers stay
 //    under them;
 //  - further fingers are ignored in navigation; adding or lifting a finger re-anchors without a jump.
+//  - a gesture whose first finger lands on something the grab probe claims (a handle) is not
+//    navigation: all of its events, up to the last finger lifted, go to the Manipulate handler.
 #include <functional>
 
 #include "camera.h"
@@ -35,6 +37,12 @@ class GestureRecognizer {
   void setMode(InteractionMode m);
   InteractionMode mode() const { return mode_; }
   void setHandler(InteractionMode m, Handler h);
+  /// In Navigate mode, asked at a gesture's first touch-down (pixel position): true hands the
+  /// whole gesture to the Manipulate handler instead of the camera.
+  using GrabProbe = std::function<bool(glm::dvec2 px)>;
+  void setGrabProbe(GrabProbe p) { grabProbe_ = std::move(p); }
+  /// True while a Navigate-mode gesture is being handed to the Manipulate handler.
+  bool grabbing() const { return grabbing_; }
 
   /// Feeds one event; returns false if the input layer refused it.
   bool handle(const TouchEvent& e);
@@ -53,6 +61,8 @@ class GestureRecognizer {
   TouchInput input_;
   InteractionMode mode_ = InteractionMode::Navigate;
   Handler selectHandler_, manipulateHandler_;
+  GrabProbe grabProbe_;
+  bool grabbing_ = false;
   // Anchor: the camera and finger positions when the finger count last changed.
   OrbitCamera anchorCamera_;
   std::vector<Finger> anchorFingers_;

@@ -86,6 +86,7 @@ void VolumeRenderer::setTransferFunction(const std::vector<glm::vec4>& lut) {
   std::vector<float> alpha(lut.size());
   for (std::size_t i = 0; i < lut.size(); ++i) alpha[i] = lut[i].a;
   occupancy_ = brickOccupancy(bricks_, alpha);
+  lut_ = lut;
   const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
   tf_ = Buffer(ctx_, lut.size() * sizeof(glm::vec4), usage, Buffer::Memory::Device);
   vk::uploadToBuffer(ctx_, tf_, lut.data(), lut.size() * sizeof(glm::vec4));

@@ -81,6 +81,8 @@ class VolumeRenderer {
 
   const BrickGrid& bricks() const { return bricks_; }
   const std::vector<std::uint32_t>& occupancy() const { return occupancy_; }
+  /// The lookup table last set (empty before setTransferFunction).
+  const std::vector<glm::vec4>& transferFunction() const { return lut_; }
   const vk::Context& context() const { return ctx_; }
 
  private:
@@ -98,6 +100,7 @@ class VolumeRenderer {
   const vk::Context& ctx_;
   vk::GraphExecutor executor_;
   vk::RaymarchPass raymarch_;
+  std::vector<glm::vec4> lut_;
   vk::PickPass pick_;
   vk::BrickPass brick_;
   vk::Sampler linear_;

@@ -105,3 +105,38 @@ TEST(Replay, PinchInSelectModeMakesAHandleAndHandleEditsReplay) {
   EXPECT_EQ(out.find("handle 1"), std::string::npos) << out;
   fs::remove_all(dir);
 }
+
+TEST(Replay, InNavigateModeADragThatStartsOnAnActiveHandleMovesItAndElsewhereOrbits) {
+  // The kidney script with the handle left active and the drags made in navigate mode: the first
+  // drag lands on the kidney and moves it (the camera stays); the last one, moved off the body,
+  // orbits the camera and leaves the handle where it was.
+  const fs::path script = fs::path(HANDSON_SOURCE_DIR) / "assets/gestures/select-kidney-pinch.json";
+  const fs::path dir = fs::temp_directory_path() / ("handson_grab_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  std::string text = slurp(script);
+  auto replace = [&](const std::string& from, const std::string& to) {
+    const auto pos = text.find(from);
+    ASSERT_NE(pos, std::string::npos) << from;
+    text.replace(pos, from.size(), to);
+  };
+  replace("\"1:fixed\"", "\"1:active\"");
+  replace("\"value\": \"manipulate\"", "\"value\": \"navigate\"");
+  replace("\"toggle-lock\", \"value\": \"xy-translation\"", "\"handle-status\", \"value\": \"1:active\"");
+  for (int i = 0; i < 6; ++i) replace("\"id\": 5, \"x\": 2", "\"id\": 5, \"x\": 1");  // 142..182: left of the body
+  std::ofstream(dir / "grab.json") << text;
+  std::string out;
+  ASSERT_EQ(run("replay " + (dir / "grab.json").string() + " --fps 10 --size 128x128 --quiet --validation --print-handles --print-camera", &out), 0) << out;
+  const auto at = out.find("translation ");
+  ASSERT_NE(at, std::string::npos) << out;
+  double tx = 0, ty = 0, tz = 0;
+  ASSERT_EQ(std::sscanf(out.c_str() + at, "translation %lf,%lf,%lf", &tx, &ty, &tz), 3) << out;
+  EXPECT_NEAR(tx, 0.0, 0.5);
+  EXPECT_NEAR(ty, 40.0, 4.0);  // one drag on the handle; the other one orbited instead
+  EXPECT_NEAR(tz, 0.0, 0.5);
+  const auto cam = out.find("camera azimuth_deg=");
+  ASSERT_NE(cam, std::string::npos) << out;
+  double az = 0;
+  ASSERT_EQ(std::sscanf(out.c_str() + cam, "camera azimuth_deg=%lf", &az), 1) << out;
+  EXPECT_NEAR(az, 90.0 + 40.0 * 180.0 / 512.0, 1.0) << "the 40 px drag off the handle orbits by 40/512 of 180 degrees";
+  fs::remove_all(dir);
+}

@@ -171,3 +171,50 @@ TEST(GestureRecognizer, OtherModesForwardToTheirHandlers) {
   EXPECT_EQ(m, InteractionMode::Select);
   EXPECT_FALSE(parseMode("dance", m));
 }
+
+TEST(GestureRecognizer, InNavigateModeAGestureStartingOnAGrabbableSpotGoesToTheManipulateHandler) {
+  OrbitCamera cam = startCamera();
+  GestureRecognizer g(cam);
+  g.setViewport({600, 400});
+  std::vector<std::pair<TouchPhase, std::size_t>> seen;  // phase and finger count at the handler
+  g.setHandler(InteractionMode::Manipulate, [&](const TouchEvent& e, const TouchInput& in) { seen.push_back({e.phase, in.fingers().size()}); });
+  std::vector<glm::dvec2> asked;
+  g.setGrabProbe([&](glm::dvec2 px) {
+    asked.push_back(px);
+    return px.x < 100;  // the left strip holds "a handle"
+  });
+  const OrbitCamera before = cam;
+  // On the handle: two fingers come and go, nothing reaches the camera, the probe is asked once.
+  g.handle(ev(TouchPhase::Down, 1, {50, 200}));
+  EXPECT_TRUE(g.grabbing());
+  g.handle(ev(TouchPhase::Down, 2, {300, 200}));  // a second finger joins the grab, wherever it lands
+  g.handle(ev(TouchPhase::Move, 1, {80, 220}));
+  g.handle(ev(TouchPhase::Move, 2, {340, 200}));
+  g.handle(ev(TouchPhase::Up, 2, {340, 200}));
+  g.handle(ev(TouchPhase::Move, 1, {90, 220}));
+  g.handle(ev(TouchPhase::Up, 1, {90, 220}));
+  EXPECT_FALSE(g.grabbing());
+  EXPECT_EQ(asked.size(), 1u);
+  ASSERT_EQ(seen.size(), 7u);
+  EXPECT_EQ(seen[1].second, 2u);
+  EXPECT_EQ(seen.back().first, TouchPhase::Up);
+  EXPECT_EQ(cam.azimuth, before.azimuth);
+  EXPECT_EQ(cam.elevation, before.elevation);
+  // Off the handle: the drag orbits and the handler hears nothing.
+  seen.clear();
+  g.handle(ev(TouchPhase::Down, 3, {300, 200}));
+  g.handle(ev(TouchPhase::Move, 3, {340, 200}));
+  EXPECT_FALSE(g.grabbing());
+  EXPECT_TRUE(seen.empty());
+  EXPECT_NEAR(cam.azimuth, before.azimuth + 40 * 3.14159265358979 / 400, 1e-9);
+  g.handle(ev(TouchPhase::Up, 3, {340, 200}));
+  // A grab cut short (focus lost) lets go with a cancel; other modes never ask the probe.
+  g.handle(ev(TouchPhase::Down, 4, {20, 20}));
+  g.cancel();
+  EXPECT_FALSE(g.grabbing());
+  EXPECT_EQ(seen.back().first, TouchPhase::Cancel);
+  g.setMode(InteractionMode::Select);
+  g.handle(ev(TouchPhase::Down, 5, {20, 20}));
+  EXPECT_EQ(asked.size(), 3u);  // asked at the first touch-downs of the three navigate gestures only
+  EXPECT_FALSE(g.grabbing());
+}
