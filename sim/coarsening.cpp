@@ -1,0 +1,368 @@
+#include "coarsening.h"
+
+#include <Eigen/Dense>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+#include "sim/error.h"
+
+namespace handson {
+
+RigidTransform RigidTransform::about(const Eigen::Vector3d& pivot, const Eigen::Vector3d& rv, const Eigen::Vector3d& translation) {
+  RigidTransform T;
+  const double angle = rv.norm();
+  if (angle > 0) T.R = Eigen::AngleAxisd(angle, rv / angle).toRotationMatrix();
+  T.t = pivot - T.R * pivot + translation;
+  return T;
+}
+
+namespace {
+
+using Mat = Eigen::MatrixXd;
+
+// vec (column-major) of M = R_c^T R - I as the 9 numbers A multiplies.
+Eigen::Matrix<double, 9, 1> unroll(const Eigen::Matrix3d& M) {
+  Eigen::Matrix<double, 9, 1> v;
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r) v[3 * c + r] = M(r, c);
+  return v;
+}
+
+std::array<Eigen::Vector3d, 4> cornersOf(const TetMesh& m, int t, const std::vector<Eigen::Vector3d>& x) {
+  const auto& v = m.tets[std::size_t(t)];
+  return {x[std::size_t(v[0])], x[std::size_t(v[1])], x[std::size_t(v[2])], x[std::size_t(v[3])]};
+}
+
+Eigen::Vector4d barycentric(const std::array<Eigen::Vector3d, 4>& X, const Eigen::Vector3d& p) {
+  Eigen::Matrix3d D;
+  D << X[1] - X[0], X[2] - X[0], X[3] - X[0];
+  const Eigen::Vector3d l = D.inverse() * (p - X[0]);
+  return {1.0 - l.sum(), l.x(), l.y(), l.z()};
+}
+
+}  // namespace
+
+CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& fineK, const FineConstraints& cons, const ProgressFn& progress)
+    : meshes_(meshes), constraints_(cons) {
+  const TetMesh& C = meshes.coarse;
+  const TetMesh& F = meshes.fine;
+  if (fineK.size() != F.tets.size() || cons.handleOf.size() != F.nodes.size() || cons.fixed.size() != F.nodes.size())
+    throw Error("coarsening: inconsistent sizes");
+  // The outer boundary wins over a handle on it: those nodes stay fixed.
+  for (std::size_t i = 0; i < F.nodes.size(); ++i)
+    if (constraints_.fixed[i]) constraints_.handleOf[i] = -1;
+  const auto& handleOf = constraints_.handleOf;
+
+  std::vector<std::vector<int>> tetsOf(C.tets.size());
+  for (std::size_t t = 0; t < F.tets.size(); ++t) {
+    const int p = meshes.fineParent[t];
+    if (p < 0) throw Error("coarsening: a fine tet lies outside the coarse mesh");
+    tetsOf[std::size_t(p)].push_back(int(t));
+  }
+  std::vector<char> boundaryDone(F.nodes.size(), 0);
+  elements_.resize(C.tets.size());
+  std::unordered_map<int, int> local;
+  for (std::size_t e = 0; e < C.tets.size(); ++e) {
+    if (e % 256 == 0) reportProgress(progress, double(e) / double(C.tets.size()), "coarsening");
+    const auto Xc = cornersOf(C, int(e), C.nodes);
+    // Local nodes: the 4 corners first.
+    local.clear();
+    std::vector<int> nodes;
+    for (int v : C.tets[e]) {
+      const int f = meshes.coarseNodeInFine[std::size_t(v)];
+      local.emplace(f, int(nodes.size()));
+      nodes.push_back(f);
+    }
+    for (int t : tetsOf[e])
+      for (int v : F.tets[std::size_t(t)])
+        if (local.emplace(v, int(nodes.size())).second) nodes.push_back(v);
+    const int n = int(nodes.size());
+    Mat K = Mat::Zero(3 * n, 3 * n);
+    for (int t : tetsOf[e])
+      for (int a = 0; a < 4; ++a)
+        for (int b = 0; b < 4; ++b) {
+          const int la = local[F.tets[std::size_t(t)][std::size_t(a)]], lb = local[F.tets[std::size_t(t)][std::size_t(b)]];
+          K.block<3, 3>(3 * la, 3 * lb) += fineK[std::size_t(t)].block<3, 3>(3 * a, 3 * b);
+        }
+    // Classify the non-corner nodes.
+    std::vector<int> Dn, Bn, In;
+    std::vector<Eigen::Vector4d> Bbary;
+    const double scale = (Xc[1] - Xc[0]).norm();
+    for (int l = 4; l < n; ++l) {
+      const int f = nodes[std::size_t(l)];
+      const Eigen::Vector4d lam = barycentric(Xc, F.nodes[std::size_t(f)]);
+      if (handleOf[std::size_t(f)] >= 0) Dn.push_back(l);
+      else if (lam.minCoeff() < 1e-9 * std::max(1.0, scale)) {
+        Bn.push_back(l);
+        Bbary.push_back(lam.cwiseMax(0.0) / lam.cwiseMax(0.0).sum());
+      } else In.push_back(l);
+    }
+    const int nI = int(In.size()), nB = int(Bn.size()), nD = int(Dn.size());
+    auto rows = [&](const std::vector<int>& set, const Mat& M, int cols) {
+      Mat out(3 * Eigen::Index(set.size()), cols);
+      for (std::size_t i = 0; i < set.size(); ++i) out.middleRows(3 * Eigen::Index(i), 3) = M.middleRows(3 * set[i], 3);
+      return out;
+    };
+    // Phi_c (3n x 12) and Phi_D (3n x 3 nD).
+    Mat Phic = Mat::Zero(3 * n, 12), PhiD = Mat::Zero(3 * n, 3 * nD);
+    for (int c = 0; c < 4; ++c) Phic.block<3, 3>(3 * c, 3 * c).setIdentity();
+    for (int i = 0; i < nB; ++i)
+      for (int c = 0; c < 4; ++c) Phic.block<3, 3>(3 * Bn[std::size_t(i)], 3 * c) = Bbary[std::size_t(i)][c] * Eigen::Matrix3d::Identity();
+    for (int i = 0; i < nD; ++i) PhiD.block<3, 3>(3 * Dn[std::size_t(i)], 3 * i).setIdentity();
+    Mat H, G;
+    if (nI > 0) {
+      // K_I* Phi restricted: -K_II^{-1} (K_I,(c,b) Phi_c) and -K_II^{-1} K_ID.
+      Mat KI = rows(In, K, 3 * n);  // 3nI x 3n
+      Mat KII(3 * nI, 3 * nI);
+      for (int j = 0; j < nI; ++j) KII.middleCols(3 * j, 3) = KI.middleCols(3 * In[std::size_t(j)], 3);
+      const Eigen::LDLT<Mat> ldlt(KII);
+      if (ldlt.info() != Eigen::Success) throw Error("coarsening: singular interior stiffness in coarse element " + std::to_string(e));
+      H = -ldlt.solve(KI * Phic);
+      G = -ldlt.solve(KI * PhiD);
+      for (int i = 0; i < nI; ++i) {
+        Phic.middleRows(3 * In[std::size_t(i)], 3) = H.middleRows(3 * i, 3);
+        PhiD.middleRows(3 * In[std::size_t(i)], 3) = G.middleRows(3 * i, 3);
+      }
+    }
+    const Mat KPhic = K * Phic;
+    Element& el = elements_[e];
+    el.Kh = Phic.transpose() * KPhic;
+    el.Kh = 0.5 * (el.Kh + el.Kh.transpose()).eval();
+    // Handle blocks, per handle among the D nodes.
+    if (nD > 0) {
+      const Mat Khd = KPhic.transpose() * PhiD;  // 12 x 3nD
+      for (int i = 0; i < nD; ++i) {
+        const int f = nodes[std::size_t(Dn[std::size_t(i)])];
+        const int h = handleOf[std::size_t(f)];
+        auto it = std::find_if(el.handles.begin(), el.handles.end(), [&](const HandleBlock& b) { return b.handle == h; });
+        if (it == el.handles.end()) {
+          el.handles.push_back({h, Eigen::Matrix<double, 12, 9>::Zero(), Eigen::Matrix<double, 12, 3>::Zero()});
+          it = el.handles.end() - 1;
+        }
+        const Eigen::Matrix<double, 12, 3> blk = Khd.middleCols(3 * i, 3);
+        const Eigen::Vector3d& X = F.nodes[std::size_t(f)];
+        for (int c = 0; c < 3; ++c) it->A.middleCols(3 * c, 3) += X[c] * blk;
+        it->B += blk;
+      }
+    }
+    // Reconstruction data.
+    for (int i = 0; i < nI; ++i) {
+      InteriorNode in;
+      in.fine = nodes[std::size_t(In[std::size_t(i)])];
+      in.element = int(e);
+      in.H = H.middleRows(3 * i, 3);
+      for (int d = 0; d < nD; ++d) {
+        const int f = nodes[std::size_t(Dn[std::size_t(d)])];
+        const int h = handleOf[std::size_t(f)];
+        auto it = std::find_if(in.g.begin(), in.g.end(), [&](const InteriorNode::G& g) { return g.handle == h; });
+        if (it == in.g.end()) {
+          in.g.push_back({h, Eigen::Matrix<double, 3, 9>::Zero(), Eigen::Matrix3d::Zero()});
+          it = in.g.end() - 1;
+        }
+        const Eigen::Matrix3d blk = G.block<3, 3>(3 * i, 3 * d);
+        const Eigen::Vector3d& X = F.nodes[std::size_t(f)];
+        for (int c = 0; c < 3; ++c) it->A.middleCols(3 * c, 3) += X[c] * blk;
+        it->B += blk;
+      }
+      interior_.push_back(std::move(in));
+    }
+    for (int i = 0; i < nB; ++i) {
+      const int f = nodes[std::size_t(Bn[std::size_t(i)])];
+      if (boundaryDone[std::size_t(f)]) continue;
+      boundaryDone[std::size_t(f)] = 1;
+      boundary_.push_back({f, int(e), Bbary[std::size_t(i)]});
+    }
+  }
+  // Coarse Dirichlet roles and the free dofs' system.
+  coarseRole_.assign(C.nodes.size(), -1);
+  dof_.assign(C.nodes.size(), -1);
+  for (std::size_t v = 0; v < C.nodes.size(); ++v) {
+    const int f = meshes.coarseNodeInFine[v];
+    if (constraints_.fixed[std::size_t(f)]) coarseRole_[v] = -2;
+    else if (handleOf[std::size_t(f)] >= 0) coarseRole_[v] = handleOf[std::size_t(f)];
+    else dof_[v] = (dofCount_ += 3) - 3;
+  }
+  if (dofCount_ > 0) assembler_ = std::make_unique<BlockAssembler>(C.tets, dof_, dofCount_);
+  reportProgress(progress, 1.0, "coarsening");
+}
+
+Eigen::Matrix3d CoarseModel::elementRotation(int e, const std::vector<Eigen::Vector3d>& x) const {
+  const TetMesh& C = meshes_.coarse;
+  return polarRotation(deformationGradient(cornersOf(C, e, C.nodes), cornersOf(C, e, x)));
+}
+
+Eigen::Matrix<double, 12, 1> CoarseModel::handleTerm(const Element& el, const Eigen::Matrix3d& Rc, const std::vector<RigidTransform>& handles) const {
+  Eigen::Matrix<double, 12, 1> h = Eigen::Matrix<double, 12, 1>::Zero();
+  for (const auto& b : el.handles) {
+    const RigidTransform& T = handles[std::size_t(b.handle)];
+    h += b.A * unroll(Rc.transpose() * T.R - Eigen::Matrix3d::Identity()) + b.B * (Rc.transpose() * T.t);
+  }
+  return h;
+}
+
+CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tolerance) {
+  const TetMesh& C = meshes_.coarse;
+  if (int(handles.size()) < constraints_.handleCount) throw Error("coarse solve: a transform per handle expected");
+  if (x.size() != C.nodes.size()) x = C.nodes;
+  for (const auto& T : handles)
+    if (!T.R.allFinite() || !T.t.allFinite()) throw Error("coarse solve: a handle transform is not finite");
+  // Dirichlet coarse nodes take their positions; the motion scale sets the tolerance.
+  double motion = 0.0;
+  for (std::size_t v = 0; v < C.nodes.size(); ++v) {
+    if (coarseRole_[v] == -2) x[v] = C.nodes[v];
+    else if (coarseRole_[v] >= 0) x[v] = handles[std::size_t(coarseRole_[v])].apply(C.nodes[v]);
+  }
+  for (std::size_t k = 0; k < handles.size(); ++k) {
+    // A handle's largest displacement is at the farthest point from its rotation's fixed point;
+    // the coarse nodes around bound it well enough for a tolerance.
+    for (std::size_t v = 0; v < C.nodes.size(); ++v) motion = std::max(motion, (handles[k].apply(C.nodes[v]) - C.nodes[v]).norm() * (coarseRole_[v] == int(k) ? 1.0 : 0.0));
+    motion = std::max(motion, handles[k].t.norm());
+  }
+  CoarseSolveStats st;
+  if (dofCount_ == 0) {
+    st.converged = true;
+    return st;
+  }
+  const double tol = tolerance * std::max(motion, 1e-9);
+  Eigen::VectorXd rhs(dofCount_);
+  for (int it = 0; it < maxIterations; ++it) {
+    assembler_->zero();
+    rhs.setZero();
+    for (std::size_t e = 0; e < C.tets.size(); ++e) {
+      const Element& el = elements_[e];
+      const Eigen::Matrix3d Rc = elementRotation(int(e), x);
+      const Mat12 B = blockRotation(Rc);
+      const Mat12 Ae = B * el.Kh * B.transpose();
+      const auto Xc = cornersOf(C, int(e), C.nodes);
+      Vec12 be = B * (el.Kh * stack(Xc));
+      if (!el.handles.empty()) be -= B * handleTerm(el, Rc, handles);
+      assembler_->add(int(e), Ae);
+      // Dirichlet corners move to the right-hand side.
+      for (int a = 0; a < 4; ++a) {
+        const int da = dof_[std::size_t(C.tets[e][std::size_t(a)])];
+        if (da < 0) continue;
+        Eigen::Vector3d r = be.segment<3>(3 * a);
+        for (int b = 0; b < 4; ++b) {
+          const int v = C.tets[e][std::size_t(b)];
+          if (dof_[std::size_t(v)] < 0) r -= Ae.block<3, 3>(3 * a, 3 * b) * x[std::size_t(v)];
+        }
+        rhs.segment<3>(da) += r;
+      }
+    }
+    if (!analyzed_) {
+      solver_.analyzePattern(assembler_->matrix());
+      analyzed_ = true;
+    }
+    solver_.factorize(assembler_->matrix());
+    if (solver_.info() != Eigen::Success) throw Error("coarse solve: the coarse stiffness is not positive definite");
+    const Eigen::VectorXd sol = solver_.solve(rhs);
+    double update = 0.0;
+    for (std::size_t v = 0; v < C.nodes.size(); ++v)
+      if (dof_[v] >= 0) {
+        const Eigen::Vector3d nx = sol.segment<3>(dof_[v]);
+        update = std::max(update, (nx - x[v]).norm());
+        x[v] = nx;
+      }
+    if (!std::isfinite(update)) throw Error("coarse solve: diverged (non-finite positions)");
+    st.iterations = it + 1;
+    st.lastUpdate = update;
+    if (update <= tol) {
+      st.converged = true;
+      break;
+    }
+  }
+  return st;
+}
+
+std::vector<Eigen::Vector3d> CoarseModel::reconstruct(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const {
+  const TetMesh& C = meshes_.coarse;
+  const TetMesh& F = meshes_.fine;
+  std::vector<Eigen::Vector3d> out = F.nodes;
+  for (std::size_t f = 0; f < F.nodes.size(); ++f) {
+    const int h = constraints_.handleOf[f];
+    if (h >= 0) out[f] = handles[std::size_t(h)].apply(F.nodes[f]);
+  }
+  for (std::size_t v = 0; v < C.nodes.size(); ++v) out[std::size_t(meshes_.coarseNodeInFine[v])] = x[v];
+  for (const auto& b : boundary_) {
+    const auto& t = C.tets[std::size_t(b.element)];
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    for (int c = 0; c < 4; ++c) p += b.N[c] * x[std::size_t(t[std::size_t(c)])];
+    out[std::size_t(b.fine)] = p;
+  }
+  std::vector<Eigen::Matrix3d> R(C.tets.size());
+  std::vector<char> haveR(C.tets.size(), 0);
+  for (const auto& in : interior_) {
+    if (!haveR[std::size_t(in.element)]) {
+      R[std::size_t(in.element)] = elementRotation(in.element, x);
+      haveR[std::size_t(in.element)] = 1;
+    }
+    const Eigen::Matrix3d& Rc = R[std::size_t(in.element)];
+    const auto& t = C.tets[std::size_t(in.element)];
+    Vec12 local;
+    for (int c = 0; c < 4; ++c) local.segment<3>(3 * c) = Rc.transpose() * x[std::size_t(t[std::size_t(c)])] - C.nodes[std::size_t(t[std::size_t(c)])];
+    Eigen::Vector3d p = F.nodes[std::size_t(in.fine)] + in.H * local;
+    for (const auto& g : in.g) {
+      const RigidTransform& T = handles[std::size_t(g.handle)];
+      p += g.A * unroll(Rc.transpose() * T.R - Eigen::Matrix3d::Identity()) + g.B * (Rc.transpose() * T.t);
+    }
+    out[std::size_t(in.fine)] = Rc * p;
+  }
+  return out;
+}
+
+std::vector<Eigen::Vector3d> prescribedPositions(const TetMesh& fine, const FineConstraints& c, const std::vector<RigidTransform>& handles, std::vector<char>* dirichlet) {
+  std::vector<Eigen::Vector3d> x = fine.nodes;
+  if (dirichlet) dirichlet->assign(fine.nodes.size(), 0);
+  for (std::size_t i = 0; i < fine.nodes.size(); ++i) {
+    if (c.fixed[i]) {
+      if (dirichlet) (*dirichlet)[i] = 1;
+    } else if (c.handleOf[i] >= 0) {
+      x[i] = handles[std::size_t(c.handleOf[i])].apply(fine.nodes[i]);
+      if (dirichlet) (*dirichlet)[i] = 1;
+    }
+  }
+  return x;
+}
+
+std::vector<Eigen::Vector3d> plainCoarseSolve(const NestedMeshes& meshes, const std::vector<double>& fineYoungs, const std::vector<double>& finePoisson,
+                                              const FineConstraints& cons, const std::vector<RigidTransform>& handles) {
+  const TetMesh& C = meshes.coarse;
+  const TetMesh& F = meshes.fine;
+  std::vector<double> E(C.tets.size(), 0.0), nu(C.tets.size(), 0.0), vol(C.tets.size(), 0.0);
+  for (std::size_t t = 0; t < F.tets.size(); ++t) {
+    const double v = std::abs(F.signedVolume(int(t)));
+    const auto p = std::size_t(meshes.fineParent[t]);
+    E[p] += v * fineYoungs[t];
+    nu[p] += v * finePoisson[t];
+    vol[p] += v;
+  }
+  for (std::size_t e = 0; e < E.size(); ++e) {
+    E[e] /= vol[e];
+    nu[e] /= vol[e];
+  }
+  FineConstraints cc;
+  cc.handleOf.assign(C.nodes.size(), -1);
+  cc.fixed.assign(C.nodes.size(), 0);
+  cc.handleCount = cons.handleCount;
+  for (std::size_t v = 0; v < C.nodes.size(); ++v) {
+    const auto f = std::size_t(meshes.coarseNodeInFine[v]);
+    cc.fixed[v] = cons.fixed[f];
+    cc.handleOf[v] = cons.fixed[f] ? -1 : cons.handleOf[f];
+  }
+  std::vector<char> dir;
+  const auto x0 = prescribedPositions(C, cc, handles, &dir);
+  const auto res = solveStatic(C, tetStiffnesses(C, E, nu), dir, x0);
+  std::vector<Eigen::Vector3d> out(F.nodes.size());
+  for (std::size_t f = 0; f < F.nodes.size(); ++f) {
+    Eigen::Vector4d lam;
+    const int t = meshes.coarseGrid.locate(F.nodes[f], &lam);
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    for (int c = 0; c < 4; ++c) p += lam[c] * res.x[std::size_t(C.tets[std::size_t(t)][std::size_t(c)])];
+    out[f] = p;
+  }
+  return out;
+}
+
+}  // namespace handson

@@ -1,0 +1,113 @@
+#pragma once
+// Corotational coarsening (../shared/spec/methods.md section 5, coarse model [team formulation]).
+//
+// Per coarse element e, its fine nodes split into the 4 corners c, handle nodes D (not corners),
+// boundary nodes b (on e's faces and edges: u_b = N_b u_c) and interior nodes I, condensed:
+// u_I = H u_c + G u_D. The coarse element keeps K_h = Phi_c^T K Phi_c and K_hd = Phi_c^T K Phi_D,
+// and for each handle k touching it the 12x9 block A_k = K_hd^k Reshape(X_D^k) and the 12x3 block
+// B_k = ColumnAdd(K_hd^k), so a frame costs the same whatever the handle's fine node count:
+//   f_c = -R_c [K_h (R_c^T x_c - X_c) + sum_k (A_k vec(R_c^T R_k - I) + B_k R_c^T t_k)].
+// Interior fine nodes are rebuilt from per-node data (H_f and, per handle, G_f's 3x9 and 3x3 blocks).
+#include <Eigen/Core>
+#include <memory>
+#include <vector>
+
+#include "sim/fem.h"
+#include "sim/progress.h"
+#include "sim/sparse_direct.h"
+#include "sim/static_solver.h"
+#include "sim/tet_mesh.h"
+
+namespace handson {
+
+/// x = R X + t, world millimetres.
+struct RigidTransform {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  Eigen::Vector3d apply(const Eigen::Vector3d& X) const { return R * X + t; }
+  /// Rotation by a rotation vector (radians, axis * angle) about `pivot`, then a translation.
+  static RigidTransform about(const Eigen::Vector3d& pivot, const Eigen::Vector3d& rotationVector, const Eigen::Vector3d& translation);
+};
+
+/// Dirichlet roles of the fine nodes.
+struct FineConstraints {
+  std::vector<int> handleOf;  ///< per fine node: handle index (0-based) or -1
+  std::vector<char> fixed;    ///< per fine node: held at rest (the region's outer boundary)
+  int handleCount = 0;
+};
+
+struct CoarseSolveStats {
+  int iterations = 0;
+  double lastUpdate = 0.0;  ///< largest coarse node update of the last iteration (mm)
+  bool converged = false;
+};
+
+class CoarseModel {
+ public:
+  /// Precomputes the condensed elements. `fineK`: rest stiffness per fine tet.
+  CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& fineK, const FineConstraints& constraints, const ProgressFn& progress = {});
+
+  /// Coarse node positions at rest.
+  std::vector<Eigen::Vector3d> restState() const { return meshes_.coarse.nodes; }
+  /// Quasi-static corotational iterations from `x` (warm start), at most `maxIterations`, stopping
+  /// when the largest update is below tolerance x the largest handle displacement.
+  CoarseSolveStats solve(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tolerance = 1e-6);
+  /// Fine node positions from a coarse state (the nonlinear shape functions).
+  std::vector<Eigen::Vector3d> reconstruct(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const;
+
+  const NestedMeshes& meshes() const { return meshes_; }
+  /// Coarse nodes held by Dirichlet conditions: -2 fixed at rest, k >= 0 moved by handle k, -1 free.
+  const std::vector<int>& coarseRole() const { return coarseRole_; }
+  std::size_t freeCoarseDofs() const { return std::size_t(dofCount_); }
+
+ private:
+  struct HandleBlock {
+    int handle;
+    Eigen::Matrix<double, 12, 9> A;
+    Eigen::Matrix<double, 12, 3> B;
+  };
+  struct Element {
+    Mat12 Kh;
+    std::vector<HandleBlock> handles;
+  };
+  struct InteriorNode {
+    int fine, element;
+    Eigen::Matrix<double, 3, 12> H;
+    struct G {
+      int handle;
+      Eigen::Matrix<double, 3, 9> A;
+      Eigen::Matrix<double, 3, 3> B;
+    };
+    std::vector<G> g;
+  };
+  struct BoundaryNode {
+    int fine, element;
+    Eigen::Vector4d N;
+  };
+  Eigen::Matrix3d elementRotation(int e, const std::vector<Eigen::Vector3d>& x) const;
+  Eigen::Matrix<double, 12, 1> handleTerm(const Element& el, const Eigen::Matrix3d& Rc, const std::vector<RigidTransform>& handles) const;
+
+  const NestedMeshes& meshes_;
+  FineConstraints constraints_;
+  std::vector<Element> elements_;
+  std::vector<InteriorNode> interior_;
+  std::vector<BoundaryNode> boundary_;
+  std::vector<int> coarseRole_, dof_;
+  int dofCount_ = 0;
+  std::unique_ptr<BlockAssembler> assembler_;
+  DirectSolver solver_;
+  bool analyzed_ = false;
+};
+
+/// Plain coarse FEM for comparison: coarse tets with the volume-averaged Young's modulus and Poisson
+/// ratio of their fine tets, Dirichlet at coarse nodes only (handle nodes and the outer boundary),
+/// fine nodes interpolated linearly. Returns the fine node positions.
+std::vector<Eigen::Vector3d> plainCoarseSolve(const NestedMeshes& meshes, const std::vector<double>& fineYoungs, const std::vector<double>& finePoisson,
+                                              const FineConstraints& constraints, const std::vector<RigidTransform>& handles);
+
+/// Fine-mesh Dirichlet positions: handle nodes moved by their transform, fixed nodes at rest, the
+/// rest free (at rest) - the start of the fine static solve.
+std::vector<Eigen::Vector3d> prescribedPositions(const TetMesh& fine, const FineConstraints& c, const std::vector<RigidTransform>& handles,
+                                                 std::vector<char>* dirichlet = nullptr);
+
+}  // namespace handson

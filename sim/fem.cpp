@@ -1,0 +1,79 @@
+#include "fem.h"
+
+#include <Eigen/Dense>
+#include <Eigen/SVD>
+#include <cmath>
+
+namespace handson {
+
+Vec12 stack(const std::array<Eigen::Vector3d, 4>& p) {
+  Vec12 v;
+  for (int i = 0; i < 4; ++i) v.segment<3>(3 * i) = p[std::size_t(i)];
+  return v;
+}
+
+Mat12 tetStiffness(const std::array<Eigen::Vector3d, 4>& X, double E, double nu) {
+  Eigen::Matrix3d Dm;
+  Dm << X[1] - X[0], X[2] - X[0], X[3] - X[0];
+  const double det = Dm.determinant();
+  const double V = std::abs(det) / 6.0;
+  const double scale = (X[1] - X[0]).norm() + (X[2] - X[0]).norm() + (X[3] - X[0]).norm();
+  if (!(V > 1e-12 * scale * scale * scale) || !std::isfinite(E) || !std::isfinite(nu)) return Mat12::Zero();
+  const Eigen::Matrix3d Dinv = Dm.inverse();
+  // Shape function gradients: rows of Dinv give grad N1..N3; grad N0 = -(sum).
+  std::array<Eigen::Vector3d, 4> g;
+  for (int i = 0; i < 3; ++i) g[std::size_t(i + 1)] = Dinv.row(i).transpose();
+  g[0] = -(g[1] + g[2] + g[3]);
+  Eigen::Matrix<double, 6, 12> B = Eigen::Matrix<double, 6, 12>::Zero();
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector3d& d = g[std::size_t(i)];
+    B(0, 3 * i) = d.x();
+    B(1, 3 * i + 1) = d.y();
+    B(2, 3 * i + 2) = d.z();
+    B(3, 3 * i) = d.y(), B(3, 3 * i + 1) = d.x();      // gamma_xy
+    B(4, 3 * i + 1) = d.z(), B(4, 3 * i + 2) = d.y();  // gamma_yz
+    B(5, 3 * i) = d.z(), B(5, 3 * i + 2) = d.x();      // gamma_xz
+  }
+  const double lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
+  const double mu = E / (2 * (1 + nu));
+  Eigen::Matrix<double, 6, 6> C = Eigen::Matrix<double, 6, 6>::Zero();
+  C.topLeftCorner<3, 3>().setConstant(lambda);
+  C.topLeftCorner<3, 3>().diagonal().array() += 2 * mu;
+  C.bottomRightCorner<3, 3>().diagonal().setConstant(mu);
+  return V * B.transpose() * C * B;
+}
+
+Eigen::Matrix3d deformationGradient(const std::array<Eigen::Vector3d, 4>& X, const std::array<Eigen::Vector3d, 4>& x) {
+  Eigen::Matrix3d Dm, Ds;
+  Dm << X[1] - X[0], X[2] - X[0], X[3] - X[0];
+  Ds << x[1] - x[0], x[2] - x[0], x[3] - x[0];
+  return Ds * Dm.inverse();
+}
+
+Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& F) {
+  if (!F.allFinite()) return Eigen::Matrix3d::Identity();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d U = svd.matrixU();
+  const Eigen::Matrix3d V = svd.matrixV();
+  if ((U * V.transpose()).determinant() < 0) U.col(2) = -U.col(2);  // singular values are sorted: col 2 is the smallest
+  return U * V.transpose();
+}
+
+Mat12 blockRotation(const Eigen::Matrix3d& R) {
+  Mat12 B = Mat12::Zero();
+  for (int i = 0; i < 4; ++i) B.block<3, 3>(3 * i, 3 * i) = R;
+  return B;
+}
+
+Vec12 corotationalForce(const Mat12& K, const std::array<Eigen::Vector3d, 4>& X, const std::array<Eigen::Vector3d, 4>& x, double* energy) {
+  const Eigen::Matrix3d R = polarRotation(deformationGradient(X, x));
+  Vec12 local;
+  for (int i = 0; i < 4; ++i) local.segment<3>(3 * i) = R.transpose() * x[std::size_t(i)] - X[std::size_t(i)];
+  const Vec12 kl = K * local;
+  if (energy) *energy = 0.5 * local.dot(kl);
+  Vec12 f;
+  for (int i = 0; i < 4; ++i) f.segment<3>(3 * i) = -R * kl.segment<3>(3 * i);
+  return f;
+}
+
+}  // namespace handson

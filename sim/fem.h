@@ -1,0 +1,37 @@
+#pragma once
+// Linear corotational FEM on tetrahedra (../shared/spec/methods.md section 5, fine model):
+// per tet, F = D_s D_m^-1, R = polar(F) (inversion-safe), f_e = -R K_e (R^T x_e - X_e),
+// K_e = V B^T C(E, nu) B. For an isotropic C this force is exactly minus the gradient of
+// E_e = 1/2 (R^T x_e - X_e)^T K_e (R^T x_e - X_e) (the rotation's variation drops out), which the
+// tests check by finite differences; R K_e R^T ("warped stiffness") is its Jacobian in any rigidly
+// moved rest configuration.
+#include <Eigen/Core>
+#include <array>
+
+namespace handson {
+
+using Mat12 = Eigen::Matrix<double, 12, 12>;
+using Vec12 = Eigen::Matrix<double, 12, 1>;
+
+/// Isotropic linear elastic stiffness of a tet with rest corners X (12x12, corner-major xyz).
+/// E in Pa (any consistent unit), nu in [0, 0.5). Degenerate tets give a zero matrix.
+Mat12 tetStiffness(const std::array<Eigen::Vector3d, 4>& X, double youngs, double poisson);
+
+/// The rotation of polar(F) for any F, inverted (det F < 0) and degenerate ones included: from the
+/// SVD F = U S V^T with the sign of the smallest singular direction flipped when det(U V^T) < 0,
+/// so the result is always a proper rotation (det +1) and the element pushes back out of inversion.
+Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& F);
+
+/// Deformation gradient of a tet: rest corners X, current corners x.
+Eigen::Matrix3d deformationGradient(const std::array<Eigen::Vector3d, 4>& X, const std::array<Eigen::Vector3d, 4>& x);
+
+/// Block-diagonal rotation diag(R, R, R, R).
+Mat12 blockRotation(const Eigen::Matrix3d& R);
+
+/// Corotational elastic force on the 4 corners (12 vector) and energy.
+Vec12 corotationalForce(const Mat12& K, const std::array<Eigen::Vector3d, 4>& X, const std::array<Eigen::Vector3d, 4>& x, double* energy = nullptr);
+
+/// Stacks 4 points into a 12 vector.
+Vec12 stack(const std::array<Eigen::Vector3d, 4>& p);
+
+}  // namespace handson

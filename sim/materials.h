@@ -1,0 +1,58 @@
+#pragma once
+// Materials from image values (../shared/spec/methods.md section 7): an editable table of value
+// bands, each a tissue class with a Young's modulus and a Poisson ratio. CT tables are in
+// Hounsfield units; tables for uncalibrated images (MRI) give their bands as percentiles of the
+// image's values and are resolved against the image before use.
+//
+// Text format (CSV, '#' comments): a line "units,hu" or "units,percentile", a header line
+// "name,lower,upper,youngs_kpa,poisson", then one band per line with half-open bounds
+// [lower, upper) ("-inf"/"inf" allowed). Bands must be sorted and must not overlap; a value in a
+// gap or outside every band takes the nearest band.
+#include <string>
+#include <vector>
+
+#include "sim/volume.h"
+
+namespace handson {
+
+/// Linear tetrahedra lock as nu -> 0.5; Poisson ratios above this are capped (and reported).
+constexpr double kMaxPoisson = 0.45;
+
+struct MaterialBand {
+  std::string name;
+  double lower = 0.0, upper = 0.0;  ///< image units (or percentiles before resolve())
+  double youngs = 0.0;              ///< Pa
+  double poisson = 0.0;
+};
+
+enum class MaterialUnits : std::uint8_t { Hounsfield, Percentile };
+
+class MaterialTable {
+ public:
+  /// The CT defaults (the same as assets/materials/ct-default.csv).
+  static MaterialTable ctDefault();
+  /// Parses the text format. Throws handson::Error naming `source` and the line on bad input.
+  static MaterialTable parse(const std::string& text, const std::string& source = "material table");
+  static MaterialTable load(const std::string& path);
+
+  MaterialUnits units() const { return units_; }
+  const std::vector<MaterialBand>& bands() const { return bands_; }
+  /// Names of bands whose Poisson ratio was capped at kMaxPoisson when parsed.
+  const std::vector<std::string>& capped() const { return capped_; }
+
+  /// A percentile table turned into image units using the values of `image` above its background
+  /// (voxels above the 2nd percentile of all values); a Hounsfield table is returned unchanged.
+  MaterialTable resolve(const Volume& image) const;
+  /// Index of the band of an image value (the nearest band outside all of them). Throws
+  /// handson::Error for a percentile table that was not resolved.
+  int classify(double value) const;
+  const MaterialBand& band(int i) const { return bands_[std::size_t(i)]; }
+
+ private:
+  MaterialUnits units_ = MaterialUnits::Hounsfield;
+  bool resolved_ = true;
+  std::vector<MaterialBand> bands_;
+  std::vector<std::string> capped_;
+};
+
+}  // namespace handson

@@ -1,0 +1,165 @@
+#include "static_solver.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+#include "sim/error.h"
+
+namespace handson {
+
+namespace {
+std::array<Eigen::Vector3d, 4> corners(const TetMesh& m, int t, const std::vector<Eigen::Vector3d>& x) {
+  const auto& v = m.tets[std::size_t(t)];
+  return {x[std::size_t(v[0])], x[std::size_t(v[1])], x[std::size_t(v[2])], x[std::size_t(v[3])]};
+}
+}  // namespace
+
+BlockAssembler::BlockAssembler(const std::vector<std::array<int, 4>>& tets, const std::vector<int>& dof, int dofCount)
+    : tets_(tets), dof_(dof) {
+  std::vector<Eigen::Triplet<double, int>> trip;
+  trip.reserve(tets.size() * 78);
+  for (const auto& t : tets)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) {
+        const int ra = dof[std::size_t(t[std::size_t(a)])], cb = dof[std::size_t(t[std::size_t(b)])];
+        if (ra < 0 || cb < 0 || ra < cb) continue;
+        for (int c = 0; c < 3; ++c)
+          for (int r = 0; r < 3; ++r)
+            if (ra + r >= cb + c) trip.emplace_back(ra + r, cb + c, 0.0);
+      }
+  A_.resize(dofCount, dofCount);
+  A_.setFromTriplets(trip.begin(), trip.end());
+  A_.makeCompressed();
+  // Value index of (row, col), found once per element block column.
+  auto find = [&](int row, int col) {
+    const int* inner = A_.innerIndexPtr();
+    const int* b = inner + A_.outerIndexPtr()[col];
+    const int* e = inner + A_.outerIndexPtr()[col + 1];
+    const int* p = std::lower_bound(b, e, row);
+    return int(p - inner);
+  };
+  slot_.assign(tets.size() * 48, -1);
+  for (std::size_t ti = 0; ti < tets.size(); ++ti)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) {
+        const int ra = dof[std::size_t(tets[ti][std::size_t(a)])], cb = dof[std::size_t(tets[ti][std::size_t(b)])];
+        if (ra < 0 || cb < 0 || ra < cb) continue;
+        for (int c = 0; c < 3; ++c) slot_[ti * 48 + std::size_t(a * 4 + b) * 3 + std::size_t(c)] = find(std::max(ra, cb + c), cb + c);
+      }
+}
+
+void BlockAssembler::zero() { std::fill(A_.valuePtr(), A_.valuePtr() + A_.nonZeros(), 0.0); }
+
+void BlockAssembler::add(int t, const Mat12& Ke) {
+  double* val = A_.valuePtr();
+  const auto& tet = tets_[std::size_t(t)];
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 4; ++b) {
+      const int ra = dof_[std::size_t(tet[std::size_t(a)])], cb = dof_[std::size_t(tet[std::size_t(b)])];
+      if (ra < 0 || cb < 0 || ra < cb) continue;
+      for (int c = 0; c < 3; ++c) {
+        int s = slot_[std::size_t(t) * 48 + std::size_t(a * 4 + b) * 3 + std::size_t(c)];
+        // Rows ra..ra+2 of column cb+c are consecutive in the pattern (those below the diagonal).
+        for (int r = 0; r < 3; ++r)
+          if (ra + r >= cb + c) val[s++] += Ke(3 * a + r, 3 * b + c);
+      }
+    }
+}
+
+std::vector<Mat12> tetStiffnesses(const TetMesh& mesh, const std::vector<double>& youngs, const std::vector<double>& poisson) {
+  if (youngs.size() != mesh.tets.size() || poisson.size() != mesh.tets.size()) throw Error("stiffness: one material per tet expected");
+  std::vector<Mat12> K(mesh.tets.size());
+  for (std::size_t t = 0; t < K.size(); ++t) K[t] = tetStiffness(corners(mesh, int(t), mesh.nodes), youngs[t], poisson[t]);
+  return K;
+}
+
+std::vector<Eigen::Vector3d> internalForces(const TetMesh& mesh, const std::vector<Mat12>& K, const std::vector<Eigen::Vector3d>& x) {
+  std::vector<Eigen::Vector3d> f(mesh.nodes.size(), Eigen::Vector3d::Zero());
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    const Vec12 fe = corotationalForce(K[t], corners(mesh, int(t), mesh.nodes), corners(mesh, int(t), x));
+    for (int i = 0; i < 4; ++i) f[std::size_t(mesh.tets[t][std::size_t(i)])] += fe.segment<3>(3 * i);
+  }
+  return f;
+}
+
+StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, const std::vector<char>& fixed,
+                              const std::vector<Eigen::Vector3d>& x0, const StaticSolveOptions& opt) {
+  const std::size_t n = mesh.nodes.size();
+  if (K.size() != mesh.tets.size() || fixed.size() != n || x0.size() != n) throw Error("static solve: inconsistent sizes");
+  std::vector<int> dof(n, -1);
+  int dofs = 0;
+  double motion = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!x0[i].allFinite()) throw Error("static solve: a prescribed or initial position is not finite");
+    if (fixed[i]) motion = std::max(motion, (x0[i] - mesh.nodes[i]).norm());
+    else dof[i] = (dofs += 3) - 3;
+  }
+  if (std::none_of(fixed.begin(), fixed.end(), [](char c) { return c != 0; })) throw Error("static solve: no Dirichlet nodes, the system is singular");
+  StaticSolveResult res;
+  res.x = x0;
+  if (dofs == 0) {
+    res.converged = true;
+    return res;
+  }
+  const double tol = opt.tolerance * std::max(motion, 1e-9);
+  BlockAssembler asmb(mesh.tets, dof, dofs);
+  DirectSolver solver;
+  bool analyzed = false;
+  std::vector<Eigen::Matrix3d> R(mesh.tets.size());
+  double prevUpdate = std::numeric_limits<double>::infinity();
+  bool refactor = true;
+  Eigen::VectorXd rhs(dofs);
+  for (int it = 0; it < opt.maxIterations; ++it) {
+    // Forces (and, when refactorizing, the warped stiffness) at the current positions.
+    rhs.setZero();
+    if (refactor) asmb.zero();
+    for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+      const auto X = corners(mesh, int(t), mesh.nodes), x = corners(mesh, int(t), res.x);
+      const Eigen::Matrix3d Rt = polarRotation(deformationGradient(X, x));
+      Vec12 local;
+      for (int i = 0; i < 4; ++i) local.segment<3>(3 * i) = Rt.transpose() * x[std::size_t(i)] - X[std::size_t(i)];
+      const Vec12 kl = K[t] * local;
+      for (int i = 0; i < 4; ++i) {
+        const int d = dof[std::size_t(mesh.tets[t][std::size_t(i)])];
+        if (d >= 0) rhs.segment<3>(d) -= Rt * kl.segment<3>(3 * i);
+      }
+      if (refactor) {
+        const Mat12 B = blockRotation(Rt);
+        asmb.add(int(t), B * K[t] * B.transpose());
+      }
+    }
+    if (refactor) {
+      if (!analyzed) {
+        solver.analyzePattern(asmb.matrix());
+        analyzed = true;
+      }
+      solver.factorize(asmb.matrix());
+      if (solver.info() != Eigen::Success) throw Error("static solve: the stiffness matrix is not positive definite (a free part of the mesh with no Dirichlet node, or degenerate elements)");
+      ++res.factorizations;
+    }
+    const Eigen::VectorXd dx = solver.solve(rhs);
+    double update = 0.0;
+    for (std::size_t i = 0; i < n; ++i)
+      if (dof[i] >= 0) {
+        res.x[i] += dx.segment<3>(dof[i]);
+        update = std::max(update, dx.segment<3>(dof[i]).norm());
+      }
+    if (!std::isfinite(update)) throw Error("static solve: diverged (non-finite update)");
+    res.iterations = it + 1;
+    res.lastUpdate = update;
+    reportProgress(opt.progress, std::min(1.0, double(it + 1) / 20.0), "fine static solve");
+    if (update <= tol) {
+      res.converged = true;
+      break;
+    }
+    // Keep the factorization while the updates shrink by more than 4x per iteration.
+    refactor = it < 2 || update > 0.25 * prevUpdate;
+    prevUpdate = update;
+  }
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t)
+    if (deformationGradient(corners(mesh, int(t), mesh.nodes), corners(mesh, int(t), res.x)).determinant() <= 0) ++res.invertedTets;
+  return res;
+}
+
+}  // namespace handson

@@ -1,0 +1,62 @@
+#pragma once
+// Assembly and the static solve of the fine corotational model (the accuracy reference).
+#include <Eigen/Core>
+#include <memory>
+#include <vector>
+
+#include "sim/fem.h"
+#include "sim/progress.h"
+#include "sim/sparse_direct.h"
+#include "sim/tet_mesh.h"
+
+namespace handson {
+
+/// A sparse symmetric matrix over the free degrees of freedom of a tet mesh, assembled from 12x12
+/// element blocks into a fixed pattern (lower triangle, what the Cholesky reads): built once,
+/// refilled every iteration without re-sorting.
+class BlockAssembler {
+ public:
+  /// `dof[n]`: first free dof of node n (3 consecutive), or -1 for a Dirichlet node.
+  BlockAssembler(const std::vector<std::array<int, 4>>& tets, const std::vector<int>& dof, int dofCount);
+  void zero();
+  /// Adds element block Ke (12x12, corner-major) of tet t.
+  void add(int t, const Mat12& Ke);
+  SparseMatrix& matrix() { return A_; }
+
+ private:
+  SparseMatrix A_;
+  const std::vector<std::array<int, 4>>& tets_;
+  std::vector<int> dof_;
+  std::vector<int> slot_;  // per tet, per (a,b) node pair with dof(a) >= dof(b), per column c: value index of row 0
+};
+
+struct StaticSolveOptions {
+  /// Converged when the largest node update of an iteration is below tolerance x the largest
+  /// prescribed displacement (1e-6: a millionth of the handle's motion).
+  double tolerance = 1e-6;
+  int maxIterations = 200;
+  ProgressFn progress;
+};
+
+struct StaticSolveResult {
+  std::vector<Eigen::Vector3d> x;  ///< deformed node positions
+  int iterations = 0, factorizations = 0;
+  double lastUpdate = 0.0;         ///< largest node update of the last iteration (mm)
+  bool converged = false;
+  int invertedTets = 0;            ///< tets with det F <= 0 at the end
+};
+
+/// Static equilibrium of the corotational model: internal forces vanish at the free nodes; nodes with
+/// fixed[n] != 0 are held at x0[n]. Warped-stiffness iterations: K(R) dx = f(x), x += dx, with K(R) =
+/// sum R K_e R^T refactorized while it changes (every iteration early on, then reused while the
+/// updates shrink fast). Throws handson::Error if the system is singular (no Dirichlet nodes).
+StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, const std::vector<char>& fixed,
+                              const std::vector<Eigen::Vector3d>& x0, const StaticSolveOptions& options = {});
+
+/// Sum of corotational element forces at every node (zero at the free nodes of an equilibrium).
+std::vector<Eigen::Vector3d> internalForces(const TetMesh& mesh, const std::vector<Mat12>& K, const std::vector<Eigen::Vector3d>& x);
+
+/// Per-tet stiffness for a mesh and per-tet materials.
+std::vector<Mat12> tetStiffnesses(const TetMesh& mesh, const std::vector<double>& youngs, const std::vector<double>& poisson);
+
+}  // namespace handson
