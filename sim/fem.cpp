@@ -76,4 +76,52 @@ Vec12 corotationalForce(const Mat12& K, const std::array<Eigen::Vector3d, 4>& X,
   return f;
 }
 
+Mat12 corotationalHessian(const Mat12& K, const std::array<Eigen::Vector3d, 4>& X, const std::array<Eigen::Vector3d, 4>& x, bool projectSpd) {
+  Eigen::Matrix3d Dm, Ds;
+  Dm << X[1] - X[0], X[2] - X[0], X[3] - X[0];
+  Ds << x[1] - x[0], x[2] - x[0], x[3] - x[0];
+  const Eigen::Matrix3d DmInv = Dm.inverse();
+  const Eigen::Matrix3d F = Ds * DmInv;
+  const Eigen::Matrix3d R = polarRotation(F);
+  const Mat12 B = blockRotation(R);
+  Mat12 H = B * K * B.transpose();
+  const Eigen::Matrix3d S = R.transpose() * F;
+  const Eigen::Matrix3d M = S.trace() * Eigen::Matrix3d::Identity() - 0.5 * (S + S.transpose());
+  const Eigen::Vector3d sv = Eigen::JacobiSVD<Eigen::Matrix3d>(F).singularValues();
+  if (F.allFinite() && std::abs(M.determinant()) > 1e-8 * std::pow(sv.maxCoeff() + 1e-300, 3)) {
+    const Eigen::Matrix3d Minv2 = 2.0 * M.inverse();
+    // W: dw/dx (3x12). dF for dof (node j, axis c): e_c times row (j-1) of DmInv (node 0: minus their sum).
+    Eigen::Matrix<double, 3, 12> W;
+    for (int j = 0; j < 4; ++j) {
+      const Eigen::RowVector3d row = j == 0 ? Eigen::RowVector3d(-(DmInv.row(0) + DmInv.row(1) + DmInv.row(2))) : Eigen::RowVector3d(DmInv.row(j - 1));
+      for (int c = 0; c < 3; ++c) {
+        const Eigen::Matrix3d A = R.transpose() * (Eigen::Vector3d::Unit(c) * row);
+        const Eigen::Vector3d a(0.5 * (A(2, 1) - A(1, 2)), 0.5 * (A(0, 2) - A(2, 0)), 0.5 * (A(1, 0) - A(0, 1)));
+        W.col(3 * j + c) = Minv2 * a;
+      }
+    }
+    auto cross = [](const Eigen::Vector3d& v) {
+      Eigen::Matrix3d m;
+      m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+      return m;
+    };
+    Vec12 local;
+    for (int i = 0; i < 4; ++i) local.segment<3>(3 * i) = R.transpose() * x[std::size_t(i)] - X[std::size_t(i)];
+    const Vec12 g = K * local;
+    Eigen::Matrix<double, 12, 3> G, Xr;
+    for (int i = 0; i < 4; ++i) {
+      G.middleRows<3>(3 * i) = cross(g.segment<3>(3 * i));
+      Xr.middleRows<3>(3 * i) = cross(R.transpose() * x[std::size_t(i)]);
+    }
+    H += B * (K * Xr - G) * W;
+  }
+  if (projectSpd) {
+    const Mat12 Hs = 0.5 * (H + H.transpose());
+    Eigen::SelfAdjointEigenSolver<Mat12> es(Hs);
+    const Eigen::Matrix<double, 12, 1> ev = es.eigenvalues().cwiseMax(0.0);
+    H = es.eigenvectors() * ev.asDiagonal() * es.eigenvectors().transpose();
+  }
+  return H;
+}
+
 }  // namespace handson

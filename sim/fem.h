@@ -31,6 +31,13 @@ Mat12 blockRotation(const Eigen::Matrix3d& R);
 /// Corotational elastic force on the 4 corners (12 vector) and energy.
 Vec12 corotationalForce(const Mat12& K, const std::array<Eigen::Vector3d, 4>& X, const std::array<Eigen::Vector3d, 4>& x, double* energy = nullptr);
 
+/// Exact Jacobian of minus the corotational force (the energy's Hessian), with the rotation's
+/// variation: dR = R [w]x, w = 2 (tr(S) I - S)^-1 axial(skew(R^T dF)), S = R^T F. Where tr(S) I - S
+/// is near singular (two singular values summing to ~0, at the inversion boundary) the rotation
+/// terms are dropped (warped stiffness). If `projectSpd`, negative eigenvalues are clamped to zero
+/// so the assembled matrix stays positive definite (projected Newton).
+Mat12 corotationalHessian(const Mat12& K, const std::array<Eigen::Vector3d, 4>& X, const std::array<Eigen::Vector3d, 4>& x, bool projectSpd);
+
 /// Stacks 4 points into a 12 vector.
 Vec12 stack(const std::array<Eigen::Vector3d, 4>& p);
 

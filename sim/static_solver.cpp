@@ -105,14 +105,26 @@ StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, 
   const double tol = opt.tolerance * std::max(motion, 1e-9);
   BlockAssembler asmb(mesh.tets, dof, dofs);
   DirectSolver solver;
+  solver.cholmod().print = 0;  // an indefinite Hessian is expected (then projected), not an error to print
   bool analyzed = false;
   std::vector<Eigen::Matrix3d> R(mesh.tets.size());
   double prevUpdate = std::numeric_limits<double>::infinity();
   bool refactor = true;
+  bool project = false;  // the exact Hessian first; projected per element if it is not positive definite
   Eigen::VectorXd rhs(dofs);
+  auto energy = [&](const std::vector<Eigen::Vector3d>& x) {
+    double e = 0.0;
+    for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+      double et = 0.0;
+      corotationalForce(K[t], corners(mesh, int(t), mesh.nodes), corners(mesh, int(t), x), &et);
+      e += et;
+    }
+    return e;
+  };
   for (int it = 0; it < opt.maxIterations; ++it) {
     // Forces (and, when refactorizing, the warped stiffness) at the current positions.
     rhs.setZero();
+    project = false;
     if (refactor) asmb.zero();
     for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
       const auto X = corners(mesh, int(t), mesh.nodes), x = corners(mesh, int(t), res.x);
@@ -125,8 +137,12 @@ StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, 
         if (d >= 0) rhs.segment<3>(d) -= Rt * kl.segment<3>(3 * i);
       }
       if (refactor) {
-        const Mat12 B = blockRotation(Rt);
-        asmb.add(int(t), B * K[t] * B.transpose());
+        if (opt.newton) {
+          asmb.add(int(t), corotationalHessian(K[t], X, x, project));
+        } else {
+          const Mat12 B = blockRotation(Rt);
+          asmb.add(int(t), B * K[t] * B.transpose());
+        }
       }
     }
     if (refactor) {
@@ -135,16 +151,33 @@ StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, 
         analyzed = true;
       }
       solver.factorize(asmb.matrix());
+      if (solver.info() != Eigen::Success && opt.newton && !project) {
+        // Not positive definite: this iteration (and the next ones) with projected element Hessians.
+        project = true;
+        asmb.zero();
+        for (std::size_t t = 0; t < mesh.tets.size(); ++t) asmb.add(int(t), corotationalHessian(K[t], corners(mesh, int(t), mesh.nodes), corners(mesh, int(t), res.x), true));
+        solver.factorize(asmb.matrix());
+      }
       if (solver.info() != Eigen::Success) throw Error("static solve: the stiffness matrix is not positive definite (a free part of the mesh with no Dirichlet node, or degenerate elements)");
       ++res.factorizations;
     }
     const Eigen::VectorXd dx = solver.solve(rhs);
+    // Backtracking on the elastic energy along dx (a descent direction: dx = K(R)^-1 f with K(R)
+    // positive definite and f = -grad E), so elements flipping in and out of inversion cannot make
+    // the iteration cycle.
+    const double e0 = energy(res.x);
+    const double slope = -rhs.dot(dx);  // directional derivative of E along dx
+    double alpha = 1.0;
+    std::vector<Eigen::Vector3d> trial = res.x;
+    for (int ls = 0; ls < 12; ++ls, alpha *= 0.5) {
+      for (std::size_t i = 0; i < n; ++i)
+        if (dof[i] >= 0) trial[i] = res.x[i] + alpha * dx.segment<3>(dof[i]);
+      if (energy(trial) <= e0 + 1e-4 * alpha * slope) break;
+    }
     double update = 0.0;
     for (std::size_t i = 0; i < n; ++i)
-      if (dof[i] >= 0) {
-        res.x[i] += dx.segment<3>(dof[i]);
-        update = std::max(update, dx.segment<3>(dof[i]).norm());
-      }
+      if (dof[i] >= 0) update = std::max(update, (trial[i] - res.x[i]).norm());
+    res.x.swap(trial);
     if (!std::isfinite(update)) throw Error("static solve: diverged (non-finite update)");
     res.iterations = it + 1;
     res.lastUpdate = update;
@@ -154,7 +187,7 @@ StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, 
       break;
     }
     // Keep the factorization while the updates shrink by more than 4x per iteration.
-    refactor = it < 2 || update > 0.25 * prevUpdate;
+    refactor = opt.newton || it < 2 || update > 0.25 * prevUpdate;
     prevUpdate = update;
   }
   for (std::size_t t = 0; t < mesh.tets.size(); ++t)

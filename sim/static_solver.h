@@ -35,6 +35,10 @@ struct StaticSolveOptions {
   /// prescribed displacement (1e-6: a millionth of the handle's motion).
   double tolerance = 1e-6;
   int maxIterations = 200;
+  /// Projected Newton (the exact Hessian with each element's negative eigenvalues clamped): about
+  /// quadratic convergence. Off: plain warped-stiffness iterations (linear convergence, slow at
+  /// large rotations), kept for comparison.
+  bool newton = true;
   ProgressFn progress;
 };
 
@@ -47,9 +51,9 @@ struct StaticSolveResult {
 };
 
 /// Static equilibrium of the corotational model: internal forces vanish at the free nodes; nodes with
-/// fixed[n] != 0 are held at x0[n]. Warped-stiffness iterations: K(R) dx = f(x), x += dx, with K(R) =
-/// sum R K_e R^T refactorized while it changes (every iteration early on, then reused while the
-/// updates shrink fast). Throws handson::Error if the system is singular (no Dirichlet nodes).
+/// fixed[n] != 0 are held at x0[n]. Each iteration solves H dx = f(x) with a positive definite H
+/// (projected Newton, or the warped stiffness sum R K_e R^T) by sparse Cholesky, then backtracks on
+/// the elastic energy along dx. Throws handson::Error if the system is singular (no Dirichlet nodes).
 StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, const std::vector<char>& fixed,
                               const std::vector<Eigen::Vector3d>& x0, const StaticSolveOptions& options = {});
 

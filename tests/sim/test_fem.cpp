@@ -170,3 +170,30 @@ TEST(FineStatic, RefusesSingularAndNonFiniteInput) {
   EXPECT_THROW(solveStatic(m, K, fixed, x0), Error);
   EXPECT_THROW(tetStiffnesses(m, {1.0}, {0.3}), Error);
 }
+
+TEST(Fem, ExactHessianMatchesFiniteDifferencesOfTheForce) {
+  const Mat12 K = tetStiffness(kRest, 1e4, 0.4);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n(0.0, 1.0);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(2.2, Eigen::Vector3d(3, -1, 2).normalized()).toRotationMatrix();
+  for (int trial = 0; trial < 4; ++trial) {
+    Vec12 x;
+    for (int i = 0; i < 4; ++i) x.segment<3>(3 * i) = R * kRest[std::size_t(i)];
+    for (int i = 0; i < 12; ++i) x[i] += 0.25 * n(rng);
+    const Mat12 H = corotationalHessian(K, kRest, unstack(x), false);
+    Mat12 J;
+    const double h = 1e-6;
+    for (int i = 0; i < 12; ++i) {
+      Vec12 a = x, b = x;
+      a[i] += h;
+      b[i] -= h;
+      J.col(i) = -(corotationalForce(K, kRest, unstack(a)) - corotationalForce(K, kRest, unstack(b))) / (2 * h);
+    }
+    EXPECT_LT((H - J).norm(), 1e-5 * H.norm()) << "trial " << trial;
+    EXPECT_LT((H - H.transpose()).norm(), 1e-8 * H.norm()) << "the Hessian of an energy is symmetric";
+    // The projected Hessian is positive semi-definite and equals H where H already is.
+    const Mat12 P = corotationalHessian(K, kRest, unstack(x), true);
+    Eigen::SelfAdjointEigenSolver<Mat12> es(P);
+    EXPECT_GE(es.eigenvalues().minCoeff(), -1e-9 * H.norm());
+  }
+}

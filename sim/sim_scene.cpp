@@ -1,0 +1,132 @@
+#include "sim_scene.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+#include "sim/error.h"
+
+namespace handson {
+
+SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& s, const ProgressFn& progress) {
+  if (image.empty()) throw Error("simulation: empty image");
+  const VolumeGeometry& g = image.geometry();
+  const std::size_t nvox = image.voxelCount();
+  // The image's world box (voxel centres), axis-aligned.
+  Eigen::Vector3d imgLo = Eigen::Vector3d::Constant(1e300), imgHi = -imgLo;
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d idx((c & 1) ? g.dims.x() - 1 : 0, (c & 2) ? g.dims.y() - 1 : 0, (c & 4) ? g.dims.z() - 1 : 0);
+    const Eigen::Vector3d w = g.toWorld(idx);
+    imgLo = imgLo.cwiseMin(w);
+    imgHi = imgHi.cwiseMax(w);
+  }
+  SimScene sc;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+  for (std::size_t h = 0; h < handles.size(); ++h) {
+    if (handles[h].voxels.empty()) throw Error("simulation: handle " + std::to_string(h + 1) + " has no voxels");
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (std::uint32_t v : handles[h].voxels) {
+      if (v >= nvox) throw Error("simulation: handle " + std::to_string(h + 1) + " has a voxel outside the image");
+      const Eigen::Vector3d w = g.toWorld(g.voxelOf(v).cast<double>());
+      lo = lo.cwiseMin(w);
+      hi = hi.cwiseMax(w);
+      sum += w;
+    }
+    sc.handleCentroid.push_back(sum / double(handles[h].voxels.size()));
+  }
+  if (s.wholeVolume || handles.empty()) {
+    lo = imgLo;
+    hi = imgHi;
+  } else {
+    if (!(s.paddingMm >= 0) || !std::isfinite(s.paddingMm)) throw Error("simulation: padding must be a finite length >= 0");
+    lo = (lo.array() - s.paddingMm).max(imgLo.array());
+    hi = (hi.array() + s.paddingMm).min(imgHi.array());
+  }
+  if (((hi - lo).array() <= 0).any()) throw Error("simulation: the region of interest is empty (a flat image or handles on its edge)");
+  sc.lo = lo;
+  sc.hi = hi;
+  reportProgress(progress, 0.0, "meshing");
+  sc.meshes = buildNestedMeshes(lo, hi, s.coarseTets, std::max(1, s.fineTets / std::max(1, s.coarseTets)));
+  const TetMesh& F = sc.meshes.fine;
+  reportProgress(progress, 0.2, "materials");
+  // Materials: the image at five points of each fine tet (centroid and midway to each corner),
+  // classified and averaged (Young's modulus and Poisson ratio; the band at the centroid is kept).
+  const MaterialTable table = s.materials.resolve(image);
+  const Eigen::Matrix4d toIndex = g.worldToIndex();
+  sc.band.resize(F.tets.size());
+  sc.youngs.resize(F.tets.size());
+  sc.poisson.resize(F.tets.size());
+  for (std::size_t t = 0; t < F.tets.size(); ++t) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int v : F.tets[t]) c += F.nodes[std::size_t(v)];
+    c /= 4.0;
+    double E = 0, nu = 0;
+    for (int k = 0; k < 5; ++k) {
+      const Eigen::Vector3d p = k == 0 ? c : Eigen::Vector3d(0.5 * (c + F.nodes[std::size_t(F.tets[t][std::size_t(k - 1)])]));
+      const Eigen::Vector3d idx = (toIndex * p.homogeneous()).head<3>();
+      const int b = table.classify(image.sampleLinear(idx));
+      if (k == 0) sc.band[t] = b;
+      E += table.band(b).youngs;
+      nu += table.band(b).poisson;
+    }
+    sc.youngs[t] = E / 5.0;
+    sc.poisson[t] = nu / 5.0;
+  }
+  reportProgress(progress, 0.5, "stiffness");
+  sc.fineK = tetStiffnesses(F, sc.youngs, sc.poisson);
+  // Dirichlet roles: the region's outer faces are fixed; handle nodes are those of fine tets
+  // containing a handle voxel's centre, later handles winning.
+  const KuhnGrid& fg = sc.meshes.fineGrid;
+  sc.constraints.handleCount = int(handles.size());
+  sc.constraints.handleOf.assign(F.nodes.size(), -1);
+  sc.constraints.fixed.assign(F.nodes.size(), 0);
+  const Eigen::Vector3i nd = fg.nodeDims();
+  for (std::size_t n = 0; n < F.nodes.size(); ++n) {
+    const Eigen::Vector3i ijk = fg.nodeCoords(int(n));
+    for (int a = 0; a < 3; ++a)
+      if (ijk[a] == 0 || ijk[a] == nd[a] - 1) sc.constraints.fixed[n] = 1;
+  }
+  for (std::size_t h = 0; h < handles.size(); ++h)
+    for (std::uint32_t v : handles[h].voxels) {
+      const int t = fg.locate(g.toWorld(g.voxelOf(v).cast<double>()));
+      if (t < 0) continue;  // outside the region (whole-volume runs include every voxel centre)
+      for (int n : F.tets[std::size_t(t)]) sc.constraints.handleOf[std::size_t(n)] = int(h);
+    }
+  sc.handleNodeCount.assign(handles.size(), 0);
+  for (std::size_t n = 0; n < F.nodes.size(); ++n)
+    if (sc.constraints.handleOf[n] >= 0 && !sc.constraints.fixed[n]) ++sc.handleNodeCount[std::size_t(sc.constraints.handleOf[n])];
+  reportProgress(progress, 1.0, "scene");
+  return sc;
+}
+
+DeformationError compareDeformation(const SimScene& sc, const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x,
+                                    const std::vector<Eigen::Vector3d>& ref) {
+  const TetMesh& F = sc.meshes.fine;
+  if (x.size() != F.nodes.size() || ref.size() != F.nodes.size()) throw Error("deformation error: wrong node count");
+  DeformationError e;
+  double motion2 = 0;
+  std::size_t nh = 0, nf = 0;
+  double err2 = 0, ref2 = 0;
+  for (std::size_t n = 0; n < F.nodes.size(); ++n) {
+    const int h = sc.constraints.handleOf[n];
+    if (sc.constraints.fixed[n]) continue;
+    if (h >= 0) {
+      motion2 += (handles[std::size_t(h)].apply(F.nodes[n]) - F.nodes[n]).squaredNorm();
+      ++nh;
+      continue;
+    }
+    const double d = (x[n] - ref[n]).norm();
+    err2 += d * d;
+    e.maxOfMotion = std::max(e.maxOfMotion, d);
+    ref2 += (ref[n] - F.nodes[n]).squaredNorm();
+    ++nf;
+  }
+  e.handleMotionMm = nh ? std::sqrt(motion2 / double(nh)) : 0.0;
+  const double m = std::max(e.handleMotionMm, 1e-12);
+  e.rmsOfMotion = nf ? std::sqrt(err2 / double(nf)) / m : 0.0;
+  e.maxOfMotion /= m;
+  e.relativeL2 = ref2 > 0 ? std::sqrt(err2 / ref2) : 0.0;
+  return e;
+}
+
+}  // namespace handson

@@ -1,0 +1,55 @@
+#pragma once
+// The simulated scene of an image and its handles: the region of interest (a padded box around the
+// handles, or the whole volume), the nested coarse and fine meshes over it, a material per fine tet
+// from the image values, and the fine nodes' Dirichlet roles (../shared/spec/methods.md sections 3,
+// 5 and 7).
+#include <cstdint>
+#include <vector>
+
+#include "sim/coarsening.h"
+#include "sim/materials.h"
+#include "sim/progress.h"
+#include "sim/tet_mesh.h"
+#include "sim/volume.h"
+
+namespace handson {
+
+struct SimHandle {
+  std::vector<std::uint32_t> voxels;  ///< linear voxel indices on the image grid
+};
+
+struct SimSettings {
+  int coarseTets = 6000;      ///< target coarse element count over the region
+  int fineTets = 300000;      ///< target fine element count (m^3 per coarse tet, m rounded)
+  double paddingMm = 40.0;    ///< margin around the handles' bounding box
+  bool wholeVolume = false;   ///< simulate the image's whole box instead
+  MaterialTable materials = MaterialTable::ctDefault();
+};
+
+struct SimScene {
+  Eigen::Vector3d lo, hi;              ///< region box (world mm, axis-aligned)
+  NestedMeshes meshes;
+  std::vector<int> band;               ///< material band per fine tet
+  std::vector<double> youngs, poisson; ///< per fine tet
+  std::vector<Mat12> fineK;            ///< rest stiffness per fine tet
+  FineConstraints constraints;         ///< handle nodes (last claimer wins) and the fixed outer faces
+  std::vector<Eigen::Vector3d> handleCentroid;  ///< world centroid of each handle's voxels
+  std::vector<std::size_t> handleNodeCount;
+};
+
+/// Builds the scene. Handles are claimed in order: a fine node touched by two handles belongs to the
+/// later one. Throws handson::Error for an empty handle, a handle outside the image, or a region
+/// that is empty after clipping to the image.
+SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& settings, const ProgressFn& progress = {});
+
+/// Error of fine node positions against a reference, over the free nodes (not Dirichlet): RMS and
+/// max of |x - x_ref| divided by the handles' RMS displacement, and the relative L2 of the
+/// displacements.
+struct DeformationError {
+  double rmsOfMotion = 0, maxOfMotion = 0, relativeL2 = 0;
+  double handleMotionMm = 0;
+};
+DeformationError compareDeformation(const SimScene& scene, const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x,
+                                    const std::vector<Eigen::Vector3d>& reference);
+
+}  // namespace handson

@@ -1,0 +1,148 @@
+// The corotational coarsening against the fine reference, on the phantom and on simple boxes.
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <Eigen/SparseCore>
+#include <cstdio>
+#include <random>
+
+#include "sim/coarsening.h"
+#include "sim/error.h"
+#include "sim/phantom.h"
+#include "sim/sim_scene.h"
+#include "sim/static_solver.h"
+
+using namespace handson;
+
+namespace {
+
+std::vector<SimHandle> kidneyHandle(const Phantom& p) {
+  SimHandle h;
+  const auto* lab = p.labels.data<std::uint8_t>();
+  for (std::size_t i = 0; i < p.labels.voxelCount(); ++i)
+    if (lab[i] == label::kKidneyRight) h.voxels.push_back(std::uint32_t(i));
+  return {h};
+}
+
+}  // namespace
+
+TEST(Coarsening, KidneyMoved10mmAndRotated30DegMatchesTheFineReference) {
+  PhantomOptions po;
+  po.spacingMm = 4.0;
+  const Phantom p = makePhantom(po);
+  const auto handles = kidneyHandle(p);
+  SimSettings s;
+  s.coarseTets = 600;
+  s.fineTets = 600 * 64;
+  const SimScene sc = buildSimScene(p.ct, handles, s);
+  const std::vector<RigidTransform> T = {RigidTransform::about(sc.handleCentroid[0], Eigen::Vector3d(0, 0, 30.0 * M_PI / 180), Eigen::Vector3d(10, 0, 0))};
+  std::vector<char> dir;
+  const auto x0 = prescribedPositions(sc.meshes.fine, sc.constraints, T, &dir);
+  const auto fine = solveStatic(sc.meshes.fine, sc.fineK, dir, x0);
+  ASSERT_TRUE(fine.converged);
+  CoarseModel model(sc.meshes, sc.fineK, sc.constraints);
+  auto xc = model.restState();
+  const auto st = model.solve(T, xc, 50);
+  ASSERT_TRUE(st.converged);
+  const auto coarse = model.reconstruct(T, xc);
+  const auto plain = plainCoarseSolve(sc.meshes, sc.youngs, sc.poisson, sc.constraints, T);
+  const auto ec = compareDeformation(sc, T, coarse, fine.x), ep = compareDeformation(sc, T, plain, fine.x);
+  std::printf("coarse %zu tets, fine %zu tets; fine: %d iterations, %d factorizations; coarse: %d iterations\n", sc.meshes.coarse.tets.size(),
+              sc.meshes.fine.tets.size(), fine.iterations, fine.factorizations, st.iterations);
+  std::printf("handle motion %.2f mm; coarsened: RMS %.4f max %.4f L2 %.4f; plain: RMS %.4f max %.4f L2 %.4f\n", ec.handleMotionMm, ec.rmsOfMotion,
+              ec.maxOfMotion, ec.relativeL2, ep.rmsOfMotion, ep.maxOfMotion, ep.relativeL2);
+  EXPECT_LT(ec.rmsOfMotion, 0.10);
+  EXPECT_LT(3 * ec.rmsOfMotion, ep.rmsOfMotion);
+}
+
+TEST(Coarsening, InTheLinearRegimeItIsTheGalerkinProjectionOntoItsSubspace) {
+  // Brute force, independent of the per-element condensation: minimise the fine energy 1/2 u^T K u
+  // over displacements with the handle nodes prescribed, nodes on coarse faces and edges following
+  // their coarse tet's corners linearly, corners and interior nodes free. The coarse model (element
+  // condensation, then the coarse solve and the reconstruction) must give the same displacements.
+  const NestedMeshes nm = buildNestedMeshes({0, 0, 0}, {40, 30, 30}, 216, 64);
+  const TetMesh& F = nm.fine;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  std::vector<double> E(F.tets.size()), nu(F.tets.size(), 0.4);
+  for (auto& e : E) e = u01(rng) < 0.2 ? 1000.0 : 1.0;  // 1000x contrast
+  const auto K = tetStiffnesses(F, E, nu);
+  FineConstraints c;
+  c.handleCount = 1;
+  c.handleOf.assign(F.nodes.size(), -1);
+  c.fixed.assign(F.nodes.size(), 0);
+  for (std::size_t n = 0; n < F.nodes.size(); ++n) {
+    const auto& p = F.nodes[n];
+    if (p.x() < 1e-9 || p.y() < 1e-9 || p.z() < 1e-9 || p.x() > 40 - 1e-9 || p.y() > 30 - 1e-9 || p.z() > 30 - 1e-9) c.fixed[n] = 1;
+    else if ((p - Eigen::Vector3d(17, 14, 16)).norm() < 7.0) c.handleOf[n] = 0;  // a ball, not aligned with the coarse tets
+  }
+  const double d = 1e-4;  // small: the corotational model is linear here
+  const std::vector<RigidTransform> T = {RigidTransform::about({17, 14, 16}, Eigen::Vector3d(0, 0, d / 7.0), Eigen::Vector3d(d, -d, 0.5 * d))};
+  CoarseModel model(nm, K, c);
+  auto xc = model.restState();
+  ASSERT_TRUE(model.solve(T, xc, 20, 1e-8).converged);
+  const auto xm = model.reconstruct(T, xc);
+
+  // The brute-force subspace: q = (coarse corner dofs, interior node dofs).
+  const std::size_t nf = F.nodes.size();
+  std::vector<int> cornerOf(nf, -1);
+  for (std::size_t v = 0; v < nm.coarse.nodes.size(); ++v) cornerOf[std::size_t(nm.coarseNodeInFine[v])] = int(v);
+  std::vector<int> qIndex(nf, -1);
+  int nq = 0;
+  std::vector<std::pair<int, Eigen::Vector4d>> onFace(nf, {-1, Eigen::Vector4d::Zero()});
+  for (std::size_t n = 0; n < nf; ++n) {
+    if (c.fixed[n] || c.handleOf[n] >= 0) continue;
+    if (cornerOf[n] >= 0) {
+      qIndex[n] = (nq += 3) - 3;
+      continue;
+    }
+    Eigen::Vector4d lam;
+    const int t = nm.coarseGrid.locate(F.nodes[n], &lam);
+    if (lam.minCoeff() < 1e-9) onFace[n] = {t, lam};
+    else qIndex[n] = (nq += 3) - 3;
+  }
+  const int nd = 3 * int(nf);
+  std::vector<Eigen::Triplet<double>> trip;
+  for (std::size_t t = 0; t < F.tets.size(); ++t)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b)
+        for (int r = 0; r < 3; ++r)
+          for (int cc = 0; cc < 3; ++cc) trip.emplace_back(3 * F.tets[t][std::size_t(a)] + r, 3 * F.tets[t][std::size_t(b)] + cc, K[t](3 * a + r, 3 * b + cc));
+  Eigen::SparseMatrix<double> Kf(nd, nd);
+  Kf.setFromTriplets(trip.begin(), trip.end());
+  Eigen::MatrixXd Tm = Eigen::MatrixXd::Zero(nd, nq);
+  Eigen::VectorXd uD = Eigen::VectorXd::Zero(nd);
+  for (std::size_t n = 0; n < nf; ++n) {
+    if (c.handleOf[n] >= 0 && !c.fixed[n]) uD.segment<3>(3 * Eigen::Index(n)) = T[0].apply(F.nodes[n]) - F.nodes[n];
+    if (qIndex[n] >= 0) Tm.block<3, 3>(3 * Eigen::Index(n), qIndex[n]).setIdentity();
+    if (onFace[n].first >= 0 && !c.fixed[n])
+      for (int k = 0; k < 4; ++k) {
+        const int corner = nm.coarseNodeInFine[std::size_t(nm.coarse.tets[std::size_t(onFace[n].first)][std::size_t(k)])];
+        if (qIndex[std::size_t(corner)] >= 0) Tm.block<3, 3>(3 * Eigen::Index(n), qIndex[std::size_t(corner)]) += onFace[n].second[k] * Eigen::Matrix3d::Identity();
+        else if (c.handleOf[std::size_t(corner)] >= 0 && !c.fixed[std::size_t(corner)])
+          uD.segment<3>(3 * Eigen::Index(n)) += onFace[n].second[k] * (T[0].apply(F.nodes[std::size_t(corner)]) - F.nodes[std::size_t(corner)]);
+      }
+  }
+  const Eigen::MatrixXd KT = Kf * Tm;
+  const Eigen::VectorXd q = (Tm.transpose() * KT).ldlt().solve(-KT.transpose() * uD);
+  const Eigen::VectorXd ub = Tm * q + uD;
+  double err = 0, scale = 0;
+  for (std::size_t n = 0; n < nf; ++n) {
+    err = std::max(err, (xm[n] - F.nodes[n] - ub.segment<3>(3 * Eigen::Index(n))).norm());
+    scale = std::max(scale, ub.segment<3>(3 * Eigen::Index(n)).norm());
+  }
+  double ec = 0, eb = 0, ei = 0;
+  for (std::size_t n = 0; n < nf; ++n) {
+    const double e = (xm[n] - F.nodes[n] - ub.segment<3>(3 * Eigen::Index(n))).norm();
+    if (cornerOf[n] >= 0) ec = std::max(ec, e);
+    else if (onFace[n].first >= 0) eb = std::max(eb, e);
+    else if (qIndex[n] >= 0) ei = std::max(ei, e);
+  }
+  EXPECT_GT(ec, 0.0);  // free corners, face and interior nodes all took part
+  EXPECT_GT(eb, 0.0);
+  EXPECT_GT(ei, 0.0);
+  EXPECT_GT(scale, 0.5 * d);
+  // Differences: the corotational model's second-order terms, relative size ~ motion / element size
+  // (1e-4 mm / 10 mm), and roundoff (K spans 1e3).
+  EXPECT_LT(err, 1e-4 * scale) << "max difference " << err << " mm of " << scale;
+}
