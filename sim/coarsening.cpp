@@ -312,6 +312,50 @@ std::vector<Eigen::Vector3d> CoarseModel::reconstruct(const std::vector<RigidTra
   return out;
 }
 
+Eigen::VectorXd CoarseModel::restrictToCoarse(const std::vector<Eigen::Vector3d>& r, const std::vector<Eigen::Vector3d>& x) const {
+  const TetMesh& C = meshes_.coarse;
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(dofCount_);
+  auto add = [&](int coarseNode, const Eigen::Vector3d& v) {
+    const int d = dof_[std::size_t(coarseNode)];
+    if (d >= 0) out.segment<3>(d) += v;
+  };
+  for (std::size_t v = 0; v < C.nodes.size(); ++v) add(int(v), r[std::size_t(meshes_.coarseNodeInFine[v])]);
+  for (const auto& b : boundary_) {
+    if (constraints_.fixed[std::size_t(b.fine)]) continue;
+    for (int c = 0; c < 4; ++c) add(C.tets[std::size_t(b.element)][std::size_t(c)], b.N[c] * r[std::size_t(b.fine)]);
+  }
+  for (const auto& in : interior_) {
+    const Eigen::Matrix3d Rc = elementRotation(in.element, x);
+    const Eigen::Vector3d rl = Rc.transpose() * r[std::size_t(in.fine)];
+    for (int c = 0; c < 4; ++c) add(C.tets[std::size_t(in.element)][std::size_t(c)], Rc * (in.H.middleCols<3>(3 * c).transpose() * rl));
+  }
+  return out;
+}
+
+void CoarseModel::prolongAdd(const Eigen::VectorXd& cv, const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>& out) const {
+  const TetMesh& C = meshes_.coarse;
+  auto val = [&](int coarseNode) -> Eigen::Vector3d {
+    const int d = dof_[std::size_t(coarseNode)];
+    return d >= 0 ? Eigen::Vector3d(cv.segment<3>(d)) : Eigen::Vector3d::Zero();
+  };
+  for (std::size_t v = 0; v < C.nodes.size(); ++v) out[std::size_t(meshes_.coarseNodeInFine[v])] += val(int(v));
+  for (const auto& b : boundary_) {
+    if (constraints_.fixed[std::size_t(b.fine)]) continue;
+    for (int c = 0; c < 4; ++c) out[std::size_t(b.fine)] += b.N[c] * val(C.tets[std::size_t(b.element)][std::size_t(c)]);
+  }
+  for (const auto& in : interior_) {
+    const Eigen::Matrix3d Rc = elementRotation(in.element, x);
+    Eigen::Vector3d acc = Eigen::Vector3d::Zero();
+    for (int c = 0; c < 4; ++c) acc += in.H.middleCols<3>(3 * c) * (Rc.transpose() * val(C.tets[std::size_t(in.element)][std::size_t(c)]));
+    out[std::size_t(in.fine)] += Rc * acc;
+  }
+}
+
+Eigen::VectorXd CoarseModel::coarseSolve(const Eigen::VectorXd& b) const {
+  if (!analyzed_ || dofCount_ == 0) return Eigen::VectorXd::Zero(dofCount_);
+  return solver_.solve(b);
+}
+
 std::vector<Eigen::Vector3d> prescribedPositions(const TetMesh& fine, const FineConstraints& c, const std::vector<RigidTransform>& handles, std::vector<char>* dirichlet) {
   std::vector<Eigen::Vector3d> x = fine.nodes;
   if (dirichlet) dirichlet->assign(fine.nodes.size(), 0);

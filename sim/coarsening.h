@@ -56,6 +56,17 @@ class CoarseModel {
   std::vector<Eigen::Vector3d> reconstruct(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const;
 
   const NestedMeshes& meshes() const { return meshes_; }
+  const FineConstraints& constraints() const { return constraints_; }
+
+  // The coarse space as the coarse level of a two-level solver on the fine mesh (linearized at the
+  // coarse state x): P maps coarse free-dof increments to fine node increments (corners: identity;
+  // face nodes: N_b; interior nodes: R_c H_f R_c^T; Dirichlet fine nodes: 0).
+  /// P^T r for a fine per-node vector r (Dirichlet nodes ignored); size freeCoarseDofs().
+  Eigen::VectorXd restrictToCoarse(const std::vector<Eigen::Vector3d>& r, const std::vector<Eigen::Vector3d>& x) const;
+  /// P c, added to out (per fine node).
+  void prolongAdd(const Eigen::VectorXd& c, const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>& out) const;
+  /// A_c^-1 b with the coarse matrix of the last solve() iteration.
+  Eigen::VectorXd coarseSolve(const Eigen::VectorXd& b) const;
   /// Coarse nodes held by Dirichlet conditions: -2 fixed at rest, k >= 0 moved by handle k, -1 free.
   const std::vector<int>& coarseRole() const { return coarseRole_; }
   std::size_t freeCoarseDofs() const { return std::size_t(dofCount_); }

@@ -1,0 +1,71 @@
+#pragma once
+// The coarse solve on a worker thread: the render loop never waits for it. Handle transforms go in
+// (the newest replaces any not yet taken), the newest completed state comes out. For each input the
+// worker runs the quasi-static coarse solve (warm start, an iteration budget), reconstructs the fine
+// nodes and publishes; while no newer input arrives it keeps refining toward the fine answer (the
+// two-level steps) and publishes after each, so a held pose sharpens over the next frames.
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "sim/coarsening.h"
+#include "sim/two_level.h"
+
+namespace handson {
+
+struct SimWorkerOptions {
+  int coarseIterations = 3;   ///< coarse corotational iterations per input (warm started)
+  int refineSteps = 0;        ///< two-level steps after each input while it stays the newest
+  int refineIterations = 10;  ///< PCG iterations per step
+};
+
+struct SimSnapshot {
+  std::uint64_t input = 0;              ///< which setHandles() call this answers (1, 2, ...)
+  int refineStep = 0;                   ///< 0: the coarse answer; k: after k refinement steps
+  std::vector<Eigen::Vector3d> coarse;  ///< coarse node positions
+  std::vector<Eigen::Vector3d> fine;    ///< fine node positions
+  CoarseSolveStats stats;
+  double seconds = 0.0;                 ///< worker time for this snapshot since its input was taken
+  std::string error;                    ///< non-empty: the input was refused (the state is the last good one)
+};
+
+class SimWorker {
+ public:
+  /// The model and stiffness must outlive the worker, and nothing else may use the model meanwhile.
+  SimWorker(CoarseModel& model, const std::vector<Mat12>& fineK, const SimWorkerOptions& options = {});
+  ~SimWorker();
+  SimWorker(const SimWorker&) = delete;
+  SimWorker& operator=(const SimWorker&) = delete;
+
+  /// Queues new handle transforms; returns their input number. Never blocks on the solve.
+  std::uint64_t setHandles(std::vector<RigidTransform> handles);
+  /// The newest snapshot published since the last call (nullopt if none). Never blocks on the solve.
+  std::optional<SimSnapshot> takeLatest();
+  /// Waits until a snapshot for `input` (or a newer one) with at least `refineStep` steps is
+  /// published, at most `timeoutSeconds`; returns it (for tests and headless runs).
+  std::optional<SimSnapshot> waitFor(std::uint64_t input, int refineStep = 0, double timeoutSeconds = 60.0);
+
+ private:
+  void run();
+  void publish(SimSnapshot s);
+
+  CoarseModel& model_;
+  FineRefiner refiner_;
+  SimWorkerOptions options_;
+  std::mutex mutex_;
+  std::condition_variable wake_, published_;
+  std::optional<std::vector<RigidTransform>> pending_;
+  std::uint64_t submitted_ = 0;
+  std::optional<SimSnapshot> latest_;  // not yet taken
+  std::uint64_t lastInput_ = 0;
+  int lastStep_ = -1;
+  bool stop_ = false;
+  std::thread thread_;
+};
+
+}  // namespace handson

@@ -1,0 +1,89 @@
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "sim/sim_worker.h"
+#include "sim/static_solver.h"
+
+using namespace handson;
+
+namespace {
+
+struct Box {
+  NestedMeshes meshes = buildNestedMeshes({0, 0, 0}, {60, 40, 40}, 400, 27);
+  std::vector<Mat12> K;
+  FineConstraints c;
+  Box() {
+    const auto& F = meshes.fine;
+    K = tetStiffnesses(F, std::vector<double>(F.tets.size(), 5e3), std::vector<double>(F.tets.size(), 0.4));
+    c.handleCount = 1;
+    c.handleOf.assign(F.nodes.size(), -1);
+    c.fixed.assign(F.nodes.size(), 0);
+    for (std::size_t n = 0; n < F.nodes.size(); ++n) {
+      const auto& p = F.nodes[n];
+      if (p.minCoeff() < 1e-9 || p.x() > 60 - 1e-9 || p.y() > 40 - 1e-9 || p.z() > 40 - 1e-9) c.fixed[n] = 1;
+      else if ((p - Eigen::Vector3d(30, 20, 20)).norm() < 8) c.handleOf[n] = 0;
+    }
+  }
+};
+
+}  // namespace
+
+TEST(SimWorker, AnswersTheNewestInputWithTheSynchronousResultAndRefinesWhileIdle) {
+  Box box;
+  const std::vector<RigidTransform> T = {RigidTransform::about({30, 20, 20}, Eigen::Vector3d(0.3, 0, 0), Eigen::Vector3d(4, 0, 0))};
+  // The synchronous answer (a separate model: the worker owns its own).
+  CoarseModel ref(box.meshes, box.K, box.c);
+  auto xr = ref.restState();
+  ref.solve(T, xr, 3);
+  const auto fineRef = ref.reconstruct(T, xr);
+
+  CoarseModel model(box.meshes, box.K, box.c);
+  SimWorker worker(model, box.K);
+  EXPECT_FALSE(worker.takeLatest().has_value());
+  const auto id = worker.setHandles(T);
+  const auto s = worker.waitFor(id, 0);
+  ASSERT_TRUE(s.has_value());
+  EXPECT_EQ(s->input, id);
+  EXPECT_TRUE(s->error.empty());
+  double d = 0;
+  for (std::size_t i = 0; i < fineRef.size(); ++i) d = std::max(d, (s->fine[i] - fineRef[i]).norm());
+  EXPECT_LT(d, 1e-9) << "the worker computes what the synchronous solve does";
+  // With refinement steps, left alone, it refines and publishes each step.
+  CoarseModel model2(box.meshes, box.K, box.c);
+  SimWorkerOptions o;
+  o.refineSteps = 3;
+  SimWorker refining(model2, box.K, o);
+  const auto r = refining.waitFor(refining.setHandles(T), 3);
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->refineStep, 3);
+  double moved = 0;
+  for (std::size_t i = 0; i < fineRef.size(); ++i) moved = std::max(moved, (r->fine[i] - fineRef[i]).norm());
+  EXPECT_GT(moved, 1e-6) << "refinement changed the free nodes";
+}
+
+TEST(SimWorker, ABurstOfInputsEndsOnTheLastAndBadInputIsRefusedWithoutStoppingIt) {
+  Box box;
+  CoarseModel model(box.meshes, box.K, box.c);
+  SimWorker worker(model, box.K);
+  std::uint64_t last = 0;
+  for (int i = 0; i < 50; ++i) last = worker.setHandles({RigidTransform::about({30, 20, 20}, Eigen::Vector3d::Zero(), Eigen::Vector3d(0.1 * i, 0, 0))});
+  auto s = worker.waitFor(last);
+  ASSERT_TRUE(s.has_value());
+  EXPECT_EQ(s->input, last);
+  RigidTransform bad;
+  bad.t.x() = std::nan("");
+  const auto b = worker.setHandles({bad});
+  s = worker.waitFor(b);
+  ASSERT_TRUE(s.has_value());
+  EXPECT_FALSE(s->error.empty());
+  for (const auto& p : s->coarse) EXPECT_TRUE(p.allFinite());
+  const auto good = worker.setHandles({RigidTransform{}});
+  s = worker.waitFor(good);
+  ASSERT_TRUE(s.has_value());
+  EXPECT_TRUE(s->error.empty());
+  // Destroying a busy worker joins cleanly.
+  for (int i = 0; i < 5; ++i) worker.setHandles({RigidTransform::about({30, 20, 20}, Eigen::Vector3d(0, 0.2 * i, 0), Eigen::Vector3d::Zero())});
+}
