@@ -23,6 +23,7 @@ int cmdBenchSelection(const Words& args);
 int cmdBenchGesture(const Words& args);
 int cmdView(const Words& args);
 int cmdReplay(const Words& args);
+int cmdDeform(const Words& args);
 /// No subcommand: the app on the default phantom, or the headless demo when there is no display.
 int cmdDefault(const Words& args);
 

@@ -35,6 +35,7 @@ const char* const kMainHelp =
     "  pick [PATH] --at X,Y[;X,Y..]  GPU depth picking of pixels: first visible surface point of each\n"
     "  select PATH --seed-voxel I,J,K --extent-mm D -o MASK.nii.gz   seeded region growing\n"
     "  gesture-solve --input FILE|-  one rigid gesture solve (JSON in, JSON out)\n"
+    "  deform PATH --handle MASK --translate-mm X,Y,Z -o OUT.nii.gz   move a handle, deform the tissue\n"
     "  phantom -o CT.nii.gz          write the built-in phantom (and --labels-out LABELS.nii.gz)\n"
     "  resample PATH --voxels N -o OUT.nii.gz   resample to about N voxels\n"
     "  bench [PATH]                  raymarch benchmark: plain vs empty-space skipping + early termination\n"
@@ -156,6 +157,7 @@ int run(int argc, char** argv) {
     if (cmd == "gesture-solve") return cmdGestureSolve(rest);
     if (cmd == "replay") return cmdReplay(rest);
     if (cmd == "bench") return cmdBench(rest);
+    if (cmd == "deform") return cmdDeform(rest);
     std::cerr << "error: unknown command '" << cmd << "'\n\n" << kMainHelp;
     return 2;
   } catch (const UsageError& e) {

@@ -178,3 +178,66 @@ TEST_F(Cli, GestureSolveReadsJsonAndRecoversAMotion) {
     EXPECT_NE(r.output.find(mention), std::string::npos) << text << "\n" << r.output;
   }
 }
+
+TEST_F(Cli, DeformMovesTheHandleRegionOnlyAndWritesAMeshForParaView) {
+  ASSERT_EQ(runHandson("phantom -o " + p("ct.nii.gz") + " --labels-out " + p("labels.nii.gz") + " --spacing 5 --noise 0").status, 0);
+  const std::string common = "deform " + p("ct.nii.gz") + " --handle " + p("labels.nii.gz") + " --handle-label 4 --coarse-tets 300 --fine-tets 8100 --quiet ";
+  CliRun r = runHandson(common + "--translate-mm 0,0,0 -o " + p("same.nii.gz"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  const handson::Volume ct = handson::readNifti(p("ct.nii.gz"));
+  const handson::Volume same = handson::readNifti(p("same.nii.gz"));
+  ASSERT_EQ(same.dims(), ct.dims());
+  double diff = 0;
+  for (std::size_t i = 0; i < ct.voxelCount(); ++i) diff = std::max(diff, double(std::abs(same.value(i) - ct.value(i))));
+  EXPECT_LE(diff, 1.0) << "zero motion reproduces the input within 1 HU";
+
+  for (const char* model : {"coarse", "fine"}) {
+    const std::string out = p((std::string(model) + ".nii.gz").c_str());
+    r = runHandson(common + "--model " + model + " --translate-mm 12,0,0 --rotate-deg 0,0,20 -o " + out + " --mesh-out " + p("mesh.vtu"));
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("inverted fine tets"), std::string::npos) << r.output;
+    const handson::Volume d = handson::readNifti(out);
+    const handson::Volume lab = handson::readNifti(p("labels.nii.gz"));
+    // The kidney's label centroid moved about +12 mm in x: compare the centroids of kidney-like HU
+    // (enhanced cortex > 120 HU) within the right half of the body, before and after.
+    const auto& g = ct.geometry();
+    Eigen::Vector3d c0 = Eigen::Vector3d::Zero(), c1 = Eigen::Vector3d::Zero();
+    double n0 = 0, n1 = 0;
+    std::size_t changedFar = 0;
+    for (std::size_t i = 0; i < ct.voxelCount(); ++i) {
+      const Eigen::Vector3d w = g.toWorld(g.voxelOf(i).cast<double>());
+      if (lab.value(i) == 4) {
+        c0 += w;
+        ++n0;
+      }
+      if (w.x() > 30 && w.y() < -20 && std::abs(d.value(i) - ct.value(i)) > 0 && d.value(i) > 120 && d.value(i) < 400) {
+        c1 += w;
+        ++n1;
+      }
+      if (std::abs(w.x()) > 0 && w.x() < -40 && d.value(i) != ct.value(i)) ++changedFar;  // the other side of the body
+    }
+    ASSERT_GT(n0, 0);
+    ASSERT_GT(n1, 0);
+    EXPECT_GT((c1 / n1).x() - (c0 / n0).x(), 4.0) << model << ": the kidney's bright voxels moved toward +x";
+    EXPECT_EQ(changedFar, 0u) << model << ": nothing changes outside the simulated region";
+  }
+  std::ifstream vtu(p("mesh.vtu"));
+  const std::string text((std::istreambuf_iterator<char>(vtu)), {});
+  for (const char* name : {"UnstructuredGrid", "Name=\"displacement\"", "Name=\"dirichlet\"", "Name=\"youngs_modulus\"", "Name=\"poisson_ratio\"",
+                           "Name=\"coarse_element\""})
+    EXPECT_NE(text.find(name), std::string::npos) << name;
+
+  // Bad input: a usage error (2) or a clear failure (1), never a crash.
+  EXPECT_EQ(runHandson("deform " + p("ct.nii.gz") + " --handle " + p("labels.nii.gz") + " -o " + p("x.nii.gz")).status, 2);
+  EXPECT_EQ(runHandson(common + "--translate-mm 1,2 -o " + p("x.nii.gz")).status, 2);
+  EXPECT_EQ(runHandson(common + "--translate-mm 1,0,0 --backend gpu -o " + p("x.nii.gz")).status, 2);
+  EXPECT_EQ(runHandson(common + "--translate-mm 1,0,0 --model magic -o " + p("x.nii.gz")).status, 2);
+  r = runHandson("deform " + p("ct.nii.gz") + " --handle " + p("labels.nii.gz") + " --handle-label 77 --translate-mm 1,0,0 --quiet -o " + p("x.nii.gz"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("selects no voxel"), std::string::npos) << r.output;
+  ASSERT_EQ(runHandson("phantom -o " + p("other.nii.gz") + " --spacing 7").status, 0);
+  r = runHandson("deform " + p("ct.nii.gz") + " --handle " + p("other.nii.gz") + " --translate-mm 1,0,0 --quiet -o " + p("x.nii.gz"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("grid"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(p("x.nii.gz")));
+}
