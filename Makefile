@@ -6,7 +6,7 @@
 PACKAGES := build-essential cmake ninja-build pkg-config \
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslc \
   libsdl2-dev libeigen3-dev libtet1.5-dev libglm-dev libgtest-dev libgmock-dev libbenchmark-dev \
-  libsuitesparse-dev libgdcm-dev libpng-dev zlib1g-dev libimgui-dev libstb-dev nlohmann-json3-dev gnuplot-nox xvfb xauth xdotool
+  libsuitesparse-dev libopenblas0-pthread libgdcm-dev libpng-dev zlib1g-dev libimgui-dev libstb-dev nlohmann-json3-dev gnuplot-nox xvfb xauth xdotool
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 JOBS ?= 2
 

@@ -151,7 +151,9 @@ int cmdBenchSim(const Words& words) {
                 << e.rmsOfMotion << ", max " << e.maxOfMotion << "\n";
     }
     trade << "fine," << sc.meshes.coarse.tets.size() << "," << tFine << ",1e-4\n";
-    acc << "," << (refineSteps ? tStep / refineSteps : 0.0) << "\n";
+    acc << "," << (refineSteps ? tStep / refineSteps : 0.0) << std::endl;  // a row at a time: long runs show progress
+    trade.flush();
+    std::cout.flush();
   }
   acc.close();
   trade.close();
