@@ -130,6 +130,7 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
     Element& el = elements_[e];
     el.Kh = Phic.transpose() * KPhic;
     el.Kh = 0.5 * (el.Kh + el.Kh.transpose()).eval();
+    el.KhX = el.Kh * stack(Xc);
     // Handle blocks, per handle among the D nodes.
     if (nD > 0) {
       const Mat Khd = KPhic.transpose() * PhiD;  // 12 x 3nD
@@ -233,11 +234,14 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
     for (std::size_t e = 0; e < C.tets.size(); ++e) {
       const Element& el = elements_[e];
       const Eigen::Matrix3d Rc = elementRotation(int(e), x);
-      const Mat12 B = blockRotation(Rc);
-      const Mat12 Ae = B * el.Kh * B.transpose();
-      const auto Xc = cornersOf(C, int(e), C.nodes);
-      Vec12 be = B * (el.Kh * stack(Xc));
-      if (!el.handles.empty()) be -= B * handleTerm(el, Rc, handles);
+      // R K_h R^T block by block (16 3x3 products instead of two 12x12 ones).
+      Mat12 Ae;
+      for (int a = 0; a < 4; ++a)
+        for (int b = 0; b < 4; ++b) Ae.block<3, 3>(3 * a, 3 * b).noalias() = Rc * el.Kh.block<3, 3>(3 * a, 3 * b) * Rc.transpose();
+      Vec12 local = el.KhX;
+      if (!el.handles.empty()) local -= handleTerm(el, Rc, handles);
+      Vec12 be;
+      for (int a = 0; a < 4; ++a) be.segment<3>(3 * a).noalias() = Rc * local.segment<3>(3 * a);
       assembler_->add(int(e), Ae);
       // Dirichlet corners move to the right-hand side.
       for (int a = 0; a < 4; ++a) {

@@ -79,6 +79,7 @@ class CoarseModel {
   };
   struct Element {
     Mat12 Kh;
+    Vec12 KhX;  // K_h X_c (constant)
     std::vector<HandleBlock> handles;
   };
   struct InteriorNode {

@@ -45,6 +45,9 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   if (((hi - lo).array() <= 0).any()) throw Error("simulation: the region of interest is empty (a flat image or handles on its edge)");
   sc.lo = lo;
   sc.hi = hi;
+  // Memory before meshing: per fine tet its 12x12 stiffness, a Hessian in the refinement and the
+  // assembly's slots (~2.7 KB), with 50 % for the rounding of the element counts.
+  checkAllocation(0, std::size_t(1.5 * double(std::max(s.fineTets, s.coarseTets)) * 2700.0), "the simulation meshes");
   reportProgress(progress, 0.0, "meshing");
   sc.meshes = buildNestedMeshes(lo, hi, s.coarseTets, std::max(1, s.fineTets / std::max(1, s.coarseTets)));
   const TetMesh& F = sc.meshes.fine;

@@ -232,6 +232,9 @@ TEST_F(Cli, DeformMovesTheHandleRegionOnlyAndWritesAMeshForParaView) {
   EXPECT_EQ(runHandson(common + "--translate-mm 1,2 -o " + p("x.nii.gz")).status, 2);
   EXPECT_EQ(runHandson(common + "--translate-mm 1,0,0 --backend gpu -o " + p("x.nii.gz")).status, 2);
   EXPECT_EQ(runHandson(common + "--translate-mm 1,0,0 --model magic -o " + p("x.nii.gz")).status, 2);
+  r = runHandson("deform " + p("ct.nii.gz") + " --handle " + p("labels.nii.gz") + " --handle-label 4 --translate-mm 1,0,0 --coarse-tets 2000000 " +
+                 "--fine-tets 20000000 --quiet -o " + p("x.nii.gz"));
+  EXPECT_EQ(r.status, 1) << "refused before allocating: " << r.output;
   r = runHandson("deform " + p("ct.nii.gz") + " --handle " + p("labels.nii.gz") + " --handle-label 77 --translate-mm 1,0,0 --quiet -o " + p("x.nii.gz"));
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find("selects no voxel"), std::string::npos) << r.output;
