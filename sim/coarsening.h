@@ -15,6 +15,7 @@
 #include "sim/fem.h"
 #include "sim/progress.h"
 #include "sim/sparse_direct.h"
+#include <Eigen/SparseCholesky>
 #include "sim/static_solver.h"
 #include "sim/tet_mesh.h"
 
@@ -107,7 +108,7 @@ class CoarseModel {
   std::vector<int> coarseRole_, dof_;
   int dofCount_ = 0;
   std::unique_ptr<BlockAssembler> assembler_;
-  DirectSolver solver_;
+  Eigen::SimplicialLLT<SparseMatrix, Eigen::Lower> solver_;  // small system: no BLAS threads or big per-call workspaces
   bool analyzed_ = false;
 };
 
