@@ -255,13 +255,8 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
         rhs.segment<3>(da) += r;
       }
     }
-    if (!analyzed_) {
-      solver_.analyzePattern(assembler_->matrix());
-      analyzed_ = true;
-    }
-    solver_.factorize(assembler_->matrix());
-    if (solver_.info() != Eigen::Success) throw Error("coarse solve: the coarse stiffness is not positive definite");
-    const Eigen::VectorXd sol = solver_.solve(rhs);
+    if (!factorize(assembler_->matrix())) throw Error("coarse solve: the coarse stiffness is not positive definite");
+    const Eigen::VectorXd sol = backSolve(rhs);
     double update = 0.0;
     for (std::size_t v = 0; v < C.nodes.size(); ++v)
       if (dof_[v] >= 0) {
@@ -357,8 +352,28 @@ void CoarseModel::prolongAdd(const Eigen::VectorXd& cv, const std::vector<Eigen:
 
 Eigen::VectorXd CoarseModel::coarseSolve(const Eigen::VectorXd& b) const {
   if (!analyzed_ || dofCount_ == 0) return Eigen::VectorXd::Zero(dofCount_);
-  return solver_.solve(b);
+  return backSolve(b);
 }
+
+bool CoarseModel::factorize(const SparseMatrix& A) {
+  if (!analyzed_) {
+    if (dofCount_ > 1200) {
+      large_ = std::make_unique<DirectSolver>();
+      large_->analyzePattern(A);
+    } else {
+      small_.analyzePattern(A);
+    }
+    analyzed_ = true;
+  }
+  if (large_) {
+    large_->factorize(A);
+    return large_->info() == Eigen::Success;
+  }
+  small_.factorize(A);
+  return small_.info() == Eigen::Success;
+}
+
+Eigen::VectorXd CoarseModel::backSolve(const Eigen::VectorXd& b) const { return large_ ? Eigen::VectorXd(large_->solve(b)) : Eigen::VectorXd(small_.solve(b)); }
 
 std::vector<Eigen::Vector3d> prescribedPositions(const TetMesh& fine, const FineConstraints& c, const std::vector<RigidTransform>& handles, std::vector<char>* dirichlet) {
   std::vector<Eigen::Vector3d> x = fine.nodes;
