@@ -131,6 +131,9 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
     el.Kh = Phic.transpose() * KPhic;
     el.Kh = 0.5 * (el.Kh + el.Kh.transpose()).eval();
     el.KhX = el.Kh * stack(Xc);
+    Eigen::Matrix3d Dm;
+    Dm << Xc[1] - Xc[0], Xc[2] - Xc[0], Xc[3] - Xc[0];
+    el.DmInv = Dm.inverse();
     // Handle blocks, per handle among the D nodes.
     if (nD > 0) {
       const Mat Khd = KPhic.transpose() * PhiD;  // 12 x 3nD
@@ -190,8 +193,11 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
 }
 
 Eigen::Matrix3d CoarseModel::elementRotation(int e, const std::vector<Eigen::Vector3d>& x) const {
-  const TetMesh& C = meshes_.coarse;
-  return polarRotation(deformationGradient(cornersOf(C, e, C.nodes), cornersOf(C, e, x)));
+  const auto& t = meshes_.coarse.tets[std::size_t(e)];
+  const Eigen::Vector3d& x0 = x[std::size_t(t[0])];
+  Eigen::Matrix3d Ds;
+  Ds << x[std::size_t(t[1])] - x0, x[std::size_t(t[2])] - x0, x[std::size_t(t[3])] - x0;
+  return polarRotation(Ds * elements_[std::size_t(e)].DmInv);
 }
 
 Eigen::Matrix<double, 12, 1> CoarseModel::handleTerm(const Element& el, const Eigen::Matrix3d& Rc, const std::vector<RigidTransform>& handles) const {

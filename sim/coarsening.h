@@ -80,7 +80,8 @@ class CoarseModel {
   };
   struct Element {
     Mat12 Kh;
-    Vec12 KhX;  // K_h X_c (constant)
+    Vec12 KhX;             // K_h X_c (constant)
+    Eigen::Matrix3d DmInv;  // inverse rest edge matrix
     std::vector<HandleBlock> handles;
   };
   struct InteriorNode {
