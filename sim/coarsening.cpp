@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <unordered_map>
 
 #include "sim/error.h"
@@ -233,7 +234,9 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
     return st;
   }
   const double tol = tolerance * std::max(motion, 1e-9);
+  ++callsSinceFactorization_;
   Eigen::VectorXd rhs(dofCount_);
+  double update0 = 0.0, prevUpdate = std::numeric_limits<double>::infinity();  // the last two updates
   for (int it = 0; it < maxIterations; ++it) {
     assembler_->zero();
     rhs.setZero();
@@ -261,18 +264,31 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
         rhs.segment<3>(da) += r;
       }
     }
-    if (!factorize(assembler_->matrix())) throw Error("coarse solve: the coarse stiffness is not positive definite");
-    const Eigen::VectorXd sol = backSolve(rhs);
+    // x += A_f^-1 (b - A(R) x) with A_f the last factorized matrix: refactorized every third call
+    // (frame) and whenever the updates stop halving; otherwise only back-solves (the factorization
+    // is the frame's main cost on larger coarse meshes). The fixed point is the same.
+    if (!factorized_ || (it == 0 && callsSinceFactorization_ >= 3) || (it > 0 && update0 > 0.5 * prevUpdate)) {
+      callsSinceFactorization_ = 0;
+      if (!factorize(assembler_->matrix())) throw Error("coarse solve: the coarse stiffness is not positive definite");
+      factorized_ = true;
+      ++st.factorizations;
+    }
+    Eigen::VectorXd xf(dofCount_);
+    for (std::size_t v = 0; v < C.nodes.size(); ++v)
+      if (dof_[v] >= 0) xf.segment<3>(dof_[v]) = x[v];
+    const Eigen::VectorXd r = rhs - assembler_->matrix().selfadjointView<Eigen::Lower>() * xf;
+    const Eigen::VectorXd dx = backSolve(r);
     double update = 0.0;
     for (std::size_t v = 0; v < C.nodes.size(); ++v)
       if (dof_[v] >= 0) {
-        const Eigen::Vector3d nx = sol.segment<3>(dof_[v]);
-        update = std::max(update, (nx - x[v]).norm());
-        x[v] = nx;
+        x[v] += dx.segment<3>(dof_[v]);
+        update = std::max(update, dx.segment<3>(dof_[v]).norm());
       }
     if (!std::isfinite(update)) throw Error("coarse solve: diverged (non-finite positions)");
     st.iterations = it + 1;
     st.lastUpdate = update;
+    prevUpdate = update0;
+    update0 = update;
     if (update <= tol) {
       st.converged = true;
       break;
@@ -363,23 +379,14 @@ Eigen::VectorXd CoarseModel::coarseSolve(const Eigen::VectorXd& b) const {
 
 bool CoarseModel::factorize(const SparseMatrix& A) {
   if (!analyzed_) {
-    if (dofCount_ > 1200) {
-      large_ = std::make_unique<DirectSolver>();
-      large_->analyzePattern(A);
-    } else {
-      small_.analyzePattern(A);
-    }
+    solver_.analyzePattern(A);
     analyzed_ = true;
   }
-  if (large_) {
-    large_->factorize(A);
-    return large_->info() == Eigen::Success;
-  }
-  small_.factorize(A);
-  return small_.info() == Eigen::Success;
+  solver_.factorize(A);
+  return solver_.info() == Eigen::Success;
 }
 
-Eigen::VectorXd CoarseModel::backSolve(const Eigen::VectorXd& b) const { return large_ ? Eigen::VectorXd(large_->solve(b)) : Eigen::VectorXd(small_.solve(b)); }
+Eigen::VectorXd CoarseModel::backSolve(const Eigen::VectorXd& b) const { return solver_.solve(b); }
 
 std::vector<Eigen::Vector3d> prescribedPositions(const TetMesh& fine, const FineConstraints& c, const std::vector<RigidTransform>& handles, std::vector<char>* dirichlet) {
   std::vector<Eigen::Vector3d> x = fine.nodes;

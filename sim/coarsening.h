@@ -38,7 +38,7 @@ struct FineConstraints {
 };
 
 struct CoarseSolveStats {
-  int iterations = 0;
+  int iterations = 0, factorizations = 0;
   double lastUpdate = 0.0;  ///< largest coarse node update of the last iteration (mm)
   bool converged = false;
 };
@@ -109,15 +109,14 @@ class CoarseModel {
   std::vector<int> coarseRole_, dof_;
   int dofCount_ = 0;
   std::unique_ptr<BlockAssembler> assembler_;
-  // Below ~1200 free dofs Eigen's simplicial Cholesky beats CHOLMOD (whose per-call workspaces and
-  // BLAS threads cost more than the factorization); above, CHOLMOD wins (measured on the phantom
-  // kidney scene, 3 iterations a frame: 1,440 coarse tets / 210 dofs 7.4 -> 4.2 ms with Eigen,
-  // 2,940 / 708 dofs 26 -> 14 ms; 6,318 / 1,755 dofs 50 ms with CHOLMOD, 62 with Eigen).
-  Eigen::SimplicialLLT<SparseMatrix, Eigen::Lower> small_;
-  std::unique_ptr<DirectSolver> large_;
+  // The coarse system (10^2-10^4 dofs) with Eigen's simplicial Cholesky: CHOLMOD's per-call
+  // workspaces and BLAS threads cost more than they save at this size (measured on the phantom
+  // kidney scene, 6,318 coarse tets / 2,022 dofs: 35.8 ms a frame with CHOLMOD, 18.5 with Eigen).
+  Eigen::SimplicialLLT<SparseMatrix, Eigen::Lower> solver_;
   bool factorize(const SparseMatrix& A);
   Eigen::VectorXd backSolve(const Eigen::VectorXd& b) const;
-  bool analyzed_ = false;
+  bool analyzed_ = false, factorized_ = false;
+  int callsSinceFactorization_ = 0;
 };
 
 /// Plain coarse FEM for comparison: coarse tets with the volume-averaged Young's modulus and Poisson
