@@ -1,5 +1,5 @@
 #pragma once
-// The sparse direct solver behind the simulation: CHOLMOD's supernodal Cholesky (SuiteSparse, with
+// The sparse direct solver of the fine reference: CHOLMOD's supernodal Cholesky (SuiteSparse, with
 // METIS ordering) through Eigen's wrapper. Eigen's own SimplicialLLT is 10-50x slower on the fine
 // 3D meshes (its fill-reducing AMD ordering and simplicial factorization), and the fine reference
 // is refactorized every Newton iteration. Symbolic analysis once per sparsity pattern. CHOLMOD's
