@@ -237,6 +237,7 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
   ++callsSinceFactorization_;
   Eigen::VectorXd rhs(dofCount_);
   double update0 = 0.0, prevUpdate = std::numeric_limits<double>::infinity();  // the last two updates
+  double relax = 1.0;
   for (int it = 0; it < maxIterations; ++it) {
     assembler_->zero();
     rhs.setZero();
@@ -281,12 +282,15 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
     double update = 0.0;
     for (std::size_t v = 0; v < C.nodes.size(); ++v)
       if (dof_[v] >= 0) {
-        x[v] += dx.segment<3>(dof_[v]);
-        update = std::max(update, dx.segment<3>(dof_[v]).norm());
+        x[v] += relax * dx.segment<3>(dof_[v]);
+        update = std::max(update, relax * dx.segment<3>(dof_[v]).norm());
       }
     if (!std::isfinite(update)) throw Error("coarse solve: diverged (non-finite positions)");
     st.iterations = it + 1;
     st.lastUpdate = update;
+    // Damping: an update that does not shrink (elements flipping between two states) halves the
+    // step of the following iterations.
+    if (it > 0 && update > 0.9 * update0) relax = std::max(relax * 0.5, 1.0 / 64.0);
     prevUpdate = update0;
     update0 = update;
     if (update <= tol) {
