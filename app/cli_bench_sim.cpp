@@ -77,11 +77,8 @@ int cmdBenchSim(const Words& words) {
     image = std::move(ph.ct);
   } else {
     image = loadVolume(args.positional()[0], nullptr, progress);
-    const Volume m = readNifti(*args.value("--handle"));
-    if (m.dims() != image.dims()) throw Error("handle mask: its grid is not the image's");
     const std::optional<long> lab = args.value("--handle-label") ? std::optional<long>(args.integer("--handle-label", 0, 1, 65535)) : std::nullopt;
-    for (std::size_t i = 0; i < m.voxelCount(); ++i)
-      if (lab ? m.value(i) == float(*lab) : m.value(i) != 0.0f) handle.voxels.push_back(std::uint32_t(i));
+    handle.voxels = maskVoxels(*args.value("--handle"), image, "handle mask", lab);
   }
   if (handle.voxels.empty()) throw Error("the handle selects no voxel");
 

@@ -43,21 +43,6 @@ const char* const kDeformHelp =
     "                          dirichlet, cell data youngs_modulus, poisson_ratio, coarse_element\n"
     "  --quiet                 no progress output\n";
 
-std::vector<std::uint32_t> maskVoxels(const std::string& path, const Volume& image, const char* what, std::optional<long> label) {
-  const Volume m = readNifti(path);
-  const auto& a = m.geometry();
-  const auto& b = image.geometry();
-  if (a.dims != b.dims) throw Error(std::string(what) + " " + path + ": its grid is not the image's (dimensions differ)");
-  if ((a.spacing - b.spacing).cwiseAbs().maxCoeff() > 1e-3 * b.spacing.minCoeff() || (a.origin - b.origin).norm() > 1e-2 * b.spacing.minCoeff() ||
-      (a.direction - b.direction).cwiseAbs().maxCoeff() > 1e-4)
-    throw Error(std::string(what) + " " + path + ": its grid is not the image's (spacing, origin or orientation differ)");
-  std::vector<std::uint32_t> v;
-  for (std::size_t i = 0; i < m.voxelCount(); ++i)
-    if (label ? m.value(i) == float(*label) : (m.value(i) != 0.0f && !std::isnan(m.value(i)))) v.push_back(std::uint32_t(i));
-  if (v.empty()) throw Error(std::string(what) + " " + path + " selects no voxel");
-  return v;
-}
-
 double seconds(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
 
 }  // namespace
@@ -131,9 +116,8 @@ int cmdDeform(const Words& words) {
       x = r.x;
     }
   } else {
-    const CoarseModel cm(sc.meshes, sc.fineK, sc.constraints, progress);
+    CoarseModel m(sc.meshes, sc.fineK, sc.constraints, progress);
     tPre = seconds(t0);
-    CoarseModel& m = const_cast<CoarseModel&>(cm);
     auto xc = m.restState();
     for (int k = 1; k <= steps; ++k) m.solve(transformsAt(double(k) / steps), xc, 50);
     x = m.reconstruct(T, xc);
@@ -143,15 +127,8 @@ int cmdDeform(const Words& words) {
     }
   }
   const double tSolve = seconds(t0) - tPre;
-  int inverted = 0;
+  const int inverted = countInvertedTets(sc.meshes.fine, x);
   double maxDisp = 0;
-  for (std::size_t t = 0; t < sc.meshes.fine.tets.size(); ++t) {
-    const auto& v = sc.meshes.fine.tets[t];
-    const auto& N = sc.meshes.fine.nodes;
-    const std::array<Eigen::Vector3d, 4> X{N[std::size_t(v[0])], N[std::size_t(v[1])], N[std::size_t(v[2])], N[std::size_t(v[3])]};
-    const std::array<Eigen::Vector3d, 4> xs{x[std::size_t(v[0])], x[std::size_t(v[1])], x[std::size_t(v[2])], x[std::size_t(v[3])]};
-    if (deformationGradient(X, xs).determinant() <= 0) ++inverted;
-  }
   for (std::size_t i = 0; i < x.size(); ++i) maxDisp = std::max(maxDisp, (x[i] - sc.meshes.fine.nodes[i]).norm());
   t0 = std::chrono::steady_clock::now();
   Volume out;

@@ -29,4 +29,19 @@ Volume loadVolume(const std::string& path, LoadReport* report, const ProgressFn&
   return v;
 }
 
+std::vector<std::uint32_t> maskVoxels(const std::string& path, const Volume& image, const char* what, std::optional<long> label) {
+  const Volume m = readNifti(path);
+  const auto& a = m.geometry();
+  const auto& b = image.geometry();
+  if (a.dims != b.dims) throw Error(std::string(what) + " " + path + ": its grid is not the image's (dimensions differ)");
+  if ((a.spacing - b.spacing).cwiseAbs().maxCoeff() > 1e-3 * b.spacing.minCoeff() || (a.origin - b.origin).norm() > 1e-2 * b.spacing.minCoeff() ||
+      (a.direction - b.direction).cwiseAbs().maxCoeff() > 1e-4)
+    throw Error(std::string(what) + " " + path + ": its grid is not the image's (spacing, origin or orientation differ)");
+  std::vector<std::uint32_t> v;
+  for (std::size_t i = 0; i < m.voxelCount(); ++i)
+    if (label ? m.value(i) == float(*label) : (m.value(i) != 0.0f && !std::isnan(m.value(i)))) v.push_back(std::uint32_t(i));
+  if (v.empty()) throw Error(std::string(what) + " " + path + " selects no voxel");
+  return v;
+}
+
 }  // namespace handson

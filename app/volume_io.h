@@ -1,4 +1,7 @@
 #pragma once
+#include <cstdint>
+#include <optional>
+#include <vector>
 // Opening a volume from a path: a DICOM series directory or a NIfTI file (.nii, .nii.gz).
 #include <string>
 #include <vector>
@@ -15,5 +18,9 @@ struct LoadReport {
 
 /// Throws handson::Error with a clear message on a missing path or unreadable data.
 Volume loadVolume(const std::string& path, LoadReport* report = nullptr, const ProgressFn& progress = {});
+
+/// Linear indices of a NIfTI mask's voxels that are non-zero (or equal to `label`), on the image's
+/// grid. Throws handson::Error, naming `what` and the path, if the grids differ or nothing is selected.
+std::vector<std::uint32_t> maskVoxels(const std::string& path, const Volume& image, const char* what, std::optional<long> label);
 
 }  // namespace handson

@@ -31,10 +31,7 @@ Eigen::Matrix<double, 9, 1> unroll(const Eigen::Matrix3d& M) {
   return v;
 }
 
-std::array<Eigen::Vector3d, 4> cornersOf(const TetMesh& m, int t, const std::vector<Eigen::Vector3d>& x) {
-  const auto& v = m.tets[std::size_t(t)];
-  return {x[std::size_t(v[0])], x[std::size_t(v[1])], x[std::size_t(v[2])], x[std::size_t(v[3])]};
-}
+std::array<Eigen::Vector3d, 4> cornersOf(const TetMesh& m, int t, const std::vector<Eigen::Vector3d>& x) { return tetCorners(m.tets[std::size_t(t)], x); }
 
 Eigen::Vector4d barycentric(const std::array<Eigen::Vector3d, 4>& X, const Eigen::Vector3d& p) {
   Eigen::Matrix3d D;
@@ -222,12 +219,10 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
     if (coarseRole_[v] == -2) x[v] = C.nodes[v];
     else if (coarseRole_[v] >= 0) x[v] = handles[std::size_t(coarseRole_[v])].apply(C.nodes[v]);
   }
-  for (std::size_t k = 0; k < handles.size(); ++k) {
-    // A handle's largest displacement is at the farthest point from its rotation's fixed point;
-    // the coarse nodes around bound it well enough for a tolerance.
-    for (std::size_t v = 0; v < C.nodes.size(); ++v) motion = std::max(motion, (handles[k].apply(C.nodes[v]) - C.nodes[v]).norm() * (coarseRole_[v] == int(k) ? 1.0 : 0.0));
-    motion = std::max(motion, handles[k].t.norm());
-  }
+  // The motion scale: the handles' coarse nodes' displacements and their translations.
+  for (std::size_t v = 0; v < C.nodes.size(); ++v)
+    if (coarseRole_[v] >= 0) motion = std::max(motion, (x[v] - C.nodes[v]).norm());
+  for (const auto& T : handles) motion = std::max(motion, T.t.norm());
   CoarseSolveStats st;
   if (dofCount_ == 0) {
     st.converged = true;

@@ -7,6 +7,7 @@
 // moved rest configuration.
 #include <Eigen/Core>
 #include <array>
+#include <vector>
 
 namespace handson {
 
@@ -37,6 +38,11 @@ Vec12 corotationalForce(const Mat12& K, const std::array<Eigen::Vector3d, 4>& X,
 /// terms are dropped (warped stiffness). If `projectSpd`, negative eigenvalues are clamped to zero
 /// so the assembled matrix stays positive definite (projected Newton).
 Mat12 corotationalHessian(const Mat12& K, const std::array<Eigen::Vector3d, 4>& X, const std::array<Eigen::Vector3d, 4>& x, bool projectSpd);
+
+/// The 4 corner positions of tet `tet` taken from a per-node array.
+inline std::array<Eigen::Vector3d, 4> tetCorners(const std::array<int, 4>& tet, const std::vector<Eigen::Vector3d>& x) {
+  return {x[std::size_t(tet[0])], x[std::size_t(tet[1])], x[std::size_t(tet[2])], x[std::size_t(tet[3])]};
+}
 
 /// Stacks 4 points into a 12 vector.
 Vec12 stack(const std::array<Eigen::Vector3d, 4>& p);

@@ -9,11 +9,25 @@
 namespace handson {
 
 namespace {
-std::array<Eigen::Vector3d, 4> corners(const TetMesh& m, int t, const std::vector<Eigen::Vector3d>& x) {
-  const auto& v = m.tets[std::size_t(t)];
-  return {x[std::size_t(v[0])], x[std::size_t(v[1])], x[std::size_t(v[2])], x[std::size_t(v[3])]};
-}
+std::array<Eigen::Vector3d, 4> corners(const TetMesh& m, int t, const std::vector<Eigen::Vector3d>& x) { return tetCorners(m.tets[std::size_t(t)], x); }
 }  // namespace
+
+double elasticEnergy(const TetMesh& mesh, const std::vector<Mat12>& K, const std::vector<Eigen::Vector3d>& x) {
+  double e = 0.0;
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    double et = 0.0;
+    corotationalForce(K[t], corners(mesh, int(t), mesh.nodes), corners(mesh, int(t), x), &et);
+    e += et;
+  }
+  return e;
+}
+
+int countInvertedTets(const TetMesh& mesh, const std::vector<Eigen::Vector3d>& x) {
+  int n = 0;
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t)
+    if (deformationGradient(corners(mesh, int(t), mesh.nodes), corners(mesh, int(t), x)).determinant() <= 0) ++n;
+  return n;
+}
 
 BlockAssembler::BlockAssembler(const std::vector<std::array<int, 4>>& tets, const std::vector<int>& dof, int dofCount)
     : tets_(tets), dof_(dof) {
@@ -107,20 +121,11 @@ StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, 
   DirectSolver solver;
   solver.cholmod().print = 0;  // an indefinite Hessian is expected (then projected), not an error to print
   bool analyzed = false;
-  std::vector<Eigen::Matrix3d> R(mesh.tets.size());
   double prevUpdate = std::numeric_limits<double>::infinity();
   bool refactor = true;
   bool project = false;  // the exact Hessian first; projected per element if it is not positive definite
   Eigen::VectorXd rhs(dofs);
-  auto energy = [&](const std::vector<Eigen::Vector3d>& x) {
-    double e = 0.0;
-    for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-      double et = 0.0;
-      corotationalForce(K[t], corners(mesh, int(t), mesh.nodes), corners(mesh, int(t), x), &et);
-      e += et;
-    }
-    return e;
-  };
+  auto energy = [&](const std::vector<Eigen::Vector3d>& x) { return elasticEnergy(mesh, K, x); };
   for (int it = 0; it < opt.maxIterations; ++it) {
     // Forces (and, when refactorizing, the warped stiffness) at the current positions.
     rhs.setZero();
@@ -190,8 +195,7 @@ StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, 
     refactor = opt.newton || it < 2 || update > 0.25 * prevUpdate;
     prevUpdate = update;
   }
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t)
-    if (deformationGradient(corners(mesh, int(t), mesh.nodes), corners(mesh, int(t), res.x)).determinant() <= 0) ++res.invertedTets;
+  res.invertedTets = countInvertedTets(mesh, res.x);
   return res;
 }
 

@@ -60,6 +60,12 @@ StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, 
 /// Sum of corotational element forces at every node (zero at the free nodes of an equilibrium).
 std::vector<Eigen::Vector3d> internalForces(const TetMesh& mesh, const std::vector<Mat12>& K, const std::vector<Eigen::Vector3d>& x);
 
+/// Total corotational elastic energy of the mesh at positions x.
+double elasticEnergy(const TetMesh& mesh, const std::vector<Mat12>& K, const std::vector<Eigen::Vector3d>& x);
+
+/// Tets with det F <= 0 at positions x.
+int countInvertedTets(const TetMesh& mesh, const std::vector<Eigen::Vector3d>& x);
+
 /// Per-tet stiffness for a mesh and per-tet materials.
 std::vector<Mat12> tetStiffnesses(const TetMesh& mesh, const std::vector<double>& youngs, const std::vector<double>& poisson);
 

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "sim/error.h"
+#include "sim/static_solver.h"
 
 namespace handson {
 
@@ -33,10 +34,7 @@ double FineRefiner::step(const std::vector<Eigen::Vector3d>& xc, std::vector<Eig
   std::vector<Mat12> H(nt);
   Field r(n, Eigen::Vector3d::Zero());
   std::vector<Eigen::Matrix3d> diag(n, Eigen::Matrix3d::Zero());
-  auto cornersAt = [&](std::size_t t, const Field& pos) {
-    const auto& v = F.tets[t];
-    return std::array<Eigen::Vector3d, 4>{pos[std::size_t(v[0])], pos[std::size_t(v[1])], pos[std::size_t(v[2])], pos[std::size_t(v[3])]};
-  };
+  auto cornersAt = [&](std::size_t t, const Field& pos) { return tetCorners(F.tets[t], pos); };
   for (std::size_t t = 0; t < nt; ++t) {
     const auto& v = F.tets[t];
     const auto X = cornersAt(t, F.nodes), xs = cornersAt(t, x);
@@ -95,15 +93,7 @@ double FineRefiner::step(const std::vector<Eigen::Vector3d>& xc, std::vector<Eig
     for (std::size_t i = 0; i < n; ++i) p[i] = z[i] + beta * p[i];
   }
   // Backtracking on the fine elastic energy along dx.
-  auto energy = [&](const Field& pos) {
-    double e = 0;
-    for (std::size_t t = 0; t < nt; ++t) {
-      double et = 0;
-      corotationalForce(K_[t], cornersAt(t, F.nodes), cornersAt(t, pos), &et);
-      e += et;
-    }
-    return e;
-  };
+  auto energy = [&](const Field& pos) { return elasticEnergy(F, K_, pos); };
   const double e0 = energy(x);
   Field trial = x;
   for (int ls = 0; ls < 10; ++ls) {

@@ -50,16 +50,6 @@ bool finite(const std::vector<Eigen::Vector3d>& x) {
   return true;
 }
 
-int inverted(const TetMesh& m, const std::vector<Eigen::Vector3d>& x) {
-  int n = 0;
-  for (const auto& t : m.tets) {
-    const std::array<Eigen::Vector3d, 4> X{m.nodes[std::size_t(t[0])], m.nodes[std::size_t(t[1])], m.nodes[std::size_t(t[2])], m.nodes[std::size_t(t[3])]};
-    const std::array<Eigen::Vector3d, 4> y{x[std::size_t(t[0])], x[std::size_t(t[1])], x[std::size_t(t[2])], x[std::size_t(t[3])]};
-    if (deformationGradient(X, y).determinant() <= 0) ++n;
-  }
-  return n;
-}
-
 // Coarse (with continuation) and fine solves of one scene and motion; both must be finite.
 struct Outcome {
   bool coarseFinite = false, fineFinite = false, fineConverged = false;
@@ -74,7 +64,7 @@ Outcome run(Scene& s, const Motion& at, int increments) {
   for (int k = 1; k <= increments; ++k) model.solve(at(double(k) / increments), xc, 30);
   const auto xcoarse = model.reconstruct(T, xc);
   o.coarseFinite = finite(xc) && finite(xcoarse);
-  o.coarseInverted = inverted(s.meshes.fine, xcoarse);
+  o.coarseInverted = countInvertedTets(s.meshes.fine, xcoarse);
   std::vector<char> dir;
   auto x = s.meshes.fine.nodes;
   for (int k = 1; k <= increments; ++k) {
@@ -86,7 +76,7 @@ Outcome run(Scene& s, const Motion& at, int increments) {
     o.fineConverged = r.converged;
   }
   o.fineFinite = finite(x);
-  o.fineInverted = inverted(s.meshes.fine, x);
+  o.fineInverted = countInvertedTets(s.meshes.fine, x);
   return o;
 }
 
