@@ -25,7 +25,8 @@ bool isRead(Access a) {
     case Access::UniformRead:
     case Access::TransferSrc:
     case Access::HostRead:
-    case Access::Present: return true;
+    case Access::Present:
+    case Access::IndirectRead: return true;
     default: return false;
   }
 }
@@ -57,6 +58,7 @@ const char* accessName(Access a) {
     case Access::HostWrite: return "host-write";
     case Access::ColorAttachmentWrite: return "color-attachment-write";
     case Access::Present: return "present";
+    case Access::IndirectRead: return "indirect-read";
   }
   return "?";
 }

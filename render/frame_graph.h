@@ -37,7 +37,9 @@ enum class Access : std::uint8_t {
   HostWrite,
   ColorAttachmentWrite,  ///< drawn by a render pass (the UI overlay), loading the old contents
   Present,  ///< swapchain image handed to the presentation engine
+  IndirectRead,  ///< buffer read as indirect dispatch arguments
 };
+constexpr unsigned kAccessCount = unsigned(Access::IndirectRead) + 1;
 
 enum class Layout : std::uint8_t { Undefined, General, ShaderReadOnly, TransferSrc, TransferDst, ColorAttachment, PresentSrc };
 

@@ -302,6 +302,13 @@ void Context::pickDevice(const ContextOptions& options) {
   f13.synchronization2 = VK_TRUE;
   VkPhysicalDeviceFeatures2 f2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   f2.pNext = &f13;
+  {
+    // The deformation passes write R16_UNORM / R8_UNORM storage images (r16, r8 in GLSL).
+    VkPhysicalDeviceFeatures have{};
+    vkGetPhysicalDeviceFeatures(physical_, &have);
+    f2.features.shaderStorageImageExtendedFormats = have.shaderStorageImageExtendedFormats;
+    storageExtendedFormats_ = have.shaderStorageImageExtendedFormats == VK_TRUE;
+  }
   VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
   dci.pNext = &f2;
   dci.queueCreateInfoCount = 1;

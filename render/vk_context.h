@@ -64,6 +64,8 @@ class Context {
   bool validationEnabled() const { return validation_; }
   /// Nanoseconds per timestamp tick, 0 if the queue has no timestamps.
   double timestampPeriodNs() const { return timestampPeriod_; }
+  /// shaderStorageImageExtendedFormats (r16 / r8 storage images) is supported and enabled.
+  bool storageExtendedFormats() const { return storageExtendedFormats_; }
 
   /// Number of validation messages (warnings and errors) since creation or the last reset.
   std::uint64_t validationMessageCount() const { return messageCount_.load(); }
@@ -99,6 +101,7 @@ class Context {
   DeviceSummary summary_{};
   bool validation_ = false;
   double timestampPeriod_ = 0.0;
+  bool storageExtendedFormats_ = false;
   std::atomic<std::uint64_t> messageCount_{0};
   mutable std::mutex messageMutex_;
   std::vector<std::string> messages_;

@@ -31,13 +31,14 @@ VkAccess toVk(fg::Access a) {
     case Access::ColorAttachmentWrite:
       return {VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT};
     case Access::Present: return {VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE};
+    case Access::IndirectRead: return {VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT, VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT};
   }
   return {VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT};
 }
 
 VkAccess toVkMask(fg::AccessMask m) {
   VkAccess out{VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE};
-  for (unsigned i = 1; i <= unsigned(fg::Access::Present); ++i)
+  for (unsigned i = 1; i < fg::kAccessCount; ++i)
     if (m & (1u << i)) {
       const VkAccess a = toVk(fg::Access(i));
       out.stage |= a.stage;

@@ -27,6 +27,8 @@ using uint = std::uint32_t;
 #define HANDSON_BRICK_GROUP_X 64
 #define HANDSON_GROW_BRICK 8          // region growing: bricks of 8^3 voxels, one workgroup each
 #define HANDSON_COMPACT_GROUP_X 64
+#define HANDSON_DEFORM_GROUP_X 64     // deformation passes: one invocation per fine node or tet
+#define HANDSON_DEFORM_CLEAR_GROUP 4  // deform_clear.comp: 4^3 voxels per workgroup
 HS_CONST kRaymarchGroupX = HANDSON_RAYMARCH_GROUP_X;
 HS_CONST kRaymarchGroupY = HANDSON_RAYMARCH_GROUP_Y;
 HS_CONST kPickGroupX = HANDSON_PICK_GROUP_X;
@@ -104,7 +106,39 @@ struct GrowPush {
   vec4 tolerance;   // x: accept |value - seed value| < x
 };
 
+// Deformation (shaders/deform_*.comp; CPU references sim/fine_interpolation.h, sim/tet_raster.h).
+// Fine node kinds of deform_interpolate.comp (FineInterpolationData::Kind).
+HS_CONST kFineRest = 0u;
+HS_CONST kFineHandle = 1u;
+HS_CONST kFineCorner = 2u;
+HS_CONST kFineBoundary = 3u;
+HS_CONST kFineInterior = 4u;
+HS_CONST kDeformNoOwner = 0xffffffffu;
+
+// Static per deformation setup (uniform buffer).
+struct DeformParams {
+  mat4 worldToIndex;
+  mat4 indexToWorld;
+  vec4 regionLo;      // world box of the mesh at rest (xyz), w = background (normalized value)
+  vec4 regionHi;      // xyz
+  ivec4 regionVoxLo;  // xyz: voxel index box that can hold region voxels (inclusive), w = fine node count
+  ivec4 regionVoxHi;  // xyz, w = fine tet count
+  ivec4 dims;         // xyz volume dims, w = handle count
+  ivec4 ownerDims;    // xyz: regionVoxHi - regionVoxLo + 1 (owner buffer), w = coarse element count
+};
+
+// The box redone this frame (storage buffer, written by deform_bounds.comp, clamped by
+// deform_args.comp) and counters.
+struct DeformBox {
+  ivec4 lo;     // xyz inclusive voxel index
+  ivec4 hi;     // xyz inclusive (lo > hi: nothing to redo)
+  uvec4 stats;  // x = moved tets, y = covered voxels, z = tets rasterized
+  uvec4 pad;
+};
+
 #ifdef __cplusplus
+static_assert(sizeof(DeformParams) == 2 * 64 + 6 * 16, "DeformParams must match std140");
+static_assert(sizeof(DeformBox) == 64, "DeformBox must match std430");
 static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
 static_assert(sizeof(MovingHandle) == 112, "MovingHandle must match std140");
 static_assert(sizeof(RenderParams) == 3 * 64 + 7 * 16 + 8 * 112, "RenderParams must match std140");

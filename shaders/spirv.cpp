@@ -1,6 +1,11 @@
 #include "spirv.h"
 
 #include "brick_minmax.spv.h"
+#include "deform_args.spv.h"
+#include "deform_bounds.spv.h"
+#include "deform_clear.spv.h"
+#include "deform_interpolate.spv.h"
+#include "deform_raster.spv.h"
 #include "pick.spv.h"
 #include "raymarch.spv.h"
 #include "region_compact.spv.h"
@@ -13,5 +18,10 @@ std::span<const std::uint32_t> pick() { return spirv::pick; }
 std::span<const std::uint32_t> brickMinMax() { return spirv::brick_minmax; }
 std::span<const std::uint32_t> regionGrow() { return spirv::region_grow; }
 std::span<const std::uint32_t> regionCompact() { return spirv::region_compact; }
+std::span<const std::uint32_t> deformInterpolate() { return spirv::deform_interpolate; }
+std::span<const std::uint32_t> deformBounds() { return spirv::deform_bounds; }
+std::span<const std::uint32_t> deformArgs() { return spirv::deform_args; }
+std::span<const std::uint32_t> deformClear() { return spirv::deform_clear; }
+std::span<const std::uint32_t> deformRaster() { return spirv::deform_raster; }
 
 }  // namespace handson::shaders

@@ -190,6 +190,48 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
   reportProgress(progress, 1.0, "coarsening");
 }
 
+std::vector<Eigen::Matrix3d> CoarseModel::elementRotations(const std::vector<Eigen::Vector3d>& x) const {
+  std::vector<Eigen::Matrix3d> R(meshes_.coarse.tets.size());
+  for (std::size_t e = 0; e < R.size(); ++e) R[e] = elementRotation(int(e), x);
+  return R;
+}
+
+FineInterpolationData CoarseModel::interpolationData() const {
+  const TetMesh& C = meshes_.coarse;
+  const TetMesh& F = meshes_.fine;
+  FineInterpolationData d;
+  d.handleCount = std::uint32_t(constraints_.handleCount);
+  d.node.assign(F.nodes.size(), {FineInterpolationData::Rest, 0, 0, 0});
+  d.rest.reserve(F.nodes.size());
+  for (const auto& X : F.nodes) d.rest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
+  for (const auto& X : C.nodes) d.coarseRest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
+  for (const auto& t : C.tets) d.coarseTets.push_back({std::uint32_t(t[0]), std::uint32_t(t[1]), std::uint32_t(t[2]), std::uint32_t(t[3])});
+  // Same precedence as reconstruct(): handle, then corner, boundary, interior records overwrite.
+  for (std::size_t f = 0; f < F.nodes.size(); ++f)
+    if (constraints_.handleOf[f] >= 0) d.node[f] = {FineInterpolationData::Handle, std::uint32_t(constraints_.handleOf[f]), 0, 0};
+  for (std::size_t v = 0; v < C.nodes.size(); ++v)
+    d.node[std::size_t(meshes_.coarseNodeInFine[v])] = {FineInterpolationData::Corner, std::uint32_t(v), 0, 0};
+  auto push3 = [&](const Eigen::Matrix3d& m) {
+    for (int c = 0; c < 3; ++c) d.blocks.emplace_back(float(m(0, c)), float(m(1, c)), float(m(2, c)), 0.0f);
+  };
+  for (const auto& b : boundary_) {
+    d.node[std::size_t(b.fine)] = {FineInterpolationData::Boundary, std::uint32_t(b.element), std::uint32_t(d.blocks.size()), 0};
+    d.blocks.push_back(b.N.cast<float>());
+  }
+  for (const auto& in : interior_) {
+    d.node[std::size_t(in.fine)] = {FineInterpolationData::Interior, std::uint32_t(in.element), std::uint32_t(d.blocks.size()),
+                                    std::uint32_t(in.g.size())};
+    for (int c = 0; c < 4; ++c) push3(in.H.block<3, 3>(0, 3 * c));
+    for (const auto& g : in.g) {
+      d.blocks.emplace_back(float(g.handle), 0.0f, 0.0f, 0.0f);
+      for (int j = 0; j < 3; ++j) push3(g.A.block<3, 3>(0, 3 * j));
+      push3(g.B);
+    }
+  }
+  if (d.blocks.size() > std::size_t(UINT32_MAX)) throw Error("deformation: the reconstruction data is too large");
+  return d;
+}
+
 Eigen::Matrix3d CoarseModel::elementRotation(int e, const std::vector<Eigen::Vector3d>& x) const {
   const auto& t = meshes_.coarse.tets[std::size_t(e)];
   const Eigen::Vector3d& x0 = x[std::size_t(t[0])];

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "sim/fem.h"
+#include "sim/fine_interpolation.h"
 #include "sim/progress.h"
 #include "sim/sparse_direct.h"
 #include <Eigen/SparseCholesky>
@@ -55,6 +56,11 @@ class CoarseModel {
   CoarseSolveStats solve(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tolerance = 1e-6);
   /// Fine node positions from a coarse state (the nonlinear shape functions).
   std::vector<Eigen::Vector3d> reconstruct(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const;
+
+  /// The reconstruction packed for the GPU interpolation pass (see sim/fine_interpolation.h).
+  FineInterpolationData interpolationData() const;
+  /// R_e of every coarse element at state x (what reconstruct() uses).
+  std::vector<Eigen::Matrix3d> elementRotations(const std::vector<Eigen::Vector3d>& x) const;
 
   const NestedMeshes& meshes() const { return meshes_; }
   const FineConstraints& constraints() const { return constraints_; }

@@ -8,38 +8,55 @@
 
 namespace handson {
 
+void regionVoxelBox(const VolumeGeometry& g, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, Eigen::Vector3i& ilo, Eigen::Vector3i& ihi) {
+  regionVoxelBox(g.worldToIndex(), g.dims, lo, hi, ilo, ihi);
+}
+
+void regionVoxelBox(const Eigen::Matrix4d& w2i, const Eigen::Vector3i& dims, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, Eigen::Vector3i& ilo,
+                    Eigen::Vector3i& ihi) {
+  Eigen::Vector3d a = Eigen::Vector3d::Constant(1e300), b = -a;
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d w((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z());
+    const Eigen::Vector3d i = (w2i * w.homogeneous()).head<3>();
+    a = a.cwiseMin(i);
+    b = b.cwiseMax(i);
+  }
+  // A conservative index box (one voxel of margin); voxels are then tested in world space.
+  for (int k = 0; k < 3; ++k) {
+    ilo[k] = std::max(0, int(std::floor(std::clamp(a[k], -2.0, double(dims[k]) + 2.0))) - 1);
+    ihi[k] = std::min(dims[k] - 1, int(std::ceil(std::clamp(b[k], -2.0, double(dims[k]) + 2.0))) + 1);
+  }
+}
+
 RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& lo,
-                              const Eigen::Vector3d& hi, float background, Volume& out) {
+                              const Eigen::Vector3d& hi, float background, Volume& out, const std::vector<std::uint8_t>* restMask,
+                              std::vector<std::uint8_t>* outMask) {
   if (deformed.size() != mesh.nodes.size()) throw Error("rasterization: one deformed position per node expected");
   for (const auto& p : deformed)
     if (!p.allFinite()) throw Error("rasterization: a deformed node position is not finite");
+  if ((restMask == nullptr) != (outMask == nullptr)) throw Error("rasterization: a mask needs both its input and its output");
+  if (restMask && restMask->size() != src.voxelCount()) throw Error("rasterization: the mask does not match the image");
   const VolumeGeometry& g = src.geometry();
   out = src;
+  if (outMask) *outMask = *restMask;
   RasterStats st;
   const Eigen::Matrix4d w2i = g.worldToIndex();
   auto toIndex = [&](const Eigen::Vector3d& w) -> Eigen::Vector3d { return (w2i * w.homogeneous()).head<3>(); };
   const Eigen::Vector3i& d = g.dims;
-  std::vector<char> written(src.voxelCount(), 0);
-  // Clear the region's voxels (the rest box, in index space an oriented box: test each voxel of its
-  // index bounding box).
-  {
-    Eigen::Vector3d ilo = Eigen::Vector3d::Constant(1e300), ihi = -ilo;
-    for (int c = 0; c < 8; ++c) {
-      const Eigen::Vector3d w((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z());
-      ilo = ilo.cwiseMin(toIndex(w));
-      ihi = ihi.cwiseMax(toIndex(w));
-    }
-    const double eps = 1e-6;
-    for (int k = std::max(0, int(std::ceil(ilo.z() - eps))); k <= std::min(d.z() - 1, int(std::floor(ihi.z() + eps))); ++k)
-      for (int j = std::max(0, int(std::ceil(ilo.y() - eps))); j <= std::min(d.y() - 1, int(std::floor(ihi.y() + eps))); ++j)
-        for (int i = std::max(0, int(std::ceil(ilo.x() - eps))); i <= std::min(d.x() - 1, int(std::floor(ihi.x() + eps))); ++i) {
-          const Eigen::Vector3d w = g.toWorld(Eigen::Vector3d(i, j, k));
-          if (((w - lo).array() >= -eps).all() && ((hi - w).array() >= -eps).all()) {
-            out.setValue(i, j, k, background);
-            ++st.regionVoxels;
-          }
+  Eigen::Vector3i rlo, rhi;
+  regionVoxelBox(g, lo, hi, rlo, rhi);
+  // 1 where the voxel centre lies in the region (and may be written), 2 once written.
+  std::vector<char> state(src.voxelCount(), 0);
+  for (int k = rlo.z(); k <= rhi.z(); ++k)
+    for (int j = rlo.y(); j <= rhi.y(); ++j)
+      for (int i = rlo.x(); i <= rhi.x(); ++i)
+        if (inRegion(g.toWorld(Eigen::Vector3d(i, j, k)), lo, hi)) {
+          const std::size_t lin = src.linearIndex(i, j, k);
+          out.setValue(lin, background);
+          if (outMask) (*outMask)[lin] = 0;
+          state[lin] = 1;
+          ++st.regionVoxels;
         }
-  }
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
     const auto& tet = mesh.tets[t];
     Eigen::Vector3d v[4];
@@ -54,9 +71,9 @@ RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std:
       bmin = bmin.cwiseMin(v[c]);
       bmax = bmax.cwiseMax(v[c]);
     }
-    const int i0 = std::max(0, int(std::ceil(bmin.x() - 1e-9))), i1 = std::min(d.x() - 1, int(std::floor(bmax.x() + 1e-9)));
-    const int j0 = std::max(0, int(std::ceil(bmin.y() - 1e-9))), j1 = std::min(d.y() - 1, int(std::floor(bmax.y() + 1e-9)));
-    const int k0 = std::max(0, int(std::ceil(bmin.z() - 1e-9))), k1 = std::min(d.z() - 1, int(std::floor(bmax.z() + 1e-9)));
+    const int i0 = std::max(rlo.x(), int(std::ceil(bmin.x() - 1e-9))), i1 = std::min(rhi.x(), int(std::floor(bmax.x() + 1e-9)));
+    const int j0 = std::max(rlo.y(), int(std::ceil(bmin.y() - 1e-9))), j1 = std::min(rhi.y(), int(std::floor(bmax.y() + 1e-9)));
+    const int k0 = std::max(rlo.z(), int(std::ceil(bmin.z() - 1e-9))), k1 = std::min(rhi.z(), int(std::floor(bmax.z() + 1e-9)));
     for (int k = k0; k <= k1; ++k)
       for (int j = j0; j <= j1; ++j)
         for (int i = i0; i <= i1; ++i) {
@@ -64,15 +81,22 @@ RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std:
           const double l0 = 1.0 - l.sum();
           if (l.minCoeff() < -1e-9 || l0 < -1e-9) continue;
           const std::size_t lin = src.linearIndex(i, j, k);
-          if (written[lin]) {
+          if (state[lin] == 0) continue;  // outside the region
+          if (state[lin] == 2) {
             ++st.overlaps;
             continue;
           }
-          written[lin] = 1;
+          state[lin] = 2;
           ++st.covered;
           const Eigen::Vector3d rest = l0 * mesh.nodes[std::size_t(tet[0])] + l.x() * mesh.nodes[std::size_t(tet[1])] + l.y() * mesh.nodes[std::size_t(tet[2])] +
                                        l.z() * mesh.nodes[std::size_t(tet[3])];
-          out.setValue(lin, src.sampleLinear(toIndex(rest)));
+          const Eigen::Vector3d ri = toIndex(rest);
+          out.setValue(lin, src.sampleLinear(ri));
+          if (outMask) {
+            Eigen::Vector3i n;
+            for (int a = 0; a < 3; ++a) n[a] = std::clamp(int(std::floor(ri[a] + 0.5)), 0, d[a] - 1);
+            (*outMask)[lin] = (*restMask)[src.linearIndex(n.x(), n.y(), n.z())];
+          }
         }
   }
   return st;

@@ -3,8 +3,12 @@
 // reference: each deformed tet's voxels (centres inside it, barycentric coordinates >= -1e-9) take
 // the source image sampled trilinearly at the rest position sum_k lambda_k X_k. Voxels of the
 // region no tet covers keep the background value; overlaps (inverted or folded tets) go to the
-// lowest-numbered tet, so the result is deterministic. Outside the region the image is unchanged.
+// lowest-numbered tet, so the result is deterministic. Writes stay inside the region's voxels (a
+// folded tet poking out of the box is clipped); outside the region the image is unchanged.
+// With a handle-id mask, covered voxels also take the mask's id at the rest position (nearest
+// voxel), so the handles' fine tets carry their ids where they moved; cleared voxels get 0.
 #include <Eigen/Core>
+#include <cstdint>
 #include <vector>
 
 #include "sim/tet_mesh.h"
@@ -21,6 +25,17 @@ struct RasterStats {
 /// `out` gets the deformed image on the source's grid. `regionLo`/`regionHi`: the world box the mesh
 /// filled at rest (cleared to `background` before rasterizing).
 RasterStats rasterizeDeformed(const Volume& source, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& regionLo,
-                              const Eigen::Vector3d& regionHi, float background, Volume& out);
+                              const Eigen::Vector3d& regionHi, float background, Volume& out, const std::vector<std::uint8_t>* restMask = nullptr,
+                              std::vector<std::uint8_t>* outMask = nullptr);
+
+/// The voxel index box [lo, hi] (inclusive, clamped to the grid) of the voxels whose centres lie in
+/// the world box [regionLo, regionHi] up to 1e-3 mm; empty (lo > hi) when none.
+void regionVoxelBox(const Eigen::Matrix4d& worldToIndex, const Eigen::Vector3i& dims, const Eigen::Vector3d& regionLo, const Eigen::Vector3d& regionHi,
+                    Eigen::Vector3i& lo, Eigen::Vector3i& hi);
+void regionVoxelBox(const VolumeGeometry& g, const Eigen::Vector3d& regionLo, const Eigen::Vector3d& regionHi, Eigen::Vector3i& lo, Eigen::Vector3i& hi);
+/// Whether a world point lies in the region box (the same 1e-3 mm tolerance).
+inline bool inRegion(const Eigen::Vector3d& w, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  return ((w - lo).array() >= -1e-3).all() && ((hi - w).array() >= -1e-3).all();
+}
 
 }  // namespace handson

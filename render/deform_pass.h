@@ -1,0 +1,106 @@
+#pragma once
+// The GPU deformation of the volume (../shared/spec/methods.md sections 5 and 6), as frame-graph
+// passes: interpolation of the fine node positions from the coarse state (deform_interpolate.comp),
+// the box of voxels whose tissue moved since the last frame (deform_bounds.comp, deform_args.comp),
+// and the tetrahedral rasterization of the fine mesh into a deformed copy of the volume and of the
+// handle-id mask, redoing only that box (deform_clear.comp, deform_raster.comp). Per frame only the
+// coarse state goes to the GPU (sim/fine_interpolation.h: kilobytes). CPU references:
+// interpolateFineReference (sim/fine_interpolation.h) and rasterizeDeformed (sim/tet_raster.h).
+#include <Eigen/Core>
+
+#include <array>
+#include <memory>
+#include <vector>
+
+#include "compute_passes.h"
+#include "shaders/shared.h"
+#include "sim/fine_interpolation.h"
+#include "vk_graph_executor.h"
+#include "vk_resources.h"
+
+namespace handson::vk {
+
+class Context;
+
+/// The static inputs, from the simulation scene.
+struct DeformSetup {
+  const FineInterpolationData* interpolation = nullptr;
+  const std::vector<std::array<int, 4>>* fineTets = nullptr;
+  Eigen::Vector3d regionLo{0, 0, 0}, regionHi{0, 0, 0};  ///< world box of the mesh at rest
+  float background = 0.0f;                               ///< normalized value of uncovered region voxels
+  Eigen::Matrix4d worldToIndex = Eigen::Matrix4d::Identity();
+  /// A fine node's new position is taken (and its tets redone) once it moved by more than this
+  /// many voxels from the last position taken: a trilinear sample then differs from the exact
+  /// one by at most this fraction of the largest neighbouring voxel difference (~1 HU at a
+  /// 1000 HU edge), with no drift (the comparison is against the position taken, not last frame's).
+  double commitVoxels = 1e-3;
+};
+
+/// What a frame redoes.
+enum class Redo {
+  Moved,       ///< the box of the tets that moved since the last frame (the interactive path)
+  Region,      ///< every voxel of the simulated region
+  WholeVolume  ///< every voxel of the volume (the baseline: a resampler without dirty regions)
+};
+
+struct DeformFrameStats {
+  Eigen::Vector3i boxLo{0, 0, 0}, boxHi{-1, -1, -1};  ///< voxels redone (inclusive; empty when lo > hi)
+  std::uint32_t movedTets = 0, coveredVoxels = 0, rasterizedTets = 0;
+  std::uint64_t boxVoxels() const;
+  std::vector<PassTiming> timings;
+};
+
+class GpuDeformer {
+ public:
+  /// Uploads the static data and makes the deformed volume and mask: copies of `source` (R16_UNORM)
+  /// and `sourceMask` (R8_UNORM), which must allow transfer reads and stay alive. Fine nodes start
+  /// at rest. Throws handson::Error on inconsistent data or an unsupported device.
+  GpuDeformer(const Context& ctx, const Image& source, const Image& sourceMask, const DeformSetup& setup, std::uint32_t framesInFlight = 2);
+  ~GpuDeformer();
+
+  struct Outputs {
+    fg::ResourceHandle volume, mask;  ///< deformed images, left in Access::Sampled
+  };
+  /// Adds one frame's passes. `slot`: the executor's frame slot (per-slot upload buffers).
+  Outputs addPasses(fg::FrameGraph& graph, std::uint32_t slot, const CoarseFrameState& state, Redo redo = Redo::Moved);
+  /// Binds what the last addPasses imported.
+  void bind(GraphExecutor& executor);
+
+  /// One frame on its own graph and executor, waited for; returns the box and counters.
+  DeformFrameStats runFrame(const CoarseFrameState& state, Redo redo = Redo::Moved);
+
+  /// Fine node positions last taken (voxel index space), deformed volume (u16) and mask, read back.
+  std::vector<Eigen::Vector4f> readPositions() const;
+  std::vector<std::uint16_t> readVolume() const;
+  std::vector<std::uint8_t> readMask() const;
+  const Image& volume() const { return volume_; }
+  const Image& mask() const { return mask_; }
+  std::size_t fineNodeCount() const { return nodes_; }
+  std::size_t fineTetCount() const { return tets_; }
+
+ private:
+  struct Slot {
+    std::unique_ptr<Buffer> positions, rotations, handles;
+  };
+  const Context& ctx_;
+  const Image& source_;
+  const Image& sourceMask_;
+  Sampler nearest_;  ///< the shaders only texelFetch
+  ComputePipeline interpolate_, bounds_, args_, clear_, raster_;
+  Buffer params_, nodeInfo_, rest_, blocks_, coarseTets_, coarseRest_, tetBuffer_, restIdx_, pos_, prev_, box_, argsBuffer_, owner_;
+  Image volume_, mask_;
+  std::vector<Slot> slots_;
+  std::unique_ptr<GraphExecutor> ownExecutor_;
+  std::unique_ptr<Buffer> boxReadback_;
+  gpu::DeformParams p_{};
+  std::size_t nodes_ = 0, tets_ = 0, coarseNodes_ = 0, coarseElements_ = 0;
+  std::uint32_t handles_ = 0;
+  float commit_ = 1e-3f;
+  struct Bound {
+    fg::ResourceHandle params, nodeInfo, rest, blocks, coarseTets, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, source, sourceMask,
+        volume, mask, positions, rotations, handles;
+    std::uint32_t slot = 0;
+  } h_;
+};
+
+}  // namespace handson::vk

@@ -1,0 +1,37 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// The box of voxels to redo this frame: the union of the old and new voxel bounding boxes of every
+// fine tet with a node whose committed position changed (deform_interpolate.comp). One invocation
+// per fine tet.
+#include "shared.h"
+layout(local_size_x = HANDSON_DEFORM_GROUP_X) in;
+layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
+layout(std430, set = 0, binding = 1) readonly buffer Tets { uvec4 tet[]; };
+layout(std430, set = 0, binding = 2) readonly buffer PosNew { vec4 posNew[]; };
+layout(std430, set = 0, binding = 3) readonly buffer PosOld { vec4 posOld[]; };  // before this frame's commits
+layout(std430, set = 0, binding = 4) buffer Box { DeformBox box; };
+
+void main() {
+  uint t = gl_GlobalInvocationID.x;
+  if (t >= uint(P.regionVoxHi.w)) return;
+  uvec4 v = tet[t];
+  bool moved = false;
+  vec3 lo = vec3(1e30), hi = vec3(-1e30);
+  for (int c = 0; c < 4; ++c) {
+    vec3 a = posNew[v[c]].xyz, b = posOld[v[c]].xyz;
+    moved = moved || any(notEqual(a, b));
+    lo = min(lo, min(a, b));
+    hi = max(hi, max(a, b));
+  }
+  if (!moved) return;
+  atomicAdd(box.stats.x, 1u);
+  // Clamp before converting (a wild position must not overflow the int conversion).
+  ivec3 ilo = ivec3(floor(clamp(lo, vec3(-1.0), vec3(P.dims.xyz))));
+  ivec3 ihi = ivec3(ceil(clamp(hi, vec3(-1.0), vec3(P.dims.xyz))));
+  atomicMin(box.lo.x, ilo.x);
+  atomicMin(box.lo.y, ilo.y);
+  atomicMin(box.lo.z, ilo.z);
+  atomicMax(box.hi.x, ihi.x);
+  atomicMax(box.hi.y, ihi.y);
+  atomicMax(box.hi.z, ihi.z);
+}

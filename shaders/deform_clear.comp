@@ -1,0 +1,25 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// Resets the voxels of this frame's box: region voxels to the background (mask 0), the others to
+// the source; no owner. Dispatched indirectly over the box (deform_args.comp).
+#include "shared.h"
+layout(local_size_x = HANDSON_DEFORM_CLEAR_GROUP, local_size_y = HANDSON_DEFORM_CLEAR_GROUP, local_size_z = HANDSON_DEFORM_CLEAR_GROUP) in;
+layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
+layout(std430, set = 0, binding = 1) readonly buffer Box { DeformBox box; };
+layout(set = 0, binding = 2) uniform sampler3D uSource;
+layout(set = 0, binding = 3) uniform sampler3D uSourceMask;
+layout(set = 0, binding = 4, r16) uniform writeonly image3D uOut;
+layout(set = 0, binding = 5, r8) uniform writeonly image3D uOutMask;
+layout(std430, set = 0, binding = 6) writeonly buffer Owner { uint owner[]; };
+
+void main() {
+  ivec3 v = box.lo.xyz + ivec3(gl_GlobalInvocationID);
+  if (any(greaterThan(v, box.hi.xyz))) return;
+  vec3 w = (P.indexToWorld * vec4(vec3(v), 1.0)).xyz;
+  bool inside = all(greaterThanEqual(w - P.regionLo.xyz, vec3(-1e-3))) && all(greaterThanEqual(P.regionHi.xyz - w, vec3(-1e-3)));
+  ivec3 o = v - P.regionVoxLo.xyz;
+  if (all(greaterThanEqual(o, ivec3(0))) && all(lessThan(o, P.ownerDims.xyz)))
+    owner[o.x + P.ownerDims.x * (o.y + P.ownerDims.y * o.z)] = inside ? kDeformNoOwner : 0u;
+  imageStore(uOut, v, inside ? vec4(P.regionLo.w) : texelFetch(uSource, v, 0));
+  imageStore(uOutMask, v, inside ? vec4(0.0) : texelFetch(uSourceMask, v, 0));
+}

@@ -1,0 +1,75 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// Fine node positions from the coarse state (../shared/spec/methods.md section 5): one invocation
+// per fine node, output in voxel index space. CPU reference: interpolateFineReference in
+// sim/fine_interpolation.cpp (same float expressions, same order).
+// A node's position is committed (and its tets redone) only when it moved by more than
+// pc.commit voxels from the committed one, so the image is never more than that behind the
+// simulation and slow drifts still accumulate into a commit. prev[] keeps the position it had.
+#include "shared.h"
+layout(local_size_x = HANDSON_DEFORM_GROUP_X) in;
+layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
+layout(std430, set = 0, binding = 1) readonly buffer Nodes { uvec4 node[]; };
+layout(std430, set = 0, binding = 2) readonly buffer Rest { vec4 rest[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Blocks { vec4 blk[]; };
+layout(std430, set = 0, binding = 4) readonly buffer CoarseTets { uvec4 ctet[]; };
+layout(std430, set = 0, binding = 5) readonly buffer CoarseRest { vec4 crest[]; };
+layout(std430, set = 0, binding = 6) readonly buffer CoarsePos { vec4 cpos[]; };
+layout(std430, set = 0, binding = 7) readonly buffer Rotations { vec4 rot[]; };
+layout(std430, set = 0, binding = 8) readonly buffer Handles { mat4 handle[]; };
+layout(std430, set = 0, binding = 9) buffer Out { vec4 pos[]; };
+layout(std430, set = 0, binding = 10) writeonly buffer Prev { vec4 prev[]; };
+layout(push_constant) uniform Push { float commit; } pc;  // voxels; negative: commit every node
+
+mat3 quatToMat3(vec4 q) {
+  float n = dot(q, q);
+  float s = n > 0.0 ? 2.0 / n : 0.0;
+  float x = q.x, y = q.y, z = q.z, w = q.w;
+  // Columns (GLSL is column-major); rows as in quaternionMatrix().
+  return mat3(vec3(1.0 - s * (y * y + z * z), s * (x * y + w * z), s * (x * z - w * y)),
+              vec3(s * (x * y - w * z), 1.0 - s * (x * x + z * z), s * (y * z + w * x)),
+              vec3(s * (x * z + w * y), s * (y * z - w * x), 1.0 - s * (x * x + y * y)));
+}
+
+mat3 block3(uint o) { return mat3(blk[o].xyz, blk[o + 1].xyz, blk[o + 2].xyz); }
+
+void main() {
+  uint f = gl_GlobalInvocationID.x;
+  if (f >= uint(P.regionVoxLo.w)) return;
+  uvec4 n = node[f];
+  vec3 X = rest[f].xyz;
+  vec3 p = X;
+  if (n.x == kFineHandle) {
+    mat4 T = handle[n.y];
+    p = mat3(T) * X + T[3].xyz;
+  } else if (n.x == kFineCorner) {
+    p = cpos[n.y].xyz;
+  } else if (n.x == kFineBoundary) {
+    vec4 N = blk[n.z];
+    uvec4 t = ctet[n.y];
+    p = N.x * cpos[t.x].xyz + N.y * cpos[t.y].xyz + N.z * cpos[t.z].xyz + N.w * cpos[t.w].xyz;
+  } else if (n.x == kFineInterior) {
+    mat3 R = quatToMat3(rot[n.y]);
+    mat3 Rt = transpose(R);
+    uvec4 t = ctet[n.y];
+    vec3 q = X;
+    uint o = n.z;
+    for (int c = 0; c < 4; ++c, o += 3u) {
+      uint v = t[c];
+      q += block3(o) * (Rt * cpos[v].xyz - crest[v].xyz);
+    }
+    for (uint g = 0u; g < n.w; ++g) {
+      mat4 T = handle[uint(blk[o].x)];
+      ++o;
+      mat3 M = Rt * mat3(T) - mat3(1.0);
+      for (int j = 0; j < 3; ++j, o += 3u) q += block3(o) * M[j];
+      q += block3(o) * (Rt * T[3].xyz);
+      o += 3u;
+    }
+    p = R * q;
+  }
+  vec4 now = vec4(mat3(P.worldToIndex) * p + P.worldToIndex[3].xyz, 1.0);
+  vec4 old = pos[f];
+  prev[f] = old;
+  if (pc.commit < 0.0 || any(greaterThan(abs(now.xyz - old.xyz), vec3(pc.commit)))) pos[f] = now;
+}

@@ -1,0 +1,304 @@
+// The deformation passes (interpolation, moved-box resampling, mask) against their CPU references:
+// interpolateFineReference (sim/fine_interpolation.h) and rasterizeDeformed (sim/tet_raster.h).
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <Eigen/Geometry>
+#include <cmath>
+#include <memory>
+
+#include "gpu_test_env.h"
+#include "render/deform_pass.h"
+#include "render/vk_resources.h"
+#include "sim/coarsening.h"
+#include "sim/error.h"
+#include "sim/phantom.h"
+#include "sim/quantized_volume.h"
+#include "sim/sim_scene.h"
+#include "sim/tet_raster.h"
+
+using namespace handson;
+
+namespace {
+
+constexpr std::uint8_t kKidneyId = 3;
+
+// The phantom at 4 mm, the right kidney as the handle (mask id kKidneyId), a small coarse/fine
+// scene around it; built once.
+struct Fixture {
+  Phantom phantom;
+  QuantizedVolume q;
+  std::vector<std::uint8_t> mask;
+  SimScene scene;
+  std::unique_ptr<CoarseModel> model;
+  FineInterpolationData data;
+  float backgroundHu = -1000.0f;
+};
+
+const Fixture& fixture() {
+  static const Fixture* f = [] {
+    auto* x = new Fixture;
+    PhantomOptions po;
+    po.spacingMm = 4.0;
+    x->phantom = makePhantom(po);
+    x->q = quantizeVolume(x->phantom.ct);
+    SimHandle h;
+    const auto* lab = x->phantom.labels.data<std::uint8_t>();
+    x->mask.assign(x->phantom.labels.voxelCount(), 0);
+    for (std::size_t i = 0; i < x->phantom.labels.voxelCount(); ++i)
+      if (lab[i] == label::kKidneyRight) {
+        h.voxels.push_back(std::uint32_t(i));
+        x->mask[i] = kKidneyId;
+      }
+    SimSettings s;
+    s.coarseTets = 300;
+    s.fineTets = 300 * 64;
+    x->scene = buildSimScene(x->phantom.ct, {h}, s);
+    x->model = std::make_unique<CoarseModel>(x->scene.meshes, x->scene.fineK, x->scene.constraints);
+    x->data = x->model->interpolationData();
+    return x;
+  }();
+  return *f;
+}
+
+struct Images {
+  vk::Image volume, mask;
+};
+
+Images upload(const QuantizedVolume& q, const std::vector<std::uint8_t>& mask) {
+  auto& ctx = test::gpuContext();
+  const auto& d = q.geometry.dims;
+  const VkImageUsageFlags usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  Images im{vk::Image(ctx, {std::uint32_t(d.x()), std::uint32_t(d.y()), std::uint32_t(d.z()), fg::Format::R16Unorm}, usage, true),
+            vk::Image(ctx, {std::uint32_t(d.x()), std::uint32_t(d.y()), std::uint32_t(d.z()), fg::Format::R8Unorm}, usage, true)};
+  vk::uploadToImage(ctx, im.volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  vk::uploadToImage(ctx, im.mask, mask.data(), mask.size(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  return im;
+}
+
+vk::DeformSetup setupFor(const Fixture& f, const FineInterpolationData& data, const std::vector<std::array<int, 4>>& tets, const Eigen::Vector3d& lo,
+                         const Eigen::Vector3d& hi) {
+  vk::DeformSetup s;
+  s.interpolation = &data;
+  s.fineTets = &tets;
+  s.regionLo = lo;
+  s.regionHi = hi;
+  s.background = f.q.toNormalized(f.backgroundHu);
+  s.worldToIndex = f.q.geometry.worldToIndex();
+  return s;
+}
+
+// The coarse state of the kidney moved and rotated, from a few coarse iterations.
+struct Motion {
+  std::vector<RigidTransform> T;
+  std::vector<Eigen::Vector3d> xc;
+};
+Motion kidneyMotion(const Fixture& f, double mm, double deg) {
+  Motion m;
+  m.T = {RigidTransform::about(f.scene.handleCentroid[0], Eigen::Vector3d(0, 0, deg * M_PI / 180), Eigen::Vector3d(mm, 0, 0))};
+  m.xc = f.model->restState();
+  f.model->solve(m.T, m.xc, 20);
+  return m;
+}
+
+struct Agreement {
+  double fractionWithin1Hu = 0, worstHu = 0;
+  double maskAgreement = 0;
+};
+
+// GPU images against the CPU reference run on the GPU's own fine node positions.
+Agreement compareWithReference(const Fixture& f, const vk::GpuDeformer& gpu, const TetMesh& mesh, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
+                               RasterStats* cpuStats = nullptr) {
+  const auto pos = gpu.readPositions();
+  const Eigen::Matrix4d i2w = f.q.geometry.worldToIndex().inverse();
+  std::vector<Eigen::Vector3d> world(pos.size());
+  for (std::size_t i = 0; i < pos.size(); ++i) world[i] = (i2w * pos[i].cast<double>()).head<3>();
+  Volume out;
+  std::vector<std::uint8_t> outMask;
+  const RasterStats st = rasterizeDeformed(f.phantom.ct, mesh, world, lo, hi, f.backgroundHu, out, &f.mask, &outMask);
+  if (cpuStats) *cpuStats = st;
+  const auto vol = gpu.readVolume();
+  const auto msk = gpu.readMask();
+  Agreement a;
+  std::size_t within = 0, same = 0;
+  for (std::size_t i = 0; i < vol.size(); ++i) {
+    // The CPU output keeps the input's int16 type (rounded); compare in HU.
+    const double gpuHu = f.q.toValue(vol[i] / 65535.0f);
+    const double err = std::abs(gpuHu - out.value(i));
+    a.worstHu = std::max(a.worstHu, err);
+    within += err <= 1.0 ? 1 : 0;
+    same += msk[i] == outMask[i] ? 1 : 0;
+  }
+  a.fractionWithin1Hu = double(within) / double(vol.size());
+  a.maskAgreement = double(same) / double(vol.size());
+  return a;
+}
+
+class DeformGpu : public test::GpuTest {};
+
+}  // namespace
+
+TEST_F(DeformGpu, InterpolationPassMatchesItsCpuReference) {
+  const Fixture& f = fixture();
+  const Images im = upload(f.q, f.mask);
+  vk::GpuDeformer gpu(test::gpuContext(), im.volume, im.mask, setupFor(f, f.data, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi));
+  const Motion m = kidneyMotion(f, 10, 30);
+  const CoarseFrameState st = packFrameState(m.xc, f.model->elementRotations(m.xc), m.T);
+  gpu.runFrame(st, vk::Redo::Region);
+  const auto got = gpu.readPositions();
+  const auto ref = interpolateFineReference(f.data, st, f.q.geometry.worldToIndex().cast<float>());
+  ASSERT_EQ(got.size(), ref.size());
+  double worst = 0;
+  for (std::size_t i = 0; i < got.size(); ++i) worst = std::max(worst, double((got[i] - ref[i]).norm()));
+  // Same float expressions (fused multiply-adds and operation order may differ by ~1e-6 voxel);
+  // nodes that moved less than the commit threshold (1e-3 voxel) from rest keep their rest position.
+  EXPECT_LT(worst, 1.1e-3) << "voxels";
+}
+
+TEST_F(DeformGpu, ZeroMotionReproducesTheInputWithinOneHu) {
+  const Fixture& f = fixture();
+  const Images im = upload(f.q, f.mask);
+  vk::GpuDeformer gpu(test::gpuContext(), im.volume, im.mask, setupFor(f, f.data, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi));
+  const auto xc = f.model->restState();
+  const auto stats = gpu.runFrame(packFrameState(xc, f.model->elementRotations(xc), {RigidTransform{}}), vk::Redo::Region);
+  const auto vol = gpu.readVolume();
+  const auto msk = gpu.readMask();
+  double worst = 0;
+  for (std::size_t i = 0; i < vol.size(); ++i) worst = std::max(worst, double(std::abs(f.q.toValue(vol[i] / 65535.0f) - f.phantom.ct.value(i))));
+  EXPECT_LE(worst, 1.0) << "HU";
+  EXPECT_EQ(msk, f.mask);
+  // No cracks: every region voxel covered, as on the CPU.
+  Volume out;
+  const RasterStats cpu = rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, f.scene.meshes.fine.nodes, f.scene.lo, f.scene.hi, f.backgroundHu, out);
+  EXPECT_EQ(cpu.covered, cpu.regionVoxels);
+  EXPECT_EQ(stats.coveredVoxels, cpu.regionVoxels);
+}
+
+TEST_F(DeformGpu, KidneyDragAgreesWithTheCpuReferenceAndRedoesOnlyTheMovedBox) {
+  const Fixture& f = fixture();
+  const Images im = upload(f.q, f.mask);
+  const auto& mesh = f.scene.meshes.fine;
+  vk::GpuDeformer gpu(test::gpuContext(), im.volume, im.mask, setupFor(f, f.data, mesh.tets, f.scene.lo, f.scene.hi));
+  const Motion a = kidneyMotion(f, 10, 30);
+  const auto full = gpu.runFrame(packFrameState(a.xc, f.model->elementRotations(a.xc), a.T), vk::Redo::Region);
+  RasterStats cpu;
+  const Agreement agA = compareWithReference(f, gpu, mesh, f.scene.lo, f.scene.hi, &cpu);
+  EXPECT_GE(agA.fractionWithin1Hu, 0.999) << "worst " << agA.worstHu << " HU";
+  EXPECT_GE(agA.maskAgreement, 0.999);
+  EXPECT_NEAR(double(full.coveredVoxels), double(cpu.covered), 1e-3 * double(cpu.regionVoxels));
+  // The handle's id moved with it: the mask holds the kidney where the CPU reference puts it.
+  std::size_t kidneyVoxels = 0;
+  for (auto v : gpu.readMask()) kidneyVoxels += v == kKidneyId ? 1 : 0;
+  std::size_t restKidney = 0;
+  for (auto v : f.mask) restKidney += v == kKidneyId ? 1 : 0;
+  EXPECT_NEAR(double(kidneyVoxels), double(restKidney), 0.03 * double(restKidney));
+
+  // A further, smaller drag: only the moved tets' box is redone, and the result equals a redo of
+  // the whole region, and of the whole volume, from the same positions (bit for bit: same rule, same
+  // arithmetic), and a fresh deformer's first frame within 1 HU (its positions are exact, ours
+  // may lag by the commit threshold).
+  const Motion b = kidneyMotion(f, 12, 32);
+  const CoarseFrameState stB = packFrameState(b.xc, f.model->elementRotations(b.xc), b.T);
+  const auto inc = gpu.runFrame(stB);
+  EXPECT_GT(inc.movedTets, 0u);
+  EXPECT_GT(inc.boxVoxels(), 0u);
+  EXPECT_LT(inc.boxVoxels(), full.boxVoxels());
+  const auto volInc = gpu.readVolume();
+  const auto maskInc = gpu.readMask();
+  const auto again = gpu.runFrame(stB, vk::Redo::Region);
+  EXPECT_EQ(again.movedTets, 0u);
+  EXPECT_EQ(gpu.readVolume(), volInc);
+  EXPECT_EQ(gpu.readMask(), maskInc);
+  const auto whole = gpu.runFrame(stB, vk::Redo::WholeVolume);
+  EXPECT_EQ(whole.boxVoxels(), f.q.geometry.voxelCount());
+  EXPECT_EQ(gpu.readVolume(), volInc);
+  EXPECT_EQ(gpu.readMask(), maskInc);
+  vk::GpuDeformer fresh(test::gpuContext(), im.volume, im.mask, setupFor(f, f.data, mesh.tets, f.scene.lo, f.scene.hi));
+  fresh.runFrame(stB, vk::Redo::Region);
+  const auto volFresh = fresh.readVolume();
+  std::size_t close = 0;
+  for (std::size_t i = 0; i < volInc.size(); ++i) close += std::abs(f.q.toValue(volInc[i] / 65535.0f) - f.q.toValue(volFresh[i] / 65535.0f)) <= 1.0f ? 1 : 0;
+  EXPECT_GE(double(close) / double(volInc.size()), 0.999);
+  const Agreement agB = compareWithReference(f, gpu, mesh, f.scene.lo, f.scene.hi);
+  EXPECT_GE(agB.fractionWithin1Hu, 0.999);
+  std::printf("kidney drag: whole region %llu voxels, %u covered (CPU %zu); within 1 HU %.5f (worst %.2f HU), mask %.5f;\n"
+              "  then 2 mm / 2 deg more: %u tets moved, box %llu voxels, %u covered\n",
+              (unsigned long long)full.boxVoxels(), full.coveredVoxels, cpu.covered, agA.fractionWithin1Hu, agA.worstHu, agA.maskAgreement, inc.movedTets,
+              (unsigned long long)inc.boxVoxels(), inc.coveredVoxels);
+
+  // Nothing moved: nothing is redone, nothing changes.
+  const auto before = gpu.readVolume();
+  const auto idle = gpu.runFrame(stB);
+  EXPECT_EQ(idle.movedTets, 0u);
+  EXPECT_EQ(idle.boxVoxels(), 0u);
+  EXPECT_EQ(gpu.readVolume(), before);
+}
+
+TEST_F(DeformGpu, AffineMotionOfTheWholeRegionMatchesAnalyticWarping) {
+  // Every fine node moved by one affine map (a handle carrying the whole mesh): the output at x is
+  // the source at A^-1 (x - c - t) + c wherever that lies inside the region.
+  const Fixture& f = fixture();
+  const Images im = upload(f.q, f.mask);
+  const Eigen::Vector3d lo(-60, -90, -70), hi(60, 30, 50);
+  const KuhnGrid grid(lo, Eigen::Vector3d::Constant(10.0), {12, 12, 12});
+  const TetMesh mesh = grid.mesh();
+  FineInterpolationData d;
+  d.handleCount = 1;
+  for (const auto& X : mesh.nodes) {
+    d.node.push_back({FineInterpolationData::Handle, 0, 0, 0});
+    d.rest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
+  }
+  d.coarseRest = {Eigen::Vector4f(0, 0, 0, 1)};
+  d.coarseTets = {{0, 0, 0, 0}};
+  vk::GpuDeformer gpu(test::gpuContext(), im.volume, im.mask, setupFor(f, d, mesh.tets, lo, hi));
+  const Eigen::Vector3d c = 0.5 * (lo + hi);
+  const Eigen::Matrix3d A = Eigen::AngleAxisd(0.15, Eigen::Vector3d(0.2, 0.3, 1).normalized()).toRotationMatrix() * Eigen::Vector3d(1.04, 0.97, 1.02).asDiagonal();
+  const Eigen::Vector3d t(3.0, -2.0, 1.5);
+  CoarseFrameState st;
+  st.positions = d.coarseRest;
+  st.rotations = {Eigen::Vector4f(0, 0, 0, 1)};
+  Eigen::Matrix4d M = Eigen::Matrix4d::Identity();
+  M.topLeftCorner<3, 3>() = A;
+  M.topRightCorner<3, 1>() = c + t - A * c;
+  st.handles = {M.cast<float>()};
+  gpu.runFrame(st, vk::Redo::Region);
+  const auto vol = gpu.readVolume();
+  const auto& g = f.q.geometry;
+  const Eigen::Matrix3d Ainv = A.inverse();
+  std::size_t checked = 0;
+  double worst = 0;
+  for (int k = 0; k < g.dims.z(); ++k)
+    for (int j = 0; j < g.dims.y(); ++j)
+      for (int i = 0; i < g.dims.x(); ++i) {
+        const Eigen::Vector3d x = g.toWorld(Eigen::Vector3d(i, j, k));
+        if (!inRegion(x, lo, hi)) continue;
+        const Eigen::Vector3d X = c + Ainv * (x - c - t);
+        if (((X - lo).array() < 1.0).any() || ((hi - X).array() < 1.0).any()) continue;  // near the moved boundary
+        const std::size_t lin = f.phantom.ct.linearIndex(i, j, k);
+        const double expect = f.phantom.ct.sampleLinear((g.worldToIndex() * X.homogeneous()).head<3>());
+        worst = std::max(worst, std::abs(double(f.q.toValue(vol[lin] / 65535.0f)) - expect));
+        ++checked;
+      }
+  EXPECT_GT(checked, 10000u);
+  EXPECT_LT(worst, 1.0) << "HU";
+  const Agreement ag = compareWithReference(f, gpu, mesh, lo, hi);
+  EXPECT_GE(ag.fractionWithin1Hu, 0.999);
+  EXPECT_GE(ag.maskAgreement, 0.999);
+}
+
+TEST_F(DeformGpu, InconsistentInputIsRefused) {
+  const Fixture& f = fixture();
+  const Images im = upload(f.q, f.mask);
+  auto bad = f.data;
+  bad.node[5] = {FineInterpolationData::Corner, 1u << 30, 0, 0};
+  EXPECT_THROW(vk::GpuDeformer(test::gpuContext(), im.volume, im.mask, setupFor(f, bad, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi)), Error);
+  std::vector<std::array<int, 4>> tets = f.scene.meshes.fine.tets;
+  tets[0][2] = -1;
+  EXPECT_THROW(vk::GpuDeformer(test::gpuContext(), im.volume, im.mask, setupFor(f, f.data, tets, f.scene.lo, f.scene.hi)), Error);
+  EXPECT_THROW(vk::GpuDeformer(test::gpuContext(), im.volume, im.mask,
+                               setupFor(f, f.data, f.scene.meshes.fine.tets, Eigen::Vector3d(5000, 5000, 5000), Eigen::Vector3d(5100, 5100, 5100))),
+               Error);
+  vk::GpuDeformer gpu(test::gpuContext(), im.volume, im.mask, setupFor(f, f.data, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi));
+  CoarseFrameState st;
+  EXPECT_THROW(gpu.runFrame(st, vk::Redo::Region), Error);
+}
