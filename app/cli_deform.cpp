@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <optional>
 
 #include "app/cli.h"
@@ -12,6 +13,9 @@
 #include "app/nifti_io.h"
 #include "app/volume_io.h"
 #include "app/vtu_io.h"
+#include "render/deform_pass.h"
+#include "render/vk_context.h"
+#include "sim/quantized_volume.h"
 #include "sim/coarsening.h"
 #include "sim/error.h"
 #include "sim/sim_scene.h"
@@ -25,7 +29,7 @@ namespace {
 const char* const kDeformHelp =
     "usage: handson deform PATH --handle MASK.nii.gz --translate-mm X,Y,Z -o DEFORMED.nii.gz [options]\n"
     "  Moves the handle (the mask's non-zero voxels) rigidly and deforms the tissue around it; writes the\n"
-    "  deformed image on the input's grid (CPU tetrahedral rasterization).\n"
+    "  deformed image on the input's grid (tetrahedral rasterization of the deformed fine mesh).\n"
     "  --handle-label N        only the mask's voxels equal to N (a label map as the mask)\n"
     "  --fixed MASK.nii.gz     voxels held in place (a fixed handle; wins where the masks overlap)\n"
     "  --fixed-label N         only the fixed mask's voxels equal to N\n"
@@ -38,20 +42,84 @@ const char* const kDeformHelp =
     "  --padding-mm D          region of interest: the handles' box plus D mm (default 40)\n"
     "  --whole-volume          simulate the whole image box instead\n"
     "  --materials FILE        material table (default: assets/materials/ct-default.csv, built in)\n"
-    "  --backend cpu           resampling backend (the GPU passes come with the GPU deformation work)\n"
+    "  --backend cpu|gpu       resampling on the CPU reference (default) or the Vulkan passes: for the\n"
+    "                          coarse model the GPU interpolates the fine nodes from the coarse state;\n"
+    "                          fine and refined positions are uploaded\n"
+    "  --device NAME           Vulkan device for --backend gpu (default: automatic; see handson render)\n"
+    "  --validation            Khronos validation layer on (any message is an error)\n"
     "  --mesh-out MESH.vtu     the fine mesh for ParaView: rest positions, point data displacement and\n"
     "                          dirichlet, cell data youngs_modulus, poisson_ratio, coarse_element\n"
     "  --quiet                 no progress output\n";
 
 double seconds(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
 
+struct GpuResample {
+  Volume image;
+  std::size_t regionVoxels = 0, covered = 0;
+};
+
+// The GPU passes: the image quantized to 16 bits as the renderer holds it; the coarse state goes
+// through the interpolation pass when `fromCoarseState`, else the fine positions are uploaded.
+// Region voxels take the GPU's values; the rest of the image is copied from the input unchanged.
+GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const SimScene& sc, const CoarseModel* model, const std::vector<RigidTransform>& T,
+                          const std::vector<Eigen::Vector3d>& xc, const std::vector<Eigen::Vector3d>& x, bool fromCoarseState) {
+  const QuantizedVolume q = quantizeVolume(image);
+  const VolumeGeometry& g = q.geometry;
+  const fg::ImageDesc desc{std::uint32_t(g.dims.x()), std::uint32_t(g.dims.y()), std::uint32_t(g.dims.z()), fg::Format::R16Unorm};
+  const VkImageUsageFlags usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  vk::Image volume(ctx, desc, usage, true), mask(ctx, {desc.width, desc.height, desc.depth, fg::Format::R8Unorm}, usage, true);
+  vk::uploadToImage(ctx, volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  const std::vector<std::uint8_t> zeros(q.data.size(), 0);
+  vk::uploadToImage(ctx, mask, zeros.data(), zeros.size(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  FineInterpolationData data;
+  if (fromCoarseState) data = model->interpolationData();
+  else {
+    // Positions come from elsewhere: records that keep every node where it is told.
+    data.node.assign(sc.meshes.fine.nodes.size(), {FineInterpolationData::Rest, 0, 0, 0});
+    for (const auto& X : sc.meshes.fine.nodes) data.rest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
+    data.coarseRest = {Eigen::Vector4f(0, 0, 0, 1)};
+    data.coarseTets = {{0, 0, 0, 0}};
+  }
+  vk::DeformSetup setup;
+  setup.interpolation = &data;
+  setup.fineTets = &sc.meshes.fine.tets;
+  setup.regionLo = sc.lo;
+  setup.regionHi = sc.hi;
+  setup.background = q.toNormalized(image.valueRange().first);  // as on the CPU path
+  setup.worldToIndex = g.worldToIndex();
+  setup.commitVoxels = 0.0;
+  vk::GpuDeformer gpu(ctx, volume, mask, setup, 1);
+  vk::DeformFrameStats st;
+  if (fromCoarseState) {
+    st = gpu.runFrame(packFrameState(xc, model->elementRotations(xc), T), vk::Redo::Region);
+  } else {
+    std::vector<Eigen::Vector4f> idx(x.size());
+    const Eigen::Matrix4d w2i = g.worldToIndex();
+    for (std::size_t i = 0; i < x.size(); ++i) idx[i] = (w2i * x[i].homogeneous()).cast<float>();
+    st = gpu.runFrame(idx);
+  }
+  const auto values = gpu.readVolume();
+  GpuResample r{image, 0, st.coveredVoxels};
+  Eigen::Vector3i lo, hi;
+  regionVoxelBox(g, sc.lo, sc.hi, lo, hi);
+  for (int k = lo.z(); k <= hi.z(); ++k)
+    for (int j = lo.y(); j <= hi.y(); ++j)
+      for (int i = lo.x(); i <= hi.x(); ++i)
+        if (inRegion(g.toWorld(Eigen::Vector3d(i, j, k)), sc.lo, sc.hi)) {
+          const std::size_t lin = image.linearIndex(i, j, k);
+          r.image.setValue(lin, q.toValue(values[lin] / 65535.0f));
+          ++r.regionVoxels;
+        }
+  return r;
+}
+
 }  // namespace
 
 int cmdDeform(const Words& words) {
   Args args(words,
             {"--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm",
-             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label"},
-            {"--whole-volume", "--quiet"});
+             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device"},
+            {"--whole-volume", "--quiet", "--validation"});
   if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {
     usageStream(args) << kDeformHelp;
     return args.help() ? 0 : 2;
@@ -65,7 +133,7 @@ int cmdDeform(const Words& words) {
   const std::string model = args.valueOr("--model", "coarse");
   if (model != "coarse" && model != "fine") throw UsageError("--model must be coarse or fine");
   const std::string backend = args.valueOr("--backend", "cpu");
-  if (backend != "cpu") throw UsageError("--backend: only cpu is available (the GPU deformation passes are not built yet)");
+  if (backend != "cpu" && backend != "gpu") throw UsageError("--backend must be cpu or gpu");
   SimSettings s;
   s.coarseTets = int(args.integer("--coarse-tets", s.coarseTets, 6, 2000000));
   s.fineTets = int(args.integer("--fine-tets", s.fineTets, 6, 20000000));
@@ -98,7 +166,8 @@ int cmdDeform(const Words& words) {
     return T;
   };
   const auto T = transformsAt(1.0);
-  std::vector<Eigen::Vector3d> x;
+  std::vector<Eigen::Vector3d> x, xc;
+  std::unique_ptr<CoarseModel> model_;
   t0 = std::chrono::steady_clock::now();
   double tPre = 0;
   if (model == "fine") {
@@ -116,9 +185,10 @@ int cmdDeform(const Words& words) {
       x = r.x;
     }
   } else {
-    CoarseModel m(sc.meshes, sc.fineK, sc.constraints, progress);
+    model_ = std::make_unique<CoarseModel>(sc.meshes, sc.fineK, sc.constraints, progress);
+    CoarseModel& m = *model_;
     tPre = seconds(t0);
-    auto xc = m.restState();
+    xc = m.restState();
     for (int k = 1; k <= steps; ++k) m.solve(transformsAt(double(k) / steps), xc, 50);
     x = m.reconstruct(T, xc);
     if (refineSteps > 0) {
@@ -132,14 +202,30 @@ int cmdDeform(const Words& words) {
   for (std::size_t i = 0; i < x.size(); ++i) maxDisp = std::max(maxDisp, (x[i] - sc.meshes.fine.nodes[i]).norm());
   t0 = std::chrono::steady_clock::now();
   Volume out;
-  const auto rs = rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, out);
+  std::size_t regionVoxels = 0, covered = 0;
+  if (backend == "cpu") {
+    const auto rs = rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, out);
+    regionVoxels = rs.regionVoxels;
+    covered = rs.covered;
+  } else {
+    vk::ContextOptions co;
+    co.device = args.valueOr("--device", "");
+    co.validation = args.flag("--validation");
+    co.verbose = !quiet;
+    const vk::Context ctx(co);
+    const GpuResample r = resampleOnGpu(ctx, image, sc, model_.get(), T, xc, x, model == "coarse" && refineSteps == 0);
+    out = r.image;
+    regionVoxels = r.regionVoxels;
+    covered = r.covered;
+    if (ctx.validationMessageCount()) throw Error("Vulkan validation messages were reported");
+  }
   const double tRaster = seconds(t0);
   writeNifti(out, *args.value("-o"));
   std::cout << std::setprecision(3) << "model " << model << ": scene " << tScene << " s, ";
   if (model == "coarse") std::cout << "coarsening " << tPre << " s, ";
   std::cout << "solve " << tSolve << " s (" << steps << " increment" << (steps > 1 ? "s" : "") << "), resampling " << tRaster << " s\n"
-            << "largest displacement " << maxDisp << " mm; inverted fine tets " << inverted << "; region voxels " << rs.regionVoxels << ", covered "
-            << rs.covered << "\nwrote " << *args.value("-o") << "\n";
+            << "largest displacement " << maxDisp << " mm; inverted fine tets " << inverted << "; region voxels " << regionVoxels << ", covered "
+            << covered << " (" << backend << ")\nwrote " << *args.value("-o") << "\n";
   if (auto mo = args.value("--mesh-out")) {
     std::vector<Eigen::Vector3d> disp(x.size());
     std::vector<double> dir(x.size()), coarseEl(sc.meshes.fine.tets.size());

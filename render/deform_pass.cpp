@@ -192,6 +192,38 @@ GpuDeformer::~GpuDeformer() {
   }
 }
 
+void GpuDeformer::importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState) {
+  using fg::Access;
+  Bound& h = h_;
+  h = Bound{};
+  h.slot = slot;
+  h.withState = withState;
+  auto buf = [&](const char* name, const Buffer& b, Access a) { return g.importBuffer(name, {b.size()}, a); };
+  h.params = buf("deform-params", params_, Access::UniformRead);
+  h.nodeInfo = buf("fine-node-records", nodeInfo_, Access::StorageRead);
+  h.rest = buf("fine-rest", rest_, Access::StorageRead);
+  h.blocks = buf("fine-blocks", blocks_, Access::StorageRead);
+  h.coarseTets = buf("coarse-tets", coarseTets_, Access::StorageRead);
+  h.coarseRest = buf("coarse-rest", coarseRest_, Access::StorageRead);
+  h.tets = buf("fine-tets", tetBuffer_, Access::StorageRead);
+  h.restIdx = buf("fine-rest-index", restIdx_, Access::StorageRead);
+  h.posNew = buf("fine-positions", pos_, Access::StorageReadWrite);
+  h.posOld = buf("fine-positions-previous", prev_, Access::StorageReadWrite);
+  h.box = buf("deform-box", box_, Access::StorageReadWrite);
+  h.args = buf("deform-args", argsBuffer_, Access::IndirectRead);
+  h.owner = buf("deform-owner", owner_, Access::StorageReadWrite);
+  if (withState) {
+    const Slot& s = slots_[slot];
+    h.positions = buf("coarse-positions", *s.positions, Access::HostWrite);
+    h.rotations = buf("coarse-rotations", *s.rotations, Access::HostWrite);
+    h.handles = buf("handle-transforms", *s.handles, Access::HostWrite);
+  }
+  h.source = g.importImage("volume", source_.desc(), Access::Sampled);
+  h.sourceMask = g.importImage("handle-mask", sourceMask_.desc(), Access::Sampled);
+  h.volume = g.importImage("deformed-volume", volume_.desc(), Access::Sampled);
+  h.mask = g.importImage("deformed-mask", mask_.desc(), Access::Sampled);
+}
+
 GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slot, const CoarseFrameState& state, Redo redo) {
   if (slot >= slots_.size()) throw Error("deformation: frame slot out of range");
   if (state.positions.size() != coarseNodes_ || state.rotations.size() != coarseElements_ || state.handles.size() != handles_)
@@ -208,52 +240,11 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slo
   hostBuffer(s.rotations, state.rotations.data(), state.rotations.size() * 16);
   hostBuffer(s.handles, state.handles.data(), state.handles.size() * 64);
 
+  importResources(g, slot, true);
   using fg::Access;
-  Bound& h = h_;
-  h.slot = slot;
-  auto buf = [&](const char* name, const Buffer& b, Access a) { return g.importBuffer(name, {b.size()}, a); };
-  h.params = buf("deform-params", params_, Access::UniformRead);
-  h.nodeInfo = buf("fine-node-records", nodeInfo_, Access::StorageRead);
-  h.rest = buf("fine-rest", rest_, Access::StorageRead);
-  h.blocks = buf("fine-blocks", blocks_, Access::StorageRead);
-  h.coarseTets = buf("coarse-tets", coarseTets_, Access::StorageRead);
-  h.coarseRest = buf("coarse-rest", coarseRest_, Access::StorageRead);
-  h.tets = buf("fine-tets", tetBuffer_, Access::StorageRead);
-  h.restIdx = buf("fine-rest-index", restIdx_, Access::StorageRead);
-  h.posNew = buf("fine-positions", pos_, Access::StorageReadWrite);
-  h.posOld = buf("fine-positions-previous", prev_, Access::StorageReadWrite);
-  h.box = buf("deform-box", box_, Access::StorageReadWrite);
-  h.args = buf("deform-args", argsBuffer_, Access::IndirectRead);
-  h.owner = buf("deform-owner", owner_, Access::StorageReadWrite);
-  h.positions = buf("coarse-positions", *s.positions, Access::HostWrite);
-  h.rotations = buf("coarse-rotations", *s.rotations, Access::HostWrite);
-  h.handles = buf("handle-transforms", *s.handles, Access::HostWrite);
-  h.source = g.importImage("volume", source_.desc(), Access::Sampled);
-  h.sourceMask = g.importImage("handle-mask", sourceMask_.desc(), Access::Sampled);
-  h.volume = g.importImage("deformed-volume", volume_.desc(), Access::Sampled);
-  h.mask = g.importImage("deformed-mask", mask_.desc(), Access::Sampled);
-  const Bound hb = h;
-  const gpu::DeformParams p = p_;
+  const Bound hb = h_;
   const std::uint32_t nodeGroups = std::uint32_t((nodes_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
-  const std::uint32_t tetGroups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
 
-  g.addPass(
-      "deform-reset", [&](fg::PassBuilder& b) { b.write(hb.box, Access::TransferDst); },
-      [hb, p, redo](fg::Executor& e) {
-        GraphExecutor& x = vulkanExecutor(e);
-        gpu::DeformBox init{};
-        if (redo == Redo::Region) {
-          init.lo = glm::ivec4(p.regionVoxLo.x, p.regionVoxLo.y, p.regionVoxLo.z, 0);
-          init.hi = glm::ivec4(p.regionVoxHi.x, p.regionVoxHi.y, p.regionVoxHi.z, 0);
-        } else if (redo == Redo::WholeVolume) {
-          init.lo = glm::ivec4(0);
-          init.hi = glm::ivec4(p.dims.x - 1, p.dims.y - 1, p.dims.z - 1, 0);
-        } else {
-          init.lo = glm::ivec4(INT_MAX);
-          init.hi = glm::ivec4(INT_MIN);
-        }
-        vkCmdUpdateBuffer(x.cmd(), x.buffer(hb.box).handle(), 0, sizeof(init), &init);
-      });
   g.addPass(
       "deform-interpolate",
       [&](fg::PassBuilder& b) {
@@ -274,6 +265,31 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slo
         w.push(ctx_, x.cmd(), interpolate_);
         vkCmdPushConstants(x.cmd(), interpolate_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, 4, &commit);
         vkCmdDispatch(x.cmd(), nodeGroups, 1, 1);
+      });
+  return addResamplePasses(g, redo);
+}
+
+GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo) {
+  using fg::Access;
+  const Bound hb = h_;
+  const gpu::DeformParams p = p_;
+  const std::uint32_t tetGroups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
+  g.addPass(
+      "deform-reset", [&](fg::PassBuilder& b) { b.write(hb.box, Access::TransferDst); },
+      [hb, p, redo](fg::Executor& e) {
+        GraphExecutor& x = vulkanExecutor(e);
+        gpu::DeformBox init{};
+        if (redo == Redo::Region) {
+          init.lo = glm::ivec4(p.regionVoxLo.x, p.regionVoxLo.y, p.regionVoxLo.z, 0);
+          init.hi = glm::ivec4(p.regionVoxHi.x, p.regionVoxHi.y, p.regionVoxHi.z, 0);
+        } else if (redo == Redo::WholeVolume) {
+          init.lo = glm::ivec4(0);
+          init.hi = glm::ivec4(p.dims.x - 1, p.dims.y - 1, p.dims.z - 1, 0);
+        } else {
+          init.lo = glm::ivec4(INT_MAX);
+          init.hi = glm::ivec4(INT_MIN);
+        }
+        vkCmdUpdateBuffer(x.cmd(), x.buffer(hb.box).handle(), 0, sizeof(init), &init);
       });
   if (redo == Redo::Moved)
     g.addPass(
@@ -395,9 +411,11 @@ void GpuDeformer::bind(GraphExecutor& x) {
   x.bindBuffer(h.box, box_);
   x.bindBuffer(h.args, argsBuffer_);
   x.bindBuffer(h.owner, owner_);
-  x.bindBuffer(h.positions, *s.positions);
-  x.bindBuffer(h.rotations, *s.rotations);
-  x.bindBuffer(h.handles, *s.handles);
+  if (h.withState) {
+    x.bindBuffer(h.positions, *s.positions);
+    x.bindBuffer(h.rotations, *s.rotations);
+    x.bindBuffer(h.handles, *s.handles);
+  }
   x.bindImage(h.source, source_);
   x.bindImage(h.sourceMask, sourceMask_);
   x.bindImage(h.volume, volume_);
@@ -405,12 +423,29 @@ void GpuDeformer::bind(GraphExecutor& x) {
 }
 
 DeformFrameStats GpuDeformer::runFrame(const CoarseFrameState& state, Redo redo) {
+  return runOwn([&](fg::FrameGraph& g) { addPasses(g, 0, state, redo); });
+}
+
+DeformFrameStats GpuDeformer::runFrame(const std::vector<Eigen::Vector4f>& indexPositions) {
+  if (indexPositions.size() != nodes_) throw Error("deformation: one position per fine node expected");
+  for (const auto& p : indexPositions)
+    if (!p.allFinite()) throw Error("deformation: a fine node position is not finite");
+  if (ownExecutor_) ownExecutor_->waitLastFrame();
+  uploadToBuffer(ctx_, pos_, indexPositions.data(), nodes_ * 16);
+  uploadToBuffer(ctx_, prev_, indexPositions.data(), nodes_ * 16);
+  return runOwn([&](fg::FrameGraph& g) {
+    importResources(g, 0, false);
+    addResamplePasses(g, Redo::Region);
+  });
+}
+
+DeformFrameStats GpuDeformer::runOwn(const std::function<void(fg::FrameGraph&)>& build) {
   if (!ownExecutor_) ownExecutor_ = std::make_unique<GraphExecutor>(ctx_, 1);
   if (!boxReadback_) boxReadback_ = std::make_unique<Buffer>(ctx_, sizeof(gpu::DeformBox), VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::HostVisible);
   GraphExecutor& x = *ownExecutor_;
   x.beginFrame();
   fg::FrameGraph g;
-  addPasses(g, 0, state, redo);
+  build(g);
   const auto host = g.importBuffer("deform-box-host", {boxReadback_->size()}, fg::Access::None);
   addReadbackPass(g, "deform-box-readback", h_.box, host);
   g.compile();

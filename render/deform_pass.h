@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -68,6 +69,9 @@ class GpuDeformer {
 
   /// One frame on its own graph and executor, waited for; returns the box and counters.
   DeformFrameStats runFrame(const CoarseFrameState& state, Redo redo = Redo::Moved);
+  /// Resamples the region from fine node positions computed elsewhere (voxel index space: the
+  /// fine reference, the two-level refinement), uploaded whole (for the command line, not frames).
+  DeformFrameStats runFrame(const std::vector<Eigen::Vector4f>& indexPositions);
 
   /// Fine node positions last taken (voxel index space), deformed volume (u16) and mask, read back.
   std::vector<Eigen::Vector4f> readPositions() const;
@@ -79,6 +83,10 @@ class GpuDeformer {
   std::size_t fineTetCount() const { return tets_; }
 
  private:
+  void importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState);
+  Outputs addResamplePasses(fg::FrameGraph& g, Redo redo);
+  DeformFrameStats runOwn(const std::function<void(fg::FrameGraph&)>& build);
+
   struct Slot {
     std::unique_ptr<Buffer> positions, rotations, handles;
   };
@@ -100,6 +108,7 @@ class GpuDeformer {
     fg::ResourceHandle params, nodeInfo, rest, blocks, coarseTets, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, source, sourceMask,
         volume, mask, positions, rotations, handles;
     std::uint32_t slot = 0;
+    bool withState = false;
   } h_;
 };
 
