@@ -22,6 +22,7 @@ int cmdGestureSolve(const Words& args);
 int cmdBenchSelection(const Words& args);
 int cmdBenchGesture(const Words& args);
 int cmdBenchSim(const Words& args);
+int cmdBenchDeform(const Words& args);
 int cmdView(const Words& args);
 int cmdReplay(const Words& args);
 int cmdDeform(const Words& args);

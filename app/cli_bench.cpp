@@ -49,6 +49,7 @@ int cmdBench(const Words& words) {
   if (!words.empty() && words[0] == "selection") return cmdBenchSelection(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "gesture") return cmdBenchGesture(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "sim") return cmdBenchSim(Words(words.begin() + 1, words.end()));
+  if (!words.empty() && words[0] == "deform") return cmdBenchDeform(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "raymarch") return cmdBench(Words(words.begin() + 1, words.end()));
   std::vector<std::string> valueOptions = kRenderValueOptions;
   valueOptions.insert(valueOptions.end(), {"--sizes", "--repeat", "--csv"});
@@ -58,7 +59,7 @@ int cmdBench(const Words& words) {
                  "  Raymarch time (median of N frames, GPU timestamps and wall clock) at each size, plain\n"
                  "  versus empty-space skipping + early ray termination, and their ratio. PATH omitted: the\n"
                  "  built-in phantom. For the paper-scale case: ../shared/data/ircadb1.1/ct.nii.gz --voxels 5000000.\n"
-              << kRenderOptionsHelp << "  'handson bench selection --help': region growing; 'handson bench gesture --help': the gesture solve;\n  'handson bench sim --help': the simulation (coarse model against the fine reference).\n";
+              << kRenderOptionsHelp << "  'handson bench selection --help': region growing; 'handson bench gesture --help': the gesture solve;\n  'handson bench sim --help': the simulation (coarse model against the fine reference);\n  'handson bench deform --help': the GPU deformation passes (moved-box vs whole-volume resampling).\n";
     return args.help() ? 0 : 2;
   }
   const int repeat = int(args.integer("--repeat", 5, 1, 1000));

@@ -90,6 +90,14 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   const FineInterpolationData& d = *setup.interpolation;
   if (!ctx.storageExtendedFormats())
     throw Error("deformation: this Vulkan device cannot write 16-bit storage images (shaderStorageImageExtendedFormats)");
+  {
+    VkPhysicalDeviceSubgroupProperties sub{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
+    VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
+    p2.pNext = &sub;
+    vkGetPhysicalDeviceProperties2(ctx.physicalDevice(), &p2);
+    if (!(sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) || !(sub.supportedOperations & VK_SUBGROUP_FEATURE_ARITHMETIC_BIT))
+      throw Error("deformation: this Vulkan device lacks subgroup arithmetic in compute shaders");
+  }
   const fg::ImageDesc sd = source.desc();
   const fg::ImageDesc md = sourceMask.desc();
   if (sd.format != fg::Format::R16Unorm || md.format != fg::Format::R8Unorm || sd.width != md.width || sd.height != md.height || sd.depth != md.depth)
@@ -143,8 +151,9 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   bounds_ = ComputePipeline(ctx, shaders::deformBounds(), bindings({kUbo, kSsbo, kSsbo, kSsbo, kSsbo}), 0);
   args_ = ComputePipeline(ctx, shaders::deformArgs(), bindings({kUbo, kSsbo, kSsbo}), 4);
   clear_ = ComputePipeline(ctx, shaders::deformClear(), bindings({kUbo, kSsbo, kSampled, kSampled, kStorageImage, kStorageImage, kSsbo}), 0);
-  raster_ = ComputePipeline(ctx, shaders::deformRaster(),
-                            bindings({kUbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSampled, kSampled, kStorageImage, kStorageImage}), 4);
+  claim_ = ComputePipeline(ctx, shaders::deformClaim(), bindings({kUbo, kSsbo, kSsbo, kSsbo, kSsbo}), 0);
+  resolve_ = ComputePipeline(ctx, shaders::deformResolve(),
+                             bindings({kUbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSampled, kSampled, kStorageImage, kStorageImage}), 0);
 
   params_ = Buffer(ctx, sizeof(gpu::DeformParams), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::Device);
   uploadToBuffer(ctx, params_, &p_, sizeof(p_));
@@ -357,39 +366,59 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
             .push(ctx_, x.cmd(), clear_);
         vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
       });
-  for (std::uint32_t phase = 0; phase < 2; ++phase)
-    g.addPass(
-        phase == 0 ? "deform-claim" : "deform-write",
-        [&](fg::PassBuilder& b) {
-          b.read(hb.params, Access::UniformRead);
-          b.read(hb.tets, Access::StorageRead);
-          b.read(hb.posNew, Access::StorageRead);
-          b.read(hb.restIdx, Access::StorageRead);
-          b.read(hb.source, Access::Sampled);
-          b.read(hb.sourceMask, Access::Sampled);
-          b.write(hb.box, Access::StorageReadWrite);
-          b.write(hb.owner, Access::StorageReadWrite);
-          b.write(hb.volume, Access::StorageReadWrite);
-          b.write(hb.mask, Access::StorageReadWrite);
-        },
-        [this, hb, tetGroups, phase](fg::Executor& e) {
-          GraphExecutor& x = vulkanExecutor(e);
-          vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, raster_.pipeline());
-          DescriptorWriter()
-              .buffer(0, kUbo, x.buffer(hb.params).handle())
-              .buffer(1, kSsbo, x.buffer(hb.tets).handle())
-              .buffer(2, kSsbo, x.buffer(hb.posNew).handle())
-              .buffer(3, kSsbo, x.buffer(hb.box).handle())
-              .buffer(4, kSsbo, x.buffer(hb.owner).handle())
-              .buffer(5, kSsbo, x.buffer(hb.restIdx).handle())
-              .sampledImage(6, x.image(hb.source).view(), nearest_.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-              .sampledImage(7, x.image(hb.sourceMask).view(), nearest_.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-              .storageImage(8, x.image(hb.volume).view())
-              .storageImage(9, x.image(hb.mask).view())
-              .push(ctx_, x.cmd(), raster_);
-          vkCmdPushConstants(x.cmd(), raster_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, 4, &phase);
-          vkCmdDispatch(x.cmd(), tetGroups, 1, 1);
-        });
+  g.addPass(
+      "deform-claim",
+      [&](fg::PassBuilder& b) {
+        b.read(hb.params, Access::UniformRead);
+        b.read(hb.tets, Access::StorageRead);
+        b.read(hb.posNew, Access::StorageRead);
+        b.read(hb.box, Access::StorageRead);
+        b.write(hb.owner, Access::StorageReadWrite);
+      },
+      [this, hb, tetGroups](fg::Executor& e) {
+        GraphExecutor& x = vulkanExecutor(e);
+        vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, claim_.pipeline());
+        DescriptorWriter()
+            .buffer(0, kUbo, x.buffer(hb.params).handle())
+            .buffer(1, kSsbo, x.buffer(hb.tets).handle())
+            .buffer(2, kSsbo, x.buffer(hb.posNew).handle())
+            .buffer(3, kSsbo, x.buffer(hb.box).handle())
+            .buffer(4, kSsbo, x.buffer(hb.owner).handle())
+            .push(ctx_, x.cmd(), claim_);
+        vkCmdDispatch(x.cmd(), tetGroups, 1, 1);
+      });
+  g.addPass(
+      "deform-resolve",
+      [&](fg::PassBuilder& b) {
+        b.read(hb.params, Access::UniformRead);
+        b.read(hb.args, Access::IndirectRead);
+        b.read(hb.tets, Access::StorageRead);
+        b.read(hb.posNew, Access::StorageRead);
+        b.read(hb.owner, Access::StorageRead);
+        b.read(hb.restIdx, Access::StorageRead);
+        b.read(hb.source, Access::Sampled);
+        b.read(hb.sourceMask, Access::Sampled);
+        b.write(hb.box, Access::StorageReadWrite);
+        b.write(hb.volume, Access::StorageReadWrite);
+        b.write(hb.mask, Access::StorageReadWrite);
+      },
+      [this, hb](fg::Executor& e) {
+        GraphExecutor& x = vulkanExecutor(e);
+        vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, resolve_.pipeline());
+        DescriptorWriter()
+            .buffer(0, kUbo, x.buffer(hb.params).handle())
+            .buffer(1, kSsbo, x.buffer(hb.tets).handle())
+            .buffer(2, kSsbo, x.buffer(hb.posNew).handle())
+            .buffer(3, kSsbo, x.buffer(hb.box).handle())
+            .buffer(4, kSsbo, x.buffer(hb.owner).handle())
+            .buffer(5, kSsbo, x.buffer(hb.restIdx).handle())
+            .sampledImage(6, x.image(hb.source).view(), nearest_.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
+            .sampledImage(7, x.image(hb.sourceMask).view(), nearest_.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
+            .storageImage(8, x.image(hb.volume).view())
+            .storageImage(9, x.image(hb.mask).view())
+            .push(ctx_, x.cmd(), resolve_);
+        vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
+      });
   g.exportResource(hb.volume, Access::Sampled);
   g.exportResource(hb.mask, Access::Sampled);
   return {hb.volume, hb.mask};
@@ -464,7 +493,6 @@ DeformFrameStats GpuDeformer::runOwn(const std::function<void(fg::FrameGraph&)>&
   st.boxHi = Eigen::Vector3i(b.hi.x, b.hi.y, b.hi.z);
   st.movedTets = b.stats.x;
   st.coveredVoxels = b.stats.y;
-  st.rasterizedTets = b.stats.z;
   st.timings = x.completedTimings();
   return st;
 }

@@ -3,7 +3,7 @@
 // passes: interpolation of the fine node positions from the coarse state (deform_interpolate.comp),
 // the box of voxels whose tissue moved since the last frame (deform_bounds.comp, deform_args.comp),
 // and the tetrahedral rasterization of the fine mesh into a deformed copy of the volume and of the
-// handle-id mask, redoing only that box (deform_clear.comp, deform_raster.comp). Per frame only the
+// handle-id mask, redoing only that box (deform_clear.comp, deform_claim.comp, deform_resolve.comp). Per frame only the
 // coarse state goes to the GPU (sim/fine_interpolation.h: kilobytes). CPU references:
 // interpolateFineReference (sim/fine_interpolation.h) and rasterizeDeformed (sim/tet_raster.h).
 #include <Eigen/Core>
@@ -46,7 +46,7 @@ enum class Redo {
 
 struct DeformFrameStats {
   Eigen::Vector3i boxLo{0, 0, 0}, boxHi{-1, -1, -1};  ///< voxels redone (inclusive; empty when lo > hi)
-  std::uint32_t movedTets = 0, coveredVoxels = 0, rasterizedTets = 0;
+  std::uint32_t movedTets = 0, coveredVoxels = 0;
   std::uint64_t boxVoxels() const;
   std::vector<PassTiming> timings;
 };
@@ -94,7 +94,7 @@ class GpuDeformer {
   const Image& source_;
   const Image& sourceMask_;
   Sampler nearest_;  ///< the shaders only texelFetch
-  ComputePipeline interpolate_, bounds_, args_, clear_, raster_;
+  ComputePipeline interpolate_, bounds_, args_, clear_, claim_, resolve_;
   Buffer params_, nodeInfo_, rest_, blocks_, coarseTets_, coarseRest_, tetBuffer_, restIdx_, pos_, prev_, box_, argsBuffer_, owner_;
   Image volume_, mask_;
   std::vector<Slot> slots_;

@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 // The box of voxels to redo this frame: the union of the old and new voxel bounding boxes of every
 // fine tet with a node whose committed position changed (deform_interpolate.comp). One invocation
 // per fine tet.
@@ -23,15 +24,23 @@ void main() {
     lo = min(lo, min(a, b));
     hi = max(hi, max(a, b));
   }
-  if (!moved) return;
-  atomicAdd(box.stats.x, 1u);
-  // Clamp before converting (a wild position must not overflow the int conversion).
-  ivec3 ilo = ivec3(floor(clamp(lo, vec3(-1.0), vec3(P.dims.xyz))));
+  // Reduce over the subgroup first: one lane's atomics instead of one per moved tet.
+  ivec3 ilo = ivec3(floor(clamp(lo, vec3(-1.0), vec3(P.dims.xyz))));  // clamped before the int conversion
   ivec3 ihi = ivec3(ceil(clamp(hi, vec3(-1.0), vec3(P.dims.xyz))));
-  atomicMin(box.lo.x, ilo.x);
-  atomicMin(box.lo.y, ilo.y);
-  atomicMin(box.lo.z, ilo.z);
-  atomicMax(box.hi.x, ihi.x);
-  atomicMax(box.hi.y, ihi.y);
-  atomicMax(box.hi.z, ihi.z);
+  if (!moved) {
+    ilo = ivec3(2147483647);
+    ihi = ivec3(-2147483647);
+  }
+  uint movedCount = subgroupAdd(moved ? 1u : 0u);
+  ilo = subgroupMin(ilo);
+  ihi = subgroupMax(ihi);
+  if (subgroupElect() && movedCount > 0u) {
+    atomicAdd(box.stats.x, movedCount);
+    atomicMin(box.lo.x, ilo.x);
+    atomicMin(box.lo.y, ilo.y);
+    atomicMin(box.lo.z, ilo.z);
+    atomicMax(box.hi.x, ihi.x);
+    atomicMax(box.hi.y, ihi.y);
+    atomicMax(box.hi.z, ihi.z);
+  }
 }

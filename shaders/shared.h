@@ -132,7 +132,7 @@ struct DeformParams {
 struct DeformBox {
   ivec4 lo;     // xyz inclusive voxel index
   ivec4 hi;     // xyz inclusive (lo > hi: nothing to redo)
-  uvec4 stats;  // x = moved tets, y = covered voxels, z = tets rasterized
+  uvec4 stats;  // x = moved tets, y = covered voxels
   uvec4 pad;
 };
 

@@ -3,9 +3,10 @@
 #include "brick_minmax.spv.h"
 #include "deform_args.spv.h"
 #include "deform_bounds.spv.h"
+#include "deform_claim.spv.h"
 #include "deform_clear.spv.h"
 #include "deform_interpolate.spv.h"
-#include "deform_raster.spv.h"
+#include "deform_resolve.spv.h"
 #include "pick.spv.h"
 #include "raymarch.spv.h"
 #include "region_compact.spv.h"
@@ -22,6 +23,7 @@ std::span<const std::uint32_t> deformInterpolate() { return spirv::deform_interp
 std::span<const std::uint32_t> deformBounds() { return spirv::deform_bounds; }
 std::span<const std::uint32_t> deformArgs() { return spirv::deform_args; }
 std::span<const std::uint32_t> deformClear() { return spirv::deform_clear; }
-std::span<const std::uint32_t> deformRaster() { return spirv::deform_raster; }
+std::span<const std::uint32_t> deformClaim() { return spirv::deform_claim; }
+std::span<const std::uint32_t> deformResolve() { return spirv::deform_resolve; }
 
 }  // namespace handson::shaders

@@ -15,6 +15,7 @@ std::span<const std::uint32_t> deformInterpolate();
 std::span<const std::uint32_t> deformBounds();
 std::span<const std::uint32_t> deformArgs();
 std::span<const std::uint32_t> deformClear();
-std::span<const std::uint32_t> deformRaster();
+std::span<const std::uint32_t> deformClaim();
+std::span<const std::uint32_t> deformResolve();
 
 }  // namespace handson::shaders

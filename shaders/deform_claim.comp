@@ -1,0 +1,41 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// Tetrahedral rasterization of the deformed fine mesh (../shared/spec/methods.md section 6), step
+// one: each fine tet claims the region voxels of this frame's box whose centres it covers, for the
+// lowest-numbered tet (atomicMin of tet + 1; the owner buffer holds 0 outside the region, so those
+// voxels are never claimed). One invocation per tet. deform_resolve.comp then fills each claimed
+// voxel from its owner. CPU reference: rasterizeDeformed in sim/tet_raster.cpp.
+#include "shared.h"
+layout(local_size_x = HANDSON_DEFORM_GROUP_X) in;
+layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
+layout(std430, set = 0, binding = 1) readonly buffer Tets { uvec4 tet[]; };
+layout(std430, set = 0, binding = 2) readonly buffer Pos { vec4 pos[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Box { DeformBox box; };
+layout(std430, set = 0, binding = 4) buffer Owner { uint owner[]; };
+
+void main() {
+  uint t = gl_GlobalInvocationID.x;
+  if (t >= uint(P.regionVoxHi.w)) return;
+  uvec4 n = tet[t];
+  vec3 v0 = pos[n.x].xyz, v1 = pos[n.y].xyz, v2 = pos[n.z].xyz, v3 = pos[n.w].xyz;
+  vec3 bmin = min(min(v0, v1), min(v2, v3)), bmax = max(max(v0, v1), max(v2, v3));
+  ivec3 lo = max(ivec3(ceil(clamp(bmin, vec3(-1.0), vec3(P.dims.xyz)) - 1e-4)), max(box.lo.xyz, P.regionVoxLo.xyz));
+  ivec3 hi = min(ivec3(floor(clamp(bmax, vec3(-1.0), vec3(P.dims.xyz)) + 1e-4)), min(box.hi.xyz, P.regionVoxHi.xyz));
+  if (any(greaterThan(lo, hi))) return;
+  mat3 D = mat3(v1 - v0, v2 - v0, v3 - v0);
+  float det = determinant(D);
+  if (!(abs(det) > 1e-12)) return;
+  mat3 Dinv = inverse(D);
+  // Relative tolerance on the barycentric coordinates: voxel centres on shared faces are claimed
+  // by both neighbours (the lower index wins), never by neither.
+  const float eps = 1e-5;
+  for (int z = lo.z; z <= hi.z; ++z)
+    for (int y = lo.y; y <= hi.y; ++y)
+      for (int x = lo.x; x <= hi.x; ++x) {
+        vec3 l = Dinv * (vec3(x, y, z) - v0);
+        float l0 = 1.0 - l.x - l.y - l.z;
+        if (min(min(l.x, l.y), min(l.z, l0)) < -eps) continue;
+        ivec3 o = ivec3(x, y, z) - P.regionVoxLo.xyz;
+        atomicMin(owner[uint(o.x + P.ownerDims.x * (o.y + P.ownerDims.y * o.z))], t + 1u);
+      }
+}

@@ -1,0 +1,61 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+// Tetrahedral rasterization, step two: every claimed voxel of this frame's box takes the source
+// sampled trilinearly at its rest position in the owner tet (barycentric coordinates in the
+// deformed tet, applied to the rest positions) and the handle id of the nearest rest voxel.
+// One invocation per voxel of the box (uniform work, no atomics but one counter per subgroup),
+// dispatched indirectly like deform_clear.comp. CPU reference: rasterizeDeformed in
+// sim/tet_raster.cpp.
+#include "shared.h"
+layout(local_size_x = HANDSON_DEFORM_CLEAR_GROUP, local_size_y = HANDSON_DEFORM_CLEAR_GROUP, local_size_z = HANDSON_DEFORM_CLEAR_GROUP) in;
+layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
+layout(std430, set = 0, binding = 1) readonly buffer Tets { uvec4 tet[]; };
+layout(std430, set = 0, binding = 2) readonly buffer Pos { vec4 pos[]; };
+layout(std430, set = 0, binding = 3) buffer Box { DeformBox box; };
+layout(std430, set = 0, binding = 4) readonly buffer Owner { uint owner[]; };
+layout(std430, set = 0, binding = 5) readonly buffer RestIdx { vec4 restIdx[]; };
+layout(set = 0, binding = 6) uniform sampler3D uSource;
+layout(set = 0, binding = 7) uniform sampler3D uSourceMask;
+layout(set = 0, binding = 8, r16) uniform writeonly image3D uOut;
+layout(set = 0, binding = 9, r8) uniform writeonly image3D uOutMask;
+
+// Trilinear interpolation from eight texel fetches with float weights (hardware filtering may use
+// 8-bit weights), clamped at the edges like Volume::sampleLinear.
+float sampleTrilinear(vec3 idx) {
+  vec3 p = clamp(idx, vec3(0.0), vec3(P.dims.xyz - 1));
+  ivec3 i0 = ivec3(floor(p));
+  vec3 f = p - vec3(i0);
+  ivec3 i1 = min(i0 + 1, P.dims.xyz - 1);
+  float c000 = texelFetch(uSource, ivec3(i0.x, i0.y, i0.z), 0).r, c100 = texelFetch(uSource, ivec3(i1.x, i0.y, i0.z), 0).r;
+  float c010 = texelFetch(uSource, ivec3(i0.x, i1.y, i0.z), 0).r, c110 = texelFetch(uSource, ivec3(i1.x, i1.y, i0.z), 0).r;
+  float c001 = texelFetch(uSource, ivec3(i0.x, i0.y, i1.z), 0).r, c101 = texelFetch(uSource, ivec3(i1.x, i0.y, i1.z), 0).r;
+  float c011 = texelFetch(uSource, ivec3(i0.x, i1.y, i1.z), 0).r, c111 = texelFetch(uSource, ivec3(i1.x, i1.y, i1.z), 0).r;
+  float c00 = mix(c000, c100, f.x), c10 = mix(c010, c110, f.x), c01 = mix(c001, c101, f.x), c11 = mix(c011, c111, f.x);
+  return mix(mix(c00, c10, f.y), mix(c01, c11, f.y), f.z);
+}
+
+void main() {
+  ivec3 v = box.lo.xyz + ivec3(gl_GlobalInvocationID);
+  bool claimed = false;
+  ivec3 o = v - P.regionVoxLo.xyz;
+  // A whole-volume redo covers voxels outside the region's owner grid: nothing to resolve there.
+  if (all(lessThanEqual(v, box.hi.xyz)) && all(greaterThanEqual(o, ivec3(0))) && all(lessThan(o, P.ownerDims.xyz))) {
+    uint own = owner[uint(o.x + P.ownerDims.x * (o.y + P.ownerDims.y * o.z))];
+    claimed = own != 0u && own != kDeformNoOwner;
+    if (claimed) {
+      uvec4 n = tet[own - 1u];
+      vec3 v0 = pos[n.x].xyz;
+      // The same expressions as deform_claim.comp, so the coordinates match the claim.
+      mat3 Dinv = inverse(mat3(pos[n.y].xyz - v0, pos[n.z].xyz - v0, pos[n.w].xyz - v0));
+      vec3 l = Dinv * (vec3(v) - v0);
+      float l0 = 1.0 - l.x - l.y - l.z;
+      vec3 r = l0 * restIdx[n.x].xyz + l.x * restIdx[n.y].xyz + l.y * restIdx[n.z].xyz + l.z * restIdx[n.w].xyz;
+      imageStore(uOut, v, vec4(sampleTrilinear(r)));
+      ivec3 m = clamp(ivec3(floor(r + 0.5)), ivec3(0), P.dims.xyz - 1);
+      imageStore(uOutMask, v, texelFetch(uSourceMask, m, 0));
+    }
+  }
+  uint covered = subgroupAdd(claimed ? 1u : 0u);
+  if (subgroupElect() && covered > 0u) atomicAdd(box.stats.y, covered);
+}
