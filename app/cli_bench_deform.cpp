@@ -37,6 +37,8 @@ const char* const kBenchDeformHelp =
     "  --spacing MM           phantom voxel size (default 1.75: 219x165x137 = 4.95 M voxels)\n"
     "  --coarse-tets N        (default 6000)   --fine-tets N (default 300000)   --padding-mm D (default 40)\n"
     "  --frames N             drag frames (default 10)   --step-mm D (default 1)   --step-deg A (default 1)\n"
+    "  --commit-voxels V      a fine node's new position is taken once it moved more than V voxels\n"
+    "                         (default 0.001: the image lags the simulation by at most that)\n"
     "  --device NAME          Vulkan device (default: automatic)   --validation\n"
     "  --out DIR              deform_frames.csv, deform_summary.csv and deform_frames.png (default bench-out)\n"
     "  --quiet\n";
@@ -62,7 +64,7 @@ double passMs(const std::vector<vk::PassTiming>& t, std::initializer_list<const 
 int cmdBenchDeform(const Words& words) {
   Args args(words,
             {"--handle", "--handle-label", "--spacing", "--coarse-tets", "--fine-tets", "--padding-mm", "--frames", "--step-mm", "--step-deg", "--device",
-             "--out"},
+             "--out", "--commit-voxels"},
             {"--quiet", "--validation"});
   if (args.help() || args.positional().size() > 1 || (args.positional().size() == 1) != bool(args.value("--handle"))) {
     usageStream(args) << kBenchDeformHelp;
@@ -124,6 +126,7 @@ int cmdBenchDeform(const Words& words) {
   setup.regionHi = sc.hi;
   setup.background = q.toNormalized(image.valueRange().first);
   setup.worldToIndex = g.worldToIndex();
+  setup.commitVoxels = args.number("--commit-voxels", 1e-3, 0.0, 10.0);
   vk::GpuDeformer dirty(ctx, volume, mask, setup, 1), whole(ctx, volume, mask, setup, 1);
   Eigen::Vector3i rlo, rhi;
   regionVoxelBox(g, sc.lo, sc.hi, rlo, rhi);

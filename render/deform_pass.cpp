@@ -151,9 +151,8 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   bounds_ = ComputePipeline(ctx, shaders::deformBounds(), bindings({kUbo, kSsbo, kSsbo, kSsbo, kSsbo}), 0);
   args_ = ComputePipeline(ctx, shaders::deformArgs(), bindings({kUbo, kSsbo, kSsbo}), 4);
   clear_ = ComputePipeline(ctx, shaders::deformClear(), bindings({kUbo, kSsbo, kSampled, kSampled, kStorageImage, kStorageImage, kSsbo}), 0);
-  claim_ = ComputePipeline(ctx, shaders::deformClaim(), bindings({kUbo, kSsbo, kSsbo, kSsbo, kSsbo}), 0);
-  resolve_ = ComputePipeline(ctx, shaders::deformResolve(),
-                             bindings({kUbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSampled, kSampled, kStorageImage, kStorageImage}), 0);
+  claim_ = ComputePipeline(ctx, shaders::deformClaim(), bindings({kUbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo}), 0);
+  resolve_ = ComputePipeline(ctx, shaders::deformResolve(), bindings({kUbo, kSsbo, kSsbo, kSsbo, kSampled, kSampled, kStorageImage, kStorageImage}), 0);
 
   params_ = Buffer(ctx, sizeof(gpu::DeformParams), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::Device);
   uploadToBuffer(ctx, params_, &p_, sizeof(p_));
@@ -177,6 +176,8 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   box_ = Buffer(ctx, sizeof(gpu::DeformBox), kStorageUsage, Buffer::Memory::Device);
   argsBuffer_ = Buffer(ctx, 16, kStorageUsage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, Buffer::Memory::Device);
   owner_ = Buffer(ctx, ownerBytes, kStorageUsage, Buffer::Memory::Device);
+  if (tets_ * 48 > ctx.properties().limits.maxStorageBufferRange) throw Error("deformation: the fine mesh is larger than this device's storage buffers allow");
+  affine_ = Buffer(ctx, tets_ * 48, kStorageUsage, Buffer::Memory::Device);
 
   const VkImageUsageFlags usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
   volume_ = Image(ctx, sd, usage, true);
@@ -221,6 +222,7 @@ void GpuDeformer::importResources(fg::FrameGraph& g, std::uint32_t slot, bool wi
   h.box = buf("deform-box", box_, Access::StorageReadWrite);
   h.args = buf("deform-args", argsBuffer_, Access::IndirectRead);
   h.owner = buf("deform-owner", owner_, Access::StorageReadWrite);
+  h.affine = buf("deform-tet-maps", affine_, Access::StorageReadWrite);
   if (withState) {
     const Slot& s = slots_[slot];
     h.positions = buf("coarse-positions", *s.positions, Access::HostWrite);
@@ -373,7 +375,9 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
         b.read(hb.tets, Access::StorageRead);
         b.read(hb.posNew, Access::StorageRead);
         b.read(hb.box, Access::StorageRead);
+        b.read(hb.restIdx, Access::StorageRead);
         b.write(hb.owner, Access::StorageReadWrite);
+        b.write(hb.affine, Access::StorageWrite);
       },
       [this, hb, tetGroups](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
@@ -384,6 +388,8 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
             .buffer(2, kSsbo, x.buffer(hb.posNew).handle())
             .buffer(3, kSsbo, x.buffer(hb.box).handle())
             .buffer(4, kSsbo, x.buffer(hb.owner).handle())
+            .buffer(5, kSsbo, x.buffer(hb.restIdx).handle())
+            .buffer(6, kSsbo, x.buffer(hb.affine).handle())
             .push(ctx_, x.cmd(), claim_);
         vkCmdDispatch(x.cmd(), tetGroups, 1, 1);
       });
@@ -392,10 +398,8 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
       [&](fg::PassBuilder& b) {
         b.read(hb.params, Access::UniformRead);
         b.read(hb.args, Access::IndirectRead);
-        b.read(hb.tets, Access::StorageRead);
-        b.read(hb.posNew, Access::StorageRead);
+        b.read(hb.affine, Access::StorageRead);
         b.read(hb.owner, Access::StorageRead);
-        b.read(hb.restIdx, Access::StorageRead);
         b.read(hb.source, Access::Sampled);
         b.read(hb.sourceMask, Access::Sampled);
         b.write(hb.box, Access::StorageReadWrite);
@@ -407,15 +411,13 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, resolve_.pipeline());
         DescriptorWriter()
             .buffer(0, kUbo, x.buffer(hb.params).handle())
-            .buffer(1, kSsbo, x.buffer(hb.tets).handle())
-            .buffer(2, kSsbo, x.buffer(hb.posNew).handle())
-            .buffer(3, kSsbo, x.buffer(hb.box).handle())
-            .buffer(4, kSsbo, x.buffer(hb.owner).handle())
-            .buffer(5, kSsbo, x.buffer(hb.restIdx).handle())
-            .sampledImage(6, x.image(hb.source).view(), nearest_.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-            .sampledImage(7, x.image(hb.sourceMask).view(), nearest_.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-            .storageImage(8, x.image(hb.volume).view())
-            .storageImage(9, x.image(hb.mask).view())
+            .buffer(1, kSsbo, x.buffer(hb.affine).handle())
+            .buffer(2, kSsbo, x.buffer(hb.box).handle())
+            .buffer(3, kSsbo, x.buffer(hb.owner).handle())
+            .sampledImage(4, x.image(hb.source).view(), nearest_.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
+            .sampledImage(5, x.image(hb.sourceMask).view(), nearest_.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
+            .storageImage(6, x.image(hb.volume).view())
+            .storageImage(7, x.image(hb.mask).view())
             .push(ctx_, x.cmd(), resolve_);
         vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
       });
@@ -440,6 +442,7 @@ void GpuDeformer::bind(GraphExecutor& x) {
   x.bindBuffer(h.box, box_);
   x.bindBuffer(h.args, argsBuffer_);
   x.bindBuffer(h.owner, owner_);
+  x.bindBuffer(h.affine, affine_);
   if (h.withState) {
     x.bindBuffer(h.positions, *s.positions);
     x.bindBuffer(h.rotations, *s.rotations);

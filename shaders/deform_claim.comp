@@ -4,7 +4,7 @@
 // one: each fine tet claims the region voxels of this frame's box whose centres it covers, for the
 // lowest-numbered tet (atomicMin of tet + 1; the owner buffer holds 0 outside the region, so those
 // voxels are never claimed). One invocation per tet. deform_resolve.comp then fills each claimed
-// voxel from its owner. CPU reference: rasterizeDeformed in sim/tet_raster.cpp.
+// voxel from its owner through the affine map stored here. CPU reference: rasterizeDeformed in sim/tet_raster.cpp.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_GROUP_X) in;
 layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
@@ -12,6 +12,9 @@ layout(std430, set = 0, binding = 1) readonly buffer Tets { uvec4 tet[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Pos { vec4 pos[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Box { DeformBox box; };
 layout(std430, set = 0, binding = 4) buffer Owner { uint owner[]; };
+layout(std430, set = 0, binding = 5) readonly buffer RestIdx { vec4 restIdx[]; };
+// Per tet: the affine map from deformed to rest voxel index (rows of [M | b]), for the resolve.
+layout(std430, set = 0, binding = 6) writeonly buffer Affine { vec4 affine[]; };
 
 void main() {
   uint t = gl_GlobalInvocationID.x;
@@ -26,6 +29,14 @@ void main() {
   float det = determinant(D);
   if (!(abs(det) > 1e-12)) return;
   mat3 Dinv = inverse(D);
+  // r = r0 + Rest (Dinv (x - v0)): the rest position of the point with the same barycentric
+  // coordinates, as one affine map.
+  vec3 r0 = restIdx[n.x].xyz;
+  mat3 M = mat3(restIdx[n.y].xyz - r0, restIdx[n.z].xyz - r0, restIdx[n.w].xyz - r0) * Dinv;
+  vec3 b = r0 - M * v0;
+  affine[3u * t] = vec4(M[0].x, M[1].x, M[2].x, b.x);
+  affine[3u * t + 1u] = vec4(M[0].y, M[1].y, M[2].y, b.y);
+  affine[3u * t + 2u] = vec4(M[0].z, M[1].z, M[2].z, b.z);
   // Relative tolerance on the barycentric coordinates: voxel centres on shared faces are claimed
   // by both neighbours (the lower index wins), never by neither.
   const float eps = 1e-5;

@@ -3,22 +3,21 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 // Tetrahedral rasterization, step two: every claimed voxel of this frame's box takes the source
 // sampled trilinearly at its rest position in the owner tet (barycentric coordinates in the
-// deformed tet, applied to the rest positions) and the handle id of the nearest rest voxel.
+// deformed tet applied to the rest positions: the affine map deform_claim.comp stored) and the
+// handle id of the nearest rest voxel.
 // One invocation per voxel of the box (uniform work, no atomics but one counter per subgroup),
 // dispatched indirectly like deform_clear.comp. CPU reference: rasterizeDeformed in
 // sim/tet_raster.cpp.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_CLEAR_GROUP, local_size_y = HANDSON_DEFORM_CLEAR_GROUP, local_size_z = HANDSON_DEFORM_CLEAR_GROUP) in;
 layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
-layout(std430, set = 0, binding = 1) readonly buffer Tets { uvec4 tet[]; };
-layout(std430, set = 0, binding = 2) readonly buffer Pos { vec4 pos[]; };
-layout(std430, set = 0, binding = 3) buffer Box { DeformBox box; };
-layout(std430, set = 0, binding = 4) readonly buffer Owner { uint owner[]; };
-layout(std430, set = 0, binding = 5) readonly buffer RestIdx { vec4 restIdx[]; };
-layout(set = 0, binding = 6) uniform sampler3D uSource;
-layout(set = 0, binding = 7) uniform sampler3D uSourceMask;
-layout(set = 0, binding = 8, r16) uniform writeonly image3D uOut;
-layout(set = 0, binding = 9, r8) uniform writeonly image3D uOutMask;
+layout(std430, set = 0, binding = 1) readonly buffer Affine { vec4 affine[]; };
+layout(std430, set = 0, binding = 2) buffer Box { DeformBox box; };
+layout(std430, set = 0, binding = 3) readonly buffer Owner { uint owner[]; };
+layout(set = 0, binding = 4) uniform sampler3D uSource;
+layout(set = 0, binding = 5) uniform sampler3D uSourceMask;
+layout(set = 0, binding = 6, r16) uniform writeonly image3D uOut;
+layout(set = 0, binding = 7, r8) uniform writeonly image3D uOutMask;
 
 // Trilinear interpolation from eight texel fetches with float weights (hardware filtering may use
 // 8-bit weights), clamped at the edges like Volume::sampleLinear.
@@ -44,13 +43,9 @@ void main() {
     uint own = owner[uint(o.x + P.ownerDims.x * (o.y + P.ownerDims.y * o.z))];
     claimed = own != 0u && own != kDeformNoOwner;
     if (claimed) {
-      uvec4 n = tet[own - 1u];
-      vec3 v0 = pos[n.x].xyz;
-      // The same expressions as deform_claim.comp, so the coordinates match the claim.
-      mat3 Dinv = inverse(mat3(pos[n.y].xyz - v0, pos[n.z].xyz - v0, pos[n.w].xyz - v0));
-      vec3 l = Dinv * (vec3(v) - v0);
-      float l0 = 1.0 - l.x - l.y - l.z;
-      vec3 r = l0 * restIdx[n.x].xyz + l.x * restIdx[n.y].xyz + l.y * restIdx[n.z].xyz + l.z * restIdx[n.w].xyz;
+      uint a = 3u * (own - 1u);
+      vec4 p = vec4(vec3(v), 1.0);
+      vec3 r = vec3(dot(affine[a], p), dot(affine[a + 1u], p), dot(affine[a + 2u], p));
       imageStore(uOut, v, vec4(sampleTrilinear(r)));
       ivec3 m = clamp(ivec3(floor(r + 0.5)), ivec3(0), P.dims.xyz - 1);
       imageStore(uOutMask, v, texelFetch(uSourceMask, m, 0));
