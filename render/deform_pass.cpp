@@ -202,7 +202,7 @@ GpuDeformer::~GpuDeformer() {
   }
 }
 
-void GpuDeformer::importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState) {
+void GpuDeformer::importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState, fg::ResourceHandle sourceVolume, fg::ResourceHandle sourceMask) {
   using fg::Access;
   Bound& h = h_;
   h = Bound{};
@@ -229,13 +229,22 @@ void GpuDeformer::importResources(fg::FrameGraph& g, std::uint32_t slot, bool wi
     h.rotations = buf("coarse-rotations", *s.rotations, Access::HostWrite);
     h.handles = buf("handle-transforms", *s.handles, Access::HostWrite);
   }
-  h.source = g.importImage("volume", source_.desc(), Access::Sampled);
-  h.sourceMask = g.importImage("handle-mask", sourceMask_.desc(), Access::Sampled);
+  h.source = sourceVolume.valid() ? sourceVolume : g.importImage("volume", source_.desc(), Access::Sampled);
+  h.sourceMask = sourceMask.valid() ? sourceMask : g.importImage("handle-mask", sourceMask_.desc(), Access::Sampled);
   h.volume = g.importImage("deformed-volume", volume_.desc(), Access::Sampled);
   h.mask = g.importImage("deformed-mask", mask_.desc(), Access::Sampled);
 }
 
-GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slot, const CoarseFrameState& state, Redo redo) {
+GpuDeformer::Outputs GpuDeformer::importOutputs(fg::FrameGraph& g) {
+  h_ = Bound{};
+  h_.onlyOutputs = true;
+  h_.volume = g.importImage("deformed-volume", volume_.desc(), fg::Access::Sampled);
+  h_.mask = g.importImage("deformed-mask", mask_.desc(), fg::Access::Sampled);
+  return {h_.volume, h_.mask};
+}
+
+GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slot, const CoarseFrameState& state, Redo redo, fg::ResourceHandle sourceVolume,
+                                            fg::ResourceHandle sourceMask) {
   if (slot >= slots_.size()) throw Error("deformation: frame slot out of range");
   if (state.positions.size() != coarseNodes_ || state.rotations.size() != coarseElements_ || state.handles.size() != handles_)
     throw Error("deformation: the coarse state does not match the mesh");
@@ -251,7 +260,7 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slo
   hostBuffer(s.rotations, state.rotations.data(), state.rotations.size() * 16);
   hostBuffer(s.handles, state.handles.data(), state.handles.size() * 64);
 
-  importResources(g, slot, true);
+  importResources(g, slot, true, sourceVolume, sourceMask);
   using fg::Access;
   const Bound hb = h_;
   const std::uint32_t nodeGroups = std::uint32_t((nodes_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
@@ -428,6 +437,11 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
 
 void GpuDeformer::bind(GraphExecutor& x) {
   const Bound& h = h_;
+  if (h.onlyOutputs) {
+    x.bindImage(h.volume, volume_);
+    x.bindImage(h.mask, mask_);
+    return;
+  }
   const Slot& s = slots_[h.slot];
   x.bindBuffer(h.params, params_);
   x.bindBuffer(h.nodeInfo, nodeInfo_);

@@ -63,7 +63,15 @@ class GpuDeformer {
     fg::ResourceHandle volume, mask;  ///< deformed images, left in Access::Sampled
   };
   /// Adds one frame's passes. `slot`: the executor's frame slot (per-slot upload buffers).
-  Outputs addPasses(fg::FrameGraph& graph, std::uint32_t slot, const CoarseFrameState& state, Redo redo = Redo::Moved);
+  /// `sourceVolume` / `sourceMask`: the graph's handles of the source images when the caller
+  /// imported them already (so its own passes on them are ordered with ours); else imported here.
+  Outputs addPasses(fg::FrameGraph& graph, std::uint32_t slot, const CoarseFrameState& state, Redo redo = Redo::Moved,
+                    fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {});
+  /// Imports the deformed images alone (a frame without new state reads them as they are).
+  Outputs importOutputs(fg::FrameGraph& graph);
+  /// The region's voxel box (inclusive) on the volume grid.
+  Eigen::Vector3i regionVoxelLo() const { return {p_.regionVoxLo.x, p_.regionVoxLo.y, p_.regionVoxLo.z}; }
+  Eigen::Vector3i regionVoxelHi() const { return {p_.regionVoxHi.x, p_.regionVoxHi.y, p_.regionVoxHi.z}; }
   /// Binds what the last addPasses imported.
   void bind(GraphExecutor& executor);
 
@@ -83,7 +91,7 @@ class GpuDeformer {
   std::size_t fineTetCount() const { return tets_; }
 
  private:
-  void importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState);
+  void importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState, fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {});
   Outputs addResamplePasses(fg::FrameGraph& g, Redo redo);
   DeformFrameStats runOwn(const std::function<void(fg::FrameGraph&)>& build);
 
@@ -108,7 +116,7 @@ class GpuDeformer {
     fg::ResourceHandle params, nodeInfo, rest, blocks, coarseTets, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, affine, source, sourceMask,
         volume, mask, positions, rotations, handles;
     std::uint32_t slot = 0;
-    bool withState = false;
+    bool withState = false, onlyOutputs = false;
   } h_;
 };
 

@@ -40,7 +40,10 @@ void VolumeRenderer::setVolume(const QuantizedVolume& volume, const ProgressFn& 
   executor_.waitLastFrame();
   reportProgress(progress, 0.0, "uploading volume");
   const fg::ImageDesc desc{std::uint32_t(d.x()), std::uint32_t(d.y()), std::uint32_t(d.z()), fg::Format::R16Unorm};
-  volume_ = vk::Image(ctx_, desc, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
+  deformer_.reset();
+  lastDeform_.reset();
+  // Transfer source: the deformation starts from copies of the volume and the mask.
+  volume_ = vk::Image(ctx_, desc, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, true);
   vk::uploadToImage(ctx_, volume_, volume.data.data(), volume.data.size() * sizeof(std::uint16_t),
                     VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   reportProgress(progress, 0.6, "computing empty-space bricks");
@@ -69,12 +72,13 @@ void VolumeRenderer::setVolume(const QuantizedVolume& volume, const ProgressFn& 
   readback.invalidate();
   bricks_.ranges.resize(bricks_.count() * 2);
   std::memcpy(bricks_.ranges.data(), readback.mapped(), rangeBytes);
-  mask_ = vk::Image(ctx_, {desc.width, desc.height, desc.depth, fg::Format::R8Unorm}, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
-                    true);
+  mask_ = vk::Image(ctx_, {desc.width, desc.height, desc.depth, fg::Format::R8Unorm},
+                    VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, true);
   hasVolume_ = true;
   clearMask();
   setHandleTints(std::vector<glm::vec4>(gpu::kMaxHandleIds, glm::vec4(0.0f)));
   occupancy_.clear();
+  uploadedOccupancy_.clear();
   hasTf_ = false;
   reportProgress(progress, 1.0, "volume ready");
 }
@@ -90,9 +94,44 @@ void VolumeRenderer::setTransferFunction(const std::vector<glm::vec4>& lut) {
   const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
   tf_ = Buffer(ctx_, lut.size() * sizeof(glm::vec4), usage, Buffer::Memory::Device);
   vk::uploadToBuffer(ctx_, tf_, lut.data(), lut.size() * sizeof(glm::vec4));
-  occupancyBuffer_ = Buffer(ctx_, occupancy_.size() * sizeof(std::uint32_t), usage, Buffer::Memory::Device);
-  vk::uploadToBuffer(ctx_, occupancyBuffer_, occupancy_.data(), occupancy_.size() * sizeof(std::uint32_t));
   hasTf_ = true;
+  uploadOccupancy();
+}
+
+void VolumeRenderer::uploadOccupancy() {
+  std::vector<std::uint32_t> occ = occupancy_;
+  if (deformer_) {
+    const int b = int(gpu::kBrickSize);
+    const Eigen::Vector3i lo = deformer_->regionVoxelLo() / b, hi = deformer_->regionVoxelHi() / b;
+    for (int z = std::max(0, lo.z() - 1); z <= std::min(bricks_.bz - 1, hi.z() + 1); ++z)
+      for (int y = std::max(0, lo.y() - 1); y <= std::min(bricks_.by - 1, hi.y() + 1); ++y)
+        for (int x = std::max(0, lo.x() - 1); x <= std::min(bricks_.bx - 1, hi.x() + 1); ++x) occ[(std::size_t(z) * bricks_.by + y) * bricks_.bx + x] = 1;
+  }
+  uploadedOccupancy_ = occ;
+  if (occ.empty()) return;
+  if (occupancyBuffer_.size() < occ.size() * sizeof(std::uint32_t))
+    occupancyBuffer_ = Buffer(ctx_, occ.size() * sizeof(std::uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                              Buffer::Memory::Device);
+  vk::uploadToBuffer(ctx_, occupancyBuffer_, occ.data(), occ.size() * sizeof(std::uint32_t));
+}
+
+void VolumeRenderer::beginDeformation(const vk::DeformSetup& setup) {
+  if (!hasVolume_) throw Error("renderer: no volume to deform");
+  executor_.waitLastFrame();
+  for (std::uint32_t i = 0; i < slots_.size(); ++i) executor_.waitSlot(i);
+  deformer_ = std::make_unique<vk::GpuDeformer>(ctx_, volume_, mask_, setup, std::uint32_t(slots_.size()));
+  deformFirst_ = true;
+  lastDeform_.reset();
+  if (hasTf_) uploadOccupancy();
+}
+
+void VolumeRenderer::endDeformation() {
+  if (!deformer_) return;
+  executor_.waitLastFrame();
+  for (std::uint32_t i = 0; i < slots_.size(); ++i) executor_.waitSlot(i);
+  deformer_.reset();
+  lastDeform_.reset();
+  if (hasTf_) uploadOccupancy();
 }
 
 void VolumeRenderer::setHandleTints(const std::vector<glm::vec4>& tints) {
@@ -192,6 +231,23 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
           vkCmdCopyBufferToImage(x.cmd(), x.buffer(maskStaging).handle(), mask_.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
         });
   }
+  // The deformation: new coarse state (or a mask change to carry over) -> its passes, whose
+  // outputs the raymarch and picking read; otherwise the deformed images as they are.
+  const fg::ResourceHandle sourceVolume = in.volume, sourceMask = in.mask;
+  if (req.maskUpload) g.exportResource(sourceMask, fg::Access::Sampled);  // whoever reads it, it ends the frame sampled
+  if (deformer_) {
+    if (req.deform) lastDeform_ = *req.deform;
+    vk::GpuDeformer::Outputs d;
+    if (lastDeform_ && (req.deform || req.maskUpload || deformFirst_)) {
+      const vk::Redo redo = (deformFirst_ || req.maskUpload) ? vk::Redo::Region : vk::Redo::Moved;
+      d = deformer_->addPasses(g, executor_.slot(), *lastDeform_, redo, in.volume, in.mask);
+      deformFirst_ = false;
+    } else {
+      d = deformer_->importOutputs(g);
+    }
+    in.volume = d.volume;
+    in.mask = d.mask;
+  }
   auto color = g.createImage("color", {std::uint32_t(w), std::uint32_t(h), 1, fg::Format::Rgba8Unorm});
   raymarch_.add(g, in, color, linear_);
 
@@ -224,10 +280,11 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   g.compile();
   executor_.setGraph(&g);
   executor_.bindBuffer(in.params, *s.params);
-  executor_.bindImage(in.volume, volume_);
+  executor_.bindImage(sourceVolume, volume_);
   executor_.bindBuffer(in.tf, tf_);
   executor_.bindBuffer(in.occupancy, occupancyBuffer_);
-  executor_.bindImage(in.mask, mask_);
+  executor_.bindImage(sourceMask, mask_);
+  if (deformer_) deformer_->bind(executor_);
   executor_.bindBuffer(in.handles, handleTints_);
   if (maskStaging.valid()) executor_.bindBuffer(maskStaging, *s.maskStaging);
   if (imageHost.valid()) executor_.bindBuffer(imageHost, *s.imageReadback);

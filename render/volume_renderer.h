@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "compute_passes.h"
+#include "deform_pass.h"
 #include "shaders/shared.h"
 #include "sim/progress.h"
 #include "vk_graph_executor.h"
@@ -46,6 +47,8 @@ struct FrameRequest {
   std::vector<glm::vec2> pickPoints;  ///< NDC (x right, y down)
   bool readbackImage = true;
   FrameExtension* extension = nullptr;
+  /// While deforming: a new coarse state to show (nullptr: the deformed volume as it is).
+  const CoarseFrameState* deform = nullptr;
 };
 
 struct FrameResult {
@@ -70,6 +73,16 @@ class VolumeRenderer {
   /// Clears the handle-id mask (synchronously; for a new volume or a reset).
   void clearMask();
   const vk::Image& volumeImage() const { return volume_; }
+
+  /// Shows the volume deformed by the simulation from now on: frames carrying a coarse state
+  /// (FrameRequest::deform) run the deformation passes before the raymarch, and the raymarch and
+  /// picking read the deformed volume and handle mask. Bricks overlapping the region count as
+  /// occupied (tissue may move into them). The setup's data must stay alive until endDeformation().
+  void beginDeformation(const vk::DeformSetup& setup);
+  /// Back to the undeformed volume.
+  void endDeformation();
+  bool deforming() const { return bool(deformer_); }
+  const vk::GpuDeformer* deformer() const { return deformer_.get(); }
   const vk::Sampler& sampler() const { return linear_; }
 
   /// Records and submits one frame; blocks only if the slot it reuses is still in flight.
@@ -80,7 +93,8 @@ class VolumeRenderer {
   FrameResult waitLast();
 
   const BrickGrid& bricks() const { return bricks_; }
-  const std::vector<std::uint32_t>& occupancy() const { return occupancy_; }
+  /// Brick occupancy as uploaded (while deforming, the region's bricks count as occupied).
+  const std::vector<std::uint32_t>& occupancy() const { return uploadedOccupancy_; }
   /// The lookup table last set (empty before setTransferFunction).
   const std::vector<glm::vec4>& transferFunction() const { return lut_; }
   const vk::Context& context() const { return ctx_; }
@@ -97,6 +111,8 @@ class VolumeRenderer {
   void harvest(std::uint32_t slot, std::vector<FrameResult>& out);
   void ensureBuffer(std::unique_ptr<vk::Buffer>& b, VkDeviceSize size, VkBufferUsageFlags usage);
 
+  void uploadOccupancy();
+
   const vk::Context& ctx_;
   vk::GraphExecutor executor_;
   vk::RaymarchPass raymarch_;
@@ -107,11 +123,14 @@ class VolumeRenderer {
   vk::Image volume_, mask_;
   vk::Buffer tf_, occupancyBuffer_, handleTints_;
   BrickGrid bricks_;
-  std::vector<std::uint32_t> occupancy_;
+  std::vector<std::uint32_t> occupancy_, uploadedOccupancy_;
   std::vector<Slot> slots_;
   std::vector<FrameResult> completed_;
   std::uint64_t nextFrame_ = 1;
   bool hasVolume_ = false, hasTf_ = false;
+  std::unique_ptr<vk::GpuDeformer> deformer_;
+  bool deformFirst_ = false;                 ///< the next deform frame redoes the whole region
+  std::optional<CoarseFrameState> lastDeform_;  ///< for a redo when the mask changes while deforming
 };
 
 }  // namespace handson

@@ -9,6 +9,11 @@
 
 #include "gpu_test_env.h"
 #include "render/deform_pass.h"
+#include "render/raymarch_reference.h"
+#include "render/render_params.h"
+#include "render/transfer_function.h"
+#include "render/volume_renderer.h"
+#include "interaction/camera.h"
 #include "render/vk_resources.h"
 #include "sim/coarsening.h"
 #include "sim/error.h"
@@ -301,4 +306,83 @@ TEST_F(DeformGpu, InconsistentInputIsRefused) {
   vk::GpuDeformer gpu(test::gpuContext(), im.volume, im.mask, setupFor(f, f.data, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi));
   CoarseFrameState st;
   EXPECT_THROW(gpu.runFrame(st, vk::Redo::Region), Error);
+}
+
+TEST_F(DeformGpu, FrameGraphDeformsThenRaymarchesAndPicksTheDeformedVolume) {
+  // interpolation -> resampling (volume + mask) -> raymarch -> picking in one frame graph: the
+  // frame equals the CPU raymarch of the GPU's deformed volume and mask, and a pick through the
+  // kidney's new place hits the handle there.
+  const Fixture& f = fixture();
+  VolumeRenderer renderer(test::gpuContext());
+  renderer.setVolume(f.q);
+  const auto lut = transferFunctionPreset("ct-abdomen").lookupTable(f.q);
+  renderer.setTransferFunction(lut);
+  std::vector<glm::vec4> tints(gpu::kMaxHandleIds, glm::vec4(0.0f));
+  tints[kKidneyId] = glm::vec4(0.2f, 0.9f, 0.3f, 0.6f);
+  renderer.setHandleTints(tints);
+  MaskUpload up;
+  up.dims = f.q.geometry.dims;
+  up.ids = f.mask;
+  RenderSettings rs;
+  rs.width = rs.height = 96;
+  const OrbitCamera cam = OrbitCamera::framing(f.q.geometry, glm::radians(0.0), glm::radians(-90.0));
+  const gpu::RenderParams p = makeRenderParams(f.q.geometry, cam.view(), cam.projection(1.0), glm::vec3(cam.eye()), rs, 1);
+  FrameRequest req;
+  req.params = p;
+  req.maskUpload = &up;
+  renderer.submit(req);
+  const FrameResult before = renderer.waitLast();
+
+  vk::DeformSetup setup = setupFor(f, f.data, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi);
+  renderer.beginDeformation(setup);
+  ASSERT_TRUE(renderer.deforming());
+  const Motion m = kidneyMotion(f, 20, 0);
+  const CoarseFrameState st = packFrameState(m.xc, f.model->elementRotations(m.xc), m.T);
+  // A pick at the kidney's moved centroid, projected to the screen.
+  const Eigen::Vector3d moved = m.T[0].apply(f.scene.handleCentroid[0]);
+  const glm::dvec4 clip = cam.projection(1.0) * cam.view() * glm::dvec4(moved.x(), moved.y(), moved.z(), 1.0);
+  const glm::vec2 ndc(float(clip.x / clip.w), float(clip.y / clip.w));
+  req = FrameRequest{};
+  req.params = p;
+  req.deform = &st;
+  req.pickPoints = {ndc};
+  renderer.submit(req);
+  const FrameResult after = renderer.waitLast();
+  ASSERT_EQ(after.picks.size(), 1u);
+  EXPECT_GT(after.picks[0].world.w, 0.5f);
+  EXPECT_EQ(after.picks[0].voxel.w, kKidneyId) << "the pick lands on the moved kidney";
+  bool ran = false;
+  for (const auto& t : after.timings) ran = ran || t.name == "deform-resolve";
+  EXPECT_TRUE(ran || after.timings.empty());
+
+  // The CPU raymarch of the deformed volume and mask the GPU made.
+  QuantizedVolume dq = f.q;
+  dq.data = renderer.deformer()->readVolume();
+  const auto dmask = renderer.deformer()->readMask();
+  const ReferenceScene ref{&dq, &lut, &renderer.occupancy(), &dmask, &tints};
+  const auto cpu = raymarchReference(ref, p);
+  std::size_t over = 0, changed = 0;
+  for (std::size_t i = 0; i + 3 < cpu.size(); i += 4) {
+    int d = 0, c = 0;
+    for (int k = 0; k < 3; ++k) {
+      d = std::max(d, std::abs(int(cpu[i + k]) - int(after.rgba[i + k])));
+      c = std::max(c, std::abs(int(before.rgba[i + k]) - int(after.rgba[i + k])));
+    }
+    over += d > 2;
+    changed += c > 8;
+  }
+  std::printf("deformed frame: %zu of %zu pixels changed by the drag, %zu off the CPU reference by > 2/255\n", changed, cpu.size() / 4, over);
+  EXPECT_LE(double(over) / double(cpu.size() / 4), 0.01) << "pixels off the CPU reference by more than 2/255";
+  EXPECT_GT(changed, 20u) << "the kidney moved on screen";
+
+  // A frame without new state shows the same deformed volume; ending the deformation restores the input.
+  req = FrameRequest{};
+  req.params = p;
+  renderer.submit(req);
+  EXPECT_EQ(renderer.waitLast().rgba, after.rgba);
+  renderer.endDeformation();
+  req = FrameRequest{};
+  req.params = p;
+  renderer.submit(req);
+  EXPECT_EQ(renderer.waitLast().rgba, before.rgba);
 }
