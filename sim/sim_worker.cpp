@@ -1,5 +1,11 @@
 #include "sim_worker.h"
 
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+#include "sim/error.h"
+
 #include <chrono>
 #include <exception>
 #include <utility>
@@ -54,9 +60,59 @@ void SimWorker::publish(SimSnapshot s) {
   published_.notify_all();
 }
 
+namespace {
+// Increments from `from` to `to` such that no handle turns by more than maxDeg or translates by
+// more than maxMm in one (at least one increment: `to` itself).
+std::vector<std::vector<RigidTransform>> increments(const std::vector<RigidTransform>& from, const std::vector<RigidTransform>& to, double maxMm,
+                                                     double maxDeg) {
+  int steps = 1;
+  if (from.size() == to.size())
+    for (std::size_t h = 0; h < to.size(); ++h) {
+      const Eigen::AngleAxisd rel(from[h].R.transpose() * to[h].R);
+      steps = std::max({steps, int(std::ceil(std::abs(rel.angle()) * 180.0 / M_PI / maxDeg)), int(std::ceil((to[h].t - from[h].t).norm() / maxMm))});
+    }
+  steps = std::min(steps, 64);
+  std::vector<std::vector<RigidTransform>> out;
+  for (int k = 1; k < steps; ++k) {
+    const double f = double(k) / steps;
+    std::vector<RigidTransform> Tk(to.size());
+    for (std::size_t h = 0; h < to.size(); ++h) {
+      const Eigen::AngleAxisd rel(from[h].R.transpose() * to[h].R);
+      Tk[h].R = from[h].R * Eigen::AngleAxisd(f * rel.angle(), rel.axis()).toRotationMatrix();
+      Tk[h].t = from[h].t + f * (to[h].t - from[h].t);
+    }
+    out.push_back(std::move(Tk));
+  }
+  out.push_back(to);
+  return out;
+}
+
+bool finite(const std::vector<RigidTransform>& T) {
+  for (const auto& t : T)
+    if (!t.R.allFinite() || !t.t.allFinite()) return false;
+  return true;
+}
+}  // namespace
+
 void SimWorker::run() {
   std::vector<Eigen::Vector3d> x = model_.restState();  // warm start: the last coarse state
   std::vector<Eigen::Vector3d> lastGood = x;
+  std::vector<RigidTransform> solved(std::size_t(model_.constraints().handleCount));  // at rest
+  auto snapshot = [&](std::uint64_t input, const std::vector<RigidTransform>& handles, const CoarseSolveStats& st, std::chrono::steady_clock::time_point t0) {
+    SimSnapshot s;
+    s.input = input;
+    s.stats = st;
+    s.coarse = x;
+    s.handles = handles;
+    if (options_.reconstructFine) s.fine = model_.reconstruct(handles, x);
+    if (options_.elementRotations) s.rotations = model_.elementRotations(x);
+    s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return s;
+  };
+  auto newer = [&] {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return stop_ || pending_.has_value();
+  };
   for (;;) {
     std::vector<RigidTransform> handles;
     std::uint64_t input = 0;
@@ -70,33 +126,43 @@ void SimWorker::run() {
     }
     const auto t0 = std::chrono::steady_clock::now();
     SimSnapshot s;
-    s.input = input;
+    CoarseSolveStats st;
     try {
-      s.stats = model_.solve(handles, x, options_.coarseIterations);
-      s.coarse = x;
-      s.fine = model_.reconstruct(handles, x);
+      if (!finite(handles)) throw Error("simulation: a handle transform is not finite");
+      for (const auto& Tk : increments(solved, handles, options_.continuationMm, options_.continuationDeg)) st = model_.solve(Tk, x, options_.coarseIterations);
+      s = snapshot(input, handles, st, t0);
       lastGood = x;
+      solved = handles;
     } catch (const std::exception& e) {
       x = lastGood;
+      s = SimSnapshot{};
+      s.input = input;
       s.error = e.what();
       s.coarse = x;
+      st = CoarseSolveStats{};
     }
-    s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const bool refine = s.error.empty() && options_.refineSteps > 0;
-    std::vector<Eigen::Vector3d> fine = refine ? s.fine : std::vector<Eigen::Vector3d>{};
+    const bool ok = s.error.empty();
+    std::vector<Eigen::Vector3d> fine = s.fine;
     publish(std::move(s));
-    if (!refine) continue;
+    if (!ok) continue;
+    // A held pose settles: more coarse iterations while nothing newer arrives.
+    for (int done = 0; !st.converged && done < options_.idleIterations && !newer(); done += options_.coarseIterations) {
+      st = model_.solve(handles, x, options_.coarseIterations);
+      lastGood = x;
+      SimSnapshot more = snapshot(input, handles, st, t0);
+      fine = more.fine;
+      publish(std::move(more));
+    }
+    if (options_.refineSteps <= 0 || !options_.reconstructFine) continue;
     for (int step = 1; step <= options_.refineSteps; ++step) {
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (stop_ || pending_) break;  // a newer input wins
-      }
+      if (newer()) break;  // a newer input wins
       refiner_.step(x, fine, options_.refineIterations);
       SimSnapshot r;
       r.input = input;
       r.refineStep = step;
       r.coarse = x;
       r.fine = fine;
+      r.handles = handles;
       r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       publish(std::move(r));
     }

@@ -22,13 +22,23 @@ struct SimWorkerOptions {
   int coarseIterations = 3;   ///< coarse corotational iterations per input (warm started)
   int refineSteps = 0;        ///< two-level steps after each input while it stays the newest
   int refineIterations = 10;  ///< PCG iterations per step
+  bool reconstructFine = true;    ///< fine nodes on the CPU (false: the GPU interpolates them from the coarse state)
+  bool elementRotations = false;  ///< publish each coarse element's rotation (what the GPU interpolation needs)
+  /// While an input stays the newest and its coarse solve has not converged: up to this many more
+  /// iterations, published every coarseIterations (a held pose settles; 0: off).
+  int idleIterations = 0;
+  /// A jump between consecutive inputs larger than this (per handle: translation in mm, rotation in
+  /// degrees) is solved in increments, each from the last, keeping the iteration in its basin.
+  double continuationMm = 10.0, continuationDeg = 30.0;
 };
 
 struct SimSnapshot {
   std::uint64_t input = 0;              ///< which setHandles() call this answers (1, 2, ...)
   int refineStep = 0;                   ///< 0: the coarse answer; k: after k refinement steps
   std::vector<Eigen::Vector3d> coarse;  ///< coarse node positions
-  std::vector<Eigen::Vector3d> fine;    ///< fine node positions
+  std::vector<Eigen::Vector3d> fine;    ///< fine node positions (empty without reconstructFine)
+  std::vector<Eigen::Matrix3d> rotations;  ///< per coarse element (with elementRotations)
+  std::vector<RigidTransform> handles;  ///< the input's handle transforms
   CoarseSolveStats stats;
   double seconds = 0.0;                 ///< worker time for this snapshot since its input was taken
   std::string error;                    ///< non-empty: the input was refused (the state is the last good one)

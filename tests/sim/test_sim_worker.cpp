@@ -87,3 +87,43 @@ TEST(SimWorker, ABurstOfInputsEndsOnTheLastAndBadInputIsRefusedWithoutStoppingIt
   // Destroying a busy worker joins cleanly.
   for (int i = 0; i < 5; ++i) worker.setHandles({RigidTransform::about({30, 20, 20}, Eigen::Vector3d(0, 0.2 * i, 0), Eigen::Vector3d::Zero())});
 }
+
+TEST(SimWorker, AHeldPoseSettlesAndALargeJumpIsSolvedInIncrements) {
+  Box box;
+  // 60 degrees and 16 mm in one input: two increments (30 deg / 10 mm each at most).
+  const std::vector<RigidTransform> T = {RigidTransform::about({30, 20, 20}, Eigen::Vector3d(0, 0, M_PI / 3), Eigen::Vector3d(16, 0, 0))};
+  CoarseModel ref(box.meshes, box.K, box.c);
+  auto xr = ref.restState();
+  ref.solve({RigidTransform::about({30, 20, 20}, Eigen::Vector3d(0, 0, M_PI / 6), Eigen::Vector3d(8, 0, 0))}, xr, 200);
+  const auto conv = ref.solve(T, xr, 200);
+  ASSERT_TRUE(conv.converged);
+
+  CoarseModel model(box.meshes, box.K, box.c);
+  SimWorkerOptions o;
+  o.idleIterations = 300;
+  o.reconstructFine = false;
+  o.elementRotations = true;
+  SimWorker worker(model, box.K, o);
+  const auto id = worker.setHandles(T);
+  // Poll until the published state has converged (the worker keeps iterating while idle).
+  std::optional<SimSnapshot> s;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (auto n = worker.takeLatest()) s = n;
+    if (s && s->stats.converged) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_TRUE(s.has_value());
+  EXPECT_EQ(s->input, id);
+  EXPECT_TRUE(s->stats.converged);
+  EXPECT_TRUE(s->fine.empty()) << "the GPU interpolates: no CPU reconstruction";
+  ASSERT_EQ(s->rotations.size(), box.meshes.coarse.tets.size());
+  double d = 0;
+  for (std::size_t i = 0; i < xr.size(); ++i) d = std::max(d, (s->coarse[i] - xr[i]).norm());
+  EXPECT_LT(d, 1e-3) << "mm: the same converged state as the synchronous continuation";
+  CoarseModel check(box.meshes, box.K, box.c);
+  const auto R = check.elementRotations(s->coarse);
+  double dr = 0;
+  for (std::size_t e = 0; e < R.size(); ++e) dr = std::max(dr, (R[e] - s->rotations[e]).norm());
+  EXPECT_LT(dr, 1e-12);
+}
