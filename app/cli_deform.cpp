@@ -147,8 +147,16 @@ int cmdDeform(const Words& words) {
 
   const Volume image = loadVolume(args.positional()[0], nullptr, progress);
   auto labelOf = [&](const char* opt) { return args.value(opt) ? std::optional<long>(args.integer(opt, 0, 1, 65535)) : std::nullopt; };
-  std::vector<SimHandle> handles{{maskVoxels(*args.value("--handle"), image, "handle mask", labelOf("--handle-label"))}};
-  if (auto f = args.value("--fixed")) handles.push_back({maskVoxels(*f, image, "fixed mask", labelOf("--fixed-label"))});
+  std::vector<SimHandle> handles{{maskVoxels(*args.value("--handle"), image, "handle mask", labelOf("--handle-label")), {}}};
+  if (auto f = args.value("--fixed")) handles.push_back({maskVoxels(*f, image, "fixed mask", labelOf("--fixed-label")), {}});
+  {
+    // The region covers where the handle goes too (plus the padding): its centroid, from its voxels.
+    const VolumeGeometry& g = image.geometry();
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (std::uint32_t v : handles[0].voxels) c += g.toWorld(g.voxelOf(v).cast<double>());
+    c /= double(handles[0].voxels.size());
+    handles[0].reach.push_back(RigidTransform::about(c, rotation, translation));
+  }
   for (const auto& name : s.materials.capped()) std::cerr << "note: material '" << name << "': Poisson ratio capped at " << kMaxPoisson << " (linear tets lock)\n";
 
   auto t0 = std::chrono::steady_clock::now();

@@ -43,15 +43,40 @@ const char* const kReplayHelp =
     "  --fps F             frames per second of script time\n"
     "  --device NAME, --validation, --quiet, --print-camera, --print-handles\n";
 
+const char* const kSimHelp =
+    "  --sim on|off            simulate moved handles (default on): the tissue around them deforms\n"
+    "  --sim-coarse-tets N     coarse elements of the simulation (default 6000)\n"
+    "  --sim-fine-tets N       fine elements (default 300000)\n"
+    "  --sim-padding-mm D      simulated region: the handles' box plus D mm (default 40)\n";
+const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm"};
+
+DeformationOptions simOptions(const Args& args) {
+  DeformationOptions d;
+  const std::string on = args.valueOr("--sim", "on");
+  if (on != "on" && on != "off") throw UsageError("--sim must be on or off");
+  d.enabled = on == "on";
+  d.sim.coarseTets = int(args.integer("--sim-coarse-tets", d.sim.coarseTets, 6, 2000000));
+  d.sim.fineTets = int(args.integer("--sim-fine-tets", d.sim.fineTets, 6, 20000000));
+  if (d.sim.fineTets < d.sim.coarseTets) throw UsageError("--sim-fine-tets must be at least --sim-coarse-tets");
+  d.sim.paddingMm = args.number("--sim-padding-mm", d.sim.paddingMm, 0.0, 1e4);
+  return d;
+}
+
+std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
 }  // namespace
 
 int cmdView(const Words& words) {
   Args args(words,
-            {"--size", "--present-mode", "--render-scale", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
-             "--frames-in-flight", "--play-repeat"},
+            with({"--size", "--present-mode", "--render-scale", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
+                  "--frames-in-flight", "--play-repeat"},
+                 kSimOptions),
             {"--validation", "--quiet", "--print-camera"});
   if (args.help() || args.positional().size() > 1) {
-    usageStream(args) << kViewHelp;
+    usageStream(args) << kViewHelp << kSimHelp;
     return args.help() ? 0 : 2;
   }
   ViewerOptions o;
@@ -75,15 +100,16 @@ int cmdView(const Words& words) {
   o.validation = args.flag("--validation");
   o.quiet = args.flag("--quiet");
   o.printCamera = args.flag("--print-camera");
+  o.sim = simOptions(args);
   if (!displayAvailable()) throw Error("no display available (DISPLAY and WAYLAND_DISPLAY are unset): use 'handson replay' to run headless");
   return runViewer(o);
 }
 
 int cmdReplay(const Words& words) {
-  Args args(words, {"--volume", "--frames-out", "--timings", "--fps", "--size", "--device"},
+  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--size", "--device"}, kSimOptions),
             {"--validation", "--quiet", "--print-camera", "--print-handles"});
   if (args.help() || args.positional().size() > 1) {
-    usageStream(args) << kReplayHelp;
+    usageStream(args) << kReplayHelp << kSimHelp << "  (replay waits each frame for the simulation to settle: frames do not depend on timing)\n";
     return args.help() ? 0 : 2;
   }
   ReplayOptions o;
@@ -98,6 +124,7 @@ int cmdReplay(const Words& words) {
   o.quiet = args.flag("--quiet");
   o.printCamera = args.flag("--print-camera");
   o.printHandles = args.flag("--print-handles");
+  o.sim = simOptions(args);
   return runReplay(o);
 }
 

@@ -77,6 +77,8 @@ int runReplay(const ReplayOptions& o) {
   }
   renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
   SelectionController selection(q, session, renderer);
+  DeformationController deform(volume, q, renderer, o.sim);
+  std::string simStatus;
   if (!o.framesOut.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(o.framesOut, ec);
@@ -108,6 +110,11 @@ int runReplay(const ReplayOptions& o) {
     FrameRequest req;
     req.params = makeRenderParams(volume.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);
     req.readbackImage = !o.framesOut.empty();
+    selection.setRigidPreview(!deform.prepareFrameSettled(req, selection.handles()));
+    if (const std::string st = deform.status(); !o.quiet && st != simStatus) {
+      simStatus = st;
+      if (!st.empty()) std::cerr << st << "\n";
+    }
     selection.prepareFrame(req, vp);
     ft.cpuEnd = seconds(Clock::now(), t0);
     selection.submitted(renderer.submit(req));

@@ -5,6 +5,8 @@
 // bit-identical frames.
 #include <string>
 
+#include "app/deformation_controller.h"
+
 #include "app/session_script.h"
 
 namespace handson {
@@ -21,6 +23,7 @@ struct ReplayOptions {
   bool quiet = false;
   bool printCamera = false;
   bool printHandles = false;
+  DeformationOptions sim;  ///< the simulation of moved handles (each frame waits for it to settle: deterministic)
 };
 
 /// The built-in demo script (assets/gestures/orbit-and-zoom.json, embedded at build time).

@@ -189,8 +189,9 @@ void SelectionController::prepareFrame(FrameRequest& req, const Viewport& vp) {
     grabInRequest_ = true;
   }
   setMovingHandles(req.params, volume_.geometry, movingHandles());
-  lastParams_ = req.params;
+  lastParams_ = req.params;  // the CPU grab probe sees moved handles where they are, either way
   haveParams_ = true;
+  if (!rigidPreview_) req.params.control.w = 0;  // the deformed volume already holds them there
   const auto pts = pinch_.takePickRequest();
   if (!pts.empty()) {
     pickOffset_ = req.pickPoints.size();

@@ -36,6 +36,8 @@ class SelectionController {
   const std::vector<int>& picked() const { return picked_; }
   /// Handles with a pose, for the raymarch (drawn moved rigidly until the simulation lands).
   std::vector<MovingHandlePose> movingHandles() const;
+  /// Whether moved handles are drawn rigidly (off while the renderer shows the simulated deformation).
+  void setRigidPreview(bool on) { rigidPreview_ = on; }
   const std::string& manipulationNote() const { return manipulationNote_; }
   /// Locks of the manipulation (GestureLock bits), toggled by the "toggle-lock" UI action.
   unsigned locks() const { return locks_; }
@@ -68,6 +70,7 @@ class SelectionController {
   // never moves first; the GPU picks then anchor the fingers as in manipulate mode.
   bool onActiveHandle(glm::dvec2 px) const;
   gpu::RenderParams lastParams_{};
+  bool rigidPreview_ = true;
   bool haveParams_ = false;
   HandleManipulator manipulator_;
   int manipulated_ = 0;                         // handle being moved (0: none)

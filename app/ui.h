@@ -31,6 +31,7 @@ struct UiStatus {
   std::vector<int> picked;     ///< handles picked by tapping (union / difference act on the last two)
   bool canUndo = false, canRedo = false;
   std::string feedback;        ///< e.g. a refused pinch
+  std::string simulation;      ///< the simulation's state (building, size, settling)
   std::size_t liveVoxels = 0;  ///< the selection being pinched
   unsigned locks = 0;          ///< manipulation locks (GestureLock bits)
 };

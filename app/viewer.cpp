@@ -163,6 +163,7 @@ struct Viewer::Impl {
   std::unique_ptr<Session> session;
   std::unique_ptr<PresentExtension> present;
   std::unique_ptr<SelectionController> selection;
+  std::unique_ptr<DeformationController> deform;
   double scale = 1.0;
   LatencyLog log;
   Clock::time_point t0 = Clock::now();
@@ -254,6 +255,7 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts) {
               << o.framesInFlight << " frame(s) in flight, raymarch at " << scale * 100 << " %\n";
   present = std::make_unique<PresentExtension>(*ctx, *swapchain, *ui);
   selection = std::make_unique<SelectionController>(q, *session, *renderer);
+  deform = std::make_unique<DeformationController>(volume, q, *renderer, o.sim);
   status.device = ctx->summary().name;
   if (!o.play.empty()) play = readSessionScript(o.play);
   t0 = Clock::now();
@@ -370,6 +372,7 @@ bool Viewer::Impl::step() {
     status.canUndo = selection->handles().canUndo();
     status.canRedo = selection->handles().canRedo();
     status.feedback = !selection->pinch().feedback().empty() ? selection->pinch().feedback() : selection->manipulationNote();
+    status.simulation = deform->status();
     status.liveVoxels = selection->liveVoxelCount();
     ui->build(status, seconds(Clock::now(), t0), actions);
     for (const auto& a : actions) session->apply(a);
@@ -385,6 +388,7 @@ bool Viewer::Impl::step() {
     req.params = makeRenderParams(volume.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);
     req.readbackImage = false;
     req.extension = present.get();
+    selection->setRigidPreview(!deform->prepareFrame(req, selection->handles()));  // never waits for the solve
     selection->prepareFrame(req, vp);
     const bool lastFrame = o.frames > 0 && int(frameNo) + 1 == o.frames;
     if (lastFrame && !o.screenshot.empty())

@@ -5,6 +5,8 @@
 #include <memory>
 #include <string>
 
+#include "app/deformation_controller.h"
+
 struct SDL_Window;
 
 namespace handson {
@@ -26,6 +28,7 @@ struct ViewerOptions {
   double renderScale = 0.0; ///< raymarch resolution / window resolution; 0: 1 on a GPU, 0.5 on a CPU device
   bool printCamera = false; ///< print the final camera (tests, scripting)
   bool quiet = false;
+  DeformationOptions sim;   ///< the simulation of moved handles (solved asynchronously)
 };
 
 /// True if a window can be opened (a display is available to SDL).

@@ -25,12 +25,23 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   for (std::size_t h = 0; h < handles.size(); ++h) {
     if (handles[h].voxels.empty()) throw Error("simulation: handle " + std::to_string(h + 1) + " has no voxels");
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Vector3d hlo = Eigen::Vector3d::Constant(1e300), hhi = -hlo;
     for (std::uint32_t v : handles[h].voxels) {
       if (v >= nvox) throw Error("simulation: handle " + std::to_string(h + 1) + " has a voxel outside the image");
       const Eigen::Vector3d w = g.toWorld(g.voxelOf(v).cast<double>());
-      lo = lo.cwiseMin(w);
-      hi = hi.cwiseMax(w);
+      hlo = hlo.cwiseMin(w);
+      hhi = hhi.cwiseMax(w);
       sum += w;
+    }
+    lo = lo.cwiseMin(hlo);
+    hi = hi.cwiseMax(hhi);
+    for (const RigidTransform& T : handles[h].reach) {
+      if (!T.R.allFinite() || !T.t.allFinite()) throw Error("simulation: a handle pose is not finite");
+      for (int c = 0; c < 8; ++c) {
+        const Eigen::Vector3d w = T.apply(Eigen::Vector3d((c & 1) ? hhi.x() : hlo.x(), (c & 2) ? hhi.y() : hlo.y(), (c & 4) ? hhi.z() : hlo.z()));
+        lo = lo.cwiseMin(w);
+        hi = hi.cwiseMax(w);
+      }
     }
     sc.handleCentroid.push_back(sum / double(handles[h].voxels.size()));
   }

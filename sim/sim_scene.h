@@ -16,6 +16,9 @@ namespace handson {
 
 struct SimHandle {
   std::vector<std::uint32_t> voxels;  ///< linear voxel indices on the image grid
+  /// Poses the handle will be moved to: the region also covers the handle's box at each of them
+  /// (plus the padding), so a handle never runs into the region's fixed faces.
+  std::vector<RigidTransform> reach;
 };
 
 struct SimSettings {

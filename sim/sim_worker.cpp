@@ -131,6 +131,7 @@ void SimWorker::run() {
       if (!finite(handles)) throw Error("simulation: a handle transform is not finite");
       for (const auto& Tk : increments(solved, handles, options_.continuationMm, options_.continuationDeg)) st = model_.solve(Tk, x, options_.coarseIterations);
       s = snapshot(input, handles, st, t0);
+      s.settled = st.converged || options_.idleIterations <= 0;
       lastGood = x;
       solved = handles;
     } catch (const std::exception& e) {
@@ -150,6 +151,7 @@ void SimWorker::run() {
       st = model_.solve(handles, x, options_.coarseIterations);
       lastGood = x;
       SimSnapshot more = snapshot(input, handles, st, t0);
+      more.settled = st.converged || done + options_.coarseIterations >= options_.idleIterations;
       fine = more.fine;
       publish(std::move(more));
     }

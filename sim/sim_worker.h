@@ -40,6 +40,7 @@ struct SimSnapshot {
   std::vector<Eigen::Matrix3d> rotations;  ///< per coarse element (with elementRotations)
   std::vector<RigidTransform> handles;  ///< the input's handle transforms
   CoarseSolveStats stats;
+  bool settled = false;                 ///< no more coarse snapshots for this input (converged, or the idle budget spent)
   double seconds = 0.0;                 ///< worker time for this snapshot since its input was taken
   std::string error;                    ///< non-empty: the input was refused (the state is the last good one)
 };

@@ -1,0 +1,297 @@
+#include "deformation_controller.h"
+
+#include <chrono>
+#include <cstdio>
+#include <sstream>
+
+#include "render/deform_pass.h"
+#include "sim/coarsening.h"
+#include "sim/error.h"
+#include "sim/fine_interpolation.h"
+#include "sim/quantized_volume.h"
+
+namespace handson {
+
+namespace {
+struct Cancelled {};
+}  // namespace
+
+struct DeformationController::Model {
+  SimScene scene;
+  std::unique_ptr<CoarseModel> model;
+  FineInterpolationData data;
+  std::unique_ptr<SimWorker> worker;
+  double seconds = 0.0;
+};
+
+DeformationController::DeformationController(const Volume& image, const QuantizedVolume& quantized, VolumeRenderer& renderer, DeformationOptions options)
+    : image_(image), quantized_(quantized), renderer_(renderer), options_(std::move(options)) {}
+
+DeformationController::~DeformationController() {
+  try {
+    stopAll();
+  } catch (...) {
+    // Shutting down: the renderer may already be gone from under a lost device.
+  }
+}
+
+DeformationController::Key DeformationController::keyOf(const HandleSet& handles) {
+  Key k;
+  for (const auto& h : handles.handles()) {
+    if (h.status == HandleStatus::Idle || h.voxels.empty()) continue;
+    k.ids.push_back(h.status == HandleStatus::Fixed ? -h.id : h.id);
+    k.sizes.push_back(h.voxels.size());
+    k.firstVoxels.push_back(std::size_t(h.voxels.front()) * 31u + h.voxels.back());
+  }
+  return k;
+}
+
+void DeformationController::stopAll() {
+  ++generation_;
+  if (builder_.joinable()) builder_.join();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    built_.reset();
+    building_ = false;
+    error_.clear();
+  }
+  if (model_) {
+    model_->worker.reset();  // joins the solve
+    model_.reset();
+  }
+  renderer_.endDeformation();
+  state_.reset();
+  stateFresh_ = false;
+  sentPoses_.clear();
+  shownInput_ = lastSent_ = 0;
+  shownConverged_ = shownSettled_ = false;
+}
+
+void DeformationController::startBuild(const HandleSet& handles) {
+  stopAll();
+  std::vector<SimHandle> sim;
+  simIds_.clear();
+  simActive_.clear();
+  restBoxes_.clear();
+  const VolumeGeometry& g = image_.geometry();
+  for (int pass = 0; pass < 2; ++pass)  // active handles first, then fixed ones
+    for (const auto& h : handles.handles()) {
+      if (h.voxels.empty() || h.status != (pass == 0 ? HandleStatus::Active : HandleStatus::Fixed)) continue;
+      RigidTransform pose;
+      pose.R = h.pose.rotation;
+      pose.t = h.pose.translation;
+      sim.push_back({h.voxels, {pose}});  // the region covers where the handle is now
+      simIds_.push_back(h.id);
+      simActive_.push_back(pass == 0);
+      Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+      for (std::uint32_t v : h.voxels) {
+        const Eigen::Vector3d w = g.toWorld(g.voxelOf(v).cast<double>());
+        lo = lo.cwiseMin(w);
+        hi = hi.cwiseMax(w);
+      }
+      restBoxes_.push_back({lo, hi});
+    }
+  if (simActive_.empty() || !simActive_.front()) return;  // nothing moves: nothing to simulate
+  const std::uint64_t gen = generation_.load();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    building_ = true;
+    buildStage_ = "starting";
+    buildFraction_ = 0.0;
+  }
+  builder_ = std::thread([this, gen, sim = std::move(sim)] {
+    const auto t0 = std::chrono::steady_clock::now();
+    const ProgressFn progress = [this, gen](double f, const std::string& stage) {
+      if (generation_.load() != gen) throw Cancelled{};
+      std::lock_guard<std::mutex> lock(mutex_);
+      buildStage_ = stage;
+      buildFraction_ = f;
+    };
+    try {
+      auto m = std::make_unique<Model>();
+      m->scene = buildSimScene(image_, sim, options_.sim, progress);
+      m->model = std::make_unique<CoarseModel>(m->scene.meshes, m->scene.fineK, m->scene.constraints, progress);
+      m->data = m->model->interpolationData();
+      m->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (generation_.load() == gen) built_ = std::move(m);
+      building_ = false;
+    } catch (const Cancelled&) {
+      // A newer handle set replaced this one.
+    } catch (const std::exception& e) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (generation_.load() == gen) {
+        error_ = e.what();
+        building_ = false;
+      }
+    }
+  });
+}
+
+bool DeformationController::outgrown(const std::vector<RigidTransform>& T) const {
+  if (!model_) return false;
+  const SimScene& sc = model_->scene;
+  const VolumeGeometry& g = image_.geometry();
+  Eigen::Vector3d imgLo = Eigen::Vector3d::Constant(1e300), imgHi = -imgLo;
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d w = g.toWorld(Eigen::Vector3d((c & 1) ? g.dims.x() - 1 : 0, (c & 2) ? g.dims.y() - 1 : 0, (c & 4) ? g.dims.z() - 1 : 0));
+    imgLo = imgLo.cwiseMin(w);
+    imgHi = imgHi.cwiseMax(w);
+  }
+  const double margin = 0.5 * options_.sim.paddingMm;
+  for (std::size_t i = 0; i < T.size() && i < restBoxes_.size(); ++i) {
+    if (!simActive_[i]) continue;
+    const auto& [lo, hi] = restBoxes_[i];
+    for (int c = 0; c < 8; ++c) {
+      const Eigen::Vector3d w = T[i].apply(Eigen::Vector3d((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z()));
+      for (int a = 0; a < 3; ++a) {
+        // A side already at the image's edge cannot grow: no rebuild for it.
+        if (w[a] < sc.lo[a] + margin && sc.lo[a] > imgLo[a] + 1e-6) return true;
+        if (w[a] > sc.hi[a] - margin && sc.hi[a] < imgHi[a] - 1e-6) return true;
+      }
+    }
+  }
+  return false;
+}
+
+void DeformationController::adoptBuilt() {
+  std::unique_ptr<Model> m;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    m = std::move(built_);
+  }
+  if (!m) return;
+  if (builder_.joinable()) builder_.join();
+  SimWorkerOptions wo;
+  wo.coarseIterations = options_.coarseIterations;
+  wo.idleIterations = options_.idleIterations;
+  wo.reconstructFine = false;  // the GPU interpolates the fine nodes
+  wo.elementRotations = true;
+  m->worker = std::make_unique<SimWorker>(*m->model, m->scene.fineK, wo);
+  vk::DeformSetup setup;
+  setup.interpolation = &m->data;
+  setup.fineTets = &m->scene.meshes.fine.tets;
+  setup.regionLo = m->scene.lo;
+  setup.regionHi = m->scene.hi;
+  setup.background = quantized_.toNormalized(image_.valueRange().first);
+  setup.worldToIndex = image_.geometry().worldToIndex();
+  try {
+    renderer_.beginDeformation(setup);
+  } catch (const std::exception& e) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    error_ = std::string("the GPU cannot show the deformation: ") + e.what();
+    return;
+  }
+  model_ = std::move(m);
+}
+
+void DeformationController::pull() {
+  if (!model_) return;
+  while (auto s = model_->worker->takeLatest()) {
+    if (!s->error.empty()) continue;  // refused input: the last good state stays
+    state_ = packFrameState(s->coarse, s->rotations, s->handles);
+    stateFresh_ = true;
+    shownInput_ = s->input;
+    shownConverged_ = s->stats.converged;
+    shownSettled_ = s->settled;
+  }
+}
+
+bool DeformationController::prepareFrame(FrameRequest& req, const HandleSet& handles) {
+  if (!options_.enabled) return false;
+  const Key key = keyOf(handles);
+  if (!(key == key_)) {
+    key_ = key;
+    startBuild(handles);
+  }
+  if (!model_) adoptBuilt();
+  if (!model_) return false;
+  // Active handles move with their pose; fixed ones are held where they are (their pose too).
+  std::vector<RigidTransform> T(simIds_.size());
+  for (std::size_t i = 0; i < simIds_.size(); ++i)
+    if (const Handle* h = handles.find(simIds_[i])) {
+      T[i].R = h->pose.rotation;
+      T[i].t = h->pose.translation;
+    }
+  if (outgrown(T)) {
+    // The handle came within half the padding of the region's fixed faces: rebuild around where
+    // it is now (moved handles are drawn rigidly meanwhile).
+    startBuild(handles);
+    return false;
+  }
+  bool changed = T.size() != sentPoses_.size();
+  for (std::size_t i = 0; !changed && i < T.size(); ++i) changed = T[i].R != sentPoses_[i].R || T[i].t != sentPoses_[i].t;
+  if (changed) {
+    lastSent_ = model_->worker->setHandles(T);
+    sentPoses_ = T;
+  }
+  pull();
+  if (state_ && stateFresh_) {
+    req.deform = &*state_;
+    stateFresh_ = false;
+  }
+  return shownInput_ > 0;
+}
+
+bool DeformationController::prepareFrameSettled(FrameRequest& req, const HandleSet& handles, double seconds) {
+  bool shown = prepareFrame(req, handles);
+  if (state() == State::Building && waitBuilt(seconds)) shown = prepareFrame(req, handles);
+  if (model_ && waitSettled(seconds)) shown = prepareFrame(req, handles);
+  return shown;
+}
+
+DeformationController::State DeformationController::state() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!error_.empty()) return State::Failed;
+  if (model_ || built_) return State::Ready;
+  if (building_) return State::Building;
+  return State::Off;
+}
+
+std::string DeformationController::status() const {
+  std::ostringstream s;
+  switch (state()) {
+    case State::Off: return "";
+    case State::Failed: {
+      std::lock_guard<std::mutex> lock(mutex_);
+      return "simulation failed: " + error_;
+    }
+    case State::Building: {
+      std::lock_guard<std::mutex> lock(mutex_);
+      char pct[16];
+      std::snprintf(pct, sizeof(pct), "%.0f%%", 100.0 * buildFraction_);
+      return "simulation: " + buildStage_ + " " + pct;
+    }
+    case State::Ready:
+      if (!model_) return "simulation: ready";
+      s << "simulation: " << model_->scene.meshes.coarse.tets.size() << " coarse / " << model_->scene.meshes.fine.tets.size() << " fine tets"
+        << (shownInput_ == 0 ? "" : shownConverged_ ? ", settled" : shownSettled_ ? ", stopped before converging" : ", settling");
+      return s.str();
+  }
+  return "";
+}
+
+bool DeformationController::waitBuilt(double seconds) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  for (;;) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!building_) return bool(built_) || bool(model_);
+    }
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+}
+
+bool DeformationController::waitSettled(double seconds) {
+  if (!model_ || lastSent_ == 0) return false;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  for (;;) {
+    pull();
+    if (shownInput_ == lastSent_ && shownSettled_) return true;
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
+}  // namespace handson

@@ -1,0 +1,102 @@
+#pragma once
+// The simulation in a running session, for the window and for headless replay alike. When the set
+// of simulated handles changes (active handles move, fixed ones hold), a background thread builds
+// the scene (region, nested meshes, materials) and the coarse model, with progress; until it is
+// ready, moved handles are drawn rigidly. Then the coarse solve runs on its worker thread (newest
+// handle poses in, newest coarse state out, a held pose settles) and every frame carries the newest
+// state to the renderer's deformation passes: the tissue around a moved handle deforms on screen.
+// The render loop never waits for the build or the solve.
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "interaction/handles.h"
+#include "render/volume_renderer.h"
+#include "sim/sim_scene.h"
+#include "sim/sim_worker.h"
+#include "sim/volume.h"
+
+namespace handson {
+
+struct DeformationOptions {
+  bool enabled = true;
+  SimSettings sim;               ///< region padding, coarse and fine resolutions, materials
+  int coarseIterations = 3;      ///< per new pose (warm started)
+  int idleIterations = 300;      ///< more while a pose is held, until converged
+};
+
+class DeformationController {
+ public:
+  enum class State { Off, Building, Ready, Failed };
+
+  /// `image` (the original values: materials come from them), `quantized` (the renderer's copy) and
+  /// `renderer` must outlive this.
+  DeformationController(const Volume& image, const QuantizedVolume& quantized, VolumeRenderer& renderer, DeformationOptions options = {});
+  ~DeformationController();
+  DeformationController(const DeformationController&) = delete;
+  DeformationController& operator=(const DeformationController&) = delete;
+
+  /// Before submitting a frame: follows the handles (a changed set restarts the build), sends
+  /// changed poses to the worker, and attaches the newest coarse state to the request. Returns
+  /// whether the frame shows the simulated deformation (the caller then turns the rigid preview off).
+  bool prepareFrame(FrameRequest& request, const HandleSet& handles);
+
+  /// The same, but waits for the build and for the solve of the current poses to settle (at most
+  /// `seconds` each): deterministic frames for replays and tests.
+  bool prepareFrameSettled(FrameRequest& request, const HandleSet& handles, double seconds = 120.0);
+
+  State state() const;
+  /// "" when off; else the build's stage and progress, the model's size, or the failure.
+  std::string status() const;
+  /// Input number of the newest state shown, and whether its coarse solve had converged.
+  std::uint64_t shownInput() const { return shownInput_; }
+  bool shownConverged() const { return shownConverged_; }
+  /// Blocks until the build ends (ready or failed), at most `seconds` (tests, headless runs).
+  bool waitBuilt(double seconds);
+  /// Blocks until the worker published its last state for the newest poses sent (converged, or its
+  /// iteration budget spent), at most
+  /// `seconds`; the next prepareFrame shows it. False on timeout or when nothing is simulated.
+  bool waitSettled(double seconds);
+
+ private:
+  struct Model;  // scene, coarse model, packed interpolation data, worker
+  struct Key {
+    std::vector<int> ids;
+    std::vector<std::size_t> sizes, firstVoxels;
+    bool operator==(const Key& o) const { return ids == o.ids && sizes == o.sizes && firstVoxels == o.firstVoxels; }
+  };
+  static Key keyOf(const HandleSet& handles);
+  void startBuild(const HandleSet& handles);
+  void stopAll();
+  void adoptBuilt();
+  bool outgrown(const std::vector<RigidTransform>& poses) const;
+  void pull();  // the worker's newest snapshot into state_
+
+  const Volume& image_;
+  const QuantizedVolume& quantized_;
+  VolumeRenderer& renderer_;
+  DeformationOptions options_;
+  Key key_;
+  std::vector<int> simIds_;  // handle ids in simulation order (active, then fixed)
+  std::vector<bool> simActive_;
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> restBoxes_;  // world box of each simulated handle at rest
+  std::thread builder_;
+  std::atomic<std::uint64_t> generation_{0};
+  mutable std::mutex mutex_;  // guards the builder's results and progress
+  std::unique_ptr<Model> built_;  // handed over by the builder
+  std::string buildStage_, error_;
+  double buildFraction_ = 0.0;
+  bool building_ = false;
+  std::unique_ptr<Model> model_;  // in use (worker running, renderer deforming)
+  std::vector<RigidTransform> sentPoses_;
+  std::uint64_t lastSent_ = 0, shownInput_ = 0;
+  bool shownConverged_ = false, shownSettled_ = false;
+  std::optional<CoarseFrameState> state_;
+  bool stateFresh_ = false;
+};
+
+}  // namespace handson
