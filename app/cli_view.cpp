@@ -41,6 +41,7 @@ const char* const kReplayHelp =
     "  --volume PATH       replay on another volume than the script's\n"
     "  --size WxH          output size (touches are scaled from the script's viewport)\n"
     "  --fps F             frames per second of script time\n"
+    "  --export OUT.nii.gz the deformed volume at the end, on the input's grid\n"
     "  --device NAME, --validation, --quiet, --print-camera, --print-handles\n";
 
 const char* const kSimHelp =
@@ -106,7 +107,7 @@ int cmdView(const Words& words) {
 }
 
 int cmdReplay(const Words& words) {
-  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--size", "--device"}, kSimOptions),
+  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--size", "--device", "--export"}, kSimOptions),
             {"--validation", "--quiet", "--print-camera", "--print-handles"});
   if (args.help() || args.positional().size() > 1) {
     usageStream(args) << kReplayHelp << kSimHelp << "  (replay waits each frame for the simulation to settle: frames do not depend on timing)\n";
@@ -124,6 +125,7 @@ int cmdReplay(const Words& words) {
   o.quiet = args.flag("--quiet");
   o.printCamera = args.flag("--print-camera");
   o.printHandles = args.flag("--print-handles");
+  o.exportPath = args.valueOr("--export", "");
   o.sim = simOptions(args);
   return runReplay(o);
 }

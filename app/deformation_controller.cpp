@@ -9,6 +9,7 @@
 #include "sim/error.h"
 #include "sim/fine_interpolation.h"
 #include "sim/quantized_volume.h"
+#include "sim/tet_raster.h"
 
 namespace handson {
 
@@ -238,6 +239,24 @@ bool DeformationController::prepareFrameSettled(FrameRequest& req, const HandleS
   if (state() == State::Building && waitBuilt(seconds)) shown = prepareFrame(req, handles);
   if (model_ && waitSettled(seconds)) shown = prepareFrame(req, handles);
   return shown;
+}
+
+bool DeformationController::exportDeformed(Volume& out) const {
+  if (!model_ || !renderer_.deforming() || shownInput_ == 0) return false;
+  const std::vector<std::uint16_t> values = renderer_.deformer()->readVolume();
+  const VolumeGeometry& g = image_.geometry();
+  const SimScene& sc = model_->scene;
+  out = image_;
+  Eigen::Vector3i lo, hi;
+  regionVoxelBox(g, sc.lo, sc.hi, lo, hi);
+  for (int k = lo.z(); k <= hi.z(); ++k)
+    for (int j = lo.y(); j <= hi.y(); ++j)
+      for (int i = lo.x(); i <= hi.x(); ++i)
+        if (inRegion(g.toWorld(Eigen::Vector3d(i, j, k)), sc.lo, sc.hi)) {
+          const std::size_t lin = image_.linearIndex(i, j, k);
+          out.setValue(lin, quantized_.toValue(values[lin] / 65535.0f));
+        }
+  return true;
 }
 
 DeformationController::State DeformationController::state() const {

@@ -49,6 +49,11 @@ class DeformationController {
   /// `seconds` each): deterministic frames for replays and tests.
   bool prepareFrameSettled(FrameRequest& request, const HandleSet& handles, double seconds = 120.0);
 
+  /// The deformed volume as shown (after the last frame finished), on the input's grid and value
+  /// type: region voxels from the GPU, the rest of the image unchanged. False when nothing is
+  /// simulated yet.
+  bool exportDeformed(Volume& out) const;
+
   State state() const;
   /// "" when off; else the build's stage and progress, the model's size, or the failure.
   std::string status() const;

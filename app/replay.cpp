@@ -13,6 +13,7 @@
 #include "app/demo_script.h"
 #include "app/headless_scene.h"
 #include "app/latency_log.h"
+#include "app/nifti_io.h"
 #include "app/png_io.h"
 #include "app/session.h"
 #include "app/selection_controller.h"
@@ -136,6 +137,15 @@ int runReplay(const ReplayOptions& o) {
     reportProgress(progress, double(k + 1) / frames, "replaying");
   }
   if (!o.timings.empty()) log.writeCsv(o.timings);
+  if (!o.exportPath.empty()) {  // every frame was waited for above
+    Volume deformed;
+    if (!deform.exportDeformed(deformed)) {
+      std::cerr << "note: no simulated deformation to export (no moved active handle, or --sim off): writing the input unchanged\n";
+      deformed = volume;
+    }
+    writeNifti(deformed, o.exportPath);
+    std::cout << "wrote " << o.exportPath << "\n";
+  }
   if (!o.quiet) {
     std::cerr << "replayed " << script.events.size() << " events";
     if (refused) std::cerr << " (" << refused << " refused)";

@@ -23,6 +23,7 @@ struct ReplayOptions {
   bool quiet = false;
   bool printCamera = false;
   bool printHandles = false;
+  std::string exportPath;  ///< the deformed volume at the end (.nii.gz, the input's grid)
   DeformationOptions sim;  ///< the simulation of moved handles (each frame waits for it to settle: deterministic)
 };
 

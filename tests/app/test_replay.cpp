@@ -10,6 +10,7 @@
 #include <iterator>
 #include <vector>
 
+#include "app/nifti_io.h"
 #include "app/png_io.h"
 
 namespace fs = std::filesystem;
@@ -162,7 +163,7 @@ TEST(Replay, AMovedActiveHandleDeformsTheTissueAroundItAndReplaysBitIdentically)
   std::string out;
   ASSERT_EQ(run(common + sim + "--frames-out " + (dir / "a").string(), &out), 0) << out;
   EXPECT_NE(out.find("fine tets, settled"), std::string::npos) << out;
-  ASSERT_EQ(run(common + sim + "--quiet --frames-out " + (dir / "b").string(), &out), 0) << out;
+  ASSERT_EQ(run(common + sim + "--quiet --frames-out " + (dir / "b").string() + " --export " + (dir / "deformed.nii.gz").string(), &out), 0) << out;
   ASSERT_EQ(run(common + "--sim off --quiet --frames-out " + (dir / "rigid").string(), &out), 0) << out;
   std::vector<std::string> frames;
   for (const auto& e : fs::directory_iterator(dir / "a")) frames.push_back(e.path().filename().string());
@@ -184,5 +185,25 @@ TEST(Replay, AMovedActiveHandleDeformsTheTissueAroundItAndReplaysBitIdentically)
   }
   EXPECT_GT(differ, 10) << "pixels where the simulated tissue differs from the rigid preview";
   EXPECT_LT(differ, w * h / 3) << "the rest of the image is the same volume";
+  // The export: the deformed volume on the input's grid; the kidney's bright cortex moved with the
+  // drag (+40 mm in y), the image elsewhere untouched.
+  ASSERT_EQ(run("phantom -o " + (dir / "ct.nii.gz").string(), &out), 0) << out;
+  const handson::Volume ct = handson::readNifti((dir / "ct.nii.gz").string());
+  const handson::Volume def = handson::readNifti((dir / "deformed.nii.gz").string());
+  ASSERT_EQ(def.dims(), ct.dims());
+  const auto& g = ct.geometry();
+  double y0 = 0, n0 = 0, y1 = 0, n1 = 0;
+  std::size_t changed = 0;
+  for (std::size_t i = 0; i < ct.voxelCount(); ++i) {
+    if (ct.value(i) == def.value(i)) continue;
+    ++changed;
+    const Eigen::Vector3d wpos = g.toWorld(g.voxelOf(i).cast<double>());
+    if (ct.value(i) > 150 && ct.value(i) < 400) y0 += wpos.y(), ++n0;
+    if (def.value(i) > 150 && def.value(i) < 400) y1 += wpos.y(), ++n1;
+  }
+  EXPECT_GT(changed, 1000u);
+  ASSERT_GT(n0, 0);
+  ASSERT_GT(n1, 0);
+  EXPECT_GT(y1 / n1 - y0 / n0, 10.0) << "bright tissue among the changed voxels moved toward +y";
   fs::remove_all(dir);
 }
