@@ -190,7 +190,8 @@ int cmdBenchDeform(const Words& words) {
   const double cpuReconstruct = since(t0);
   t0 = std::chrono::steady_clock::now();
   Volume cpuOut;
-  rasterizeDeformed(image, sc.meshes.fine, world, sc.lo, sc.hi, image.valueRange().first, cpuOut);
+  rasterizeDeformed(image, sc.meshes.fine, world, sc.lo, sc.hi, image.valueRange().first, cpuOut, nullptr, nullptr,
+                    defaultMaxTetVoxels(sc.meshes.fine, g.worldToIndex()));
   const double cpuRaster = since(t0);
   vk::GpuDeformer region(ctx, volume, mask, setup, 1);
   t0 = std::chrono::steady_clock::now();

@@ -212,7 +212,8 @@ int cmdDeform(const Words& words) {
   Volume out;
   std::size_t regionVoxels = 0, covered = 0;
   if (backend == "cpu") {
-    const auto rs = rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, out);
+    const auto rs = rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, out, nullptr, nullptr,
+                                      defaultMaxTetVoxels(sc.meshes.fine, image.geometry().worldToIndex()));
     regionVoxels = rs.regionVoxels;
     covered = rs.covered;
   } else {

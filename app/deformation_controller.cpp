@@ -31,6 +31,7 @@ DeformationController::DeformationController(const Volume& image, const Quantize
 DeformationController::~DeformationController() {
   try {
     stopAll();
+    reapBuilders(true);
   } catch (...) {
     // Shutting down: the renderer may already be gone from under a lost device.
   }
@@ -47,9 +48,20 @@ DeformationController::Key DeformationController::keyOf(const HandleSet& handles
   return k;
 }
 
+void DeformationController::reapBuilders(bool wait) {
+  for (auto it = retired_.begin(); it != retired_.end();)
+    if (wait || it->done->load()) {
+      if (it->thread.joinable()) it->thread.join();
+      it = retired_.erase(it);
+    } else {
+      ++it;
+    }
+}
+
 void DeformationController::stopAll() {
-  ++generation_;
-  if (builder_.joinable()) builder_.join();
+  ++generation_;  // a running build sees it at its next progress report and stops
+  // Never wait for a cancelled build on the render thread: it is joined once it has noticed.
+  if (builder_.joinable()) retired_.push_back({std::move(builder_), builderDone_});
   {
     std::lock_guard<std::mutex> lock(mutex_);
     built_.reset();
@@ -64,8 +76,9 @@ void DeformationController::stopAll() {
   state_.reset();
   stateFresh_ = false;
   sentPoses_.clear();
-  shownInput_ = lastSent_ = 0;
-  shownConverged_ = shownSettled_ = false;
+  shownInput_ = lastSent_ = answeredInput_ = 0;
+  shownConverged_ = shownSettled_ = answeredSettled_ = false;
+  lastError_.clear();
 }
 
 void DeformationController::startBuild(const HandleSet& handles) {
@@ -94,13 +107,18 @@ void DeformationController::startBuild(const HandleSet& handles) {
     }
   if (simActive_.empty() || !simActive_.front()) return;  // nothing moves: nothing to simulate
   const std::uint64_t gen = generation_.load();
+  builderDone_ = std::make_shared<std::atomic<bool>>(false);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     building_ = true;
     buildStage_ = "starting";
     buildFraction_ = 0.0;
   }
-  builder_ = std::thread([this, gen, sim = std::move(sim)] {
+  builder_ = std::thread([this, gen, done = builderDone_, sim = std::move(sim)] {
+    struct MarkDone {
+      std::shared_ptr<std::atomic<bool>> flag;
+      ~MarkDone() { flag->store(true); }
+    } markDone{done};
     const auto t0 = std::chrono::steady_clock::now();
     const ProgressFn progress = [this, gen](double f, const std::string& stage) {
       if (generation_.load() != gen) throw Cancelled{};
@@ -115,8 +133,10 @@ void DeformationController::startBuild(const HandleSet& handles) {
       m->data = m->model->interpolationData();
       m->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::lock_guard<std::mutex> lock(mutex_);
-      if (generation_.load() == gen) built_ = std::move(m);
-      building_ = false;
+      if (generation_.load() == gen) {
+        built_ = std::move(m);
+        building_ = false;
+      }
     } catch (const Cancelled&) {
       // A newer handle set replaced this one.
     } catch (const std::exception& e) {
@@ -162,7 +182,7 @@ void DeformationController::adoptBuilt() {
     m = std::move(built_);
   }
   if (!m) return;
-  if (builder_.joinable()) builder_.join();
+  if (builder_.joinable()) builder_.join();  // it has finished: it handed its model over
   SimWorkerOptions wo;
   wo.coarseIterations = options_.coarseIterations;
   wo.idleIterations = options_.idleIterations;
@@ -189,8 +209,19 @@ void DeformationController::adoptBuilt() {
 void DeformationController::pull() {
   if (!model_) return;
   while (auto s = model_->worker->takeLatest()) {
-    if (!s->error.empty()) continue;  // refused input: the last good state stays
-    state_ = packFrameState(s->coarse, s->rotations, s->handles);
+    answeredInput_ = s->input;
+    answeredSettled_ = s->settled;
+    if (!s->error.empty()) {  // refused input: the last good state stays
+      lastError_ = s->error;
+      continue;
+    }
+    try {
+      state_ = packFrameState(s->coarse, s->rotations, s->handles);
+    } catch (const std::exception& e) {
+      lastError_ = e.what();
+      continue;
+    }
+    lastError_.clear();
     stateFresh_ = true;
     shownInput_ = s->input;
     shownConverged_ = s->stats.converged;
@@ -200,6 +231,7 @@ void DeformationController::pull() {
 
 bool DeformationController::prepareFrame(FrameRequest& req, const HandleSet& handles) {
   if (!options_.enabled) return false;
+  reapBuilders(false);
   const Key key = keyOf(handles);
   if (!(key == key_)) {
     key_ = key;
@@ -284,7 +316,8 @@ std::string DeformationController::status() const {
     case State::Ready:
       if (!model_) return "simulation: ready";
       s << "simulation: " << model_->scene.meshes.coarse.tets.size() << " coarse / " << model_->scene.meshes.fine.tets.size() << " fine tets"
-        << (shownInput_ == 0 ? "" : shownConverged_ ? ", settled" : shownSettled_ ? ", stopped before converging" : ", settling");
+        << (shownInput_ == 0 ? "" : shownConverged_ ? ", settled" : shownSettled_ ? ", stopped before converging" : ", settling")
+        << (lastError_.empty() ? "" : "; last pose refused: " + lastError_);
       return s.str();
   }
   return "";
@@ -307,7 +340,7 @@ bool DeformationController::waitSettled(double seconds) {
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   for (;;) {
     pull();
-    if (shownInput_ == lastSent_ && shownSettled_) return true;
+    if (answeredInput_ == lastSent_ && answeredSettled_) return true;
     if (std::chrono::steady_clock::now() > end) return false;
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }

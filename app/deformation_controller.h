@@ -90,6 +90,13 @@ class DeformationController {
   std::vector<bool> simActive_;
   std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> restBoxes_;  // world box of each simulated handle at rest
   std::thread builder_;
+  std::shared_ptr<std::atomic<bool>> builderDone_;
+  struct Retired {
+    std::thread thread;
+    std::shared_ptr<std::atomic<bool>> done;
+  };
+  std::vector<Retired> retired_;  // cancelled builds, joined once finished
+  void reapBuilders(bool wait);
   std::atomic<std::uint64_t> generation_{0};
   mutable std::mutex mutex_;  // guards the builder's results and progress
   std::unique_ptr<Model> built_;  // handed over by the builder
@@ -100,6 +107,9 @@ class DeformationController {
   std::vector<RigidTransform> sentPoses_;
   std::uint64_t lastSent_ = 0, shownInput_ = 0;
   bool shownConverged_ = false, shownSettled_ = false;
+  std::uint64_t answeredInput_ = 0;  // newest input answered, with a state or an error
+  bool answeredSettled_ = false;
+  std::string lastError_;
   std::optional<CoarseFrameState> state_;
   bool stateFresh_ = false;
 };

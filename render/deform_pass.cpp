@@ -117,7 +117,13 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
       if (v < 0 || std::size_t(v) >= nodes_) throw Error("deformation: a fine tet refers to a missing node");
       tets[t][std::size_t(c)] = std::uint32_t(v);
     }
+  static_assert(kRasterTolerance == 1e-5 && kRasterBoxMargin == 1e-4, "shaders/deform_claim.comp uses these numbers");
   for (const auto& n : d.node) {
+    if (n[0] == FineInterpolationData::Interior && std::size_t(n[2]) + 12 + 13 * std::size_t(n[3]) <= d.blocks.size())
+      for (std::uint32_t k = 0; k < n[3]; ++k) {
+        const float hidx = d.blocks[std::size_t(n[2]) + 12 + 13 * k].x();
+        if (!(hidx >= 0.0f && hidx < float(handles_) && hidx == std::floor(hidx))) throw Error("deformation: a handle block refers to a missing handle");
+      }
     const bool ok = n[0] == FineInterpolationData::Rest || (n[0] == FineInterpolationData::Handle && n[1] < handles_) ||
                     (n[0] == FineInterpolationData::Corner && n[1] < coarseNodes_) ||
                     (n[0] == FineInterpolationData::Boundary && n[1] < coarseElements_ && n[2] < d.blocks.size()) ||
@@ -128,6 +134,10 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
     for (auto v : t)
       if (v >= coarseNodes_) throw Error("deformation: a coarse tet refers to a missing node");
 
+  const std::uint64_t maxGroups = ctx.properties().limits.maxComputeWorkGroupCount[0];
+  if ((nodes_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups || (tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups)
+    throw Error("deformation: the fine mesh (" + std::to_string(tets_) + " tets) needs more workgroups than this device dispatches at once (" +
+                std::to_string(maxGroups * HANDSON_DEFORM_GROUP_X) + " invocations)");
   const Eigen::Vector3i dims(int(sd.width), int(sd.height), int(sd.depth));
   Eigen::Vector3i rlo, rhi;
   regionVoxelBox(setup.worldToIndex, dims, setup.regionLo, setup.regionHi, rlo, rhi);
@@ -145,6 +155,14 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   p_.regionVoxHi = glm::ivec4(rhi.x(), rhi.y(), rhi.z(), int(tets_));
   p_.dims = glm::ivec4(dims.x(), dims.y(), dims.z(), int(handles_));
   p_.ownerDims = glm::ivec4(od.x(), od.y(), od.z(), int(coarseElements_));
+  {
+    TetMesh rest;  // the rest mesh in world space, for the default cap
+    rest.nodes.reserve(nodes_);
+    for (const auto& X : d.rest) rest.nodes.emplace_back(double(X.x()), double(X.y()), double(X.z()));
+    rest.tets = *setup.fineTets;
+    const std::uint64_t cap = setup.maxTetVoxels ? setup.maxTetVoxels : defaultMaxTetVoxels(rest, setup.worldToIndex);
+    p_.limits = glm::uvec4(std::uint32_t(std::min<std::uint64_t>(cap, UINT32_MAX)), 0, 0, 0);
+  }
 
   interpolate_ = ComputePipeline(ctx, shaders::deformInterpolate(),
                                  bindings({kUbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo}), 4);
@@ -202,7 +220,8 @@ GpuDeformer::~GpuDeformer() {
   }
 }
 
-void GpuDeformer::importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState, fg::ResourceHandle sourceVolume, fg::ResourceHandle sourceMask) {
+void GpuDeformer::importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState, fg::ResourceHandle sourceVolume, fg::ResourceHandle sourceMask,
+                                  const Outputs& outputs) {
   using fg::Access;
   Bound& h = h_;
   h = Bound{};
@@ -231,8 +250,8 @@ void GpuDeformer::importResources(fg::FrameGraph& g, std::uint32_t slot, bool wi
   }
   h.source = sourceVolume.valid() ? sourceVolume : g.importImage("volume", source_.desc(), Access::Sampled);
   h.sourceMask = sourceMask.valid() ? sourceMask : g.importImage("handle-mask", sourceMask_.desc(), Access::Sampled);
-  h.volume = g.importImage("deformed-volume", volume_.desc(), Access::Sampled);
-  h.mask = g.importImage("deformed-mask", mask_.desc(), Access::Sampled);
+  h.volume = outputs.volume.valid() ? outputs.volume : g.importImage("deformed-volume", volume_.desc(), Access::Sampled);
+  h.mask = outputs.mask.valid() ? outputs.mask : g.importImage("deformed-mask", mask_.desc(), Access::Sampled);
 }
 
 GpuDeformer::Outputs GpuDeformer::importOutputs(fg::FrameGraph& g) {
@@ -244,7 +263,7 @@ GpuDeformer::Outputs GpuDeformer::importOutputs(fg::FrameGraph& g) {
 }
 
 GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slot, const CoarseFrameState& state, Redo redo, fg::ResourceHandle sourceVolume,
-                                            fg::ResourceHandle sourceMask) {
+                                            fg::ResourceHandle sourceMask, const Outputs& outputs) {
   if (slot >= slots_.size()) throw Error("deformation: frame slot out of range");
   if (state.positions.size() != coarseNodes_ || state.rotations.size() != coarseElements_ || state.handles.size() != handles_)
     throw Error("deformation: the coarse state does not match the mesh");
@@ -260,7 +279,7 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slo
   hostBuffer(s.rotations, state.rotations.data(), state.rotations.size() * 16);
   hostBuffer(s.handles, state.handles.data(), state.handles.size() * 64);
 
-  importResources(g, slot, true, sourceVolume, sourceMask);
+  importResources(g, slot, true, sourceVolume, sourceMask, outputs);
   using fg::Access;
   const Bound hb = h_;
   const std::uint32_t nodeGroups = std::uint32_t((nodes_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
@@ -510,6 +529,7 @@ DeformFrameStats GpuDeformer::runOwn(const std::function<void(fg::FrameGraph&)>&
   st.boxHi = Eigen::Vector3i(b.hi.x, b.hi.y, b.hi.z);
   st.movedTets = b.stats.x;
   st.coveredVoxels = b.stats.y;
+  st.skippedTets = b.stats.z;
   st.timings = x.completedTimings();
   return st;
 }

@@ -35,6 +35,9 @@ struct DeformSetup {
   /// one by at most this fraction of the largest neighbouring voxel difference (~1 HU at a
   /// 1000 HU edge), with no drift (the comparison is against the position taken, not last frame's).
   double commitVoxels = 1e-3;
+  /// Tets whose voxel range in the region exceeds this are skipped and counted (a torn state must
+  /// not make one invocation loop for seconds); 0: defaultMaxTetVoxels of the rest mesh.
+  std::uint64_t maxTetVoxels = 0;
 };
 
 /// What a frame redoes.
@@ -46,7 +49,7 @@ enum class Redo {
 
 struct DeformFrameStats {
   Eigen::Vector3i boxLo{0, 0, 0}, boxHi{-1, -1, -1};  ///< voxels redone (inclusive; empty when lo > hi)
-  std::uint32_t movedTets = 0, coveredVoxels = 0;
+  std::uint32_t movedTets = 0, coveredVoxels = 0, skippedTets = 0;
   std::uint64_t boxVoxels() const;
   std::vector<PassTiming> timings;
 };
@@ -62,11 +65,13 @@ class GpuDeformer {
   struct Outputs {
     fg::ResourceHandle volume, mask;  ///< deformed images, left in Access::Sampled
   };
+  const Image& maskImage() const { return mask_; }
   /// Adds one frame's passes. `slot`: the executor's frame slot (per-slot upload buffers).
   /// `sourceVolume` / `sourceMask`: the graph's handles of the source images when the caller
   /// imported them already (so its own passes on them are ordered with ours); else imported here.
+  /// `outputs`: the deformed images' handles when importOutputs() gave them already this frame.
   Outputs addPasses(fg::FrameGraph& graph, std::uint32_t slot, const CoarseFrameState& state, Redo redo = Redo::Moved,
-                    fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {});
+                    fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {}, const Outputs& outputs = {});
   /// Imports the deformed images alone (a frame without new state reads them as they are).
   Outputs importOutputs(fg::FrameGraph& graph);
   /// The region's voxel box (inclusive) on the volume grid.
@@ -91,7 +96,8 @@ class GpuDeformer {
   std::size_t fineTetCount() const { return tets_; }
 
  private:
-  void importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState, fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {});
+  void importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState, fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {},
+                       const Outputs& outputs = {});
   Outputs addResamplePasses(fg::FrameGraph& g, Redo redo);
   DeformFrameStats runOwn(const std::function<void(fg::FrameGraph&)>& build);
 

@@ -203,6 +203,9 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   in.occupancy = g.importBuffer("occupancy", {occupancyBuffer_.size()}, fg::Access::StorageRead);
   in.mask = g.importImage("handle-mask", mask_.desc(), fg::Access::Sampled);
   in.handles = g.importBuffer("handle-tints", {handleTints_.size()}, fg::Access::StorageRead);
+  // While deforming, the deformed images are what the raymarch and picking read.
+  vk::GpuDeformer::Outputs deformed;
+  if (deformer_) deformed = deformer_->importOutputs(g);
   fg::ResourceHandle maskStaging;
   if (req.maskUpload) {
     const MaskUpload& up = *req.maskUpload;
@@ -221,14 +224,19 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
         [&](fg::PassBuilder& b) {
           b.read(maskStaging, fg::Access::TransferSrc);
           b.write(in.mask, fg::Access::TransferDst);
+          if (deformed.mask.valid()) b.write(deformed.mask, fg::Access::TransferDst);
         },
-        [this, maskStaging, mn, dm](fg::Executor& e) {
+        [this, maskStaging, mn, dm, deformedMask = deformed.mask](fg::Executor& e) {
           auto& x = vk::vulkanExecutor(e);
           VkBufferImageCopy r{};
           r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
           r.imageOffset = {mn.x(), mn.y(), mn.z()};
           r.imageExtent = {std::uint32_t(dm.x()), std::uint32_t(dm.y()), std::uint32_t(dm.z())};
           vkCmdCopyBufferToImage(x.cmd(), x.buffer(maskStaging).handle(), mask_.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
+          // The deformed mask takes the same ids outside the simulated region at once; inside it,
+          // the region's redo below carries them through the deformation.
+          if (deformedMask.valid())
+            vkCmdCopyBufferToImage(x.cmd(), x.buffer(maskStaging).handle(), x.image(deformedMask).handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
         });
   }
   // The deformation: new coarse state (or a mask change to carry over) -> its passes, whose
@@ -237,16 +245,19 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   if (req.maskUpload) g.exportResource(sourceMask, fg::Access::Sampled);  // whoever reads it, it ends the frame sampled
   if (deformer_) {
     if (req.deform) lastDeform_ = *req.deform;
-    vk::GpuDeformer::Outputs d;
-    if (lastDeform_ && (req.deform || req.maskUpload || deformFirst_)) {
-      const vk::Redo redo = (deformFirst_ || req.maskUpload) ? vk::Redo::Region : vk::Redo::Moved;
-      d = deformer_->addPasses(g, executor_.slot(), *lastDeform_, redo, in.volume, in.mask);
-      deformFirst_ = false;
-    } else {
-      d = deformer_->importOutputs(g);
+    bool uploadInRegion = false;
+    if (req.maskUpload) {
+      const Eigen::Vector3i lo = req.maskUpload->min, hi = req.maskUpload->min + req.maskUpload->dims - Eigen::Vector3i::Ones();
+      uploadInRegion = (lo.array() <= deformer_->regionVoxelHi().array()).all() && (hi.array() >= deformer_->regionVoxelLo().array()).all();
+      g.exportResource(deformed.mask, fg::Access::Sampled);
     }
-    in.volume = d.volume;
-    in.mask = d.mask;
+    if (lastDeform_ && (req.deform || uploadInRegion || deformFirst_)) {
+      const vk::Redo redo = (deformFirst_ || uploadInRegion) ? vk::Redo::Region : vk::Redo::Moved;
+      deformer_->addPasses(g, executor_.slot(), *lastDeform_, redo, in.volume, in.mask, deformed);
+      deformFirst_ = false;
+    }
+    in.volume = deformed.volume;
+    in.mask = deformed.mask;
   }
   auto color = g.createImage("color", {std::uint32_t(w), std::uint32_t(h), 1, fg::Format::Rgba8Unorm});
   raymarch_.add(g, in, color, linear_);

@@ -10,7 +10,7 @@ layout(local_size_x = HANDSON_DEFORM_GROUP_X) in;
 layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
 layout(std430, set = 0, binding = 1) readonly buffer Tets { uvec4 tet[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Pos { vec4 pos[]; };
-layout(std430, set = 0, binding = 3) readonly buffer Box { DeformBox box; };
+layout(std430, set = 0, binding = 3) buffer Box { DeformBox box; };
 layout(std430, set = 0, binding = 4) buffer Owner { uint owner[]; };
 layout(std430, set = 0, binding = 5) readonly buffer RestIdx { vec4 restIdx[]; };
 // Per tet: the affine map from deformed to rest voxel index (rows of [M | b]), for the resolve.
@@ -22,8 +22,20 @@ void main() {
   uvec4 n = tet[t];
   vec3 v0 = pos[n.x].xyz, v1 = pos[n.y].xyz, v2 = pos[n.z].xyz, v3 = pos[n.w].xyz;
   vec3 bmin = min(min(v0, v1), min(v2, v3)), bmax = max(max(v0, v1), max(v2, v3));
-  ivec3 lo = max(ivec3(ceil(clamp(bmin, vec3(-1.0), vec3(P.dims.xyz)) - 1e-4)), max(box.lo.xyz, P.regionVoxLo.xyz));
-  ivec3 hi = min(ivec3(floor(clamp(bmax, vec3(-1.0), vec3(P.dims.xyz)) + 1e-4)), min(box.hi.xyz, P.regionVoxHi.xyz));
+  // The voxel range in the region, widened by kRasterBoxMargin (sim/tet_raster.h).
+  ivec3 lo = max(ivec3(ceil(clamp(bmin, vec3(-1.0), vec3(P.dims.xyz)) - 1e-4)), P.regionVoxLo.xyz);
+  ivec3 hi = min(ivec3(floor(clamp(bmax, vec3(-1.0), vec3(P.dims.xyz)) + 1e-4)), P.regionVoxHi.xyz);
+  if (any(greaterThan(lo, hi))) return;
+  // A tet stretched over more voxels than any sane state gives (a torn solve) is skipped, not
+  // looped over for seconds: one invocation must stay short. (Judged on its range in the region,
+  // not in this frame's box, so a moved-box frame equals a whole-region one.)
+  uvec3 ext = uvec3(hi - lo + 1);
+  if (ext.x * ext.y * ext.z > P.limits.x) {
+    if (all(lessThanEqual(max(lo, box.lo.xyz), min(hi, box.hi.xyz)))) atomicAdd(box.stats.z, 1u);
+    return;
+  }
+  lo = max(lo, box.lo.xyz);
+  hi = min(hi, box.hi.xyz);
   if (any(greaterThan(lo, hi))) return;
   mat3 D = mat3(v1 - v0, v2 - v0, v3 - v0);
   float det = determinant(D);
@@ -37,8 +49,8 @@ void main() {
   affine[3u * t] = vec4(M[0].x, M[1].x, M[2].x, b.x);
   affine[3u * t + 1u] = vec4(M[0].y, M[1].y, M[2].y, b.y);
   affine[3u * t + 2u] = vec4(M[0].z, M[1].z, M[2].z, b.z);
-  // Relative tolerance on the barycentric coordinates: voxel centres on shared faces are claimed
-  // by both neighbours (the lower index wins), never by neither.
+  // Tolerance on the barycentric coordinates (kRasterTolerance in sim/tet_raster.h): voxel centres
+  // on shared faces are claimed by both neighbours (the lower index wins), never by neither.
   const float eps = 1e-5;
   for (int z = lo.z; z <= hi.z; ++z)
     for (int y = lo.y; y <= hi.y; ++y)

@@ -125,6 +125,7 @@ struct DeformParams {
   ivec4 regionVoxHi;  // xyz, w = fine tet count
   ivec4 dims;         // xyz volume dims, w = handle count
   ivec4 ownerDims;    // xyz: regionVoxHi - regionVoxLo + 1 (owner buffer), w = coarse element count
+  uvec4 limits;       // x = most voxels a tet's range may hold (larger ones are skipped and counted)
 };
 
 // The box redone this frame (storage buffer, written by deform_bounds.comp, clamped by
@@ -132,12 +133,12 @@ struct DeformParams {
 struct DeformBox {
   ivec4 lo;     // xyz inclusive voxel index
   ivec4 hi;     // xyz inclusive (lo > hi: nothing to redo)
-  uvec4 stats;  // x = moved tets, y = covered voxels
+  uvec4 stats;  // x = moved tets, y = covered voxels, z = tets skipped as too large (a torn state)
   uvec4 pad;
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(DeformParams) == 2 * 64 + 6 * 16, "DeformParams must match std140");
+static_assert(sizeof(DeformParams) == 2 * 64 + 7 * 16, "DeformParams must match std140");
 static_assert(sizeof(DeformBox) == 64, "DeformBox must match std430");
 static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
 static_assert(sizeof(MovingHandle) == 112, "MovingHandle must match std140");

@@ -316,6 +316,7 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
       if (dof_[v] >= 0) xf.segment<3>(dof_[v]) = x[v];
     const Eigen::VectorXd r = rhs - assembler_->matrix().selfadjointView<Eigen::Lower>() * xf;
     const Eigen::VectorXd dx = backSolve(r);
+    if (!dx.allFinite()) throw Error("coarse solve: diverged (non-finite update)");  // std::max would hide a NaN
     double update = 0.0;
     for (std::size_t v = 0; v < C.nodes.size(); ++v)
       if (dof_[v] >= 0) {

@@ -86,7 +86,9 @@ std::vector<Eigen::Vector4f> interpolateFineReference(const FineInterpolationDat
         for (int c = 0; c < 4; ++c, o += 3)
           q += block3(d.blocks, o) * (Rt * s.positions[t[std::size_t(c)]].head<3>() - d.coarseRest[t[std::size_t(c)]].head<3>());
         for (std::uint32_t g = 0; g < n[3]; ++g) {
-          const Eigen::Matrix4f& T = s.handles[std::size_t(d.blocks[o].x())];
+          const float hidx = d.blocks[o].x();
+          if (!(hidx >= 0.0f && hidx < float(s.handles.size()))) throw Error("deformation: a handle block refers to a missing handle");
+          const Eigen::Matrix4f& T = s.handles[std::size_t(hidx)];
           ++o;
           const Eigen::Matrix3f M = Rt * T.topLeftCorner<3, 3>() - Eigen::Matrix3f::Identity();
           for (int j = 0; j < 3; ++j, o += 3) q += block3(d.blocks, o) * M.col(j);

@@ -129,7 +129,13 @@ void SimWorker::run() {
     CoarseSolveStats st;
     try {
       if (!finite(handles)) throw Error("simulation: a handle transform is not finite");
-      for (const auto& Tk : increments(solved, handles, options_.continuationMm, options_.continuationDeg)) st = model_.solve(Tk, x, options_.coarseIterations);
+      for (const auto& Tk : increments(solved, handles, options_.continuationMm, options_.continuationDeg)) {
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          if (stop_) return;  // shutting down: do not finish a long continuation
+        }
+        st = model_.solve(Tk, x, options_.coarseIterations);
+      }
       s = snapshot(input, handles, st, t0);
       s.settled = st.converged || options_.idleIterations <= 0;
       lastGood = x;
@@ -140,6 +146,7 @@ void SimWorker::run() {
       s.input = input;
       s.error = e.what();
       s.coarse = x;
+      s.settled = true;  // answered: with an error
       st = CoarseSolveStats{};
     }
     const bool ok = s.error.empty();
@@ -147,14 +154,29 @@ void SimWorker::run() {
     publish(std::move(s));
     if (!ok) continue;
     // A held pose settles: more coarse iterations while nothing newer arrives.
+    bool failed = false;
     for (int done = 0; !st.converged && done < options_.idleIterations && !newer(); done += options_.coarseIterations) {
-      st = model_.solve(handles, x, options_.coarseIterations);
-      lastGood = x;
-      SimSnapshot more = snapshot(input, handles, st, t0);
-      more.settled = st.converged || done + options_.coarseIterations >= options_.idleIterations;
-      fine = more.fine;
-      publish(std::move(more));
+      try {
+        st = model_.solve(handles, x, options_.coarseIterations);
+        lastGood = x;
+        SimSnapshot more = snapshot(input, handles, st, t0);
+        more.settled = st.converged || done + options_.coarseIterations >= options_.idleIterations;
+        fine = more.fine;
+        publish(std::move(more));
+      } catch (const std::exception& e) {
+        // The last good state stays; this input is answered (settled) with the error.
+        x = lastGood;
+        SimSnapshot err;
+        err.input = input;
+        err.error = e.what();
+        err.coarse = x;
+        err.settled = true;
+        publish(std::move(err));
+        failed = true;
+        break;
+      }
     }
+    if (failed) continue;
     if (options_.refineSteps <= 0 || !options_.reconstructFine) continue;
     for (int step = 1; step <= options_.refineSteps; ++step) {
       if (newer()) break;  // a newer input wins

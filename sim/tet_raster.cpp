@@ -28,9 +28,24 @@ void regionVoxelBox(const Eigen::Matrix4d& w2i, const Eigen::Vector3i& dims, con
   }
 }
 
+std::uint64_t defaultMaxTetVoxels(const TetMesh& mesh, const Eigen::Matrix4d& w2i) {
+  std::uint64_t most = 0;
+  for (const auto& t : mesh.tets) {
+    Eigen::Vector3d a = Eigen::Vector3d::Constant(1e300), b = -a;
+    for (int c : t) {
+      const Eigen::Vector3d p = (w2i * mesh.nodes[std::size_t(c)].homogeneous()).head<3>();
+      a = a.cwiseMin(p);
+      b = b.cwiseMax(p);
+    }
+    const Eigen::Vector3d e = (b - a).array().ceil() + 1.0;
+    most = std::max<std::uint64_t>(most, std::uint64_t(std::min(e.prod(), 1e15)));
+  }
+  return std::max<std::uint64_t>(4096, 64 * most);
+}
+
 RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& lo,
                               const Eigen::Vector3d& hi, float background, Volume& out, const std::vector<std::uint8_t>* restMask,
-                              std::vector<std::uint8_t>* outMask) {
+                              std::vector<std::uint8_t>* outMask, std::uint64_t maxTetVoxels) {
   if (deformed.size() != mesh.nodes.size()) throw Error("rasterization: one deformed position per node expected");
   for (const auto& p : deformed)
     if (!p.allFinite()) throw Error("rasterization: a deformed node position is not finite");
@@ -71,15 +86,21 @@ RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std:
       bmin = bmin.cwiseMin(v[c]);
       bmax = bmax.cwiseMax(v[c]);
     }
-    const int i0 = std::max(rlo.x(), int(std::ceil(bmin.x() - 1e-9))), i1 = std::min(rhi.x(), int(std::floor(bmax.x() + 1e-9)));
-    const int j0 = std::max(rlo.y(), int(std::ceil(bmin.y() - 1e-9))), j1 = std::min(rhi.y(), int(std::floor(bmax.y() + 1e-9)));
-    const int k0 = std::max(rlo.z(), int(std::ceil(bmin.z() - 1e-9))), k1 = std::min(rhi.z(), int(std::floor(bmax.z() + 1e-9)));
+    const double m = kRasterBoxMargin;
+    const int i0 = std::max(rlo.x(), int(std::ceil(std::max(bmin.x(), -2.0) - m))), i1 = std::min(rhi.x(), int(std::floor(std::min(bmax.x(), 1e9) + m)));
+    const int j0 = std::max(rlo.y(), int(std::ceil(std::max(bmin.y(), -2.0) - m))), j1 = std::min(rhi.y(), int(std::floor(std::min(bmax.y(), 1e9) + m)));
+    const int k0 = std::max(rlo.z(), int(std::ceil(std::max(bmin.z(), -2.0) - m))), k1 = std::min(rhi.z(), int(std::floor(std::min(bmax.z(), 1e9) + m)));
+    if (i0 > i1 || j0 > j1 || k0 > k1) continue;
+    if (std::uint64_t(i1 - i0 + 1) * std::uint64_t(j1 - j0 + 1) * std::uint64_t(k1 - k0 + 1) > maxTetVoxels) {
+      ++st.skipped;  // as deform_claim.comp: a torn tet is not looped over
+      continue;
+    }
     for (int k = k0; k <= k1; ++k)
       for (int j = j0; j <= j1; ++j)
         for (int i = i0; i <= i1; ++i) {
           const Eigen::Vector3d l = Dinv * (Eigen::Vector3d(i, j, k) - v[0]);
           const double l0 = 1.0 - l.sum();
-          if (l.minCoeff() < -1e-9 || l0 < -1e-9) continue;
+          if (l.minCoeff() < -kRasterTolerance || l0 < -kRasterTolerance) continue;
           const std::size_t lin = src.linearIndex(i, j, k);
           if (state[lin] == 0) continue;  // outside the region
           if (state[lin] == 2) {

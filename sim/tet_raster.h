@@ -16,17 +16,28 @@
 
 namespace handson {
 
+/// A voxel centre belongs to a tet when all its barycentric coordinates are >= -kRasterTolerance
+/// (voxel centres on shared faces are claimed by both neighbours, the lower index wins, never by
+/// neither); tets' voxel ranges are widened by kRasterBoxMargin voxels. The GPU passes
+/// (shaders/deform_claim.comp) use the same numbers.
+constexpr double kRasterTolerance = 1e-5;
+constexpr double kRasterBoxMargin = 1e-4;
+
 struct RasterStats {
   std::size_t regionVoxels = 0;  ///< voxels whose centres lie in the region (cleared first)
   std::size_t covered = 0;       ///< voxels written by a tet
   std::size_t overlaps = 0;      ///< voxel hits after the first (shared faces, folded tets)
+  std::size_t skipped = 0;       ///< tets whose voxel range exceeded maxTetVoxels
 };
+
+/// The default cap on a tet's voxel range: 64 times the largest rest tet's (at least 4096).
+std::uint64_t defaultMaxTetVoxels(const TetMesh& mesh, const Eigen::Matrix4d& worldToIndex);
 
 /// `out` gets the deformed image on the source's grid. `regionLo`/`regionHi`: the world box the mesh
 /// filled at rest (cleared to `background` before rasterizing).
 RasterStats rasterizeDeformed(const Volume& source, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& regionLo,
                               const Eigen::Vector3d& regionHi, float background, Volume& out, const std::vector<std::uint8_t>* restMask = nullptr,
-                              std::vector<std::uint8_t>* outMask = nullptr);
+                              std::vector<std::uint8_t>* outMask = nullptr, std::uint64_t maxTetVoxels = UINT64_MAX);
 
 /// The voxel index box [lo, hi] (inclusive, clamped to the grid) of the voxels whose centres lie in
 /// the world box [regionLo, regionHi] up to 1e-3 mm; empty (lo > hi) when none.

@@ -297,6 +297,13 @@ TEST_F(DeformGpu, InconsistentInputIsRefused) {
   auto bad = f.data;
   bad.node[5] = {FineInterpolationData::Corner, 1u << 30, 0, 0};
   EXPECT_THROW(vk::GpuDeformer(test::gpuContext(), im.volume, im.mask, setupFor(f, bad, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi)), Error);
+  auto badHandle = f.data;
+  for (auto& n : badHandle.node)
+    if (n[0] == FineInterpolationData::Interior && n[3] > 0) {
+      badHandle.blocks[n[2] + 12].x() = 5.0f;  // there is one handle
+      break;
+    }
+  EXPECT_THROW(vk::GpuDeformer(test::gpuContext(), im.volume, im.mask, setupFor(f, badHandle, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi)), Error);
   std::vector<std::array<int, 4>> tets = f.scene.meshes.fine.tets;
   tets[0][2] = -1;
   EXPECT_THROW(vk::GpuDeformer(test::gpuContext(), im.volume, im.mask, setupFor(f, f.data, tets, f.scene.lo, f.scene.hi)), Error);
@@ -375,6 +382,46 @@ TEST_F(DeformGpu, FrameGraphDeformsThenRaymarchesAndPicksTheDeformedVolume) {
   EXPECT_LE(double(over) / double(cpu.size() / 4), 0.01) << "pixels off the CPU reference by more than 2/255";
   EXPECT_GT(changed, 20u) << "the kidney moved on screen";
 
+  // A mask edit while deforming (a live selection elsewhere, a handle inside the region) shows at
+  // once: outside the region copied, inside it carried through the deformation.
+  {
+    const Eigen::Vector3i rlo = renderer.deformer()->regionVoxelLo(), rhi = renderer.deformer()->regionVoxelHi();
+    MaskUpload outside, inside;
+    outside.min = Eigen::Vector3i(0, 0, 0);
+    outside.dims = Eigen::Vector3i(3, 3, 3);
+    ASSERT_TRUE((outside.min + outside.dims).x() <= rlo.x() || (outside.min + outside.dims).y() <= rlo.y() || (outside.min + outside.dims).z() <= rlo.z());
+    outside.ids.assign(27, 7);
+    inside.min = (rlo + rhi) / 2;
+    inside.dims = Eigen::Vector3i(2, 2, 2);
+    inside.ids.assign(8, 9);
+    for (const MaskUpload* up2 : {&outside, &inside}) {
+      req = FrameRequest{};
+      req.params = p;
+      req.maskUpload = up2;
+      renderer.submit(req);
+      renderer.waitLast();
+    }
+    const auto m2 = renderer.deformer()->readMask();
+    std::size_t sevens = 0, nines = 0;
+    for (auto v : m2) sevens += v == 7, nines += v == 9;
+    EXPECT_EQ(sevens, 27u);
+    EXPECT_GT(nines, 0u);
+    // Undo both edits (the frames below compare with the images before them).
+    outside.ids.assign(27, 0);
+    inside.ids.assign(8, 0);
+    for (std::size_t i = 0; i < 8; ++i) {
+      const Eigen::Vector3i v = inside.min + Eigen::Vector3i(int(i & 1), int((i >> 1) & 1), int((i >> 2) & 1));
+      inside.ids[i] = f.mask[std::size_t(v.x()) + std::size_t(f.q.geometry.dims.x()) * (std::size_t(v.y()) + std::size_t(f.q.geometry.dims.y()) * std::size_t(v.z()))];
+    }
+    for (const MaskUpload* up2 : {&outside, &inside}) {
+      req = FrameRequest{};
+      req.params = p;
+      req.maskUpload = up2;
+      renderer.submit(req);
+      renderer.waitLast();
+    }
+  }
+
   // A frame without new state shows the same deformed volume; ending the deformation restores the input.
   req = FrameRequest{};
   req.params = p;
@@ -385,4 +432,37 @@ TEST_F(DeformGpu, FrameGraphDeformsThenRaymarchesAndPicksTheDeformedVolume) {
   req.params = p;
   renderer.submit(req);
   EXPECT_EQ(renderer.waitLast().rgba, before.rgba);
+}
+
+TEST_F(DeformGpu, ATornStateIsDrawnWithoutItsStretchedTetsAsOnTheCpu) {
+  // One fine node thrown 300 mm away (a torn solve): its tets would cover most of the region. They
+  // are skipped and counted on the GPU and on the CPU alike; the rest is drawn as usual.
+  const Fixture& f = fixture();
+  const Images im = upload(f.q, f.mask);
+  const auto& mesh = f.scene.meshes.fine;
+  FineInterpolationData rest;  // positions come from the caller
+  rest.node.assign(mesh.nodes.size(), {FineInterpolationData::Rest, 0, 0, 0});
+  for (const auto& X : mesh.nodes) rest.rest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
+  rest.coarseRest = {Eigen::Vector4f(0, 0, 0, 1)};
+  rest.coarseTets = {{0, 0, 0, 0}};
+  vk::GpuDeformer gpu(test::gpuContext(), im.volume, im.mask, setupFor(f, rest, mesh.tets, f.scene.lo, f.scene.hi));
+  std::vector<Eigen::Vector3d> world = mesh.nodes;
+  std::size_t far = 0;  // a node near the region's centre, nowhere near the fixed faces
+  const Eigen::Vector3d c = 0.5 * (f.scene.lo + f.scene.hi);
+  for (std::size_t i = 0; i < world.size(); ++i)
+    if ((world[i] - c).norm() < (world[far] - c).norm()) far = i;
+  world[far] += Eigen::Vector3d(300, 250, -200);
+  const Eigen::Matrix4d w2i = f.q.geometry.worldToIndex();
+  std::vector<Eigen::Vector4f> idx(world.size());
+  for (std::size_t i = 0; i < world.size(); ++i) idx[i] = (w2i * world[i].homogeneous()).cast<float>();
+  const auto st = gpu.runFrame(idx);
+  EXPECT_GT(st.skippedTets, 0u);
+  Volume out;
+  const RasterStats cpu = rasterizeDeformed(f.phantom.ct, mesh, world, f.scene.lo, f.scene.hi, f.backgroundHu, out, nullptr, nullptr,
+                                            defaultMaxTetVoxels(mesh, w2i));
+  EXPECT_EQ(cpu.skipped, st.skippedTets);
+  const auto vol = gpu.readVolume();
+  std::size_t within = 0;
+  for (std::size_t i = 0; i < vol.size(); ++i) within += std::abs(f.q.toValue(vol[i] / 65535.0f) - out.value(i)) <= 1.0f ? 1 : 0;
+  EXPECT_GE(double(within) / double(vol.size()), 0.999);
 }
