@@ -48,10 +48,12 @@ const char* const kSimHelp =
     "  --sim on|off            simulate moved handles (default on): the tissue around them deforms\n"
     "  --sim-coarse-tets N     coarse elements of the simulation (default 6000)\n"
     "  --sim-fine-tets N       fine elements (default 300000)\n"
-    "  --sim-padding-mm D      simulated region: the handles' box plus D mm (default 40)\n";
-const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm"};
+    "  --sim-padding-mm D      simulated region: the handles' box plus D mm (default 40)\n"
+    "  --sim-refine-steps N    two-level refinement steps toward the fine answer while a pose is held\n"
+    "                          (default 2 in view, 0 in replay)\n";
+const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm", "--sim-refine-steps"};
 
-DeformationOptions simOptions(const Args& args) {
+DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   DeformationOptions d;
   const std::string on = args.valueOr("--sim", "on");
   if (on != "on" && on != "off") throw UsageError("--sim must be on or off");
@@ -60,6 +62,7 @@ DeformationOptions simOptions(const Args& args) {
   d.sim.fineTets = int(args.integer("--sim-fine-tets", d.sim.fineTets, 6, 20000000));
   if (d.sim.fineTets < d.sim.coarseTets) throw UsageError("--sim-fine-tets must be at least --sim-coarse-tets");
   d.sim.paddingMm = args.number("--sim-padding-mm", d.sim.paddingMm, 0.0, 1e4);
+  d.refineSteps = int(args.integer("--sim-refine-steps", defaultRefineSteps, 0, 100));
   return d;
 }
 
@@ -101,7 +104,7 @@ int cmdView(const Words& words) {
   o.validation = args.flag("--validation");
   o.quiet = args.flag("--quiet");
   o.printCamera = args.flag("--print-camera");
-  o.sim = simOptions(args);
+  o.sim = simOptions(args, 2);
   if (!displayAvailable()) throw Error("no display available (DISPLAY and WAYLAND_DISPLAY are unset): use 'handson replay' to run headless");
   return runViewer(o);
 }
@@ -126,7 +129,7 @@ int cmdReplay(const Words& words) {
   o.printCamera = args.flag("--print-camera");
   o.printHandles = args.flag("--print-handles");
   o.exportPath = args.valueOr("--export", "");
-  o.sim = simOptions(args);
+  o.sim = simOptions(args, 0);
   return runReplay(o);
 }
 

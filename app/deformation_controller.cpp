@@ -1,5 +1,7 @@
 #include "deformation_controller.h"
 
+#include <Eigen/Geometry>
+
 #include <chrono>
 #include <cstdio>
 #include <sstream>
@@ -74,7 +76,8 @@ void DeformationController::stopAll() {
   }
   renderer_.endDeformation();
   state_.reset();
-  stateFresh_ = false;
+  stateFresh_ = fineFresh_ = false;
+  shownRefineStep_ = 0;
   sentPoses_.clear();
   shownInput_ = lastSent_ = answeredInput_ = 0;
   shownConverged_ = shownSettled_ = answeredSettled_ = false;
@@ -188,6 +191,7 @@ void DeformationController::adoptBuilt() {
   wo.idleIterations = options_.idleIterations;
   wo.reconstructFine = false;  // the GPU interpolates the fine nodes
   wo.elementRotations = true;
+  wo.refineSteps = options_.refineSteps;
   m->worker = std::make_unique<SimWorker>(*m->model, m->scene.fineK, wo);
   vk::DeformSetup setup;
   setup.interpolation = &m->data;
@@ -217,19 +221,32 @@ void DeformationController::pull() {
     }
     try {
       state_ = packFrameState(s->coarse, s->rotations, s->handles);
+      if (s->refineStep > 0 && !s->fine.empty()) {
+        const Eigen::Matrix4d w2i = image_.geometry().worldToIndex();
+        finePositions_.resize(s->fine.size());
+        for (std::size_t i = 0; i < s->fine.size(); ++i) {
+          if (!s->fine[i].allFinite()) throw Error("simulation: a refined position is not finite");
+          finePositions_[i] = (w2i * s->fine[i].homogeneous()).cast<float>();
+        }
+        fineFresh_ = true;
+        stateFresh_ = false;
+      } else {
+        fineFresh_ = false;
+        stateFresh_ = true;
+      }
+      shownRefineStep_ = s->refineStep;
     } catch (const std::exception& e) {
       lastError_ = e.what();
       continue;
     }
     lastError_.clear();
-    stateFresh_ = true;
     shownInput_ = s->input;
     shownConverged_ = s->stats.converged;
     shownSettled_ = s->settled;
   }
 }
 
-bool DeformationController::prepareFrame(FrameRequest& req, const HandleSet& handles) {
+bool DeformationController::prepareFrame(FrameRequest& req, const HandleSet& handles, bool attach) {
   if (!options_.enabled) return false;
   reapBuilders(false);
   const Key key = keyOf(handles);
@@ -259,7 +276,12 @@ bool DeformationController::prepareFrame(FrameRequest& req, const HandleSet& han
     sentPoses_ = T;
   }
   pull();
-  if (state_ && stateFresh_) {
+  if (!attach) return shownInput_ > 0;
+  if (fineFresh_) {
+    req.deformFine = &finePositions_;  // shown; its coarse state too, for a later redo
+    if (state_) req.deform = &*state_;
+    fineFresh_ = false;
+  } else if (state_ && stateFresh_) {
     req.deform = &*state_;
     stateFresh_ = false;
   }
@@ -267,10 +289,12 @@ bool DeformationController::prepareFrame(FrameRequest& req, const HandleSet& han
 }
 
 bool DeformationController::prepareFrameSettled(FrameRequest& req, const HandleSet& handles, double seconds) {
-  bool shown = prepareFrame(req, handles);
-  if (state() == State::Building && waitBuilt(seconds)) shown = prepareFrame(req, handles);
-  if (model_ && waitSettled(seconds)) shown = prepareFrame(req, handles);
-  return shown;
+  // Only the settled answer is shown (never an intermediate one that happened to land first), so
+  // the frames do not depend on timing.
+  prepareFrame(req, handles, false);
+  if (state() == State::Building && waitBuilt(seconds)) prepareFrame(req, handles, false);
+  if (model_) waitSettled(seconds);
+  return prepareFrame(req, handles, true);
 }
 
 bool DeformationController::exportDeformed(Volume& out) const {
@@ -316,7 +340,8 @@ std::string DeformationController::status() const {
     case State::Ready:
       if (!model_) return "simulation: ready";
       s << "simulation: " << model_->scene.meshes.coarse.tets.size() << " coarse / " << model_->scene.meshes.fine.tets.size() << " fine tets"
-        << (shownInput_ == 0 ? "" : shownConverged_ ? ", settled" : shownSettled_ ? ", stopped before converging" : ", settling")
+        << (shownInput_ == 0 ? "" : shownRefineStep_ > 0 ? ", refined x" + std::to_string(shownRefineStep_)
+                                  : shownConverged_ ? ", settled" : shownSettled_ ? ", stopped before converging" : ", settling")
         << (lastError_.empty() ? "" : "; last pose refused: " + lastError_);
       return s.str();
   }

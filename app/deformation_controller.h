@@ -27,6 +27,7 @@ struct DeformationOptions {
   SimSettings sim;               ///< region padding, coarse and fine resolutions, materials
   int coarseIterations = 3;      ///< per new pose (warm started)
   int idleIterations = 300;      ///< more while a pose is held, until converged
+  int refineSteps = 0;           ///< then two-level refinement steps toward the fine answer (shown as they land)
 };
 
 class DeformationController {
@@ -43,7 +44,8 @@ class DeformationController {
   /// Before submitting a frame: follows the handles (a changed set restarts the build), sends
   /// changed poses to the worker, and attaches the newest coarse state to the request. Returns
   /// whether the frame shows the simulated deformation (the caller then turns the rigid preview off).
-  bool prepareFrame(FrameRequest& request, const HandleSet& handles);
+  /// `attach` false: follow and send, but attach nothing yet.
+  bool prepareFrame(FrameRequest& request, const HandleSet& handles, bool attach = true);
 
   /// The same, but waits for the build and for the solve of the current poses to settle (at most
   /// `seconds` each): deterministic frames for replays and tests.
@@ -112,6 +114,9 @@ class DeformationController {
   std::string lastError_;
   std::optional<CoarseFrameState> state_;
   bool stateFresh_ = false;
+  std::vector<Eigen::Vector4f> finePositions_;  // a refined state (voxel index space)
+  bool fineFresh_ = false;
+  int shownRefineStep_ = 0;
 };
 
 }  // namespace handson

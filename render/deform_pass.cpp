@@ -454,6 +454,47 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
   return {hb.volume, hb.mask};
 }
 
+GpuDeformer::Outputs GpuDeformer::addPassesFromPositions(fg::FrameGraph& g, std::uint32_t slot, const std::vector<Eigen::Vector4f>& positions, Redo redo,
+                                                         fg::ResourceHandle sourceVolume, fg::ResourceHandle sourceMask, const Outputs& outputs) {
+  if (slot >= slots_.size()) throw Error("deformation: frame slot out of range");
+  if (positions.size() != nodes_) throw Error("deformation: one position per fine node expected");
+  for (const auto& p : positions)
+    if (!p.allFinite()) throw Error("deformation: a fine node position is not finite");
+  Slot& s = slots_[slot];
+  const VkDeviceSize bytes = nodes_ * 16;
+  if (!s.fine || s.fine->size() < bytes) s.fine = std::make_unique<Buffer>(ctx_, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, Buffer::Memory::HostVisible);
+  std::memcpy(s.fine->mapped(), positions.data(), bytes);
+  s.fine->flush();
+  importResources(g, slot, false, sourceVolume, sourceMask, outputs);
+  using fg::Access;
+  h_.fineUpload = g.importBuffer("fine-positions-upload", {s.fine->size()}, Access::HostWrite);
+  const Bound hb = h_;
+  // The positions last taken become the previous ones (for the moved box), then the upload.
+  g.addPass(
+      "deform-keep-previous",
+      [&](fg::PassBuilder& b) {
+        b.read(hb.posNew, Access::TransferSrc);
+        b.write(hb.posOld, Access::TransferDst);
+      },
+      [hb, bytes](fg::Executor& e) {
+        GraphExecutor& x = vulkanExecutor(e);
+        const VkBufferCopy c{0, 0, bytes};
+        vkCmdCopyBuffer(x.cmd(), x.buffer(hb.posNew).handle(), x.buffer(hb.posOld).handle(), 1, &c);
+      });
+  g.addPass(
+      "deform-upload-positions",
+      [&](fg::PassBuilder& b) {
+        b.read(hb.fineUpload, Access::TransferSrc);
+        b.write(hb.posNew, Access::TransferDst);
+      },
+      [hb, bytes](fg::Executor& e) {
+        GraphExecutor& x = vulkanExecutor(e);
+        const VkBufferCopy c{0, 0, bytes};
+        vkCmdCopyBuffer(x.cmd(), x.buffer(hb.fineUpload).handle(), x.buffer(hb.posNew).handle(), 1, &c);
+      });
+  return addResamplePasses(g, redo);
+}
+
 void GpuDeformer::bind(GraphExecutor& x) {
   const Bound& h = h_;
   if (h.onlyOutputs) {
@@ -476,6 +517,7 @@ void GpuDeformer::bind(GraphExecutor& x) {
   x.bindBuffer(h.args, argsBuffer_);
   x.bindBuffer(h.owner, owner_);
   x.bindBuffer(h.affine, affine_);
+  if (h.fineUpload.valid()) x.bindBuffer(h.fineUpload, *s.fine);
   if (h.withState) {
     x.bindBuffer(h.positions, *s.positions);
     x.bindBuffer(h.rotations, *s.rotations);

@@ -72,6 +72,11 @@ class GpuDeformer {
   /// `outputs`: the deformed images' handles when importOutputs() gave them already this frame.
   Outputs addPasses(fg::FrameGraph& graph, std::uint32_t slot, const CoarseFrameState& state, Redo redo = Redo::Moved,
                     fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {}, const Outputs& outputs = {});
+  /// Adds one frame's passes from fine node positions computed elsewhere (voxel index space: the
+  /// two-level refinement of a held pose), uploaded through the slot's buffer; with Redo::Moved only
+  /// the moved box is redone. Megabytes, not kilobytes: for the occasional refined state, not every frame.
+  Outputs addPassesFromPositions(fg::FrameGraph& graph, std::uint32_t slot, const std::vector<Eigen::Vector4f>& indexPositions, Redo redo = Redo::Moved,
+                                 fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {}, const Outputs& outputs = {});
   /// Imports the deformed images alone (a frame without new state reads them as they are).
   Outputs importOutputs(fg::FrameGraph& graph);
   /// The region's voxel box (inclusive) on the volume grid.
@@ -102,7 +107,7 @@ class GpuDeformer {
   DeformFrameStats runOwn(const std::function<void(fg::FrameGraph&)>& build);
 
   struct Slot {
-    std::unique_ptr<Buffer> positions, rotations, handles;
+    std::unique_ptr<Buffer> positions, rotations, handles, fine;
   };
   const Context& ctx_;
   const Image& source_;
@@ -122,6 +127,7 @@ class GpuDeformer {
     fg::ResourceHandle params, nodeInfo, rest, blocks, coarseTets, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, affine, source, sourceMask,
         volume, mask, positions, rotations, handles;
     std::uint32_t slot = 0;
+    fg::ResourceHandle fineUpload;
     bool withState = false, onlyOutputs = false;
   } h_;
 };

@@ -251,9 +251,12 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
       uploadInRegion = (lo.array() <= deformer_->regionVoxelHi().array()).all() && (hi.array() >= deformer_->regionVoxelLo().array()).all();
       g.exportResource(deformed.mask, fg::Access::Sampled);
     }
-    if (lastDeform_ && (req.deform || uploadInRegion || deformFirst_)) {
-      const vk::Redo redo = (deformFirst_ || uploadInRegion) ? vk::Redo::Region : vk::Redo::Moved;
-      deformer_->addPasses(g, executor_.slot(), *lastDeform_, redo, in.volume, in.mask, deformed);
+    const bool whole = deformFirst_ || uploadInRegion;  // the deformed images must be redone over the region
+    if (req.deformFine) {
+      deformer_->addPassesFromPositions(g, executor_.slot(), *req.deformFine, whole ? vk::Redo::Region : vk::Redo::Moved, in.volume, in.mask, deformed);
+      deformFirst_ = false;
+    } else if (lastDeform_ && (req.deform || whole)) {
+      deformer_->addPasses(g, executor_.slot(), *lastDeform_, whole ? vk::Redo::Region : vk::Redo::Moved, in.volume, in.mask, deformed);
       deformFirst_ = false;
     }
     in.volume = deformed.volume;

@@ -49,6 +49,8 @@ struct FrameRequest {
   FrameExtension* extension = nullptr;
   /// While deforming: a new coarse state to show (nullptr: the deformed volume as it is).
   const CoarseFrameState* deform = nullptr;
+  /// While deforming: refined fine node positions (voxel index space) to show instead; uploaded.
+  const std::vector<Eigen::Vector4f>* deformFine = nullptr;
 };
 
 struct FrameResult {

@@ -137,7 +137,7 @@ void SimWorker::run() {
         st = model_.solve(Tk, x, options_.coarseIterations);
       }
       s = snapshot(input, handles, st, t0);
-      s.settled = st.converged || options_.idleIterations <= 0;
+      s.settled = (st.converged || options_.idleIterations <= 0) && options_.refineSteps <= 0;
       lastGood = x;
       solved = handles;
     } catch (const std::exception& e) {
@@ -160,7 +160,7 @@ void SimWorker::run() {
         st = model_.solve(handles, x, options_.coarseIterations);
         lastGood = x;
         SimSnapshot more = snapshot(input, handles, st, t0);
-        more.settled = st.converged || done + options_.coarseIterations >= options_.idleIterations;
+        more.settled = (st.converged || done + options_.coarseIterations >= options_.idleIterations) && options_.refineSteps <= 0;
         fine = more.fine;
         publish(std::move(more));
       } catch (const std::exception& e) {
@@ -177,16 +177,32 @@ void SimWorker::run() {
       }
     }
     if (failed) continue;
-    if (options_.refineSteps <= 0 || !options_.reconstructFine) continue;
+    if (options_.refineSteps <= 0) continue;
+    if (fine.empty()) {
+      if (newer()) continue;
+      fine = model_.reconstruct(handles, x);  // the refinement starts from the coarse answer
+    }
     for (int step = 1; step <= options_.refineSteps; ++step) {
       if (newer()) break;  // a newer input wins
-      refiner_.step(x, fine, options_.refineIterations);
       SimSnapshot r;
       r.input = input;
-      r.refineStep = step;
-      r.coarse = x;
-      r.fine = fine;
-      r.handles = handles;
+      try {
+        refiner_.step(x, fine, options_.refineIterations);
+        r.refineStep = step;
+        r.coarse = x;
+        r.fine = fine;
+        r.handles = handles;
+        r.settled = step == options_.refineSteps;
+        if (options_.elementRotations) r.rotations = model_.elementRotations(x);
+      } catch (const std::exception& e) {
+        r = SimSnapshot{};
+        r.input = input;
+        r.error = e.what();
+        r.coarse = x;
+        r.settled = true;
+        publish(std::move(r));
+        break;
+      }
       r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       publish(std::move(r));
     }

@@ -20,7 +20,8 @@ namespace handson {
 
 struct SimWorkerOptions {
   int coarseIterations = 3;   ///< coarse corotational iterations per input (warm started)
-  int refineSteps = 0;        ///< two-level steps after each input while it stays the newest
+  int refineSteps = 0;        ///< two-level steps after each input while it stays the newest (after the
+                              ///< coarse solve settled; their snapshots carry fine positions)
   int refineIterations = 10;  ///< PCG iterations per step
   bool reconstructFine = true;    ///< fine nodes on the CPU (false: the GPU interpolates them from the coarse state)
   bool elementRotations = false;  ///< publish each coarse element's rotation (what the GPU interpolation needs)
