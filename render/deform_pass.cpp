@@ -470,28 +470,21 @@ GpuDeformer::Outputs GpuDeformer::addPassesFromPositions(fg::FrameGraph& g, std:
   h_.fineUpload = g.importBuffer("fine-positions-upload", {s.fine->size()}, Access::HostWrite);
   const Bound hb = h_;
   // The positions last taken become the previous ones (for the moved box), then the upload.
-  g.addPass(
-      "deform-keep-previous",
-      [&](fg::PassBuilder& b) {
-        b.read(hb.posNew, Access::TransferSrc);
-        b.write(hb.posOld, Access::TransferDst);
-      },
-      [hb, bytes](fg::Executor& e) {
-        GraphExecutor& x = vulkanExecutor(e);
-        const VkBufferCopy c{0, 0, bytes};
-        vkCmdCopyBuffer(x.cmd(), x.buffer(hb.posNew).handle(), x.buffer(hb.posOld).handle(), 1, &c);
-      });
-  g.addPass(
-      "deform-upload-positions",
-      [&](fg::PassBuilder& b) {
-        b.read(hb.fineUpload, Access::TransferSrc);
-        b.write(hb.posNew, Access::TransferDst);
-      },
-      [hb, bytes](fg::Executor& e) {
-        GraphExecutor& x = vulkanExecutor(e);
-        const VkBufferCopy c{0, 0, bytes};
-        vkCmdCopyBuffer(x.cmd(), x.buffer(hb.fineUpload).handle(), x.buffer(hb.posNew).handle(), 1, &c);
-      });
+  auto copyPass = [&](const char* name, fg::ResourceHandle from, fg::ResourceHandle to) {
+    g.addPass(
+        name,
+        [&](fg::PassBuilder& b) {
+          b.read(from, Access::TransferSrc);
+          b.write(to, Access::TransferDst);
+        },
+        [from, to, bytes](fg::Executor& e) {
+          GraphExecutor& x = vulkanExecutor(e);
+          const VkBufferCopy c{0, 0, bytes};
+          vkCmdCopyBuffer(x.cmd(), x.buffer(from).handle(), x.buffer(to).handle(), 1, &c);
+        });
+  };
+  copyPass("deform-keep-previous", hb.posNew, hb.posOld);
+  copyPass("deform-upload-positions", hb.fineUpload, hb.posNew);
   return addResamplePasses(g, redo);
 }
 
