@@ -32,6 +32,11 @@ SessionScript builtInDemoScript() { return parseSessionScript(kOrbitAndZoomScrip
 
 int runReplay(const ReplayOptions& o) {
   if (!(o.fps > 0.0 && o.fps <= 1000.0)) throw Error("--fps must be in (0, 1000]");
+  if (!o.exportPath.empty()) {  // refused before the replay's work, not after it
+    const std::filesystem::path dir = std::filesystem::absolute(o.exportPath).parent_path();
+    std::error_code ec;
+    if (!std::filesystem::is_directory(dir, ec)) throw Error("--export: the directory '" + dir.string() + "' does not exist");
+  }
   SessionScript script = o.script.empty() ? builtInDemoScript() : readSessionScript(o.script);
   const ProgressFn progress = o.quiet ? ProgressFn{} : consoleProgress();
 

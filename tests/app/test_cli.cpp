@@ -269,3 +269,21 @@ TEST_F(Cli, DeformOnTheGpuAgreesWithTheCpuReference) {
     EXPECT_GE(double(within) / double(a.voxelCount()), 0.999) << extra;
   }
 }
+
+TEST_F(Cli, SimulationOptionsAreCheckedBeforeAnyWork) {
+  const std::pair<const char*, int> bad[] = {
+      {"replay --sim maybe", 2},
+      {"replay --sim-coarse-tets 0", 2},
+      {"replay --sim-fine-tets 10 --sim-coarse-tets 100", 2},
+      {"replay --sim-refine-steps -1", 2},
+      {"replay --quiet --export /nonexistent-dir/x.nii.gz", 1},
+      {"bench deform --frames 0", 2},
+      {"bench deform --commit-voxels -1", 2},
+      {"deform /nonexistent.nii.gz --handle x.nii.gz --translate-mm 1,0,0 -o y.nii.gz --backend gpu", 1},
+  };
+  for (const auto& [args, status] : bad) {
+    const CliRun r = runHandson(args);
+    EXPECT_EQ(r.status, status) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find("error"), std::string::npos) << args << "\n" << r.output;
+  }
+}
