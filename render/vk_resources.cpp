@@ -369,6 +369,17 @@ void uploadToBuffer(const Context& ctx, const Buffer& dst, const void* data, VkD
   ctx.submitAndWait([&](VkCommandBuffer cmd) {
     VkBufferCopy c{0, 0, bytes};
     vkCmdCopyBuffer(cmd, staging.handle(), dst.handle(), 1, &c);
+    // The copy made available to whatever later work reads or overwrites the buffer (the fence
+    // orders the host; this orders the device).
+    VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+    m.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+    m.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+    m.dstStageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
+    m.dstAccessMask = VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT;
+    VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+    dep.memoryBarrierCount = 1;
+    dep.pMemoryBarriers = &m;
+    vkCmdPipelineBarrier2(cmd, &dep);
   });
 }
 
