@@ -19,7 +19,6 @@
 #include "sim/coarsening.h"
 #include "sim/error.h"
 #include "sim/fine_interpolation.h"
-#include "sim/phantom.h"
 #include "sim/quantized_volume.h"
 #include "sim/sim_scene.h"
 #include "sim/tet_raster.h"
@@ -83,21 +82,11 @@ int cmdBenchDeform(const Words& words) {
   const std::filesystem::path out = args.valueOr("--out", "bench-out");
   std::filesystem::create_directories(out);
 
-  Volume image;
-  SimHandle handle;
-  if (args.positional().empty()) {
-    PhantomOptions po;
-    po.spacingMm = args.number("--spacing", 1.75, 0.5, 20.0);
-    Phantom ph = makePhantom(po);
-    for (std::size_t i = 0; i < ph.labels.voxelCount(); ++i)
-      if (ph.labels.value(i) == label::kKidneyRight) handle.voxels.push_back(std::uint32_t(i));
-    image = std::move(ph.ct);
-  } else {
-    image = loadVolume(args.positional()[0], nullptr, progress);
-    const std::optional<long> lab = args.value("--handle-label") ? std::optional<long>(args.integer("--handle-label", 0, 1, 65535)) : std::nullopt;
-    handle.voxels = maskVoxels(*args.value("--handle"), image, "handle mask", lab);
-  }
-  if (handle.voxels.empty()) throw Error("the handle selects no voxel");
+  const std::optional<long> lab = args.value("--handle-label") ? std::optional<long>(args.integer("--handle-label", 0, 1, 65535)) : std::nullopt;
+  HandleScene loaded = loadHandleScene(args.positional().empty() ? "" : args.positional()[0], args.valueOr("--handle", ""), lab,
+                                       args.number("--spacing", 1.75, 0.5, 20.0), progress);
+  const Volume image = std::move(loaded.image);
+  const SimHandle handle{std::move(loaded.handle), {}};
 
   auto t0 = std::chrono::steady_clock::now();
   const SimScene sc = buildSimScene(image, {handle}, s, progress);

@@ -17,7 +17,6 @@
 #include "app/volume_io.h"
 #include "sim/coarsening.h"
 #include "sim/error.h"
-#include "sim/phantom.h"
 #include "sim/sim_scene.h"
 #include "sim/static_solver.h"
 #include "sim/two_level.h"
@@ -66,21 +65,11 @@ int cmdBenchSim(const Words& words) {
   const std::filesystem::path out = args.valueOr("--out", "bench-out");
   std::filesystem::create_directories(out);
 
-  Volume image;
-  SimHandle handle;
-  if (args.positional().empty()) {
-    PhantomOptions po;
-    po.spacingMm = args.number("--spacing", 2.0, 0.5, 20.0);
-    Phantom ph = makePhantom(po);
-    for (std::size_t i = 0; i < ph.labels.voxelCount(); ++i)
-      if (ph.labels.value(i) == label::kKidneyRight) handle.voxels.push_back(std::uint32_t(i));
-    image = std::move(ph.ct);
-  } else {
-    image = loadVolume(args.positional()[0], nullptr, progress);
-    const std::optional<long> lab = args.value("--handle-label") ? std::optional<long>(args.integer("--handle-label", 0, 1, 65535)) : std::nullopt;
-    handle.voxels = maskVoxels(*args.value("--handle"), image, "handle mask", lab);
-  }
-  if (handle.voxels.empty()) throw Error("the handle selects no voxel");
+  const std::optional<long> lab = args.value("--handle-label") ? std::optional<long>(args.integer("--handle-label", 0, 1, 65535)) : std::nullopt;
+  HandleScene loaded = loadHandleScene(args.positional().empty() ? "" : args.positional()[0], args.valueOr("--handle", ""), lab,
+                                       args.number("--spacing", 2.0, 0.5, 20.0), progress);
+  const Volume image = std::move(loaded.image);
+  const SimHandle handle{std::move(loaded.handle), {}};
 
   std::ofstream acc(out / "sim_accuracy.csv"), trade(out / "sim_tradeoff.csv");
   acc << "coarse_tets,fine_tets,scene_s,coarsening_s,frame_ms,fine_solve_s,fine_over_frame,fine_iterations,coarse_iterations_to_converge,rms_coarse,max_coarse,rms_plain,max_plain";

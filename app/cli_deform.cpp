@@ -98,18 +98,8 @@ GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const Sim
     for (std::size_t i = 0; i < x.size(); ++i) idx[i] = (w2i * x[i].homogeneous()).cast<float>();
     st = gpu.runFrame(idx);
   }
-  const auto values = gpu.readVolume();
   GpuResample r{image, 0, st.coveredVoxels};
-  Eigen::Vector3i lo, hi;
-  regionVoxelBox(g, sc.lo, sc.hi, lo, hi);
-  for (int k = lo.z(); k <= hi.z(); ++k)
-    for (int j = lo.y(); j <= hi.y(); ++j)
-      for (int i = lo.x(); i <= hi.x(); ++i)
-        if (inRegion(g.toWorld(Eigen::Vector3d(i, j, k)), sc.lo, sc.hi)) {
-          const std::size_t lin = image.linearIndex(i, j, k);
-          r.image.setValue(lin, q.toValue(values[lin] / 65535.0f));
-          ++r.regionVoxels;
-        }
+  r.regionVoxels = takeRegionFromQuantized(r.image, q, gpu.readVolume(), sc.lo, sc.hi);
   return r;
 }
 

@@ -28,7 +28,16 @@ struct DeformationController::Model {
 };
 
 DeformationController::DeformationController(const Volume& image, const QuantizedVolume& quantized, VolumeRenderer& renderer, DeformationOptions options)
-    : image_(image), quantized_(quantized), renderer_(renderer), options_(std::move(options)) {}
+    : image_(image), quantized_(quantized), renderer_(renderer), options_(std::move(options)) {
+  const VolumeGeometry& g = image.geometry();
+  imageLo_ = Eigen::Vector3d::Constant(1e300);
+  imageHi_ = -imageLo_;
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d w = g.toWorld(Eigen::Vector3d((c & 1) ? g.dims.x() - 1 : 0, (c & 2) ? g.dims.y() - 1 : 0, (c & 4) ? g.dims.z() - 1 : 0));
+    imageLo_ = imageLo_.cwiseMin(w);
+    imageHi_ = imageHi_.cwiseMax(w);
+  }
+}
 
 DeformationController::~DeformationController() {
   try {
@@ -155,13 +164,6 @@ void DeformationController::startBuild(const HandleSet& handles) {
 bool DeformationController::outgrown(const std::vector<RigidTransform>& T) const {
   if (!model_) return false;
   const SimScene& sc = model_->scene;
-  const VolumeGeometry& g = image_.geometry();
-  Eigen::Vector3d imgLo = Eigen::Vector3d::Constant(1e300), imgHi = -imgLo;
-  for (int c = 0; c < 8; ++c) {
-    const Eigen::Vector3d w = g.toWorld(Eigen::Vector3d((c & 1) ? g.dims.x() - 1 : 0, (c & 2) ? g.dims.y() - 1 : 0, (c & 4) ? g.dims.z() - 1 : 0));
-    imgLo = imgLo.cwiseMin(w);
-    imgHi = imgHi.cwiseMax(w);
-  }
   const double margin = 0.5 * options_.sim.paddingMm;
   for (std::size_t i = 0; i < T.size() && i < restBoxes_.size(); ++i) {
     if (!simActive_[i]) continue;
@@ -170,8 +172,8 @@ bool DeformationController::outgrown(const std::vector<RigidTransform>& T) const
       const Eigen::Vector3d w = T[i].apply(Eigen::Vector3d((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z()));
       for (int a = 0; a < 3; ++a) {
         // A side already at the image's edge cannot grow: no rebuild for it.
-        if (w[a] < sc.lo[a] + margin && sc.lo[a] > imgLo[a] + 1e-6) return true;
-        if (w[a] > sc.hi[a] - margin && sc.hi[a] < imgHi[a] - 1e-6) return true;
+        if (w[a] < sc.lo[a] + margin && sc.lo[a] > imageLo_[a] + 1e-6) return true;
+        if (w[a] > sc.hi[a] - margin && sc.hi[a] < imageHi_[a] - 1e-6) return true;
       }
     }
   }
@@ -299,19 +301,8 @@ bool DeformationController::prepareFrameSettled(FrameRequest& req, const HandleS
 
 bool DeformationController::exportDeformed(Volume& out) const {
   if (!model_ || !renderer_.deforming() || shownInput_ == 0) return false;
-  const std::vector<std::uint16_t> values = renderer_.deformer()->readVolume();
-  const VolumeGeometry& g = image_.geometry();
-  const SimScene& sc = model_->scene;
   out = image_;
-  Eigen::Vector3i lo, hi;
-  regionVoxelBox(g, sc.lo, sc.hi, lo, hi);
-  for (int k = lo.z(); k <= hi.z(); ++k)
-    for (int j = lo.y(); j <= hi.y(); ++j)
-      for (int i = lo.x(); i <= hi.x(); ++i)
-        if (inRegion(g.toWorld(Eigen::Vector3d(i, j, k)), sc.lo, sc.hi)) {
-          const std::size_t lin = image_.linearIndex(i, j, k);
-          out.setValue(lin, quantized_.toValue(values[lin] / 65535.0f));
-        }
+  takeRegionFromQuantized(out, quantized_, renderer_.deformer()->readVolume(), model_->scene.lo, model_->scene.hi);
   return true;
 }
 

@@ -85,6 +85,7 @@ class DeformationController {
 
   const Volume& image_;
   const QuantizedVolume& quantized_;
+  Eigen::Vector3d imageLo_, imageHi_;  // the image's world box (voxel centres)
   VolumeRenderer& renderer_;
   DeformationOptions options_;
   Key key_;

@@ -6,6 +6,7 @@
 #include "app/dicom_io.h"
 #include "app/nifti_io.h"
 #include "sim/error.h"
+#include "sim/phantom.h"
 
 namespace handson {
 
@@ -42,6 +43,24 @@ std::vector<std::uint32_t> maskVoxels(const std::string& path, const Volume& ima
     if (label ? m.value(i) == float(*label) : (m.value(i) != 0.0f && !std::isnan(m.value(i)))) v.push_back(std::uint32_t(i));
   if (v.empty()) throw Error(std::string(what) + " " + path + " selects no voxel");
   return v;
+}
+
+HandleScene loadHandleScene(const std::string& path, const std::string& mask, std::optional<long> label, double phantomSpacingMm,
+                            const ProgressFn& progress) {
+  HandleScene sc;
+  if (path.empty()) {
+    PhantomOptions po;
+    po.spacingMm = phantomSpacingMm;
+    Phantom ph = makePhantom(po);
+    for (std::size_t i = 0; i < ph.labels.voxelCount(); ++i)
+      if (ph.labels.value(i) == label::kKidneyRight) sc.handle.push_back(std::uint32_t(i));
+    sc.image = std::move(ph.ct);
+  } else {
+    sc.image = loadVolume(path, nullptr, progress);
+    sc.handle = maskVoxels(mask, sc.image, "handle mask", label);
+  }
+  if (sc.handle.empty()) throw Error("the handle selects no voxel");
+  return sc;
 }
 
 }  // namespace handson

@@ -23,4 +23,14 @@ Volume loadVolume(const std::string& path, LoadReport* report = nullptr, const P
 /// grid. Throws handson::Error, naming `what` and the path, if the grids differ or nothing is selected.
 std::vector<std::uint32_t> maskVoxels(const std::string& path, const Volume& image, const char* what, std::optional<long> label);
 
+/// An image and one handle's voxels, for the simulation benchmarks: `path` empty, the built-in
+/// phantom at `phantomSpacingMm` with its right kidney; else the file and the mask's voxels (equal to
+/// `label` when given). Throws handson::Error when the handle selects no voxel.
+struct HandleScene {
+  Volume image;
+  std::vector<std::uint32_t> handle;
+};
+HandleScene loadHandleScene(const std::string& path, const std::string& mask, std::optional<long> label, double phantomSpacingMm,
+                            const ProgressFn& progress);
+
 }  // namespace handson

@@ -46,25 +46,6 @@ template <class T> Buffer uploaded(const Context& ctx, const std::vector<T>& dat
   return b;
 }
 
-void readBuffer(const Context& ctx, const Buffer& src, void* dst, VkDeviceSize bytes) {
-  Buffer host(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::HostVisible);
-  ctx.submitAndWait([&](VkCommandBuffer cmd) {
-    VkBufferCopy c{0, 0, bytes};
-    vkCmdCopyBuffer(cmd, src.handle(), host.handle(), 1, &c);
-    VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-    m.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-    m.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    m.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
-    m.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
-    VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-    dep.memoryBarrierCount = 1;
-    dep.pMemoryBarriers = &m;
-    vkCmdPipelineBarrier2(cmd, &dep);
-  });
-  host.invalidate();
-  std::memcpy(dst, host.mapped(), bytes);
-}
-
 void readImage(const Context& ctx, const Image& img, void* dst, VkDeviceSize bytes) {
   Buffer host(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::HostVisible);
   ctx.submitAndWait([&](VkCommandBuffer cmd) {
@@ -571,7 +552,7 @@ DeformFrameStats GpuDeformer::runOwn(const std::function<void(fg::FrameGraph&)>&
 
 std::vector<Eigen::Vector4f> GpuDeformer::readPositions() const {
   std::vector<Eigen::Vector4f> out(nodes_);
-  readBuffer(ctx_, pos_, out.data(), nodes_ * 16);
+  downloadFromBuffer(ctx_, pos_, out.data(), nodes_ * 16);
   return out;
 }
 

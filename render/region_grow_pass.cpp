@@ -23,29 +23,16 @@ VkDescriptorSetLayoutBinding storage(std::uint32_t b) {
 
 // A full compute -> compute/indirect/transfer dependency (the loop's steps depend on each other).
 void fullBarrier(VkCommandBuffer cmd) {
-  VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-  m.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT;
-  m.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  m.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT;
-  m.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT |
-                    VK_ACCESS_2_TRANSFER_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT;
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.memoryBarrierCount = 1;
-  dep.pMemoryBarriers = &m;
-  vkCmdPipelineBarrier2(cmd, &dep);
+  memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT |
+                    VK_ACCESS_2_TRANSFER_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT);
 }
 
 // Copies made visible to the host.
 void hostReadBarrier(VkCommandBuffer cmd) {
-  VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-  m.srcStageMask = VK_PIPELINE_STAGE_2_TRANSFER_BIT;
-  m.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  m.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
-  m.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.memoryBarrierCount = 1;
-  dep.pMemoryBarriers = &m;
-  vkCmdPipelineBarrier2(cmd, &dep);
+  memoryBarrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
 }
 
 }  // namespace
@@ -180,15 +167,8 @@ int GpuRegionGrower::growTo(std::uint32_t bound, bool dense, int roundsPerSubmit
 }
 
 std::vector<std::uint32_t> GpuRegionGrower::readKeys() const {
-  Buffer host(ctx_, keys_.size(), VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::HostVisible);
-  ctx_.submitAndWait([&](VkCommandBuffer cmd) {
-    VkBufferCopy c{0, 0, keys_.size()};
-    vkCmdCopyBuffer(cmd, keys_.handle(), host.handle(), 1, &c);
-    hostReadBarrier(cmd);
-  });
-  host.invalidate();
   std::vector<std::uint32_t> out(keys_.size() / 4);
-  std::memcpy(out.data(), host.mapped(), keys_.size());
+  downloadFromBuffer(ctx_, keys_, out.data(), keys_.size());
   return out;
 }
 

@@ -371,16 +371,33 @@ void uploadToBuffer(const Context& ctx, const Buffer& dst, const void* data, VkD
     vkCmdCopyBuffer(cmd, staging.handle(), dst.handle(), 1, &c);
     // The copy made available to whatever later work reads or overwrites the buffer (the fence
     // orders the host; this orders the device).
-    VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-    m.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-    m.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    m.dstStageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
-    m.dstAccessMask = VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT;
-    VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-    dep.memoryBarrierCount = 1;
-    dep.pMemoryBarriers = &m;
-    vkCmdPipelineBarrier2(cmd, &dep);
+    memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                  VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
   });
+}
+
+void downloadFromBuffer(const Context& ctx, const Buffer& src, void* dst, VkDeviceSize bytes) {
+  Buffer host(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::HostVisible);
+  ctx.submitAndWait([&](VkCommandBuffer cmd) {
+    VkBufferCopy c{0, 0, bytes};
+    vkCmdCopyBuffer(cmd, src.handle(), host.handle(), 1, &c);
+    memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+  });
+  host.invalidate();
+  std::memcpy(dst, host.mapped(), bytes);
+}
+
+void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage,
+                   VkAccessFlags2 dstAccess) {
+  VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+  m.srcStageMask = srcStage;
+  m.srcAccessMask = srcAccess;
+  m.dstStageMask = dstStage;
+  m.dstAccessMask = dstAccess;
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.memoryBarrierCount = 1;
+  dep.pMemoryBarriers = &m;
+  vkCmdPipelineBarrier2(cmd, &dep);
 }
 
 void uploadToImage(const Context& ctx, const Image& dst, const void* data, VkDeviceSize bytes, VkImageLayout finalLayout) {

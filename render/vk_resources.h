@@ -137,11 +137,16 @@ class DescriptorWriter {
 void copyBufferToImage(VkCommandBuffer cmd, VkBuffer src, const Image& dst);
 /// Records an image -> buffer copy of a whole image (tightly packed).
 void copyImageToBuffer(VkCommandBuffer cmd, const Image& src, VkBuffer dst);
+/// Records one global memory dependency (for command sequences recorded outside the graph).
+void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage,
+                   VkAccessFlags2 dstAccess);
 /// Records a single image layout transition with a full barrier (for uploads outside the graph).
 void transitionImage(VkCommandBuffer cmd, VkImage image, VkImageLayout from, VkImageLayout to);
 
 /// Uploads bytes to a device-local buffer or image through a staging buffer, waiting for completion.
 void uploadToBuffer(const Context& ctx, const Buffer& dst, const void* data, VkDeviceSize bytes);
+/// Copies the first `bytes` of a device buffer to host memory, waiting for completion.
+void downloadFromBuffer(const Context& ctx, const Buffer& src, void* dst, VkDeviceSize bytes);
 /// Uploads a whole image, leaving it in `finalLayout`.
 void uploadToImage(const Context& ctx, const Image& dst, const void* data, VkDeviceSize bytes, VkImageLayout finalLayout);
 

@@ -79,7 +79,7 @@ class VolumeRenderer {
   /// Shows the volume deformed by the simulation from now on: frames carrying a coarse state
   /// (FrameRequest::deform) run the deformation passes before the raymarch, and the raymarch and
   /// picking read the deformed volume and handle mask. Bricks overlapping the region count as
-  /// occupied (tissue may move into them). The setup's data must stay alive until endDeformation().
+  /// occupied (tissue may move into them). The deformer copies what it needs from the setup.
   void beginDeformation(const vk::DeformSetup& setup);
   /// Back to the undeformed volume.
   void endDeformation();

@@ -43,6 +43,12 @@ std::uint64_t defaultMaxTetVoxels(const TetMesh& mesh, const Eigen::Matrix4d& w2
   return std::max<std::uint64_t>(4096, 64 * most);
 }
 
+std::size_t takeRegionFromQuantized(Volume& image, const QuantizedVolume& q, const std::vector<std::uint16_t>& values, const Eigen::Vector3d& lo,
+                                    const Eigen::Vector3d& hi) {
+  if (values.size() != image.voxelCount()) throw Error("deformation: the deformed copy does not match the image");
+  return forEachRegionVoxel(image.geometry(), lo, hi, [&](std::size_t lin) { image.setValue(lin, q.toValue(values[lin] / 65535.0f)); });
+}
+
 RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& lo,
                               const Eigen::Vector3d& hi, float background, Volume& out, const std::vector<std::uint8_t>* restMask,
                               std::vector<std::uint8_t>* outMask, std::uint64_t maxTetVoxels) {
@@ -62,16 +68,11 @@ RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std:
   regionVoxelBox(g, lo, hi, rlo, rhi);
   // 1 where the voxel centre lies in the region (and may be written), 2 once written.
   std::vector<char> state(src.voxelCount(), 0);
-  for (int k = rlo.z(); k <= rhi.z(); ++k)
-    for (int j = rlo.y(); j <= rhi.y(); ++j)
-      for (int i = rlo.x(); i <= rhi.x(); ++i)
-        if (inRegion(g.toWorld(Eigen::Vector3d(i, j, k)), lo, hi)) {
-          const std::size_t lin = src.linearIndex(i, j, k);
-          out.setValue(lin, background);
-          if (outMask) (*outMask)[lin] = 0;
-          state[lin] = 1;
-          ++st.regionVoxels;
-        }
+  st.regionVoxels = forEachRegionVoxel(g, lo, hi, [&](std::size_t lin) {
+    out.setValue(lin, background);
+    if (outMask) (*outMask)[lin] = 0;
+    state[lin] = 1;
+  });
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
     const auto& tet = mesh.tets[t];
     Eigen::Vector3d v[4];

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "sim/quantized_volume.h"
 #include "sim/tet_mesh.h"
 #include "sim/volume.h"
 
@@ -48,5 +49,23 @@ void regionVoxelBox(const VolumeGeometry& g, const Eigen::Vector3d& regionLo, co
 inline bool inRegion(const Eigen::Vector3d& w, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
   return ((w - lo).array() >= -1e-3).all() && ((hi - w).array() >= -1e-3).all();
 }
+/// Calls f(linear voxel index) for every voxel whose centre lies in the region; returns their count.
+template <class F> std::size_t forEachRegionVoxel(const VolumeGeometry& g, const Eigen::Vector3d& regionLo, const Eigen::Vector3d& regionHi, F&& f) {
+  Eigen::Vector3i lo, hi;
+  regionVoxelBox(g, regionLo, regionHi, lo, hi);
+  std::size_t n = 0;
+  for (int k = lo.z(); k <= hi.z(); ++k)
+    for (int j = lo.y(); j <= hi.y(); ++j)
+      for (int i = lo.x(); i <= hi.x(); ++i)
+        if (inRegion(g.toWorld(Eigen::Vector3d(i, j, k)), regionLo, regionHi)) {
+          f(std::size_t(i) + std::size_t(g.dims.x()) * (std::size_t(j) + std::size_t(g.dims.y()) * std::size_t(k)));
+          ++n;
+        }
+  return n;
+}
+/// `image` with the region's voxels replaced by a deformed copy held as 16-bit values over the
+/// quantized window (what the GPU passes produce); returns the region's voxel count.
+std::size_t takeRegionFromQuantized(Volume& image, const QuantizedVolume& q, const std::vector<std::uint16_t>& values, const Eigen::Vector3d& regionLo,
+                                    const Eigen::Vector3d& regionHi);
 
 }  // namespace handson

@@ -433,13 +433,16 @@ TEST_F(DeformGpu, FrameGraphDeformsThenRaymarchesAndPicksTheDeformedVolume) {
     inside.min = (rlo + rhi) / 2;
     inside.dims = Eigen::Vector3i(2, 2, 2);
     inside.ids.assign(8, 9);
-    for (const MaskUpload* up2 : {&outside, &inside}) {
-      req = FrameRequest{};
-      req.params = p;
-      req.maskUpload = up2;
-      renderer.submit(req);
-      renderer.waitLast();
-    }
+    auto uploadBoth = [&] {
+      for (const MaskUpload* up2 : {&outside, &inside}) {
+        req = FrameRequest{};
+        req.params = p;
+        req.maskUpload = up2;
+        renderer.submit(req);
+        renderer.waitLast();
+      }
+    };
+    uploadBoth();
     const auto m2 = renderer.deformer()->readMask();
     std::size_t sevens = 0, nines = 0;
     for (auto v : m2) sevens += v == 7, nines += v == 9;
@@ -452,13 +455,7 @@ TEST_F(DeformGpu, FrameGraphDeformsThenRaymarchesAndPicksTheDeformedVolume) {
       const Eigen::Vector3i v = inside.min + Eigen::Vector3i(int(i & 1), int((i >> 1) & 1), int((i >> 2) & 1));
       inside.ids[i] = f.mask[std::size_t(v.x()) + std::size_t(f.q.geometry.dims.x()) * (std::size_t(v.y()) + std::size_t(f.q.geometry.dims.y()) * std::size_t(v.z()))];
     }
-    for (const MaskUpload* up2 : {&outside, &inside}) {
-      req = FrameRequest{};
-      req.params = p;
-      req.maskUpload = up2;
-      renderer.submit(req);
-      renderer.waitLast();
-    }
+    uploadBoth();
   }
 
   // A frame without new state shows the same deformed volume; ending the deformation restores the input.
