@@ -5,6 +5,8 @@
 #include <iostream>
 #include <sstream>
 
+#include "sim/coarsening.h"
+
 namespace handson::cli {
 
 Args::Args(std::vector<std::string> args, std::vector<std::string> valueOptions, std::vector<std::string> flagOptions) {
@@ -129,6 +131,13 @@ void parseSize(const std::string& text, int& width, int& height) {
     throw bad();
   }
   if (width < 1 || height < 1 || width > 16384 || height > 16384) throw bad();
+}
+
+CoarseElement coarseElementOption(const Args& args, const char* name) {
+  const std::string v = args.valueOr(name, "cell");
+  if (v == "cell") return CoarseElement::Cell;
+  if (v == "tet") return CoarseElement::Tet;
+  throw UsageError(std::string(name) + " must be cell or tet");
 }
 
 }  // namespace handson::cli

@@ -7,6 +7,10 @@
 #include <string>
 #include <vector>
 
+namespace handson {
+enum class CoarseElement;
+}
+
 namespace handson::cli {
 
 /// Thrown for bad command lines (exit status 2, with the command's usage hint).
@@ -43,5 +47,7 @@ std::ostream& usageStream(const Args& args);
 std::vector<double> parseNumberList(const std::string& text, const std::string& what);
 /// Parses "WxH" (1..16384 each).
 void parseSize(const std::string& text, int& width, int& height);
+/// The coarse model's element kind from option `name` ("cell" or "tet"; absent: cell).
+CoarseElement coarseElementOption(const Args& args, const char* name);
 
 }  // namespace handson::cli

@@ -35,6 +35,7 @@ const char* const kBenchDeformHelp =
     "  region) and the whole deformation frame. PATH omitted: the built-in phantom (right kidney).\n"
     "  --spacing MM           phantom voxel size (default 1.75: 219x165x137 = 4.95 M voxels)\n"
     "  --coarse-tets N        (default 6000)   --fine-tets N (default 300000)   --padding-mm D (default 40)\n"
+    "  --coarse-element cell|tet   the coarse model's elements (default cell)\n"
     "  --frames N             drag frames (default 10)   --step-mm D (default 1)   --step-deg A (default 1)\n"
     "  --commit-voxels V      a fine node's new position is taken once it moved more than V voxels\n"
     "                         (default 0.001: the image lags the simulation by at most that)\n"
@@ -63,7 +64,7 @@ double passMs(const std::vector<vk::PassTiming>& t, std::initializer_list<const 
 int cmdBenchDeform(const Words& words) {
   Args args(words,
             {"--handle", "--handle-label", "--spacing", "--coarse-tets", "--fine-tets", "--padding-mm", "--frames", "--step-mm", "--step-deg", "--device",
-             "--out", "--commit-voxels"},
+             "--out", "--commit-voxels", "--coarse-element"},
             {"--quiet", "--validation"});
   if (args.help() || args.positional().size() > 1 || (args.positional().size() == 1) != bool(args.value("--handle"))) {
     usageStream(args) << kBenchDeformHelp;
@@ -76,6 +77,7 @@ int cmdBenchDeform(const Words& words) {
   s.fineTets = int(args.integer("--fine-tets", 300000, 6, 20000000));
   if (s.fineTets < s.coarseTets) throw UsageError("--fine-tets must be at least --coarse-tets");
   s.paddingMm = args.number("--padding-mm", 40.0, 0.0, 1e4);
+  s.element = coarseElementOption(args, "--coarse-element");
   const int frames = int(args.integer("--frames", 10, 1, 10000));
   const double stepMm = args.number("--step-mm", 1.0, -100.0, 100.0);
   const double stepDeg = args.number("--step-deg", 1.0, -90.0, 90.0);
@@ -90,7 +92,7 @@ int cmdBenchDeform(const Words& words) {
 
   auto t0 = std::chrono::steady_clock::now();
   const SimScene sc = buildSimScene(image, {handle}, s, progress);
-  CoarseModel model(sc.meshes, sc.fineK, sc.constraints, progress);
+  CoarseModel model(sc.meshes, sc.fineK, sc.constraints, progress, s.element);
   const double tPre = since(t0);
   const FineInterpolationData data = model.interpolationData();
   const QuantizedVolume q = quantizeVolume(image);

@@ -31,12 +31,14 @@ const char* const kBenchSimHelp =
     "  built-in phantom with its right kidney (label 4) as the handle. Per coarse resolution: scene and\n"
     "  coarsening time, coarse solve per frame (a 10-frame drag, warm started, 3 iterations a frame),\n"
     "  fine solve time and their ratio, RMS / max error over free fine nodes relative to the handle's\n"
-    "  motion for the coarsened model, a plain coarse FEM and the two-level refinement.\n"
+    "  motion for the coarsened model with both element kinds (grid cells, the default, and the spec's\n"
+    "  coarse tets, on the same coarse nodes), a plain coarse FEM and the two-level refinement (cells).\n"
     "  --coarse-list N,N,..   coarse tet counts (default 1500,3000,6000)\n"
     "  --fine-per-coarse N    fine tets per coarse tet (default 64: m = 4)\n"
     "  --spacing MM           phantom voxel size (default 2)\n"
     "  --refine-steps N       two-level steps measured (default 4, 10 PCG iterations each)\n"
     "  --translate-mm X,Y,Z, --rotate-deg AX,AY,AZ   another motion\n"
+    "  --materials CSV        material table (default: the CT defaults, assets/materials/ct-default.csv)\n"
     "  --out DIR              sim_accuracy.csv, sim_tradeoff.csv and sim_tradeoff.png (default bench-out)\n"
     "  --quiet\n";
 
@@ -44,7 +46,7 @@ double since(std::chrono::steady_clock::time_point t0) { return std::chrono::dur
 }  // namespace
 
 int cmdBenchSim(const Words& words) {
-  Args args(words, {"--handle", "--handle-label", "--coarse-list", "--fine-per-coarse", "--spacing", "--refine-steps", "--translate-mm", "--rotate-deg", "--out"},
+  Args args(words, {"--handle", "--handle-label", "--coarse-list", "--fine-per-coarse", "--spacing", "--refine-steps", "--translate-mm", "--rotate-deg", "--materials", "--out"},
             {"--quiet"});
   if (args.help() || args.positional().size() > 1 || (args.positional().size() == 1) != bool(args.value("--handle"))) {
     usageStream(args) << kBenchSimHelp;
@@ -72,13 +74,16 @@ int cmdBenchSim(const Words& words) {
   const SimHandle handle{std::move(loaded.handle), {}};
 
   std::ofstream acc(out / "sim_accuracy.csv"), trade(out / "sim_tradeoff.csv");
-  acc << "coarse_tets,fine_tets,scene_s,coarsening_s,frame_ms,fine_solve_s,fine_over_frame,fine_iterations,coarse_iterations_to_converge,rms_coarse,max_coarse,rms_plain,max_plain";
+  acc << "coarse_tets,fine_tets,scene_s,coarsening_s,frame_ms,fine_solve_s,fine_over_frame,fine_iterations,coarse_iterations_to_converge,rms_coarse,max_coarse,"
+         "coarsening_s_tet,frame_ms_tet,rms_coarse_tet,max_coarse_tet,rms_plain,max_plain";
   for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k;
   acc << ",refine_step_s\n";
   trade << "model,coarse_tets,seconds,rms\n";
   std::cout << std::fixed;
+  const MaterialTable materials = args.value("--materials") ? MaterialTable::load(*args.value("--materials")) : MaterialTable::ctDefault();
   for (int nc : coarseList) {
     SimSettings s;
+    s.materials = materials;
     s.coarseTets = nc;
     s.fineTets = nc * finePer;
     auto t0 = std::chrono::steady_clock::now();
@@ -96,34 +101,58 @@ int cmdBenchSim(const Words& words) {
     so.tolerance = 1e-4;  // the errors measured are >= 1e-3 of the motion: a 1e-4 reference suffices
     const auto fine = solveStatic(sc.meshes.fine, sc.fineK, dir, x0, so);
     const double tFine = since(t0);
-    // Coarse model: preprocessing, a 10-frame drag (3 iterations a frame), then its converged answer.
-    t0 = std::chrono::steady_clock::now();
-    CoarseModel model(sc.meshes, sc.fineK, sc.constraints, progress);
-    const double tCoarsen = since(t0);
-    auto xc = model.restState();
-    std::vector<double> frameMs;
-    for (int f = 1; f <= 10; ++f) {
-      const std::vector<RigidTransform> Tf{RigidTransform::about(sc.handleCentroid[0], rv * (f / 10.0), tv * (f / 10.0))};
-      t0 = std::chrono::steady_clock::now();
-      model.solve(Tf, xc, 3);
-      frameMs.push_back(1e3 * since(t0));
-    }
-    std::sort(frameMs.begin(), frameMs.end());
-    const double frame = frameMs[frameMs.size() / 2];
-    const CoarseSolveStats conv = model.solve(T, xc, 500);  // the coarse model's own converged answer
+    // Coarse models: preprocessing, a 10-frame drag (3 iterations a frame), then their converged answers.
+    struct Measured {
+      std::unique_ptr<CoarseModel> model;
+      std::vector<Eigen::Vector3d> xc;
+      double coarsening = 0, frame = 0;
+      CoarseSolveStats conv;
+      DeformationError error;
+    };
+    auto measure = [&](CoarseElement kind) {
+      Measured m;
+      auto t1 = std::chrono::steady_clock::now();
+      m.model = std::make_unique<CoarseModel>(sc.meshes, sc.fineK, sc.constraints, progress, kind);
+      m.coarsening = since(t1);
+      m.xc = m.model->restState();
+      std::vector<double> frameMs;
+      for (int f = 1; f <= 10; ++f) {
+        const std::vector<RigidTransform> Tf{RigidTransform::about(sc.handleCentroid[0], rv * (f / 10.0), tv * (f / 10.0))};
+        t1 = std::chrono::steady_clock::now();
+        m.model->solve(Tf, m.xc, 3);
+        frameMs.push_back(1e3 * since(t1));
+      }
+      std::sort(frameMs.begin(), frameMs.end());
+      m.frame = frameMs[frameMs.size() / 2];
+      m.conv = m.model->solve(T, m.xc, 500);  // the coarse model's own converged answer
+      m.error = compareDeformation(sc, T, m.model->reconstruct(T, m.xc), fine.x);
+      return m;
+    };
+    const Measured tet = measure(CoarseElement::Tet);
+    Measured cell = measure(CoarseElement::Cell);
+    CoarseModel& model = *cell.model;
+    auto& xc = cell.xc;
+    const double frame = cell.frame;
+    const auto& ec = cell.error;
     const auto xcoarse = model.reconstruct(T, xc);
-    const auto ec = compareDeformation(sc, T, xcoarse, fine.x);
     const auto ep = compareDeformation(sc, T, plainCoarseSolve(sc.meshes, sc.youngs, sc.poisson, sc.constraints, T), fine.x);
-    acc << sc.meshes.coarse.tets.size() << "," << sc.meshes.fine.tets.size() << "," << tScene << "," << tCoarsen << "," << frame << "," << tFine << ","
-        << tFine / (frame * 1e-3) << "," << fine.iterations << "," << (conv.converged ? conv.iterations : -1) << "," << ec.rmsOfMotion << "," << ec.maxOfMotion << "," << ep.rmsOfMotion << "," << ep.maxOfMotion;
-    trade << "coarsened," << sc.meshes.coarse.tets.size() << "," << frame * 1e-3 << "," << ec.rmsOfMotion << "\n";
+    acc << sc.meshes.coarse.tets.size() << "," << sc.meshes.fine.tets.size() << "," << tScene << "," << cell.coarsening << "," << frame << "," << tFine << ","
+        << tFine / (frame * 1e-3) << "," << fine.iterations << "," << (cell.conv.converged ? cell.conv.iterations : -1) << "," << ec.rmsOfMotion << ","
+        << ec.maxOfMotion << "," << tet.coarsening << "," << tet.frame << "," << tet.error.rmsOfMotion << "," << tet.error.maxOfMotion << "," << ep.rmsOfMotion
+        << "," << ep.maxOfMotion;
+    trade << "coarsened-cells," << sc.meshes.coarse.tets.size() << "," << frame * 1e-3 << "," << ec.rmsOfMotion << "\n";
+    trade << "coarsened-tets," << sc.meshes.coarse.tets.size() << "," << tet.frame * 1e-3 << "," << tet.error.rmsOfMotion << "\n";
     trade << "plain," << sc.meshes.coarse.tets.size() << "," << frame * 1e-3 << "," << ep.rmsOfMotion << "\n";
-    std::cout << std::setprecision(3) << "\ncoarse " << sc.meshes.coarse.tets.size() << " / fine " << sc.meshes.fine.tets.size() << " tets: scene " << tScene
-              << " s, coarsening " << tCoarsen << " s; coarse frame " << frame << " ms, fine solve " << tFine << " s (" << fine.iterations
+    std::cout << std::setprecision(3) << "\ncoarse " << sc.meshes.coarse.tets.size() << " tets (" << model.elementCount() << " cells) / fine "
+              << sc.meshes.fine.tets.size() << " tets: scene " << tScene << " s, coarsening " << cell.coarsening << " s (tets " << tet.coarsening
+              << " s); coarse frame " << frame << " ms (tets " << tet.frame << " ms), fine solve " << tFine << " s (" << fine.iterations
               << " Newton iterations): " << std::setprecision(0) << tFine / (frame * 1e-3) << "x\n"
-              << "  coarse model converged in " << conv.iterations << " iterations" << (conv.converged ? "" : " (NOT converged)") << "\n"
-              << std::setprecision(4) << "  RMS / max of the handle's motion (" << std::setprecision(2) << ec.handleMotionMm << " mm): coarsened "
-              << std::setprecision(4) << ec.rmsOfMotion << " / " << ec.maxOfMotion << ", plain coarse FEM " << ep.rmsOfMotion << " / " << ep.maxOfMotion << "\n";
+              << "  coarse model converged in " << cell.conv.iterations << " iterations" << (cell.conv.converged ? "" : " (NOT converged)") << " (tets "
+              << tet.conv.iterations << (tet.conv.converged ? "" : ", NOT converged") << ")\n"
+              << std::setprecision(4) << "  RMS / max of the handle's motion (" << std::setprecision(2) << ec.handleMotionMm << " mm): coarsened (cells) "
+              << std::setprecision(4) << ec.rmsOfMotion << " / " << ec.maxOfMotion << ", coarsened (tets) " << tet.error.rmsOfMotion << " / "
+              << tet.error.maxOfMotion << ", plain coarse FEM " << ep.rmsOfMotion << " / " << ep.maxOfMotion << " (plain / cells "
+              << std::setprecision(2) << ep.rmsOfMotion / ec.rmsOfMotion << "x)\n";
     FineRefiner refiner(model, sc.fineK);
     auto x = xcoarse;
     double tStep = 0;
@@ -153,11 +182,12 @@ int cmdBenchSim(const Words& words) {
                       << "set ylabel 'RMS error / handle motion (fine reference at 1e-4)'\nset grid\nset key top right\n"
                       << "set arrow from graph 0, first 0.1 to graph 1, first 0.1 nohead dt 2 lc rgb '#cc4444'\n"
                       << "set arrow from graph 0, first 0.02 to graph 1, first 0.02 nohead dt 3 lc rgb '#44aa44'\n"
-                      << "plot '" << f << "' using (strcol(1) eq 'coarsened' ? $3 : 1/0):4 with points pt 7 ps 1.5 title 'coarsened', "
+                      << "plot '" << f << "' using (strcol(1) eq 'coarsened-cells' ? $3 : 1/0):4 with points pt 7 ps 1.5 title 'coarsened, cell elements (default)', "
+                      << "'' using (strcol(1) eq 'coarsened-tets' ? $3 : 1/0):4 with points pt 6 ps 1.5 title 'coarsened, tet elements (spec)', "
                       << "'' using (strcol(1) eq 'plain' ? $3 : 1/0):4 with points pt 5 ps 1.5 title 'plain coarse FEM', "
                       << "'' using (strcol(1) eq 'refined' ? $3 : 1/0):4 with linespoints pt 9 title 'two-level refinement (10 PCG / step)', "
                       << "'' using (strcol(1) eq 'fine' ? $3 : 1/0):4 with points pt 3 ps 2 title 'fine static solve', "
-                      << "'' using (strcol(1) eq 'coarsened' ? $3 : 1/0):4:2 with labels offset 1.5,0.6 notitle\n";
+                      << "'' using (strcol(1) eq 'coarsened-cells' ? $3 : 1/0):4:2 with labels offset 1.5,0.6 notitle\n";
     if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no chart\n";
   }
   std::cout << "\nwrote " << (out / "sim_accuracy.csv").string() << ", " << (out / "sim_tradeoff.csv").string() << " and the chart sim_tradeoff.png\n";

@@ -37,7 +37,9 @@ const char* const kDeformHelp =
     "  --model coarse|fine     the interactive coarsened model (default) or the fine reference (static\n"
     "                          corotational FEM, projected Newton to 1e-6 of the handle's motion)\n"
     "  --refine-steps N        coarse model: two-level refinement steps toward the fine answer (default 0)\n"
-    "  --coarse-tets N         coarse elements over the region (default 6000)\n"
+    "  --coarse-tets N         coarse tets over the region (default 6000; 6 per grid cell)\n"
+    "  --coarse-element cell|tet  the coarse model's elements: grid cells (default; 8 corners, the\n"
+    "                          cell's diagonal faces condensed) or the coarse tets (the spec's)\n"
     "  --fine-tets N           fine elements (default 300000; m^3 per coarse tet, m rounded)\n"
     "  --padding-mm D          region of interest: the handles' box plus D mm (default 40)\n"
     "  --whole-volume          simulate the whole image box instead\n"
@@ -78,7 +80,7 @@ GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const Sim
     data.node.assign(sc.meshes.fine.nodes.size(), {FineInterpolationData::Rest, 0, 0, 0});
     for (const auto& X : sc.meshes.fine.nodes) data.rest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
     data.coarseRest = {Eigen::Vector4f(0, 0, 0, 1)};
-    data.coarseTets = {{0, 0, 0, 0}};
+    data.elementCorners = {{0, 0, 0, 0}, {0, 0, 0, 0}};
   }
   vk::DeformSetup setup;
   setup.interpolation = &data;
@@ -108,7 +110,7 @@ GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const Sim
 int cmdDeform(const Words& words) {
   Args args(words,
             {"--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm",
-             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device"},
+             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element"},
             {"--whole-volume", "--quiet", "--validation"});
   if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {
     usageStream(args) << kDeformHelp;
@@ -130,6 +132,7 @@ int cmdDeform(const Words& words) {
   if (s.fineTets < s.coarseTets) throw UsageError("--fine-tets must be at least --coarse-tets");
   s.paddingMm = args.number("--padding-mm", s.paddingMm, 0.0, 1e4);
   s.wholeVolume = args.flag("--whole-volume");
+  s.element = coarseElementOption(args, "--coarse-element");
   if (auto m = args.value("--materials")) s.materials = MaterialTable::load(*m);
   const int refineSteps = int(args.integer("--refine-steps", 0, 0, 1000));
   const bool quiet = args.flag("--quiet");
@@ -183,7 +186,7 @@ int cmdDeform(const Words& words) {
       x = r.x;
     }
   } else {
-    model_ = std::make_unique<CoarseModel>(sc.meshes, sc.fineK, sc.constraints, progress);
+    model_ = std::make_unique<CoarseModel>(sc.meshes, sc.fineK, sc.constraints, progress, s.element);
     CoarseModel& m = *model_;
     tPre = seconds(t0);
     xc = m.restState();

@@ -141,7 +141,7 @@ void DeformationController::startBuild(const HandleSet& handles) {
     try {
       auto m = std::make_unique<Model>();
       m->scene = buildSimScene(image_, sim, options_.sim, progress);
-      m->model = std::make_unique<CoarseModel>(m->scene.meshes, m->scene.fineK, m->scene.constraints, progress);
+      m->model = std::make_unique<CoarseModel>(m->scene.meshes, m->scene.fineK, m->scene.constraints, progress, options_.sim.element);
       m->data = m->model->interpolationData();
       m->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::lock_guard<std::mutex> lock(mutex_);

@@ -86,7 +86,9 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   nodes_ = d.node.size();
   tets_ = setup.fineTets->size();
   coarseNodes_ = d.coarseRest.size();
-  coarseElements_ = d.coarseTets.size();
+  if (d.cornersPerElement != 4 && d.cornersPerElement != 8) throw Error("deformation: coarse elements have 4 or 8 corners");
+  if (d.elementCorners.size() % 2 != 0) throw Error("deformation: two corner records per coarse element expected");
+  coarseElements_ = d.elementCount();
   handles_ = d.handleCount;
   if (nodes_ == 0 || tets_ == 0 || d.rest.size() != nodes_ || coarseNodes_ == 0 || coarseElements_ == 0)
     throw Error("deformation: empty or inconsistent mesh data");
@@ -100,20 +102,21 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
     }
   static_assert(kRasterTolerance == 1e-5 && kRasterBoxMargin == 1e-4, "shaders/deform_claim.comp uses these numbers");
   for (const auto& n : d.node) {
-    if (n[0] == FineInterpolationData::Interior && std::size_t(n[2]) + 12 + 13 * std::size_t(n[3]) <= d.blocks.size())
+    const std::size_t hc = 3 * std::size_t(d.cornersPerElement);  // H blocks before the handle blocks
+    if (n[0] == FineInterpolationData::Interior && std::size_t(n[2]) + d.interiorBlocks(n[3]) <= d.blocks.size())
       for (std::uint32_t k = 0; k < n[3]; ++k) {
-        const float hidx = d.blocks[std::size_t(n[2]) + 12 + 13 * k].x();
+        const float hidx = d.blocks[std::size_t(n[2]) + hc + 13 * k].x();
         if (!(hidx >= 0.0f && hidx < float(handles_) && hidx == std::floor(hidx))) throw Error("deformation: a handle block refers to a missing handle");
       }
     const bool ok = n[0] == FineInterpolationData::Rest || (n[0] == FineInterpolationData::Handle && n[1] < handles_) ||
                     (n[0] == FineInterpolationData::Corner && n[1] < coarseNodes_) ||
-                    (n[0] == FineInterpolationData::Boundary && n[1] < coarseElements_ && n[2] < d.blocks.size()) ||
-                    (n[0] == FineInterpolationData::Interior && n[1] < coarseElements_ && std::size_t(n[2]) + 12 + 13 * std::size_t(n[3]) <= d.blocks.size());
+                    (n[0] == FineInterpolationData::Boundary && n[1] < coarseElements_ && std::size_t(n[2]) + d.cornersPerElement / 4 <= d.blocks.size()) ||
+                    (n[0] == FineInterpolationData::Interior && n[1] < coarseElements_ && std::size_t(n[2]) + d.interiorBlocks(n[3]) <= d.blocks.size());
     if (!ok) throw Error("deformation: a fine node's reconstruction record is out of range");
   }
-  for (const auto& t : d.coarseTets)
+  for (const auto& t : d.elementCorners)
     for (auto v : t)
-      if (v >= coarseNodes_) throw Error("deformation: a coarse tet refers to a missing node");
+      if (v >= coarseNodes_) throw Error("deformation: a coarse element refers to a missing node");
 
   const std::uint64_t maxGroups = ctx.properties().limits.maxComputeWorkGroupCount[0];
   if ((nodes_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups || (tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups)
@@ -142,7 +145,7 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
     for (const auto& X : d.rest) rest.nodes.emplace_back(double(X.x()), double(X.y()), double(X.z()));
     rest.tets = *setup.fineTets;
     const std::uint64_t cap = setup.maxTetVoxels ? setup.maxTetVoxels : defaultMaxTetVoxels(rest, setup.worldToIndex);
-    p_.limits = glm::uvec4(std::uint32_t(std::min<std::uint64_t>(cap, UINT32_MAX)), 0, 0, 0);
+    p_.limits = glm::uvec4(std::uint32_t(std::min<std::uint64_t>(cap, UINT32_MAX)), d.cornersPerElement, 0, 0);
   }
 
   interpolate_ = ComputePipeline(ctx, shaders::deformInterpolate(),
@@ -158,7 +161,7 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   nodeInfo_ = uploaded(ctx, d.node);
   rest_ = uploaded(ctx, d.rest);
   blocks_ = uploaded(ctx, d.blocks);
-  coarseTets_ = uploaded(ctx, d.coarseTets);
+  elementCorners_ = uploaded(ctx, d.elementCorners);
   coarseRest_ = uploaded(ctx, d.coarseRest);
   tetBuffer_ = uploaded(ctx, tets);
   std::vector<Eigen::Vector4f> restIdx(nodes_);
@@ -213,7 +216,7 @@ void GpuDeformer::importResources(fg::FrameGraph& g, std::uint32_t slot, bool wi
   h.nodeInfo = buf("fine-node-records", nodeInfo_, Access::StorageRead);
   h.rest = buf("fine-rest", rest_, Access::StorageRead);
   h.blocks = buf("fine-blocks", blocks_, Access::StorageRead);
-  h.coarseTets = buf("coarse-tets", coarseTets_, Access::StorageRead);
+  h.elementCorners = buf("coarse-elements", elementCorners_, Access::StorageRead);
   h.coarseRest = buf("coarse-rest", coarseRest_, Access::StorageRead);
   h.tets = buf("fine-tets", tetBuffer_, Access::StorageRead);
   h.restIdx = buf("fine-rest-index", restIdx_, Access::StorageRead);
@@ -269,7 +272,7 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slo
       "deform-interpolate",
       [&](fg::PassBuilder& b) {
         b.read(hb.params, Access::UniformRead);
-        for (auto r : {hb.nodeInfo, hb.rest, hb.blocks, hb.coarseTets, hb.coarseRest, hb.positions, hb.rotations, hb.handles})
+        for (auto r : {hb.nodeInfo, hb.rest, hb.blocks, hb.elementCorners, hb.coarseRest, hb.positions, hb.rotations, hb.handles})
           b.read(r, Access::StorageRead);
         b.write(hb.posNew, Access::StorageReadWrite);
         b.write(hb.posOld, Access::StorageWrite);
@@ -280,7 +283,7 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slo
         DescriptorWriter w;
         w.buffer(0, kUbo, x.buffer(hb.params).handle());
         std::uint32_t i = 1;
-        for (auto r : {hb.nodeInfo, hb.rest, hb.blocks, hb.coarseTets, hb.coarseRest, hb.positions, hb.rotations, hb.handles, hb.posNew, hb.posOld})
+        for (auto r : {hb.nodeInfo, hb.rest, hb.blocks, hb.elementCorners, hb.coarseRest, hb.positions, hb.rotations, hb.handles, hb.posNew, hb.posOld})
           w.buffer(i++, kSsbo, x.buffer(r).handle());
         w.push(ctx_, x.cmd(), interpolate_);
         vkCmdPushConstants(x.cmd(), interpolate_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, 4, &commit);
@@ -481,7 +484,7 @@ void GpuDeformer::bind(GraphExecutor& x) {
   x.bindBuffer(h.nodeInfo, nodeInfo_);
   x.bindBuffer(h.rest, rest_);
   x.bindBuffer(h.blocks, blocks_);
-  x.bindBuffer(h.coarseTets, coarseTets_);
+  x.bindBuffer(h.elementCorners, elementCorners_);
   x.bindBuffer(h.coarseRest, coarseRest_);
   x.bindBuffer(h.tets, tetBuffer_);
   x.bindBuffer(h.restIdx, restIdx_);

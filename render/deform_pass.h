@@ -114,7 +114,7 @@ class GpuDeformer {
   const Image& sourceMask_;
   Sampler nearest_;  ///< the shaders only texelFetch
   ComputePipeline interpolate_, bounds_, args_, clear_, claim_, resolve_;
-  Buffer params_, nodeInfo_, rest_, blocks_, coarseTets_, coarseRest_, tetBuffer_, restIdx_, pos_, prev_, box_, argsBuffer_, owner_, affine_;
+  Buffer params_, nodeInfo_, rest_, blocks_, elementCorners_, coarseRest_, tetBuffer_, restIdx_, pos_, prev_, box_, argsBuffer_, owner_, affine_;
   Image volume_, mask_;
   std::vector<Slot> slots_;
   std::unique_ptr<GraphExecutor> ownExecutor_;
@@ -124,7 +124,7 @@ class GpuDeformer {
   std::uint32_t handles_ = 0;
   float commit_ = 1e-3f;
   struct Bound {
-    fg::ResourceHandle params, nodeInfo, rest, blocks, coarseTets, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, affine, source, sourceMask,
+    fg::ResourceHandle params, nodeInfo, rest, blocks, elementCorners, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, affine, source, sourceMask,
         volume, mask, positions, rotations, handles;
     std::uint32_t slot = 0;
     fg::ResourceHandle fineUpload;

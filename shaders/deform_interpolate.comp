@@ -12,7 +12,7 @@ layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
 layout(std430, set = 0, binding = 1) readonly buffer Nodes { uvec4 node[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Rest { vec4 rest[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Blocks { vec4 blk[]; };
-layout(std430, set = 0, binding = 4) readonly buffer CoarseTets { uvec4 ctet[]; };
+layout(std430, set = 0, binding = 4) readonly buffer Elements { uvec4 corners[]; };  // two per element
 layout(std430, set = 0, binding = 5) readonly buffer CoarseRest { vec4 crest[]; };
 layout(std430, set = 0, binding = 6) readonly buffer CoarsePos { vec4 cpos[]; };
 layout(std430, set = 0, binding = 7) readonly buffer Rotations { vec4 rot[]; };
@@ -45,17 +45,15 @@ void main() {
   } else if (n.x == kFineCorner) {
     p = cpos[n.y].xyz;
   } else if (n.x == kFineBoundary) {
-    vec4 N = blk[n.z];
-    uvec4 t = ctet[n.y];
-    p = N.x * cpos[t.x].xyz + N.y * cpos[t.y].xyz + N.z * cpos[t.z].xyz + N.w * cpos[t.w].xyz;
+    p = vec3(0.0);
+    for (uint c = 0u; c < P.limits.y; ++c) p += blk[n.z + c / 4u][c % 4u] * cpos[corners[2u * n.y + c / 4u][c % 4u]].xyz;
   } else if (n.x == kFineInterior) {
     mat3 R = quatToMat3(rot[n.y]);
     mat3 Rt = transpose(R);
-    uvec4 t = ctet[n.y];
     vec3 q = X;
     uint o = n.z;
-    for (int c = 0; c < 4; ++c, o += 3u) {
-      uint v = t[c];
+    for (uint c = 0u; c < P.limits.y; ++c, o += 3u) {
+      uint v = corners[2u * n.y + c / 4u][c % 4u];
       q += block3(o) * (Rt * cpos[v].xyz - crest[v].xyz);
     }
     for (uint g = 0u; g < n.w; ++g) {

@@ -125,7 +125,8 @@ struct DeformParams {
   ivec4 regionVoxHi;  // xyz, w = fine tet count
   ivec4 dims;         // xyz volume dims, w = handle count
   ivec4 ownerDims;    // xyz: regionVoxHi - regionVoxLo + 1 (owner buffer), w = coarse element count
-  uvec4 limits;       // x = most voxels a tet's range may hold (larger ones are skipped and counted)
+  uvec4 limits;       // x = most voxels a tet's range may hold (larger ones are skipped and counted),
+                      // y = corners per coarse element (4 or 8)
 };
 
 // The box redone this frame (storage buffer, written by deform_bounds.comp, clamped by

@@ -42,34 +42,52 @@ Eigen::Vector4d barycentric(const std::array<Eigen::Vector3d, 4>& X, const Eigen
 
 }  // namespace
 
-CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& fineK, const FineConstraints& cons, const ProgressFn& progress)
-    : meshes_(meshes), constraints_(cons) {
+const char* coarseElementName(CoarseElement e) { return e == CoarseElement::Tet ? "tet" : "cell"; }
+
+int CoarseModel::elementOfFineTet(std::size_t t) const {
+  const int p = meshes_.fineParent[t];
+  return kind_ == CoarseElement::Tet ? p : p / 6;
+}
+
+CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& fineK, const FineConstraints& cons, const ProgressFn& progress,
+                         CoarseElement kind)
+    : meshes_(meshes), constraints_(cons), kind_(kind), nc_(kind == CoarseElement::Tet ? 4 : 8) {
   const TetMesh& C = meshes.coarse;
   const TetMesh& F = meshes.fine;
-  if (fineK.size() != F.tets.size() || cons.handleOf.size() != F.nodes.size() || cons.fixed.size() != F.nodes.size())
+  if (fineK.size() != F.tets.size() || cons.handleOf.size() != F.nodes.size() || cons.fixed.size() != F.nodes.size() ||
+      meshes.fineParent.size() != F.tets.size())
     throw Error("coarsening: inconsistent sizes");
+  if (kind_ == CoarseElement::Cell && C.tets.size() != meshes.coarseGrid.cellCount() * 6)
+    throw Error("coarsening: cell elements need the coarse mesh of the coarse grid");
   // The outer boundary wins over a handle on it: those nodes stay fixed.
   for (std::size_t i = 0; i < F.nodes.size(); ++i)
     if (constraints_.fixed[i]) constraints_.handleOf[i] = -1;
   const auto& handleOf = constraints_.handleOf;
+  const int nc = nc_;
 
-  std::vector<std::vector<int>> tetsOf(C.tets.size());
+  const std::size_t elementCount = kind_ == CoarseElement::Tet ? C.tets.size() : meshes.coarseGrid.cellCount();
+  std::vector<std::vector<int>> tetsOf(elementCount);
   for (std::size_t t = 0; t < F.tets.size(); ++t) {
-    const int p = meshes.fineParent[t];
-    if (p < 0) throw Error("coarsening: a fine tet lies outside the coarse mesh");
-    tetsOf[std::size_t(p)].push_back(int(t));
+    if (meshes.fineParent[t] < 0 || std::size_t(meshes.fineParent[t]) >= C.tets.size()) throw Error("coarsening: a fine tet lies outside the coarse mesh");
+    tetsOf[std::size_t(elementOfFineTet(t))].push_back(int(t));
   }
   std::vector<char> boundaryDone(F.nodes.size(), 0);
-  elements_.resize(C.tets.size());
+  elements_.resize(elementCount);
   std::unordered_map<int, int> local;
-  for (std::size_t e = 0; e < C.tets.size(); ++e) {
-    if (e % 256 == 0) reportProgress(progress, double(e) / double(C.tets.size()), "coarsening");
-    const auto Xc = cornersOf(C, int(e), C.nodes);
-    // Local nodes: the 4 corners first.
+  for (std::size_t e = 0; e < elementCount; ++e) {
+    if (e % 256 == 0) reportProgress(progress, double(e) / double(elementCount), "coarsening");
+    Element& el = elements_[e];
+    if (kind_ == CoarseElement::Tet)
+      for (int c = 0; c < 4; ++c) el.node[std::size_t(c)] = C.tets[e][std::size_t(c)];
+    else
+      el.node = meshes.coarseGrid.cellNodes(int(e));
+    std::array<Eigen::Vector3d, 4> Xt;
+    if (kind_ == CoarseElement::Tet) Xt = cornersOf(C, int(e), C.nodes);
+    // Local nodes: the corners first.
     local.clear();
     std::vector<int> nodes;
-    for (int v : C.tets[e]) {
-      const int f = meshes.coarseNodeInFine[std::size_t(v)];
+    for (int c = 0; c < nc; ++c) {
+      const int f = meshes.coarseNodeInFine[std::size_t(el.node[std::size_t(c)])];
       local.emplace(f, int(nodes.size()));
       nodes.push_back(f);
     }
@@ -84,18 +102,31 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
           const int la = local[F.tets[std::size_t(t)][std::size_t(a)]], lb = local[F.tets[std::size_t(t)][std::size_t(b)]];
           K.block<3, 3>(3 * la, 3 * lb) += fineK[std::size_t(t)].block<3, 3>(3 * a, 3 * b);
         }
-    // Classify the non-corner nodes.
+    // Classify the non-corner nodes: weights of the corners for the nodes on the element's faces.
     std::vector<int> Dn, Bn, In;
-    std::vector<Eigen::Vector4d> Bbary;
-    const double scale = (Xc[1] - Xc[0]).norm();
-    for (int l = 4; l < n; ++l) {
+    std::vector<Eigen::Matrix<double, 8, 1>> Bw;
+    const double scale = (C.nodes[std::size_t(el.node[1])] - C.nodes[std::size_t(el.node[0])]).norm();
+    for (int l = nc; l < n; ++l) {
       const int f = nodes[std::size_t(l)];
-      const Eigen::Vector4d lam = barycentric(Xc, F.nodes[std::size_t(f)]);
-      if (handleOf[std::size_t(f)] >= 0) Dn.push_back(l);
-      else if (lam.minCoeff() < 1e-9 * std::max(1.0, scale)) {
+      if (handleOf[std::size_t(f)] >= 0) {
+        Dn.push_back(l);
+        continue;
+      }
+      Eigen::Matrix<double, 8, 1> w = Eigen::Matrix<double, 8, 1>::Zero();
+      bool onBoundary = false;
+      if (kind_ == CoarseElement::Tet) {
+        const Eigen::Vector4d lam = barycentric(Xt, F.nodes[std::size_t(f)]);
+        onBoundary = lam.minCoeff() < 1e-9 * std::max(1.0, scale);
+        w.head<4>() = lam.cwiseMax(0.0) / lam.cwiseMax(0.0).sum();
+      } else {
+        w = meshes.coarseGrid.cellWeights(int(e), F.nodes[std::size_t(f)], &onBoundary);
+      }
+      if (onBoundary) {
         Bn.push_back(l);
-        Bbary.push_back(lam.cwiseMax(0.0) / lam.cwiseMax(0.0).sum());
-      } else In.push_back(l);
+        Bw.push_back(w);
+      } else {
+        In.push_back(l);
+      }
     }
     const int nI = int(In.size()), nB = int(Bn.size()), nD = int(Dn.size());
     auto rows = [&](const std::vector<int>& set, const Mat& M, int cols) {
@@ -103,11 +134,11 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
       for (std::size_t i = 0; i < set.size(); ++i) out.middleRows(3 * Eigen::Index(i), 3) = M.middleRows(3 * set[i], 3);
       return out;
     };
-    // Phi_c (3n x 12) and Phi_D (3n x 3 nD).
-    Mat Phic = Mat::Zero(3 * n, 12), PhiD = Mat::Zero(3 * n, 3 * nD);
-    for (int c = 0; c < 4; ++c) Phic.block<3, 3>(3 * c, 3 * c).setIdentity();
+    // Phi_c (3n x 3nc) and Phi_D (3n x 3 nD).
+    Mat Phic = Mat::Zero(3 * n, 3 * nc), PhiD = Mat::Zero(3 * n, 3 * nD);
+    for (int c = 0; c < nc; ++c) Phic.block<3, 3>(3 * c, 3 * c).setIdentity();
     for (int i = 0; i < nB; ++i)
-      for (int c = 0; c < 4; ++c) Phic.block<3, 3>(3 * Bn[std::size_t(i)], 3 * c) = Bbary[std::size_t(i)][c] * Eigen::Matrix3d::Identity();
+      for (int c = 0; c < nc; ++c) Phic.block<3, 3>(3 * Bn[std::size_t(i)], 3 * c) = Bw[std::size_t(i)][c] * Eigen::Matrix3d::Identity();
     for (int i = 0; i < nD; ++i) PhiD.block<3, 3>(3 * Dn[std::size_t(i)], 3 * i).setIdentity();
     Mat H, G;
     if (nI > 0) {
@@ -125,25 +156,36 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
       }
     }
     const Mat KPhic = K * Phic;
-    Element& el = elements_[e];
     el.Kh = Phic.transpose() * KPhic;
     el.Kh = 0.5 * (el.Kh + el.Kh.transpose()).eval();
-    el.KhX = el.Kh * stack(Xc);
-    Eigen::Matrix3d Dm;
-    Dm << Xc[1] - Xc[0], Xc[2] - Xc[0], Xc[3] - Xc[0];
-    el.DmInv = Dm.inverse();
+    VecE Xc(3 * nc);
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (int c = 0; c < nc; ++c) {
+      Xc.segment<3>(3 * c) = C.nodes[std::size_t(el.node[std::size_t(c)])];
+      centroid += C.nodes[std::size_t(el.node[std::size_t(c)])] / double(nc);
+    }
+    el.KhX = el.Kh * Xc;
+    Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+    for (int c = 0; c < nc; ++c) {
+      el.dX[std::size_t(c)] = C.nodes[std::size_t(el.node[std::size_t(c)])] - centroid;
+      M += el.dX[std::size_t(c)] * el.dX[std::size_t(c)].transpose();
+    }
+    el.fitInv = M.inverse();
     // Handle blocks, per handle among the D nodes.
     if (nD > 0) {
-      const Mat Khd = KPhic.transpose() * PhiD;  // 12 x 3nD
+      const Mat Khd = KPhic.transpose() * PhiD;  // 3nc x 3nD
       for (int i = 0; i < nD; ++i) {
         const int f = nodes[std::size_t(Dn[std::size_t(i)])];
         const int h = handleOf[std::size_t(f)];
         auto it = std::find_if(el.handles.begin(), el.handles.end(), [&](const HandleBlock& b) { return b.handle == h; });
         if (it == el.handles.end()) {
-          el.handles.push_back({h, Eigen::Matrix<double, 12, 9>::Zero(), Eigen::Matrix<double, 12, 3>::Zero()});
+          HandleBlock hb{h, {}, {}};
+          hb.A.setZero(3 * nc, 9);
+          hb.B.setZero(3 * nc, 3);
+          el.handles.push_back(std::move(hb));
           it = el.handles.end() - 1;
         }
-        const Eigen::Matrix<double, 12, 3> blk = Khd.middleCols(3 * i, 3);
+        const Mat blk = Khd.middleCols(3 * i, 3);
         const Eigen::Vector3d& X = F.nodes[std::size_t(f)];
         for (int c = 0; c < 3; ++c) it->A.middleCols(3 * c, 3) += X[c] * blk;
         it->B += blk;
@@ -174,7 +216,7 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
       const int f = nodes[std::size_t(Bn[std::size_t(i)])];
       if (boundaryDone[std::size_t(f)]) continue;
       boundaryDone[std::size_t(f)] = 1;
-      boundary_.push_back({f, int(e), Bbary[std::size_t(i)]});
+      boundary_.push_back({f, int(e), Bw[std::size_t(i)]});
     }
   }
   // Coarse Dirichlet roles and the free dofs' system.
@@ -186,12 +228,17 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
     else if (handleOf[std::size_t(f)] >= 0) coarseRole_[v] = handleOf[std::size_t(f)];
     else dof_[v] = (dofCount_ += 3) - 3;
   }
-  if (dofCount_ > 0) assembler_ = std::make_unique<BlockAssembler>(C.tets, dof_, dofCount_);
+  if (dofCount_ > 0) {
+    std::vector<int> flat;
+    flat.reserve(elements_.size() * std::size_t(nc));
+    for (const auto& el : elements_) flat.insert(flat.end(), el.node.begin(), el.node.begin() + nc);
+    assembler_ = std::make_unique<BlockAssembler>(std::move(flat), nc, dof_, dofCount_);
+  }
   reportProgress(progress, 1.0, "coarsening");
 }
 
 std::vector<Eigen::Matrix3d> CoarseModel::elementRotations(const std::vector<Eigen::Vector3d>& x) const {
-  std::vector<Eigen::Matrix3d> R(meshes_.coarse.tets.size());
+  std::vector<Eigen::Matrix3d> R(elements_.size());
   for (std::size_t e = 0; e < R.size(); ++e) R[e] = elementRotation(int(e), x);
   return R;
 }
@@ -205,7 +252,13 @@ FineInterpolationData CoarseModel::interpolationData() const {
   d.rest.reserve(F.nodes.size());
   for (const auto& X : F.nodes) d.rest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
   for (const auto& X : C.nodes) d.coarseRest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
-  for (const auto& t : C.tets) d.coarseTets.push_back({std::uint32_t(t[0]), std::uint32_t(t[1]), std::uint32_t(t[2]), std::uint32_t(t[3])});
+  d.cornersPerElement = std::uint32_t(nc_);
+  for (const auto& el : elements_)
+    for (int h = 0; h < 2; ++h) {
+      std::array<std::uint32_t, 4> q{};
+      for (int c = 0; c < 4; ++c) q[std::size_t(c)] = 4 * h + c < nc_ ? std::uint32_t(el.node[std::size_t(4 * h + c)]) : 0u;
+      d.elementCorners.push_back(q);
+    }
   // Same precedence as reconstruct(): handle, then corner, boundary, interior records overwrite.
   for (std::size_t f = 0; f < F.nodes.size(); ++f)
     if (constraints_.handleOf[f] >= 0) d.node[f] = {FineInterpolationData::Handle, std::uint32_t(constraints_.handleOf[f]), 0, 0};
@@ -216,12 +269,13 @@ FineInterpolationData CoarseModel::interpolationData() const {
   };
   for (const auto& b : boundary_) {
     d.node[std::size_t(b.fine)] = {FineInterpolationData::Boundary, std::uint32_t(b.element), std::uint32_t(d.blocks.size()), 0};
-    d.blocks.push_back(b.N.cast<float>());
+    d.blocks.push_back(b.N.head<4>().cast<float>());
+    if (nc_ == 8) d.blocks.push_back(b.N.tail<4>().cast<float>());
   }
   for (const auto& in : interior_) {
     d.node[std::size_t(in.fine)] = {FineInterpolationData::Interior, std::uint32_t(in.element), std::uint32_t(d.blocks.size()),
                                     std::uint32_t(in.g.size())};
-    for (int c = 0; c < 4; ++c) push3(in.H.block<3, 3>(0, 3 * c));
+    for (int c = 0; c < nc_; ++c) push3(in.H.block<3, 3>(0, 3 * c));
     for (const auto& g : in.g) {
       d.blocks.emplace_back(float(g.handle), 0.0f, 0.0f, 0.0f);
       for (int j = 0; j < 3; ++j) push3(g.A.block<3, 3>(0, 3 * j));
@@ -233,18 +287,22 @@ FineInterpolationData CoarseModel::interpolationData() const {
 }
 
 Eigen::Matrix3d CoarseModel::elementRotation(int e, const std::vector<Eigen::Vector3d>& x) const {
-  const auto& t = meshes_.coarse.tets[std::size_t(e)];
-  const Eigen::Vector3d& x0 = x[std::size_t(t[0])];
-  Eigen::Matrix3d Ds;
-  Ds << x[std::size_t(t[1])] - x0, x[std::size_t(t[2])] - x0, x[std::size_t(t[3])] - x0;
-  return polarRotation(Ds * elements_[std::size_t(e)].DmInv);
+  const Element& el = elements_[std::size_t(e)];
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (int c = 0; c < nc_; ++c) centroid += x[std::size_t(el.node[std::size_t(c)])];
+  centroid /= double(nc_);
+  // The least-squares affine fit of the corners: F = (sum dx dX^T) (sum dX dX^T)^-1.
+  Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+  for (int c = 0; c < nc_; ++c) S.noalias() += (x[std::size_t(el.node[std::size_t(c)])] - centroid) * el.dX[std::size_t(c)].transpose();
+  return polarRotation(S * el.fitInv);
 }
 
-Eigen::Matrix<double, 12, 1> CoarseModel::handleTerm(const Element& el, const Eigen::Matrix3d& Rc, const std::vector<RigidTransform>& handles) const {
-  Eigen::Matrix<double, 12, 1> h = Eigen::Matrix<double, 12, 1>::Zero();
+CoarseModel::VecE CoarseModel::handleTerm(const Element& el, const Eigen::Matrix3d& Rc, const std::vector<RigidTransform>& handles) const {
+  VecE h = VecE::Zero(3 * nc_);
   for (const auto& b : el.handles) {
     const RigidTransform& T = handles[std::size_t(b.handle)];
-    h += b.A * unroll(Rc.transpose() * T.R - Eigen::Matrix3d::Identity()) + b.B * (Rc.transpose() * T.t);
+    h.noalias() += b.A * unroll(Rc.transpose() * T.R - Eigen::Matrix3d::Identity());
+    h.noalias() += b.B * (Rc.transpose() * T.t);
   }
   return h;
 }
@@ -278,25 +336,26 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
   for (int it = 0; it < maxIterations; ++it) {
     assembler_->zero();
     rhs.setZero();
-    for (std::size_t e = 0; e < C.tets.size(); ++e) {
+    const int nc = nc_;
+    MatE Ae(3 * nc, 3 * nc);
+    VecE be(3 * nc);
+    for (std::size_t e = 0; e < elements_.size(); ++e) {
       const Element& el = elements_[e];
       const Eigen::Matrix3d Rc = elementRotation(int(e), x);
-      // R K_h R^T block by block (16 3x3 products instead of two 12x12 ones).
-      Mat12 Ae;
-      for (int a = 0; a < 4; ++a)
-        for (int b = 0; b < 4; ++b) Ae.block<3, 3>(3 * a, 3 * b).noalias() = Rc * el.Kh.block<3, 3>(3 * a, 3 * b) * Rc.transpose();
-      Vec12 local = el.KhX;
+      // R K_h R^T block by block (3x3 products instead of two full ones).
+      for (int a = 0; a < nc; ++a)
+        for (int b = 0; b < nc; ++b) Ae.block<3, 3>(3 * a, 3 * b).noalias() = Rc * el.Kh.block<3, 3>(3 * a, 3 * b) * Rc.transpose();
+      VecE local = el.KhX;
       if (!el.handles.empty()) local -= handleTerm(el, Rc, handles);
-      Vec12 be;
-      for (int a = 0; a < 4; ++a) be.segment<3>(3 * a).noalias() = Rc * local.segment<3>(3 * a);
+      for (int a = 0; a < nc; ++a) be.segment<3>(3 * a).noalias() = Rc * local.segment<3>(3 * a);
       assembler_->add(int(e), Ae);
       // Dirichlet corners move to the right-hand side.
-      for (int a = 0; a < 4; ++a) {
-        const int da = dof_[std::size_t(C.tets[e][std::size_t(a)])];
+      for (int a = 0; a < nc; ++a) {
+        const int da = dof_[std::size_t(el.node[std::size_t(a)])];
         if (da < 0) continue;
         Eigen::Vector3d r = be.segment<3>(3 * a);
-        for (int b = 0; b < 4; ++b) {
-          const int v = C.tets[e][std::size_t(b)];
+        for (int b = 0; b < nc; ++b) {
+          const int v = el.node[std::size_t(b)];
           if (dof_[std::size_t(v)] < 0) r -= Ae.block<3, 3>(3 * a, 3 * b) * x[std::size_t(v)];
         }
         rhs.segment<3>(da) += r;
@@ -349,22 +408,25 @@ std::vector<Eigen::Vector3d> CoarseModel::reconstruct(const std::vector<RigidTra
   }
   for (std::size_t v = 0; v < C.nodes.size(); ++v) out[std::size_t(meshes_.coarseNodeInFine[v])] = x[v];
   for (const auto& b : boundary_) {
-    const auto& t = C.tets[std::size_t(b.element)];
+    const Element& el = elements_[std::size_t(b.element)];
     Eigen::Vector3d p = Eigen::Vector3d::Zero();
-    for (int c = 0; c < 4; ++c) p += b.N[c] * x[std::size_t(t[std::size_t(c)])];
+    for (int c = 0; c < nc_; ++c) p += b.N[c] * x[std::size_t(el.node[std::size_t(c)])];
     out[std::size_t(b.fine)] = p;
   }
-  std::vector<Eigen::Matrix3d> R(C.tets.size());
-  std::vector<char> haveR(C.tets.size(), 0);
+  std::vector<Eigen::Matrix3d> R(elements_.size());
+  std::vector<char> haveR(elements_.size(), 0);
+  VecE local(3 * nc_);
   for (const auto& in : interior_) {
     if (!haveR[std::size_t(in.element)]) {
       R[std::size_t(in.element)] = elementRotation(in.element, x);
       haveR[std::size_t(in.element)] = 1;
     }
     const Eigen::Matrix3d& Rc = R[std::size_t(in.element)];
-    const auto& t = C.tets[std::size_t(in.element)];
-    Vec12 local;
-    for (int c = 0; c < 4; ++c) local.segment<3>(3 * c) = Rc.transpose() * x[std::size_t(t[std::size_t(c)])] - C.nodes[std::size_t(t[std::size_t(c)])];
+    const Element& el = elements_[std::size_t(in.element)];
+    for (int c = 0; c < nc_; ++c) {
+      const auto v = std::size_t(el.node[std::size_t(c)]);
+      local.segment<3>(3 * c) = Rc.transpose() * x[v] - C.nodes[v];
+    }
     Eigen::Vector3d p = F.nodes[std::size_t(in.fine)] + in.H * local;
     for (const auto& g : in.g) {
       const RigidTransform& T = handles[std::size_t(g.handle)];
@@ -385,12 +447,12 @@ Eigen::VectorXd CoarseModel::restrictToCoarse(const std::vector<Eigen::Vector3d>
   for (std::size_t v = 0; v < C.nodes.size(); ++v) add(int(v), r[std::size_t(meshes_.coarseNodeInFine[v])]);
   for (const auto& b : boundary_) {
     if (constraints_.fixed[std::size_t(b.fine)]) continue;
-    for (int c = 0; c < 4; ++c) add(C.tets[std::size_t(b.element)][std::size_t(c)], b.N[c] * r[std::size_t(b.fine)]);
+    for (int c = 0; c < nc_; ++c) add(elementCorner(b.element, c), b.N[c] * r[std::size_t(b.fine)]);
   }
   for (const auto& in : interior_) {
     const Eigen::Matrix3d Rc = elementRotation(in.element, x);
     const Eigen::Vector3d rl = Rc.transpose() * r[std::size_t(in.fine)];
-    for (int c = 0; c < 4; ++c) add(C.tets[std::size_t(in.element)][std::size_t(c)], Rc * (in.H.middleCols<3>(3 * c).transpose() * rl));
+    for (int c = 0; c < nc_; ++c) add(elementCorner(in.element, c), Rc * (in.H.middleCols<3>(3 * c).transpose() * rl));
   }
   return out;
 }
@@ -404,12 +466,12 @@ void CoarseModel::prolongAdd(const Eigen::VectorXd& cv, const std::vector<Eigen:
   for (std::size_t v = 0; v < C.nodes.size(); ++v) out[std::size_t(meshes_.coarseNodeInFine[v])] += val(int(v));
   for (const auto& b : boundary_) {
     if (constraints_.fixed[std::size_t(b.fine)]) continue;
-    for (int c = 0; c < 4; ++c) out[std::size_t(b.fine)] += b.N[c] * val(C.tets[std::size_t(b.element)][std::size_t(c)]);
+    for (int c = 0; c < nc_; ++c) out[std::size_t(b.fine)] += b.N[c] * val(elementCorner(b.element, c));
   }
   for (const auto& in : interior_) {
     const Eigen::Matrix3d Rc = elementRotation(in.element, x);
     Eigen::Vector3d acc = Eigen::Vector3d::Zero();
-    for (int c = 0; c < 4; ++c) acc += in.H.middleCols<3>(3 * c) * (Rc.transpose() * val(C.tets[std::size_t(in.element)][std::size_t(c)]));
+    for (int c = 0; c < nc_; ++c) acc += in.H.middleCols<3>(3 * c) * (Rc.transpose() * val(elementCorner(in.element, c)));
     out[std::size_t(in.fine)] += Rc * acc;
   }
 }

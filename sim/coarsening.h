@@ -1,13 +1,23 @@
 #pragma once
 // Corotational coarsening (../shared/spec/methods.md section 5, coarse model [team formulation]).
 //
-// Per coarse element e, its fine nodes split into the 4 corners c, handle nodes D (not corners),
+// Per coarse element e, its fine nodes split into the n corners c, handle nodes D (not corners),
 // boundary nodes b (on e's faces and edges: u_b = N_b u_c) and interior nodes I, condensed:
 // u_I = H u_c + G u_D. The coarse element keeps K_h = Phi_c^T K Phi_c and K_hd = Phi_c^T K Phi_D,
-// and for each handle k touching it the 12x9 block A_k = K_hd^k Reshape(X_D^k) and the 12x3 block
+// and for each handle k touching it the 3n x 9 block A_k = K_hd^k Reshape(X_D^k) and the 3n x 3 block
 // B_k = ColumnAdd(K_hd^k), so a frame costs the same whatever the handle's fine node count:
 //   f_c = -R_c [K_h (R_c^T x_c - X_c) + sum_k (A_k vec(R_c^T R_k - I) + B_k R_c^T t_k)].
 // Interior fine nodes are rebuilt from per-node data (H_f and, per handle, G_f's 3x9 and 3x3 blocks).
+//
+// Two kinds of coarse element over the same coarse nodes (CoarseElement):
+//  - Tet: each coarse Kuhn tet (n = 4, the spec's formulation). Its flat faces fix its volume by its
+//    4 corners: one volume constraint per tet, six per grid cell, which locks near-incompressible
+//    tissue (nu = 0.45) the way linear tets do.
+//  - Cell: each grid cell, the union of its 6 Kuhn tets (n = 8). Its faces still follow the Kuhn
+//    triangulation linearly (N_b = the coarse tet's barycentric weights, so neighbours conform), but
+//    the cell's internal diagonal faces are condensed with the interior: one volume constraint per
+//    cell. Same coarse nodes and dofs; the rotation R_c is the polar rotation of the least-squares
+//    affine fit of the corners (for a tet, the exact F = D_s D_m^-1).
 #include <Eigen/Core>
 #include <memory>
 #include <vector>
@@ -44,10 +54,23 @@ struct CoarseSolveStats {
   bool converged = false;
 };
 
+enum class CoarseElement { Tet, Cell };
+const char* coarseElementName(CoarseElement e);
+
 class CoarseModel {
  public:
   /// Precomputes the condensed elements. `fineK`: rest stiffness per fine tet.
-  CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& fineK, const FineConstraints& constraints, const ProgressFn& progress = {});
+  CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& fineK, const FineConstraints& constraints, const ProgressFn& progress = {},
+              CoarseElement element = CoarseElement::Cell);
+
+  CoarseElement elementKind() const { return kind_; }
+  std::size_t elementCount() const { return elements_.size(); }
+  /// Corners per element: 4 (Tet) or 8 (Cell).
+  int cornersPerElement() const { return kind_ == CoarseElement::Tet ? 4 : 8; }
+  /// The coarse node of corner c of element e.
+  int elementCorner(int e, int c) const { return elements_[std::size_t(e)].node[std::size_t(c)]; }
+  /// The element each fine tet belongs to.
+  int elementOfFineTet(std::size_t t) const;
 
   /// Coarse node positions at rest.
   std::vector<Eigen::Vector3d> restState() const { return meshes_.coarse.nodes; }
@@ -79,20 +102,24 @@ class CoarseModel {
   std::size_t freeCoarseDofs() const { return std::size_t(dofCount_); }
 
  private:
+  using MatE = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 24, 24>;
+  using VecE = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 24, 1>;
   struct HandleBlock {
     int handle;
-    Eigen::Matrix<double, 12, 9> A;
-    Eigen::Matrix<double, 12, 3> B;
+    Eigen::Matrix<double, Eigen::Dynamic, 9, 0, 24, 9> A;
+    Eigen::Matrix<double, Eigen::Dynamic, 3, 0, 24, 3> B;
   };
   struct Element {
-    Mat12 Kh;
-    Vec12 KhX;             // K_h X_c (constant)
-    Eigen::Matrix3d DmInv;  // inverse rest edge matrix
+    std::array<int, 8> node{};  ///< coarse corner nodes (first n)
+    MatE Kh;
+    VecE KhX;                   ///< K_h X_c (constant)
+    Eigen::Matrix3d fitInv;     ///< (sum dX dX^T)^-1 of the rest corners about their centroid
+    std::array<Eigen::Vector3d, 8> dX;
     std::vector<HandleBlock> handles;
   };
   struct InteriorNode {
     int fine, element;
-    Eigen::Matrix<double, 3, 12> H;
+    Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, 24> H;
     struct G {
       int handle;
       Eigen::Matrix<double, 3, 9> A;
@@ -102,13 +129,15 @@ class CoarseModel {
   };
   struct BoundaryNode {
     int fine, element;
-    Eigen::Vector4d N;
+    Eigen::Matrix<double, 8, 1> N;  ///< weights of the element's corners (first n)
   };
   Eigen::Matrix3d elementRotation(int e, const std::vector<Eigen::Vector3d>& x) const;
-  Eigen::Matrix<double, 12, 1> handleTerm(const Element& el, const Eigen::Matrix3d& Rc, const std::vector<RigidTransform>& handles) const;
+  VecE handleTerm(const Element& el, const Eigen::Matrix3d& Rc, const std::vector<RigidTransform>& handles) const;
 
   const NestedMeshes& meshes_;
   FineConstraints constraints_;
+  CoarseElement kind_;
+  int nc_ = 4;
   std::vector<Element> elements_;
   std::vector<InteriorNode> interior_;
   std::vector<BoundaryNode> boundary_;

@@ -9,7 +9,7 @@
 namespace handson {
 
 std::size_t FineInterpolationData::staticBytes() const {
-  return node.size() * 16 + rest.size() * 16 + blocks.size() * 16 + coarseTets.size() * 16 + coarseRest.size() * 16;
+  return node.size() * 16 + rest.size() * 16 + blocks.size() * 16 + elementCorners.size() * 16 + coarseRest.size() * 16;
 }
 
 std::size_t CoarseFrameState::bytes() const { return positions.size() * 16 + rotations.size() * 16 + handles.size() * 64; }
@@ -59,7 +59,8 @@ Eigen::Matrix3f block3(const std::vector<Eigen::Vector4f>& b, std::size_t o) {
 }  // namespace
 
 std::vector<Eigen::Vector4f> interpolateFineReference(const FineInterpolationData& d, const CoarseFrameState& s, const Eigen::Matrix4f& w2i) {
-  if (s.positions.size() != d.coarseRest.size() || s.rotations.size() != d.coarseTets.size() || s.handles.size() != d.handleCount)
+  if (d.cornersPerElement != 4 && d.cornersPerElement != 8) throw Error("deformation: elements have 4 or 8 corners");
+  if (s.positions.size() != d.coarseRest.size() || s.rotations.size() != d.elementCount() || s.handles.size() != d.handleCount)
     throw Error("deformation state: sizes do not match the mesh (" + std::to_string(s.positions.size()) + " coarse nodes, " +
                 std::to_string(s.rotations.size()) + " rotations, " + std::to_string(s.handles.size()) + " handles)");
   std::vector<Eigen::Vector4f> out(d.node.size());
@@ -71,20 +72,20 @@ std::vector<Eigen::Vector4f> interpolateFineReference(const FineInterpolationDat
       case FineInterpolationData::Handle: p = s.handles[n[1]].topLeftCorner<3, 3>() * X + s.handles[n[1]].topRightCorner<3, 1>(); break;
       case FineInterpolationData::Corner: p = s.positions[n[1]].head<3>(); break;
       case FineInterpolationData::Boundary: {
-        const Eigen::Vector4f& N = d.blocks[n[2]];
-        const auto& t = d.coarseTets[n[1]];
-        p = N.x() * s.positions[t[0]].head<3>() + N.y() * s.positions[t[1]].head<3>() + N.z() * s.positions[t[2]].head<3>() +
-            N.w() * s.positions[t[3]].head<3>();
+        p.setZero();
+        for (std::uint32_t c = 0; c < d.cornersPerElement; ++c)
+          p += d.blocks[n[2] + c / 4][int(c % 4)] * s.positions[d.elementCorners[2 * n[1] + c / 4][c % 4]].head<3>();
         break;
       }
       case FineInterpolationData::Interior: {
         const Eigen::Matrix3f R = quaternionMatrix(s.rotations[n[1]]);
         const Eigen::Matrix3f Rt = R.transpose();
-        const auto& t = d.coarseTets[n[1]];
         Eigen::Vector3f q = X;
         std::size_t o = n[2];
-        for (int c = 0; c < 4; ++c, o += 3)
-          q += block3(d.blocks, o) * (Rt * s.positions[t[std::size_t(c)]].head<3>() - d.coarseRest[t[std::size_t(c)]].head<3>());
+        for (std::uint32_t c = 0; c < d.cornersPerElement; ++c, o += 3) {
+          const std::uint32_t v = d.elementCorners[2 * n[1] + c / 4][c % 4];
+          q += block3(d.blocks, o) * (Rt * s.positions[v].head<3>() - d.coarseRest[v].head<3>());
+        }
         for (std::uint32_t g = 0; g < n[3]; ++g) {
           const float hidx = d.blocks[o].x();
           if (!(hidx >= 0.0f && hidx < float(s.handles.size()))) throw Error("deformation: a handle block refers to a missing handle");

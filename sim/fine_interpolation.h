@@ -12,7 +12,8 @@
 //   Boundary  on coarse element e's faces or edges             x = sum_c N_c x_c
 //   Interior  inside coarse element e                          x = R_e (X + sum_c H_c (R_e^T x_c - X_c)
 //                                                                    + sum_k [sum_j A_kj (R_e^T R_k - I)_j + B_k R_e^T t_k])
-// with H_c, A_kj (column j of the matrix) and B_k 3x3 blocks.
+// with H_c, A_kj (column j of the matrix) and B_k 3x3 blocks; c runs over the element's n corners
+// (n = 4 for tet elements, 8 for cell elements, see sim/coarsening.h).
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
@@ -28,14 +29,19 @@ struct FineInterpolationData {
   /// (vec4 units), number of handle blocks (Interior).
   std::vector<std::array<std::uint32_t, 4>> node;
   std::vector<Eigen::Vector4f> rest;    ///< per fine node: world rest position, w = 1
-  /// Boundary: one vec4 (N). Interior: 12 vec4 (H_c for c = 0..3, three columns each, xyz), then per
-  /// handle block one vec4 (x = handle index) and 12 vec4 (A_k0, A_k1, A_k2, B_k, three columns each).
+  /// Boundary: n/4 vec4 (N). Interior: 3n vec4 (H_c for c = 0..n-1, three columns each, xyz), then
+  /// per handle block one vec4 (x = handle index) and 12 vec4 (A_k0, A_k1, A_k2, B_k, three columns each).
   std::vector<Eigen::Vector4f> blocks;
-  std::vector<std::array<std::uint32_t, 4>> coarseTets;
+  /// Two uvec4 per coarse element: its corner nodes (the first cornersPerElement count).
+  std::vector<std::array<std::uint32_t, 4>> elementCorners;
+  std::uint32_t cornersPerElement = 4;  ///< n: 4 or 8
   std::vector<Eigen::Vector4f> coarseRest;  ///< world, w = 1
   std::uint32_t handleCount = 0;
 
+  std::size_t elementCount() const { return elementCorners.size() / 2; }
   std::size_t staticBytes() const;
+  /// vec4 blocks of an Interior record with `handleBlocks` handle blocks.
+  std::size_t interiorBlocks(std::uint32_t handleBlocks) const { return 3 * std::size_t(cornersPerElement) + 13 * std::size_t(handleBlocks); }
 };
 
 /// What goes to the GPU each frame.

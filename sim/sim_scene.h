@@ -26,6 +26,9 @@ struct SimSettings {
   int fineTets = 300000;      ///< target fine element count (m^3 per coarse tet, m rounded)
   double paddingMm = 40.0;    ///< margin around the handles' bounding box
   bool wholeVolume = false;   ///< simulate the image's whole box instead
+  /// The coarse model's elements (CoarseModel; sim/coarsening.h): grid cells by default, measured
+  /// more accurate than the spec's coarse tets on the same coarse nodes (README, `bench sim`).
+  CoarseElement element = CoarseElement::Cell;
   MaterialTable materials = MaterialTable::ctDefault();
 };
 

@@ -29,14 +29,29 @@ int countInvertedTets(const TetMesh& mesh, const std::vector<Eigen::Vector3d>& x
   return n;
 }
 
+namespace {
+std::vector<int> flatten(const std::vector<std::array<int, 4>>& tets) {
+  std::vector<int> out;
+  out.reserve(tets.size() * 4);
+  for (const auto& t : tets) out.insert(out.end(), t.begin(), t.end());
+  return out;
+}
+}  // namespace
+
 BlockAssembler::BlockAssembler(const std::vector<std::array<int, 4>>& tets, const std::vector<int>& dof, int dofCount)
-    : tets_(tets), dof_(dof) {
+    : BlockAssembler(flatten(tets), 4, dof, dofCount) {}
+
+BlockAssembler::BlockAssembler(std::vector<int> elementNodes, int nodesPerElement, const std::vector<int>& dof, int dofCount)
+    : nodes_(std::move(elementNodes)), n_(nodesPerElement), dof_(dof) {
+  if (n_ < 1 || nodes_.size() % std::size_t(n_) != 0) throw Error("assembly: element node lists do not match the node count");
+  const std::size_t elements = nodes_.size() / std::size_t(n_);
+  const int n = n_;
   std::vector<Eigen::Triplet<double, int>> trip;
-  trip.reserve(tets.size() * 78);
-  for (const auto& t : tets)
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) {
-        const int ra = dof[std::size_t(t[std::size_t(a)])], cb = dof[std::size_t(t[std::size_t(b)])];
+  trip.reserve(elements * std::size_t(n * (n + 1) / 2) * 6);
+  for (std::size_t e = 0; e < elements; ++e)
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b) {
+        const int ra = dof[std::size_t(nodes_[e * std::size_t(n) + std::size_t(a)])], cb = dof[std::size_t(nodes_[e * std::size_t(n) + std::size_t(b)])];
         if (ra < 0 || cb < 0 || ra < cb) continue;
         for (int c = 0; c < 3; ++c)
           for (int r = 0; r < 3; ++r)
@@ -53,33 +68,18 @@ BlockAssembler::BlockAssembler(const std::vector<std::array<int, 4>>& tets, cons
     const int* p = std::lower_bound(b, e, row);
     return int(p - inner);
   };
-  slot_.assign(tets.size() * 48, -1);
-  for (std::size_t ti = 0; ti < tets.size(); ++ti)
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) {
-        const int ra = dof[std::size_t(tets[ti][std::size_t(a)])], cb = dof[std::size_t(tets[ti][std::size_t(b)])];
+  const std::size_t per = std::size_t(3 * n * n);
+  slot_.assign(elements * per, -1);
+  for (std::size_t e = 0; e < elements; ++e)
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b) {
+        const int ra = dof[std::size_t(nodes_[e * std::size_t(n) + std::size_t(a)])], cb = dof[std::size_t(nodes_[e * std::size_t(n) + std::size_t(b)])];
         if (ra < 0 || cb < 0 || ra < cb) continue;
-        for (int c = 0; c < 3; ++c) slot_[ti * 48 + std::size_t(a * 4 + b) * 3 + std::size_t(c)] = find(std::max(ra, cb + c), cb + c);
+        for (int c = 0; c < 3; ++c) slot_[e * per + std::size_t(a * n + b) * 3 + std::size_t(c)] = find(std::max(ra, cb + c), cb + c);
       }
 }
 
 void BlockAssembler::zero() { std::fill(A_.valuePtr(), A_.valuePtr() + A_.nonZeros(), 0.0); }
-
-void BlockAssembler::add(int t, const Mat12& Ke) {
-  double* val = A_.valuePtr();
-  const auto& tet = tets_[std::size_t(t)];
-  for (int a = 0; a < 4; ++a)
-    for (int b = 0; b < 4; ++b) {
-      const int ra = dof_[std::size_t(tet[std::size_t(a)])], cb = dof_[std::size_t(tet[std::size_t(b)])];
-      if (ra < 0 || cb < 0 || ra < cb) continue;
-      for (int c = 0; c < 3; ++c) {
-        int s = slot_[std::size_t(t) * 48 + std::size_t(a * 4 + b) * 3 + std::size_t(c)];
-        // Rows ra..ra+2 of column cb+c are consecutive in the pattern (those below the diagonal).
-        for (int r = 0; r < 3; ++r)
-          if (ra + r >= cb + c) val[s++] += Ke(3 * a + r, 3 * b + c);
-      }
-    }
-}
 
 std::vector<Mat12> tetStiffnesses(const TetMesh& mesh, const std::vector<double>& youngs, const std::vector<double>& poisson) {
   if (youngs.size() != mesh.tets.size() || poisson.size() != mesh.tets.size()) throw Error("stiffness: one material per tet expected");

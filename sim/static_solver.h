@@ -11,23 +11,43 @@
 
 namespace handson {
 
-/// A sparse symmetric matrix over the free degrees of freedom of a tet mesh, assembled from 12x12
-/// element blocks into a fixed pattern (lower triangle, what the Cholesky reads): built once,
-/// refilled every iteration without re-sorting.
+/// A sparse symmetric matrix over the free degrees of freedom of a mesh, assembled from element
+/// blocks (3n x 3n for n-node elements, node-major) into a fixed pattern (lower triangle, what the
+/// Cholesky reads): built once, refilled every iteration without re-sorting.
 class BlockAssembler {
  public:
   /// `dof[n]`: first free dof of node n (3 consecutive), or -1 for a Dirichlet node.
   BlockAssembler(const std::vector<std::array<int, 4>>& tets, const std::vector<int>& dof, int dofCount);
+  /// Elements of `nodesPerElement` nodes each, listed back to back in `elementNodes`.
+  BlockAssembler(std::vector<int> elementNodes, int nodesPerElement, const std::vector<int>& dof, int dofCount);
   void zero();
-  /// Adds element block Ke (12x12, corner-major) of tet t.
-  void add(int t, const Mat12& Ke);
+  /// Adds element block Ke (3n x 3n, node-major) of element e.
+  template <class M>
+  void add(int e, const M& Ke) {
+    double* val = A_.valuePtr();
+    const int n = n_;
+    const int* nodes = &nodes_[std::size_t(e) * std::size_t(n)];
+    const int* slot = &slot_[std::size_t(e) * std::size_t(3 * n * n)];
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b) {
+        const int ra = dof_[std::size_t(nodes[a])], cb = dof_[std::size_t(nodes[b])];
+        if (ra < 0 || cb < 0 || ra < cb) continue;
+        for (int c = 0; c < 3; ++c) {
+          int s = slot[(a * n + b) * 3 + c];
+          // Rows ra..ra+2 of column cb+c are consecutive in the pattern (those below the diagonal).
+          for (int r = 0; r < 3; ++r)
+            if (ra + r >= cb + c) val[s++] += Ke(3 * a + r, 3 * b + c);
+        }
+      }
+  }
   SparseMatrix& matrix() { return A_; }
 
  private:
   SparseMatrix A_;
-  const std::vector<std::array<int, 4>>& tets_;
+  std::vector<int> nodes_;
+  int n_ = 4;
   std::vector<int> dof_;
-  std::vector<int> slot_;  // per tet, per (a,b) node pair with dof(a) >= dof(b), per column c: value index of row 0
+  std::vector<int> slot_;  // per element, per (a,b) node pair with dof(a) >= dof(b), per column c: value index of row 0
 };
 
 struct StaticSolveOptions {

@@ -69,6 +69,31 @@ TetMesh KuhnGrid::mesh() const {
   return m;
 }
 
+std::array<int, 8> KuhnGrid::cellNodes(int c) const {
+  const int i = c % cells_.x(), j = (c / cells_.x()) % cells_.y(), k = c / (cells_.x() * cells_.y());
+  std::array<int, 8> n{};
+  for (int q = 0; q < 8; ++q) n[std::size_t(q)] = nodeIndex(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1));
+  return n;
+}
+
+Eigen::Matrix<double, 8, 1> KuhnGrid::cellWeights(int c, const Eigen::Vector3d& p, bool* onBoundary) const {
+  const Eigen::Vector3i ijk(c % cells_.x(), (c / cells_.x()) % cells_.y(), c / (cells_.x() * cells_.y()));
+  Eigen::Vector3d f = (p - origin_).cwiseQuotient(cell_) - ijk.cast<double>();
+  const double eps = 1e-9;
+  if (onBoundary) *onBoundary = (f.array() < eps).any() || (f.array() > 1.0 - eps).any();
+  f = f.cwiseMax(0.0).cwiseMin(1.0);
+  int ord[3] = {0, 1, 2};
+  std::stable_sort(ord, ord + 3, [&](int a, int b) { return f[a] > f[b]; });
+  // The Kuhn tet of the order: corners 0, e_o0, e_o0 + e_o1, 7.
+  Eigen::Matrix<double, 8, 1> w = Eigen::Matrix<double, 8, 1>::Zero();
+  const int q1 = 1 << ord[0], q2 = q1 | (1 << ord[1]);
+  w[0] += 1.0 - f[ord[0]];
+  w[q1] += f[ord[0]] - f[ord[1]];
+  w[q2] += f[ord[1]] - f[ord[2]];
+  w[7] += f[ord[2]];
+  return w;
+}
+
 int KuhnGrid::locate(const Eigen::Vector3d& p, Eigen::Vector4d* bary) const {
   const Eigen::Vector3d u = (p - origin_).cwiseQuotient(cell_);
   if (!u.allFinite()) return -1;

@@ -43,6 +43,14 @@ class KuhnGrid {
   Eigen::Vector3d nodePosition(int n) const;
 
   TetMesh mesh() const;
+  /// Cells in mesh() order: cell c holds tets 6c..6c+5.
+  std::size_t cellCount() const { return std::size_t(cells_.prod()); }
+  /// The 8 nodes of cell c: corner q is at +x if q & 1, +y if q & 2, +z if q & 4.
+  std::array<int, 8> cellNodes(int c) const;
+  /// The Kuhn (piecewise linear) interpolation weights of cell c's 8 corners at p (p clamped into the
+  /// cell); on the cell's faces they depend only on that face's corners, so neighbours agree.
+  /// `onBoundary`: p lies on a face of the cell (within 1e-9 of a cell).
+  Eigen::Matrix<double, 8, 1> cellWeights(int c, const Eigen::Vector3d& p, bool* onBoundary = nullptr) const;
   /// The tet containing p and its barycentric coordinates (vertex order of mesh()); -1 outside the
   /// box. Points on shared faces go to one tet by a fixed rule (ties broken by axis order).
   int locate(const Eigen::Vector3d& p, Eigen::Vector4d* bary = nullptr) const;

@@ -36,9 +36,13 @@ Scene kidneyScene() {
 
 }  // namespace
 
-TEST(FineInterpolation, PackedFloatReferenceEqualsTheModelsReconstruction) {
+class FineInterpolationKinds : public ::testing::TestWithParam<CoarseElement> {};
+INSTANTIATE_TEST_SUITE_P(BothElementKinds, FineInterpolationKinds, ::testing::Values(CoarseElement::Cell, CoarseElement::Tet),
+                         [](const auto& p) { return std::string(coarseElementName(p.param)); });
+
+TEST_P(FineInterpolationKinds, PackedFloatReferenceEqualsTheModelsReconstruction) {
   const Scene s = kidneyScene();
-  CoarseModel model(s.scene.meshes, s.scene.fineK, s.scene.constraints);
+  CoarseModel model(s.scene.meshes, s.scene.fineK, s.scene.constraints, {}, GetParam());
   const std::vector<RigidTransform> T = {
       RigidTransform::about(s.scene.handleCentroid[0], Eigen::Vector3d(0.1, 0.2, 30.0 * M_PI / 180), Eigen::Vector3d(10, -4, 3))};
   auto xc = model.restState();
@@ -46,7 +50,7 @@ TEST(FineInterpolation, PackedFloatReferenceEqualsTheModelsReconstruction) {
   const auto expect = model.reconstruct(T, xc);
   const FineInterpolationData d = model.interpolationData();
   ASSERT_EQ(d.node.size(), expect.size());
-  // Every kind the model emits occurs (4 fine cells per coarse edge: each coarse tet has interior
+  // Every kind the model emits occurs (4 fine cells per coarse edge: each coarse element has interior
   // nodes). Fixed fine nodes are corners or face nodes of fixed coarse nodes, never Rest records.
   std::array<int, 5> kinds{};
   for (const auto& n : d.node) ++kinds[n[0]];
