@@ -23,6 +23,7 @@ int cmdBenchSelection(const Words& args);
 int cmdBenchGesture(const Words& args);
 int cmdBenchSim(const Words& args);
 int cmdBenchDeform(const Words& args);
+int cmdBenchMesh(const Words& args);
 int cmdView(const Words& args);
 int cmdReplay(const Words& args);
 int cmdDeform(const Words& args);

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "sim/coarsening.h"
+#include "sim/sim_scene.h"
 
 namespace handson::cli {
 
@@ -138,6 +139,16 @@ CoarseElement coarseElementOption(const Args& args, const char* name) {
   if (v == "cell") return CoarseElement::Cell;
   if (v == "tet") return CoarseElement::Tet;
   throw UsageError(std::string(name) + " must be cell or tet");
+}
+
+void fineMeshOptions(const Args& args, const char* name, const char* contrastName, SimSettings& s) {
+  const std::string v = args.valueOr(name, "regular");
+  if (v == "regular") s.fineMesh = SimSettings::FineMesh::Regular;
+  else if (v == "adapted") s.fineMesh = SimSettings::FineMesh::ImageAdapted;
+  else throw UsageError(std::string(name) + " must be regular or adapted");
+  s.adaptContrast = args.number(contrastName, s.adaptContrast, 1.01, 1e12);
+  if (s.fineMesh == SimSettings::FineMesh::ImageAdapted && s.element != CoarseElement::Cell)
+    throw UsageError(std::string(name) + " adapted needs cell coarse elements");
 }
 
 }  // namespace handson::cli

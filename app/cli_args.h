@@ -9,6 +9,7 @@
 
 namespace handson {
 enum class CoarseElement;
+struct SimSettings;
 }
 
 namespace handson::cli {
@@ -49,5 +50,8 @@ std::vector<double> parseNumberList(const std::string& text, const std::string& 
 void parseSize(const std::string& text, int& width, int& height);
 /// The coarse model's element kind from option `name` ("cell" or "tet"; absent: cell).
 CoarseElement coarseElementOption(const Args& args, const char* name);
+/// The fine mesh kind from option `name` ("regular" or "adapted"; absent: regular) into `settings`,
+/// with `contrastName` the stiffness jump that adds points to an adapted mesh.
+void fineMeshOptions(const Args& args, const char* name, const char* contrastName, SimSettings& settings);
 
 }  // namespace handson::cli

@@ -50,9 +50,11 @@ const char* const kSimHelp =
     "  --sim-fine-tets N       fine elements (default 300000)\n"
     "  --sim-padding-mm D      simulated region: the handles' box plus D mm (default 40)\n"
     "  --sim-coarse-element cell|tet  coarse model elements (default cell; see handson deform --help)\n"
+    "  --sim-fine-mesh regular|adapted  fine mesh (default regular; see handson deform --help)\n"
     "  --sim-refine-steps N    two-level refinement steps toward the fine answer while a pose is held\n"
     "                          (default 2 in view, 0 in replay)\n";
-const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm", "--sim-refine-steps", "--sim-coarse-element"};
+const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm", "--sim-refine-steps", "--sim-coarse-element", "--sim-fine-mesh",
+                                                 "--sim-adapt-contrast"};
 
 DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   DeformationOptions d;
@@ -64,6 +66,7 @@ DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   if (d.sim.fineTets < d.sim.coarseTets) throw UsageError("--sim-fine-tets must be at least --sim-coarse-tets");
   d.sim.paddingMm = args.number("--sim-padding-mm", d.sim.paddingMm, 0.0, 1e4);
   d.sim.element = coarseElementOption(args, "--sim-coarse-element");
+  fineMeshOptions(args, "--sim-fine-mesh", "--sim-adapt-contrast", d.sim);
   d.refineSteps = int(args.integer("--sim-refine-steps", defaultRefineSteps, 0, 100));
   return d;
 }

@@ -59,6 +59,8 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
     throw Error("coarsening: inconsistent sizes");
   if (kind_ == CoarseElement::Cell && C.tets.size() != meshes.coarseGrid.cellCount() * 6)
     throw Error("coarsening: cell elements need the coarse mesh of the coarse grid");
+  if (kind_ == CoarseElement::Tet && !meshes.regularFine)
+    throw Error("coarsening: tet elements need the regular fine mesh (an image-adapted one is nested in cells, not tets)");
   // The outer boundary wins over a handle on it: those nodes stay fixed.
   for (std::size_t i = 0; i < F.nodes.size(); ++i)
     if (constraints_.fixed[i]) constraints_.handleOf[i] = -1;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "sim/adapted_mesh.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -60,13 +61,22 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   // assembly's slots (~2.7 KB), with 50 % for the rounding of the element counts.
   checkAllocation(0, std::size_t(1.5 * double(std::max(s.fineTets, s.coarseTets)) * 2700.0), "the simulation meshes");
   reportProgress(progress, 0.0, "meshing");
-  sc.meshes = buildNestedMeshes(lo, hi, s.coarseTets, std::max(1, s.fineTets / std::max(1, s.coarseTets)));
+  const MaterialTable table = s.materials.resolve(image);
+  const Eigen::Matrix4d toIndex = g.worldToIndex();
+  const int finePer = std::max(1, s.fineTets / std::max(1, s.coarseTets));
+  if (s.fineMesh == SimSettings::FineMesh::ImageAdapted) {
+    if (s.element != CoarseElement::Cell) throw Error("simulation: the image-adapted fine mesh needs cell elements");
+    const auto youngsAt = [&](const Eigen::Vector3d& p) {
+      return table.band(table.classify(image.sampleLinear((toIndex * p.homogeneous()).head<3>()))).youngs;
+    };
+    sc.meshes = buildImageAdaptedMeshes(lo, hi, s.coarseTets, finePer, youngsAt, s.adaptContrast, progress, &sc.adapted);
+  } else {
+    sc.meshes = buildNestedMeshes(lo, hi, s.coarseTets, finePer);
+  }
   const TetMesh& F = sc.meshes.fine;
   reportProgress(progress, 0.2, "materials");
   // Materials: the image at five points of each fine tet (centroid and midway to each corner),
   // classified and averaged (Young's modulus and Poisson ratio; the band at the centroid is kept).
-  const MaterialTable table = s.materials.resolve(image);
-  const Eigen::Matrix4d toIndex = g.worldToIndex();
   sc.band.resize(F.tets.size());
   sc.youngs.resize(F.tets.size());
   sc.poisson.resize(F.tets.size());
@@ -90,19 +100,16 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   sc.fineK = tetStiffnesses(F, sc.youngs, sc.poisson);
   // Dirichlet roles: the region's outer faces are fixed; handle nodes are those of fine tets
   // containing a handle voxel's centre, later handles winning.
-  const KuhnGrid& fg = sc.meshes.fineGrid;
   sc.constraints.handleCount = int(handles.size());
   sc.constraints.handleOf.assign(F.nodes.size(), -1);
   sc.constraints.fixed.assign(F.nodes.size(), 0);
-  const Eigen::Vector3i nd = fg.nodeDims();
-  for (std::size_t n = 0; n < F.nodes.size(); ++n) {
-    const Eigen::Vector3i ijk = fg.nodeCoords(int(n));
+  const double onFace = 1e-9 * sc.meshes.coarseGrid.cell().maxCoeff();
+  for (std::size_t n = 0; n < F.nodes.size(); ++n)
     for (int a = 0; a < 3; ++a)
-      if (ijk[a] == 0 || ijk[a] == nd[a] - 1) sc.constraints.fixed[n] = 1;
-  }
+      if (F.nodes[n][a] <= lo[a] + onFace || F.nodes[n][a] >= hi[a] - onFace) sc.constraints.fixed[n] = 1;
   for (std::size_t h = 0; h < handles.size(); ++h)
     for (std::uint32_t v : handles[h].voxels) {
-      const int t = fg.locate(g.toWorld(g.voxelOf(v).cast<double>()));
+      const int t = sc.meshes.locateFine(g.toWorld(g.voxelOf(v).cast<double>()));
       if (t < 0) continue;  // outside the region (whole-volume runs include every voxel centre)
       for (int n : F.tets[std::size_t(t)]) sc.constraints.handleOf[std::size_t(n)] = int(h);
     }

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "sim/adapted_mesh.h"
 #include "sim/coarsening.h"
 #include "sim/materials.h"
 #include "sim/progress.h"
@@ -29,6 +30,10 @@ struct SimSettings {
   /// The coarse model's elements (CoarseModel; sim/coarsening.h): grid cells by default, measured
   /// more accurate than the spec's coarse tets on the same coarse nodes (README, `bench sim`).
   CoarseElement element = CoarseElement::Cell;
+  /// The fine mesh: the regular refinement of the coarse grid (default), or image-adapted (TetGen,
+  /// sim/adapted_mesh.h: extra points at material boundaries; needs cell elements).
+  enum class FineMesh { Regular, ImageAdapted } fineMesh = FineMesh::Regular;
+  double adaptContrast = 10.0;  ///< image-adapted: a Young's modulus jump of this factor adds points
   MaterialTable materials = MaterialTable::ctDefault();
 };
 
@@ -41,6 +46,7 @@ struct SimScene {
   FineConstraints constraints;         ///< handle nodes (last claimer wins) and the fixed outer faces
   std::vector<Eigen::Vector3d> handleCentroid;  ///< world centroid of each handle's voxels
   std::vector<std::size_t> handleNodeCount;
+  AdaptedMeshStats adapted;            ///< image-adapted fine mesh only
 };
 
 /// Builds the scene. Handles are claimed in order: a fine node touched by two handles belongs to the

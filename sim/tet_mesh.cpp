@@ -112,6 +112,30 @@ int KuhnGrid::locate(const Eigen::Vector3d& p, Eigen::Vector4d* bary) const {
   return ((c.z() * cells_.y() + c.y()) * cells_.x() + c.x()) * 6 + p6;
 }
 
+int NestedMeshes::locateFine(const Eigen::Vector3d& p) const {
+  if (regularFine) return fineGrid.locate(p);
+  const int t = coarseGrid.locate(p);
+  if (t < 0) return -1;
+  const int cell = t / 6;
+  int best = -1;
+  double bestMin = -1e300;
+  for (int k = cellTetStart[std::size_t(cell)]; k < cellTetStart[std::size_t(cell) + 1]; ++k) {
+    const auto& v = fine.tets[std::size_t(cellTets[std::size_t(k)])];
+    Eigen::Matrix3d D;
+    D << fine.nodes[std::size_t(v[1])] - fine.nodes[std::size_t(v[0])], fine.nodes[std::size_t(v[2])] - fine.nodes[std::size_t(v[0])],
+        fine.nodes[std::size_t(v[3])] - fine.nodes[std::size_t(v[0])];
+    const Eigen::Vector3d l = D.inverse() * (p - fine.nodes[std::size_t(v[0])]);
+    const double m = std::min({1.0 - l.sum(), l.x(), l.y(), l.z()});
+    if (m >= 0) return cellTets[std::size_t(k)];
+    if (m > bestMin) {
+      bestMin = m;
+      best = cellTets[std::size_t(k)];
+    }
+  }
+  // On the cell's boundary within roundoff: the nearest tet by barycentric margin.
+  return bestMin > -1e-9 ? best : -1;
+}
+
 NestedMeshes buildNestedMeshes(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int coarseTets, int finePerCoarse) {
   if (!lo.allFinite() || !hi.allFinite() || ((hi - lo).array() <= 0).any()) throw Error("meshing: the region is empty");
   if (coarseTets < 6 || coarseTets > 10000000) throw Error("meshing: coarse tet count must be 6..1e7");

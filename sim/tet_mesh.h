@@ -65,8 +65,17 @@ struct NestedMeshes {
   KuhnGrid coarseGrid, fineGrid;
   int refinement = 1;                  ///< fine cells per coarse cell edge (m)
   TetMesh coarse, fine;
-  std::vector<int> fineParent;         ///< coarse tet containing each fine tet
+  std::vector<int> fineParent;         ///< coarse tet containing each fine tet (its centroid)
   std::vector<int> coarseNodeInFine;   ///< fine node index of each coarse node
+  /// The fine mesh is fineGrid's Kuhn mesh: every fine tet lies in one coarse tet. Otherwise (an
+  /// image-adapted fine mesh, sim/adapted_mesh.h) every fine tet lies in one coarse grid cell, the
+  /// cells' faces triangulated as in the regular mesh, and cellTetStart/cellTets list each cell's
+  /// fine tets.
+  bool regularFine = true;
+  std::vector<int> cellTetStart, cellTets;
+
+  /// The fine tet containing p (within 1e-9 of the cell size), -1 outside the box.
+  int locateFine(const Eigen::Vector3d& p) const;
 };
 
 /// A box [lo, hi] meshed with about `coarseTets` coarse tets (cubic cells) and each coarse tet split

@@ -74,7 +74,9 @@ TEST(TetRaster, AffineMotionMatchesAnalyticWarpingAndLeavesNoCracks) {
   for (int k = 0; k < g.dims.z(); ++k)
     for (int j = 0; j < g.dims.y(); ++j)
       for (int i = 0; i < g.dims.x(); ++i)
-        if (!inRegion(g.toWorld(Eigen::Vector3d(i, j, k)), {-30, -20, -10}, {10, 15, 20})) ASSERT_EQ(out.value(i, j, k), src.value(i, j, k));
+        if (!inRegion(g.toWorld(Eigen::Vector3d(i, j, k)), {-30, -20, -10}, {10, 15, 20})) {
+          ASSERT_EQ(out.value(i, j, k), src.value(i, j, k));
+        }
 }
 
 TEST(TetRaster, SmoothDeformationWithFixedBoundaryCoversTheRegionExactly) {

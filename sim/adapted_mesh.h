@@ -1,0 +1,33 @@
+#pragma once
+// An image-adapted fine mesh (../shared/spec/methods.md section 5, "fine mesh construction"): the
+// coarse grid and the regular fine lattice as in buildNestedMeshes, but each coarse cell is meshed by
+// TetGen (sim/tetgen_mesher.h) from
+//   - its six faces, triangulated exactly as the regular fine mesh triangulates them (m x m squares,
+//     each split along its Kuhn diagonal), kept unsplit, so neighbouring cells conform and the coarse
+//     elements' faces are the regular ones;
+//   - the regular interior lattice points (spacing h / m);
+//   - extra points where the image has structure that matters to the mechanics: points of the
+//     half-spacing lattice (h / 2m) whose Young's modulus differs by `contrast` or more from one of
+//     their six half-spacing neighbours' (bone surfaces, vessel walls; not the noise between fat and
+//     soft tissue, 3 against 6 kPa), so fine tets follow those boundaries and nothing is added elsewhere.
+// A cell TetGen cannot mesh keeps its regular Kuhn tets (counted). Fine tets lie in one coarse cell,
+// not necessarily one coarse tet: the coarse model needs cell elements on this mesh.
+#include <functional>
+
+#include "sim/progress.h"
+#include "sim/tet_mesh.h"
+
+namespace handson {
+
+struct AdaptedMeshStats {
+  std::size_t structurePoints = 0;  ///< points added at material boundaries
+  std::size_t fallbackCells = 0;    ///< cells left with their regular tets (TetGen refused them)
+  std::string firstFailure;         ///< TetGen's reason for the first such cell
+};
+
+/// `youngsAt(p)`: Young's modulus at world point p (> 0).
+NestedMeshes buildImageAdaptedMeshes(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int coarseTets, int finePerCoarse,
+                                     const std::function<double(const Eigen::Vector3d&)>& youngsAt, double contrast = 10.0,
+                                     const ProgressFn& progress = {}, AdaptedMeshStats* stats = nullptr);
+
+}  // namespace handson
