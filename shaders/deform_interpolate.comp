@@ -45,16 +45,21 @@ void main() {
   } else if (n.x == kFineCorner) {
     p = cpos[n.y].xyz;
   } else if (n.x == kFineBoundary) {
+    // Corners in groups of four (one uvec4 of indices, one vec4 of weights): constant lane indices.
     p = vec3(0.0);
-    for (uint c = 0u; c < P.limits.y; ++c) p += blk[n.z + c / 4u][c % 4u] * cpos[corners[2u * n.y + c / 4u][c % 4u]].xyz;
+    for (uint h = 0u; h < P.limits.y / 4u; ++h) {
+      uvec4 cs = corners[2u * n.y + h];
+      vec4 N = blk[n.z + h];
+      for (int k = 0; k < 4; ++k) p += N[k] * cpos[cs[k]].xyz;
+    }
   } else if (n.x == kFineInterior) {
     mat3 R = quatToMat3(rot[n.y]);
     mat3 Rt = transpose(R);
     vec3 q = X;
     uint o = n.z;
-    for (uint c = 0u; c < P.limits.y; ++c, o += 3u) {
-      uint v = corners[2u * n.y + c / 4u][c % 4u];
-      q += block3(o) * (Rt * cpos[v].xyz - crest[v].xyz);
+    for (uint h = 0u; h < P.limits.y / 4u; ++h) {
+      uvec4 cs = corners[2u * n.y + h];
+      for (int k = 0; k < 4; ++k, o += 3u) q += block3(o) * (Rt * cpos[cs[k]].xyz - crest[cs[k]].xyz);
     }
     for (uint g = 0u; g < n.w; ++g) {
       mat4 T = handle[uint(blk[o].x)];
