@@ -51,6 +51,7 @@ int cmdBench(const Words& words) {
   if (!words.empty() && words[0] == "sim") return cmdBenchSim(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "deform") return cmdBenchDeform(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "mesh") return cmdBenchMesh(Words(words.begin() + 1, words.end()));
+  if (!words.empty() && words[0] == "stability") return cmdBenchStability(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "raymarch") return cmdBench(Words(words.begin() + 1, words.end()));
   std::vector<std::string> valueOptions = kRenderValueOptions;
   valueOptions.insert(valueOptions.end(), {"--sizes", "--repeat", "--csv"});

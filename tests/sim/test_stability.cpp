@@ -7,6 +7,7 @@
 #include <cmath>
 #include <functional>
 
+#include "sim/box_scene.h"
 #include "sim/coarsening.h"
 #include "sim/static_solver.h"
 #include "sim/two_level.h"
@@ -15,70 +16,10 @@ using namespace handson;
 
 namespace {
 
-struct Scene {
-  NestedMeshes meshes = buildNestedMeshes({0, 0, 0}, {60, 40, 40}, 480, 27);
-  std::vector<double> E, nu;
-  std::vector<Mat12> K;
-  FineConstraints c;
-  explicit Scene(double contrast = 1.0) {
-    const auto& F = meshes.fine;
-    E.assign(F.tets.size(), 3e3);
-    nu.assign(F.tets.size(), 0.45);
-    for (std::size_t t = 0; t < F.tets.size(); ++t) {
-      Eigen::Vector3d ctr = Eigen::Vector3d::Zero();
-      for (int v : F.tets[t]) ctr += F.nodes[std::size_t(v)] / 4.0;
-      if (ctr.y() > 24 && ctr.y() < 30) E[t] *= contrast;  // a stiff slab beside the handle
-    }
-    K = tetStiffnesses(F, E, nu);
-    c.handleOf.assign(F.nodes.size(), -1);
-    c.fixed.assign(F.nodes.size(), 0);
-    for (std::size_t n = 0; n < F.nodes.size(); ++n) {
-      const auto& p = F.nodes[n];
-      if (p.minCoeff() < 1e-9 || p.x() > 60 - 1e-9 || p.y() > 40 - 1e-9 || p.z() > 40 - 1e-9) c.fixed[n] = 1;
-    }
-  }
-  void ball(const Eigen::Vector3d& ctr, double r, int handle) {
-    for (std::size_t n = 0; n < meshes.fine.nodes.size(); ++n)
-      if ((meshes.fine.nodes[n] - ctr).norm() < r) c.handleOf[n] = handle;
-    c.handleCount = std::max(c.handleCount, handle + 1);
-  }
-};
-
-bool finite(const std::vector<Eigen::Vector3d>& x) {
-  for (const auto& p : x)
-    if (!p.allFinite()) return false;
-  return true;
-}
-
-// Coarse (with continuation) and fine solves of one scene and motion; both must be finite.
-struct Outcome {
-  bool coarseFinite = false, fineFinite = false, fineConverged = false;
-  int coarseInverted = 0, fineInverted = 0;
-};
+using Scene = BoxScene;
+using Outcome = StabilityOutcome;
 using Motion = std::function<std::vector<RigidTransform>(double fraction)>;
-Outcome run(Scene& s, const Motion& at, int increments) {
-  Outcome o;
-  CoarseModel model(s.meshes, s.K, s.c);
-  auto xc = model.restState();
-  const auto T = at(1.0);
-  for (int k = 1; k <= increments; ++k) model.solve(at(double(k) / increments), xc, 30);
-  const auto xcoarse = model.reconstruct(T, xc);
-  o.coarseFinite = finite(xc) && finite(xcoarse);
-  o.coarseInverted = countInvertedTets(s.meshes.fine, xcoarse);
-  std::vector<char> dir;
-  auto x = s.meshes.fine.nodes;
-  for (int k = 1; k <= increments; ++k) {
-    auto x0 = prescribedPositions(s.meshes.fine, s.c, at(double(k) / increments), &dir);
-    for (std::size_t i = 0; i < x0.size(); ++i)
-      if (!dir[i]) x0[i] = x[i];
-    const auto r = solveStatic(s.meshes.fine, s.K, dir, x0);
-    x = r.x;
-    o.fineConverged = r.converged;
-  }
-  o.fineFinite = finite(x);
-  o.fineInverted = countInvertedTets(s.meshes.fine, x);
-  return o;
-}
+Outcome run(Scene& s, const Motion& at, int increments) { return solveBoxMotion(s, at, increments); }
 
 }  // namespace
 
@@ -121,4 +62,33 @@ TEST(Stability, HandleTouchingTheFixedBoundaryAndAFixedHandlePullingApart) {
   // resolution (measured 2 of 12,960); they are counted, and the solve still converges.
   EXPECT_LT(p.fineInverted, 50);
   std::printf("pulled apart: inverted fine tets coarse %d, fine %d\n", p.coarseInverted, p.fineInverted);
+}
+
+TEST(Stability, ElementsInvertedByAHalfTurnRecoverWhenTheHandleTurnsBack) {
+  // Out to 180 degrees and back to 0 in 30-degree increments, each solve warm-started from the last:
+  // the tets the half turn inverts (counted above) must come back, and both models return to rest.
+  Scene s;
+  s.ball({30, 20, 20}, 9, 0);
+  const Motion outAndBack = [](double f) {
+    const double angle = M_PI * (1.0 - std::abs(2.0 * f - 1.0));
+    return std::vector<RigidTransform>{RigidTransform::about({30, 20, 20}, Eigen::Vector3d(0, 0, angle), Eigen::Vector3d::Zero())};
+  };
+  const auto half = run(s, [&](double f) { return outAndBack(0.5 * f); }, 6);
+  EXPECT_GT(half.fineInverted, 0) << "the half turn inverts some tets (else this test proves nothing)";
+  const auto o = run(s, outAndBack, 12);
+  ASSERT_TRUE(o.coarseFinite && o.fineFinite);
+  EXPECT_TRUE(o.fineConverged);
+  EXPECT_EQ(o.fineInverted, 0);
+  EXPECT_EQ(o.coarseInverted, 0);
+  double worstFine = 0, worstCoarse = 0;
+  for (std::size_t n = 0; n < o.fine.size(); ++n) {
+    worstFine = std::max(worstFine, (o.fine[n] - s.meshes.fine.nodes[n]).norm());
+    worstCoarse = std::max(worstCoarse, (o.coarse[n] - s.meshes.fine.nodes[n]).norm());
+  }
+  // Solver tolerances: the fine solve stops at 1e-6 of the motion, the coarse one after 30
+  // iterations an increment at 1e-6 of the largest handle displacement (zero here: a micron floor).
+  EXPECT_LT(worstFine, 1e-3) << "mm from rest";
+  EXPECT_LT(worstCoarse, 1e-2) << "mm from rest";
+  std::printf("out to 180 and back: inverted at 180 deg %d (fine), back at rest within %.2e mm (fine) and %.2e mm (coarse)\n", half.fineInverted,
+              worstFine, worstCoarse);
 }
