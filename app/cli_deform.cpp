@@ -53,7 +53,8 @@ const char* const kDeformHelp =
     "  --device NAME           Vulkan device for --backend gpu (default: automatic; see handson render)\n"
     "  --validation            Khronos validation layer on (any message is an error)\n"
     "  --mesh-out MESH.vtu     the fine mesh for ParaView: rest positions, point data displacement and\n"
-    "                          dirichlet, cell data youngs_modulus, poisson_ratio, coarse_element\n"
+    "                          dirichlet, cell data youngs_modulus, poisson_ratio, coarse_element (the\n"
+    "                          coarse model's element: grid cell or coarse tet)\n"
     "  --quiet                 no progress output\n";
 
 double seconds(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
@@ -239,7 +240,9 @@ int cmdDeform(const Words& words) {
       disp[i] = x[i] - sc.meshes.fine.nodes[i];
       dir[i] = (sc.constraints.fixed[i] || sc.constraints.handleOf[i] >= 0) ? 1.0 : 0.0;
     }
-    for (std::size_t t = 0; t < coarseEl.size(); ++t) coarseEl[t] = sc.meshes.fineParent[t];
+    // The coarse model's element of each fine tet (a grid cell or a coarse tet, --coarse-element).
+    for (std::size_t t = 0; t < coarseEl.size(); ++t)
+      coarseEl[t] = s.element == CoarseElement::Cell ? sc.meshes.fineParent[t] / 6 : sc.meshes.fineParent[t];
     VtuArrays a;
     a.pointVectors = {{"displacement", &disp}};
     a.pointScalars = {{"dirichlet", &dir}};

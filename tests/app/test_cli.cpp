@@ -191,8 +191,9 @@ TEST_F(Cli, DeformMovesTheHandleRegionOnlyAndWritesAMeshForParaView) {
   for (std::size_t i = 0; i < ct.voxelCount(); ++i) diff = std::max(diff, double(std::abs(same.value(i) - ct.value(i))));
   EXPECT_LE(diff, 1.0) << "zero motion reproduces the input within 1 HU";
 
-  for (const char* model : {"coarse", "fine"}) {
-    const std::string out = p((std::string(model) + ".nii.gz").c_str());
+  // The coarse model, the fine reference, and the coarse model on the image-adapted (TetGen) fine mesh.
+  for (const char* model : {"coarse", "fine", "coarse --fine-mesh adapted"}) {
+    const std::string out = p((std::string(model).substr(0, 6) + std::to_string(std::string(model).size()) + ".nii.gz").c_str());
     r = runHandson(common + "--model " + model + " --translate-mm 12,0,0 --rotate-deg 0,0,20 -o " + out + " --mesh-out " + p("mesh.vtu"));
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("inverted fine tets"), std::string::npos) << r.output;
@@ -279,6 +280,12 @@ TEST_F(Cli, SimulationOptionsAreCheckedBeforeAnyWork) {
       {"replay --quiet --export /nonexistent-dir/x.nii.gz", 1},
       {"bench deform --frames 0", 2},
       {"bench deform --commit-voxels -1", 2},
+      {"bench deform --coarse-element hex", 2},
+      {"replay --sim-fine-mesh fancy", 2},
+      {"replay --sim-fine-mesh adapted --sim-coarse-element tet", 2},
+      {"replay --sim-fine-mesh adapted --sim-adapt-contrast 1", 2},
+      {"bench mesh --regular-list 0", 2},
+      {"bench stability --angles 400", 2},
       {"deform /nonexistent.nii.gz --handle x.nii.gz --translate-mm 1,0,0 -o y.nii.gz --backend gpu", 1},
   };
   for (const auto& [args, status] : bad) {
