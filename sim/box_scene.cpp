@@ -39,10 +39,11 @@ StabilityOutcome solveBoxMotion(const BoxScene& s, const std::function<std::vect
   CoarseModel model(s.meshes, s.K, s.c, {}, element);
   auto xc = model.restState();
   try {
+    o.coarseConverged = true;  // every increment must converge
     for (int k = 1; k <= increments; ++k) {
       const auto st = model.solve(at(double(k) / increments), xc, 30);
       o.coarseIterations += st.iterations;
-      o.coarseConverged = st.converged;
+      o.coarseConverged = o.coarseConverged && st.converged;
     }
     o.coarse = model.reconstruct(at(1.0), xc);
     o.coarseFinite = finite(xc) && finite(o.coarse);
@@ -52,17 +53,23 @@ StabilityOutcome solveBoxMotion(const BoxScene& s, const std::function<std::vect
   if (o.coarseFinite) o.coarseInverted = countInvertedTets(s.meshes.fine, o.coarse);
   std::vector<char> dir;
   auto x = s.meshes.fine.nodes;
-  for (int k = 1; k <= increments; ++k) {
-    auto x0 = prescribedPositions(s.meshes.fine, s.c, at(double(k) / increments), &dir);
-    for (std::size_t i = 0; i < x0.size(); ++i)
-      if (!dir[i]) x0[i] = x[i];
-    const auto r = solveStatic(s.meshes.fine, s.K, dir, x0);
-    x = r.x;
-    o.fineConverged = r.converged;
-    o.fineIterations += r.iterations;
+  try {
+    o.fineConverged = true;
+    for (int k = 1; k <= increments; ++k) {
+      auto x0 = prescribedPositions(s.meshes.fine, s.c, at(double(k) / increments), &dir);
+      for (std::size_t i = 0; i < x0.size(); ++i)
+        if (!dir[i]) x0[i] = x[i];
+      const auto r = solveStatic(s.meshes.fine, s.K, dir, x0);
+      x = r.x;
+      o.fineConverged = o.fineConverged && r.converged;
+      o.fineIterations += r.iterations;
+    }
+    o.fine = x;
+    o.fineFinite = finite(x);
+  } catch (const std::exception&) {
+    o.fineConverged = false;
+    o.fineFinite = false;  // the solve refused a non-finite step
   }
-  o.fine = x;
-  o.fineFinite = finite(x);
   if (o.fineFinite) o.fineInverted = countInvertedTets(s.meshes.fine, x);
   return o;
 }

@@ -1,8 +1,15 @@
 #include "tetgen_mesher.h"
 
 #include <Eigen/Dense>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 
 #define TETLIBRARY  // the library entry point; errors throw instead of calling exit()
@@ -45,28 +52,94 @@ TetgenResult tetrahedralizeSurface(const std::vector<Eigen::Vector3d>& points, c
     f.polygonlist[0].vertexlist = new int[3];
     for (int c = 0; c < 3; ++c) f.polygonlist[0].vertexlist[c] = triangles[i][std::size_t(c)];
   }
-  char switches[] = "pYQ";
-  try {
-    tetrahedralize(switches, &in, &out);
-  } catch (int code) {
-    r.message = "TetGen failed (code " + std::to_string(code) + ")";
-    return r;
-  } catch (const std::exception& e) {
-    r.message = std::string("TetGen failed: ") + e.what();
-    return r;
-  }
-  if (out.numberofpoints != in.numberofpoints) {
-    r.message = "TetGen needed " + std::to_string(out.numberofpoints - in.numberofpoints) + " extra points to keep the surface";
+  // TetGen 1.5's error path frees its mesh and throws, and the unwinding frees it again: any TetGen
+  // error would crash this process. So TetGen runs in a forked child that sends its tets back
+  // through a pipe; a child that crashes or fails is a status here. (A fork per call costs about a
+  // millisecond; each child also has its own copy of TetGen's global state, so threads may call this.)
+  int fds[2];
+  if (pipe(fds) != 0) {
+    r.message = std::string("TetGen not run: no pipe (") + std::strerror(errno) + ")";
     return r;
   }
-  if (out.numberofcorners != 4 || out.numberoftetrahedra <= 0) {
-    r.message = "TetGen returned no linear tets";
+  const pid_t child = fork();
+  if (child < 0) {
+    close(fds[0]);
+    close(fds[1]);
+    r.message = std::string("TetGen not run: fork failed (") + std::strerror(errno) + ")";
     return r;
   }
-  r.tets.resize(std::size_t(out.numberoftetrahedra));
+  if (child == 0) {
+    close(fds[0]);
+    int status = 1;
+    std::vector<std::int32_t> msg;
+    try {
+      char switches[] = "pYQJ";  // PLC, boundary unsplit, quiet, keep every input point (indices stable)
+      tetrahedralize(switches, &in, &out);
+      bool same = out.numberofpoints == in.numberofpoints && out.numberofcorners == 4;
+      for (int i = 0; same && i < 3 * in.numberofpoints; ++i) same = out.pointlist[i] == in.pointlist[i];
+      if (!same) status = 2;
+      else {
+        status = 0;
+        msg.assign(out.tetrahedronlist, out.tetrahedronlist + 4 * std::size_t(out.numberoftetrahedra));
+      }
+    } catch (...) {
+      status = 1;
+    }
+    const std::int32_t head[2] = {status, std::int32_t(msg.size())};
+    auto send = [&](const void* p, std::size_t n) {
+      const char* c = static_cast<const char*>(p);
+      while (n > 0) {
+        const ssize_t w = write(fds[1], c, n);
+        if (w <= 0) _exit(3);
+        c += w;
+        n -= std::size_t(w);
+      }
+    };
+    send(head, sizeof head);
+    if (!msg.empty()) send(msg.data(), msg.size() * sizeof(std::int32_t));
+    _exit(0);
+  }
+  close(fds[1]);
+  std::vector<char> bytes;
+  char buf[65536];
+  for (;;) {
+    const ssize_t n = read(fds[0], buf, sizeof buf);
+    if (n > 0) bytes.insert(bytes.end(), buf, buf + n);
+    else if (n == 0 || errno != EINTR) break;
+  }
+  close(fds[0]);
+  int wstatus = 0;
+  while (waitpid(child, &wstatus, 0) < 0 && errno == EINTR) {
+  }
+  std::int32_t head[2] = {-1, 0};
+  if (bytes.size() >= sizeof head) std::memcpy(head, bytes.data(), sizeof head);
+  if (!WIFEXITED(wstatus) || bytes.size() < sizeof head) {
+    r.message = "TetGen failed (it stopped in its error path)";
+    return r;
+  }
+  if (head[0] == 1) {
+    r.message = "TetGen failed";
+    return r;
+  }
+  if (head[0] == 2) {
+    r.message = "TetGen needed extra points to keep the surface";
+    return r;
+  }
+  if (head[0] != 0 || head[1] <= 0 || head[1] % 4 != 0 || bytes.size() != sizeof head + std::size_t(head[1]) * sizeof(std::int32_t)) {
+    r.message = "TetGen returned no tets";
+    return r;
+  }
+  std::vector<std::int32_t> tl(static_cast<std::size_t>(head[1]));
+  std::memcpy(tl.data(), bytes.data() + sizeof head, tl.size() * sizeof(std::int32_t));
+  for (std::int32_t v : tl)
+    if (v < 0 || std::size_t(v) >= points.size()) {
+      r.message = "TetGen returned a tet with a missing point";
+      return r;
+    }
+  r.tets.resize(tl.size() / 4);
   for (std::size_t t = 0; t < r.tets.size(); ++t) {
     auto& tet = r.tets[t];
-    for (int c = 0; c < 4; ++c) tet[std::size_t(c)] = out.tetrahedronlist[4 * t + std::size_t(c)];
+    for (int c = 0; c < 4; ++c) tet[std::size_t(c)] = tl[4 * t + std::size_t(c)];
     Eigen::Matrix3d D;
     D << points[std::size_t(tet[1])] - points[std::size_t(tet[0])], points[std::size_t(tet[2])] - points[std::size_t(tet[0])],
         points[std::size_t(tet[3])] - points[std::size_t(tet[0])];

@@ -16,9 +16,11 @@ struct TetgenResult {
 };
 
 /// Every point becomes a vertex (surface points on `triangles`, the others inside); TetGen's
-/// switches "pYQ": a PLC, its boundary not split, quiet. TetGen may not add points: if it must (the
-/// surface cannot be recovered without Steiner points) the result is !ok with the reason, as for
-/// any TetGen error; tets of zero volume are refused too. Never throws for bad geometry.
+/// switches "pYQJ": a PLC, its boundary not split, quiet, no point dropped (indices stay). TetGen may
+/// not add points: if it must (the surface cannot be recovered without Steiner points) the result
+/// is !ok with the reason, as for any TetGen error; tets of zero volume are refused too. TetGen runs
+/// in a forked child process (its error path frees memory twice and would crash this one); safe
+/// to call from several threads. Never throws for bad geometry.
 TetgenResult tetrahedralizeSurface(const std::vector<Eigen::Vector3d>& points, const std::vector<std::array<int, 3>>& triangles);
 
 }  // namespace handson

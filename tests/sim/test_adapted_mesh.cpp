@@ -87,6 +87,21 @@ TEST(TetgenMesher, BadInputIsAStatusNotACrash) {
   EXPECT_FALSE(r.message.empty());
   r = tetrahedralizeSurface({{0, 0, 0}, {1, 0, 0}}, {});
   EXPECT_FALSE(r.ok);
+  // A triangle piercing the cube's faces: TetGen itself fails (its error path frees its memory
+  // twice, so it runs in a child process): a status here, and this process goes on.
+  pts = cubeCorners();
+  tris = cubeTriangles();
+  pts.emplace_back(0.5, 0.5, -0.5);
+  pts.emplace_back(0.5, -0.3, 1.5);
+  pts.emplace_back(0.5, 1.3, 1.5);
+  tris.push_back({8, 9, 10});
+  r = tetrahedralizeSurface(pts, tris);
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("TetGen"), std::string::npos) << r.message;
+  // And the next call works.
+  auto good = cubeCorners();
+  good.emplace_back(0.5, 0.5, 0.5);
+  EXPECT_TRUE(tetrahedralizeSurface(good, cubeTriangles()).ok);
 }
 
 namespace {

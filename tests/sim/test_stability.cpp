@@ -30,6 +30,7 @@ TEST(Stability, HandleRotatedBy180DegreesWithContinuation) {
   EXPECT_TRUE(o.coarseFinite);
   EXPECT_TRUE(o.fineFinite);
   EXPECT_TRUE(o.fineConverged);
+  EXPECT_TRUE(o.coarseConverged) << "every increment";
   // A ball twisted half a turn inside a fixed box shears its shell beyond what linear tets of this
   // size can follow without inverting (measured ~300 of 12,960 fine tets in both models): reported.
   std::printf("180 deg: inverted fine tets coarse %d, fine %d\n", o.coarseInverted, o.fineInverted);
@@ -42,6 +43,7 @@ TEST(Stability, TenThousandFoldStiffnessContrastBesideTheHandle) {
   EXPECT_TRUE(o.coarseFinite);
   EXPECT_TRUE(o.fineFinite);
   EXPECT_TRUE(o.fineConverged);
+  EXPECT_TRUE(o.coarseConverged) << "every increment";
 }
 
 TEST(Stability, HandleTouchingTheFixedBoundaryAndAFixedHandlePullingApart) {
@@ -52,12 +54,13 @@ TEST(Stability, HandleTouchingTheFixedBoundaryAndAFixedHandlePullingApart) {
   EXPECT_TRUE(o.coarseFinite);
   EXPECT_TRUE(o.fineFinite);
   EXPECT_TRUE(o.fineConverged);
+  EXPECT_TRUE(o.coarseConverged) << "every increment";
   // Pulled 8 mm further apart along x, in two increments.
   Scene t;
   t.ball({22, 20, 20}, 6, 0);
   t.ball({40, 20, 20}, 6, 1);
   const auto p = run(t, [](double f) { return std::vector<RigidTransform>{RigidTransform::about({22, 20, 20}, Eigen::Vector3d::Zero(), Eigen::Vector3d(-8 * f, 0, 0)), RigidTransform{}}; }, 2);
-  EXPECT_TRUE(p.coarseFinite && p.fineFinite && p.fineConverged);
+  EXPECT_TRUE(p.coarseFinite && p.fineFinite && p.fineConverged && p.coarseConverged);
   // 8 mm toward the fixed face halves the 16 mm of tissue there: a few fine tets may invert at this
   // resolution (measured 2 of 12,960); they are counted, and the solve still converges.
   EXPECT_LT(p.fineInverted, 50);
@@ -78,6 +81,7 @@ TEST(Stability, ElementsInvertedByAHalfTurnRecoverWhenTheHandleTurnsBack) {
   const auto o = run(s, outAndBack, 12);
   ASSERT_TRUE(o.coarseFinite && o.fineFinite);
   EXPECT_TRUE(o.fineConverged);
+  EXPECT_TRUE(o.coarseConverged) << "every increment";
   EXPECT_EQ(o.fineInverted, 0);
   EXPECT_EQ(o.coarseInverted, 0);
   double worstFine = 0, worstCoarse = 0;
