@@ -159,11 +159,13 @@ int runReplay(const ReplayOptions& o) {
   if (!o.framesOut.empty()) std::cout << "wrote " << frames << " frames to " << o.framesOut << "\n";
   if (o.printCamera) std::cout << describeCamera(session.camera()) << "\n";
   if (o.printHandles)
-    for (const auto& h : selection.handles().handles())
+    for (const auto& h : selection.handles().handles()) {
+      const Eigen::AngleAxisd aa(h.pose.rotation);
       std::cout << "handle " << h.id << " " << handleStatusName(h.status) << " " << h.voxels.size() << " voxels"
                 << (std::find(selection.picked().begin(), selection.picked().end(), h.id) != selection.picked().end() ? " picked" : "")
                 << " translation " << h.pose.translation.x() << "," << h.pose.translation.y() << "," << h.pose.translation.z() << " rotation_deg "
-                << Eigen::AngleAxisd(h.pose.rotation).angle() * 180.0 / M_PI << "\n";
+                << aa.angle() * 180.0 / M_PI << " axis " << aa.axis().x() << "," << aa.axis().y() << "," << aa.axis().z() << "\n";
+    }
   if (ctx.validationMessageCount() > 0) {
     std::cerr << "error: " << ctx.validationMessageCount() << " Vulkan validation message(s)\n";
     return 1;
