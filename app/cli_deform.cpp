@@ -162,7 +162,10 @@ int cmdDeform(const Words& words) {
   const double tScene = seconds(t0);
   std::cout << std::fixed << std::setprecision(1) << "region: (" << sc.lo.x() << ", " << sc.lo.y() << ", " << sc.lo.z() << ") .. (" << sc.hi.x() << ", "
             << sc.hi.y() << ", " << sc.hi.z() << ") mm; coarse " << sc.meshes.coarse.tets.size() << " tets, fine " << sc.meshes.fine.tets.size()
-            << " tets (" << sc.meshes.refinement << "^3 per coarse tet); handle nodes " << sc.handleNodeCount[0] << "\n";
+            << " tets (" << (sc.meshes.regularFine ? std::to_string(sc.meshes.refinement) + "^3 per coarse tet"
+                                                   : "image-adapted: " + std::to_string(sc.adapted.structurePoints) + " points at stiffness jumps, " +
+                                                         std::to_string(sc.adapted.fallbackCells) + " cells left regular")
+            << "); handle nodes " << sc.handleNodeCount[0] << "\n";
   // Large motions are applied in increments of at most 30 degrees and 10 mm, each solve starting
   // from the previous one (continuation keeps the Newton and corotational iterations in their basin).
   const int steps = std::max({1, int(std::ceil(rotation.norm() / (M_PI / 6))), int(std::ceil(translation.norm() / 10.0))});

@@ -451,8 +451,9 @@ Eigen::VectorXd CoarseModel::restrictToCoarse(const std::vector<Eigen::Vector3d>
     if (constraints_.fixed[std::size_t(b.fine)]) continue;
     for (int c = 0; c < nc_; ++c) add(elementCorner(b.element, c), b.N[c] * r[std::size_t(b.fine)]);
   }
+  const std::vector<Eigen::Matrix3d> R = elementRotations(x);  // once per element, not per fine node
   for (const auto& in : interior_) {
-    const Eigen::Matrix3d Rc = elementRotation(in.element, x);
+    const Eigen::Matrix3d& Rc = R[std::size_t(in.element)];
     const Eigen::Vector3d rl = Rc.transpose() * r[std::size_t(in.fine)];
     for (int c = 0; c < nc_; ++c) add(elementCorner(in.element, c), Rc * (in.H.middleCols<3>(3 * c).transpose() * rl));
   }
@@ -470,8 +471,9 @@ void CoarseModel::prolongAdd(const Eigen::VectorXd& cv, const std::vector<Eigen:
     if (constraints_.fixed[std::size_t(b.fine)]) continue;
     for (int c = 0; c < nc_; ++c) out[std::size_t(b.fine)] += b.N[c] * val(elementCorner(b.element, c));
   }
+  const std::vector<Eigen::Matrix3d> R = elementRotations(x);
   for (const auto& in : interior_) {
-    const Eigen::Matrix3d Rc = elementRotation(in.element, x);
+    const Eigen::Matrix3d& Rc = R[std::size_t(in.element)];
     Eigen::Vector3d acc = Eigen::Vector3d::Zero();
     for (int c = 0; c < nc_; ++c) acc += in.H.middleCols<3>(3 * c) * (Rc.transpose() * val(elementCorner(in.element, c)));
     out[std::size_t(in.fine)] += Rc * acc;

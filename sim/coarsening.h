@@ -102,24 +102,26 @@ class CoarseModel {
   std::size_t freeCoarseDofs() const { return std::size_t(dofCount_); }
 
  private:
+  // Per-frame temporaries on the stack (at most 24 rows); stored blocks sized to the element kind
+  // (a tet's 12x12 is a quarter of a cell's 24x24).
   using MatE = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 24, 24>;
   using VecE = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 24, 1>;
   struct HandleBlock {
     int handle;
-    Eigen::Matrix<double, Eigen::Dynamic, 9, 0, 24, 9> A;
-    Eigen::Matrix<double, Eigen::Dynamic, 3, 0, 24, 3> B;
+    Eigen::Matrix<double, Eigen::Dynamic, 9> A;
+    Eigen::Matrix<double, Eigen::Dynamic, 3> B;
   };
   struct Element {
     std::array<int, 8> node{};  ///< coarse corner nodes (first n)
-    MatE Kh;
-    VecE KhX;                   ///< K_h X_c (constant)
+    Eigen::MatrixXd Kh;
+    Eigen::VectorXd KhX;        ///< K_h X_c (constant)
     Eigen::Matrix3d fitInv;     ///< (sum dX dX^T)^-1 of the rest corners about their centroid
     std::array<Eigen::Vector3d, 8> dX;
     std::vector<HandleBlock> handles;
   };
   struct InteriorNode {
     int fine, element;
-    Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, 24> H;
+    Eigen::Matrix<double, 3, Eigen::Dynamic> H;
     struct G {
       int handle;
       Eigen::Matrix<double, 3, 9> A;

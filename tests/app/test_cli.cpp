@@ -197,6 +197,11 @@ TEST_F(Cli, DeformMovesTheHandleRegionOnlyAndWritesAMeshForParaView) {
     r = runHandson(common + "--model " + model + " --translate-mm 12,0,0 --rotate-deg 0,0,20 -o " + out + " --mesh-out " + p("mesh.vtu"));
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("inverted fine tets"), std::string::npos) << r.output;
+    if (std::string(model).find("adapted") != std::string::npos) {
+      const auto at = r.output.find("image-adapted: ");
+      ASSERT_NE(at, std::string::npos) << r.output;
+      EXPECT_GT(std::atoi(r.output.c_str() + at + 15), 0) << "points were added at stiffness jumps: " << r.output;
+    }
     const handson::Volume d = handson::readNifti(out);
     const handson::Volume lab = handson::readNifti(p("labels.nii.gz"));
     // The kidney's label centroid moved about +12 mm in x: compare the centroids of kidney-like HU
