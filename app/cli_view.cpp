@@ -27,6 +27,8 @@ const char* const kViewHelp =
     "  --frames N              render N frames and exit\n"
     "  --screenshot OUT.png    with --frames: save the last presented frame (UI included)\n"
     "  --record SCRIPT.json    write what the user did as a session script\n"
+    "  --export-dir DIR        where the Export button writes the session, the deformed volume, the\n"
+    "                          mesh and a screenshot (default handson-export)\n"
     "  --timings LOG.csv       per-frame latency log (input, CPU, GPU passes, submit, present)\n"
     "  --play SCRIPT.json      feed a session script in as live input, in real time; exits after it\n"
     "  --play-repeat N         play it N times in a row, resetting the view in between (default 1)\n"
@@ -42,6 +44,7 @@ const char* const kReplayHelp =
     "  --size WxH          output size (touches are scaled from the script's viewport)\n"
     "  --fps F             frames per second of script time\n"
     "  --export OUT.nii.gz the deformed volume at the end, on the input's grid\n"
+    "  --export-dir DIR    where the script's export actions write (default handson-export)\n"
     "  --device NAME, --validation, --quiet, --print-camera, --print-handles\n";
 
 const char* const kSimHelp =
@@ -81,7 +84,7 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 int cmdView(const Words& words) {
   Args args(words,
             with({"--size", "--present-mode", "--render-scale", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
-                  "--frames-in-flight", "--play-repeat"},
+                  "--frames-in-flight", "--play-repeat", "--export-dir"},
                  kSimOptions),
             {"--validation", "--quiet", "--print-camera"});
   if (args.help() || args.positional().size() > 1) {
@@ -101,6 +104,7 @@ int cmdView(const Words& words) {
   o.screenshot = args.valueOr("--screenshot", "");
   if (!o.screenshot.empty() && o.frames <= 0) throw UsageError("--screenshot needs --frames N");
   o.record = args.valueOr("--record", "");
+  o.exportDir = args.valueOr("--export-dir", o.exportDir);
   o.timings = args.valueOr("--timings", "");
   o.play = args.valueOr("--play", "");
   o.framesInFlight = int(args.integer("--frames-in-flight", 2, 1, 3));
@@ -115,7 +119,7 @@ int cmdView(const Words& words) {
 }
 
 int cmdReplay(const Words& words) {
-  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--size", "--device", "--export"}, kSimOptions),
+  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--size", "--device", "--export", "--export-dir"}, kSimOptions),
             {"--validation", "--quiet", "--print-camera", "--print-handles"});
   if (args.help() || args.positional().size() > 1) {
     usageStream(args) << kReplayHelp << kSimHelp << "  (replay waits each frame for the simulation to settle: frames do not depend on timing)\n";
@@ -134,6 +138,7 @@ int cmdReplay(const Words& words) {
   o.printCamera = args.flag("--print-camera");
   o.printHandles = args.flag("--print-handles");
   o.exportPath = args.valueOr("--export", "");
+  o.exportDir = args.valueOr("--export-dir", o.exportDir);
   o.sim = simOptions(args, 0);
   return runReplay(o);
 }

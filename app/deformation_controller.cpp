@@ -1,5 +1,7 @@
 #include "deformation_controller.h"
 
+#include "app/vtu_io.h"
+
 #include <Eigen/Geometry>
 
 #include <chrono>
@@ -303,6 +305,27 @@ bool DeformationController::exportDeformed(Volume& out) const {
   if (!model_ || !renderer_.deforming() || shownInput_ == 0) return false;
   out = image_;
   takeRegionFromQuantized(out, quantized_, renderer_.deformer()->readVolume(), model_->scene.lo, model_->scene.hi);
+  return true;
+}
+
+bool DeformationController::exportMesh(const std::string& path) const {
+  if (!model_ || !renderer_.deforming() || shownInput_ == 0) return false;
+  const SimScene& sc = model_->scene;
+  const auto pos = renderer_.deformer()->readPositions();  // voxel index space, as drawn
+  if (pos.size() != sc.meshes.fine.nodes.size()) return false;
+  const Eigen::Matrix4d toWorld = quantized_.geometry.worldToIndex().inverse();
+  std::vector<Eigen::Vector3d> disp(pos.size());
+  std::vector<double> dir(pos.size()), element(sc.meshes.fine.tets.size());
+  for (std::size_t i = 0; i < pos.size(); ++i) {
+    disp[i] = (toWorld * pos[i].cast<double>()).head<3>() - sc.meshes.fine.nodes[i];
+    dir[i] = (sc.constraints.fixed[i] || sc.constraints.handleOf[i] >= 0) ? 1.0 : 0.0;
+  }
+  for (std::size_t t = 0; t < element.size(); ++t) element[t] = model_->model->elementOfFineTet(t);
+  VtuArrays a;
+  a.pointVectors = {{"displacement", &disp}};
+  a.pointScalars = {{"dirichlet", &dir}};
+  a.cellScalars = {{"youngs_modulus", &sc.youngs}, {"poisson_ratio", &sc.poisson}, {"coarse_element", &element}};
+  writeVtu(path, sc.meshes.fine, a);
   return true;
 }
 

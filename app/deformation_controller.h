@@ -55,6 +55,10 @@ class DeformationController {
   /// type: region voxels from the GPU, the rest of the image unchanged. False when nothing is
   /// simulated yet.
   bool exportDeformed(Volume& out) const;
+  /// The fine mesh as shown, for ParaView (.vtu, written atomically): rest positions, point data
+  /// displacement (mm) and dirichlet (0/1), cell data youngs_modulus, poisson_ratio, coarse_element.
+  /// False when nothing is simulated yet.
+  bool exportMesh(const std::string& path) const;
 
   State state() const;
   /// "" when off; else the build's stage and progress, the model's size, or the failure.

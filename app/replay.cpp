@@ -16,6 +16,7 @@
 #include "app/nifti_io.h"
 #include "app/png_io.h"
 #include "app/session.h"
+#include "app/session_export.h"
 #include "app/selection_controller.h"
 #include "app/volume_io.h"
 #include "sim/error.h"
@@ -84,6 +85,17 @@ int runReplay(const ReplayOptions& o) {
   renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
   SelectionController selection(q, session, renderer);
   DeformationController deform(volume, q, renderer, o.sim);
+  // Everything applied is recorded: an "export" action writes the session so far as a script.
+  {
+    SessionScript header = script;
+    if (!o.volume.empty()) {
+      header.volumeSource = o.volume == "phantom" ? "phantom" : "file";
+      header.volumePath = o.volume == "phantom" ? "" : o.volume;
+    }
+    session.startRecording(header);
+  }
+  SessionExport exporter(o.exportDir, volume);
+  session.addUiExtension([&](const ScriptEvent& e) { return exporter.onUi(e); });
   std::string simStatus;
   if (!o.framesOut.empty()) {
     std::error_code ec;
@@ -115,7 +127,7 @@ int runReplay(const ReplayOptions& o) {
     const OrbitCamera& cam = session.camera();
     FrameRequest req;
     req.params = makeRenderParams(volume.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);
-    req.readbackImage = !o.framesOut.empty();
+    req.readbackImage = !o.framesOut.empty() || exporter.pending();
     selection.setRigidPreview(!deform.prepareFrameSettled(req, selection.handles()));
     if (const std::string st = deform.status(); !o.quiet && st != simStatus) {
       simStatus = st;
@@ -129,6 +141,7 @@ int runReplay(const ReplayOptions& o) {
     const FrameResult r = renderer.waitLast();
     for (const auto& older : renderer.takeCompleted()) selection.onFrameResult(older);
     selection.onFrameResult(r);
+    if (exporter.pending()) std::cout << exporter.write(session, deform, r) << "\n";
     ft.present = seconds(Clock::now(), t0);
     ft.waitMs = seconds(Clock::now(), w0) * 1e3;
     ft.frame = r.frame;

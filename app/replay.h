@@ -24,6 +24,7 @@ struct ReplayOptions {
   bool printCamera = false;
   bool printHandles = false;
   std::string exportPath;  ///< the deformed volume at the end (.nii.gz, the input's grid)
+  std::string exportDir = "handson-export";  ///< where the script's "export" actions write
   DeformationOptions sim;  ///< the simulation of moved handles (each frame waits for it to settle: deterministic)
 };
 

@@ -19,7 +19,7 @@ SelectionController::SelectionController(const QuantizedVolume& volume, Session&
   });
   session_.gestures().setHandler(InteractionMode::Manipulate, [this](const TouchEvent& e, const TouchInput& input) { manipulate(e, input); });
   session_.gestures().setGrabProbe([this](glm::dvec2 px) { return onActiveHandle(px); });
-  session_.setUiExtension([this](const ScriptEvent& e) { return applyUi(e); });
+  session_.addUiExtension([this](const ScriptEvent& e) { return applyUi(e); });
 }
 
 void SelectionController::repaint(const std::vector<std::uint32_t>& voxels) {

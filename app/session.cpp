@@ -42,7 +42,12 @@ bool Session::apply(const ScriptEvent& e) {
   } else if (e.action == "reset-camera") {
     resetCamera();
   } else {
-    ok = uiExtension_ && uiExtension_(e);
+    ok = false;
+    for (const auto& f : uiExtensions_)
+      if (f(e)) {
+        ok = true;
+        break;
+      }
   }
   if (ok && recording_) script_.events.push_back(e);
   return ok;

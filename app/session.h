@@ -5,6 +5,7 @@
 // recorded session replays to the same camera and the same frames.
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "app/session_script.h"
 #include "interaction/gesture.h"
@@ -28,9 +29,9 @@ class Session {
   /// True once after the preset changed (the renderer re-uploads the table).
   bool takePresetChanged() { return std::exchange(presetChanged_, false); }
 
-  /// UI actions the session does not know itself (handle edits) go here; it returns whether the
-  /// action was applied.
-  void setUiExtension(std::function<bool(const ScriptEvent&)> f) { uiExtension_ = std::move(f); }
+  /// UI actions the session does not know itself (handle edits, export) go to these, in order,
+  /// until one applies it (returns true).
+  void addUiExtension(std::function<bool(const ScriptEvent&)> f) { uiExtensions_.push_back(std::move(f)); }
 
   /// Recording: every applied event is appended (with its time) to a script.
   void startRecording(const SessionScript& header);
@@ -45,7 +46,7 @@ class Session {
   bool presetChanged_ = false;
   bool recording_ = false;
   SessionScript script_;
-  std::function<bool(const ScriptEvent&)> uiExtension_;
+  std::vector<std::function<bool(const ScriptEvent&)>> uiExtensions_;
 };
 
 /// One line for tests and scripting: "camera azimuth_deg=... elevation_deg=... roll_deg=...

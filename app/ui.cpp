@@ -123,6 +123,8 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
     ImGui::SameLine();
   }
   if (ImGui::Button("Reset view", button)) action("reset-camera", "");
+  ImGui::SameLine();
+  if (ImGui::Button("Export", button)) action("export", "");
   if (st.mode == "manipulate") {
     // Axis locks for the manipulation (the finger count chooses the rest).
     ImGui::NewLine();
@@ -157,6 +159,7 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   if (st.liveVoxels) ImGui::TextColored(ImVec4(0.3f, 1.0f, 0.4f, 1.0f), "selecting: %zu voxels", st.liveVoxels);
   if (!st.feedback.empty()) ImGui::TextColored(ImVec4(1.0f, 0.5f, 0.3f, 1.0f), "%s", st.feedback.c_str());
   if (!st.simulation.empty()) ImGui::TextUnformatted(st.simulation.c_str());
+  if (!st.exported.empty()) ImGui::TextWrapped("%s", st.exported.c_str());
   if (st.handles.empty()) ImGui::TextDisabled("none: pinch an organ in Select mode");
   else if (st.picked.size() < 2) ImGui::TextDisabled("tap two handles to unite or subtract them");
   const ImVec2 small(std::max(kMinTarget, 64.0f) * s, kMinTarget * s);

@@ -32,6 +32,7 @@ struct UiStatus {
   bool canUndo = false, canRedo = false;
   std::string feedback;        ///< e.g. a refused pinch
   std::string simulation;      ///< the simulation's state (building, size, settling)
+  std::string exported;        ///< the last export's summary (or failure)
   std::size_t liveVoxels = 0;  ///< the selection being pinched
   unsigned locks = 0;          ///< manipulation locks (GestureLock bits)
 };

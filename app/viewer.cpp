@@ -19,6 +19,7 @@
 #include "app/sdl_input.h"
 #include "app/selection_controller.h"
 #include "app/session.h"
+#include "app/session_export.h"
 #include "app/ui.h"
 #include "app/volume_io.h"
 #include "render/compute_passes.h"
@@ -164,6 +165,8 @@ struct Viewer::Impl {
   std::unique_ptr<PresentExtension> present;
   std::unique_ptr<SelectionController> selection;
   std::unique_ptr<DeformationController> deform;
+  std::unique_ptr<SessionExport> exporter;
+  std::uint64_t exportFrame = 0;  // the frame whose image the pending export waits for
   double scale = 1.0;
   LatencyLog log;
   Clock::time_point t0 = Clock::now();
@@ -244,7 +247,7 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts) {
   session = std::make_unique<Session>(volume.geometry(), Viewport{std::max(dw, 1), std::max(dh, 1)},
                                       o.preset.empty() ? defaultPresetFor(volume) : o.preset);
   renderer->setTransferFunction(transferFunctionPreset(session->preset()).lookupTable(q));
-  if (!o.record.empty()) {
+  {  // always recorded: the Export button writes the session so far; --record writes it at the end
     SessionScript header;
     header.volumeSource = o.path.empty() ? "phantom" : "file";
     header.volumePath = o.path;
@@ -256,6 +259,8 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts) {
   present = std::make_unique<PresentExtension>(*ctx, *swapchain, *ui);
   selection = std::make_unique<SelectionController>(q, *session, *renderer);
   deform = std::make_unique<DeformationController>(volume, q, *renderer, o.sim);
+  exporter = std::make_unique<SessionExport>(o.exportDir, volume);
+  session->addUiExtension([this](const ScriptEvent& e) { return exporter->onUi(e); });
   status.device = ctx->summary().name;
   if (!o.play.empty()) play = readSessionScript(o.play);
   t0 = Clock::now();
@@ -386,7 +391,7 @@ bool Viewer::Impl::step() {
     const OrbitCamera& cam = session->camera();
     FrameRequest req;
     req.params = makeRenderParams(volume.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);
-    req.readbackImage = false;
+    req.readbackImage = exporter->pending() && exportFrame == 0;  // the export's image (without the UI)
     req.extension = present.get();
     selection->setRigidPreview(!deform->prepareFrame(req, selection->handles()));  // never waits for the solve
     selection->prepareFrame(req, vp);
@@ -398,6 +403,7 @@ bool Viewer::Impl::step() {
     ft.cpuEnd = seconds(Clock::now(), t0);
     const auto s0 = Clock::now();
     ft.frame = renderer->submit(req);  // waits only for the frame two submissions back
+    if (req.readbackImage) exportFrame = ft.frame;
     selection->submitted(ft.frame);
     ft.submit = seconds(Clock::now(), t0);
     wait += seconds(Clock::now(), s0);
@@ -408,6 +414,11 @@ bool Viewer::Impl::step() {
     ft.waitMs = wait * 1e3;
     for (const auto& r : renderer->takeCompleted()) {
       selection->onFrameResult(r);
+      if (exportFrame != 0 && r.frame == exportFrame) {
+        status.exported = exporter->write(*session, *deform, r);
+        if (!o.quiet) std::cerr << status.exported << "\n";
+        exportFrame = 0;
+      }
       std::vector<std::pair<std::string, double>> passes;
       for (const auto& p : r.timings) {
         passes.emplace_back(p.name, p.gpuMs);
@@ -431,6 +442,10 @@ int Viewer::Impl::finish() {
     std::vector<std::pair<std::string, double>> passes;
     for (const auto& p : last.timings) passes.emplace_back(p.name, p.gpuMs);
     log.setGpuTimes(last.frame, passes);
+  }
+  if (exportFrame != 0 && last.frame == exportFrame) {  // an export asked for on the last frame
+    std::cerr << exporter->write(*session, *deform, last) << "\n";
+    exportFrame = 0;
   }
   if (shot && !o.screenshot.empty()) {
     shot->invalidate();

@@ -18,6 +18,7 @@ struct ViewerOptions {
   int frames = 0;           ///< 0: until the window is closed
   std::string screenshot;   ///< PNG of the last presented frame (UI included)
   std::string record;       ///< session script of what the user did
+  std::string exportDir = "handson-export";  ///< where the Export button writes (app/session_export.h)
   std::string play;         ///< a session script fed in as live input, in real time (latency studies)
   int playRepeat = 1;       ///< times to play it
   std::string timings;      ///< latency log CSV

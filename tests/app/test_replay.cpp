@@ -304,3 +304,41 @@ TEST(Replay, AScenarioScriptRunsOnAnotherVolumeAndExportsTheDeformedVolume) {
   EXPECT_EQ(changedFar, 0u);
   fs::remove_all(dir);
 }
+
+TEST(Replay, TheExportActionWritesTheSessionTheDeformedVolumeTheMeshAndAScreenshot) {
+  // The kidney drag with an "export" action after it (the app's Export button): the four files,
+  // each valid, and the exported session replays to the same handle pose.
+  const fs::path dir = fs::temp_directory_path() / ("handson_export_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  std::string text = slurp(fs::path(HANDSON_SOURCE_DIR) / "assets/gestures/kidney-translate-two-fingers.json");
+  const auto end = text.rfind("\n  ]");
+  ASSERT_NE(end, std::string::npos);
+  text.insert(end, ",\n    {\"t\": 2.3, \"ui\": \"export\"}");
+  std::ofstream(dir / "drag-export.json") << text;
+  const fs::path out = dir / "exports";
+  std::string log;
+  ASSERT_EQ(run("replay " + (dir / "drag-export.json").string() + " --fps 10 --size 96x96 --quiet --validation --print-handles " +
+                    "--sim-coarse-tets 300 --sim-fine-tets 19200 --export-dir " + out.string(),
+                &log),
+            0)
+      << log;
+  EXPECT_NE(log.find("exported to"), std::string::npos) << log;
+  for (const char* f : {"session-01.json", "deformed-01.nii.gz", "mesh-01.vtu", "screenshot-01.png"}) EXPECT_TRUE(fs::exists(out / f)) << f << "\n" << log;
+  int w = 0, h = 0;
+  EXPECT_FALSE(handson::readPng((out / "screenshot-01.png").string(), w, h).empty());
+  EXPECT_EQ(w, 96);
+  const handson::Volume def = handson::readNifti((out / "deformed-01.nii.gz").string());
+  EXPECT_GT(def.voxelCount(), 0u);
+  const std::string vtu = slurp(out / "mesh-01.vtu");
+  for (const char* name : {"Name=\"displacement\"", "Name=\"dirichlet\"", "Name=\"coarse_element\""}) EXPECT_NE(vtu.find(name), std::string::npos) << name;
+  // The exported script is the session so far: replayed, it gives the same handle.
+  const auto before = firstHandle(log);
+  ASSERT_TRUE(before.has_value()) << log;
+  std::string again;
+  ASSERT_EQ(run("replay " + (out / "session-01.json").string() + " --fps 10 --size 96x96 --quiet --sim off --print-handles", &again), 0) << again;
+  const auto after = firstHandle(again);
+  ASSERT_TRUE(after.has_value()) << again;
+  EXPECT_LT((after->translation - before->translation).norm(), 0.5) << log << again;
+  EXPECT_EQ(after->voxels, before->voxels);
+  fs::remove_all(dir);
+}

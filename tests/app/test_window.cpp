@@ -170,3 +170,31 @@ TEST_F(Window, ResizingRecreatesTheSwapchainAndKeepsRendering) {
   EXPECT_EQ(v.session().gestures().viewport().width, 400);
   fs::remove(shot);
 }
+
+TEST_F(Window, TheExportButtonsActionWritesTheSessionTheVolumeAndAScreenshot) {
+  // The Export button applies {"ui": "export"} through the session (recorded, replayable); played
+  // here from a script: the session so far, the volume as shown (nothing simulated: the input) and
+  // the rendered image land in the export directory once that frame has finished.
+  const fs::path dir = fs::temp_directory_path() / ("handson_uiexport_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  std::ofstream(dir / "export.json") << R"({"format": "handson-session", "version": 1, "viewport": [640, 480],
+    "events": [{"t": 0.0, "ui": "set-preset", "value": "ct-bone"}, {"t": 0.01, "ui": "export"}]})";
+  ViewerOptions o = smallWindow();
+  o.play = (dir / "export.json").string();
+  o.frames = 8;
+  o.exportDir = (dir / "out").string();
+  Viewer v(o);
+  while (v.step()) {
+  }
+  EXPECT_EQ(v.finish(), 0);
+  for (const char* f : {"session-01.json", "deformed-01.nii.gz", "screenshot-01.png"}) EXPECT_TRUE(fs::exists(dir / "out" / f)) << f;
+  EXPECT_FALSE(fs::exists(dir / "out" / "mesh-01.vtu")) << "nothing simulated: no mesh";
+  const SessionScript s = readSessionScript((dir / "out" / "session-01.json").string());
+  ASSERT_GE(s.events.size(), 2u);
+  EXPECT_EQ(s.events[0].action, "set-preset");
+  EXPECT_EQ(s.events.back().action, "export");
+  int w = 0, h = 0;
+  EXPECT_FALSE(readPng((dir / "out" / "screenshot-01.png").string(), w, h).empty());
+  EXPECT_GT(w, 0);
+  fs::remove_all(dir);
+}

@@ -1,0 +1,45 @@
+#include "session_export.h"
+
+#include <cstdio>
+#include <sstream>
+
+#include "app/nifti_io.h"
+#include "app/png_io.h"
+#include "app/session_script.h"
+
+namespace handson {
+
+bool SessionExport::onUi(const ScriptEvent& e) {
+  if (e.action != "export") return false;
+  pending_ = true;
+  return true;
+}
+
+std::string SessionExport::write(const Session& session, const DeformationController& deform, const FrameResult& frame) {
+  pending_ = false;
+  char tag[16];
+  std::snprintf(tag, sizeof tag, "%02d", count_ + 1);
+  auto path = [&](const char* stem, const char* ext) { return (dir_ / (std::string(stem) + "-" + tag + ext)).string(); };
+  std::ostringstream summary;
+  try {
+    std::error_code ec;
+    std::filesystem::create_directories(dir_, ec);
+    if (!std::filesystem::is_directory(dir_)) return "export failed: cannot create the directory '" + dir_.string() + "'";
+    writeSessionScript(session.script(), path("session", ".json"));
+    Volume shown;
+    const bool simulated = deform.exportDeformed(shown);
+    writeNifti(simulated ? shown : input_, path("deformed", ".nii.gz"));
+    const bool mesh = simulated && deform.exportMesh(path("mesh", ".vtu"));
+    const bool image = !frame.rgba.empty();
+    if (image) writePng(path("screenshot", ".png"), frame.width, frame.height, frame.rgba);
+    ++count_;
+    summary << "exported to " << dir_.string() << ": session-" << tag << ".json (" << session.script().events.size() << " events), deformed-" << tag
+            << ".nii.gz" << (simulated ? "" : " (nothing simulated: the input)") << (mesh ? std::string(", mesh-") + tag + ".vtu" : "")
+            << (image ? std::string(", screenshot-") + tag + ".png" : "");
+  } catch (const std::exception& e) {
+    return std::string("export failed: ") + e.what();
+  }
+  return summary.str();
+}
+
+}  // namespace handson

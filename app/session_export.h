@@ -1,0 +1,42 @@
+#pragma once
+// The "export" UI action ({"ui": "export"} in a session script; the Export button in the app):
+// everything a user would keep from a session, into a directory, numbered per export:
+//   session-NN.json     the session so far as a replayable script (every applied event)
+//   deformed-NN.nii.gz  the volume as shown (the simulated deformation on the input's grid and
+//                       value type; the input unchanged when nothing is simulated)
+//   mesh-NN.vtu         the simulated fine mesh with its displacements (only when simulated)
+//   screenshot-NN.png   the rendered image of the frame after the request (no UI overlay)
+// Every file is written atomically (a failure never leaves a partial file), and a failed export
+// is reported without ending the session.
+#include <filesystem>
+#include <string>
+
+#include "app/deformation_controller.h"
+#include "app/session.h"
+#include "render/volume_renderer.h"
+#include "sim/volume.h"
+
+namespace handson {
+
+class SessionExport {
+ public:
+  /// `dir` is created at the first export. `input` must outlive this.
+  SessionExport(std::filesystem::path dir, const Volume& input) : dir_(std::move(dir)), input_(input) {}
+
+  /// The session extension for the "export" action: marks an export as pending.
+  bool onUi(const ScriptEvent& e);
+  bool pending() const { return pending_; }
+  /// Writes the pending export from a finished frame that carries its image (request readback for
+  /// it); returns a one-line summary (or the failure). Clears the pending flag either way.
+  std::string write(const Session& session, const DeformationController& deform, const FrameResult& frame);
+  int count() const { return count_; }
+  const std::filesystem::path& dir() const { return dir_; }
+
+ private:
+  std::filesystem::path dir_;
+  const Volume& input_;
+  bool pending_ = false;
+  int count_ = 0;
+};
+
+}  // namespace handson
