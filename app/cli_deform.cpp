@@ -18,6 +18,7 @@
 #include "sim/quantized_volume.h"
 #include "sim/coarsening.h"
 #include "sim/error.h"
+#include "sim/scene_cache.h"
 #include "sim/sim_scene.h"
 #include "sim/static_solver.h"
 #include "sim/tet_raster.h"
@@ -43,6 +44,8 @@ const char* const kDeformHelp =
     "  --fine-mesh regular|adapted  the regular refinement (default) or image-adapted: TetGen meshes\n"
     "                          each cell with extra points at stiffness jumps (cell elements only)\n"
     "  --adapt-contrast F      a Young's modulus jump of F or more adds points (default 10)\n"
+    "  --cache-dir DIR|off     preprocessing cache for the coarse model (scene + condensed elements):\n"
+    "                          default $HANDSON_CACHE_DIR, $XDG_CACHE_HOME/handson or ~/.cache/handson\n"
     "  --fine-tets N           fine elements (default 300000; m^3 per coarse tet, m rounded)\n"
     "  --padding-mm D          region of interest: the handles' box plus D mm (default 40)\n"
     "  --whole-volume          simulate the whole image box instead\n"
@@ -114,7 +117,7 @@ GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const Sim
 int cmdDeform(const Words& words) {
   Args args(words,
             {"--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm",
-             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--fine-mesh", "--adapt-contrast"},
+             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--fine-mesh", "--adapt-contrast", "--cache-dir"},
             {"--whole-volume", "--quiet", "--validation"});
   if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {
     usageStream(args) << kDeformHelp;
@@ -140,6 +143,8 @@ int cmdDeform(const Words& words) {
   fineMeshOptions(args, "--fine-mesh", "--adapt-contrast", s);
   if (auto m = args.value("--materials")) s.materials = MaterialTable::load(*m);
   const int refineSteps = int(args.integer("--refine-steps", 0, 0, 1000));
+  const std::string cacheArg = args.valueOr("--cache-dir", defaultSimulationCacheDir().string());
+  const std::filesystem::path cacheDir = cacheArg == "off" ? std::filesystem::path() : std::filesystem::path(cacheArg);
   const bool quiet = args.flag("--quiet");
   const ProgressFn progress = quiet ? ProgressFn{} : consoleProgress();
 
@@ -158,7 +163,18 @@ int cmdDeform(const Words& words) {
   for (const auto& name : s.materials.capped()) std::cerr << "note: material '" << name << "': Poisson ratio capped at " << kMaxPoisson << " (linear tets lock)\n";
 
   auto t0 = std::chrono::steady_clock::now();
-  const SimScene sc = buildSimScene(image, handles, s, progress);
+  // The coarse model comes with its scene from the preprocessing cache when there (built and
+  // saved otherwise); the fine model needs only the scene.
+  SimScene sc;
+  std::unique_ptr<CoarseModel> cachedModel;
+  if (model == "coarse") {
+    CacheOutcome co;
+    cachedModel = buildOrLoadSimulation(image, handles, s, cacheDir, sc, progress, &co);
+    if (co.hit) std::cout << "preprocessing loaded from the cache in " << cacheDir.string() << "\n";
+    if (!co.note.empty()) std::cerr << "note: " << co.note << "\n";
+  } else {
+    sc = buildSimScene(image, handles, s, progress);
+  }
   const double tScene = seconds(t0);
   std::cout << std::fixed << std::setprecision(1) << "region: (" << sc.lo.x() << ", " << sc.lo.y() << ", " << sc.lo.z() << ") .. (" << sc.hi.x() << ", "
             << sc.hi.y() << ", " << sc.hi.z() << ") mm; coarse " << sc.meshes.coarse.tets.size() << " tets, fine " << sc.meshes.fine.tets.size()
@@ -194,7 +210,7 @@ int cmdDeform(const Words& words) {
       x = r.x;
     }
   } else {
-    model_ = std::make_unique<CoarseModel>(sc.meshes, sc.fineK, sc.constraints, progress, s.element);
+    model_ = std::move(cachedModel);
     CoarseModel& m = *model_;
     tPre = seconds(t0);
     xc = m.restState();

@@ -3,6 +3,7 @@
 
 #include "app/cli.h"
 #include "app/cli_args.h"
+#include "sim/scene_cache.h"
 #include "app/replay.h"
 #include "app/viewer.h"
 #include "render/transfer_function.h"
@@ -54,10 +55,13 @@ const char* const kSimHelp =
     "  --sim-padding-mm D      simulated region: the handles' box plus D mm (default 40)\n"
     "  --sim-coarse-element cell|tet  coarse model elements (default cell; see handson deform --help)\n"
     "  --sim-fine-mesh regular|adapted  fine mesh (default regular; see handson deform --help)\n"
+    "  --sim-cache DIR|off     preprocessing cache (scene + coarse model; a second open of the same\n"
+    "                          volume, handles and settings skips it): default $HANDSON_CACHE_DIR,\n"
+    "                          $XDG_CACHE_HOME/handson or ~/.cache/handson\n"
     "  --sim-refine-steps N    two-level refinement steps toward the fine answer while a pose is held\n"
     "                          (default 2 in view, 0 in replay)\n";
 const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm", "--sim-refine-steps", "--sim-coarse-element", "--sim-fine-mesh",
-                                                 "--sim-adapt-contrast"};
+                                                 "--sim-adapt-contrast", "--sim-cache"};
 
 DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   DeformationOptions d;
@@ -71,6 +75,8 @@ DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   d.sim.element = coarseElementOption(args, "--sim-coarse-element");
   fineMeshOptions(args, "--sim-fine-mesh", "--sim-adapt-contrast", d.sim);
   d.refineSteps = int(args.integer("--sim-refine-steps", defaultRefineSteps, 0, 100));
+  const std::string cache = args.valueOr("--sim-cache", defaultSimulationCacheDir().string());
+  d.cacheDir = cache == "off" ? "" : cache;
   return d;
 }
 

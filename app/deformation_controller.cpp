@@ -13,6 +13,7 @@
 #include "sim/error.h"
 #include "sim/fine_interpolation.h"
 #include "sim/quantized_volume.h"
+#include "sim/scene_cache.h"
 #include "sim/tet_raster.h"
 
 namespace handson {
@@ -27,6 +28,7 @@ struct DeformationController::Model {
   FineInterpolationData data;
   std::unique_ptr<SimWorker> worker;
   double seconds = 0.0;
+  CacheOutcome cache;  // loaded from the on-disk cache, or a note about it
 };
 
 DeformationController::DeformationController(const Volume& image, const QuantizedVolume& quantized, VolumeRenderer& renderer, DeformationOptions options)
@@ -142,8 +144,7 @@ void DeformationController::startBuild(const HandleSet& handles) {
     };
     try {
       auto m = std::make_unique<Model>();
-      m->scene = buildSimScene(image_, sim, options_.sim, progress);
-      m->model = std::make_unique<CoarseModel>(m->scene.meshes, m->scene.fineK, m->scene.constraints, progress, options_.sim.element);
+      m->model = buildOrLoadSimulation(image_, sim, options_.sim, options_.cacheDir, m->scene, progress, &m->cache);
       m->data = m->model->interpolationData();
       m->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::lock_guard<std::mutex> lock(mutex_);
@@ -354,6 +355,7 @@ std::string DeformationController::status() const {
     case State::Ready:
       if (!model_) return "simulation: ready";
       s << "simulation: " << model_->scene.meshes.coarse.tets.size() << " coarse / " << model_->scene.meshes.fine.tets.size() << " fine tets"
+        << (model_->cache.hit ? " (cached)" : "") << (model_->cache.note.empty() ? "" : " [" + model_->cache.note + "]")
         << (shownInput_ == 0 ? "" : shownRefineStep_ > 0 ? ", refined x" + std::to_string(shownRefineStep_)
                                   : shownConverged_ ? ", settled" : shownSettled_ ? ", stopped before converging" : ", settling")
         << (lastError_.empty() ? "" : "; last pose refused: " + lastError_);

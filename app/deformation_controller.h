@@ -28,6 +28,7 @@ struct DeformationOptions {
   int coarseIterations = 3;      ///< per new pose (warm started)
   int idleIterations = 300;      ///< more while a pose is held, until converged
   int refineSteps = 0;           ///< then two-level refinement steps toward the fine answer (shown as they land)
+  std::string cacheDir;          ///< on-disk preprocessing cache (sim/scene_cache.h); empty: none
 };
 
 class DeformationController {

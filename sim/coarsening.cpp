@@ -7,6 +7,7 @@
 #include <limits>
 #include <unordered_map>
 
+#include "sim/binary_io.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -230,13 +231,133 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
     else if (handleOf[std::size_t(f)] >= 0) coarseRole_[v] = handleOf[std::size_t(f)];
     else dof_[v] = (dofCount_ += 3) - 3;
   }
-  if (dofCount_ > 0) {
-    std::vector<int> flat;
-    flat.reserve(elements_.size() * std::size_t(nc));
-    for (const auto& el : elements_) flat.insert(flat.end(), el.node.begin(), el.node.begin() + nc);
-    assembler_ = std::make_unique<BlockAssembler>(std::move(flat), nc, dof_, dofCount_);
-  }
+  buildAssembler();
   reportProgress(progress, 1.0, "coarsening");
+}
+
+void CoarseModel::buildAssembler() {
+  if (dofCount_ <= 0) return;
+  std::vector<int> flat;
+  flat.reserve(elements_.size() * std::size_t(nc_));
+  for (const auto& el : elements_) flat.insert(flat.end(), el.node.begin(), el.node.begin() + nc_);
+  assembler_ = std::make_unique<BlockAssembler>(std::move(flat), nc_, dof_, dofCount_);
+}
+
+void CoarseModel::save(std::ostream& os) const {
+  bin::Writer w{os};
+  w.pod(std::uint32_t(kind_ == CoarseElement::Tet ? 0 : 1));
+  w.podVector(constraints_.handleOf);
+  w.podVector(constraints_.fixed);
+  w.pod(std::int32_t(constraints_.handleCount));
+  w.pod(std::uint64_t(elements_.size()));
+  for (const auto& el : elements_) {
+    w.pod(el.node);
+    w.matrix(el.Kh);
+    w.matrix(el.KhX);
+    w.matrix(el.fitInv);
+    for (int c = 0; c < nc_; ++c) w.pod(el.dX[std::size_t(c)]);
+    w.pod(std::uint32_t(el.handles.size()));
+    for (const auto& h : el.handles) {
+      w.pod(std::int32_t(h.handle));
+      w.matrix(h.A);
+      w.matrix(h.B);
+    }
+  }
+  w.pod(std::uint64_t(interior_.size()));
+  for (const auto& in : interior_) {
+    w.pod(std::int32_t(in.fine));
+    w.pod(std::int32_t(in.element));
+    w.matrix(in.H);
+    w.pod(std::uint32_t(in.g.size()));
+    for (const auto& g : in.g) {
+      w.pod(std::int32_t(g.handle));
+      w.pod(g.A);
+      w.pod(g.B);
+    }
+  }
+  w.pod(std::uint64_t(boundary_.size()));
+  for (const auto& b : boundary_) {
+    w.pod(std::int32_t(b.fine));
+    w.pod(std::int32_t(b.element));
+    w.pod(b.N);
+  }
+  w.podVector(coarseRole_);
+  w.podVector(dof_);
+  w.pod(std::int32_t(dofCount_));
+}
+
+std::unique_ptr<CoarseModel> CoarseModel::load(std::istream& is, std::uint64_t bytes, const NestedMeshes& meshes) {
+  bin::Reader r{is, bytes};
+  const auto kind = r.pod<std::uint32_t>();
+  if (kind > 1) throw Error("cache file corrupt (element kind)");
+  std::unique_ptr<CoarseModel> m(new CoarseModel(meshes, kind == 0 ? CoarseElement::Tet : CoarseElement::Cell));
+  const int nc = m->nc_;
+  const std::size_t nf = meshes.fine.nodes.size(), ncn = meshes.coarse.nodes.size();
+  m->constraints_.handleOf = r.podVector<int>();
+  m->constraints_.fixed = r.podVector<char>();
+  m->constraints_.handleCount = r.pod<std::int32_t>();
+  const int hc = m->constraints_.handleCount;
+  if (m->constraints_.handleOf.size() != nf || m->constraints_.fixed.size() != nf || hc < 0) throw Error("cache file does not fit the mesh");
+  auto checkIndex = [](std::int64_t v, std::size_t n) {
+    if (v < 0 || std::uint64_t(v) >= n) throw Error("cache file corrupt (an index out of range)");
+  };
+  const auto ne = r.pod<std::uint64_t>();
+  if (ne != (m->kind_ == CoarseElement::Tet ? meshes.coarse.tets.size() : meshes.coarseGrid.cellCount())) throw Error("cache file does not fit the mesh");
+  m->elements_.resize(ne);
+  for (auto& el : m->elements_) {
+    el.node = r.pod<std::array<int, 8>>();
+    for (int c = 0; c < nc; ++c) checkIndex(el.node[std::size_t(c)], ncn);
+    r.matrix(el.Kh, 3 * nc, 3 * nc);
+    r.matrix(el.KhX, 3 * nc, 1);
+    r.matrix(el.fitInv, 3, 3);
+    for (int c = 0; c < nc; ++c) el.dX[std::size_t(c)] = r.pod<Eigen::Vector3d>();
+    const auto nh = r.pod<std::uint32_t>();
+    if (nh > std::uint32_t(hc)) throw Error("cache file corrupt (handle blocks)");
+    el.handles.resize(nh);
+    for (auto& h : el.handles) {
+      h.handle = r.pod<std::int32_t>();
+      checkIndex(h.handle, std::size_t(hc));
+      r.matrix(h.A, 3 * nc, 9);
+      r.matrix(h.B, 3 * nc, 3);
+    }
+  }
+  const auto ni = r.pod<std::uint64_t>();
+  if (ni > nf) throw Error("cache file corrupt (interior nodes)");
+  m->interior_.resize(ni);
+  for (auto& in : m->interior_) {
+    in.fine = r.pod<std::int32_t>();
+    in.element = r.pod<std::int32_t>();
+    checkIndex(in.fine, nf);
+    checkIndex(in.element, ne);
+    r.matrix(in.H, 3, 3 * nc);
+    const auto ng = r.pod<std::uint32_t>();
+    if (ng > std::uint32_t(hc)) throw Error("cache file corrupt (handle blocks)");
+    in.g.resize(ng);
+    for (auto& g : in.g) {
+      g.handle = r.pod<std::int32_t>();
+      checkIndex(g.handle, std::size_t(hc));
+      g.A = r.pod<Eigen::Matrix<double, 3, 9>>();
+      g.B = r.pod<Eigen::Matrix3d>();
+    }
+  }
+  const auto nb = r.pod<std::uint64_t>();
+  if (nb > nf) throw Error("cache file corrupt (boundary nodes)");
+  m->boundary_.resize(nb);
+  for (auto& b : m->boundary_) {
+    b.fine = r.pod<std::int32_t>();
+    b.element = r.pod<std::int32_t>();
+    checkIndex(b.fine, nf);
+    checkIndex(b.element, ne);
+    b.N = r.pod<Eigen::Matrix<double, 8, 1>>();
+  }
+  m->coarseRole_ = r.podVector<int>();
+  m->dof_ = r.podVector<int>();
+  m->dofCount_ = r.pod<std::int32_t>();
+  if (m->coarseRole_.size() != ncn || m->dof_.size() != ncn || m->dofCount_ < 0 || m->dofCount_ > 3 * int(ncn)) throw Error("cache file does not fit the mesh");
+  for (int d : m->dof_)
+    if (d >= m->dofCount_ || d < -1) throw Error("cache file corrupt (dofs)");
+  m->buildAssembler();
+  return m;
 }
 
 std::vector<Eigen::Matrix3d> CoarseModel::elementRotations(const std::vector<Eigen::Vector3d>& x) const {

@@ -19,6 +19,7 @@
 //    cell. Same coarse nodes and dofs; the rotation R_c is the polar rotation of the least-squares
 //    affine fit of the corners (for a tet, the exact F = D_s D_m^-1).
 #include <Eigen/Core>
+#include <iosfwd>
 #include <memory>
 #include <vector>
 
@@ -63,6 +64,12 @@ class CoarseModel {
   CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& fineK, const FineConstraints& constraints, const ProgressFn& progress = {},
               CoarseElement element = CoarseElement::Cell);
 
+  /// The precomputed model, for the on-disk cache (sim/scene_cache.h).
+  void save(std::ostream& os) const;
+  /// A saved model over `meshes` (the scene it was built on). Throws handson::Error when the data is
+  /// truncated, corrupt or does not fit the meshes; `bytes` bounds what may be read.
+  static std::unique_ptr<CoarseModel> load(std::istream& is, std::uint64_t bytes, const NestedMeshes& meshes);
+
   CoarseElement elementKind() const { return kind_; }
   std::size_t elementCount() const { return elements_.size(); }
   /// Corners per element: 4 (Tet) or 8 (Cell).
@@ -102,6 +109,8 @@ class CoarseModel {
   std::size_t freeCoarseDofs() const { return std::size_t(dofCount_); }
 
  private:
+  CoarseModel(const NestedMeshes& meshes, CoarseElement kind) : meshes_(meshes), kind_(kind), nc_(kind == CoarseElement::Tet ? 4 : 8) {}
+  void buildAssembler();
   // Per-frame temporaries on the stack (at most 24 rows); stored blocks sized to the element kind
   // (a tet's 12x12 is a quarter of a cell's 24x24).
   using MatE = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 24, 24>;

@@ -1,0 +1,46 @@
+#pragma once
+// The simulation's preprocessing cached on disk (issue: a second open of the same volume skips it):
+// the scene (region, nested meshes, materials, Dirichlet roles) and the coarse model (condensed
+// elements, the fine reconstruction), keyed by a 128-bit hash of everything they depend on: the
+// image's grid, type and values, the handles' voxels and reach, and the settings (resolutions,
+// padding, element kind, fine mesh kind, material table). One file per key, written atomically;
+// a missing, truncated or corrupt file is rebuilt (and replaced), never trusted. Per-tet stiffness
+// is recomputed on load (it would be most of the file). Old entries beyond a size cap are evicted,
+// oldest first.
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "sim/coarsening.h"
+#include "sim/progress.h"
+#include "sim/sim_scene.h"
+#include "sim/volume.h"
+
+namespace handson {
+
+/// The key (32 hex digits) of a scene and its coarse model.
+std::string simulationCacheKey(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& settings);
+
+/// Writes scene + model to `file` (atomically). Throws handson::Error on I/O failure.
+void saveSimulation(const std::filesystem::path& file, const SimScene& scene, const CoarseModel& model);
+/// Reads them back into `scene`; the model refers to scene.meshes. Throws handson::Error when the
+/// file is missing, truncated, corrupt or of another format version.
+std::unique_ptr<CoarseModel> loadSimulation(const std::filesystem::path& file, SimScene& scene);
+
+struct CacheOutcome {
+  bool hit = false;
+  std::string note;  ///< a rebuilt corrupt entry, a failed save: said, never fatal
+};
+
+/// The scene and coarse model from `cacheDir` when there (progress "loading cached simulation"),
+/// else built (and saved there). `cacheDir` empty: no cache. `maxCacheBytes`: eviction cap.
+std::unique_ptr<CoarseModel> buildOrLoadSimulation(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& settings,
+                                                   const std::filesystem::path& cacheDir, SimScene& scene, const ProgressFn& progress = {},
+                                                   CacheOutcome* outcome = nullptr, std::uint64_t maxCacheBytes = 4ull << 30);
+
+/// $HANDSON_CACHE_DIR, else $XDG_CACHE_HOME/handson, else $HOME/.cache/handson ("" if none is set).
+std::filesystem::path defaultSimulationCacheDir();
+
+}  // namespace handson
