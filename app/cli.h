@@ -25,6 +25,7 @@ int cmdBenchSim(const Words& args);
 int cmdBenchDeform(const Words& args);
 int cmdBenchMesh(const Words& args);
 int cmdBenchStability(const Words& args);
+int cmdBenchSuite(const Words& args);
 int cmdView(const Words& args);
 int cmdReplay(const Words& args);
 int cmdDeform(const Words& args);

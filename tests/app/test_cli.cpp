@@ -299,3 +299,25 @@ TEST_F(Cli, SimulationOptionsAreCheckedBeforeAnyWork) {
     EXPECT_NE(r.output.find("error"), std::string::npos) << args << "\n" << r.output;
   }
 }
+
+TEST_F(Cli, TheQuickBenchmarkSuiteRunsEveryScenarioAndComponent) {
+  // `handson bench --quick --out DIR` (the selection benchmark is skipped here: it needs ../shared/data).
+  const std::string dir = p("suite");
+  const CliRun r = runHandson("bench --quick --out " + dir + " --data /nonexistent");
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream sum(dir + "/summary.txt");
+  const std::string summary((std::istreambuf_iterator<char>(sum)), {});
+  EXPECT_EQ(summary.find("FAILED"), std::string::npos) << summary;
+  for (const char* s : {"kidney-translate-two-fingers", "kidney-rotate-in-plane", "kidney-rotate-out-of-plane-three-fingers", "vessel-translate-one-finger"})
+    EXPECT_NE(summary.find(std::string("scenario ") + s + ": input-to-present latency"), std::string::npos) << s << "\n" << summary;
+  std::ifstream st(dir + "/scenario_stages.csv");
+  const std::string stages((std::istreambuf_iterator<char>(st)), {});
+  for (const char* stage : {",raymarch,", ",deform-interpolate,", ",deform-resolve,", ",pick,", ",input_to_present,"})
+    EXPECT_NE(stages.find(stage), std::string::npos) << stage << "\n" << stages;
+  for (const char* f : {"/raymarch/raymarch.csv", "/sim/sim_accuracy.csv", "/deform/deform_summary.csv", "/mesh/mesh_accuracy.csv",
+                        "/stability/stability_rotation.csv", "/gesture/gesture_accuracy.csv"})
+    EXPECT_TRUE(std::filesystem::exists(dir + f)) << f;
+  if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
+    EXPECT_TRUE(std::filesystem::exists(dir + "/stages.png"));
+  }
+}

@@ -1,0 +1,200 @@
+// `handson bench --out DIR [--quick]`: the benchmark suite. The paper's four scenarios replayed on the
+// default scene with the simulation on (per-stage GPU times, frame time and input-to-present latency
+// from each replay's timing log), then every component benchmark into its own folder (raymarch,
+// gesture, selection when ../shared/data is there, sim, deform, mesh, stability), and a summary.
+// --quick shrinks each so the whole suite takes a few minutes on 2 cores.
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include "app/cli.h"
+#include "app/cli_args.h"
+#include "app/replay.h"
+#include "app/scenario_kidney_rotate_in_plane.h"
+#include "app/scenario_kidney_rotate_out_of_plane_three_fingers.h"
+#include "app/scenario_kidney_translate_two_fingers.h"
+#include "app/scenario_vessel_translate_one_finger.h"
+#include "sim/error.h"
+
+namespace handson::cli {
+
+namespace {
+const char* const kBenchSuiteHelp =
+    "usage: handson bench --out DIR [--quick] [--data DIR]\n"
+    "  The benchmark suite: the paper's scenarios (assets/gestures: kidney translated with two fingers,\n"
+    "  rotated in plane, rotated out of plane with three, a vessel moved with one) replayed headless on\n"
+    "  the default scene with the simulation on, per-stage GPU times and latency (scenario_stages.csv,\n"
+    "  stages.png); then the component benchmarks into DIR/raymarch, gesture, selection (with --data or\n"
+    "  ../shared/data present), sim, deform, mesh and stability; summary.txt lists what ran and took how\n"
+    "  long. --quick: smaller scenes and sweeps (a few minutes on 2 cores).\n";
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, std::size_t(p * double(v.size() - 1) + 0.5))];
+}
+
+// Columns of a replay timing log (app/latency_log.cpp).
+std::map<std::string, std::vector<double>> readTimings(const std::filesystem::path& csv) {
+  std::ifstream in(csv);
+  std::string line;
+  std::vector<std::string> names;
+  std::map<std::string, std::vector<double>> cols;
+  if (!std::getline(in, line)) return cols;
+  std::stringstream hs(line);
+  for (std::string n; std::getline(hs, n, ',');) names.push_back(n);
+  while (std::getline(in, line)) {
+    std::stringstream ls(line);
+    std::string cell;
+    for (std::size_t i = 0; i < names.size() && std::getline(ls, cell, ','); ++i) {
+      const double v = std::atof(cell.c_str());
+      if (v >= 0.0) cols[names[i]].push_back(v);  // -1: no value this frame
+    }
+  }
+  return cols;
+}
+}  // namespace
+
+int cmdBenchSuite(const Words& words) {
+  Args args(words, {"--out", "--data"}, {"--quick"});
+  if (args.help() || !args.positional().empty() || !args.value("--out")) {
+    usageStream(args) << kBenchSuiteHelp;
+    return args.help() ? 0 : 2;
+  }
+  const bool quick = args.flag("--quick");
+  const std::filesystem::path out = *args.value("--out");
+  std::filesystem::create_directories(out / "scenarios");
+  std::ofstream summary(out / "summary.txt");
+  summary << std::fixed << std::setprecision(1);
+  summary << "handson benchmark suite" << (quick ? " (--quick)" : "") << "\n";
+  auto since = [](std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  int failures = 0;
+
+  // 1. The scenarios.
+  const std::pair<const char*, const char*> scenarios[] = {{"kidney-translate-two-fingers", kScenario_kidney_translate_two_fingers},
+                                                           {"kidney-rotate-in-plane", kScenario_kidney_rotate_in_plane},
+                                                           {"kidney-rotate-out-of-plane-three-fingers", kScenario_kidney_rotate_out_of_plane_three_fingers},
+                                                           {"vessel-translate-one-finger", kScenario_vessel_translate_one_finger}};
+  std::ofstream stages(out / "scenario_stages.csv");
+  stages << "scenario,stage,median_ms,p95_ms,frames\n";
+  std::map<std::string, std::array<double, 4>> wide;  // stage -> median per scenario (the chart's table)
+  std::size_t scenarioIndex = 0;
+  std::cout << std::fixed << std::setprecision(2);
+  for (const auto& [name, text] : scenarios) {
+    const std::size_t si = scenarioIndex++;
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::filesystem::path script = out / "scenarios" / (std::string(name) + ".json");
+    std::ofstream(script) << text;
+    ReplayOptions o;
+    o.script = script.string();
+    o.fps = 10;
+    o.width = o.height = quick ? 128 : 256;
+    o.quiet = true;
+    o.timings = (out / "scenarios" / (std::string(name) + "_timings.csv")).string();
+    o.exportPath = (out / "scenarios" / (std::string(name) + "_deformed.nii.gz")).string();
+    o.exportDir = (out / "scenarios" / "exports").string();
+    if (quick) {
+      o.sim.sim.coarseTets = 1500;
+      o.sim.sim.fineTets = 96000;
+    }
+    try {
+      if (runReplay(o) != 0) throw Error("the replay reported an error");
+    } catch (const std::exception& e) {
+      ++failures;
+      summary << "scenario " << name << ": FAILED: " << e.what() << "\n";
+      std::cerr << "scenario " << name << " failed: " << e.what() << "\n";
+      continue;
+    }
+    const auto cols = readTimings(o.timings);
+    std::cout << "scenario " << name << " (" << since(t0) << " s):";
+    for (const auto& [col, v] : cols) {
+      std::string stage;
+      if (col.rfind("gpu_", 0) == 0 && col.size() > 7) stage = col.substr(4, col.size() - 7);
+      else if (col == "frame_ms" || col == "input_to_present_ms") stage = col.substr(0, col.size() - 3);
+      if (stage.empty() || v.empty()) continue;
+      stages << name << "," << stage << "," << percentile(v, 0.5) << "," << percentile(v, 0.95) << "," << v.size() << "\n";
+      auto [it, fresh] = wide.try_emplace(stage);
+      if (fresh) it->second.fill(std::nan(""));
+      it->second[si] = percentile(v, 0.5);
+      std::cout << " " << stage << " " << percentile(v, 0.5) << " ms";
+    }
+    std::cout << "\n";
+    if (const auto it = cols.find("input_to_present_ms"); it != cols.end())
+      summary << "scenario " << name << ": input-to-present latency p50/p95/p99 " << percentile(it->second, 0.5) << " / " << percentile(it->second, 0.95)
+              << " / " << percentile(it->second, 0.99) << " ms (replay waits for the solve to settle each frame); " << since(t0) << " s\n";
+  }
+  stages.close();
+  {
+    std::ofstream w(out / "scenario_stages_wide.csv");
+    w << "stage";
+    for (const auto& s : scenarios) w << "," << s.first;
+    w << "\n";
+    for (const auto& [stage, v] : wide) {
+      w << stage;
+      for (double x : v) {
+        if (std::isnan(x)) w << ",?";
+        else w << "," << x;
+      }
+      w << "\n";
+    }
+  }
+  if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
+    const auto gp = out / "stages.gp";
+    std::ofstream(gp) << "set datafile separator ','\nset datafile missing '?'\nset terminal pngcairo size 1100,560 font ',10'\nset output '"
+                      << (out / "stages.png").string()
+                      << "'\nset termoption noenhanced\nset title 'Per-stage time per scenario: median over the replayed frames'\n"
+                      << "set style data histogram\nset style histogram cluster gap 1\nset style fill solid 0.8\nset logscale y\nset ylabel 'ms'\n"
+                      << "set xtics rotate by -30\nset key top left\nset grid ytics\n"
+                      << "plot for [i=2:5] '" << (out / "scenario_stages_wide.csv").string() << "' using i:xtic(1) title columnhead\n";
+    if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no stages chart\n";
+  }
+
+  // 2. The component benchmarks, each into its folder; a failure is noted and the suite goes on.
+  auto component = [&](const std::string& name, Words w, int (*fn)(const Words&)) {
+    std::filesystem::create_directories(out / name);
+    const auto t0 = std::chrono::steady_clock::now();
+    std::cout << "\n== " << name << "\n";
+    int rc = 1;
+    try {
+      rc = fn(w);
+    } catch (const std::exception& e) {
+      std::cerr << name << ": " << e.what() << "\n";
+    }
+    failures += rc != 0;
+    summary << name << ": " << (rc == 0 ? "ok" : "FAILED") << ", " << std::setprecision(1) << since(t0) << " s, in " << (out / name).string() << "\n";
+  };
+  const std::string o = (out / "").string();
+  component("raymarch", quick ? Words{"--voxels", "1000000", "--sizes", "256", "--repeat", "2", "--csv", o + "raymarch/raymarch.csv", "--quiet"}
+                              : Words{"--voxels", "5000000", "--sizes", "256,512", "--repeat", "5", "--csv", o + "raymarch/raymarch.csv", "--quiet"},
+            cmdBench);
+  component("gesture", quick ? Words{"--out", o + "gesture", "--cases", "50"} : Words{"--out", o + "gesture"}, cmdBenchGesture);
+  const std::string data = args.valueOr("--data", "../shared/data");
+  if (std::filesystem::is_directory(data))
+    component("selection", quick ? Words{"--data", data, "--out", o + "selection", "--repeat", "1"} : Words{"--data", data, "--out", o + "selection"},
+              cmdBenchSelection);
+  else
+    summary << "selection: skipped (no data at " << data << ")\n";
+  component("sim", quick ? Words{"--coarse-list", "600,1500", "--refine-steps", "2", "--quiet", "--out", o + "sim"} : Words{"--quiet", "--out", o + "sim"},
+            cmdBenchSim);
+  component("deform", quick ? Words{"--spacing", "3", "--frames", "5", "--quiet", "--out", o + "deform"} : Words{"--quiet", "--out", o + "deform"},
+            cmdBenchDeform);
+  component("mesh",
+            quick ? Words{"--coarse-tets", "300", "--regular-list", "2,3,4", "--adapted-list", "2,3", "--truth-refinement", "6", "--quiet", "--out", o + "mesh"}
+                  : Words{"--quiet", "--out", o + "mesh"},
+            cmdBenchMesh);
+  component("stability", quick ? Words{"--angles", "30,90,180", "--contrasts", "1,1000,1000000", "--out", o + "stability"} : Words{"--out", o + "stability"},
+            cmdBenchStability);
+  summary.close();
+  std::cout << "\nwrote " << (out / "summary.txt").string() << ", scenario_stages.csv, stages.png and the component folders in " << out.string()
+            << (failures ? " (" + std::to_string(failures) + " failed)" : "") << "\n";
+  return failures ? 1 : 0;
+}
+
+}  // namespace handson::cli
