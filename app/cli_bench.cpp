@@ -45,6 +45,10 @@ Sample measure(HeadlessScene& scene, int repeat) {
 
 }  // namespace
 
+namespace {
+int benchRaymarch(const Words& words);
+}  // namespace
+
 int cmdBench(const Words& words) {
   if (!words.empty() && words[0] == "selection") return cmdBenchSelection(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "gesture") return cmdBenchGesture(Words(words.begin() + 1, words.end()));
@@ -52,10 +56,15 @@ int cmdBench(const Words& words) {
   if (!words.empty() && words[0] == "deform") return cmdBenchDeform(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "mesh") return cmdBenchMesh(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "stability") return cmdBenchStability(Words(words.begin() + 1, words.end()));
-  if (!words.empty() && words[0] == "raymarch") return cmdBench(Words(words.begin() + 1, words.end()));
+  if (!words.empty() && words[0] == "raymarch") return benchRaymarch(Words(words.begin() + 1, words.end()));
   // The suite: `handson bench --out DIR [--quick]` (the raymarch benchmark writes --csv, not --out).
   if (std::find(words.begin(), words.end(), "--out") != words.end() || std::find(words.begin(), words.end(), "--quick") != words.end())
     return cmdBenchSuite(words);
+  return benchRaymarch(words);
+}
+
+namespace {
+int benchRaymarch(const Words& words) {
   std::vector<std::string> valueOptions = kRenderValueOptions;
   valueOptions.insert(valueOptions.end(), {"--sizes", "--repeat", "--csv"});
   Args args(words, valueOptions, kRenderFlagOptions);
@@ -64,6 +73,7 @@ int cmdBench(const Words& words) {
                  "  Raymarch time (median of N frames, GPU timestamps and wall clock) at each size, plain\n"
                  "  versus empty-space skipping + early ray termination, and their ratio. PATH omitted: the\n"
                  "  built-in phantom. For the paper-scale case: ../shared/data/ircadb1.1/ct.nii.gz --voxels 5000000.\n"
+                 "  The whole benchmark suite: handson bench --out DIR [--quick] (--help with it for more).\n"
               << kRenderOptionsHelp << "  'handson bench selection --help': region growing; 'handson bench gesture --help': the gesture solve;\n  'handson bench sim --help': the simulation (coarse model against the fine reference);\n  'handson bench deform --help': the GPU deformation passes (moved-box vs whole-volume resampling).\n";
     return args.help() ? 0 : 2;
   }
@@ -104,5 +114,7 @@ int cmdBench(const Words& words) {
   }
   return scene.context->validationMessageCount() > 0 ? 1 : 0;
 }
+
+}  // namespace
 
 }  // namespace handson::cli

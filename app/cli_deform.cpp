@@ -247,8 +247,8 @@ int cmdDeform(const Words& words) {
   }
   const double tRaster = seconds(t0);
   writeNifti(out, *args.value("-o"));
-  std::cout << std::setprecision(3) << "model " << model << ": scene " << tScene << " s, ";
-  if (model == "coarse") std::cout << "coarsening " << tPre << " s, ";
+  // The coarse model's preprocessing (scene and coarsening, or their cache) is one step.
+  std::cout << std::setprecision(3) << "model " << model << ": " << (model == "coarse" ? "scene + coarsening " : "scene ") << tScene << " s, ";
   std::cout << "solve " << tSolve << " s (" << steps << " increment" << (steps > 1 ? "s" : "") << "), resampling " << tRaster << " s\n"
             << "largest displacement " << maxDisp << " mm; inverted fine tets " << inverted << "; region voxels " << regionVoxels << ", covered "
             << covered << " (" << backend << ")\nwrote " << *args.value("-o") << "\n";

@@ -355,10 +355,10 @@ std::string DeformationController::status() const {
     case State::Ready:
       if (!model_) return "simulation: ready";
       s << "simulation: " << model_->scene.meshes.coarse.tets.size() << " coarse / " << model_->scene.meshes.fine.tets.size() << " fine tets"
-        << (model_->cache.hit ? " (cached)" : "") << (model_->cache.note.empty() ? "" : " [" + model_->cache.note + "]")
         << (shownInput_ == 0 ? "" : shownRefineStep_ > 0 ? ", refined x" + std::to_string(shownRefineStep_)
                                   : shownConverged_ ? ", settled" : shownSettled_ ? ", stopped before converging" : ", settling")
-        << (lastError_.empty() ? "" : "; last pose refused: " + lastError_);
+        << (lastError_.empty() ? "" : "; last pose refused: " + lastError_) << (model_->cache.hit ? " (preprocessing from the cache)" : "")
+        << (model_->cache.note.empty() ? "" : " [" + model_->cache.note + "]");
       return s.str();
   }
   return "";

@@ -1,5 +1,6 @@
 #include "session_export.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <sstream>
 
@@ -17,8 +18,21 @@ bool SessionExport::onUi(const ScriptEvent& e) {
 
 std::string SessionExport::write(const Session& session, const DeformationController& deform, const FrameResult& frame) {
   pending_ = false;
+  if (count_ == 0) {
+    // Continue after the exports already in the directory (an earlier session's, or the one this
+    // replay is playing): never overwrite them.
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator(dir_, ec)) {
+      const std::string n = e.path().filename().string();
+      int k = 0;
+      if (std::sscanf(n.c_str(), "session-%d.json", &k) == 1 || std::sscanf(n.c_str(), "deformed-%d.nii.gz", &k) == 1 ||
+          std::sscanf(n.c_str(), "screenshot-%d.png", &k) == 1 || std::sscanf(n.c_str(), "mesh-%d.vtu", &k) == 1)
+        next_ = std::max(next_, k);
+    }
+  }
+  ++next_;
   char tag[16];
-  std::snprintf(tag, sizeof tag, "%02d", count_ + 1);
+  std::snprintf(tag, sizeof tag, "%02d", next_);
   auto path = [&](const char* stem, const char* ext) { return (dir_ / (std::string(stem) + "-" + tag + ext)).string(); };
   std::ostringstream summary;
   try {

@@ -6,8 +6,9 @@
 //                       value type; the input unchanged when nothing is simulated)
 //   mesh-NN.vtu         the simulated fine mesh with its displacements (only when simulated)
 //   screenshot-NN.png   the rendered image of the frame after the request (no UI overlay)
-// Every file is written atomically (a failure never leaves a partial file), and a failed export
-// is reported without ending the session.
+// Every file is written atomically (a failure never leaves a partial file), numbering continues
+// after the exports already in the directory (nothing is overwritten), and a failed export is
+// reported without ending the session.
 #include <filesystem>
 #include <string>
 
@@ -36,7 +37,8 @@ class SessionExport {
   std::filesystem::path dir_;
   const Volume& input_;
   bool pending_ = false;
-  int count_ = 0;
+  int count_ = 0;  ///< exports written by this session
+  int next_ = 0;   ///< the number of the last export in the directory
 };
 
 }  // namespace handson

@@ -415,6 +415,7 @@ bool Viewer::Impl::step() {
     for (const auto& r : renderer->takeCompleted()) {
       selection->onFrameResult(r);
       if (exportFrame != 0 && r.frame == exportFrame) {
+        renderer->waitLast();  // the frames after it are done too: the volume and mesh are read at rest
         status.exported = exporter->write(*session, *deform, r);
         if (!o.quiet) std::cerr << status.exported << "\n";
         exportFrame = 0;
@@ -443,10 +444,17 @@ int Viewer::Impl::finish() {
     for (const auto& p : last.timings) passes.emplace_back(p.name, p.gpuMs);
     log.setGpuTimes(last.frame, passes);
   }
-  if (exportFrame != 0 && last.frame == exportFrame) {  // an export asked for on the last frame
-    std::cerr << exporter->write(*session, *deform, last) << "\n";
-    exportFrame = 0;
+  // An export asked for on the last frames: its frame is the last one or among those just finished.
+  if (exportFrame != 0) {
+    std::vector<FrameResult> done = renderer->takeCompleted();
+    done.push_back(last);
+    for (const auto& r : done)
+      if (r.frame == exportFrame) {
+        std::cerr << exporter->write(*session, *deform, r) << "\n";
+        exportFrame = 0;
+      }
   }
+  if (exporter && (exporter->pending() || exportFrame != 0)) std::cerr << "warning: an export was asked for as the session ended and was not written\n";
   if (shot && !o.screenshot.empty()) {
     shot->invalidate();
     const VkExtent2D ext = swapchain->extent();

@@ -379,6 +379,8 @@ void uploadToBuffer(const Context& ctx, const Buffer& dst, const void* data, VkD
 void downloadFromBuffer(const Context& ctx, const Buffer& src, void* dst, VkDeviceSize bytes) {
   Buffer host(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::HostVisible);
   ctx.submitAndWait([&](VkCommandBuffer cmd) {
+    // Earlier submissions (a frame's passes writing this buffer) finish their writes before the copy.
+    memoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
     VkBufferCopy c{0, 0, bytes};
     vkCmdCopyBuffer(cmd, src.handle(), host.handle(), 1, &c);
     memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);

@@ -354,8 +354,13 @@ std::unique_ptr<CoarseModel> CoarseModel::load(std::istream& is, std::uint64_t b
   m->dof_ = r.podVector<int>();
   m->dofCount_ = r.pod<std::int32_t>();
   if (m->coarseRole_.size() != ncn || m->dof_.size() != ncn || m->dofCount_ < 0 || m->dofCount_ > 3 * int(ncn)) throw Error("cache file does not fit the mesh");
-  for (int d : m->dof_)
-    if (d >= m->dofCount_ || d < -1) throw Error("cache file corrupt (dofs)");
+  if (m->dofCount_ % 3 != 0) throw Error("cache file corrupt (dofs)");
+  for (std::size_t v = 0; v < ncn; ++v) {
+    const int d = m->dof_[v], role = m->coarseRole_[v];
+    if (role < -2 || role >= hc || (role == -1) != (d >= 0) || (d >= 0 && (d % 3 != 0 || d + 2 >= m->dofCount_))) throw Error("cache file corrupt (dofs)");
+  }
+  for (int h : m->constraints_.handleOf)
+    if (h < -1 || h >= hc) throw Error("cache file corrupt (handle roles)");
   m->buildAssembler();
   return m;
 }

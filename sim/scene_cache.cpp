@@ -1,13 +1,16 @@
 #include "scene_cache.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cstdlib>
 #include <cstring>
+#include <chrono>
 #include <fstream>
 #include <sstream>
 #include <unistd.h>
 
 #include "sim/binary_io.h"
+#include "sim/source_hash.h"
 #include "sim/error.h"
 #include "sim/static_solver.h"
 
@@ -56,6 +59,7 @@ KuhnGrid readGrid(bin::Reader& r) {
 std::string simulationCacheKey(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& s) {
   Hasher h;
   h.pod(kFormat);
+  h.string(HANDSON_SIM_SOURCE_HASH);  // the code that builds the scene and the model
   const VolumeGeometry& g = image.geometry();
   h.pod(g.dims);
   h.pod(g.spacing);
@@ -94,7 +98,8 @@ std::string simulationCacheKey(const Volume& image, const std::vector<SimHandle>
 }
 
 void saveSimulation(const std::filesystem::path& file, const SimScene& sc, const CoarseModel& model) {
-  const std::filesystem::path tmp = file.string() + ".tmp" + std::to_string(::getpid());
+  static std::atomic<unsigned> counter{0};
+  const std::filesystem::path tmp = file.string() + ".tmp" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
   std::ostringstream os(std::ios::binary);  // the payload, then its checksum: corruption is detected
   {
     bin::Writer w{os};
@@ -226,11 +231,17 @@ std::unique_ptr<CoarseModel> loadSimulation(const std::filesystem::path& file, S
     for (std::size_t i = 0; i + 1 < m.cellTetStart.size(); ++i)
       if (m.cellTetStart[i] < 0 || m.cellTetStart[i] > m.cellTetStart[i + 1] || std::size_t(m.cellTetStart[i + 1]) > nt) bad();
   }
+  const int hc = sc.constraints.handleCount;
+  if (hc < 0 || sc.handleCentroid.size() != std::size_t(hc) || sc.handleNodeCount.size() != std::size_t(hc)) bad();
+  for (int role : sc.constraints.handleOf)
+    if (role < -1 || role >= hc) bad();
   for (double v : sc.youngs)
     if (!(v > 0) || !std::isfinite(v)) bad();
   for (double v : sc.poisson)
     if (!(v > -1 && v < 0.5)) bad();
   auto model = CoarseModel::load(is, r.remaining, m);
+  if (model->constraints().handleCount != hc) bad();
+  if (model->elementKind() == CoarseElement::Tet && !m.regularFine) bad();
   char end[8];
   if (!is.read(end, sizeof end) || std::memcmp(end, kMagic, sizeof end) != 0) throw Error("simulation cache truncated (no end marker)");
   sc.fineK = tetStiffnesses(m.fine, sc.youngs, sc.poisson);
@@ -254,11 +265,12 @@ std::unique_ptr<CoarseModel> buildOrLoadSimulation(const Volume& image, const st
     try {
       reportProgress(progress, 0.0, "loading cached simulation");
       auto model = loadSimulation(file, scene);
+      if (model->elementKind() != settings.element) throw Error("the cached model has other elements");
       reportProgress(progress, 1.0, "loading cached simulation");
       o.hit = true;
       std::filesystem::last_write_time(file, std::filesystem::file_time_type::clock::now(), ec);  // recently used
       return model;
-    } catch (const Error& e) {
+    } catch (const std::exception& e) {  // corrupt data, or a garbage file too large to read
       o.note = std::string("the cached simulation was unreadable (") + e.what() + "): rebuilt";
       std::filesystem::remove(file, ec);
     }
@@ -270,7 +282,13 @@ std::unique_ptr<CoarseModel> buildOrLoadSimulation(const Volume& image, const st
     // Evict the least recently used entries beyond the cap.
     std::vector<std::pair<std::filesystem::file_time_type, std::filesystem::path>> entries;
     std::uint64_t total = 0;
+    const auto now = std::filesystem::file_time_type::clock::now();
     for (const auto& e : std::filesystem::directory_iterator(cacheDir, ec)) {
+      // Temporary files a killed writer left behind (an hour old) go too.
+      if (e.path().string().find(".hsim.tmp") != std::string::npos && now - e.last_write_time(ec) > std::chrono::hours(1)) {
+        std::filesystem::remove(e.path(), ec);
+        continue;
+      }
       if (e.path().extension() != ".hsim") continue;
       total += e.file_size(ec);
       entries.emplace_back(e.last_write_time(ec), e.path());

@@ -22,9 +22,9 @@ struct CliRun {
 };
 
 // Runs the handson executable with a shell command line; stderr is merged into output.
-CliRun runHandson(const std::string& args) {
+CliRun runHandson(const std::string& args, int timeoutSeconds = 120) {
   CliRun r;
-  const std::string cmd = std::string("timeout 120 ") + HANDSON_EXE + " " + args + " 2>&1";
+  const std::string cmd = "timeout " + std::to_string(timeoutSeconds) + " " + HANDSON_EXE + " " + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;
   std::array<char, 4096> buf;
@@ -303,7 +303,7 @@ TEST_F(Cli, SimulationOptionsAreCheckedBeforeAnyWork) {
 TEST_F(Cli, TheQuickBenchmarkSuiteRunsEveryScenarioAndComponent) {
   // `handson bench --quick --out DIR` (the selection benchmark is skipped here: it needs ../shared/data).
   const std::string dir = p("suite");
-  const CliRun r = runHandson("bench --quick --out " + dir + " --data /nonexistent");
+  const CliRun r = runHandson("bench --quick --out " + dir + " --data /nonexistent", 900);  // ~1.5 min here
   ASSERT_EQ(r.status, 0) << r.output;
   std::ifstream sum(dir + "/summary.txt");
   const std::string summary((std::istreambuf_iterator<char>(sum)), {});
@@ -320,4 +320,24 @@ TEST_F(Cli, TheQuickBenchmarkSuiteRunsEveryScenarioAndComponent) {
   if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
     EXPECT_TRUE(std::filesystem::exists(dir + "/stages.png"));
   }
+}
+
+TEST_F(Cli, DeformLoadsItsPreprocessingFromTheCacheTheSecondTime) {
+  ASSERT_EQ(runHandson("phantom -o " + p("ct.nii.gz") + " --labels-out " + p("labels.nii.gz") + " --spacing 6 --noise 0").status, 0);
+  const std::string common = "deform " + p("ct.nii.gz") + " --handle " + p("labels.nii.gz") + " --handle-label 4 --coarse-tets 300 --fine-tets 8100 " +
+                             "--translate-mm 6,0,0 --quiet --cache-dir " + p("cache") + " -o ";
+  const CliRun first = runHandson(common + p("a.nii.gz"));
+  ASSERT_EQ(first.status, 0) << first.output;
+  EXPECT_EQ(first.output.find("loaded from the cache"), std::string::npos) << first.output;
+  const CliRun second = runHandson(common + p("b.nii.gz"));
+  ASSERT_EQ(second.status, 0) << second.output;
+  EXPECT_NE(second.output.find("loaded from the cache"), std::string::npos) << second.output;
+  std::ifstream a(p("a.nii.gz"), std::ios::binary), b(p("b.nii.gz"), std::ios::binary);
+  const std::string da((std::istreambuf_iterator<char>(a)), {}), db((std::istreambuf_iterator<char>(b)), {});
+  EXPECT_EQ(da, db) << "the same deformed volume from the cached preprocessing";
+  // Another resolution is another scene: a miss.
+  const CliRun third = runHandson("deform " + p("ct.nii.gz") + " --handle " + p("labels.nii.gz") + " --handle-label 4 --coarse-tets 600 --fine-tets 8100 " +
+                                  "--translate-mm 6,0,0 --quiet --cache-dir " + p("cache") + " -o " + p("c.nii.gz"));
+  ASSERT_EQ(third.status, 0) << third.output;
+  EXPECT_EQ(third.output.find("loaded from the cache"), std::string::npos) << third.output;
 }

@@ -335,7 +335,12 @@ TEST(Replay, TheExportActionWritesTheSessionTheDeformedVolumeTheMeshAndAScreensh
   const auto before = firstHandle(log);
   ASSERT_TRUE(before.has_value()) << log;
   std::string again;
-  ASSERT_EQ(run("replay " + (out / "session-01.json").string() + " --fps 10 --size 96x96 --quiet --sim off --print-handles", &again), 0) << again;
+  // (It holds the export action too: replayed into the same directory, it numbers on, never overwrites.)
+  ASSERT_EQ(run("replay " + (out / "session-01.json").string() + " --fps 10 --size 96x96 --quiet --sim off --print-handles --export-dir " + out.string(),
+                &again),
+            0)
+      << again;
+  EXPECT_TRUE(fs::exists(out / "session-02.json")) << again;
   const auto after = firstHandle(again);
   ASSERT_TRUE(after.has_value()) << again;
   EXPECT_LT((after->translation - before->translation).norm(), 0.5) << log << again;
