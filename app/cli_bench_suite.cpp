@@ -31,7 +31,7 @@ const char* const kBenchSuiteHelp =
     "  The benchmark suite: the paper's scenarios (assets/gestures: kidney translated with two fingers,\n"
     "  rotated in plane, rotated out of plane with three, a vessel moved with one) replayed headless on\n"
     "  the default scene with the simulation on, per-stage GPU times and latency (scenario_stages.csv,\n"
-    "  stages.png); then the component benchmarks into DIR/raymarch, gesture, selection (with --data or\n"
+    "  stages.png, latency.csv, latency.png); then the component benchmarks into DIR/raymarch, gesture, selection (with --data or\n"
     "  ../shared/data present), sim, deform, mesh and stability; summary.txt lists what ran and took how\n"
     "  long. --quick: smaller scenes and sweeps (a few minutes on 2 cores).\n";
 
@@ -85,6 +85,8 @@ int cmdBenchSuite(const Words& words) {
   std::ofstream stages(out / "scenario_stages.csv");
   stages << "scenario,stage,median_ms,p95_ms,frames\n";
   std::map<std::string, std::array<double, 4>> wide;  // stage -> median per scenario (the chart's table)
+  std::ofstream latency(out / "latency.csv");  // the distribution: every frame's input-to-present latency, sorted
+  latency << "scenario,fraction,latency_ms\n";
   std::size_t scenarioIndex = 0;
   std::cout << std::fixed << std::setprecision(2);
   for (const auto& [name, text] : scenarios) {
@@ -126,9 +128,27 @@ int cmdBenchSuite(const Words& words) {
       std::cout << " " << stage << " " << percentile(v, 0.5) << " ms";
     }
     std::cout << "\n";
-    if (const auto it = cols.find("input_to_present_ms"); it != cols.end())
+    if (const auto it = cols.find("input_to_present_ms"); it != cols.end()) {
       summary << "scenario " << name << ": input-to-present latency p50/p95/p99 " << percentile(it->second, 0.5) << " / " << percentile(it->second, 0.95)
               << " / " << percentile(it->second, 0.99) << " ms (replay waits for the solve to settle each frame); " << since(t0) << " s\n";
+      std::vector<double> v = it->second;
+      std::sort(v.begin(), v.end());
+      for (std::size_t i = 0; i < v.size(); ++i) latency << name << "," << double(i + 1) / double(v.size()) << "," << v[i] << "\n";
+      latency << "\n\n";  // a gnuplot data block per scenario
+    }
+  }
+  latency.close();
+  if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
+    const auto gp = out / "latency.gp";
+    std::ofstream g(gp);
+    g << "set datafile separator ','\nset terminal pngcairo size 900,520 font ',11'\nset output '" << (out / "latency.png").string()
+      << "'\nset termoption noenhanced\nset title 'Input-to-present latency per scenario (cumulative distribution over frames with input)'\n"
+      << "set xlabel 'ms'\nset ylabel 'fraction of frames'\nset logscale x\nset grid\nset key bottom right\nset yrange [0:1.02]\nplot ";
+    for (int i = 0; i < 4; ++i)
+      g << (i ? ", " : "") << "'" << (out / "latency.csv").string() << "' index " << i << " using 3:2 with steps lw 2 title '" << scenarios[i].first << "'";
+    g << "\n";
+    g.close();
+    if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no latency chart\n";
   }
   stages.close();
   {

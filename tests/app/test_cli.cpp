@@ -317,8 +317,12 @@ TEST_F(Cli, TheQuickBenchmarkSuiteRunsEveryScenarioAndComponent) {
   for (const char* f : {"/raymarch/raymarch.csv", "/sim/sim_accuracy.csv", "/deform/deform_summary.csv", "/mesh/mesh_accuracy.csv",
                         "/stability/stability_rotation.csv", "/gesture/gesture_accuracy.csv"})
     EXPECT_TRUE(std::filesystem::exists(dir + f)) << f;
+  std::ifstream lat(dir + "/latency.csv");
+  const std::string latency((std::istreambuf_iterator<char>(lat)), {});
+  EXPECT_NE(latency.find("vessel-translate-one-finger,1,"), std::string::npos) << "each scenario's distribution ends at 1";
   if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
     EXPECT_TRUE(std::filesystem::exists(dir + "/stages.png"));
+    EXPECT_TRUE(std::filesystem::exists(dir + "/latency.png"));
   }
 }
 
