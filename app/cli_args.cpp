@@ -151,4 +151,19 @@ void fineMeshOptions(const Args& args, const char* name, const char* contrastNam
     throw UsageError(std::string(name) + " adapted needs cell coarse elements");
 }
 
+std::vector<int> integerListOption(const Args& args, const char* name, const char* fallback, int lo, int hi) {
+  std::vector<int> out;
+  for (double v : parseNumberList(args.valueOr(name, fallback), name)) {
+    if (!(v >= lo && v <= hi) || v != std::floor(v)) throw UsageError(std::string(name) + " takes integers " + std::to_string(lo) + ".." + std::to_string(hi));
+    out.push_back(int(v));
+  }
+  return out;
+}
+
+HandleScene handleSceneOptions(const Args& args, double defaultSpacingMm, const ProgressFn& progress) {
+  const std::optional<long> label = args.value("--handle-label") ? std::optional<long>(args.integer("--handle-label", 0, 1, 65535)) : std::nullopt;
+  return loadHandleScene(args.positional().empty() ? "" : args.positional()[0], args.valueOr("--handle", ""), label,
+                         args.number("--spacing", defaultSpacingMm, 0.5, 20.0), progress);
+}
+
 }  // namespace handson::cli

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "app/volume_io.h"
+
 namespace handson {
 enum class CoarseElement;
 struct SimSettings;
@@ -53,5 +55,10 @@ CoarseElement coarseElementOption(const Args& args, const char* name);
 /// The fine mesh kind from option `name` ("regular" or "adapted"; absent: regular) into `settings`,
 /// with `contrastName` the stiffness jump that adds points to an adapted mesh.
 void fineMeshOptions(const Args& args, const char* name, const char* contrastName, SimSettings& settings);
+/// Option `name` as a comma list of integers in [lo, hi] (`fallback` when absent).
+std::vector<int> integerListOption(const Args& args, const char* name, const char* fallback, int lo, int hi);
+/// The simulation benchmarks' scene: PATH --handle MASK [--handle-label N], or without PATH the
+/// built-in phantom at --spacing (default `defaultSpacingMm`) with its right kidney as the handle.
+HandleScene handleSceneOptions(const Args& args, double defaultSpacingMm, const ProgressFn& progress);
 
 }  // namespace handson::cli

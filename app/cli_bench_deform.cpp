@@ -84,9 +84,7 @@ int cmdBenchDeform(const Words& words) {
   const std::filesystem::path out = args.valueOr("--out", "bench-out");
   std::filesystem::create_directories(out);
 
-  const std::optional<long> lab = args.value("--handle-label") ? std::optional<long>(args.integer("--handle-label", 0, 1, 65535)) : std::nullopt;
-  HandleScene loaded = loadHandleScene(args.positional().empty() ? "" : args.positional()[0], args.valueOr("--handle", ""), lab,
-                                       args.number("--spacing", 1.75, 0.5, 20.0), progress);
+  HandleScene loaded = handleSceneOptions(args, 1.75, progress);
   const Volume image = std::move(loaded.image);
   const SimHandle handle{std::move(loaded.handle), {}};
 

@@ -57,23 +57,14 @@ int cmdBenchMesh(const Words& words) {
   }
   const bool quiet = args.flag("--quiet");
   const ProgressFn progress = quiet ? ProgressFn{} : consoleProgress();
-  auto refinements = [&](const char* opt, const char* def) {
-    std::vector<int> v;
-    for (double d : parseNumberList(args.valueOr(opt, def), opt)) {
-      if (d < 1 || d > 16 || d != std::floor(d)) throw UsageError(std::string(opt) + " takes integers 1..16");
-      v.push_back(int(d));
-    }
-    return v;
-  };
-  const std::vector<int> regular = refinements("--regular-list", "2,3,4,5,6"), adapted = refinements("--adapted-list", "2,3,4");
+  const std::vector<int> regular = integerListOption(args, "--regular-list", "2,3,4,5,6", 1, 16);
+  const std::vector<int> adapted = integerListOption(args, "--adapted-list", "2,3,4", 1, 16);
   const int truthM = int(args.integer("--truth-refinement", 8, 2, 16));
   const int coarse = int(args.integer("--coarse-tets", 600, 6, 100000));
   const double contrast = args.number("--contrast", 10.0, 1.01, 1e9);
   const std::filesystem::path out = args.valueOr("--out", "bench-out");
   std::filesystem::create_directories(out);
-  const std::optional<long> lab = args.value("--handle-label") ? std::optional<long>(args.integer("--handle-label", 0, 1, 65535)) : std::nullopt;
-  HandleScene loaded = loadHandleScene(args.positional().empty() ? "" : args.positional()[0], args.valueOr("--handle", ""), lab,
-                                       args.number("--spacing", 2.0, 0.5, 20.0), progress);
+  HandleScene loaded = handleSceneOptions(args, 2.0, progress);
   const Volume image = std::move(loaded.image);
   const SimHandle handle{std::move(loaded.handle), {}};
 

@@ -54,11 +54,7 @@ int cmdBenchSim(const Words& words) {
   }
   const bool quiet = args.flag("--quiet");
   const ProgressFn progress = quiet ? ProgressFn{} : consoleProgress();
-  std::vector<int> coarseList;
-  for (double v : parseNumberList(args.valueOr("--coarse-list", "1500,3000,6000"), "--coarse-list")) {
-    if (v < 6 || v > 1e6 || v != std::floor(v)) throw UsageError("--coarse-list takes integers 6..1e6");
-    coarseList.push_back(int(v));
-  }
+  const std::vector<int> coarseList = integerListOption(args, "--coarse-list", "1500,3000,6000", 6, 1000000);
   const int finePer = int(args.integer("--fine-per-coarse", 64, 1, 4096));
   const int refineSteps = int(args.integer("--refine-steps", 4, 0, 100));
   const auto tr = parseNumberList(args.valueOr("--translate-mm", "10,0,0"), "--translate-mm");
@@ -67,9 +63,7 @@ int cmdBenchSim(const Words& words) {
   const std::filesystem::path out = args.valueOr("--out", "bench-out");
   std::filesystem::create_directories(out);
 
-  const std::optional<long> lab = args.value("--handle-label") ? std::optional<long>(args.integer("--handle-label", 0, 1, 65535)) : std::nullopt;
-  HandleScene loaded = loadHandleScene(args.positional().empty() ? "" : args.positional()[0], args.valueOr("--handle", ""), lab,
-                                       args.number("--spacing", 2.0, 0.5, 20.0), progress);
+  HandleScene loaded = handleSceneOptions(args, 2.0, progress);
   const Volume image = std::move(loaded.image);
   const SimHandle handle{std::move(loaded.handle), {}};
 

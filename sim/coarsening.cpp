@@ -541,14 +541,9 @@ std::vector<Eigen::Vector3d> CoarseModel::reconstruct(const std::vector<RigidTra
     for (int c = 0; c < nc_; ++c) p += b.N[c] * x[std::size_t(el.node[std::size_t(c)])];
     out[std::size_t(b.fine)] = p;
   }
-  std::vector<Eigen::Matrix3d> R(elements_.size());
-  std::vector<char> haveR(elements_.size(), 0);
+  const std::vector<Eigen::Matrix3d> R = elementRotations(x);
   VecE local(3 * nc_);
   for (const auto& in : interior_) {
-    if (!haveR[std::size_t(in.element)]) {
-      R[std::size_t(in.element)] = elementRotation(in.element, x);
-      haveR[std::size_t(in.element)] = 1;
-    }
     const Eigen::Matrix3d& Rc = R[std::size_t(in.element)];
     const Element& el = elements_[std::size_t(in.element)];
     for (int c = 0; c < nc_; ++c) {

@@ -31,6 +31,20 @@ std::vector<Eigen::Vector3d> cubeCorners() {
 
 double tetVolume(const TetMesh& m, std::size_t t) { return std::abs(m.signedVolume(int(t))); }
 
+// How many tets own each triangular face (sorted node triple): 2 inside a conforming mesh, 1 on its boundary.
+std::map<std::array<int, 3>, int> faceCounts(const std::vector<std::array<int, 4>>& tets) {
+  std::map<std::array<int, 3>, int> faces;
+  for (const auto& t : tets)
+    for (int k = 0; k < 4; ++k) {
+      std::array<int, 3> f{};
+      for (int j = 0, i = 0; j < 4; ++j)
+        if (j != k) f[std::size_t(i++)] = t[std::size_t(j)];
+      std::sort(f.begin(), f.end());
+      ++faces[f];
+    }
+  return faces;
+}
+
 }  // namespace
 
 TEST(TetgenMesher, MeshesACubeWithAnInteriorPointAndKeepsItsSurface) {
@@ -49,15 +63,7 @@ TEST(TetgenMesher, MeshesACubeWithAnInteriorPointAndKeepsItsSurface) {
   EXPECT_NEAR(vol, 1.0, 1e-12);
   EXPECT_TRUE(usesInterior);
   // Every boundary face of the mesh is one of the 12 input triangles (nothing split).
-  std::map<std::array<int, 3>, int> faces;
-  for (const auto& t : r.tets)
-    for (int k = 0; k < 4; ++k) {
-      std::array<int, 3> f{};
-      for (int j = 0, i = 0; j < 4; ++j)
-        if (j != k) f[std::size_t(i++)] = t[std::size_t(j)];
-      std::sort(f.begin(), f.end());
-      ++faces[f];
-    }
+  const auto faces = faceCounts(r.tets);
   std::size_t boundary = 0;
   for (const auto& [f, n] : faces) {
     EXPECT_LE(n, 2);
@@ -146,15 +152,7 @@ TEST(AdaptedMesh, ConformsNestsInCellsAndAddsPointsOnlyAtTheStiffnessJump) {
     EXPECT_NEAR(vol, cellVolume, 1e-9 * cellVolume) << "cell " << c;
   }
   // Conforming: every face is shared by two tets except on the box's outer faces.
-  std::map<std::array<int, 3>, int> faces;
-  for (const auto& t : F.tets)
-    for (int k = 0; k < 4; ++k) {
-      std::array<int, 3> f{};
-      for (int j = 0, i = 0; j < 4; ++j)
-        if (j != k) f[std::size_t(i++)] = t[std::size_t(j)];
-      std::sort(f.begin(), f.end());
-      ++faces[f];
-    }
+  const auto faces = faceCounts(F.tets);
   for (const auto& [f, n] : faces) {
     ASSERT_LE(n, 2);
     if (n == 1) {
