@@ -12,16 +12,20 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include "app/cli.h"
 #include "app/cli_args.h"
+#include "app/nifti_io.h"
 #include "app/replay.h"
+#include "app/scenario_retarget.h"
 #include "app/scenario_kidney_rotate_in_plane.h"
 #include "app/scenario_kidney_rotate_out_of_plane_three_fingers.h"
 #include "app/scenario_kidney_translate_two_fingers.h"
 #include "app/scenario_vessel_translate_one_finger.h"
 #include "sim/error.h"
+#include "sim/resample.h"
 
 namespace handson::cli {
 
@@ -29,11 +33,14 @@ namespace {
 const char* const kBenchSuiteHelp =
     "usage: handson bench --out DIR [--quick] [--data DIR]\n"
     "  The benchmark suite: the paper's scenarios (assets/gestures: kidney translated with two fingers,\n"
-    "  rotated in plane, rotated out of plane with three, a vessel moved with one) replayed headless on\n"
-    "  the default scene with the simulation on, per-stage GPU times and latency (scenario_stages.csv,\n"
-    "  stages.png, latency.csv, latency.png); then the component benchmarks into DIR/raymarch, gesture, selection (with --data or\n"
-    "  ../shared/data present), sim, deform, mesh and stability; summary.txt lists what ran and took how\n"
-    "  long. --quick: smaller scenes and sweeps (a few minutes on 2 cores).\n";
+    "  rotated in plane, rotated out of plane with three, a vessel moved with one) replayed headless with\n"
+    "  the simulation on, on each scene: the phantom, and with DIR/ircadb1.1 present (--data, default\n"
+    "  ../shared/data) ircadb1.1 resampled to ~5 M voxels and at full size (34 M), the scripts re-aimed\n"
+    "  at the organ by its label; per-stage GPU and CPU times and latency (scenario_stages.csv,\n"
+    "  scenario_stages_wide.csv, stages.png, latency.csv, latency.png). Then the component benchmarks\n"
+    "  into DIR/raymarch, gesture, selection, sim (phantom, and sim-ircadb1.1: the right kidney of the real\n"
+    "  CT), deform, mesh and stability; summary.txt lists what ran and took how long.\n"
+    "  --quick: smaller scenes and sweeps, no 34 M scene (a few minutes on 2 cores).\n";
 
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return std::nan("");
@@ -77,75 +84,149 @@ int cmdBenchSuite(const Words& words) {
   auto since = [](std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   int failures = 0;
 
-  // 1. The scenarios.
+  // 1. The scenarios, on each scene: the phantom (the scripts as recorded), ircadb1.1 resampled to
+  // the paper's ~5 M voxels (--quick: 1 M) and at full size (34 M voxels; not with --quick). On real
+  // CT the scripts are re-aimed at the organ by its label (app/scenario_retarget.h): the touches stay,
+  // the camera moves.
   const std::pair<const char*, const char*> scenarios[] = {{"kidney-translate-two-fingers", kScenario_kidney_translate_two_fingers},
                                                            {"kidney-rotate-in-plane", kScenario_kidney_rotate_in_plane},
                                                            {"kidney-rotate-out-of-plane-three-fingers", kScenario_kidney_rotate_out_of_plane_three_fingers},
                                                            {"vessel-translate-one-finger", kScenario_vessel_translate_one_finger}};
-  std::ofstream stages(out / "scenario_stages.csv");
-  stages << "scenario,stage,median_ms,p95_ms,frames\n";
-  std::map<std::string, std::array<double, 4>> wide;  // stage -> median per scenario (the chart's table)
-  std::ofstream latency(out / "latency.csv");  // the distribution: every frame's input-to-present latency, sorted
-  latency << "scenario,fraction,latency_ms\n";
-  std::size_t scenarioIndex = 0;
-  std::cout << std::fixed << std::setprecision(2);
-  for (const auto& [name, text] : scenarios) {
-    const std::size_t si = scenarioIndex++;
-    const auto t0 = std::chrono::steady_clock::now();
-    const std::filesystem::path script = out / "scenarios" / (std::string(name) + ".json");
-    std::ofstream(script) << text;
-    ReplayOptions o;
-    o.script = script.string();
-    o.fps = 10;
-    o.width = o.height = quick ? 128 : 256;
-    o.quiet = true;
-    o.timings = (out / "scenarios" / (std::string(name) + "_timings.csv")).string();
-    o.exportPath = (out / "scenarios" / (std::string(name) + "_deformed.nii.gz")).string();
-    o.exportDir = (out / "scenarios" / "exports").string();
-    if (quick) {
-      o.sim.sim.coarseTets = 1500;
-      o.sim.sim.fineTets = 96000;
+  const std::string data = args.valueOr("--data", "../shared/data");
+  struct Scene {
+    std::string name, volume;      // volume "": the phantom
+    std::vector<std::string> scripts;  // per scenario (paths)
+  };
+  std::vector<Scene> scenes;
+  {
+    Scene ph{"phantom", "", {}};
+    for (const auto& [name, text] : scenarios) {
+      const auto script = out / "scenarios" / (std::string(name) + ".json");
+      std::ofstream(script) << text;
+      ph.scripts.push_back(script.string());
     }
+    scenes.push_back(std::move(ph));
+  }
+  const std::filesystem::path ircadb = std::filesystem::path(data) / "ircadb1.1";
+  if (std::filesystem::exists(ircadb / "ct.nii.gz") && std::filesystem::exists(ircadb / "labels.nii.gz")) {
+    const auto t0 = std::chrono::steady_clock::now();
     try {
-      if (runReplay(o) != 0) throw Error("the replay reported an error");
+      std::filesystem::create_directories(out / "scenes");
+      const Volume ct = readNifti((ircadb / "ct.nii.gz").string());
+      const Volume labels = readNifti((ircadb / "labels.nii.gz").string());
+      const std::size_t voxels = quick ? 1'000'000 : 5'000'000;
+      const std::string smallName = "ircadb1.1-" + std::to_string(voxels / 1'000'000) + "M";
+      const auto smallPath = out / "scenes" / (smallName + ".nii.gz");
+      writeNifti(resampleToVoxelCount(ct, voxels), smallPath.string());
+      Scene small{smallName, smallPath.string(), {}}, full{"ircadb1.1-34M", (ircadb / "ct.nii.gz").string(), {}};
+      for (const auto& [name, text] : scenarios) {
+        const SessionScript recorded = parseSessionScript(text, name);
+        const bool vessel = std::string(name).rfind("vessel", 0) == 0;
+        // The phantom's organs: the right kidney and the inferior vena cava; on ircadb1.1 the right
+        // kidney (4, else the left, 3) and the venous system (11, else the artery, 9).
+        std::optional<RetargetedScript> r;
+        std::string why;
+        for (int label : vessel ? std::vector<int>{11, 9} : std::vector<int>{4, 3}) {
+          try {
+            r = retargetScript(recorded, ct, labels, label, (ircadb / "ct.nii.gz").string());
+            break;
+          } catch (const std::exception& e) {
+            why = e.what();
+          }
+        }
+        if (!r) throw Error(std::string("scenario ") + name + ": " + why);
+        summary << "scenario " << name << " on ircadb1.1: camera azimuth " << r->azimuthDeg << ", elevation " << r->elevationDeg << " deg; "
+                << r->onOrgan << " of " << r->touchDowns << " touch-downs on the organ\n";
+        const auto script = out / "scenarios" / (std::string(name) + "-ircadb1.1.json");
+        writeSessionScript(r->script, script.string());
+        small.scripts.push_back(script.string());
+        full.scripts.push_back(script.string());
+      }
+      scenes.push_back(std::move(small));
+      if (!quick) scenes.push_back(std::move(full));
     } catch (const std::exception& e) {
       ++failures;
-      summary << "scenario " << name << ": FAILED: " << e.what() << "\n";
-      std::cerr << "scenario " << name << " failed: " << e.what() << "\n";
-      continue;
+      summary << "ircadb1.1 scenes: FAILED: " << e.what() << "\n";
+      std::cerr << "ircadb1.1 scenes failed: " << e.what() << "\n";
     }
-    const auto cols = readTimings(o.timings);
-    std::cout << "scenario " << name << " (" << since(t0) << " s):";
-    for (const auto& [col, v] : cols) {
-      std::string stage;
-      if (col.rfind("gpu_", 0) == 0 && col.size() > 7) stage = col.substr(4, col.size() - 7);
-      else if (col == "frame_ms" || col == "input_to_present_ms") stage = col.substr(0, col.size() - 3);
-      if (stage.empty() || v.empty()) continue;
-      stages << name << "," << stage << "," << percentile(v, 0.5) << "," << percentile(v, 0.95) << "," << v.size() << "\n";
-      auto [it, fresh] = wide.try_emplace(stage);
-      if (fresh) it->second.fill(std::nan(""));
+    std::cout << "real-CT scenes prepared in " << since(t0) << " s\n";
+  } else {
+    summary << "real-CT scenes: skipped (no ircadb1.1 at " << ircadb.string() << ")\n";
+  }
+
+  std::ofstream stages(out / "scenario_stages.csv");
+  stages << "scene,scenario,stage,median_ms,p95_ms,frames\n";
+  std::map<std::string, std::vector<double>> wide;  // stage -> median per scene over its scenarios' frames (the chart's table)
+  std::ofstream latency(out / "latency.csv");  // the distribution per scene: every frame's input-to-present latency, sorted
+  latency << "scene,fraction,latency_ms\n";
+  std::cout << std::fixed << std::setprecision(2);
+  for (std::size_t si = 0; si < scenes.size(); ++si) {
+    const Scene& scene = scenes[si];
+    std::map<std::string, std::vector<double>> pooled;  // stage -> every frame's value, all scenarios
+    for (std::size_t k = 0; k < scene.scripts.size(); ++k) {
+      const std::string name = scenarios[k].first;
+      const auto t0 = std::chrono::steady_clock::now();
+      const std::string tag = scene.name + "_" + name;
+      ReplayOptions o;
+      o.script = scene.scripts[k];
+      o.volume = scene.volume;
+      o.fps = 10;
+      o.width = o.height = quick ? 128 : 256;
+      o.quiet = true;
+      o.timings = (out / "scenarios" / (tag + "_timings.csv")).string();
+      o.exportPath = (out / "scenarios" / (tag + "_deformed.nii.gz")).string();
+      o.exportDir = (out / "scenarios" / "exports").string();
+      if (quick) {
+        o.sim.sim.coarseTets = 1500;
+        o.sim.sim.fineTets = 96000;
+      }
+      try {
+        if (runReplay(o) != 0) throw Error("the replay reported an error");
+      } catch (const std::exception& e) {
+        ++failures;
+        summary << "scenario " << name << " on " << scene.name << ": FAILED: " << e.what() << "\n";
+        std::cerr << "scenario " << name << " on " << scene.name << " failed: " << e.what() << "\n";
+        continue;
+      }
+      const auto cols = readTimings(o.timings);
+      std::cout << scene.name << " / " << name << " (" << since(t0) << " s):";
+      for (const auto& [col, v] : cols) {
+        std::string stage;
+        const bool ms = col.size() > 7 && col.compare(col.size() - 3, 3, "_ms") == 0;
+        if (ms && col.rfind("gpu_", 0) == 0) stage = col.substr(4, col.size() - 7);
+        else if (ms && col.rfind("cpu_", 0) == 0) stage = col.substr(4, col.size() - 7) + " (cpu)";
+        else if (col == "frame_ms" || col == "input_to_present_ms") stage = col.substr(0, col.size() - 3);
+        if (stage.empty() || v.empty()) continue;
+        stages << scene.name << "," << name << "," << stage << "," << percentile(v, 0.5) << "," << percentile(v, 0.95) << "," << v.size() << "\n";
+        pooled[stage].insert(pooled[stage].end(), v.begin(), v.end());
+        std::cout << " " << stage << " " << percentile(v, 0.5) << " ms";
+      }
+      std::cout << "\n";
+      if (const auto it = cols.find("input_to_present_ms"); it != cols.end())
+        summary << "scenario " << name << " on " << scene.name << ": input-to-present latency p50/p95/p99 " << percentile(it->second, 0.5) << " / "
+                << percentile(it->second, 0.95) << " / " << percentile(it->second, 0.99) << " ms (replay waits for the solve to settle each frame); "
+                << since(t0) << " s\n";
+    }
+    for (const auto& [stage, v] : pooled) {
+      auto [it, fresh] = wide.try_emplace(stage, scenes.size(), std::nan(""));
       it->second[si] = percentile(v, 0.5);
-      std::cout << " " << stage << " " << percentile(v, 0.5) << " ms";
     }
-    std::cout << "\n";
-    if (const auto it = cols.find("input_to_present_ms"); it != cols.end()) {
-      summary << "scenario " << name << ": input-to-present latency p50/p95/p99 " << percentile(it->second, 0.5) << " / " << percentile(it->second, 0.95)
-              << " / " << percentile(it->second, 0.99) << " ms (replay waits for the solve to settle each frame); " << since(t0) << " s\n";
+    if (auto it = pooled.find("input_to_present"); it != pooled.end()) {
       std::vector<double> v = it->second;
       std::sort(v.begin(), v.end());
-      for (std::size_t i = 0; i < v.size(); ++i) latency << name << "," << double(i + 1) / double(v.size()) << "," << v[i] << "\n";
-      latency << "\n\n";  // a gnuplot data block per scenario
+      for (std::size_t i = 0; i < v.size(); ++i) latency << scene.name << "," << double(i + 1) / double(v.size()) << "," << v[i] << "\n";
     }
+    latency << "\n\n";  // a gnuplot data block per scene
   }
   latency.close();
   if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
     const auto gp = out / "latency.gp";
     std::ofstream g(gp);
     g << "set datafile separator ','\nset terminal pngcairo size 900,520 font ',11'\nset output '" << (out / "latency.png").string()
-      << "'\nset termoption noenhanced\nset title 'Input-to-present latency per scenario (cumulative distribution over frames with input)'\n"
+      << "'\nset termoption noenhanced\nset title 'Input-to-present latency per scene (cumulative distribution over the scenarios frames with input)'\n"
       << "set xlabel 'ms'\nset ylabel 'fraction of frames'\nset logscale x\nset grid\nset key bottom right\nset yrange [0:1.02]\nplot ";
-    for (int i = 0; i < 4; ++i)
-      g << (i ? ", " : "") << "'" << (out / "latency.csv").string() << "' index " << i << " using 3:2 with steps lw 2 title '" << scenarios[i].first << "'";
+    for (std::size_t i = 0; i < scenes.size(); ++i)
+      g << (i ? ", " : "") << "'" << (out / "latency.csv").string() << "' index " << i << " using 3:2 with steps lw 2 title '" << scenes[i].name << "'";
     g << "\n";
     g.close();
     if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no latency chart\n";
@@ -154,7 +235,7 @@ int cmdBenchSuite(const Words& words) {
   {
     std::ofstream w(out / "scenario_stages_wide.csv");
     w << "stage";
-    for (const auto& s : scenarios) w << "," << s.first;
+    for (const auto& sc : scenes) w << "," << sc.name;
     w << "\n";
     for (const auto& [stage, v] : wide) {
       w << stage;
@@ -169,10 +250,10 @@ int cmdBenchSuite(const Words& words) {
     const auto gp = out / "stages.gp";
     std::ofstream(gp) << "set datafile separator ','\nset datafile missing '?'\nset terminal pngcairo size 1100,560 font ',10'\nset output '"
                       << (out / "stages.png").string()
-                      << "'\nset termoption noenhanced\nset title 'Per-stage time per scenario: median over the replayed frames'\n"
+                      << "'\nset termoption noenhanced\nset title 'Per-stage time per scene: median over the four scenarios frames (GPU passes; (cpu): CPU stages)'\n"
                       << "set style data histogram\nset style histogram cluster gap 1\nset style fill solid 0.8\nset logscale y\nset ylabel 'ms'\n"
                       << "set xtics rotate by -30\nset key top left\nset grid ytics\n"
-                      << "plot for [i=2:5] '" << (out / "scenario_stages_wide.csv").string() << "' using i:xtic(1) title columnhead\n";
+                      << "plot for [i=2:" << scenes.size() + 1 << "] '" << (out / "scenario_stages_wide.csv").string() << "' using i:xtic(1) title columnhead\n";
     if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no stages chart\n";
   }
 
@@ -195,7 +276,6 @@ int cmdBenchSuite(const Words& words) {
                               : Words{"--voxels", "5000000", "--sizes", "256,512", "--repeat", "5", "--csv", o + "raymarch/raymarch.csv", "--quiet"},
             cmdBench);
   component("gesture", quick ? Words{"--out", o + "gesture", "--cases", "50"} : Words{"--out", o + "gesture"}, cmdBenchGesture);
-  const std::string data = args.valueOr("--data", "../shared/data");
   if (std::filesystem::is_directory(data))
     component("selection", quick ? Words{"--data", data, "--out", o + "selection", "--repeat", "1"} : Words{"--data", data, "--out", o + "selection"},
               cmdBenchSelection);
@@ -203,13 +283,20 @@ int cmdBenchSuite(const Words& words) {
     summary << "selection: skipped (no data at " << data << ")\n";
   component("sim", quick ? Words{"--coarse-list", "600,1500", "--refine-steps", "2", "--quiet", "--out", o + "sim"} : Words{"--quiet", "--out", o + "sim"},
             cmdBenchSim);
+  if (std::filesystem::exists(ircadb / "labels.nii.gz"))
+    component("sim-ircadb1.1",
+              quick ? Words{(ircadb / "ct.nii.gz").string(), "--handle", (ircadb / "labels.nii.gz").string(), "--handle-label", "4", "--coarse-list", "600",
+                            "--refine-steps", "1", "--quiet", "--out", o + "sim-ircadb1.1"}
+                    : Words{(ircadb / "ct.nii.gz").string(), "--handle", (ircadb / "labels.nii.gz").string(), "--handle-label", "4", "--quiet", "--out",
+                            o + "sim-ircadb1.1"},
+              cmdBenchSim);
   component("deform", quick ? Words{"--spacing", "3", "--frames", "5", "--quiet", "--out", o + "deform"} : Words{"--quiet", "--out", o + "deform"},
             cmdBenchDeform);
   component("mesh",
             quick ? Words{"--coarse-tets", "300", "--regular-list", "2,3,4", "--adapted-list", "2,3", "--truth-refinement", "6", "--quiet", "--out", o + "mesh"}
                   : Words{"--quiet", "--out", o + "mesh"},
             cmdBenchMesh);
-  component("stability", quick ? Words{"--angles", "30,90,180", "--contrasts", "1,1000,1000000", "--out", o + "stability"} : Words{"--out", o + "stability"},
+  component("stability", quick ? Words{"--angles", "30,90,180", "--contrasts", "1,1000,1000000", "--quick", "--out", o + "stability"} : Words{"--out", o + "stability"},
             cmdBenchStability);
   summary.close();
   std::cout << "\nwrote " << (out / "summary.txt").string() << ", scenario_stages.csv, stages.png and the component folders in " << out.string()

@@ -1,10 +1,14 @@
 // `handson view`, `handson replay` and the default command.
+#include <filesystem>
 #include <iostream>
 
 #include "app/cli.h"
 #include "app/cli_args.h"
 #include "sim/scene_cache.h"
+#include "app/nifti_io.h"
 #include "app/replay.h"
+#include "app/scenario_retarget.h"
+#include "app/volume_io.h"
 #include "app/viewer.h"
 #include "render/transfer_function.h"
 #include "sim/error.h"
@@ -147,6 +151,31 @@ int cmdReplay(const Words& words) {
   o.exportDir = args.valueOr("--export-dir", o.exportDir);
   o.sim = simOptions(args, 0);
   return runReplay(o);
+}
+
+int cmdRetarget(const Words& words) {
+  Args args(words, {"--volume", "--labels", "--label", "-o"}, {});
+  if (args.help() || args.positional().size() != 1 || !args.value("--volume") || !args.value("--labels") || !args.value("--label") ||
+      !args.value("-o")) {
+    usageStream(args) << "usage: handson retarget SCRIPT --volume CT --labels LABELS.nii.gz --label N -o OUT.json\n"
+                         "  Re-aims a gesture script at an organ of another volume: the touches stay where they are on the\n"
+                         "  screen; the camera (same distance and field of view; azimuth every 30 degrees, elevation 0 or\n"
+                         "  +-25) puts the organ (label N, on the CT's grid) under the script's first pinch, and the\n"
+                         "  direction whose depth picks land on the organ most often wins. Then 'handson replay OUT.json'\n"
+                         "  plays it there. Fails when no direction puts both of the pinch's fingers on the organ.\n";
+    return args.help() ? 0 : 2;
+  }
+  const int label = int(args.integer("--label", 0, 1, 65535));
+  const SessionScript script = readSessionScript(args.positional()[0]);
+  const std::string volumePath = *args.value("--volume");
+  const Volume ct = loadVolume(volumePath);
+  const Volume labels = readNifti(*args.value("--labels"));
+  const RetargetedScript r = retargetScript(script, ct, labels, label, std::filesystem::weakly_canonical(std::filesystem::absolute(volumePath)).string());
+  writeSessionScript(r.script, *args.value("-o"));
+  std::cout << "camera azimuth " << r.azimuthDeg << " deg, elevation " << r.elevationDeg << " deg: " << r.pinchOnOrgan << " of "
+            << r.pinchTouches << " pinch fingers and " << r.onOrgan << " of " << r.touchDowns << " touch-downs on label " << label << "\nwrote "
+            << *args.value("-o") << "\n";
+  return 0;
 }
 
 int cmdDefault(const Words& words) {

@@ -245,6 +245,12 @@ void DeformationController::pull() {
       continue;
     }
     lastError_.clear();
+    if (s->refineStep > 0) {
+      stages_.add("refinement", s->refineMs);
+    } else {
+      stages_.add("coarse-solve", s->stats.solveMs);
+      stages_.add("boundary-forces", s->stats.boundaryMs);
+    }
     shownInput_ = s->input;
     shownConverged_ = s->stats.converged;
     shownSettled_ = s->settled;

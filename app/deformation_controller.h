@@ -14,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "app/stage_times.h"
 #include "interaction/handles.h"
 #include "render/volume_renderer.h"
 #include "sim/sim_scene.h"
@@ -73,6 +74,10 @@ class DeformationController {
   /// iteration budget spent), at most
   /// `seconds`; the next prepareFrame shows it. False on timeout or when nothing is simulated.
   bool waitSettled(double seconds);
+  /// The worker's CPU time behind the states taken since the last call: "coarse-solve" (all of
+  /// it), "boundary-forces" (the part spent on the rigid handles' blocks), "refinement" (a
+  /// two-level step). On the worker thread, not the render thread's; for the timing log.
+  std::vector<std::pair<std::string, double>> takeStageTimes() { return stages_.take(); }
 
  private:
   struct Model;  // scene, coarse model, packed interpolation data, worker
@@ -123,6 +128,7 @@ class DeformationController {
   std::vector<Eigen::Vector4f> finePositions_;  // a refined state (voxel index space)
   bool fineFresh_ = false;
   int shownRefineStep_ = 0;
+  StageTimes stages_;
 };
 
 }  // namespace handson

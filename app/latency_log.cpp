@@ -28,24 +28,29 @@ void LatencyLog::setGpuTimes(std::uint64_t frame, const std::vector<std::pair<st
 }
 
 void LatencyLog::writeCsv(const std::string& path) const {
-  std::set<std::string> passNames;
-  for (const auto& f : frames_)
+  std::set<std::string> passNames, stageNames;
+  for (const auto& f : frames_) {
     for (const auto& [name, ms] : f.gpuMs) passNames.insert(name);
+    for (const auto& [name, ms] : f.cpuMs) stageNames.insert(name);
+  }
+  // -1: no value that frame.
+  auto valueOf = [](const std::vector<std::pair<std::string, double>>& v, const std::string& n) {
+    for (const auto& [name, ms] : v)
+      if (name == n) return ms;
+    return -1.0;
+  };
   AtomicFile file(path);
   {
     std::ofstream out(file.tempPath());
     out << "frame,input_count,input_first_s,input_last_s,cpu_start_s,cpu_end_s,submit_s,present_s,frame_ms,input_to_present_ms,wait_ms";
     for (const auto& n : passNames) out << ",gpu_" << n << "_ms";
+    for (const auto& n : stageNames) out << ",cpu_" << n << "_ms";
     out << "\n" << std::fixed << std::setprecision(6);
     for (const auto& f : frames_) {
       out << f.frame << "," << f.inputCount << "," << f.inputFirst << "," << f.inputLast << "," << f.cpuStart << "," << f.cpuEnd << ","
           << f.submit << "," << f.present << "," << f.frameMs() << "," << f.latencyMs() << "," << f.waitMs;
-      for (const auto& n : passNames) {
-        double ms = -1.0;
-        for (const auto& [name, v] : f.gpuMs)
-          if (name == n) ms = v;
-        out << "," << ms;
-      }
+      for (const auto& n : passNames) out << "," << valueOf(f.gpuMs, n);
+      for (const auto& n : stageNames) out << "," << valueOf(f.cpuMs, n);
       out << "\n";
     }
     if (!out) throw Error("cannot write '" + path + "'");

@@ -17,6 +17,7 @@ struct FrameTiming {
   double submit = 0.0, present = 0.0;          ///< queue submit and present (or readback) times
   double waitMs = 0.0;                         ///< time the CPU spent blocked (fences, acquire, vsync)
   std::vector<std::pair<std::string, double>> gpuMs;  ///< per pass
+  std::vector<std::pair<std::string, double>> cpuMs;  ///< per CPU stage (app/stage_times.h)
 
   double frameMs() const { return (present - cpuStart) * 1e3; }
   /// Input-to-present latency (ms) from the oldest consumed event; negative without input.

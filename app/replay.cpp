@@ -134,6 +134,8 @@ int runReplay(const ReplayOptions& o) {
       if (!st.empty()) std::cerr << st << "\n";
     }
     selection.prepareFrame(req, vp);
+    auto cpuStages = selection.takeStageTimes();
+    for (auto& stage : deform.takeStageTimes()) cpuStages.push_back(std::move(stage));
     ft.cpuEnd = seconds(Clock::now(), t0);
     selection.submitted(renderer.submit(req));
     ft.submit = seconds(Clock::now(), t0);
@@ -146,6 +148,7 @@ int runReplay(const ReplayOptions& o) {
     ft.waitMs = seconds(Clock::now(), w0) * 1e3;
     ft.frame = r.frame;
     for (const auto& p : r.timings) ft.gpuMs.emplace_back(p.name, p.gpuMs);
+    ft.cpuMs = std::move(cpuStages);
     if (!o.framesOut.empty()) {
       char name[32];
       std::snprintf(name, sizeof(name), "frame_%05d.png", k);

@@ -13,9 +13,12 @@ SelectionController::SelectionController(const QuantizedVolume& volume, Session&
   dirtyMin_ = volume.geometry.dims;
   dirtyMax_ = Eigen::Vector3i(-1, -1, -1);
   session_.gestures().setHandler(InteractionMode::Select, [this](const TouchEvent& e, const TouchInput& input) {
-    pinch_.onTouch(e, input, session_.camera(), session_.gestures().viewport());
+    {
+      const StageTimes::Scope t(stages_, "selection-update");
+      pinch_.onTouch(e, input, session_.camera(), session_.gestures().viewport());
+      if (pinch_.changed()) refreshLive();
+    }
     detectTap(e, input);
-    if (pinch_.changed()) refreshLive();
   });
   session_.gestures().setHandler(InteractionMode::Manipulate, [this](const TouchEvent& e, const TouchInput& input) { manipulate(e, input); });
   session_.gestures().setGrabProbe([this](glm::dvec2 px) { return onActiveHandle(px); });
@@ -84,6 +87,7 @@ void SelectionController::manipulate(const TouchEvent& e, const TouchInput& inpu
   std::vector<std::pair<std::int64_t, glm::dvec2>> ndc;
   for (const auto& f : input.fingers()) ndc.push_back({f.id, vp.toNdc(f.px)});
   std::string why;
+  const StageTimes::Scope t(stages_, "gesture-solve");
   const auto pose = manipulator_.move(ndc, h->pose, session_.camera(), double(vp.width) / vp.height, locks_, &why);
   if (pose) handles_.setPose(manipulated_, *pose, false);
   manipulationNote_ = why;
@@ -264,6 +268,7 @@ void SelectionController::onFrameResult(const FrameResult& r) {
   std::vector<std::optional<glm::dvec3>> world;
   for (std::size_t i = pickOffset_; i < pickOffset_ + 2 && i < r.picks.size(); ++i)
     world.push_back(r.picks[i].world.w > 0.5f ? std::optional<glm::dvec3>(glm::dvec3(r.picks[i].world)) : std::nullopt);
+  const StageTimes::Scope t(stages_, "selection-update");
   pinch_.onPicks(world, session_.camera(), session_.gestures().viewport());
   if (pinch_.changed()) refreshLive();
 }

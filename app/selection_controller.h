@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "app/session.h"
+#include "app/stage_times.h"
 #include "interaction/handles.h"
 #include "interaction/selection.h"
 #include "render/render_params.h"
@@ -43,6 +44,9 @@ class SelectionController {
   unsigned locks() const { return locks_; }
   const PinchSelection& pinch() const { return pinch_; }
   std::size_t liveVoxelCount() const { return live_.size(); }
+  /// CPU time since the last call: "selection-update" (region growing and the mask's repaint) and
+  /// "gesture-solve" (the manipulation's rigid solve), for the timing log.
+  std::vector<std::pair<std::string, double>> takeStageTimes() { return stages_.take(); }
 
  private:
   void repaint(const std::vector<std::uint32_t>& voxels);
@@ -91,6 +95,7 @@ class SelectionController {
   double tapTime_ = 0.0;
   bool tapSpoiled_ = false;
   std::vector<int> picked_;
+  StageTimes stages_;
 };
 
 }  // namespace handson

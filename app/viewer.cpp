@@ -395,6 +395,8 @@ bool Viewer::Impl::step() {
     req.extension = present.get();
     selection->setRigidPreview(!deform->prepareFrame(req, selection->handles()));  // never waits for the solve
     selection->prepareFrame(req, vp);
+    ft.cpuMs = selection->takeStageTimes();
+    for (auto& stage : deform->takeStageTimes()) ft.cpuMs.push_back(std::move(stage));
     const bool lastFrame = o.frames > 0 && int(frameNo) + 1 == o.frames;
     if (lastFrame && !o.screenshot.empty())
       shot = std::make_unique<vk::Buffer>(*ctx, VkDeviceSize(vp.width) * vp.height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,

@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <unordered_map>
@@ -439,6 +440,8 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
   const TetMesh& C = meshes_.coarse;
   if (int(handles.size()) < constraints_.handleCount) throw Error("coarse solve: a transform per handle expected");
   if (x.size() != C.nodes.size()) x = C.nodes;
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
   for (const auto& T : handles)
     if (!T.R.allFinite() || !T.t.allFinite()) throw Error("coarse solve: a handle transform is not finite");
   // Dirichlet coarse nodes take their positions; the motion scale sets the tolerance.
@@ -474,7 +477,11 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
       for (int a = 0; a < nc; ++a)
         for (int b = 0; b < nc; ++b) Ae.block<3, 3>(3 * a, 3 * b).noalias() = Rc * el.Kh.block<3, 3>(3 * a, 3 * b) * Rc.transpose();
       VecE local = el.KhX;
-      if (!el.handles.empty()) local -= handleTerm(el, Rc, handles);
+      if (!el.handles.empty()) {
+        const auto b0 = Clock::now();
+        local -= handleTerm(el, Rc, handles);
+        st.boundaryMs += std::chrono::duration<double, std::milli>(Clock::now() - b0).count();
+      }
       for (int a = 0; a < nc; ++a) be.segment<3>(3 * a).noalias() = Rc * local.segment<3>(3 * a);
       assembler_->add(int(e), Ae);
       // Dirichlet corners move to the right-hand side.
@@ -523,6 +530,7 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
       break;
     }
   }
+  st.solveMs = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   return st;
 }
 

@@ -53,6 +53,8 @@ struct CoarseSolveStats {
   int iterations = 0, factorizations = 0;
   double lastUpdate = 0.0;  ///< largest coarse node update of the last iteration (mm)
   bool converged = false;
+  double solveMs = 0.0;     ///< wall time of the solve (all of it)
+  double boundaryMs = 0.0;  ///< of which the rigid handles' boundary forces (the 12x9 / 12x3 blocks)
 };
 
 enum class CoarseElement { Tet, Cell };

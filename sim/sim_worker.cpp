@@ -129,13 +129,18 @@ void SimWorker::run() {
     CoarseSolveStats st;
     try {
       if (!finite(handles)) throw Error("simulation: a handle transform is not finite");
+      double solveMs = 0.0, boundaryMs = 0.0;  // over all increments
       for (const auto& Tk : increments(solved, handles, options_.continuationMm, options_.continuationDeg)) {
         {
           std::lock_guard<std::mutex> lock(mutex_);
           if (stop_) return;  // shutting down: do not finish a long continuation
         }
         st = model_.solve(Tk, x, options_.coarseIterations);
+        solveMs += st.solveMs;
+        boundaryMs += st.boundaryMs;
       }
+      st.solveMs = solveMs;
+      st.boundaryMs = boundaryMs;
       s = snapshot(input, handles, st, t0);
       s.settled = (st.converged || options_.idleIterations <= 0) && options_.refineSteps <= 0;
       lastGood = x;
@@ -187,7 +192,9 @@ void SimWorker::run() {
       SimSnapshot r;
       r.input = input;
       try {
+        const auto s0 = std::chrono::steady_clock::now();
         refiner_.step(x, fine, options_.refineIterations);
+        r.refineMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - s0).count();
         r.refineStep = step;
         r.coarse = x;
         r.fine = fine;

@@ -43,6 +43,8 @@ struct SimSnapshot {
   CoarseSolveStats stats;
   bool settled = false;                 ///< no more coarse snapshots for this input (converged, or the idle budget spent)
   double seconds = 0.0;                 ///< worker time for this snapshot since its input was taken
+  double refineMs = 0.0;                ///< the refinement step's own time (refineStep > 0); the coarse
+                                        ///< solve's is in stats (all continuation increments summed)
   std::string error;                    ///< non-empty: the input was refused (the state is the last good one)
 };
 
