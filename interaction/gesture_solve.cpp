@@ -189,10 +189,30 @@ RigidIncrement solveLinearizedSubsteps(const GestureProblem& p, double maxSubste
     }
     out.iterations = k;
   }
+  // Polish: where the fingers leave the points (a sub-step's linearization was off, e.g. a turn that
+  // only perspective reveals), up to two more steps toward the final targets, kept only if they
+  // bring the points closer. Not after a stop or a clamp: those leave the rest to the next events.
+  double rms = gestureRms(p, R, t);
+  for (int extra = 0; extra < 2 && out.reason.empty() && rms > 0.1 * maxSubstepNdc; ++extra) {
+    for (std::size_t j = 0; j < p.points.size(); ++j) {
+      sub.points[j] = R * p.points[j] + t;
+      sub.targets[j] = p.targets[j];
+    }
+    const RigidIncrement s = solveLinearized(sub, o);
+    if (!s.ok || s.clamped) break;
+    const Eigen::Matrix3d R2 = s.rotation * R;
+    const Eigen::Vector3d t2 = s.rotation * t + s.translation;
+    const double rms2 = gestureRms(p, R2, t2);
+    if (!(rms2 < rms)) break;
+    R = R2;
+    t = t2;
+    rms = rms2;
+    ++out.iterations;
+  }
   out.rotation = R;
   out.translation = t;
   out.rmsBefore = gestureRms(p, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero());
-  out.rmsAfter = gestureRms(p, R, t);
+  out.rmsAfter = rms;
   return out;
 }
 
