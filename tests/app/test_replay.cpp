@@ -15,6 +15,7 @@
 
 #include "app/nifti_io.h"
 #include "app/png_io.h"
+#include "sim/phantom.h"
 
 namespace fs = std::filesystem;
 
@@ -389,5 +390,49 @@ TEST(Replay, AScenarioReAimedAtAnotherVolumesOrganPinchesItThereAndMovesIt) {
   EXPECT_NE(out.find("label 77 is not in the label map"), std::string::npos) << out;
   EXPECT_FALSE(fs::exists(dir / "x.json"));
   EXPECT_EQ(run("retarget " + script.string() + " --volume " + (dir / "ct.nii.gz").string(), &out), 2) << out;
+  fs::remove_all(dir);
+}
+
+TEST(Replay, TheFullSessionScriptRunsTheWholeTouchWorkflowWithTheSimulationOn) {
+  // assets/gestures/full-session.json on the default phantom, simulation on (a small model): pinch
+  // the right kidney (active) and the vena cava above it (fixed); in manipulate mode drag the kidney
+  // away from the fixed vessel with one finger, two fingers, then tilt it with three; idle the
+  // vessel; tap the kidney (picked); union, undo, redo, undo, difference, undo; orbit in navigate
+  // mode, reset the view; export everything. Validation on: any message fails the replay.
+  const fs::path dir = fs::temp_directory_path() / ("handson_full_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path script = fs::path(HANDSON_SOURCE_DIR) / "assets/gestures/full-session.json";
+  std::string out;
+  ASSERT_EQ(run("replay " + script.string() + " --fps 10 --size 128x128 --quiet --validation --sim-coarse-tets 600 --sim-fine-tets 38400" +
+                    " --print-handles --print-camera --export " + (dir / "deformed.nii.gz").string() + " --export-dir " + (dir / "exports").string(),
+                &out),
+            0)
+      << out;
+  const auto h = firstHandle(out);
+  ASSERT_TRUE(h.has_value()) << out;
+  EXPECT_NE(out.find("handle 1 active 2596 voxels picked"), std::string::npos) << "the union and the difference were undone\n" << out;
+  EXPECT_NE(out.find("handle 2 idle 1314 voxels translation 0,0,0 "), std::string::npos) << out;
+  // Moved down and forward (inferior, anterior), then tilted about an in-plane (screen-horizontal) axis.
+  EXPECT_GT(h->translation.norm(), 20.0) << out;
+  EXPECT_GT(h->degrees, 20.0) << out;
+  EXPECT_LT(h->degrees, 60.0) << out;
+  EXPECT_GT(std::abs(h->axis.y()), 0.9) << out;
+  // The view was orbited, then reset to the default framing.
+  EXPECT_NE(out.find("camera azimuth_deg=25 elevation_deg=15 "), std::string::npos) << out;
+  for (const char* f : {"session-01.json", "deformed-01.nii.gz", "mesh-01.vtu", "screenshot-01.png"})
+    EXPECT_TRUE(fs::exists(dir / "exports" / f)) << f << "\n" << out;
+  // The exported session replays to the same handles.
+  std::string again;
+  ASSERT_EQ(run("replay " + (dir / "exports/session-01.json").string() + " --fps 10 --size 128x128 --quiet --sim off --print-handles", &again), 0) << again;
+  EXPECT_NE(again.find("handle 2 idle 1314 voxels"), std::string::npos) << again;
+  // The tissue deformed: the exported volume differs from the phantom in more voxels than the
+  // kidney's own (its surroundings moved too).
+  const handson::Volume deformed = handson::readNifti((dir / "deformed.nii.gz").string());
+  const handson::Volume original = handson::makePhantom().ct;
+  ASSERT_EQ(deformed.voxelCount(), original.voxelCount());
+  std::size_t changed = 0;
+  for (std::size_t i = 0; i < original.voxelCount(); ++i) changed += std::abs(deformed.value(i) - original.value(i)) > 20.0f;
+  EXPECT_GT(changed, 2 * 2596u) << "voxels changed by more than 20 HU";
   fs::remove_all(dir);
 }
