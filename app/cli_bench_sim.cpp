@@ -32,7 +32,8 @@ const char* const kBenchSimHelp =
     "  coarsening time, coarse solve per frame (a 10-frame drag, warm started, 3 iterations a frame),\n"
     "  fine solve time and their ratio, RMS / max error over free fine nodes relative to the handle's\n"
     "  motion for the coarsened model with both element kinds (grid cells, the default, and the spec's\n"
-    "  coarse tets, on the same coarse nodes), a plain coarse FEM and the two-level refinement (cells).\n"
+    "  coarse tets, on the same coarse nodes), a plain coarse FEM and the two-level refinement (cells);\n"
+    "  and the coarse solve's error after 1, 2, 3, 5 and 8 iterations from rest (solver iterations).\n"
     "  --coarse-list N,N,..   coarse tet counts (default 1500,3000,6000)\n"
     "  --fine-per-coarse N    fine tets per coarse tet (default 64: m = 4)\n"
     "  --spacing MM           phantom voxel size (default 2)\n"
@@ -149,6 +150,18 @@ int cmdBenchSim(const Words& words) {
               << std::setprecision(4) << ec.rmsOfMotion << " / " << ec.maxOfMotion << ", coarsened (tets) " << tet.error.rmsOfMotion << " / "
               << tet.error.maxOfMotion << ", plain coarse FEM " << ep.rmsOfMotion << " / " << ep.maxOfMotion << " (plain / cells "
               << std::setprecision(2) << ep.rmsOfMotion / ec.rmsOfMotion << "x)\n";
+    // Solver iterations: the coarse solve from rest to the final pose in one input (no warm start,
+    // the worst case) with 1, 2, 3, 5 and 8 iterations: error against the time spent.
+    for (int k : {1, 2, 3, 5, 8}) {
+      std::vector<Eigen::Vector3d> xk = model.restState();
+      t0 = std::chrono::steady_clock::now();
+      model.solve(T, xk, k, 0.0);
+      const double tk = since(t0);
+      const auto e = compareDeformation(sc, T, model.reconstruct(T, xk), fine.x);
+      trade << "coarse-iterations," << sc.meshes.coarse.tets.size() << "," << tk << "," << e.rmsOfMotion << "\n";
+      std::cout << "  coarse solve from rest, " << k << " iteration" << (k > 1 ? "s" : "") << " (" << std::setprecision(3) << tk * 1e3
+                << " ms): RMS " << std::setprecision(4) << e.rmsOfMotion << "\n";
+    }
     FineRefiner refiner(model, sc.fineK);
     auto x = xcoarse;
     double tStep = 0;
@@ -181,6 +194,7 @@ int cmdBenchSim(const Words& words) {
                       << "plot '" << f << "' using (strcol(1) eq 'coarsened-cells' ? $3 : 1/0):4 with points pt 7 ps 1.5 title 'coarsened, cell elements (default)', "
                       << "'' using (strcol(1) eq 'coarsened-tets' ? $3 : 1/0):4 with points pt 6 ps 1.5 title 'coarsened, tet elements (spec)', "
                       << "'' using (strcol(1) eq 'plain' ? $3 : 1/0):4 with points pt 5 ps 1.5 title 'plain coarse FEM', "
+                      << "'' using (strcol(1) eq 'coarse-iterations' ? $3 : 1/0):4 with linespoints pt 1 dt 2 title 'coarse solve from rest: 1, 2, 3, 5, 8 iterations', "
                       << "'' using (strcol(1) eq 'refined' ? $3 : 1/0):4 with linespoints pt 9 title 'two-level refinement (10 PCG / step)', "
                       << "'' using (strcol(1) eq 'fine' ? $3 : 1/0):4 with points pt 3 ps 2 title 'fine static solve', "
                       << "'' using (strcol(1) eq 'operating-point' ? $3 : 1/0):4 with points pt 6 ps 4 lw 2 lc rgb '#cc0000' title 'paper operating point (~6,000 / 300,000 tets)', "
