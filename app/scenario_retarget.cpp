@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
+#include <set>
 
 #include "app/headless_scene.h"
 #include "app/selection_eval.h"
@@ -26,7 +26,7 @@ struct Touch {
 // other finger) marked.
 std::vector<Touch> touchDowns(const SessionScript& s, glm::dvec2& pinchMid) {
   std::vector<Touch> out;
-  std::map<std::pair<long, long>, bool> seen;
+  std::set<std::pair<long, long>> seen;
   int pinchFound = 0;
   for (std::size_t i = 0; i < s.events.size(); ++i) {
     const ScriptEvent& e = s.events[i];
@@ -44,8 +44,7 @@ std::vector<Touch> touchDowns(const SessionScript& s, glm::dvec2& pinchMid) {
       pinch = true;
     }
     const std::pair<long, long> key{std::lround(e.touch.px.x * 4), std::lround(e.touch.px.y * 4)};
-    if (seen.count(key)) continue;
-    seen[key] = true;
+    if (!seen.insert(key).second) continue;
     out.push_back({e.touch.px, pinch});
   }
   if (pinchFound < 2) throw Error("retarget: the script has no two-finger pinch to aim at the organ");
@@ -60,7 +59,8 @@ double angleBetweenDeg(double a, double b) {
 }  // namespace
 
 RetargetedScript retargetScript(const SessionScript& script, const Volume& ct, const Volume& labels, int label, const std::string& volumePath) {
-  if (labels.dims() != ct.dims()) throw Error("retarget: the label map's grid is not the CT's");
+  if (!labels.geometry().sameGrid(ct.geometry()))
+    throw Error("retarget: the label map's grid is not the CT's (dimensions, spacing, origin or orientation differ)");
   const Eigen::Vector3i deep = deepestVoxel(labels, label, ct);
   if (deep.x() < 0) throw Error("retarget: label " + std::to_string(label) + " is not in the label map");
   const Eigen::Vector3d aimW = ct.geometry().toWorld(deep.cast<double>());
@@ -115,7 +115,7 @@ RetargetedScript retargetScript(const SessionScript& script, const Volume& ct, c
         bool hit = false;
         if (i < hits.size() && hits[i].world.w > 0.5f) {
           const Eigen::Vector3i v(hits[i].voxel.x, hits[i].voxel.y, hits[i].voxel.z);
-          hit = ct.geometry().contains(v) && int(labels.value(v.x(), v.y(), v.z())) == label;
+          hit = ct.geometry().contains(v) && labels.value(v.x(), v.y(), v.z()) == float(label);  // NaN never matches
         }
         on += hit;
         if (touches[i].pinch) {

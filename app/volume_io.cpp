@@ -35,8 +35,7 @@ std::vector<std::uint32_t> maskVoxels(const std::string& path, const Volume& ima
   const auto& a = m.geometry();
   const auto& b = image.geometry();
   if (a.dims != b.dims) throw Error(std::string(what) + " " + path + ": its grid is not the image's (dimensions differ)");
-  if ((a.spacing - b.spacing).cwiseAbs().maxCoeff() > 1e-3 * b.spacing.minCoeff() || (a.origin - b.origin).norm() > 1e-2 * b.spacing.minCoeff() ||
-      (a.direction - b.direction).cwiseAbs().maxCoeff() > 1e-4)
+  if (!a.sameGrid(b))
     throw Error(std::string(what) + " " + path + ": its grid is not the image's (spacing, origin or orientation differ)");
   std::vector<std::uint32_t> v;
   for (std::size_t i = 0; i < m.voxelCount(); ++i)

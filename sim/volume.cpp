@@ -66,6 +66,11 @@ bool VolumeGeometry::contains(const Eigen::Vector3i& index) const {
   return (index.array() >= 0).all() && (index.array() < dims.array()).all();
 }
 
+bool VolumeGeometry::sameGrid(const VolumeGeometry& o) const {
+  return dims == o.dims && (spacing - o.spacing).cwiseAbs().maxCoeff() <= 1e-3 * o.spacing.minCoeff() &&
+         (origin - o.origin).norm() <= 1e-2 * o.spacing.minCoeff() && (direction - o.direction).cwiseAbs().maxCoeff() <= 1e-4;
+}
+
 Eigen::Vector3d VolumeGeometry::center() const {
   return toWorld(0.5 * (dims.cast<double>() - Eigen::Vector3d::Ones()));
 }

@@ -37,6 +37,9 @@ struct VolumeGeometry {
   Eigen::Vector3d toWorld(const Eigen::Vector3d& index) const;
   Eigen::Vector3d toIndex(const Eigen::Vector3d& world) const;
   bool contains(const Eigen::Vector3i& index) const;
+  /// The same voxels in space: equal dims, spacing within 1e-3 and origin within 1e-2 of the
+  /// smallest spacing, directions within 1e-4 (masks and label maps written beside an image).
+  bool sameGrid(const VolumeGeometry& other) const;
   /// Voxel index of a linear (x-fastest) index.
   Eigen::Vector3i voxelOf(std::size_t linear) const {
     const std::size_t nx = std::size_t(dims.x()), ny = std::size_t(dims.y());

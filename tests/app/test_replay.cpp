@@ -395,8 +395,8 @@ TEST(Replay, AScenarioReAimedAtAnotherVolumesOrganPinchesItThereAndMovesIt) {
 
 TEST(Replay, TheFullSessionScriptRunsTheWholeTouchWorkflowWithTheSimulationOn) {
   // assets/gestures/full-session.json on the default phantom, simulation on (a small model): pinch
-  // the right kidney (active) and the vena cava above it (fixed); in manipulate mode drag the kidney
-  // away from the fixed vessel with one finger, two fingers, then tilt it with three; idle the
+  // the right kidney (active) and the vena cava above it (fixed); in manipulate mode tilt the kidney
+  // with three fingers, then drag it away from the fixed vessel with one finger and two; idle the
   // vessel; tap the kidney (picked); union, undo, redo, undo, difference, undo; orbit in navigate
   // mode, reset the view; export everything. Validation on: any message fails the replay.
   const fs::path dir = fs::temp_directory_path() / ("handson_full_" + std::to_string(getpid()));
@@ -413,7 +413,7 @@ TEST(Replay, TheFullSessionScriptRunsTheWholeTouchWorkflowWithTheSimulationOn) {
   ASSERT_TRUE(h.has_value()) << out;
   EXPECT_NE(out.find("handle 1 active 2596 voxels picked"), std::string::npos) << "the union and the difference were undone\n" << out;
   EXPECT_NE(out.find("handle 2 idle 1314 voxels translation 0,0,0 "), std::string::npos) << out;
-  // Moved down and forward (inferior, anterior), then tilted about an in-plane (screen-horizontal) axis.
+  // Tilted about an in-plane (screen-horizontal) axis, then moved down and forward (inferior, anterior).
   EXPECT_GT(h->translation.norm(), 20.0) << out;
   EXPECT_GT(h->degrees, 20.0) << out;
   EXPECT_LT(h->degrees, 60.0) << out;
