@@ -30,6 +30,7 @@ const char* const kMainHelp =
     "  view [PATH]                   open a volume in the touch app (omitted: the built-in phantom)\n"
     "  replay [SCRIPT]               play a session script headless: PNG frames and a timing log\n"
     "  retarget SCRIPT --volume CT --labels L --label N -o OUT.json   aim a gesture script at an organ\n"
+    "  compose --volume CT --labels L --organ N --anchor M -o OUT.json   a whole session laid out on that anatomy\n"
     "  info PATH                     dimensions, spacing, orientation and value range of a volume\n"
     "  render [PATH] -o OUT.png      render one frame headless (PATH: NIfTI file or DICOM directory;\n"
     "                                omitted: the built-in phantom)\n"
@@ -158,6 +159,7 @@ int run(int argc, char** argv) {
     if (cmd == "gesture-solve") return cmdGestureSolve(rest);
     if (cmd == "replay") return cmdReplay(rest);
     if (cmd == "retarget") return cmdRetarget(rest);
+    if (cmd == "compose") return cmdCompose(rest);
     if (cmd == "bench") return cmdBench(rest);
     if (cmd == "deform") return cmdDeform(rest);
     std::cerr << "error: unknown command '" << cmd << "'\n\n" << kMainHelp;

@@ -8,6 +8,7 @@
 #include "app/nifti_io.h"
 #include "app/replay.h"
 #include "app/scenario_retarget.h"
+#include "app/session_compose.h"
 #include "app/volume_io.h"
 #include "app/viewer.h"
 #include "render/transfer_function.h"
@@ -175,6 +176,37 @@ int cmdRetarget(const Words& words) {
   std::cout << "camera azimuth " << r.azimuthDeg << " deg, elevation " << r.elevationDeg << " deg: " << r.pinchOnOrgan << " of "
             << r.pinchTouches << " pinch fingers and " << r.onOrgan << " of " << r.touchDowns << " touch-downs on label " << label << "\nwrote "
             << *args.value("-o") << "\n";
+  return 0;
+}
+
+int cmdCompose(const Words& words) {
+  Args args(words, {"--volume", "--labels", "--organ", "--anchor", "--size", "--preset", "-o"}, {});
+  if (args.help() || !args.positional().empty() || !args.value("--volume") || !args.value("--labels") || !args.value("--organ") ||
+      !args.value("--anchor") || !args.value("-o")) {
+    usageStream(args) << "usage: handson compose --volume CT --labels LABELS.nii.gz --organ N --anchor M -o OUT.json [--size WxH] [--preset P]\n"
+                         "  Writes the whole touch workflow of a session for that volume, every touch placed on its anatomy\n"
+                         "  (label N: the organ selected and moved; label M: a structure fixed and pulled against): orbit\n"
+                         "  into the view with one finger, pinch-select both, tilt the organ with three fingers, drag it\n"
+                         "  with one and with two, idle the anchor, tap the organ, union/difference with undo and redo,\n"
+                         "  orbit, reset the view, export. The view is chosen among directions every 30 degrees (elevation\n"
+                         "  0, +-25) by CPU depth picks, so that both structures are visible with room for the fingers.\n"
+                         "  Then 'handson replay OUT.json' plays it. Default size 512x512.\n";
+    return args.help() ? 0 : 2;
+  }
+  ComposeOptions o;
+  o.organ = int(args.integer("--organ", 0, 0, 65535));
+  o.anchor = int(args.integer("--anchor", 0, 0, 65535));
+  o.preset = args.valueOr("--preset", "");
+  if (auto s = args.value("--size")) parseSize(*s, o.viewport.width, o.viewport.height);
+  const std::string volumePath = *args.value("--volume");
+  const Volume ct = loadVolume(volumePath);
+  const Volume labels = readNifti(*args.value("--labels"));
+  const ComposedSession c = composeFullSession(ct, labels, o, std::filesystem::weakly_canonical(std::filesystem::absolute(volumePath)).string());
+  writeSessionScript(c.script, *args.value("-o"));
+  std::cout << "view azimuth " << c.azimuthDeg << " deg, elevation " << c.elevationDeg << " deg, " << c.mmPerPx << " mm per px at the organ; organ at ("
+            << c.organPx.x << ", " << c.organPx.y << ") px with " << c.organRadiusPx << " px of room, anchor at (" << c.anchorPx.x << ", "
+            << c.anchorPx.y << ") px with " << c.anchorRadiusPx << " px; " << c.handleRadiusPx << " px of room on the organ's selection\n"
+            << c.script.events.size() << " events, " << c.script.duration() << " s\nwrote " << *args.value("-o") << "\n";
   return 0;
 }
 

@@ -115,7 +115,13 @@ int runReplay(const ReplayOptions& o) {
       ScriptEvent e = script.events[next++];
       e.touch.px *= touchScale;
       const double now = seconds(Clock::now(), t0);
-      if (!session.apply(e)) ++refused;
+      if (!session.apply(e)) {
+        ++refused;
+        if (!o.quiet)
+          std::cerr << "refused at t=" << e.t << " s: "
+                    << (e.isTouch ? "touch " + std::string(touchPhaseName(e.touch.phase)) + " id " + std::to_string(e.touch.id) : e.action + " " + e.value)
+                    << "\n";
+      }
       if (ft.inputFirst < 0) ft.inputFirst = now;
       ft.inputLast = now;
       ++ft.inputCount;
@@ -180,7 +186,15 @@ int runReplay(const ReplayOptions& o) {
       std::cout << "handle " << h.id << " " << handleStatusName(h.status) << " " << h.voxels.size() << " voxels"
                 << (std::find(selection.picked().begin(), selection.picked().end(), h.id) != selection.picked().end() ? " picked" : "")
                 << " translation " << h.pose.translation.x() << "," << h.pose.translation.y() << "," << h.pose.translation.z() << " rotation_deg "
-                << aa.angle() * 180.0 / M_PI << " axis " << aa.axis().x() << "," << aa.axis().y() << "," << aa.axis().z() << "\n";
+                << aa.angle() * 180.0 / M_PI << " axis " << aa.axis().x() << "," << aa.axis().y() << "," << aa.axis().z();
+      // How far the handle's centre moved (the pose's translation also holds the rotation's lever).
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      const Eigen::Vector3i d = volume.dims();
+      for (std::uint32_t v : h.voxels)
+        c += volume.geometry().toWorld(Eigen::Vector3d(double(v % std::uint32_t(d.x())), double(v / std::uint32_t(d.x()) % std::uint32_t(d.y())),
+                                                       double(v / (std::uint32_t(d.x()) * std::uint32_t(d.y())))));
+      if (!h.voxels.empty()) c /= double(h.voxels.size());
+      std::cout << " centre_moved_mm " << (h.pose.apply(c) - c).norm() << "\n";
     }
   if (ctx.validationMessageCount() > 0) {
     std::cerr << "error: " << ctx.validationMessageCount() << " Vulkan validation message(s)\n";

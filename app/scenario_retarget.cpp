@@ -58,6 +58,38 @@ double angleBetweenDeg(double a, double b) {
 
 }  // namespace
 
+CpuPicker::CpuPicker(const Volume& ct, const std::string& preset)
+    : ct_(ct), preset_(preset.empty() ? defaultPresetFor(ct) : preset), q_(quantizeVolume(ct)) {
+  lut_ = transferFunctionPreset(preset_).lookupTable(q_);
+  std::vector<float> alpha(lut_.size());
+  for (std::size_t i = 0; i < lut_.size(); ++i) alpha[i] = lut_[i].a;
+  occupancy_ = brickOccupancy(computeBrickGrid(q_), alpha);
+}
+
+std::vector<gpu::PickResult> CpuPicker::pick(const OrbitCamera& cam, const Viewport& vp, const std::vector<glm::dvec2>& pixels,
+                                             const std::vector<std::uint8_t>* handleMask, const std::vector<MovingHandlePose>& moving) const {
+  std::vector<glm::vec2> ndc;
+  ndc.reserve(pixels.size());
+  for (const glm::dvec2& p : pixels) ndc.push_back(glm::vec2(vp.toNdc(p)));
+  RenderSettings rs;
+  rs.width = vp.width;
+  rs.height = vp.height;
+  const double aspect = double(vp.width) / double(vp.height);
+  gpu::RenderParams params = makeRenderParams(ct_.geometry(), cam.view(), cam.projection(aspect), glm::vec3(cam.eye()), rs, std::uint32_t(ndc.size()));
+  if (!moving.empty()) setMovingHandles(params, ct_.geometry(), moving);
+  if (handleMask && handleMask->size() != q_.data.size()) throw Error("pick: the handle mask is not on the volume's grid");
+  const ReferenceScene scene{&q_, &lut_, &occupancy_, handleMask, nullptr};
+  return pickReference(scene, params, ndc);
+}
+
+int CpuPicker::labelAt(const gpu::PickResult& hit, const Volume& labels) const {
+  if (hit.world.w <= 0.5f) return -1;
+  const Eigen::Vector3i v(hit.voxel.x, hit.voxel.y, hit.voxel.z);
+  if (!labels.geometry().contains(v)) return -1;
+  const float value = labels.value(v.x(), v.y(), v.z());
+  return std::isfinite(value) ? int(std::lround(value)) : -1;
+}
+
 RetargetedScript retargetScript(const SessionScript& script, const Volume& ct, const Volume& labels, int label, const std::string& volumePath) {
   if (!labels.geometry().sameGrid(ct.geometry()))
     throw Error("retarget: the label map's grid is not the CT's (dimensions, spacing, origin or orientation differ)");
@@ -72,15 +104,9 @@ RetargetedScript retargetScript(const SessionScript& script, const Volume& ct, c
 
   const Viewport vp = script.viewport;
   const double aspect = double(vp.width) / double(vp.height);
-  const QuantizedVolume q = quantizeVolume(ct);
-  const std::string preset = script.preset.empty() ? defaultPresetFor(ct) : script.preset;
-  const std::vector<glm::vec4> lut = transferFunctionPreset(preset).lookupTable(q);
-  std::vector<float> alpha(lut.size());
-  for (std::size_t i = 0; i < lut.size(); ++i) alpha[i] = lut[i].a;
-  const std::vector<std::uint32_t> occupancy = brickOccupancy(computeBrickGrid(q), alpha);
-  const ReferenceScene scene{&q, &lut, &occupancy, nullptr, nullptr};
-  std::vector<glm::vec2> ndc;
-  for (const auto& t : touches) ndc.push_back(glm::vec2(vp.toNdc(t.px)));
+  const CpuPicker picker(ct, script.preset);
+  std::vector<glm::dvec2> pixels;
+  for (const auto& t : touches) pixels.push_back(t.px);
 
   OrbitCamera base = OrbitCamera::framing(ct.geometry(), 0.0, 0.0, aspect);
   const CameraState original = script.camera ? *script.camera : CameraState::from(base);
@@ -105,18 +131,10 @@ RetargetedScript retargetScript(const SessionScript& script, const Volume& ct, c
       const glm::dvec3 f = cam.forward(), rgt = cam.right(), up = cam.up(), d = aim - centre;
       const double h = std::tan(0.5 * cam.fovY), l = glm::dot(d, f) + cam.distance;
       cam.target = centre + rgt * (glm::dot(d, rgt) - l * m.x * aspect * h) + up * (glm::dot(d, up) + l * m.y * h);
-      RenderSettings rs;
-      rs.width = vp.width;
-      rs.height = vp.height;
-      const gpu::RenderParams params = makeRenderParams(ct.geometry(), cam.view(), cam.projection(aspect), glm::vec3(cam.eye()), rs, std::uint32_t(ndc.size()));
-      const std::vector<gpu::PickResult> hits = pickReference(scene, params, ndc);
+      const std::vector<gpu::PickResult> hits = picker.pick(cam, vp, pixels);
       int on = 0, pinchOn = 0, pinchN = 0;
       for (std::size_t i = 0; i < touches.size(); ++i) {
-        bool hit = false;
-        if (i < hits.size() && hits[i].world.w > 0.5f) {
-          const Eigen::Vector3i v(hits[i].voxel.x, hits[i].voxel.y, hits[i].voxel.z);
-          hit = ct.geometry().contains(v) && labels.value(v.x(), v.y(), v.z()) == float(label);  // NaN never matches
-        }
+        const bool hit = i < hits.size() && picker.labelAt(hits[i], labels) == label;
         on += hit;
         if (touches[i].pinch) {
           ++pinchN;

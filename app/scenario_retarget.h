@@ -10,11 +10,39 @@
 // wins (ties: the one nearest the script's own direction). Used by the benchmark suite's real-CT
 // scenes and by `handson retarget`.
 #include <string>
+#include <vector>
 
 #include "app/session_script.h"
+#include "render/raymarch_reference.h"
+#include "render/render_params.h"
+#include "sim/quantized_volume.h"
 #include "sim/volume.h"
 
 namespace handson {
+
+/// Depth picks on the CPU (the pick pass's reference, render/raymarch_reference.h) of one volume
+/// under a transfer-function preset ("" : the volume's default), with the label under each pick.
+class CpuPicker {
+ public:
+  CpuPicker(const Volume& ct, const std::string& preset);
+  /// One result per pixel (viewport pixels, y down) seen through `cam`; with a handle-id mask on the
+  /// CT's grid, each hit's voxel.w is the handle there (as the app's picks), else 0; `moving`: handles
+  /// drawn moved rigidly (as the app draws them while they are being dragged).
+  std::vector<gpu::PickResult> pick(const OrbitCamera& cam, const Viewport& viewport, const std::vector<glm::dvec2>& pixels,
+                                    const std::vector<std::uint8_t>* handleMask = nullptr,
+                                    const std::vector<MovingHandlePose>& moving = {}) const;
+  /// The label map's value at a pick (labels on the CT's grid); -1 for a miss, NaN or a voxel outside.
+  int labelAt(const gpu::PickResult& hit, const Volume& labels) const;
+  const std::string& preset() const { return preset_; }
+  const QuantizedVolume& volume() const { return q_; }
+
+ private:
+  const Volume& ct_;
+  std::string preset_;
+  QuantizedVolume q_;
+  std::vector<glm::vec4> lut_;
+  std::vector<std::uint32_t> occupancy_;
+};
 
 struct RetargetedScript {
   SessionScript script;  ///< the input with its camera (and volume) replaced

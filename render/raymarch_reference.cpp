@@ -206,6 +206,19 @@ struct Sampler {
         const float th = std::max(t - step + f * step, t0);
         r.world = glm::vec4(originW + th * dirW, 1.0f);
         r.voxel = glm::ivec4(glm::ivec3(glm::floor(o + th * d + 0.5f)), int(id));
+        if (id == 0) {  // a handle just behind the surface (pick.comp)
+          const float reach = std::min(th + std::max(float(HANDSON_PICK_HANDLE_REACH_MM), float(HANDSON_PICK_HANDLE_REACH_VOXELS) / std::max(glm::length(d), 1e-6f)), t1);
+          for (std::uint32_t k = 1; k < 4096; ++k) {
+            const float u = t + float(k) * step;
+            if (u >= reach) break;
+            std::uint32_t hid = 0;
+            const float hv = materialAt(o + u * d, hid);
+            if (hid != 0 && hv >= 0.0f && transfer(hv).a > 0.0f) {
+              r.voxel.w = int(hid);
+              break;
+            }
+          }
+        }
         break;
       }
     }

@@ -1,7 +1,8 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // GPU depth picking: for each requested screen point, the first sample along its viewing ray at
-// which the accumulated opacity (same compositing as the raymarch) passes the pick threshold.
+// which the accumulated opacity (same compositing as the raymarch) passes the pick threshold; its
+// handle id, or that of a handle just behind it (shared.h: kPickHandleReach).
 #include "shared.h"
 layout(local_size_x = HANDSON_PICK_GROUP_X) in;
 #include "march_common.glsl"
@@ -54,6 +55,19 @@ void main() {
         float th = max(t - step + f * step, t0);
         r.world = vec4(originW + th * dirW, 1.0);
         r.voxel = ivec4(ivec3(floor(o + th * d + 0.5)), int(id));
+        if (id == 0u) {
+          float reach = min(th + max(HANDSON_PICK_HANDLE_REACH_MM, HANDSON_PICK_HANDLE_REACH_VOXELS / max(length(d), 1e-6)), t1);
+          for (uint k = 1u; k < 4096u; ++k) {
+            float u = t + float(k) * step;
+            if (u >= reach) break;
+            uint hid;
+            float hv = materialAt(o + u * d, hid);
+            if (hid != 0u && hv >= 0.0 && transfer(hv).a > 0.0) {
+              r.voxel.w = int(hid);
+              break;
+            }
+          }
+        }
         break;
       }
     }

@@ -41,6 +41,13 @@ HS_CONST kBrickSize = 8;
 // Transfer-function lookup table: kTfEntries RGBA entries spanning the volume's value window.
 HS_CONST kTfEntries = 4096;
 
+// Picking: when the surface a ray stops at is not a handle's, a handle met just behind it (within
+// kPickHandleReachVoxels voxels or kPickHandleReachMm along the ray, whichever is longer) is the one
+// reported: the one- or two-voxel boundary layer that a deformation stretches over a moved handle,
+// or a trilinear blend at its edge, covers what the user sees and touches as the handle.
+#define HANDSON_PICK_HANDLE_REACH_VOXELS 2.0
+#define HANDSON_PICK_HANDLE_REACH_MM 4.0
+
 // Render flags.
 HS_CONST kFlagEmptySpaceSkipping = 1u;
 HS_CONST kFlagEarlyTermination = 2u;

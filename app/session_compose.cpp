@@ -1,0 +1,494 @@
+#include "session_compose.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <optional>
+
+#include "app/scenario_retarget.h"
+#include "app/selection_eval.h"
+#include <Eigen/Geometry>
+
+#include "interaction/manipulation.h"
+#include "interaction/selection.h"
+#include "sim/error.h"
+
+namespace handson {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kBackground = -1;  // a ray that hits nothing visible
+
+// Squared distances along one line to the nearest zero of f (f: 0 at sites, +inf elsewhere): the
+// lower envelope of parabolas (Felzenszwalb and Huttenlocher's exact 1-D transform).
+void distance1d(const std::vector<double>& f, std::vector<double>& d) {
+  const int n = int(f.size());
+  std::vector<int> v(std::size_t(n), 0);
+  std::vector<double> z(std::size_t(n) + 1, 0.0);
+  int k = -1;
+  for (int q = 0; q < n; ++q) {
+    if (!std::isfinite(f[std::size_t(q)])) continue;
+    double s = -kInf;
+    while (k >= 0) {
+      const int p = v[std::size_t(k)];
+      s = ((f[std::size_t(q)] + double(q) * q) - (f[std::size_t(p)] + double(p) * p)) / (2.0 * (q - p));
+      if (s > z[std::size_t(k)]) break;
+      --k;
+    }
+    ++k;
+    v[std::size_t(k)] = q;
+    z[std::size_t(k)] = k == 0 ? -kInf : s;
+    z[std::size_t(k) + 1] = kInf;
+  }
+  for (int q = 0, j = 0; q < n; ++q) {
+    if (k < 0) {
+      d[std::size_t(q)] = kInf;
+      continue;
+    }
+    while (z[std::size_t(j) + 1] < q) ++j;
+    const int p = v[std::size_t(j)];
+    d[std::size_t(q)] = double(q - p) * (q - p) + f[std::size_t(p)];
+  }
+}
+
+}  // namespace
+
+std::vector<double> distanceToOutside2d(const std::vector<std::uint8_t>& inside, int nx, int ny) {
+  if (nx <= 0 || ny <= 0 || inside.size() != std::size_t(nx) * std::size_t(ny)) throw Error("distance transform: the mask is not nx x ny");
+  const int w = nx + 2, h = ny + 2;  // a ring of outside cells
+  std::vector<double> g(std::size_t(w) * std::size_t(h));
+  for (int j = 0; j < h; ++j)
+    for (int i = 0; i < w; ++i) {
+      const bool in = i > 0 && j > 0 && i <= nx && j <= ny && inside[std::size_t(i - 1) + std::size_t(nx) * std::size_t(j - 1)];
+      g[std::size_t(i) + std::size_t(w) * std::size_t(j)] = in ? kInf : 0.0;
+    }
+  std::vector<double> f, d;
+  for (int j = 0; j < h; ++j) {  // rows
+    f.assign(g.begin() + std::ptrdiff_t(j) * w, g.begin() + std::ptrdiff_t(j + 1) * w);
+    d.resize(f.size());
+    distance1d(f, d);
+    std::copy(d.begin(), d.end(), g.begin() + std::ptrdiff_t(j) * w);
+  }
+  f.resize(std::size_t(h));
+  d.resize(std::size_t(h));
+  for (int i = 0; i < w; ++i) {  // columns
+    for (int j = 0; j < h; ++j) f[std::size_t(j)] = g[std::size_t(i) + std::size_t(w) * std::size_t(j)];
+    distance1d(f, d);
+    for (int j = 0; j < h; ++j) g[std::size_t(i) + std::size_t(w) * std::size_t(j)] = d[std::size_t(j)];
+  }
+  std::vector<double> out(inside.size());
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) out[std::size_t(i) + std::size_t(nx) * std::size_t(j)] = std::sqrt(g[std::size_t(i + 1) + std::size_t(w) * std::size_t(j + 1)]);
+  return out;
+}
+
+namespace {
+
+// What the camera sees on a grid of pixels `step` apart: the label under each cell's pick and the
+// pick's depth along the view direction (mm).
+struct Footprint {
+  int step = 1, nx = 0, ny = 0;
+  std::vector<int> label;
+  std::vector<double> depth;
+
+  glm::dvec2 px(int i, int j) const { return {(i + 0.5) * step, (j + 0.5) * step}; }
+  // Distance in pixels from each cell to the nearest cell outside `inside` (the viewport's border is
+  // outside too): the largest disc around the cell that stays in the footprint.
+  template <class Pred>
+  std::vector<double> innerDistance(Pred inside) const {
+    std::vector<std::uint8_t> in(label.size());
+    for (std::size_t k = 0; k < label.size(); ++k) in[k] = inside(label[k]) ? 1 : 0;
+    std::vector<double> d = distanceToOutside2d(in, nx, ny);
+    for (double& v : d) v *= step;
+    return d;
+  }
+  // The cell farthest inside (ties: nearest the viewport's centre); radius in pixels (0: none).
+  std::pair<glm::dvec2, double> innermost(const std::vector<double>& dist) const {
+    std::size_t best = dist.size();
+    const glm::dvec2 c(0.5 * nx * step, 0.5 * ny * step);
+    for (std::size_t k = 0; k < dist.size(); ++k) {
+      if (dist[k] <= 0.0) continue;
+      if (best == dist.size() || dist[k] > dist[best] ||
+          (dist[k] == dist[best] && glm::distance(px(int(k % nx), int(k / nx)), c) < glm::distance(px(int(best % nx), int(best / nx)), c)))
+        best = k;
+    }
+    if (best == dist.size()) return {c, 0.0};
+    return {px(int(best % nx), int(best / nx)), dist[best]};
+  }
+  // The depth at the cell under a pixel (NaN for a miss or outside the viewport).
+  double depthAt(glm::dvec2 p) const {
+    const int i = int(std::floor(p.x / step)), j = int(std::floor(p.y / step));
+    if (i < 0 || j < 0 || i >= nx || j >= ny) return std::nan("");
+    return depth[std::size_t(i) + std::size_t(nx) * std::size_t(j)];
+  }
+};
+
+// With a handle mask, a hit's "label" is the handle id there instead (0: none).
+Footprint look(const CpuPicker& picker, const Volume& labels, const OrbitCamera& cam, const Viewport& vp, int step,
+               const std::vector<std::uint8_t>* handleMask = nullptr, const std::vector<MovingHandlePose>& moving = {}) {
+  Footprint fp;
+  fp.step = step;
+  fp.nx = vp.width / step;
+  fp.ny = vp.height / step;
+  std::vector<glm::dvec2> pixels;
+  pixels.reserve(std::size_t(fp.nx) * std::size_t(fp.ny));
+  for (int j = 0; j < fp.ny; ++j)
+    for (int i = 0; i < fp.nx; ++i) pixels.push_back(fp.px(i, j));
+  const std::vector<gpu::PickResult> hits = picker.pick(cam, vp, pixels, handleMask, moving);
+  fp.label.resize(pixels.size());
+  fp.depth.resize(pixels.size());
+  const glm::dvec3 eye = cam.eye(), fwd = cam.forward();
+  for (std::size_t k = 0; k < pixels.size(); ++k) {
+    fp.label[k] = hits[k].world.w > 0.5f ? picker.labelAt(hits[k], labels) : kBackground;
+    if (fp.label[k] == kBackground && hits[k].world.w > 0.5f) fp.label[k] = 0;  // a voxel outside the map
+    if (handleMask && hits[k].world.w > 0.5f) fp.label[k] = int(hits[k].voxel.w);
+    fp.depth[k] = hits[k].world.w > 0.5f ? glm::dot(glm::dvec3(hits[k].world) - eye, fwd) : std::nan("");
+  }
+  return fp;
+}
+
+// The radius (mm) of a ball of the label's volume.
+double equivalentRadiusMm(const Volume& labels, int label) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < labels.voxelCount(); ++i) n += labels.value(i) == float(label);
+  const Eigen::Vector3d s = labels.geometry().spacing;
+  return std::cbrt(3.0 * double(n) * s.prod() / (4.0 * kPi));
+}
+
+class EventWriter {
+ public:
+  explicit EventWriter(SessionScript& s) : s_(s) {}
+  double t = 0.0;
+  void ui(const std::string& action, const std::string& value = "", double dt = 0.1) {
+    ScriptEvent e;
+    e.t = std::round(t * 1000.0) / 1000.0;
+    e.isTouch = false;
+    e.action = action;
+    e.value = value;
+    s_.events.push_back(e);
+    t += dt;
+  }
+  void touch(TouchPhase phase, std::int64_t id, glm::dvec2 px) {
+    ScriptEvent e;
+    e.touch.phase = phase;
+    e.touch.id = id;
+    e.touch.px = glm::round(px * 4.0) / 4.0;  // quarter pixels keep the file readable
+    e.t = std::round(t * 1000.0) / 1000.0;
+    e.touch.time = e.t;
+    s_.events.push_back(e);
+  }
+  // Fingers down at `from`, moved in `steps` equal steps to `to` (dt apart), lifted; then a pause.
+  void stroke(std::int64_t firstId, const std::vector<glm::dvec2>& from, const std::vector<glm::dvec2>& to, int steps, double dt) {
+    for (std::size_t f = 0; f < from.size(); ++f) touch(TouchPhase::Down, firstId + std::int64_t(f), from[f]);
+    for (int k = 1; k <= steps; ++k) {
+      t += dt;
+      for (std::size_t f = 0; f < from.size(); ++f) touch(TouchPhase::Move, firstId + std::int64_t(f), glm::mix(from[f], to[f], double(k) / steps));
+    }
+    t += dt;
+    for (std::size_t f = from.size(); f-- > 0;) touch(TouchPhase::Up, firstId + std::int64_t(f), to[f]);
+    t += 0.1;
+  }
+
+ private:
+  SessionScript& s_;
+};
+
+}  // namespace
+
+ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const ComposeOptions& o, const std::string& volumePath) {
+  if (!labels.geometry().sameGrid(ct.geometry()))
+    throw Error("compose: the label map's grid is not the CT's (dimensions, spacing, origin or orientation differ)");
+  if (o.organ == o.anchor) throw Error("compose: the organ and the anchor must be different labels");
+  if (o.viewport.width < 64 || o.viewport.height < 64 || o.viewport.width > 8192 || o.viewport.height > 8192)
+    throw Error("compose: the viewport must be 64 to 8192 pixels a side");
+  if (!(o.dragMm >= 0.0 && o.dragMm <= 200.0 && o.pushMm >= 0.0 && o.pushMm <= 200.0))
+    throw Error("compose: drag distances must be 0 to 200 mm");
+  const Eigen::Vector3i deep = deepestVoxel(labels, o.organ, ct);
+  if (deep.x() < 0) throw Error("compose: label " + std::to_string(o.organ) + " (organ) is not in the label map");
+  if (deepestVoxel(labels, o.anchor, ct).x() < 0) throw Error("compose: label " + std::to_string(o.anchor) + " (anchor) is not in the label map");
+
+  const Viewport vp = o.viewport;
+  const double aspect = double(vp.width) / double(vp.height);
+  const CpuPicker picker(ct, o.preset);
+  const Eigen::Vector3d aimW = ct.geometry().toWorld(deep.cast<double>());
+  const glm::dvec3 aim(aimW.x(), aimW.y(), aimW.z());
+
+  // The distance: the organ a fifth of the view high, the eye outside the volume.
+  OrbitCamera cam = OrbitCamera::framing(ct.geometry(), 0.0, 0.0, aspect);
+  const double halfFov = 0.5 * cam.fovY;
+  double distance = 5.0 * equivalentRadiusMm(labels, o.organ) / std::tan(halfFov);
+  const VolumeGeometry& g = ct.geometry();
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d corner((c & 1) ? g.dims.x() - 1 : 0, (c & 2) ? g.dims.y() - 1 : 0, (c & 4) ? g.dims.z() - 1 : 0);
+    const Eigen::Vector3d w = g.toWorld(corner);
+    distance = std::max(distance, 1.05 * glm::distance(aim, glm::dvec3(w.x(), w.y(), w.z())));
+  }
+  cam.target = aim;
+  cam.distance = distance;
+  cam.nearPlane = std::max(1e-3, 0.01 * distance);
+  cam.farPlane = distance + 2.0 * g.diagonalMm();
+  auto organ = [&](int l) { return l == o.organ; };
+  auto anchor = [&](int l) { return l == o.anchor; };
+
+  double bestScore = -1.0, bestAz = 0.0, bestEl = 0.0, bestOrgan = 0.0, bestAnchor = 0.0;
+  for (double elevation : {0.0, 25.0, -25.0})
+    for (int k = 0; k < 12; ++k) {
+      cam.azimuth = glm::radians(30.0 * k);
+      cam.elevation = glm::radians(elevation);
+      const Footprint fp = look(picker, labels, cam, vp, 4);
+      const double ro = fp.innermost(fp.innerDistance(organ)).second, ra = fp.innermost(fp.innerDistance(anchor)).second;
+      if (ro > bestOrgan || (ro == bestOrgan && ra > bestAnchor)) bestOrgan = ro, bestAnchor = ra;
+      if (ro < 16.0 || ra < 6.0 || ro + ra <= bestScore) continue;
+      bestScore = ro + ra;
+      bestAz = 30.0 * k;
+      bestEl = elevation;
+    }
+  if (bestScore < 0.0)
+    throw Error("compose: no view direction shows label " + std::to_string(o.organ) + " with 16 px and label " + std::to_string(o.anchor) +
+                " with 6 px of room for the fingers (best: " + std::to_string(int(bestOrgan)) + " and " + std::to_string(int(bestAnchor)) + " px)");
+  cam.azimuth = glm::radians(bestAz);
+  cam.elevation = glm::radians(bestEl);
+  const Footprint fp = look(picker, labels, cam, vp, 2);
+  const auto [co, ro] = fp.innermost(fp.innerDistance(organ));
+  const auto [ca, ra] = fp.innermost(fp.innerDistance(anchor));
+  if (ro < 12.0 || ra < 4.0) throw Error("compose: the chosen view leaves too little room for the fingers");
+  const double mmPerPx = cam.pixelSizeAt(fp.depthAt(co), vp.height);
+
+  ComposedSession out;
+  out.azimuthDeg = bestAz;
+  out.elevationDeg = bestEl;
+  out.mmPerPx = mmPerPx;
+  out.organPx = co;
+  out.anchorPx = ca;
+  out.organRadiusPx = ro;
+  out.anchorRadiusPx = ra;
+  SessionScript& s = out.script;
+  s.viewport = vp;
+  s.preset = picker.preset();
+  s.mode = "navigate";
+  if (!volumePath.empty()) {
+    s.volumeSource = "file";
+    s.volumePath = volumePath;
+  }
+  // Start about 30 degrees of azimuth short of the view; a one-finger drag orbits there (pi / height
+  // radians per pixel: interaction/gesture.h). Nothing is selected yet, so any drag navigates. The
+  // drag is in whole quarter pixels (as the file stores them) and the start is set from it exactly.
+  const glm::dvec2 mid = vp.center();
+  const double halfOrbit = std::round(30.0 / 180.0 * vp.height * 2.0) / 4.0;
+  OrbitCamera start = cam;
+  start.azimuth = glm::radians(bestAz) - 2.0 * halfOrbit * kPi / vp.height;
+  s.camera = CameraState::from(start);
+  EventWriter w(s);
+  w.stroke(1, {mid - glm::dvec2(halfOrbit, 0.0)}, {mid + glm::dvec2(halfOrbit, 0.0)}, 10, 0.05);
+  w.ui("set-mode", "select");
+
+  // Pinches: down inside the footprint (3 px margin), spread until the extent (sigma_px times the
+  // fingers' distance) is 1.8 inscribed radii. Each is also run here, through the app's own
+  // PinchSelection answered by the CPU picks, so that the later touches can be put on the handle it
+  // makes (a grown region is often only part of the organ: the kidney's cortex and medulla differ).
+  std::vector<std::uint8_t> mask(picker.volume().data.size(), 0);
+  auto pinch = [&](std::int64_t id, glm::dvec2 c, double r, std::uint8_t handle) {
+    const double s1 = 1.8 * r;
+    const double s0 = std::clamp(0.45 * s1, 4.0, 2.0 * (r - 3.0));
+    const std::vector<glm::dvec2> from{c - glm::dvec2(0.5 * s0, 0.0), c + glm::dvec2(0.5 * s0, 0.0)};
+    const std::vector<glm::dvec2> to{c - glm::dvec2(0.5 * s1, 0.0), c + glm::dvec2(0.5 * s1, 0.0)};
+    const std::size_t first = s.events.size();
+    w.stroke(id, from, to, 4, 0.1);
+    PinchSelection selection(picker.volume(), GrowParams{});
+    TouchInput input;
+    input.setViewport(vp);
+    for (std::size_t k = first; k < s.events.size(); ++k) {
+      const TouchEvent& e = s.events[k].touch;
+      input.apply(e);
+      selection.onTouch(e, input, cam, vp);
+      const std::vector<glm::dvec2> request = selection.takePickRequest();
+      if (request.empty()) continue;
+      std::vector<std::optional<glm::dvec3>> world;
+      for (const gpu::PickResult& h : picker.pick(cam, vp, request))
+        world.push_back(h.world.w > 0.5f ? std::optional<glm::dvec3>(glm::dvec3(h.world)) : std::nullopt);
+      selection.onPicks(world, cam, vp);
+    }
+    const auto voxels = selection.takeFinished();
+    if (!voxels || voxels->empty())
+      throw Error("compose: the pinch on label " + std::to_string(handle == 1 ? o.organ : o.anchor) + " selects nothing" +
+                  (selection.feedback().empty() ? "" : " (" + selection.feedback() + ")"));
+    for (std::uint32_t v : *voxels) mask[v] = handle;
+  };
+  pinch(3, co, ro, 1);  // a new handle is active
+  pinch(5, ca, ra, 2);
+  w.ui("handle-status", "2:fixed");
+  w.ui("set-mode", "manipulate");
+
+  // From here the handle moves, and each gesture is run here too on the rigid model the app draws
+  // while dragging (its own HandleManipulator, anchored by CPU picks with the handle drawn at its
+  // pose), so that every later touch goes where the handle then shows — innermost, away from the
+  // seam that the simulated deformation blends between the handle and its surroundings.
+  Eigen::Vector3i lo = picker.volume().geometry.dims, hi(-1, -1, -1);
+  for (std::size_t v = 0; v < mask.size(); ++v)
+    if (mask[v] == 1) {
+      const Eigen::Vector3i c = picker.volume().geometry.voxelOf(std::uint32_t(v));
+      lo = lo.cwiseMin(c);
+      hi = hi.cwiseMax(c);
+    }
+  auto drawn = [&](const RigidPose& pose) {
+    std::vector<MovingHandlePose> m;
+    if (!pose.isIdentity()) m.push_back(MovingHandlePose{1, pose.rotation, pose.translation, lo, hi});
+    return m;
+  };
+  auto seen = [&](const RigidPose& pose, int step) { return look(picker, labels, cam, vp, step, &mask, drawn(pose)); };
+  auto onHandle1 = [](int l) { return l == 1; };
+  // Fingers put down at `from` and moved to `to`: the handle's new pose, and how many fingers
+  // landed on it.
+  auto simulate = [&](const RigidPose& pose, const std::vector<glm::dvec2>& from, const std::vector<glm::dvec2>& to, int steps, std::size_t& anchored) {
+    const std::vector<gpu::PickResult> hits = picker.pick(cam, vp, from, &mask, drawn(pose));
+    std::vector<FingerAnchor> anchors;
+    for (std::size_t i = 0; i < hits.size(); ++i)
+      if (hits[i].world.w > 0.5f && hits[i].voxel.w == 1) anchors.push_back({std::int64_t(i), Eigen::Vector3d(hits[i].world.x, hits[i].world.y, hits[i].world.z)});
+    anchored = anchors.size();
+    if (anchors.empty()) return pose;
+    HandleManipulator m;
+    m.anchor(anchors, pose);
+    RigidPose p = pose;
+    for (int k = 1; k <= steps; ++k) {
+      std::vector<std::pair<std::int64_t, glm::dvec2>> ndc;
+      for (std::size_t i = 0; i < from.size(); ++i) ndc.push_back({std::int64_t(i), vp.toNdc(glm::mix(from[i], to[i], double(k) / steps))});
+      if (const auto q = m.move(ndc, p, cam, aspect, 0)) p = *q;
+    }
+    return p;
+  };
+  auto distanceAt = [](const Footprint& f, const std::vector<double>& dist, glm::dvec2 q) {
+    const int i = int(std::floor(q.x / f.step)), j = int(std::floor(q.y / f.step));
+    return i < 0 || j < 0 || i >= f.nx || j >= f.ny ? 0.0 : dist[std::size_t(i) + std::size_t(f.nx) * std::size_t(j)];
+  };
+
+  // Three fingers first, on the handle at rest: two hold an axis (0.86 arm above the innermost
+  // pixel), the third (0.43 arm below) is drawn 0.36 arm toward them; every finger inside the
+  // inscribed disc (they are at most 1.32 arms from its centre).
+  const Footprint rest = seen(RigidPose{}, 2);
+  const auto [h0, rh] = rest.innermost(rest.innerDistance(onHandle1));
+  if (rh < 8.0)
+    throw Error("compose: the selection of label " + std::to_string(o.organ) + " shows too little surface for the fingers (" +
+                std::to_string(rh) + " px of room, 8 needed)");
+  out.handleRadiusPx = rh;
+  // A tilt's outcome is not up to the fingers alone (methods.md: three fingers are ill-posed when
+  // the touched surface faces the viewer: a small screen motion is a large turn either way). Of the
+  // layout turned by 0, 90, 180 and 270 degrees, only one whose result is stable is used: run again
+  // with every finger 1 px off (as picks on another driver or grid may land), it turns about an axis
+  // across the view (an out-of-plane tilt) by the same angle (within 25 % and 15 degrees of axis).
+  // Among those, the one after which most of the handle stays in sight.
+  const double arm = std::min((rh - 3.0) / 1.32, 15.0 / mmPerPx);
+  std::vector<glm::dvec2> tilt0, tilt1;
+  RigidPose tilted;
+  Footprint afterTilt;
+  glm::dvec2 g1(0.0);
+  double r1 = -1.0;
+  const glm::dvec3 fwd = cam.forward();
+  for (int k = 0; k < 4; ++k) {
+    const glm::dvec2 x(std::cos(k * kPi / 2.0), std::sin(k * kPi / 2.0)), y(-x.y, x.x);  // the layout's right and down
+    const std::vector<glm::dvec2> from{h0 + arm * (-x - 0.86 * y), h0 + arm * (x - 0.86 * y), h0 + arm * 0.43 * y};
+    std::vector<glm::dvec2> to = from;
+    to[2] -= 0.36 * arm * y;
+    bool stable = true;
+    RigidPose p;
+    Eigen::AngleAxisd nominal(0.0, Eigen::Vector3d::UnitX());
+    for (const glm::dvec2 off : {glm::dvec2(0.0), glm::dvec2(1.0, 0.0), glm::dvec2(0.0, 1.0), glm::dvec2(-1.0, -1.0)}) {
+      std::vector<glm::dvec2> a = from, b = to;
+      for (std::size_t i = 0; i < a.size(); ++i) a[i] += off, b[i] += off;
+      std::size_t anchored = 0;
+      const RigidPose q = simulate(RigidPose{}, a, b, 20, anchored);
+      const Eigen::AngleAxisd turn(q.rotation);
+      if (anchored != 3 || std::abs(turn.axis().dot(Eigen::Vector3d(fwd.x, fwd.y, fwd.z))) > 0.5 || turn.angle() < glm::radians(5.0)) {
+        stable = false;
+        break;
+      }
+      if (off == glm::dvec2(0.0)) {
+        p = q;
+        nominal = turn;
+      } else if (std::abs(turn.angle() - nominal.angle()) > 0.25 * nominal.angle() ||
+                 std::abs(turn.axis().dot(nominal.axis())) < std::cos(glm::radians(15.0))) {
+        stable = false;
+        break;
+      }
+    }
+    if (!stable) continue;
+    Footprint f = seen(p, 2);
+    const auto [c, r] = f.innermost(f.innerDistance(onHandle1));
+    if (r > r1) tilt0 = from, tilt1 = to, tilted = p, afterTilt = std::move(f), g1 = c, r1 = r;
+  }
+  if (tilt0.empty()) throw Error("compose: no three-finger tilt on the selection of label " + std::to_string(o.organ) + " turns it stably out of plane here");
+  if (r1 < 6.0) throw Error("compose: the tilted selection of label " + std::to_string(o.organ) + " leaves no room for a finger");
+  w.stroke(8, tilt0, tilt1, 20, 0.05);
+  std::size_t anchored = 0;
+
+  // One finger, from where the tilted handle shows most: of eight directions (starting away from
+  // the anchor), the one after which most of it stays in sight (a kidney dragged into the liver
+  // hides behind it).
+  glm::dvec2 away = co - ca;
+  away = glm::length(away) > 1e-6 ? glm::normalize(away) : glm::dvec2(0.0, 1.0);
+  const double dragPx = o.dragMm / mmPerPx, pushPx = o.pushMm / mmPerPx;
+  glm::dvec2 u = away;
+  RigidPose dragged = tilted;
+  double bestRoom = -1.0;
+  for (int k : {0, 1, -1, 2, -2, 3, -3, 4}) {
+    const double a = k * kPi / 4.0;
+    const glm::dvec2 dir(std::cos(a) * away.x - std::sin(a) * away.y, std::sin(a) * away.x + std::cos(a) * away.y);
+    const RigidPose p = simulate(tilted, {g1}, {g1 + dir * dragPx}, 10, anchored);
+    if (anchored != 1) continue;
+    const Footprint f = seen(p, 4);
+    const double room = distanceAt(f, f.innerDistance(onHandle1), g1 + dir * dragPx);
+    if (room > bestRoom) bestRoom = room, u = dir, dragged = p;
+  }
+  if (bestRoom < 0.0) throw Error("compose: no one-finger drag of the tilted selection keeps a finger on it");
+  const glm::dvec2 h1 = g1 + u * dragPx;
+  w.stroke(11, {g1}, {h1}, 10, 0.05);
+
+  // Two fingers, across: the pair oriented where the surface's depths differ least (two anchors at
+  // different depths dragged in parallel read partly as depth), both well on the handle.
+  const glm::dvec2 across(-u.y, u.x);
+  const Footprint afterDrag = seen(dragged, 2);
+  const std::vector<double> roomAfterDrag = afterDrag.innerDistance(onHandle1);
+  const double half = std::min({0.35 * r1, 10.0 / mmPerPx, distanceAt(afterDrag, roomAfterDrag, h1) - 3.0});
+  if (half < 2.0) throw Error("compose: after the one-finger drag the selection of label " + std::to_string(o.organ) + " has no room for two fingers");
+  glm::dvec2 pair(1.0, 0.0);
+  double bestDz = kInf;
+  for (int k = 0; k < 8; ++k) {
+    const glm::dvec2 d(std::cos(k * kPi / 8.0), std::sin(k * kPi / 8.0));
+    if (distanceAt(afterDrag, roomAfterDrag, h1 + half * d) < 3.0 || distanceAt(afterDrag, roomAfterDrag, h1 - half * d) < 3.0) continue;
+    const double dz = std::abs(afterDrag.depthAt(h1 + half * d) - afterDrag.depthAt(h1 - half * d));
+    if (dz < bestDz) bestDz = dz, pair = d;
+  }
+  const glm::dvec2 h2 = h1 + across * pushPx;
+  const RigidPose pushed = simulate(dragged, {h1 - half * pair, h1 + half * pair}, {h2 - half * pair, h2 + half * pair}, 11, anchored);
+  if (anchored != 2) throw Error("compose: the two-finger drag's fingers do not both land on the selection");
+  w.stroke(12, {h1 - half * pair, h1 + half * pair}, {h2 - half * pair, h2 + half * pair}, 11, 0.05);
+
+  w.ui("handle-status", "2:idle");
+
+  // Select mode: a tap where the moved handle shows most picks it; then the handle edits, each undone.
+  const Footprint last = seen(pushed, 2);
+  const auto [tap, rt] = last.innermost(last.innerDistance(onHandle1));
+  if (rt < 3.0) throw Error("compose: after the drags the selection of label " + std::to_string(o.organ) + " is out of sight");
+  w.ui("set-mode", "select");
+  w.stroke(14, {tap}, {tap}, 1, 0.04);
+  w.t += 0.3;
+  for (const auto& [a, v] : std::vector<std::pair<const char*, const char*>>{
+           {"handle-union", "1,2"}, {"undo", ""}, {"redo", ""}, {"undo", ""}, {"handle-difference", "1,2"}, {"undo", ""}})
+    w.ui(a, v);
+
+  // Navigate: a drag that starts off both structures (where the view is emptiest) orbits.
+  w.ui("set-mode", "navigate");
+  const std::vector<double> free = fp.innerDistance([&](int l) { return !organ(l) && !anchor(l); });
+  std::vector<double> background = fp.innerDistance([](int l) { return l == kBackground; });
+  const bool someBackground = *std::max_element(background.begin(), background.end()) >= 12.0;
+  const glm::dvec2 p = fp.innermost(someBackground ? background : free).first;
+  const double dx = std::round(40.0 * vp.height / 512.0);
+  w.stroke(15, {p}, {p + glm::dvec2(p.x < mid.x ? dx : -dx, 0.0)}, 9, 0.05);
+  w.ui("reset-camera", "", 0.2);
+  w.ui("export");
+  return out;
+}
+
+}  // namespace handson
