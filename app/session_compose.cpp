@@ -465,10 +465,67 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
   if (anchored != 2) throw Error("compose: the two-finger drag's fingers do not both land on the selection");
   w.stroke(12, {h1 - half * pair, h1 + half * pair}, {h2 - half * pair, h2 + half * pair}, 11, 0.05);
 
+  // Two fingers where the handle then shows most, twisted 20 degrees about their midpoint (a turn
+  // about the view axis); then two fingers spread by 6 % (the handle comes toward the viewer by about 6 % of its distance,
+  // some 25 mm: the pinch keeps the picked points under the fingers, so depth goes as 1 / spread).
+  // Each pair oriented where the picked depths differ least, both fingers well inside.
+  auto pairAt = [&](const Footprint& f, glm::dvec2& centre, glm::dvec2& dir) {
+    const std::vector<double> room = f.innerDistance(onHandle1);
+    const auto [c, r] = f.innermost(room);
+    const double h = std::min(0.35 * r, 10.0 / mmPerPx);
+    if (h < 2.0) throw Error("compose: the moved selection of label " + std::to_string(o.organ) + " has no room for two fingers");
+    centre = c;
+    dir = glm::dvec2(1.0, 0.0);
+    double best = kInf;
+    for (int k = 0; k < 8; ++k) {
+      const glm::dvec2 d(std::cos(k * kPi / 8.0), std::sin(k * kPi / 8.0));
+      if (distanceAt(f, room, c + h * d) < 3.0 || distanceAt(f, room, c - h * d) < 3.0) continue;
+      const double dz = std::abs(f.depthAt(c + h * d) - f.depthAt(c - h * d));
+      if (dz < best) best = dz, dir = d;
+    }
+    return h;
+  };
+  glm::dvec2 c3, d3;
+  const double h3 = pairAt(seen(pushed, 2), c3, d3);
+  const double twist = glm::radians(20.0);
+  const glm::dvec2 d3t(std::cos(twist) * d3.x - std::sin(twist) * d3.y, std::sin(twist) * d3.x + std::cos(twist) * d3.y);
+  std::vector<glm::dvec2> twist0{c3 - h3 * d3, c3 + h3 * d3}, twist1{c3 - h3 * d3t, c3 + h3 * d3t};
+  // The fingers follow the arc (straight chords of 2 degrees each), as a hand turns.
+  RigidPose twisted = pushed;
+  {
+    const std::vector<gpu::PickResult> hits = picker.pick(cam, vp, twist0, &mask, drawn(pushed));
+    std::vector<FingerAnchor> anchors;
+    for (std::size_t i = 0; i < hits.size(); ++i)
+      if (hits[i].world.w > 0.5f && hits[i].voxel.w == 1) anchors.push_back({std::int64_t(i), Eigen::Vector3d(hits[i].world.x, hits[i].world.y, hits[i].world.z)});
+    if (anchors.size() != 2) throw Error("compose: the twist's fingers do not both land on the selection");
+    HandleManipulator m;
+    m.anchor(anchors, pushed);
+    for (std::size_t f = 0; f < 2; ++f) w.touch(TouchPhase::Down, 16 + std::int64_t(f), twist0[f]);
+    for (int k = 1; k <= 10; ++k) {
+      const double a = twist * k / 10.0;
+      const glm::dvec2 dk(std::cos(a) * d3.x - std::sin(a) * d3.y, std::sin(a) * d3.x + std::cos(a) * d3.y);
+      const std::vector<glm::dvec2> at{c3 - h3 * dk, c3 + h3 * dk};
+      w.t += 0.05;
+      std::vector<std::pair<std::int64_t, glm::dvec2>> ndc;
+      for (std::size_t f = 0; f < 2; ++f) {
+        w.touch(TouchPhase::Move, 16 + std::int64_t(f), at[f]);
+        ndc.push_back({std::int64_t(f), vp.toNdc(glm::round(at[f] * 4.0) / 4.0)});
+      }
+      if (const auto q = m.move(ndc, twisted, cam, aspect, 0)) twisted = *q;
+    }
+    w.t += 0.05;
+    for (std::size_t f = 2; f-- > 0;) w.touch(TouchPhase::Up, 16 + std::int64_t(f), twist1[f]);
+    w.t += 0.1;
+  }
+  glm::dvec2 c4, d4;
+  const double h4 = pairAt(seen(twisted, 2), c4, d4);
+  const RigidPose spread = simulate(twisted, {c4 - h4 * d4, c4 + h4 * d4}, {c4 - 1.06 * h4 * d4, c4 + 1.06 * h4 * d4}, 10, anchored);
+  if (anchored != 2) throw Error("compose: the depth pinch's fingers do not both land on the selection");
+  w.stroke(18, {c4 - h4 * d4, c4 + h4 * d4}, {c4 - 1.06 * h4 * d4, c4 + 1.06 * h4 * d4}, 10, 0.05);
   w.ui("handle-status", "2:idle");
 
   // Select mode: a tap where the moved handle shows most picks it; then the handle edits, each undone.
-  const Footprint last = seen(pushed, 2);
+  const Footprint last = seen(spread, 2);
   const auto [tap, rt] = last.innermost(last.innerDistance(onHandle1));
   if (rt < 3.0) throw Error("compose: after the drags the selection of label " + std::to_string(o.organ) + " is out of sight");
   w.ui("set-mode", "select");
@@ -485,7 +542,7 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
   const bool someBackground = *std::max_element(background.begin(), background.end()) >= 12.0;
   const glm::dvec2 p = fp.innermost(someBackground ? background : free).first;
   const double dx = std::round(40.0 * vp.height / 512.0);
-  w.stroke(15, {p}, {p + glm::dvec2(p.x < mid.x ? dx : -dx, 0.0)}, 9, 0.05);
+  w.stroke(20, {p}, {p + glm::dvec2(p.x < mid.x ? dx : -dx, 0.0)}, 9, 0.05);
   w.ui("reset-camera", "", 0.2);
   w.ui("export");
   return out;

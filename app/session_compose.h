@@ -23,7 +23,8 @@
 //     rest (two hold an axis, the third is drawn 0.36 of the arm toward them); drag it 20 mm with one
 //     finger (of eight directions, starting away from the anchor, the one that keeps most of it in
 //     sight) and 16 mm across with two (oriented where the picked depths differ least, so that the
-//     parallel drag does not read as depth); set the anchor idle; tap the organ where it shows most
+//     parallel drag does not read as depth); twist two fingers 20 degrees (a turn about the view
+//     axis) and spread two by 6 % (depth: toward the viewer); set the anchor idle; tap the organ where it shows most
 //     (picked); union, undo, redo, undo, difference, undo; orbit from where the view is emptiest;
 //     reset the view; export.
 #include <cstdint>

@@ -444,9 +444,9 @@ TEST(Replay, AComposedSessionRunsTheWholeTouchWorkflowOnTheAnatomyOfAnyLabelledV
   // one grid, since the selection a pinch grows, and so where the later fingers find it, depends on
   // the grid) when ../shared/data is present. Replayed with the simulation on and validation: no event
   // refused; the kidney's handle (active, picked after the tap; the union and difference undone)
-  // tilted 10-60 degrees and moved 15-90 mm at its centre (20 + 16 mm of drags plus the tilt about
-  // an axis on its surface); the vessel's handle idle and never moved; the tissue around deformed;
-  // every export written.
+  // turned 10-60 degrees (a tilt and a 20-degree twist) and moved 15-90 mm at its centre (20 + 16
+  // mm of drags, the 6 % depth pinch's ~25 mm, the tilt about an axis on its surface); the
+  // vessel's handle idle and never moved; the tissue around deformed; every export written.
   const fs::path dir = fs::temp_directory_path() / ("handson_compose_" + std::to_string(getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
