@@ -30,6 +30,7 @@ int cmdView(const Words& args);
 int cmdReplay(const Words& args);
 int cmdRetarget(const Words& args);
 int cmdCompose(const Words& args);
+int cmdStressGestures(const Words& args);
 int cmdDeform(const Words& args);
 /// No subcommand: the app on the default phantom, or the headless demo when there is no display.
 int cmdDefault(const Words& args);

@@ -31,6 +31,7 @@ const char* const kMainHelp =
     "  replay [SCRIPT]               play a session script headless: PNG frames and a timing log\n"
     "  retarget SCRIPT --volume CT --labels L --label N -o OUT.json   aim a gesture script at an organ\n"
     "  compose --volume CT --labels L --organ N --anchor M -o OUT.json   a whole session laid out on that anatomy\n"
+    "  stress-gestures [--sequences N]   a random stream of valid and broken gestures through the headless pipeline\n"
     "  info PATH                     dimensions, spacing, orientation and value range of a volume\n"
     "  render [PATH] -o OUT.png      render one frame headless (PATH: NIfTI file or DICOM directory;\n"
     "                                omitted: the built-in phantom)\n"
@@ -160,6 +161,7 @@ int run(int argc, char** argv) {
     if (cmd == "replay") return cmdReplay(rest);
     if (cmd == "retarget") return cmdRetarget(rest);
     if (cmd == "compose") return cmdCompose(rest);
+    if (cmd == "stress-gestures") return cmdStressGestures(rest);
     if (cmd == "bench") return cmdBench(rest);
     if (cmd == "deform") return cmdDeform(rest);
     std::cerr << "error: unknown command '" << cmd << "'\n\n" << kMainHelp;

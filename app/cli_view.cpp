@@ -6,8 +6,12 @@
 #include "app/cli_args.h"
 #include "sim/scene_cache.h"
 #include "app/nifti_io.h"
+#include "sim/phantom.h"
 #include "app/replay.h"
 #include "app/scenario_retarget.h"
+#include <unistd.h>
+
+#include "app/gesture_stress.h"
 #include "app/session_compose.h"
 #include "app/volume_io.h"
 #include "app/viewer.h"
@@ -208,6 +212,61 @@ int cmdCompose(const Words& words) {
             << c.anchorPx.y << ") px with " << c.anchorRadiusPx << " px; " << c.handleRadiusPx << " px of room on the organ's selection\n"
             << c.script.events.size() << " events, " << c.script.duration() << " s\nwrote " << *args.value("-o") << "\n";
   return 0;
+}
+
+int cmdStressGestures(const Words& words) {
+  Args args(words, with({"--sequences", "--seed", "--size", "--volume", "--device", "--script-out"}, kSimOptions), {"--validation", "--quiet"});
+  if (args.help() || !args.positional().empty()) {
+    usageStream(args) << "usage: handson stress-gestures [--sequences N] [--seed S] [--size WxH] [--volume PATH] [--sim on|off]\n"
+                         "                               [--validation] [--script-out FILE.json]\n"
+                         "  Plays a random stream of N gesture sequences (default 1000) through the whole headless pipeline,\n"
+                         "  four frames each: 1-3 and up to 20 fingers, NaN and out-of-window coordinates, lost lifts, taps\n"
+                         "  during drags, mode switches and handle edits mid-gesture (app/gesture_stress.h). Fails (exit 1)\n"
+                         "  if any handle's pose or the camera ends non-finite, or on a validation message. Default: the\n"
+                         "  phantom at 4 mm, 96x96, simulation off. --script-out writes the stream (NaN becomes null there).\n";
+    return args.help() ? 0 : 2;
+  }
+  GestureStreamOptions g;
+  g.sequences = int(args.integer("--sequences", 1000, 0, 10'000'000));
+  g.seed = std::uint32_t(args.integer("--seed", 1, 0, 4294967295L));
+  if (auto s = args.value("--size")) parseSize(*s, g.viewport.width, g.viewport.height);
+  ReplayOptions o;
+  o.scriptData = randomGestureStream(g);
+  if (auto out = args.value("--script-out")) writeSessionScript(*o.scriptData, *out);
+  // Default scene: the phantom at 4 mm (fast on lavapipe), written to a temporary file.
+  const std::filesystem::path scratch = std::filesystem::temp_directory_path() / ("handson_stress_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(scratch);
+  o.volume = args.valueOr("--volume", "");
+  if (o.volume.empty()) {
+    PhantomOptions po;
+    po.spacingMm = 4.0;
+    o.volume = (scratch / "phantom-4mm.nii.gz").string();
+    writeNifti(makePhantom(po).ct, o.volume);
+  }
+  // Four frames a sequence: the touch-downs' picks are answered before the moves and lifts.
+  o.fps = 4.0 / g.secondsPerSequence;
+  o.device = args.valueOr("--device", "");
+  o.validation = args.flag("--validation");
+  o.quiet = args.flag("--quiet");
+  o.printHandles = true;
+  o.printCamera = true;
+  o.exportDir = (scratch / "exports").string();
+  std::vector<std::string> simArgs = words;
+  if (!args.value("--sim")) simArgs.insert(simArgs.end(), {"--sim", "off"});
+  o.sim = simOptions(Args(simArgs, with({"--sequences", "--seed", "--size", "--volume", "--device", "--script-out"}, kSimOptions), {"--validation", "--quiet"}), 0);
+  std::cout << g.sequences << " sequences, " << o.scriptData->events.size() << " events\n";
+  int rc = 1;
+  try {
+    rc = runReplay(o);
+  } catch (...) {
+    std::error_code ec;
+    std::filesystem::remove_all(scratch, ec);
+    throw;
+  }
+  std::error_code ec;
+  std::filesystem::remove_all(scratch, ec);
+  if (rc == 0) std::cout << "every handle and the camera finite\n";
+  return rc;
 }
 
 int cmdDefault(const Words& words) {

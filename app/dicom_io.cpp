@@ -47,6 +47,7 @@ const gdcm::Tag kSliceThickness(0x0018, 0x0050);
 const gdcm::Tag kSpacingBetweenSlices(0x0018, 0x0088);
 const gdcm::Tag kRescaleIntercept(0x0028, 0x1052);
 const gdcm::Tag kRescaleSlope(0x0028, 0x1053);
+const gdcm::Tag kPhotometric(0x0028, 0x0004);
 
 std::string trim(const std::string& s) {
   const char* ws = " \t\r\n";
@@ -556,7 +557,7 @@ Volume readDicomSeries(const std::string& directory, DicomReadReport* reportOut,
   gdcm::Scanner scanner;
   for (const gdcm::Tag& t : {kSeriesInstanceUid, kSeriesDescription, kSopInstanceUid, kImagePosition,
                              kImageOrientation, kRows, kColumns, kPixelSpacing, kNumberOfFrames, kSliceThickness,
-                             kSpacingBetweenSlices})
+                             kSpacingBetweenSlices, kPhotometric})
     scanner.AddTag(t);
   scanner.Scan(candidates);
 
@@ -582,6 +583,12 @@ Volume readDicomSeries(const std::string& directory, DicomReadReport* reportOut,
       throw Error("DICOM file '" + f + "' is truncated or corrupt (no valid Rows and Columns); remove or replace it");
     if (!withPixelData.count(f))
       throw Error("DICOM file '" + f + "' is truncated or corrupt (an image without pixel data); remove or replace it");
+    // Checked before GDCM decodes the pixels: its pixmap reader asserts (aborts the process) on a
+    // photometric interpretation it does not know (found by fuzz_dicom).
+    const std::string photometric = trim(tagText(scanner, f, kPhotometric));
+    if (photometric != "MONOCHROME1" && photometric != "MONOCHROME2")
+      throw Error("DICOM file '" + f + "' has photometric interpretation '" + photometric +
+                  "': only grayscale images (MONOCHROME1, MONOCHROME2) can be read as a CT or MR volume");
     h.rows = int((*rows)[0]);
     h.columns = int((*cols)[0]);
     h.seriesUid = tagText(scanner, f, kSeriesInstanceUid);

@@ -38,7 +38,7 @@ int runReplay(const ReplayOptions& o) {
     std::error_code ec;
     if (!std::filesystem::is_directory(dir, ec)) throw Error("--export: the directory '" + dir.string() + "' does not exist");
   }
-  SessionScript script = o.script.empty() ? builtInDemoScript() : readSessionScript(o.script);
+  SessionScript script = o.scriptData ? *o.scriptData : o.script.empty() ? builtInDemoScript() : readSessionScript(o.script);
   const ProgressFn progress = o.quiet ? ProgressFn{} : consoleProgress();
 
   // The volume: --volume, else the script's (a relative path is tried as given, then beside the script).
@@ -196,6 +196,22 @@ int runReplay(const ReplayOptions& o) {
       if (!h.voxels.empty()) c /= double(h.voxels.size());
       std::cout << " centre_moved_mm " << (h.pose.apply(c) - c).norm() << "\n";
     }
+  // Whatever came in, no state may hold a non-finite number.
+  bool finite = true;
+  {
+    const OrbitCamera& c = session.camera();
+    if (!std::isfinite(c.distance) || !std::isfinite(c.azimuth) || !std::isfinite(c.elevation) || !std::isfinite(c.roll) ||
+        !std::isfinite(c.fovY) || !std::isfinite(c.target.x) || !std::isfinite(c.target.y) || !std::isfinite(c.target.z)) {
+      std::cerr << "error: the camera holds a non-finite number: " << describeCamera(c) << "\n";
+      finite = false;
+    }
+    for (const auto& h : selection.handles().handles())
+      if (!h.pose.rotation.allFinite() || !h.pose.translation.allFinite()) {
+        std::cerr << "error: handle " << h.id << "'s pose holds a non-finite number\n";
+        finite = false;
+      }
+  }
+  if (!finite) return 1;
   if (ctx.validationMessageCount() > 0) {
     std::cerr << "error: " << ctx.validationMessageCount() << " Vulkan validation message(s)\n";
     return 1;

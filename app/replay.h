@@ -3,6 +3,7 @@
 // the same session logic and frame graph as the app, frames rendered at a fixed rate of script
 // time, written as numbered PNGs with a timing log. The same script on the same driver gives
 // bit-identical frames.
+#include <optional>
 #include <string>
 
 #include "app/deformation_controller.h"
@@ -13,6 +14,7 @@ namespace handson {
 
 struct ReplayOptions {
   std::string script;      ///< path; empty: the built-in orbit-and-zoom demo
+  std::optional<SessionScript> scriptData;  ///< a script in memory instead (e.g. app/gesture_stress.h: may hold NaN)
   std::string volume;      ///< overrides the script's volume
   std::string framesOut;   ///< directory for frame_NNNNN.png (created); empty: no PNGs
   std::string timings;     ///< timing log CSV
@@ -31,6 +33,8 @@ struct ReplayOptions {
 /// The built-in demo script (assets/gestures/orbit-and-zoom.json, embedded at build time).
 SessionScript builtInDemoScript();
 
+/// 0 on success; 1 when a validation message appeared or a handle's pose or the camera ended up
+/// holding a non-finite number (named on stderr). Throws Error for bad options or input.
 int runReplay(const ReplayOptions& options);
 
 }  // namespace handson

@@ -452,14 +452,20 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
   const std::vector<double> roomAfterDrag = afterDrag.innerDistance(onHandle1);
   const double half = std::min({0.35 * r1, 10.0 / mmPerPx, distanceAt(afterDrag, roomAfterDrag, h1) - 3.0});
   if (half < 2.0) throw Error("compose: after the one-finger drag the selection of label " + std::to_string(o.organ) + " has no room for two fingers");
-  glm::dvec2 pair(1.0, 0.0);
-  double bestDz = kInf;
-  for (int k = 0; k < 8; ++k) {
-    const glm::dvec2 d(std::cos(k * kPi / 8.0), std::sin(k * kPi / 8.0));
-    if (distanceAt(afterDrag, roomAfterDrag, h1 + half * d) < 3.0 || distanceAt(afterDrag, roomAfterDrag, h1 - half * d) < 3.0) continue;
-    const double dz = std::abs(afterDrag.depthAt(h1 + half * d) - afterDrag.depthAt(h1 - half * d));
-    if (dz < bestDz) bestDz = dz, pair = d;
-  }
+  // Of eight orientations for two fingers `h` either side of `c`, both 3 px inside the handle, the
+  // one whose picked depths differ least.
+  auto orientPair = [&](const Footprint& f, const std::vector<double>& room, glm::dvec2 c, double h) {
+    glm::dvec2 best(1.0, 0.0);
+    double bestDz = kInf;
+    for (int k = 0; k < 8; ++k) {
+      const glm::dvec2 d(std::cos(k * kPi / 8.0), std::sin(k * kPi / 8.0));
+      if (distanceAt(f, room, c + h * d) < 3.0 || distanceAt(f, room, c - h * d) < 3.0) continue;
+      const double dz = std::abs(f.depthAt(c + h * d) - f.depthAt(c - h * d));
+      if (dz < bestDz) bestDz = dz, best = d;
+    }
+    return best;
+  };
+  const glm::dvec2 pair = orientPair(afterDrag, roomAfterDrag, h1, half);
   const glm::dvec2 h2 = h1 + across * pushPx;
   const RigidPose pushed = simulate(dragged, {h1 - half * pair, h1 + half * pair}, {h2 - half * pair, h2 + half * pair}, 11, anchored);
   if (anchored != 2) throw Error("compose: the two-finger drag's fingers do not both land on the selection");
@@ -468,21 +474,13 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
   // Two fingers where the handle then shows most, twisted 20 degrees about their midpoint (a turn
   // about the view axis); then two fingers spread by 6 % (the handle comes toward the viewer by about 6 % of its distance,
   // some 25 mm: the pinch keeps the picked points under the fingers, so depth goes as 1 / spread).
-  // Each pair oriented where the picked depths differ least, both fingers well inside.
   auto pairAt = [&](const Footprint& f, glm::dvec2& centre, glm::dvec2& dir) {
     const std::vector<double> room = f.innerDistance(onHandle1);
     const auto [c, r] = f.innermost(room);
     const double h = std::min(0.35 * r, 10.0 / mmPerPx);
     if (h < 2.0) throw Error("compose: the moved selection of label " + std::to_string(o.organ) + " has no room for two fingers");
     centre = c;
-    dir = glm::dvec2(1.0, 0.0);
-    double best = kInf;
-    for (int k = 0; k < 8; ++k) {
-      const glm::dvec2 d(std::cos(k * kPi / 8.0), std::sin(k * kPi / 8.0));
-      if (distanceAt(f, room, c + h * d) < 3.0 || distanceAt(f, room, c - h * d) < 3.0) continue;
-      const double dz = std::abs(f.depthAt(c + h * d) - f.depthAt(c - h * d));
-      if (dz < best) best = dz, dir = d;
-    }
+    dir = orientPair(f, room, c, h);
     return h;
   };
   glm::dvec2 c3, d3;

@@ -71,7 +71,7 @@ SessionScript parseSessionScript(const std::string& text, const std::string& nam
   json doc;
   try {
     doc = json::parse(text);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse errors, and numbers out of range (found by fuzzing)
     p.fail(std::string("not valid JSON (") + e.what() + ")");
   }
   if (!doc.is_object()) p.fail("the top level must be a JSON object");

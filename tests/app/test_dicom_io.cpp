@@ -219,6 +219,28 @@ TEST(DicomIo, TextFileNamedDcmThrows) {
   EXPECT_TRUE(contains(msg, "no DICOM images")) << msg;
 }
 
+TEST(DicomIo, ASliceThatIsNotGrayscaleIsRefusedBeforeDecoding) {
+  // Found by fuzz_dicom: an unknown photometric interpretation made GDCM's pixmap reader assert
+  // (abort the process). The fuzzers' seed slice (tests/fuzz/make_seeds.py) reads; the same slice
+  // with "MONOCHROME2" replaced by "PALETTE COL" is one clear error.
+  const std::string seed = readBytes(std::string(HANDSON_SOURCE_DIR) + "/tests/fuzz/corpus/dicom/one-slice.dcm");
+  {
+    TempDir dir;
+    writeBytes(dir.file("a.dcm"), seed);
+    const Volume v = readDicomSeries(dir.path());
+    EXPECT_EQ(v.dims(), Eigen::Vector3i(5, 6, 1));
+  }
+  std::string bad = seed;
+  const auto at = bad.find("MONOCHROME2");
+  ASSERT_NE(at, std::string::npos);
+  bad.replace(at, 11, "PALETTE COL");
+  TempDir dir;
+  writeBytes(dir.file("a.dcm"), bad);
+  const std::string msg = errorOf(dir.path());
+  EXPECT_TRUE(contains(msg, "photometric interpretation 'PALETTE COL'")) << msg;
+  EXPECT_TRUE(contains(msg, "a.dcm")) << msg;
+}
+
 // ---------------------------------------------------------------------------------------------
 // The uncompressed ircadb series.
 

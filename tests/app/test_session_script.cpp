@@ -72,6 +72,10 @@ TEST(SessionScript, RejectsBadScriptsWithClearMessages) {
        "exactly one"},
       {R"({"format": "handson-session", "version": 1, "viewport": [10, 10], "camera": {"target": [0, 0], "distance": 1, "azimuth_deg": 0, "elevation_deg": 0}, "events": []})",
        "camera.target"},
+      // Found by fuzz_script: a number too large for a double escaped as the JSON library's own
+      // out_of_range exception instead of this parser's error.
+      {"333333333333e333333-", "not valid JSON"},
+      {R"({"format": "handson-session", "version": 1e999, "events": []})", "not valid JSON"},
   };
   for (const auto& [text, mention] : bad) {
     try {
