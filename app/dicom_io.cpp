@@ -48,6 +48,12 @@ const gdcm::Tag kSpacingBetweenSlices(0x0018, 0x0088);
 const gdcm::Tag kRescaleIntercept(0x0028, 0x1052);
 const gdcm::Tag kRescaleSlope(0x0028, 0x1053);
 const gdcm::Tag kPhotometric(0x0028, 0x0004);
+const gdcm::Tag kSamplesPerPixel(0x0028, 0x0002);
+const gdcm::Tag kBitsAllocated(0x0028, 0x0100);
+const gdcm::Tag kBitsStored(0x0028, 0x0101);
+const gdcm::Tag kHighBit(0x0028, 0x0102);
+const gdcm::Tag kPixelRepresentation(0x0028, 0x0103);
+const gdcm::Tag kRecognitionCode(0x0008, 0x0010);  // retired ACR-NEMA
 
 std::string trim(const std::string& s) {
   const char* ws = " \t\r\n";
@@ -557,7 +563,8 @@ Volume readDicomSeries(const std::string& directory, DicomReadReport* reportOut,
   gdcm::Scanner scanner;
   for (const gdcm::Tag& t : {kSeriesInstanceUid, kSeriesDescription, kSopInstanceUid, kImagePosition,
                              kImageOrientation, kRows, kColumns, kPixelSpacing, kNumberOfFrames, kSliceThickness,
-                             kSpacingBetweenSlices, kPhotometric})
+                             kSpacingBetweenSlices, kPhotometric, kSamplesPerPixel, kBitsAllocated, kBitsStored, kHighBit,
+                             kPixelRepresentation, kRecognitionCode})
     scanner.AddTag(t);
   scanner.Scan(candidates);
 
@@ -589,6 +596,27 @@ Volume readDicomSeries(const std::string& directory, DicomReadReport* reportOut,
     if (photometric != "MONOCHROME1" && photometric != "MONOCHROME2")
       throw Error("DICOM file '" + f + "' has photometric interpretation '" + photometric +
                   "': only grayscale images (MONOCHROME1, MONOCHROME2) can be read as a CT or MR volume");
+    // GDCM asserts on these too (SamplesPerPixel over 4, found by fuzz_dicom): one grayscale sample
+    // of 8, 16 or 32 bits, stored bits and high bit within it, signed or unsigned.
+    auto number = [&](const gdcm::Tag& tag) -> std::optional<double> {
+      const auto v = parseNumbers(tagText(scanner, f, tag));
+      return v && v->size() == 1 ? std::optional<double>((*v)[0]) : std::nullopt;
+    };
+    const auto spp = number(kSamplesPerPixel), allocated = number(kBitsAllocated), stored = number(kBitsStored),
+               high = number(kHighBit), representation = number(kPixelRepresentation);
+    if ((spp && *spp != 1) || !allocated || (*allocated != 8 && *allocated != 16 && *allocated != 32) ||
+        (stored && (*stored < 1 || *stored > *allocated)) || (high && (*high < 0 || *high >= *allocated)) ||
+        (representation && *representation != 0 && *representation != 1))
+      throw Error("DICOM file '" + f + "' has a pixel format this reader does not take (samples per pixel " +
+                  tagText(scanner, f, kSamplesPerPixel) + ", bits allocated " + tagText(scanner, f, kBitsAllocated) + ", stored " +
+                  tagText(scanner, f, kBitsStored) + ", high bit " + tagText(scanner, f, kHighBit) +
+                  "): one grayscale sample of 8, 16 or 32 bits is expected");
+    // And on an ACR-NEMA recognition code it does not know (found by fuzz_dicom).
+    if (scanner.GetValue(f.c_str(), kRecognitionCode)) {
+      const std::string code = trim(tagText(scanner, f, kRecognitionCode));
+      if (code.rfind("ACR-NEMA", 0) != 0 && code.rfind("ACRNEMA", 0) != 0 && code.rfind("MIPS 2.0", 0) != 0)
+        throw Error("DICOM file '" + f + "' has an unknown ACR-NEMA recognition code '" + code + "'");
+    }
     h.rows = int((*rows)[0]);
     h.columns = int((*cols)[0]);
     h.seriesUid = tagText(scanner, f, kSeriesInstanceUid);

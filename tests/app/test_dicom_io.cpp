@@ -219,7 +219,7 @@ TEST(DicomIo, TextFileNamedDcmThrows) {
   EXPECT_TRUE(contains(msg, "no DICOM images")) << msg;
 }
 
-TEST(DicomIo, ASliceThatIsNotGrayscaleIsRefusedBeforeDecoding) {
+TEST(DicomIo, ASliceThatIsNotOneGrayscaleSampleIsRefusedBeforeDecoding) {
   // Found by fuzz_dicom: an unknown photometric interpretation made GDCM's pixmap reader assert
   // (abort the process). The fuzzers' seed slice (tests/fuzz/make_seeds.py) reads; the same slice
   // with "MONOCHROME2" replaced by "PALETTE COL" is one clear error.
@@ -239,6 +239,27 @@ TEST(DicomIo, ASliceThatIsNotGrayscaleIsRefusedBeforeDecoding) {
   const std::string msg = errorOf(dir.path());
   EXPECT_TRUE(contains(msg, "photometric interpretation 'PALETTE COL'")) << msg;
   EXPECT_TRUE(contains(msg, "a.dcm")) << msg;
+  // Also found by fuzz_dicom: SamplesPerPixel over 4 made GDCM assert. Five samples: refused.
+  std::string five = seed;
+  const std::string spp("\x28\x00\x02\x00US\x02\x00\x01\x00", 10);
+  const auto sppAt = five.find(spp);
+  ASSERT_NE(sppAt, std::string::npos);
+  five[sppAt + 8] = 5;
+  TempDir dir5;
+  writeBytes(dir5.file("b.dcm"), five);
+  const std::string msg5 = errorOf(dir5.path());
+  EXPECT_TRUE(contains(msg5, "pixel format")) << msg5;
+  EXPECT_TRUE(contains(msg5, "samples per pixel 5")) << msg5;
+  // And an ACR-NEMA recognition code GDCM does not know (it asserts): refused.
+  std::string acr = seed;
+  const std::string sopClass("\x08\x00\x16\x00UI", 6);
+  const auto sopAt = acr.find(sopClass, 132 + 12);  // the dataset's first element, after the meta group
+  ASSERT_NE(sopAt, std::string::npos);
+  acr.insert(sopAt, std::string("\x08\x00\x10\x00SH\x08\x00XYZ-NEMA", 16));
+  TempDir dirAcr;
+  writeBytes(dirAcr.file("c.dcm"), acr);
+  const std::string msgAcr = errorOf(dirAcr.path());
+  EXPECT_TRUE(contains(msgAcr, "recognition code 'XYZ-NEMA'")) << msgAcr;
 }
 
 // ---------------------------------------------------------------------------------------------
