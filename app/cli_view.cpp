@@ -251,9 +251,8 @@ int cmdStressGestures(const Words& words) {
   o.printHandles = true;
   o.printCamera = true;
   o.exportDir = (scratch / "exports").string();
-  std::vector<std::string> simArgs = words;
-  if (!args.value("--sim")) simArgs.insert(simArgs.end(), {"--sim", "off"});
-  o.sim = simOptions(Args(simArgs, with({"--sequences", "--seed", "--size", "--volume", "--device", "--script-out"}, kSimOptions), {"--validation", "--quiet"}), 0);
+  o.sim = simOptions(args, 0);
+  o.sim.enabled = args.valueOr("--sim", "off") == "on";  // off unless asked for
   std::cout << g.sequences << " sequences, " << o.scriptData->events.size() << " events\n";
   int rc = 1;
   try {

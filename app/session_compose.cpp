@@ -12,6 +12,7 @@
 
 #include "interaction/manipulation.h"
 #include "interaction/selection.h"
+#include "sim/distance_transform.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -22,66 +23,20 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kBackground = -1;  // a ray that hits nothing visible
 
-// Squared distances along one line to the nearest zero of f (f: 0 at sites, +inf elsewhere): the
-// lower envelope of parabolas (Felzenszwalb and Huttenlocher's exact 1-D transform).
-void distance1d(const std::vector<double>& f, std::vector<double>& d) {
-  const int n = int(f.size());
-  std::vector<int> v(std::size_t(n), 0);
-  std::vector<double> z(std::size_t(n) + 1, 0.0);
-  int k = -1;
-  for (int q = 0; q < n; ++q) {
-    if (!std::isfinite(f[std::size_t(q)])) continue;
-    double s = -kInf;
-    while (k >= 0) {
-      const int p = v[std::size_t(k)];
-      s = ((f[std::size_t(q)] + double(q) * q) - (f[std::size_t(p)] + double(p) * p)) / (2.0 * (q - p));
-      if (s > z[std::size_t(k)]) break;
-      --k;
-    }
-    ++k;
-    v[std::size_t(k)] = q;
-    z[std::size_t(k)] = k == 0 ? -kInf : s;
-    z[std::size_t(k) + 1] = kInf;
-  }
-  for (int q = 0, j = 0; q < n; ++q) {
-    if (k < 0) {
-      d[std::size_t(q)] = kInf;
-      continue;
-    }
-    while (z[std::size_t(j) + 1] < q) ++j;
-    const int p = v[std::size_t(j)];
-    d[std::size_t(q)] = double(q - p) * (q - p) + f[std::size_t(p)];
-  }
-}
-
 }  // namespace
 
 std::vector<double> distanceToOutside2d(const std::vector<std::uint8_t>& inside, int nx, int ny) {
   if (nx <= 0 || ny <= 0 || inside.size() != std::size_t(nx) * std::size_t(ny)) throw Error("distance transform: the mask is not nx x ny");
-  const int w = nx + 2, h = ny + 2;  // a ring of outside cells
-  std::vector<double> g(std::size_t(w) * std::size_t(h));
-  for (int j = 0; j < h; ++j)
-    for (int i = 0; i < w; ++i) {
-      const bool in = i > 0 && j > 0 && i <= nx && j <= ny && inside[std::size_t(i - 1) + std::size_t(nx) * std::size_t(j - 1)];
-      g[std::size_t(i) + std::size_t(w) * std::size_t(j)] = in ? kInf : 0.0;
-    }
-  std::vector<double> f, d;
-  for (int j = 0; j < h; ++j) {  // rows
-    f.assign(g.begin() + std::ptrdiff_t(j) * w, g.begin() + std::ptrdiff_t(j + 1) * w);
-    d.resize(f.size());
-    distance1d(f, d);
-    std::copy(d.begin(), d.end(), g.begin() + std::ptrdiff_t(j) * w);
-  }
-  f.resize(std::size_t(h));
-  d.resize(std::size_t(h));
-  for (int i = 0; i < w; ++i) {  // columns
-    for (int j = 0; j < h; ++j) f[std::size_t(j)] = g[std::size_t(i) + std::size_t(w) * std::size_t(j)];
-    distance1d(f, d);
-    for (int j = 0; j < h; ++j) g[std::size_t(i) + std::size_t(w) * std::size_t(j)] = d[std::size_t(j)];
-  }
+  // sim/distance_transform on one slice, with a ring of outside cells (it does not count the grid's
+  // own border as outside).
+  const int w = nx + 2, h = ny + 2;
+  std::vector<std::uint8_t> padded(std::size_t(w) * std::size_t(h), 0);
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) padded[std::size_t(i + 1) + std::size_t(w) * std::size_t(j + 1)] = inside[std::size_t(i) + std::size_t(nx) * std::size_t(j)] ? 1 : 0;
+  const std::vector<float> d2 = squaredDistanceToOutside(padded, Eigen::Vector3i(w, h, 1), Eigen::Vector3d::Ones());
   std::vector<double> out(inside.size());
   for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) out[std::size_t(i) + std::size_t(nx) * std::size_t(j)] = std::sqrt(g[std::size_t(i + 1) + std::size_t(w) * std::size_t(j + 1)]);
+    for (int i = 0; i < nx; ++i) out[std::size_t(i) + std::size_t(nx) * std::size_t(j)] = std::sqrt(double(d2[std::size_t(i + 1) + std::size_t(w) * std::size_t(j + 1)]));
   return out;
 }
 
@@ -158,6 +113,16 @@ double equivalentRadiusMm(const Volume& labels, int label) {
   return std::cbrt(3.0 * double(n) * s.prod() / (4.0 * kPi));
 }
 
+// `steps` + 1 frames from `from` to `to` in equal steps.
+std::vector<std::vector<glm::dvec2>> lerpFrames(const std::vector<glm::dvec2>& from, const std::vector<glm::dvec2>& to, int steps) {
+  std::vector<std::vector<glm::dvec2>> frames{from};
+  for (int k = 1; k <= steps; ++k) {
+    frames.emplace_back();
+    for (std::size_t f = 0; f < from.size(); ++f) frames.back().push_back(glm::mix(from[f], to[f], double(k) / steps));
+  }
+  return frames;
+}
+
 class EventWriter {
  public:
   explicit EventWriter(SessionScript& s) : s_(s) {}
@@ -181,15 +146,20 @@ class EventWriter {
     s_.events.push_back(e);
   }
   // Fingers down at `from`, moved in `steps` equal steps to `to` (dt apart), lifted; then a pause.
-  void stroke(std::int64_t firstId, const std::vector<glm::dvec2>& from, const std::vector<glm::dvec2>& to, int steps, double dt) {
-    for (std::size_t f = 0; f < from.size(); ++f) touch(TouchPhase::Down, firstId + std::int64_t(f), from[f]);
-    for (int k = 1; k <= steps; ++k) {
+  // Fingers down at frames[0], moved through the later frames (dt apart), lifted; then a pause.
+  void path(std::int64_t firstId, const std::vector<std::vector<glm::dvec2>>& frames, double dt) {
+    const std::size_t n = frames.front().size();
+    for (std::size_t f = 0; f < n; ++f) touch(TouchPhase::Down, firstId + std::int64_t(f), frames.front()[f]);
+    for (std::size_t k = 1; k < frames.size(); ++k) {
       t += dt;
-      for (std::size_t f = 0; f < from.size(); ++f) touch(TouchPhase::Move, firstId + std::int64_t(f), glm::mix(from[f], to[f], double(k) / steps));
+      for (std::size_t f = 0; f < n; ++f) touch(TouchPhase::Move, firstId + std::int64_t(f), frames[k][f]);
     }
     t += dt;
-    for (std::size_t f = from.size(); f-- > 0;) touch(TouchPhase::Up, firstId + std::int64_t(f), to[f]);
+    for (std::size_t f = n; f-- > 0;) touch(TouchPhase::Up, firstId + std::int64_t(f), frames.back()[f]);
     t += 0.1;
+  }
+  void stroke(std::int64_t firstId, const std::vector<glm::dvec2>& from, const std::vector<glm::dvec2>& to, int steps, double dt) {
+    path(firstId, lerpFrames(from, to, steps), dt);
   }
 
  private:
@@ -342,8 +312,10 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
   auto onHandle1 = [](int l) { return l == 1; };
   // Fingers put down at `from` and moved to `to`: the handle's new pose, and how many fingers
   // landed on it.
-  auto simulate = [&](const RigidPose& pose, const std::vector<glm::dvec2>& from, const std::vector<glm::dvec2>& to, int steps, std::size_t& anchored) {
-    const std::vector<gpu::PickResult> hits = picker.pick(cam, vp, from, &mask, drawn(pose));
+  // Fingers put down at frames[0] and moved through the later frames: the handle's new pose, and
+  // how many fingers landed on it.
+  auto simulatePath = [&](const RigidPose& pose, const std::vector<std::vector<glm::dvec2>>& frames, std::size_t& anchored) {
+    const std::vector<gpu::PickResult> hits = picker.pick(cam, vp, frames.front(), &mask, drawn(pose));
     std::vector<FingerAnchor> anchors;
     for (std::size_t i = 0; i < hits.size(); ++i)
       if (hits[i].world.w > 0.5f && hits[i].voxel.w == 1) anchors.push_back({std::int64_t(i), Eigen::Vector3d(hits[i].world.x, hits[i].world.y, hits[i].world.z)});
@@ -352,12 +324,15 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
     HandleManipulator m;
     m.anchor(anchors, pose);
     RigidPose p = pose;
-    for (int k = 1; k <= steps; ++k) {
+    for (std::size_t k = 1; k < frames.size(); ++k) {
       std::vector<std::pair<std::int64_t, glm::dvec2>> ndc;
-      for (std::size_t i = 0; i < from.size(); ++i) ndc.push_back({std::int64_t(i), vp.toNdc(glm::mix(from[i], to[i], double(k) / steps))});
+      for (std::size_t i = 0; i < frames[k].size(); ++i) ndc.push_back({std::int64_t(i), vp.toNdc(frames[k][i])});
       if (const auto q = m.move(ndc, p, cam, aspect, 0)) p = *q;
     }
     return p;
+  };
+  auto simulate = [&](const RigidPose& pose, const std::vector<glm::dvec2>& from, const std::vector<glm::dvec2>& to, int steps, std::size_t& anchored) {
+    return simulatePath(pose, lerpFrames(from, to, steps), anchored);
   };
   auto distanceAt = [](const Footprint& f, const std::vector<double>& dist, glm::dvec2 q) {
     const int i = int(std::floor(q.x / f.step)), j = int(std::floor(q.y / f.step));
@@ -486,35 +461,17 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
   glm::dvec2 c3, d3;
   const double h3 = pairAt(seen(pushed, 2), c3, d3);
   const double twist = glm::radians(20.0);
-  const glm::dvec2 d3t(std::cos(twist) * d3.x - std::sin(twist) * d3.y, std::sin(twist) * d3.x + std::cos(twist) * d3.y);
-  std::vector<glm::dvec2> twist0{c3 - h3 * d3, c3 + h3 * d3}, twist1{c3 - h3 * d3t, c3 + h3 * d3t};
+  const std::vector<glm::dvec2> twist0{c3 - h3 * d3, c3 + h3 * d3};
   // The fingers follow the arc (straight chords of 2 degrees each), as a hand turns.
-  RigidPose twisted = pushed;
-  {
-    const std::vector<gpu::PickResult> hits = picker.pick(cam, vp, twist0, &mask, drawn(pushed));
-    std::vector<FingerAnchor> anchors;
-    for (std::size_t i = 0; i < hits.size(); ++i)
-      if (hits[i].world.w > 0.5f && hits[i].voxel.w == 1) anchors.push_back({std::int64_t(i), Eigen::Vector3d(hits[i].world.x, hits[i].world.y, hits[i].world.z)});
-    if (anchors.size() != 2) throw Error("compose: the twist's fingers do not both land on the selection");
-    HandleManipulator m;
-    m.anchor(anchors, pushed);
-    for (std::size_t f = 0; f < 2; ++f) w.touch(TouchPhase::Down, 16 + std::int64_t(f), twist0[f]);
-    for (int k = 1; k <= 10; ++k) {
-      const double a = twist * k / 10.0;
-      const glm::dvec2 dk(std::cos(a) * d3.x - std::sin(a) * d3.y, std::sin(a) * d3.x + std::cos(a) * d3.y);
-      const std::vector<glm::dvec2> at{c3 - h3 * dk, c3 + h3 * dk};
-      w.t += 0.05;
-      std::vector<std::pair<std::int64_t, glm::dvec2>> ndc;
-      for (std::size_t f = 0; f < 2; ++f) {
-        w.touch(TouchPhase::Move, 16 + std::int64_t(f), at[f]);
-        ndc.push_back({std::int64_t(f), vp.toNdc(glm::round(at[f] * 4.0) / 4.0)});
-      }
-      if (const auto q = m.move(ndc, twisted, cam, aspect, 0)) twisted = *q;
-    }
-    w.t += 0.05;
-    for (std::size_t f = 2; f-- > 0;) w.touch(TouchPhase::Up, 16 + std::int64_t(f), twist1[f]);
-    w.t += 0.1;
+  std::vector<std::vector<glm::dvec2>> twistFrames{twist0};
+  for (int k = 1; k <= 10; ++k) {
+    const double a = twist * k / 10.0;
+    const glm::dvec2 dk(std::cos(a) * d3.x - std::sin(a) * d3.y, std::sin(a) * d3.x + std::cos(a) * d3.y);
+    twistFrames.push_back({glm::round((c3 - h3 * dk) * 4.0) / 4.0, glm::round((c3 + h3 * dk) * 4.0) / 4.0});
   }
+  const RigidPose twisted = simulatePath(pushed, twistFrames, anchored);
+  if (anchored != 2) throw Error("compose: the twist's fingers do not both land on the selection");
+  w.path(16, twistFrames, 0.05);
   glm::dvec2 c4, d4;
   const double h4 = pairAt(seen(twisted, 2), c4, d4);
   const RigidPose spread = simulate(twisted, {c4 - h4 * d4, c4 + h4 * d4}, {c4 - 1.06 * h4 * d4, c4 + 1.06 * h4 * d4}, 10, anchored);
@@ -535,10 +492,9 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
 
   // Navigate: a drag that starts off both structures (where the view is emptiest) orbits.
   w.ui("set-mode", "navigate");
-  const std::vector<double> free = fp.innerDistance([&](int l) { return !organ(l) && !anchor(l); });
-  std::vector<double> background = fp.innerDistance([](int l) { return l == kBackground; });
+  const std::vector<double> background = fp.innerDistance([](int l) { return l == kBackground; });
   const bool someBackground = *std::max_element(background.begin(), background.end()) >= 12.0;
-  const glm::dvec2 p = fp.innermost(someBackground ? background : free).first;
+  const glm::dvec2 p = fp.innermost(someBackground ? background : fp.innerDistance([&](int l) { return !organ(l) && !anchor(l); })).first;
   const double dx = std::round(40.0 * vp.height / 512.0);
   w.stroke(20, {p}, {p + glm::dvec2(p.x < mid.x ? dx : -dx, 0.0)}, 9, 0.05);
   w.ui("reset-camera", "", 0.2);
