@@ -1,7 +1,8 @@
 # Set-up and everyday commands. Works on a fresh Debian 12 machine as root (or with sudo):
 #   make run    install what is missing, build, run the main job
 #   make test   install what is missing, build, run the test suite
-# Other targets: deps, build, bench, asan-test, fuzz (FUZZ_SECONDS per fuzzer, default 60), clean.
+# Other targets: deps, build, bench, asan-test (the suite under ASan+UBSan, clang), fuzz (FUZZ_SECONDS
+# per fuzzer, default 60), clean.
 
 PACKAGES := build-essential cmake ninja-build pkg-config \
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslc \
@@ -12,7 +13,7 @@ FUZZ_SECONDS ?= 60
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 JOBS ?= 2
 
-.PHONY: deps build run test bench asan-test fuzz clean
+.PHONY: deps fuzz-deps build run test bench asan-test fuzz clean
 
 deps:
 	@missing=$$(for p in $(PACKAGES); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q 'install ok installed' || echo $$p; done); \
@@ -34,27 +35,31 @@ test: build
 bench: build
 	./build/app/handson bench $(BENCH_ARGS)
 
-asan-test: deps
+# The sanitizer build (clang, AddressSanitizer + UndefinedBehaviorSanitizer, libFuzzer coverage):
+# the whole test suite under the sanitizers, and the fuzzers.
+fuzz-deps: deps
+	@missing=$$(for p in $(FUZZ_PACKAGES); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q 'install ok installed' || echo $$p; done); \
+	if [ -n "$$missing" ]; then $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; fi
+
+asan-test: fuzz-deps
 	cmake --preset asan
 	cmake --build --preset asan -j $(JOBS)
 	ctest --preset asan
 
 # libFuzzer: the NIfTI reader, the DICOM reader and the session-script parser (tests/fuzz), each run
-# for FUZZ_SECONDS over a working copy of its seed corpus (new inputs stay in build-fuzz/corpus);
-# a finding stops the run with the crashing input written to build-fuzz/findings/.
-fuzz: deps
-	@missing=$$(for p in $(FUZZ_PACKAGES); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q 'install ok installed' || echo $$p; done); \
-	if [ -n "$$missing" ]; then $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; fi
-	cmake --preset fuzz
+# for FUZZ_SECONDS over a working copy of its seed corpus (new inputs stay in build-asan/corpus);
+# a finding stops the run with the crashing input written to build-asan/findings/.
+fuzz: fuzz-deps
+	cmake --preset asan
 	cmake --build --preset fuzz
-	mkdir -p build-fuzz/findings
+	mkdir -p build-asan/findings
 	set -e; for t in nifti dicom script; do \
-	  mkdir -p build-fuzz/corpus/$$t; cp -n tests/fuzz/corpus/$$t/* build-fuzz/corpus/$$t/; \
-	  if [ $$t = script ]; then cp -n assets/gestures/*.json build-fuzz/corpus/$$t/; fi; \
+	  mkdir -p build-asan/corpus/$$t; cp -n tests/fuzz/corpus/$$t/* build-asan/corpus/$$t/; \
+	  if [ $$t = script ]; then cp -n assets/gestures/*.json build-asan/corpus/$$t/; fi; \
 	  echo "fuzzing $$t for $(FUZZ_SECONDS) s"; \
-	  ./build-fuzz/tests/fuzz/fuzz_$$t build-fuzz/corpus/$$t -max_total_time=$(FUZZ_SECONDS) -timeout=20 -rss_limit_mb=3072 \
-	    -malloc_limit_mb=2048 -artifact_prefix=build-fuzz/findings/$$t- -print_final_stats=1; \
+	  ./build-asan/tests/fuzz/fuzz_$$t build-asan/corpus/$$t -max_total_time=$(FUZZ_SECONDS) -timeout=20 -rss_limit_mb=3072 \
+	    -malloc_limit_mb=2048 -artifact_prefix=build-asan/findings/$$t- -print_final_stats=1; \
 	done
 
 clean:
-	rm -rf build build-debug build-asan build-fuzz
+	rm -rf build build-debug build-asan

@@ -31,6 +31,7 @@ int cmdReplay(const Words& args);
 int cmdRetarget(const Words& args);
 int cmdCompose(const Words& args);
 int cmdStressGestures(const Words& args);
+int cmdSoak(const Words& args);
 int cmdDeform(const Words& args);
 /// No subcommand: the app on the default phantom, or the headless demo when there is no display.
 int cmdDefault(const Words& args);

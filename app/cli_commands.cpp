@@ -32,6 +32,7 @@ const char* const kMainHelp =
     "  retarget SCRIPT --volume CT --labels L --label N -o OUT.json   aim a gesture script at an organ\n"
     "  compose --volume CT --labels L --organ N --anchor M -o OUT.json   a whole session laid out on that anatomy\n"
     "  stress-gestures [--sequences N]   a random stream of valid and broken gestures through the headless pipeline\n"
+    "  soak [--frames N]                 a long session replayed headless: memory and Vulkan allocations must stay flat\n"
     "  info PATH                     dimensions, spacing, orientation and value range of a volume\n"
     "  render [PATH] -o OUT.png      render one frame headless (PATH: NIfTI file or DICOM directory;\n"
     "                                omitted: the built-in phantom)\n"
@@ -162,6 +163,7 @@ int run(int argc, char** argv) {
     if (cmd == "retarget") return cmdRetarget(rest);
     if (cmd == "compose") return cmdCompose(rest);
     if (cmd == "stress-gestures") return cmdStressGestures(rest);
+    if (cmd == "soak") return cmdSoak(rest);
     if (cmd == "bench") return cmdBench(rest);
     if (cmd == "deform") return cmdDeform(rest);
     std::cerr << "error: unknown command '" << cmd << "'\n\n" << kMainHelp;

@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "app/gesture_stress.h"
+#include "app/soak.h"
 #include "app/session_compose.h"
 #include "app/volume_io.h"
 #include "app/viewer.h"
@@ -68,9 +69,12 @@ const char* const kSimHelp =
     "                          volume, handles and settings skips it): default $HANDSON_CACHE_DIR,\n"
     "                          $XDG_CACHE_HOME/handson or ~/.cache/handson\n"
     "  --sim-refine-steps N    two-level refinement steps toward the fine answer while a pose is held\n"
-    "                          (default 2 in view, 0 in replay)\n";
+    "                          (default 2 in view, 0 in replay)\n"
+    "  --sim-iterations N      coarse solver iterations per new pose (default 3)\n"
+    "  --sim-idle-iterations N more while a pose is held, until converged (default 300); a solve that\n"
+    "                          has not converged when they are spent is reported and the session saved\n";
 const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm", "--sim-refine-steps", "--sim-coarse-element", "--sim-fine-mesh",
-                                                 "--sim-adapt-contrast", "--sim-cache"};
+                                                 "--sim-adapt-contrast", "--sim-cache", "--sim-iterations", "--sim-idle-iterations"};
 
 DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   DeformationOptions d;
@@ -84,6 +88,8 @@ DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   d.sim.element = coarseElementOption(args, "--sim-coarse-element");
   fineMeshOptions(args, "--sim-fine-mesh", "--sim-adapt-contrast", d.sim);
   d.refineSteps = int(args.integer("--sim-refine-steps", defaultRefineSteps, 0, 100));
+  d.coarseIterations = int(args.integer("--sim-iterations", d.coarseIterations, 1, 1000));
+  d.idleIterations = int(args.integer("--sim-idle-iterations", d.idleIterations, 0, 100000));
   const std::string cache = args.valueOr("--sim-cache", defaultSimulationCacheDir().string());
   d.cacheDir = cache == "off" ? "" : cache;
   return d;
@@ -266,6 +272,36 @@ int cmdStressGestures(const Words& words) {
   std::filesystem::remove_all(scratch, ec);
   if (rc == 0) std::cout << "every handle and the camera finite\n";
   return rc;
+}
+
+int cmdSoak(const Words& words) {
+  Args args(words, with({"--frames", "--size", "--fps", "--sample-every", "--tolerance", "--out", "--device", "--script-out"}, kSimOptions),
+            {"--no-validation", "--quiet"});
+  if (args.help() || !args.positional().empty()) {
+    usageStream(args) << "usage: handson soak [--frames N] [--size WxH] [--fps F] [--sample-every K] [--tolerance T] [--out DIR]\n"
+                         "                   [--sim on|off] [--no-validation] [--quiet] [--script-out FILE.json]\n"
+                         "  Replays a long session on the default phantom (app/soak.h): the kidney pinch-selected, then\n"
+                         "  dragged and back, undone and redone, tapped, the view orbited and zoomed and back, cycle after\n"
+                         "  cycle, for N frames (default 10000, 256x256, 20 fps of script time, simulation on, validation\n"
+                         "  on). Samples resident memory and the live Vulkan device memory every K frames (default 100) into\n"
+                         "  DIR/soak.csv and DIR/soak.png (default soak-out). Fails (exit 1) if either grows by more than\n"
+                         "  T (default 0.05) over its value after the warm-up (a tenth of the frames), or on a validation\n"
+                         "  message. --script-out writes the soak's gesture script (replayable with handson replay).\n";
+    return args.help() ? 0 : 2;
+  }
+  SoakOptions o;
+  o.frames = int(args.integer("--frames", 10000, 10, 10'000'000));
+  if (auto s = args.value("--size")) parseSize(*s, o.width, o.height);
+  o.fps = args.number("--fps", 20.0, 1.0, 1000.0);
+  o.sampleEvery = int(args.integer("--sample-every", 100, 1, 1'000'000));
+  o.tolerance = args.number("--tolerance", 0.05, 0.0, 10.0);
+  o.outDir = args.valueOr("--out", "soak-out");
+  o.device = args.valueOr("--device", "");
+  o.validation = !args.flag("--no-validation");
+  o.quiet = args.flag("--quiet");
+  o.sim = simOptions(args, 0);
+  if (auto out = args.value("--script-out")) writeSessionScript(soakScript(o.frames, o.fps), *out);
+  return runSoak(o);
 }
 
 int cmdDefault(const Words& words) {

@@ -94,6 +94,7 @@ void DeformationController::stopAll() {
   sentPoses_.clear();
   shownInput_ = lastSent_ = answeredInput_ = 0;
   shownConverged_ = shownSettled_ = answeredSettled_ = false;
+  unconverged_ = false;
   lastError_.clear();
 }
 
@@ -221,6 +222,7 @@ void DeformationController::pull() {
     answeredInput_ = s->input;
     answeredSettled_ = s->settled;
     if (!s->error.empty()) {  // refused input: the last good state stays
+      if (lastError_.empty()) ++failures_;  // a new episode of refused poses
       lastError_ = s->error;
       continue;
     }
@@ -254,6 +256,13 @@ void DeformationController::pull() {
     shownInput_ = s->input;
     shownConverged_ = s->stats.converged;
     shownSettled_ = s->settled;
+    shownStats_ = s->stats;
+    // States the worker stopped on without converging: a failure of the solve, counted once per
+    // episode (a drag gives one unconverged pose after another until a pose converges again).
+    if (s->settled && s->refineStep == 0) {
+      if (!s->stats.converged && !unconverged_) ++failures_;
+      unconverged_ = !s->stats.converged;
+    }
   }
 }
 
@@ -344,6 +353,19 @@ DeformationController::State DeformationController::state() const {
   return State::Off;
 }
 
+namespace {
+std::string formatMm(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", v);
+  return text;
+}
+}  // namespace
+
+std::uint64_t DeformationController::failures() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return failures_ + (error_.empty() ? 0 : 1);
+}
+
 std::string DeformationController::status() const {
   std::ostringstream s;
   switch (state()) {
@@ -362,7 +384,11 @@ std::string DeformationController::status() const {
       if (!model_) return "simulation: ready";
       s << "simulation: " << model_->scene.meshes.coarse.tets.size() << " coarse / " << model_->scene.meshes.fine.tets.size() << " fine tets"
         << (shownInput_ == 0 ? "" : shownRefineStep_ > 0 ? ", refined x" + std::to_string(shownRefineStep_)
-                                  : shownConverged_ ? ", settled" : shownSettled_ ? ", stopped before converging" : ", settling")
+                                  : shownConverged_ ? ", settled"
+                                  : shownSettled_ ? ", did not converge (" + std::to_string(shownStats_.iterations) +
+                                                        (shownStats_.iterations == 1 ? " iteration" : " iterations") + ", last update " +
+                                                        formatMm(shownStats_.lastUpdate) + " mm): showing the last state it reached"
+                                                  : ", settling")
         << (lastError_.empty() ? "" : "; last pose refused: " + lastError_) << (model_->cache.hit ? " (preprocessing from the cache)" : "")
         << (model_->cache.note.empty() ? "" : " [" + model_->cache.note + "]");
       return s.str();

@@ -68,6 +68,10 @@ class DeformationController {
   /// Input number of the newest state shown, and whether its coarse solve had converged.
   std::uint64_t shownInput() const { return shownInput_; }
   bool shownConverged() const { return shownConverged_; }
+  /// Failures so far, for a caller that saves the session when one happens: poses the solve
+  /// refused, solves that stopped without converging (each counted once per episode: until a pose
+  /// is solved again), a build that failed. status() describes the newest.
+  std::uint64_t failures() const;
   /// Blocks until the build ends (ready or failed), at most `seconds` (tests, headless runs).
   bool waitBuilt(double seconds);
   /// Blocks until the worker published its last state for the newest poses sent (converged, or its
@@ -120,6 +124,9 @@ class DeformationController {
   std::vector<RigidTransform> sentPoses_;
   std::uint64_t lastSent_ = 0, shownInput_ = 0;
   bool shownConverged_ = false, shownSettled_ = false;
+  CoarseSolveStats shownStats_;
+  std::uint64_t failures_ = 0;
+  bool unconverged_ = false;  // the last settled state shown stopped without converging
   std::uint64_t answeredInput_ = 0;  // newest input answered, with a state or an error
   bool answeredSettled_ = false;
   std::string lastError_;

@@ -27,6 +27,12 @@
 #include <system_error>
 #include <type_traits>
 
+#include <csignal>
+#include <cerrno>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "sim/binary_io.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -518,7 +524,7 @@ std::string subdirectoryHint(const DirectoryListing& listing) {
 
 }  // namespace
 
-Volume readDicomSeries(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress) {
+Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress) {
   DicomReadReport report;
   std::error_code ec;
   const fs::file_status st = fs::status(directory, ec);
@@ -910,6 +916,262 @@ Volume readDicomSeries(const std::string& directory, DicomReadReport* reportOut,
   }
 
   if (reportOut) *reportOut = std::move(report);
+  return volume;
+}
+
+// --- The child process -------------------------------------------------------------------------
+//
+// The child runs readDicomSeriesInProcess() and writes frames to a pipe: [kind u8][length u64][bytes].
+// Progress frames as it goes, then either one failure frame (the handson::Error message) or one
+// result frame (report and geometry) followed by the voxel bytes. The parent reads until the pipe
+// closes, then reaps the child: a child killed by a signal, or one that ended without a result,
+// is reported as DicomParserAborted.
+namespace {
+
+enum class FrameKind : std::uint8_t { Progress = 1, Failure = 2, Result = 3 };
+
+bool writeAll(int fd, const void* data, std::size_t size) {
+  const char* p = static_cast<const char*>(data);
+  while (size > 0) {
+    const ssize_t n = ::write(fd, p, size);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    p += n;
+    size -= std::size_t(n);
+  }
+  return true;
+}
+
+/// Reads exactly `size` bytes; false at end of file (or on an error) before that.
+bool readAll(int fd, void* data, std::size_t size) {
+  char* p = static_cast<char*>(data);
+  while (size > 0) {
+    const ssize_t n = ::read(fd, p, size);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    p += n;
+    size -= std::size_t(n);
+  }
+  return true;
+}
+
+bool writeFrame(int fd, FrameKind kind, const std::string& payload) {
+  const std::uint8_t k = std::uint8_t(kind);
+  const std::uint64_t n = payload.size();
+  return writeAll(fd, &k, 1) && writeAll(fd, &n, sizeof n) && writeAll(fd, payload.data(), payload.size());
+}
+
+void writeSeriesInfo(bin::Writer& w, const DicomSeriesInfo& s) {
+  w.string(s.seriesInstanceUid);
+  w.string(s.description);
+  w.pod(std::int32_t(s.fileCount));
+}
+
+DicomSeriesInfo readSeriesInfo(bin::Reader& r) {
+  DicomSeriesInfo s;
+  s.seriesInstanceUid = r.string();
+  s.description = r.string();
+  s.fileCount = r.pod<std::int32_t>();
+  return s;
+}
+
+std::string encodeResult(const DicomReadReport& report, const Volume& volume) {
+  std::ostringstream os(std::ios::binary);
+  bin::Writer w{os};
+  w.pod(std::uint64_t(report.seriesFound.size()));
+  for (const DicomSeriesInfo& s : report.seriesFound) writeSeriesInfo(w, s);
+  writeSeriesInfo(w, report.chosen);
+  w.pod(std::int32_t(report.slices));
+  w.pod(report.sliceStepMm);
+  w.pod(std::uint8_t(report.spacingGaps));
+  w.pod(report.minStepMm);
+  w.pod(report.maxStepMm);
+  w.string(report.transferSyntax);
+  w.pod(std::uint64_t(report.warnings.size()));
+  for (const std::string& s : report.warnings) w.string(s);
+  const VolumeGeometry& g = volume.geometry();
+  w.pod(g.dims);
+  w.pod(g.spacing);
+  w.pod(g.origin);
+  w.pod(g.direction);
+  w.pod(std::uint8_t(volume.type()));
+  return os.str();
+}
+
+struct DecodedResult {
+  DicomReadReport report;
+  VolumeGeometry geometry;
+  ScalarType type = ScalarType::Int16;
+};
+
+DecodedResult decodeResult(const std::string& payload) {
+  std::istringstream is(payload, std::ios::binary);
+  bin::Reader r{is, payload.size()};
+  DecodedResult out;
+  const auto series = r.pod<std::uint64_t>();
+  for (std::uint64_t k = 0; k < series; ++k) out.report.seriesFound.push_back(readSeriesInfo(r));
+  out.report.chosen = readSeriesInfo(r);
+  out.report.slices = r.pod<std::int32_t>();
+  out.report.sliceStepMm = r.pod<double>();
+  out.report.spacingGaps = r.pod<std::uint8_t>() != 0;
+  out.report.minStepMm = r.pod<double>();
+  out.report.maxStepMm = r.pod<double>();
+  out.report.transferSyntax = r.string();
+  const auto warnings = r.pod<std::uint64_t>();
+  for (std::uint64_t k = 0; k < warnings; ++k) out.report.warnings.push_back(r.string());
+  out.geometry.dims = r.pod<Eigen::Vector3i>();
+  out.geometry.spacing = r.pod<Eigen::Vector3d>();
+  out.geometry.origin = r.pod<Eigen::Vector3d>();
+  out.geometry.direction = r.pod<Eigen::Matrix3d>();
+  const auto type = r.pod<std::uint8_t>();
+  if (type > std::uint8_t(ScalarType::Float32)) throw Error("DICOM reader: corrupt result from its child process");
+  out.type = ScalarType(type);
+  return out;
+}
+
+[[noreturn]] void runChild(int fd, const std::string& directory) {
+  int code = 0;
+  try {
+    DicomReadReport report;
+    const Volume volume = readDicomSeriesInProcess(directory, &report, [fd](double fraction, const std::string& stage) {
+      std::ostringstream os(std::ios::binary);
+      bin::Writer w{os};
+      w.pod(fraction);
+      w.string(stage);
+      writeFrame(fd, FrameKind::Progress, os.str());
+    });
+    if (!writeFrame(fd, FrameKind::Result, encodeResult(report, volume)) ||
+        !writeAll(fd, volume.bytes(), volume.byteSize()))
+      code = 3;
+  } catch (const std::exception& e) {
+    const bool ours = dynamic_cast<const Error*>(&e) != nullptr;
+    writeFrame(fd, FrameKind::Failure, ours ? std::string(e.what()) : std::string("DICOM reader failed: ") + e.what());
+  } catch (...) {
+    writeFrame(fd, FrameKind::Failure, "DICOM reader failed with an unknown exception");
+  }
+  ::close(fd);
+  std::_Exit(code);  // no atexit handlers, no destructors of the parent's static objects
+}
+
+/// Kills and reaps the child unless it was reaped already (an exception from the progress
+/// callback, a corrupt frame).
+class ChildGuard {
+ public:
+  explicit ChildGuard(pid_t pid) : pid_(pid) {}
+  ~ChildGuard() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGKILL);
+      int status = 0;
+      while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+      }
+    }
+  }
+  ChildGuard(const ChildGuard&) = delete;
+  ChildGuard& operator=(const ChildGuard&) = delete;
+  int reap() {
+    int status = 0;
+    pid_t r;
+    while ((r = ::waitpid(pid_, &status, 0)) < 0 && errno == EINTR) {
+    }
+    pid_ = -1;
+    return r < 0 ? -1 : status;
+  }
+
+ private:
+  pid_t pid_;
+};
+
+class FdGuard {
+ public:
+  explicit FdGuard(int fd) : fd_(fd) {}
+  ~FdGuard() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  FdGuard(const FdGuard&) = delete;
+  FdGuard& operator=(const FdGuard&) = delete;
+  int get() const { return fd_; }
+
+ private:
+  int fd_;
+};
+
+std::string signalName(int sig) {
+  switch (sig) {
+    case SIGABRT: return "SIGABRT, an assertion or abort";
+    case SIGSEGV: return "SIGSEGV, an invalid memory access";
+    case SIGBUS: return "SIGBUS";
+    case SIGFPE: return "SIGFPE";
+    case SIGKILL: return "SIGKILL, killed from outside, possibly for lack of memory";
+    default: return "signal " + std::to_string(sig);
+  }
+}
+
+}  // namespace
+
+Volume readDicomSeries(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress) {
+  int fds[2];
+  if (::pipe(fds) != 0)
+    throw Error("cannot read DICOM series in '" + directory + "': no pipe for the reader process (" +
+                std::strerror(errno) + ")");
+  FdGuard readEnd(fds[0]);
+  std::fflush(nullptr);  // nothing buffered twice
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    const int err = errno;
+    ::close(fds[1]);
+    throw Error("cannot read DICOM series in '" + directory + "': cannot start the reader process (" +
+                std::strerror(err) + ")");
+  }
+  if (pid == 0) {
+    ::close(fds[0]);
+    runChild(fds[1], directory);
+  }
+  ::close(fds[1]);
+  ChildGuard child(pid);
+
+  std::optional<std::string> failure;
+  std::optional<DecodedResult> result;
+  Volume volume;
+  bool volumeComplete = false;
+  while (true) {
+    std::uint8_t kind = 0;
+    std::uint64_t length = 0;
+    if (!readAll(readEnd.get(), &kind, 1)) break;
+    if (!readAll(readEnd.get(), &length, sizeof length) || length > (std::uint64_t{1} << 24)) break;
+    std::string payload(length, '\0');
+    if (!readAll(readEnd.get(), payload.data(), payload.size())) break;
+    if (kind == std::uint8_t(FrameKind::Progress)) {
+      std::istringstream is(payload, std::ios::binary);
+      bin::Reader r{is, payload.size()};
+      const double fraction = r.pod<double>();
+      reportProgress(progress, fraction, r.string());
+    } else if (kind == std::uint8_t(FrameKind::Failure)) {
+      failure = payload;
+    } else if (kind == std::uint8_t(FrameKind::Result)) {
+      result = decodeResult(payload);
+      volume = Volume(result->geometry, result->type);  // checks the allocation first
+      volumeComplete = readAll(readEnd.get(), volume.bytes(), volume.byteSize());
+      break;
+    } else {
+      break;
+    }
+  }
+  const int status = child.reap();
+  if (status != -1 && WIFSIGNALED(status)) {
+    throw DicomParserAborted("cannot read DICOM series in '" + directory +
+                                 "': GDCM, the DICOM library, stopped on a malformed file (" +
+                                 signalName(WTERMSIG(status)) +
+                                 "); the series cannot be read: check its files with a DICOM validator or export "
+                                 "them again",
+                             WTERMSIG(status));
+  }
+  if (failure) throw Error(*failure);
+  if (!result || !volumeComplete || status == -1 || WEXITSTATUS(status) != 0)
+    throw DicomParserAborted("cannot read DICOM series in '" + directory +
+                                 "': the reader process ended without a result (exit status " +
+                                 std::to_string(status == -1 ? -1 : WEXITSTATUS(status)) + ")",
+                             0);
+  if (reportOut) *reportOut = std::move(result->report);
   return volume;
 }
 

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/error.h"
 #include "sim/progress.h"
 #include "sim/volume.h"
 
@@ -43,7 +44,26 @@ struct DicomReadReport {
 /// unreadable or truncated pixel data (naming the file), slices that do not share size, pixel
 /// spacing and orientation, or two different images at the same position. `report`, when given,
 /// receives what was found and any warnings. `progress` is called once per slice.
+///
+/// GDCM parses the files in a child process (fork): Debian's GDCM is built with assertions, and some
+/// malformed files make it abort. Such an abort, or any other death of the child, ends this call
+/// with DicomParserAborted and leaves the calling process (and the user's session) untouched.
+/// The volume comes back through a pipe: while it is handed over, it is in memory twice.
 Volume readDicomSeries(const std::string& directory, DicomReadReport* report = nullptr,
                        const ProgressFn& progress = {});
+
+/// GDCM stopped the child process reading a series (an assertion in the library, a signal).
+class DicomParserAborted : public Error {
+ public:
+  DicomParserAborted(const std::string& what, int signal) : Error(what), signal_(signal) {}
+  int signal() const { return signal_; }  ///< the signal that ended the child, 0 if it exited
+ private:
+  int signal_;
+};
+
+/// The same reader in this process, without the child: a malformed file may abort the process.
+/// For the fuzzer (which needs the coverage of the parsing) and for tests that compare the two.
+Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* report = nullptr,
+                                const ProgressFn& progress = {});
 
 }  // namespace handson

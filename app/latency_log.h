@@ -3,7 +3,9 @@
 // and end, each GPU pass's time, submit and present times, and input-to-present latency. Times are
 // seconds on one steady clock; durations in milliseconds. CSV with a header; summary() gives
 // median, p95 and p99.
+#include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <string>
 #include <vector>
 
@@ -26,10 +28,16 @@ struct FrameTiming {
 
 class LatencyLog {
  public:
-  void add(FrameTiming t) { frames_.push_back(std::move(t)); }
+  /// `keepLast` > 0 keeps only the newest frames (a long session without a timing log to write:
+  /// summary() then describes them, and memory stays bounded); 0 keeps every frame.
+  explicit LatencyLog(std::size_t keepLast = 0) : keepLast_(keepLast) {}
+  void add(FrameTiming t) {
+    frames_.push_back(std::move(t));
+    if (keepLast_ > 0 && frames_.size() > keepLast_) frames_.pop_front();
+  }
   /// GPU times arrive a frame or two later (non-blocking readback): attach them afterwards.
   void setGpuTimes(std::uint64_t frame, const std::vector<std::pair<std::string, double>>& passes);
-  const std::vector<FrameTiming>& frames() const { return frames_; }
+  const std::deque<FrameTiming>& frames() const { return frames_; }
 
   void writeCsv(const std::string& path) const;
   /// Median, p95, p99 of frame time and input-to-present latency, and the share of the frame spent
@@ -37,8 +45,12 @@ class LatencyLog {
   std::string summary() const;
 
  private:
-  std::vector<FrameTiming> frames_;
+  std::deque<FrameTiming> frames_;
+  std::size_t keepLast_ = 0;
 };
+
+/// Frames a session keeps for its summary when no timing log is written.
+constexpr std::size_t kSummaryFrames = 4096;
 
 /// Percentile (0..1) by nearest rank of a copy of v; 0 for an empty v.
 double percentile(std::vector<double> v, double p);

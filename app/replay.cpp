@@ -17,6 +17,7 @@
 #include "app/png_io.h"
 #include "app/session.h"
 #include "app/session_export.h"
+#include "app/session_recovery.h"
 #include "app/selection_controller.h"
 #include "app/volume_io.h"
 #include "sim/error.h"
@@ -103,75 +104,93 @@ int runReplay(const ReplayOptions& o) {
     if (ec || !std::filesystem::is_directory(o.framesOut)) throw Error("cannot create the frames directory '" + o.framesOut + "'");
   }
 
-  const int frames = int(std::floor(script.duration() * o.fps)) + 2;  // through the last event, plus one
+  if (o.frames < 0) throw Error("the number of frames must not be negative");
+  const int frames = o.frames > 0 ? o.frames : int(std::floor(script.duration() * o.fps)) + 2;  // through the last event, plus one
   std::size_t next = 0, refused = 0;
-  LatencyLog log;
-  const auto t0 = Clock::now();
-  for (int k = 0; k < frames; ++k) {
-    const double frameTime = k / o.fps;
-    FrameTiming ft;
-    ft.cpuStart = seconds(Clock::now(), t0);
-    while (next < script.events.size() && script.events[next].t <= frameTime) {
-      ScriptEvent e = script.events[next++];
-      e.touch.px *= touchScale;
-      const double now = seconds(Clock::now(), t0);
-      if (!session.apply(e)) {
-        ++refused;
-        if (!o.quiet)
-          std::cerr << "refused at t=" << e.t << " s: "
-                    << (e.isTouch ? "touch " + std::string(touchPhaseName(e.touch.phase)) + " id " + std::to_string(e.touch.id) : e.action + " " + e.value)
-                    << "\n";
+  LatencyLog log(o.timings.empty() ? kSummaryFrames : 0);  // bounded unless the whole log is to be written
+  // A failure under the session (a Vulkan allocation, a lost device, running out of memory) ends
+  // the replay with the session so far saved beside the exports.
+  auto rescue = [&] { return saveRecovery(session, selection.handles(), selection.picked(), volume.dims(), o.exportDir); };
+  std::uint64_t failuresSeen = 0;
+  try {
+    const auto t0 = Clock::now();
+    for (int k = 0; k < frames; ++k) {
+      const double frameTime = k / o.fps;
+      FrameTiming ft;
+      ft.cpuStart = seconds(Clock::now(), t0);
+      while (next < script.events.size() && script.events[next].t <= frameTime) {
+        ScriptEvent e = script.events[next++];
+        e.touch.px *= touchScale;
+        const double now = seconds(Clock::now(), t0);
+        if (!session.apply(e)) {
+          ++refused;
+          if (!o.quiet)
+            std::cerr << "refused at t=" << e.t << " s: "
+                      << (e.isTouch ? "touch " + std::string(touchPhaseName(e.touch.phase)) + " id " + std::to_string(e.touch.id) : e.action + " " + e.value)
+                      << "\n";
+        }
+        if (ft.inputFirst < 0) ft.inputFirst = now;
+        ft.inputLast = now;
+        ++ft.inputCount;
       }
-      if (ft.inputFirst < 0) ft.inputFirst = now;
-      ft.inputLast = now;
-      ++ft.inputCount;
+      if (session.takePresetChanged()) renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
+      RenderSettings rs;
+      rs.width = vp.width;
+      rs.height = vp.height;
+      const OrbitCamera& cam = session.camera();
+      FrameRequest req;
+      req.params = makeRenderParams(volume.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);
+      req.readbackImage = !o.framesOut.empty() || exporter.pending();
+      selection.setRigidPreview(!deform.prepareFrameSettled(req, selection.handles()));
+      if (const std::string st = deform.status(); !o.quiet && st != simStatus) {
+        simStatus = st;
+        if (!st.empty()) std::cerr << st << "\n";
+      }
+      if (const std::uint64_t failures = deform.failures(); failures != failuresSeen) {
+        // The simulation refused a pose, stopped without converging or failed to build: the
+        // session goes on (the last good state shows), and what was done so far is saved.
+        failuresSeen = failures;
+        std::cerr << "warning: " << deform.status() << "\n  " << rescue() << "\n";
+      }
+      selection.prepareFrame(req, vp);
+      auto cpuStages = selection.takeStageTimes();
+      for (auto& stage : deform.takeStageTimes()) cpuStages.push_back(std::move(stage));
+      ft.cpuEnd = seconds(Clock::now(), t0);
+      selection.submitted(renderer.submit(req));
+      ft.submit = seconds(Clock::now(), t0);
+      const auto w0 = Clock::now();
+      const FrameResult r = renderer.waitLast();
+      for (const auto& older : renderer.takeCompleted()) selection.onFrameResult(older);
+      selection.onFrameResult(r);
+      if (exporter.pending()) std::cout << exporter.write(session, selection.handles(), selection.picked(), deform, r) << "\n";
+      ft.present = seconds(Clock::now(), t0);
+      ft.waitMs = seconds(Clock::now(), w0) * 1e3;
+      ft.frame = r.frame;
+      for (const auto& p : r.timings) ft.gpuMs.emplace_back(p.name, p.gpuMs);
+      ft.cpuMs = std::move(cpuStages);
+      if (!o.framesOut.empty()) {
+        char name[32];
+        std::snprintf(name, sizeof(name), "frame_%05d.png", k);
+        writePng((std::filesystem::path(o.framesOut) / name).string(), r.width, r.height, r.rgba);
+      }
+      log.add(ft);
+      if (o.afterFrame) o.afterFrame(k, frames, ctx.validationMessageCount());
+      reportProgress(progress, double(k + 1) / frames, "replaying");
     }
-    if (session.takePresetChanged()) renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
-    RenderSettings rs;
-    rs.width = vp.width;
-    rs.height = vp.height;
-    const OrbitCamera& cam = session.camera();
-    FrameRequest req;
-    req.params = makeRenderParams(volume.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);
-    req.readbackImage = !o.framesOut.empty() || exporter.pending();
-    selection.setRigidPreview(!deform.prepareFrameSettled(req, selection.handles()));
-    if (const std::string st = deform.status(); !o.quiet && st != simStatus) {
-      simStatus = st;
-      if (!st.empty()) std::cerr << st << "\n";
+    if (!o.timings.empty()) log.writeCsv(o.timings);
+    if (!o.exportPath.empty()) {  // every frame was waited for above
+      Volume deformed;
+      if (!deform.exportDeformed(deformed)) {
+        std::cerr << "note: no simulated deformation to export (no moved active handle, or --sim off): writing the input unchanged\n";
+        deformed = volume;
+      }
+      writeNifti(deformed, o.exportPath);
+      std::cout << "wrote " << o.exportPath << "\n";
     }
-    selection.prepareFrame(req, vp);
-    auto cpuStages = selection.takeStageTimes();
-    for (auto& stage : deform.takeStageTimes()) cpuStages.push_back(std::move(stage));
-    ft.cpuEnd = seconds(Clock::now(), t0);
-    selection.submitted(renderer.submit(req));
-    ft.submit = seconds(Clock::now(), t0);
-    const auto w0 = Clock::now();
-    const FrameResult r = renderer.waitLast();
-    for (const auto& older : renderer.takeCompleted()) selection.onFrameResult(older);
-    selection.onFrameResult(r);
-    if (exporter.pending()) std::cout << exporter.write(session, deform, r) << "\n";
-    ft.present = seconds(Clock::now(), t0);
-    ft.waitMs = seconds(Clock::now(), w0) * 1e3;
-    ft.frame = r.frame;
-    for (const auto& p : r.timings) ft.gpuMs.emplace_back(p.name, p.gpuMs);
-    ft.cpuMs = std::move(cpuStages);
-    if (!o.framesOut.empty()) {
-      char name[32];
-      std::snprintf(name, sizeof(name), "frame_%05d.png", k);
-      writePng((std::filesystem::path(o.framesOut) / name).string(), r.width, r.height, r.rgba);
-    }
-    log.add(ft);
-    reportProgress(progress, double(k + 1) / frames, "replaying");
-  }
-  if (!o.timings.empty()) log.writeCsv(o.timings);
-  if (!o.exportPath.empty()) {  // every frame was waited for above
-    Volume deformed;
-    if (!deform.exportDeformed(deformed)) {
-      std::cerr << "note: no simulated deformation to export (no moved active handle, or --sim off): writing the input unchanged\n";
-      deformed = volume;
-    }
-    writeNifti(deformed, o.exportPath);
-    std::cout << "wrote " << o.exportPath << "\n";
+  } catch (const std::bad_alloc&) {
+    throw Error("out of memory during the replay; " + rescue());
+  } catch (const std::exception& e) {
+    throw Error(std::string(e.what()) + "; " + rescue());
   }
   if (!o.quiet) {
     std::cerr << "replayed " << script.events.size() << " events";

@@ -3,6 +3,7 @@
 // the same session logic and frame graph as the app, frames rendered at a fixed rate of script
 // time, written as numbered PNGs with a timing log. The same script on the same driver gives
 // bit-identical frames.
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -28,6 +29,9 @@ struct ReplayOptions {
   std::string exportPath;  ///< the deformed volume at the end (.nii.gz, the input's grid)
   std::string exportDir = "handson-export";  ///< where the script's "export" actions write
   DeformationOptions sim;  ///< the simulation of moved handles (each frame waits for it to settle: deterministic)
+  int frames = 0;          ///< frames to render; 0: through the script's last event, plus one
+  /// Called after each frame (index, frame count, validation messages so far): soaks sample here.
+  std::function<void(int frame, int frames, std::uint64_t validationMessages)> afterFrame;
 };
 
 /// The built-in demo script (assets/gestures/orbit-and-zoom.json, embedded at build time).

@@ -77,8 +77,13 @@ void SelectionController::manipulate(const TouchEvent& e, const TouchInput& inpu
     grabRequest_.clear();
     for (const auto& f : input.fingers()) grabRequest_.push_back({f.id, f.px});
     grabPending_ = !grabRequest_.empty();
-    grabUndoable_ = e.phase == TouchPhase::Down && input.fingers().size() == 1;  // a new gesture
-    if (input.fingers().empty()) manipulated_ = 0;
+    // A new gesture: its first grab of a handle is one undo step, even when more fingers come
+    // down before that grab is answered (fingers landing in the same frame).
+    if (e.phase == TouchPhase::Down && input.fingers().size() == 1) grabUndoable_ = true;
+    if (input.fingers().empty()) {
+      manipulated_ = 0;
+      grabUndoable_ = false;
+    }
     return;
   }
   if (!manipulator_.active() || !manipulated_) return;
@@ -245,6 +250,7 @@ void SelectionController::onFrameResult(const FrameResult& r) {
       manipulated_ = target;
       const Handle* h = handles_.find(target);
       if (grabUndoable_) handles_.setPose(target, h->pose, true);  // one undo step per gesture
+      grabUndoable_ = false;
       manipulator_.anchor(anchors, handles_.find(target)->pose);
       manipulationNote_.clear();
     } else if (!target) {

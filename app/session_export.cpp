@@ -6,6 +6,7 @@
 
 #include "app/nifti_io.h"
 #include "app/png_io.h"
+#include "app/session_recovery.h"
 #include "app/session_script.h"
 
 namespace handson {
@@ -16,7 +17,8 @@ bool SessionExport::onUi(const ScriptEvent& e) {
   return true;
 }
 
-std::string SessionExport::write(const Session& session, const DeformationController& deform, const FrameResult& frame) {
+std::string SessionExport::write(const Session& session, const HandleSet& handles, const std::vector<int>& picked,
+                                 const DeformationController& deform, const FrameResult& frame) {
   pending_ = false;
   if (count_ == 0) {
     // Continue after the exports already in the directory (an earlier session's, or the one this
@@ -26,7 +28,8 @@ std::string SessionExport::write(const Session& session, const DeformationContro
       const std::string n = e.path().filename().string();
       int k = 0;
       if (std::sscanf(n.c_str(), "session-%d.json", &k) == 1 || std::sscanf(n.c_str(), "deformed-%d.nii.gz", &k) == 1 ||
-          std::sscanf(n.c_str(), "screenshot-%d.png", &k) == 1 || std::sscanf(n.c_str(), "mesh-%d.vtu", &k) == 1)
+          std::sscanf(n.c_str(), "screenshot-%d.png", &k) == 1 || std::sscanf(n.c_str(), "mesh-%d.vtu", &k) == 1 ||
+          std::sscanf(n.c_str(), "handles-%d.json", &k) == 1)
         next_ = std::max(next_, k);
     }
   }
@@ -40,6 +43,7 @@ std::string SessionExport::write(const Session& session, const DeformationContro
     std::filesystem::create_directories(dir_, ec);
     if (!std::filesystem::is_directory(dir_)) return "export failed: cannot create the directory '" + dir_.string() + "'";
     writeSessionScript(session.script(), path("session", ".json"));
+    writeHandles(handles, picked, input_.dims(), path("handles", ".json"));
     Volume shown;
     const bool simulated = deform.exportDeformed(shown);
     writeNifti(simulated ? shown : input_, path("deformed", ".nii.gz"));
@@ -47,7 +51,8 @@ std::string SessionExport::write(const Session& session, const DeformationContro
     const bool image = !frame.rgba.empty();
     if (image) writePng(path("screenshot", ".png"), frame.width, frame.height, frame.rgba);
     ++count_;
-    summary << "exported to " << dir_.string() << ": session-" << tag << ".json (" << session.script().events.size() << " events), deformed-" << tag
+    summary << "exported to " << dir_.string() << ": session-" << tag << ".json (" << session.script().events.size() << " events), handles-" << tag << ".json ("
+            << handles.handles().size() << "), deformed-" << tag
             << ".nii.gz" << (simulated ? "" : " (nothing simulated: the input)") << (mesh ? std::string(", mesh-") + tag + ".vtu" : "")
             << (image ? std::string(", screenshot-") + tag + ".png" : "");
   } catch (const std::exception& e) {

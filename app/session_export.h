@@ -2,6 +2,7 @@
 // The "export" UI action ({"ui": "export"} in a session script; the Export button in the app):
 // everything a user would keep from a session, into a directory, numbered per export:
 //   session-NN.json     the session so far as a replayable script (every applied event)
+//   handles-NN.json     the handles: voxels, status and pose of each (app/session_recovery.h)
 //   deformed-NN.nii.gz  the volume as shown (the simulated deformation on the input's grid and
 //                       value type; the input unchanged when nothing is simulated)
 //   mesh-NN.vtu         the simulated fine mesh with its displacements (only when simulated)
@@ -11,9 +12,11 @@
 // reported without ending the session.
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "app/deformation_controller.h"
 #include "app/session.h"
+#include "interaction/handles.h"
 #include "render/volume_renderer.h"
 #include "sim/volume.h"
 
@@ -29,7 +32,8 @@ class SessionExport {
   bool pending() const { return pending_; }
   /// Writes the pending export from a finished frame that carries its image (request readback for
   /// it); returns a one-line summary (or the failure). Clears the pending flag either way.
-  std::string write(const Session& session, const DeformationController& deform, const FrameResult& frame);
+  std::string write(const Session& session, const HandleSet& handles, const std::vector<int>& picked,
+                    const DeformationController& deform, const FrameResult& frame);
   int count() const { return count_; }
   const std::filesystem::path& dir() const { return dir_; }
 

@@ -20,6 +20,7 @@
 #include "app/selection_controller.h"
 #include "app/session.h"
 #include "app/session_export.h"
+#include "app/session_recovery.h"
 #include "app/ui.h"
 #include "app/volume_io.h"
 #include "render/compute_passes.h"
@@ -171,6 +172,8 @@ struct Viewer::Impl {
   LatencyLog log;
   Clock::time_point t0 = Clock::now();
   std::uint64_t frameNo = 0;
+  std::uint64_t failuresSeen = 0;  // the simulation's failures already saved for
+  std::string rescueNote;          // where the session was saved after the last one
   bool running = true, resized = false, minimized = false;
   std::unique_ptr<vk::Buffer> shot;
   UiStatus status;
@@ -184,11 +187,25 @@ struct Viewer::Impl {
   explicit Impl(const ViewerOptions& opts);
   bool step();
   int finish();
+  std::string rescue() const {
+    if (!session || !selection) return "nothing to save yet";
+    return saveRecovery(*session, selection->handles(), selection->picked(), volume.dims(), o.exportDir);
+  }
 };
 
 Viewer::Viewer(const ViewerOptions& o) : impl_(std::make_unique<Impl>(o)) {}
 Viewer::~Viewer() = default;
-bool Viewer::step() { return impl_->step(); }
+bool Viewer::step() {
+  // A failure under the session (a Vulkan allocation, a lost device, running out of memory) ends
+  // it with what the user did so far saved beside the exports.
+  try {
+    return impl_->step();
+  } catch (const std::bad_alloc&) {
+    throw Error("out of memory; " + impl_->rescue());
+  } catch (const std::exception& e) {
+    throw Error(std::string(e.what()) + "; " + impl_->rescue());
+  }
+}
 int Viewer::finish() { return impl_->finish(); }
 Session& Viewer::session() { return *impl_->session; }
 std::uint64_t Viewer::frames() const { return impl_->frameNo; }
@@ -201,7 +218,7 @@ int runViewer(const ViewerOptions& o) {
   return v.finish();
 }
 
-Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts) {
+Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty() ? kSummaryFrames : 0) {
   window.w = SDL_CreateWindow("Handson", SDL_WINDOWPOS_CENTERED, SDL_WINDOWPOS_CENTERED, o.width, o.height,
                               SDL_WINDOW_VULKAN | SDL_WINDOW_RESIZABLE | SDL_WINDOW_ALLOW_HIGHDPI);
   if (!window.w) throw Error(std::string("cannot create a window: ") + SDL_GetError());
@@ -378,6 +395,14 @@ bool Viewer::Impl::step() {
     status.canRedo = selection->handles().canRedo();
     status.feedback = !selection->pinch().feedback().empty() ? selection->pinch().feedback() : selection->manipulationNote();
     status.simulation = deform->status();
+    if (const std::uint64_t failures = deform->failures(); failures != failuresSeen) {
+      // The simulation refused a pose, stopped without converging or failed to build: the session
+      // goes on (the last good state shows), and what was done so far is saved.
+      failuresSeen = failures;
+      rescueNote = rescue();
+      if (!o.quiet) std::cerr << "warning: " << deform->status() << "\n  " << rescueNote << "\n";
+    }
+    if (!rescueNote.empty()) status.simulation += "; " + rescueNote;
     status.liveVoxels = selection->liveVoxelCount();
     ui->build(status, seconds(Clock::now(), t0), actions);
     for (const auto& a : actions) session->apply(a);
@@ -418,7 +443,7 @@ bool Viewer::Impl::step() {
       selection->onFrameResult(r);
       if (exportFrame != 0 && r.frame == exportFrame) {
         renderer->waitLast();  // the frames after it are done too: the volume and mesh are read at rest
-        status.exported = exporter->write(*session, *deform, r);
+        status.exported = exporter->write(*session, selection->handles(), selection->picked(), *deform, r);
         if (!o.quiet) std::cerr << status.exported << "\n";
         exportFrame = 0;
       }
@@ -452,7 +477,7 @@ int Viewer::Impl::finish() {
     done.push_back(last);
     for (const auto& r : done)
       if (r.frame == exportFrame) {
-        std::cerr << exporter->write(*session, *deform, r) << "\n";
+        std::cerr << exporter->write(*session, selection->handles(), selection->picked(), *deform, r) << "\n";
         exportFrame = 0;
       }
   }

@@ -18,7 +18,10 @@ namespace handson::vk {
 namespace {
 
 VkDescriptorSetLayoutBinding binding(std::uint32_t b, VkDescriptorType type) { return {b, type, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}; }
-constexpr VkDescriptorType kUbo = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+// The parameters are a read-only storage buffer, not a uniform buffer: lavapipe (Mesa 22.3) inlines
+// uniform-buffer values that steer loops into the shader and compiles a new variant every time the
+// buffer is bound — every frame — keeping each one until the device is destroyed.
+constexpr VkDescriptorType kParams = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
 constexpr VkDescriptorType kSsbo = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
 constexpr VkDescriptorType kSampled = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
 constexpr VkDescriptorType kStorageImage = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
@@ -149,14 +152,14 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   }
 
   interpolate_ = ComputePipeline(ctx, shaders::deformInterpolate(),
-                                 bindings({kUbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo}), 4);
-  bounds_ = ComputePipeline(ctx, shaders::deformBounds(), bindings({kUbo, kSsbo, kSsbo, kSsbo, kSsbo}), 0);
-  args_ = ComputePipeline(ctx, shaders::deformArgs(), bindings({kUbo, kSsbo, kSsbo}), 4);
-  clear_ = ComputePipeline(ctx, shaders::deformClear(), bindings({kUbo, kSsbo, kSampled, kSampled, kStorageImage, kStorageImage, kSsbo}), 0);
-  claim_ = ComputePipeline(ctx, shaders::deformClaim(), bindings({kUbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo}), 0);
-  resolve_ = ComputePipeline(ctx, shaders::deformResolve(), bindings({kUbo, kSsbo, kSsbo, kSsbo, kSampled, kSampled, kStorageImage, kStorageImage}), 0);
+                                 bindings({kParams, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo}), 4);
+  bounds_ = ComputePipeline(ctx, shaders::deformBounds(), bindings({kParams, kSsbo, kSsbo, kSsbo, kSsbo}), 0);
+  args_ = ComputePipeline(ctx, shaders::deformArgs(), bindings({kParams, kSsbo, kSsbo}), 4);
+  clear_ = ComputePipeline(ctx, shaders::deformClear(), bindings({kParams, kSsbo, kSampled, kSampled, kStorageImage, kStorageImage, kSsbo}), 0);
+  claim_ = ComputePipeline(ctx, shaders::deformClaim(), bindings({kParams, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo}), 0);
+  resolve_ = ComputePipeline(ctx, shaders::deformResolve(), bindings({kParams, kSsbo, kSsbo, kSsbo, kSampled, kSampled, kStorageImage, kStorageImage}), 0);
 
-  params_ = Buffer(ctx, sizeof(gpu::DeformParams), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::Device);
+  params_ = Buffer(ctx, sizeof(gpu::DeformParams), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::Device);
   uploadToBuffer(ctx, params_, &p_, sizeof(p_));
   nodeInfo_ = uploaded(ctx, d.node);
   rest_ = uploaded(ctx, d.rest);
@@ -212,7 +215,7 @@ void GpuDeformer::importResources(fg::FrameGraph& g, std::uint32_t slot, bool wi
   h.slot = slot;
   h.withState = withState;
   auto buf = [&](const char* name, const Buffer& b, Access a) { return g.importBuffer(name, {b.size()}, a); };
-  h.params = buf("deform-params", params_, Access::UniformRead);
+  h.params = buf("deform-params", params_, Access::StorageRead);
   h.nodeInfo = buf("fine-node-records", nodeInfo_, Access::StorageRead);
   h.rest = buf("fine-rest", rest_, Access::StorageRead);
   h.blocks = buf("fine-blocks", blocks_, Access::StorageRead);
@@ -271,7 +274,7 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slo
   g.addPass(
       "deform-interpolate",
       [&](fg::PassBuilder& b) {
-        b.read(hb.params, Access::UniformRead);
+        b.read(hb.params, Access::StorageRead);
         for (auto r : {hb.nodeInfo, hb.rest, hb.blocks, hb.elementCorners, hb.coarseRest, hb.positions, hb.rotations, hb.handles})
           b.read(r, Access::StorageRead);
         b.write(hb.posNew, Access::StorageReadWrite);
@@ -281,7 +284,7 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slo
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, interpolate_.pipeline());
         DescriptorWriter w;
-        w.buffer(0, kUbo, x.buffer(hb.params).handle());
+        w.buffer(0, kParams, x.buffer(hb.params).handle());
         std::uint32_t i = 1;
         for (auto r : {hb.nodeInfo, hb.rest, hb.blocks, hb.elementCorners, hb.coarseRest, hb.positions, hb.rotations, hb.handles, hb.posNew, hb.posOld})
           w.buffer(i++, kSsbo, x.buffer(r).handle());
@@ -318,7 +321,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
     g.addPass(
         "deform-bounds",
         [&](fg::PassBuilder& b) {
-          b.read(hb.params, Access::UniformRead);
+          b.read(hb.params, Access::StorageRead);
           b.read(hb.tets, Access::StorageRead);
           b.read(hb.posNew, Access::StorageRead);
           b.read(hb.posOld, Access::StorageRead);
@@ -328,7 +331,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
           GraphExecutor& x = vulkanExecutor(e);
           vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, bounds_.pipeline());
           DescriptorWriter()
-              .buffer(0, kUbo, x.buffer(hb.params).handle())
+              .buffer(0, kParams, x.buffer(hb.params).handle())
               .buffer(1, kSsbo, x.buffer(hb.tets).handle())
               .buffer(2, kSsbo, x.buffer(hb.posNew).handle())
               .buffer(3, kSsbo, x.buffer(hb.posOld).handle())
@@ -339,7 +342,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
   g.addPass(
       "deform-args",
       [&](fg::PassBuilder& b) {
-        b.read(hb.params, Access::UniformRead);
+        b.read(hb.params, Access::StorageRead);
         b.write(hb.box, Access::StorageReadWrite);
         b.write(hb.args, Access::StorageWrite);
       },
@@ -347,7 +350,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, args_.pipeline());
         DescriptorWriter()
-            .buffer(0, kUbo, x.buffer(hb.params).handle())
+            .buffer(0, kParams, x.buffer(hb.params).handle())
             .buffer(1, kSsbo, x.buffer(hb.box).handle())
             .buffer(2, kSsbo, x.buffer(hb.args).handle())
             .push(ctx_, x.cmd(), args_);
@@ -357,7 +360,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
   g.addPass(
       "deform-clear",
       [&](fg::PassBuilder& b) {
-        b.read(hb.params, Access::UniformRead);
+        b.read(hb.params, Access::StorageRead);
         b.read(hb.args, Access::IndirectRead);
         b.read(hb.box, Access::StorageRead);
         b.read(hb.source, Access::Sampled);
@@ -370,7 +373,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, clear_.pipeline());
         DescriptorWriter()
-            .buffer(0, kUbo, x.buffer(hb.params).handle())
+            .buffer(0, kParams, x.buffer(hb.params).handle())
             .buffer(1, kSsbo, x.buffer(hb.box).handle())
             .sampledImage(2, x.image(hb.source).view(), nearest_.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
             .sampledImage(3, x.image(hb.sourceMask).view(), nearest_.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
@@ -383,7 +386,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
   g.addPass(
       "deform-claim",
       [&](fg::PassBuilder& b) {
-        b.read(hb.params, Access::UniformRead);
+        b.read(hb.params, Access::StorageRead);
         b.read(hb.tets, Access::StorageRead);
         b.read(hb.posNew, Access::StorageRead);
         b.read(hb.box, Access::StorageRead);
@@ -395,7 +398,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, claim_.pipeline());
         DescriptorWriter()
-            .buffer(0, kUbo, x.buffer(hb.params).handle())
+            .buffer(0, kParams, x.buffer(hb.params).handle())
             .buffer(1, kSsbo, x.buffer(hb.tets).handle())
             .buffer(2, kSsbo, x.buffer(hb.posNew).handle())
             .buffer(3, kSsbo, x.buffer(hb.box).handle())
@@ -408,7 +411,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
   g.addPass(
       "deform-resolve",
       [&](fg::PassBuilder& b) {
-        b.read(hb.params, Access::UniformRead);
+        b.read(hb.params, Access::StorageRead);
         b.read(hb.args, Access::IndirectRead);
         b.read(hb.affine, Access::StorageRead);
         b.read(hb.owner, Access::StorageRead);
@@ -422,7 +425,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, resolve_.pipeline());
         DescriptorWriter()
-            .buffer(0, kUbo, x.buffer(hb.params).handle())
+            .buffer(0, kParams, x.buffer(hb.params).handle())
             .buffer(1, kSsbo, x.buffer(hb.affine).handle())
             .buffer(2, kSsbo, x.buffer(hb.box).handle())
             .buffer(3, kSsbo, x.buffer(hb.owner).handle())

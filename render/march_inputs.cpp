@@ -17,7 +17,7 @@ GraphExecutor& vulkanExecutor(fg::Executor& e) {
 namespace {
 std::vector<VkDescriptorSetLayoutBinding> marchBindings(VkDescriptorType outputType, bool pickInput) {
   std::vector<VkDescriptorSetLayoutBinding> b = {
-      {gpu::kBindParams, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {gpu::kBindParams, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
       {gpu::kBindVolume, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
       {gpu::kBindTf, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
       {gpu::kBindOccupancy, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
@@ -35,7 +35,7 @@ std::vector<VkDescriptorSetLayoutBinding> marchBindingsFor(bool pick) {
 }
 
 void declareMarchInputs(fg::PassBuilder& b, const MarchInputs& in) {
-  b.read(in.params, fg::Access::UniformRead);
+  b.read(in.params, fg::Access::StorageRead);
   b.read(in.volume, fg::Access::Sampled);
   b.read(in.tf, fg::Access::StorageRead);
   b.read(in.occupancy, fg::Access::StorageRead);
@@ -45,7 +45,7 @@ void declareMarchInputs(fg::PassBuilder& b, const MarchInputs& in) {
 
 DescriptorWriter marchDescriptors(GraphExecutor& x, const MarchInputs& in, const Sampler& sampler) {
   DescriptorWriter w;
-  w.buffer(gpu::kBindParams, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, x.buffer(in.params).handle())
+  w.buffer(gpu::kBindParams, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.params).handle())
       .sampledImage(gpu::kBindVolume, x.image(in.volume).view(), sampler.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
       .buffer(gpu::kBindTf, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.tf).handle())
       .buffer(gpu::kBindOccupancy, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.occupancy).handle())

@@ -148,6 +148,8 @@ Context::Context(const ContextOptions& options) {
     std::cerr << "warning: VK_LAYER_KHRONOS_validation not found; running without validation\n";
   }
 
+  parseFaults(options.faults);
+
   VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
   app.pApplicationName = "handson";
   app.applicationVersion = VK_MAKE_VERSION(0, 1, 0);
@@ -381,7 +383,7 @@ void Context::submitAndWait(const std::function<void(VkCommandBuffer)>& record) 
     VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
     si.commandBufferCount = 1;
     si.pCommandBuffers = &cmd;
-    check(vkQueueSubmit(queue_, 1, &si, fence), "vkQueueSubmit");
+    check(injectedFault(FaultSite::Submit) ? VK_ERROR_DEVICE_LOST : vkQueueSubmit(queue_, 1, &si, fence), "vkQueueSubmit");
     check(vkWaitForFences(device_, 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
   } catch (...) {
     vkQueueWaitIdle(queue_);
@@ -389,6 +391,55 @@ void Context::submitAndWait(const std::function<void(VkCommandBuffer)>& record) 
     throw;
   }
   cleanup();
+}
+
+VkDeviceSize Context::deviceLocalHeapBytes() const {
+  VkDeviceSize best = 0;
+  for (std::uint32_t h = 0; h < memProps_.memoryHeapCount; ++h)
+    if (memProps_.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) best = std::max(best, memProps_.memoryHeaps[h].size);
+  // A user's cap (a GPU shared with other work).
+  if (const char* env = std::getenv("HANDSON_GPU_MEMORY_LIMIT_MB"); env && *env) {
+    char* end = nullptr;
+    const double mb = std::strtod(env, &end);
+    if (end && *end == '\0' && mb > 0 && mb * double(1u << 20) < double(best)) best = VkDeviceSize(mb * double(1u << 20));
+  }
+  return best;
+}
+
+void Context::parseFaults(const std::string& given) {
+  std::string spec = given;
+  if (spec.empty())
+    if (const char* env = std::getenv("HANDSON_FAULT")) spec = env;
+  std::stringstream list(spec);
+  std::string item;
+  while (std::getline(list, item, ',')) {
+    if (item.empty()) continue;
+    const auto colon = item.find(':');
+    const std::string site = item.substr(0, colon);
+    long long n = 0;
+    std::size_t used = 0;
+    try {
+      n = colon == std::string::npos ? 0 : std::stoll(item.substr(colon + 1), &used);
+    } catch (const std::exception&) {
+      n = 0;
+    }
+    if (colon == std::string::npos || n < 1 || used != item.size() - colon - 1 || (site != "alloc" && site != "device-lost"))
+      throw Error("HANDSON_FAULT: '" + item + "' is not alloc:N or device-lost:N (N >= 1)");
+    Fault& f = faults_[site == "alloc" ? int(FaultSite::AllocateMemory) : int(FaultSite::Submit)];
+    f.at = std::uint64_t(n);
+    f.sticky = site == "device-lost";
+  }
+}
+
+bool Context::injectedFault(FaultSite site) const {
+  const Fault& f = faults_[int(site)];
+  if (f.at == 0) return false;
+  const std::uint64_t call = ++f.calls;
+  const bool fail = f.sticky ? call >= f.at : call == f.at;
+  if (fail && call == f.at)
+    std::cerr << "note: injected fault: " << (site == FaultSite::AllocateMemory ? "vkAllocateMemory" : "queue submission") << " #" << call
+              << " fails (HANDSON_FAULT)\n";
+  return fail;
 }
 
 }  // namespace handson::vk

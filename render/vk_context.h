@@ -33,6 +33,11 @@ struct ContextOptions {
   std::vector<std::string> instanceExtensions;
   /// Device extensions the caller needs (e.g. VK_KHR_swapchain).
   std::vector<std::string> deviceExtensions;
+  /// Fault injection, to test how the app fails (empty: the HANDSON_FAULT environment variable).
+  /// A comma-separated list of "alloc:N" (the N-th vkAllocateMemory fails with
+  /// VK_ERROR_OUT_OF_DEVICE_MEMORY) and "device-lost:N" (the N-th queue submission and every one
+  /// after it fail with VK_ERROR_DEVICE_LOST, as a lost device stays lost); N counts from 1.
+  std::string faults;
   /// Window path: creates the presentation surface once the instance exists. The chosen queue
   /// family must then be able to present to it. The context owns and destroys the surface.
   std::function<VkSurfaceKHR(VkInstance)> makeSurface;
@@ -45,6 +50,9 @@ struct DeviceSummary {
 };
 
 const char* deviceTypeName(VkPhysicalDeviceType t);
+
+/// Where an injected fault (ContextOptions::faults) can strike.
+enum class FaultSite { AllocateMemory, Submit };
 
 class Context {
  public:
@@ -73,10 +81,17 @@ class Context {
   void resetValidationMessages();
 
   std::uint32_t findMemoryType(std::uint32_t typeBits, VkMemoryPropertyFlags want) const;
+  /// Size of the largest device-local memory heap (the most one resource set can hope for), or
+  /// the HANDSON_GPU_MEMORY_LIMIT_MB environment variable when smaller (a GPU shared with other work).
+  VkDeviceSize deviceLocalHeapBytes() const;
   /// Records with `record` into a fresh command buffer, submits, waits. For uploads and tools.
   void submitAndWait(const std::function<void(VkCommandBuffer)>& record) const;
 
   PFN_vkCmdPushDescriptorSetKHR cmdPushDescriptorSet = nullptr;
+
+  /// Counts one call at `site` and says whether it must fail (ContextOptions::faults). Callers
+  /// then return the site's error code instead of calling Vulkan.
+  bool injectedFault(FaultSite site) const;
 
   /// All devices visible to the loader (for `handson devices` and error messages).
   static std::vector<DeviceSummary> listDevices();
@@ -86,6 +101,7 @@ class Context {
                                                       VkDebugUtilsMessageTypeFlagsEXT types,
                                                       const VkDebugUtilsMessengerCallbackDataEXT* data, void* user);
   void pickDevice(const ContextOptions& options);
+  void parseFaults(const std::string& spec);
   void release();
 
   VkInstance instance_ = VK_NULL_HANDLE;
@@ -106,6 +122,12 @@ class Context {
   mutable std::mutex messageMutex_;
   std::vector<std::string> messages_;
   mutable std::mutex submitMutex_;
+  struct Fault {
+    std::uint64_t at = 0;  ///< 0: none
+    bool sticky = false;   ///< every call from `at` on fails
+    mutable std::atomic<std::uint64_t> calls{0};
+  };
+  Fault faults_[2];
 };
 
 }  // namespace handson::vk

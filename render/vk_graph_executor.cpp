@@ -268,7 +268,8 @@ void GraphExecutor::submit(VkSemaphore wait, VkPipelineStageFlags2 waitStage, Vk
   sub.pWaitSemaphoreInfos = &wi;
   sub.signalSemaphoreInfoCount = signal ? 1 : 0;
   sub.pSignalSemaphoreInfos = &si;
-  check(vkQueueSubmit2(ctx_.queue(), 1, &sub, s.fence), "vkQueueSubmit2");
+  check(ctx_.injectedFault(FaultSite::Submit) ? VK_ERROR_DEVICE_LOST : vkQueueSubmit2(ctx_.queue(), 1, &sub, s.fence),
+        "vkQueueSubmit2");
   s.pending = true;
   lastSubmitted_ = current_;
 }

@@ -1,6 +1,8 @@
 #include "vk_resources.h"
 
 #include <cstring>
+#include <mutex>
+#include <unordered_map>
 #include <sstream>
 
 #include "sim/error.h"
@@ -38,6 +40,20 @@ std::uint32_t formatBytes(fg::Format f) {
 
 namespace {
 
+// The live allocations, for deviceMemoryStats(): a map rather than counters kept by each owner, so
+// that a free is matched to exactly the size allocated.
+struct MemoryRegistry {
+  std::mutex mutex;
+  std::unordered_map<VkDeviceMemory, VkDeviceSize> live;
+  std::int64_t liveBytes = 0;
+  std::uint64_t total = 0;
+};
+
+MemoryRegistry& registry() {
+  static MemoryRegistry r;
+  return r;
+}
+
 VkDeviceMemory allocate(const Context& ctx, const VkMemoryRequirements& req, VkMemoryPropertyFlags want,
                         VkMemoryPropertyFlags* got) {
   VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
@@ -45,11 +61,35 @@ VkDeviceMemory allocate(const Context& ctx, const VkMemoryRequirements& req, VkM
   ai.memoryTypeIndex = ctx.findMemoryType(req.memoryTypeBits, want);
   if (got) *got = want;
   VkDeviceMemory mem = VK_NULL_HANDLE;
-  check(vkAllocateMemory(ctx.device(), &ai, nullptr, &mem), "vkAllocateMemory");
+  check(ctx.injectedFault(FaultSite::AllocateMemory) ? VK_ERROR_OUT_OF_DEVICE_MEMORY
+                                                     : vkAllocateMemory(ctx.device(), &ai, nullptr, &mem),
+        "vkAllocateMemory");
+  MemoryRegistry& r = registry();
+  const std::lock_guard lock(r.mutex);
+  r.live[mem] = req.size;
+  r.liveBytes += std::int64_t(req.size);
+  ++r.total;
   return mem;
 }
 
+void freeMemory(VkDevice device, VkDeviceMemory mem) {
+  if (!mem) return;
+  vkFreeMemory(device, mem, nullptr);
+  MemoryRegistry& r = registry();
+  const std::lock_guard lock(r.mutex);
+  if (const auto it = r.live.find(mem); it != r.live.end()) {
+    r.liveBytes -= std::int64_t(it->second);
+    r.live.erase(it);
+  }
+}
+
 }  // namespace
+
+DeviceMemoryStats deviceMemoryStats() {
+  MemoryRegistry& r = registry();
+  const std::lock_guard lock(r.mutex);
+  return {std::int64_t(r.live.size()), r.liveBytes, r.total};
+}
 
 // ---------------------------------------------------------------------------------------------- Buffer
 
@@ -100,7 +140,7 @@ Buffer& Buffer::operator=(Buffer&& o) noexcept {
 void Buffer::destroy() {
   if (!device_) return;
   if (buffer_) vkDestroyBuffer(device_, buffer_, nullptr);
-  if (memory_) vkFreeMemory(device_, memory_, nullptr);  // unmaps implicitly
+  freeMemory(device_, memory_);  // unmaps implicitly
   buffer_ = VK_NULL_HANDLE;
   memory_ = VK_NULL_HANDLE;
   mapped_ = nullptr;
@@ -196,7 +236,7 @@ void Image::destroy() {
   if (!device_) return;
   if (view_) vkDestroyImageView(device_, view_, nullptr);
   if (image_) vkDestroyImage(device_, image_, nullptr);
-  if (memory_) vkFreeMemory(device_, memory_, nullptr);
+  freeMemory(device_, memory_);
   view_ = VK_NULL_HANDLE;
   image_ = VK_NULL_HANDLE;
   memory_ = VK_NULL_HANDLE;

@@ -17,6 +17,15 @@ class Context;
 VkFormat toVkFormat(fg::Format f);
 std::uint32_t formatBytes(fg::Format f);
 
+/// Device memory allocated through Buffer and Image, across every context of this process: what a
+/// soak watches for growth (`handson soak`).
+struct DeviceMemoryStats {
+  std::int64_t liveAllocations = 0;   ///< vkAllocateMemory calls not yet freed
+  std::int64_t liveBytes = 0;         ///< their total size
+  std::uint64_t totalAllocations = 0; ///< every vkAllocateMemory call so far
+};
+DeviceMemoryStats deviceMemoryStats();
+
 /// Moves a handle out, leaving the null handle behind (for move constructors).
 template <class T> T take(T& h) { return std::exchange(h, T{}); }
 

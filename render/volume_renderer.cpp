@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iomanip>
+#include <sstream>
 
 #include "sim/error.h"
 #include "vk_context.h"
@@ -37,6 +39,17 @@ void VolumeRenderer::setVolume(const QuantizedVolume& volume, const ProgressFn& 
   const auto& d = volume.geometry.dims;
   if (volume.data.size() != volume.geometry.voxelCount() || volume.data.empty())
     throw Error("renderer: volume data does not match its dimensions");
+  // The textures (16-bit values, 8-bit handle mask), the upload's staging copy, and the
+  // deformation's copies of both: refused up front when the device cannot hold them.
+  const double voxels = double(volume.data.size());
+  const double needed = voxels * (2.0 + 1.0 + 2.0 + 2.0 + 1.0);
+  if (const double heap = double(ctx_.deviceLocalHeapBytes()); heap > 0 && needed > heap) {
+    std::ostringstream msg;
+    msg << std::fixed << std::setprecision(0) << "the volume (" << d.x() << "x" << d.y() << "x" << d.z() << " voxels) needs about "
+        << needed / double(1u << 20) << " MiB of GPU memory to render and deform, more than the " << heap / double(1u << 20)
+        << " MiB of '" << ctx_.summary().name << "': resample it to fewer voxels (handson resample --voxels N)";
+    throw Error(msg.str());
+  }
   executor_.waitLastFrame();
   reportProgress(progress, 0.0, "uploading volume");
   const fg::ImageDesc desc{std::uint32_t(d.x()), std::uint32_t(d.y()), std::uint32_t(d.z()), fg::Format::R16Unorm};
@@ -188,7 +201,7 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   Slot& s = slots_[executor_.slot()];
 
   const VkBufferUsageFlags hostUsage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-  ensureBuffer(s.params, sizeof(gpu::RenderParams), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+  ensureBuffer(s.params, sizeof(gpu::RenderParams), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);  // not uniform: see deform_pass.cpp
   gpu::RenderParams params = req.params;
   params.control.y = std::uint32_t(req.pickPoints.size());
   std::memcpy(s.params->mapped(), &params, sizeof(params));

@@ -4,7 +4,7 @@
 // indirect dispatch of deform_clear.comp.
 #include "shared.h"
 layout(local_size_x = 1) in;
-layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
+layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
 layout(std430, set = 0, binding = 1) buffer Box { DeformBox box; };
 layout(std430, set = 0, binding = 2) writeonly buffer Args { uvec4 args; };
 layout(push_constant) uniform Push { uint wholeVolume; } pc;

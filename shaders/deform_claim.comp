@@ -7,7 +7,7 @@
 // voxel from its owner through the affine map stored here. CPU reference: rasterizeDeformed in sim/tet_raster.cpp.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_GROUP_X) in;
-layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
+layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
 layout(std430, set = 0, binding = 1) readonly buffer Tets { uvec4 tet[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Pos { vec4 pos[]; };
 layout(std430, set = 0, binding = 3) buffer Box { DeformBox box; };

@@ -4,7 +4,7 @@
 // the source; no owner. Dispatched indirectly over the box (deform_args.comp).
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_CLEAR_GROUP, local_size_y = HANDSON_DEFORM_CLEAR_GROUP, local_size_z = HANDSON_DEFORM_CLEAR_GROUP) in;
-layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
+layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
 layout(std430, set = 0, binding = 1) readonly buffer Box { DeformBox box; };
 layout(set = 0, binding = 2) uniform sampler3D uSource;
 layout(set = 0, binding = 3) uniform sampler3D uSourceMask;

@@ -8,7 +8,7 @@
 // simulation and slow drifts still accumulate into a commit. prev[] keeps the position it had.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_GROUP_X) in;
-layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
+layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
 layout(std430, set = 0, binding = 1) readonly buffer Nodes { uvec4 node[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Rest { vec4 rest[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Blocks { vec4 blk[]; };

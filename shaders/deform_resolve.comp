@@ -10,7 +10,7 @@
 // sim/tet_raster.cpp.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_CLEAR_GROUP, local_size_y = HANDSON_DEFORM_CLEAR_GROUP, local_size_z = HANDSON_DEFORM_CLEAR_GROUP) in;
-layout(std140, set = 0, binding = 0) uniform Params { DeformParams P; };
+layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
 layout(std430, set = 0, binding = 1) readonly buffer Affine { vec4 affine[]; };
 layout(std430, set = 0, binding = 2) buffer Box { DeformBox box; };
 layout(std430, set = 0, binding = 3) readonly buffer Owner { uint owner[]; };

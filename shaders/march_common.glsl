@@ -2,7 +2,7 @@
 // pick.comp. The CPU reference in render/raymarch_reference.cpp implements the same steps.
 // Needs: #include "shared.h" and the bindings declared below.
 
-layout(std140, set = 0, binding = kBindParams) uniform Params { RenderParams P; };
+layout(std430, set = 0, binding = kBindParams) readonly buffer Params { RenderParams P; };
 layout(set = 0, binding = kBindVolume) uniform sampler3D uVolume;
 layout(std430, set = 0, binding = kBindTf) readonly buffer Tf { vec4 tf[]; };
 layout(std430, set = 0, binding = kBindOccupancy) readonly buffer Occ { uint occupancy[]; };

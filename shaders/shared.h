@@ -1,7 +1,10 @@
-// Shared between C++ and GLSL: workgroup sizes, binding numbers and the uniform-block layouts of
+// Shared between C++ and GLSL: workgroup sizes, binding numbers and the parameter-block layouts of
 // the compute passes. C++ includes it with glm types; GLSL includes it with GL_GOOGLE_include_directive.
-// Every block uses only 16-byte members (mat4, vec4, ivec4, uvec4), so std140 and C++ agree; the
-// static_asserts below keep them so.
+// Every block uses only 16-byte members (mat4, vec4, ivec4, uvec4), so std140, std430 and C++ agree;
+// the static_asserts below keep them so. The blocks are read-only storage buffers (std430), not
+// uniform buffers: lavapipe (Mesa 22.3) inlines uniform-buffer values that steer loops and compiles
+// a new shader variant each time the buffer is bound, every frame, keeping each until the device is
+// destroyed (two LLVM compiles and ~0.5 MiB a frame, measured with `handson soak`).
 #ifndef HANDSON_SHADERS_SHARED_H
 #define HANDSON_SHADERS_SHARED_H
 
@@ -54,7 +57,7 @@ HS_CONST kFlagEarlyTermination = 2u;
 HS_CONST kFlagShading = 4u;
 
 // Bindings of the raymarch and pick passes (one push-descriptor set).
-HS_CONST kBindParams = 0;     // uniform RenderParams
+HS_CONST kBindParams = 0;     // RenderParams (read-only storage buffer)
 HS_CONST kBindVolume = 1;     // sampler3D, R16_UNORM, normalized value window
 HS_CONST kBindTf = 2;         // storage buffer vec4[kTfEntries]
 HS_CONST kBindOccupancy = 3;  // storage buffer uint[brick count], 1 = brick may be visible
@@ -122,7 +125,7 @@ HS_CONST kFineBoundary = 3u;
 HS_CONST kFineInterior = 4u;
 HS_CONST kDeformNoOwner = 0xffffffffu;
 
-// Static per deformation setup (uniform buffer).
+// Static per deformation setup (read-only storage buffer).
 struct DeformParams {
   mat4 worldToIndex;
   mat4 indexToWorld;

@@ -6,6 +6,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <cstdlib>
+#include <fstream>
+#include <iomanip>
+#include <optional>
 #include <sstream>
 
 #include "error.h"
@@ -102,23 +106,75 @@ void VolumeGeometry::validate() const {
     throw Error("volume direction matrix is singular or not finite");
 }
 
+namespace {
+
+/// A number of bytes from the first line of a file ("max" and unreadable files: none).
+std::optional<double> readBytesFile(const char* path) {
+  std::ifstream in(path);
+  std::string word;
+  if (!(in >> word) || word == "max") return std::nullopt;
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(word, &used);
+    return used == word.size() && v >= 0 ? std::optional<double>(v) : std::nullopt;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+/// MemAvailable from /proc/meminfo, in bytes.
+std::optional<double> memAvailable() {
+  std::ifstream in("/proc/meminfo");
+  std::string key;
+  double kib = 0;
+  std::string unit;
+  while (in >> key >> kib >> unit)
+    if (key == "MemAvailable:") return kib * 1024.0;
+  return std::nullopt;
+}
+
+std::string mib(double bytes) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(0) << bytes / double(1u << 20) << " MiB";
+  return s.str();
+}
+
+}  // namespace
+
+MemoryBudget memoryBudget() {
+  MemoryBudget b;
+  auto limit = [&](double bytes, const std::string& what) {
+    if (bytes < b.bytes) {
+      b.bytes = bytes;
+      b.limitedBy = what;
+    }
+  };
+  const long pages = sysconf(_SC_PHYS_PAGES), pageSize = sysconf(_SC_PAGE_SIZE);
+  if (pages > 0 && pageSize > 0) limit(0.8 * double(pages) * double(pageSize), "80 % of this machine's physical memory");
+  if (const auto avail = memAvailable()) limit(*avail, "the memory available now (MemAvailable)");
+  // A container's memory limit (cgroup v2), less what the group already uses.
+  if (const auto max = readBytesFile("/sys/fs/cgroup/memory.max")) {
+    const double used = readBytesFile("/sys/fs/cgroup/memory.current").value_or(0.0);
+    limit(std::max(0.0, *max - used), "the container's memory limit (cgroup memory.max)");
+  }
+  if (const char* env = std::getenv("HANDSON_MEMORY_LIMIT_MB"); env && *env) {
+    char* end = nullptr;
+    const double mb = std::strtod(env, &end);
+    if (end && *end == '\0' && mb > 0 && std::isfinite(mb)) limit(mb * double(1u << 20), "HANDSON_MEMORY_LIMIT_MB");
+  }
+  return b;
+}
+
 void checkAllocation(std::size_t voxels, std::size_t bytes, const std::string& what) {
   if (voxels > kMaxVoxels) {
     std::ostringstream msg;
     msg << what << ": " << voxels << " voxels exceeds the supported maximum of " << kMaxVoxels;
     throw Error(msg.str());
   }
-  const long pages = sysconf(_SC_PHYS_PAGES);
-  const long pageSize = sysconf(_SC_PAGE_SIZE);
-  if (pages > 0 && pageSize > 0) {
-    const double physical = double(pages) * double(pageSize);
-    if (double(bytes) > 0.8 * physical) {
-      std::ostringstream msg;
-      msg << what << ": needs " << (double(bytes) / (1u << 20)) << " MiB, more than this machine's memory ("
-          << physical / (1u << 20) << " MiB)";
-      throw Error(msg.str());
-    }
-  }
+  const MemoryBudget budget = memoryBudget();
+  if (double(bytes) > budget.bytes)
+    throw Error(what + ": needs " + mib(double(bytes)) + ", more than the " + mib(budget.bytes) + " this process may use (" +
+                budget.limitedBy + "); resample the volume to fewer voxels (handson resample --voxels N) or free memory");
 }
 
 Volume::Volume(const VolumeGeometry& geometry, ScalarType type) : geometry_(geometry), type_(type) {

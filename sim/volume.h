@@ -56,8 +56,18 @@ struct VolumeGeometry {
 /// Upper bound on voxels we accept in one volume (2^31, ~4 GiB as int16). Larger is refused.
 constexpr std::size_t kMaxVoxels = std::size_t{1} << 31;
 
-/// Throws handson::Error if `bytes` cannot reasonably be allocated on this machine (more than
-/// about 80 % of physical memory) or `voxels` exceeds kMaxVoxels. `what` names the request.
+/// What this process may still allocate: the least of 80 % of physical memory, the memory the
+/// system has available now (MemAvailable), a container's cgroup limit less its usage, and the
+/// HANDSON_MEMORY_LIMIT_MB environment variable (a user's cap on a shared machine).
+struct MemoryBudget {
+  double bytes = 1e300;
+  std::string limitedBy = "no limit found";  ///< which of the above is the least
+};
+MemoryBudget memoryBudget();
+
+/// Throws handson::Error if `bytes` exceed memoryBudget() (naming the limit and what to do) or
+/// `voxels` exceeds kMaxVoxels: a volume larger than memory is refused before it is allocated,
+/// never swapped to a standstill or killed for memory. `what` names the request.
 void checkAllocation(std::size_t voxels, std::size_t bytes, const std::string& what);
 
 class Volume {

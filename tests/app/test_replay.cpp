@@ -15,6 +15,7 @@
 
 #include "app/nifti_io.h"
 #include "app/png_io.h"
+#include "app/session_recovery.h"
 #include "sim/phantom.h"
 
 namespace fs = std::filesystem;
@@ -306,6 +307,34 @@ TEST(Replay, AScenarioScriptRunsOnAnotherVolumeAndExportsTheDeformedVolume) {
   fs::remove_all(dir);
 }
 
+TEST(Replay, AGestureWhoseFingersComeDownTogetherIsOneUndoStep) {
+  // Found by the soak: the two-finger drag of kidney-translate-two-fingers.json puts both fingers
+  // down in the same frame, and the gesture made no undo step, so "undo" removed the handle's
+  // selection instead. Now: undo puts the kidney back at rest, still selected; redo moves it again.
+  const fs::path dir = fs::temp_directory_path() / ("handson_undo_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const std::string text = slurp(fs::path(HANDSON_SOURCE_DIR) / "assets/gestures/kidney-translate-two-fingers.json");
+  const auto end = text.rfind("\n  ]");
+  ASSERT_NE(end, std::string::npos);
+  std::string undo = text, redo = text;
+  undo.insert(end, ",\n    {\"t\": 2.3, \"ui\": \"undo\"}");
+  redo.insert(end, ",\n    {\"t\": 2.3, \"ui\": \"undo\"},\n    {\"t\": 2.4, \"ui\": \"redo\"}");
+  std::ofstream(dir / "undo.json") << undo;
+  std::ofstream(dir / "redo.json") << redo;
+  std::string moved, undone, redone;
+  const std::string opts = " --fps 10 --size 96x96 --quiet --sim off --print-handles";
+  ASSERT_EQ(run("replay " + (fs::path(HANDSON_SOURCE_DIR) / "assets/gestures/kidney-translate-two-fingers.json").string() + opts, &moved), 0) << moved;
+  ASSERT_EQ(run("replay " + (dir / "undo.json").string() + opts, &undone), 0) << undone;
+  ASSERT_EQ(run("replay " + (dir / "redo.json").string() + opts, &redone), 0) << redone;
+  const auto m = firstHandle(moved), u = firstHandle(undone), r = firstHandle(redone);
+  ASSERT_TRUE(m && u && r) << moved << undone << redone;
+  EXPECT_GT(m->translation.norm(), 30.0) << moved;
+  EXPECT_EQ(u->translation.norm(), 0.0) << undone;  // the pose before the gesture, exactly
+  EXPECT_EQ(u->voxels, m->voxels);
+  EXPECT_EQ(r->translation, m->translation) << redone;
+  fs::remove_all(dir);
+}
+
 TEST(Replay, TheExportActionWritesTheSessionTheDeformedVolumeTheMeshAndAScreenshot) {
   // The kidney drag with an "export" action after it (the app's Export button): the four files,
   // each valid, and the exported session replays to the same handle pose.
@@ -324,7 +353,8 @@ TEST(Replay, TheExportActionWritesTheSessionTheDeformedVolumeTheMeshAndAScreensh
             0)
       << log;
   EXPECT_NE(log.find("exported to"), std::string::npos) << log;
-  for (const char* f : {"session-01.json", "deformed-01.nii.gz", "mesh-01.vtu", "screenshot-01.png"}) EXPECT_TRUE(fs::exists(out / f)) << f << "\n" << log;
+  for (const char* f : {"session-01.json", "handles-01.json", "deformed-01.nii.gz", "mesh-01.vtu", "screenshot-01.png"})
+    EXPECT_TRUE(fs::exists(out / f)) << f << "\n" << log;
   int w = 0, h = 0;
   EXPECT_FALSE(handson::readPng((out / "screenshot-01.png").string(), w, h).empty());
   EXPECT_EQ(w, 96);
@@ -335,6 +365,12 @@ TEST(Replay, TheExportActionWritesTheSessionTheDeformedVolumeTheMeshAndAScreensh
   // The exported script is the session so far: replayed, it gives the same handle.
   const auto before = firstHandle(log);
   ASSERT_TRUE(before.has_value()) << log;
+  // The handles file holds that handle: its voxels and its pose (printed with 6 digits: 1e-3 mm).
+  const handson::SavedHandles saved = handson::readHandles((out / "handles-01.json").string());
+  EXPECT_EQ(saved.dims, def.dims());
+  ASSERT_EQ(saved.handles.size(), 1u);
+  EXPECT_EQ(int(saved.handles[0].voxels.size()), before->voxels);
+  EXPECT_LT((saved.handles[0].pose.translation - before->translation).norm(), 1e-3);
   std::string again;
   // (It holds the export action too: replayed into the same directory, it numbers on, never overwrites.)
   ASSERT_EQ(run("replay " + (out / "session-01.json").string() + " --fps 10 --size 96x96 --quiet --sim off --print-handles --export-dir " + out.string(),
