@@ -281,12 +281,13 @@ int cmdSoak(const Words& words) {
     usageStream(args) << "usage: handson soak [--frames N] [--size WxH] [--fps F] [--sample-every K] [--tolerance T] [--out DIR]\n"
                          "                   [--sim on|off] [--no-validation] [--quiet] [--script-out FILE.json]\n"
                          "  Replays a long session on the default phantom (app/soak.h): the kidney pinch-selected, then\n"
-                         "  dragged and back, undone and redone, tapped, the view orbited and zoomed and back, cycle after\n"
-                         "  cycle, for N frames (default 10000, 256x256, 20 fps of script time, simulation on, validation\n"
-                         "  on). Samples resident memory and the live Vulkan device memory every K frames (default 100) into\n"
-                         "  DIR/soak.csv and DIR/soak.png (default soak-out). Fails (exit 1) if either grows by more than\n"
-                         "  T (default 0.05) over its value after the warm-up (a tenth of the frames), or on a validation\n"
-                         "  message. --script-out writes the soak's gesture script (replayable with handson replay).\n";
+                         "  dragged and the drag undone, redone and undone, tapped, the view orbited and zoomed and back,\n"
+                         "  cycle after cycle, for N frames (default 10000, 256x256, 20 fps of script time, simulation on,\n"
+                         "  validation on). Measures resident memory and the live Vulkan device memory every frame; writes\n"
+                         "  a row every K frames (default 100; the largest values since the last) to DIR/soak.csv and\n"
+                         "  DIR/soak.png (default soak-out). Fails (exit 1) if the largest after the warm-up (a tenth of the\n"
+                         "  frames) exceed by more than T (default 0.05) the largest over the warm-up's last cycle, or on a\n"
+                         "  validation message. --script-out writes the gesture script (replayable with handson replay).\n";
     return args.help() ? 0 : 2;
   }
   SoakOptions o;

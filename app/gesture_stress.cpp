@@ -38,23 +38,10 @@ SessionScript randomGestureStream(const GestureStreamOptions& o) {
   for (int q = 0; q < o.sequences; ++q) {
     const double t0 = q * o.secondsPerSequence, dt = o.secondsPerSequence / 16.0;
     double t = t0;
-    auto ui = [&](const std::string& action, const std::string& value) {
-      ScriptEvent e;
-      e.t = t;
-      e.isTouch = false;
-      e.action = action;
-      e.value = value;
-      s.events.push_back(e);
-    };
+    auto ui = [&](const std::string& action, const std::string& value) { s.events.push_back(uiEvent(t, action, value)); };
     auto touch = [&](TouchPhase phase, std::int64_t id, glm::dvec2 px) {
-      ScriptEvent e;
-      e.t = t;
-      e.touch.phase = phase;
-      e.touch.id = id;
-      e.touch.px = px;
-      e.touch.pressure = chance(0.05) ? (chance(0.5) ? nan : uniform(-2.0, 3.0)) : uniform(0.2, 1.0);
-      e.touch.time = t;
-      s.events.push_back(e);
+      const double pressure = chance(0.05) ? (chance(0.5) ? nan : uniform(-2.0, 3.0)) : uniform(0.2, 1.0);
+      s.events.push_back(touchEvent(t, phase, id, px, pressure));
     };
     auto randomUi = [&]() {
       const char* modes[] = {"navigate", "select", "select", "manipulate", "manipulate"};

@@ -128,22 +128,12 @@ class EventWriter {
   explicit EventWriter(SessionScript& s) : s_(s) {}
   double t = 0.0;
   void ui(const std::string& action, const std::string& value = "", double dt = 0.1) {
-    ScriptEvent e;
-    e.t = std::round(t * 1000.0) / 1000.0;
-    e.isTouch = false;
-    e.action = action;
-    e.value = value;
-    s_.events.push_back(e);
+    s_.events.push_back(uiEvent(std::round(t * 1000.0) / 1000.0, action, value));
     t += dt;
   }
   void touch(TouchPhase phase, std::int64_t id, glm::dvec2 px) {
-    ScriptEvent e;
-    e.touch.phase = phase;
-    e.touch.id = id;
-    e.touch.px = glm::round(px * 4.0) / 4.0;  // quarter pixels keep the file readable
-    e.t = std::round(t * 1000.0) / 1000.0;
-    e.touch.time = e.t;
-    s_.events.push_back(e);
+    // (quarter pixels and milliseconds keep the file readable)
+    s_.events.push_back(touchEvent(std::round(t * 1000.0) / 1000.0, phase, id, glm::round(px * 4.0) / 4.0));
   }
   // Fingers down at `from`, moved in `steps` equal steps to `to` (dt apart), lifted; then a pause.
   // Fingers down at frames[0], moved through the later frames (dt apart), lifted; then a pause.

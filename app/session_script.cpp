@@ -210,6 +210,26 @@ std::string formatSessionScript(const SessionScript& s) {
   return out;
 }
 
+ScriptEvent uiEvent(double t, std::string action, std::string value) {
+  ScriptEvent e;
+  e.t = t;
+  e.isTouch = false;
+  e.action = std::move(action);
+  e.value = std::move(value);
+  return e;
+}
+
+ScriptEvent touchEvent(double t, TouchPhase phase, std::int64_t id, glm::dvec2 px, double pressure) {
+  ScriptEvent e;
+  e.t = t;
+  e.touch.phase = phase;
+  e.touch.id = id;
+  e.touch.px = px;
+  e.touch.pressure = pressure;
+  e.touch.time = t;
+  return e;
+}
+
 void writeSessionScript(const SessionScript& script, const std::string& path) {
   AtomicFile file(path);
   {

@@ -44,6 +44,11 @@ struct ScriptEvent {
   std::string value;
 };
 
+/// A UI action at time t.
+ScriptEvent uiEvent(double t, std::string action, std::string value = {});
+/// A touch at time t (touch.time = t).
+ScriptEvent touchEvent(double t, TouchPhase phase, std::int64_t id, glm::dvec2 px, double pressure = 1.0);
+
 struct CameraState {
   glm::dvec3 target{0.0};
   double distance = 500.0, azimuthDeg = 0.0, elevationDeg = 0.0, rollDeg = 0.0, fovDeg = 35.0;

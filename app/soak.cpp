@@ -48,22 +48,9 @@ SessionScript soakScript(int frames, double fps) {
   s.events.erase(std::remove_if(s.events.begin(), s.events.end(), [](const ScriptEvent& e) { return e.t >= 1.0; }), s.events.end());
   std::int64_t id = 100;
   double t = 0.0;
-  auto ui = [&](double at, const std::string& action, const std::string& value = "") {
-    ScriptEvent e;
-    e.t = at;
-    e.isTouch = false;
-    e.action = action;
-    e.value = value;
-    s.events.push_back(e);
-  };
+  auto ui = [&](double at, const std::string& action, const std::string& value = "") { s.events.push_back(uiEvent(at, action, value)); };
   auto touch = [&](double at, TouchPhase phase, std::int64_t finger, double x, double y) {
-    ScriptEvent e;
-    e.t = at;
-    e.touch.phase = phase;
-    e.touch.id = finger;
-    e.touch.px = {x, y};
-    e.touch.time = at;
-    s.events.push_back(e);
+    s.events.push_back(touchEvent(at, phase, finger, {x, y}));
   };
   // Fingers put down at `at`, moved `steps` times by (dx, dy) each 0.05 s (and, with `back`, as many
   // steps back to where they came down), lifted 0.05 s later. Returns the time of the lift.

@@ -65,7 +65,7 @@ struct WindowHandle {
 // screenshot copy, and the hand-over to presentation.
 class PresentExtension final : public FrameExtension {
  public:
-  PresentExtension(const vk::Context& ctx, const vk::Swapchain& sc, Ui& ui) : ctx_(ctx), sc_(sc), ui_(ui) {}
+  PresentExtension(const vk::Swapchain& sc, Ui& ui) : sc_(sc), ui_(ui) {}
 
   void prepare(const vk::Swapchain::Frame& f, vk::Buffer* screenshot) {
     frame_ = f;
@@ -126,7 +126,6 @@ class PresentExtension final : public FrameExtension {
   }
 
  private:
-  const vk::Context& ctx_;
   const vk::Swapchain& sc_;
   Ui& ui_;
   vk::Swapchain::Frame frame_{};
@@ -273,7 +272,7 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
   if (!o.quiet)
     std::cerr << "window " << dw << "x" << dh << ", present mode " << vk::presentModeName(swapchain->presentMode()) << ", "
               << o.framesInFlight << " frame(s) in flight, raymarch at " << scale * 100 << " %\n";
-  present = std::make_unique<PresentExtension>(*ctx, *swapchain, *ui);
+  present = std::make_unique<PresentExtension>(*swapchain, *ui);
   selection = std::make_unique<SelectionController>(q, *session, *renderer);
   deform = std::make_unique<DeformationController>(volume, q, *renderer, o.sim);
   exporter = std::make_unique<SessionExport>(o.exportDir, volume);

@@ -152,11 +152,13 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
       for (int j = 0; j < nI; ++j) KII.middleCols(3 * j, 3) = KI.middleCols(3 * In[std::size_t(j)], 3);
       const Eigen::LDLT<Mat> ldlt(KII);
       if (ldlt.info() != Eigen::Success) throw Error("coarsening: singular interior stiffness in coarse element " + std::to_string(e));
+      // (No Dirichlet nodes: PhiD has no columns, and Eigen would offset a null pointer solving
+      // for an empty right-hand side.)
       H = -ldlt.solve(KI * Phic);
-      G = -ldlt.solve(KI * PhiD);
+      G = nD > 0 ? Mat(-ldlt.solve(KI * PhiD)) : Mat(3 * nI, 0);
       for (int i = 0; i < nI; ++i) {
         Phic.middleRows(3 * In[std::size_t(i)], 3) = H.middleRows(3 * i, 3);
-        PhiD.middleRows(3 * In[std::size_t(i)], 3) = G.middleRows(3 * i, 3);
+        if (nD > 0) PhiD.middleRows(3 * In[std::size_t(i)], 3) = G.middleRows(3 * i, 3);
       }
     }
     const Mat KPhic = K * Phic;

@@ -5,6 +5,7 @@
 
 #include <Eigen/LU>
 #include <algorithm>
+#include <csignal>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -260,6 +261,75 @@ TEST(DicomIo, ASliceThatIsNotOneGrayscaleSampleIsRefusedBeforeDecoding) {
   writeBytes(dirAcr.file("c.dcm"), acr);
   const std::string msgAcr = errorOf(dirAcr.path());
   EXPECT_TRUE(contains(msgAcr, "recognition code 'XYZ-NEMA'")) << msgAcr;
+}
+
+TEST(DicomIo, AnAssertionInsideGdcmRefusesTheSeriesAndLeavesTheCallerRunning) {
+  // Debian's GDCM keeps its assertions: a pixel-module attribute with an incompatible VR makes its
+  // Attribute<>::SetFromDataElement assert (gdcmAttribute.h:445, found by fuzz_dicom), in the header
+  // scan or while decoding. GDCM runs in a child process: the abort is this one refused series.
+  const std::string seed = readBytes(std::string(HANDSON_SOURCE_DIR) + "/tests/fuzz/corpus/dicom/one-slice.dcm");
+  auto withVr = [&](const std::string& tag, const char* vr) {
+    std::string s = seed;
+    const auto at = s.find(tag + "US", 132);
+    EXPECT_NE(at, std::string::npos);
+    if (at != std::string::npos) s.replace(at + 4, 2, vr);
+    return s;
+  };
+  // Planar configuration (0028,0006), absent from the seed: inserted before Rows, in tag order.
+  auto withPlanar = [&](const std::string& element) {
+    std::string s = seed;
+    const auto at = s.find(std::string("\x28\x00\x10\x00US", 6), 132);
+    EXPECT_NE(at, std::string::npos);
+    if (at != std::string::npos) s.insert(at, element);
+    return s;
+  };
+  const std::pair<const char*, std::string> cases[] = {
+      {"HighBit as SS", withVr(std::string("\x28\x00\x02\x01", 4), "SS")},
+      {"HighBit as FL", withVr(std::string("\x28\x00\x02\x01", 4), "FL")},
+      {"Rows as SS", withVr(std::string("\x28\x00\x10\x00", 4), "SS")},
+      {"PlanarConfiguration as DS", withPlanar(std::string("\x28\x00\x06\x00" "DS\x02\x00" "1 ", 10))},
+      {"PlanarConfiguration as FL", withPlanar(std::string("\x28\x00\x06\x00" "FL\x04\x00\x00\x00\x80\x3f", 12))},
+  };
+  for (const auto& [name, bytes] : cases) {
+    TempDir dir;
+    writeBytes(dir.file("a.dcm"), bytes);
+    try {
+      readDicomSeries(dir.path());
+      ADD_FAILURE() << name << ": read";
+    } catch (const DicomParserAborted& e) {
+      EXPECT_EQ(e.signal(), SIGABRT) << name;
+      EXPECT_TRUE(contains(e.what(), "GDCM, the DICOM library, stopped on a malformed file")) << name << ": " << e.what();
+      EXPECT_TRUE(contains(e.what(), dir.path())) << e.what();
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << name << ": " << e.what();
+    }
+  }
+  // This process is unharmed: the seed still reads, through the child and in process alike.
+  TempDir dir;
+  writeBytes(dir.file("a.dcm"), seed);
+  const Volume a = readDicomSeries(dir.path());
+  const Volume b = readDicomSeriesInProcess(dir.path());
+  expectSameVolume(a, b);
+}
+
+TEST(DicomIo, TheChildProcessHandsBackTheSameVolumeReportAndProgress) {
+  REQUIRE_IRCADB();
+  DicomReadReport isolated, direct;
+  std::vector<double> fractions;
+  const Volume a = readDicomSeries(kIrcadbDicom, &isolated, [&](double f, const std::string&) { fractions.push_back(f); });
+  const Volume b = readDicomSeriesInProcess(kIrcadbDicom, &direct);
+  expectSameVolume(a, b);
+  EXPECT_EQ(isolated.slices, direct.slices);
+  EXPECT_EQ(isolated.sliceStepMm, direct.sliceStepMm);
+  EXPECT_EQ(isolated.transferSyntax, direct.transferSyntax);
+  EXPECT_EQ(isolated.warnings, direct.warnings);
+  ASSERT_EQ(isolated.seriesFound.size(), direct.seriesFound.size());
+  EXPECT_EQ(isolated.chosen.seriesInstanceUid, direct.chosen.seriesInstanceUid);
+  EXPECT_EQ(isolated.chosen.fileCount, direct.chosen.fileCount);
+  // Progress from the child arrives in the caller: one report a slice, ending at 1.
+  ASSERT_GE(fractions.size(), std::size_t(kIrcadbSlices));
+  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
 }
 
 // ---------------------------------------------------------------------------------------------

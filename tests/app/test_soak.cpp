@@ -31,7 +31,9 @@ TEST(Soak, TheScriptRepeatsWholeCyclesThatReturnWhereTheyStarted) {
   // Every finger put down is lifted; the events are in time order.
   int down = 0, up = 0;
   for (std::size_t i = 0; i < s.events.size(); ++i) {
-    if (i) EXPECT_LE(s.events[i - 1].t, s.events[i].t);
+    if (i) {
+      EXPECT_LE(s.events[i - 1].t, s.events[i].t);
+    }
     if (!s.events[i].isTouch) continue;
     down += s.events[i].touch.phase == handson::TouchPhase::Down;
     up += s.events[i].touch.phase == handson::TouchPhase::Up;

@@ -13,6 +13,9 @@
 
 #include "app/png_io.h"
 #include "app/session.h"
+#include "app/session_recovery.h"
+#include "app/session_script.h"
+#include "sim/error.h"
 #include "app/viewer.h"
 
 using namespace handson;
@@ -196,5 +199,40 @@ TEST_F(Window, TheExportButtonsActionWritesTheSessionTheVolumeAndAScreenshot) {
   int w = 0, h = 0;
   EXPECT_FALSE(readPng((dir / "out" / "screenshot-01.png").string(), w, h).empty());
   EXPECT_GT(w, 0);
+  fs::remove_all(dir);
+}
+
+TEST_F(Window, ALostDeviceEndsTheSessionWithAClearMessageAndItsScriptAndHandlesSaved) {
+  // The 40th queue submission (setup and the first frames done) reports VK_ERROR_DEVICE_LOST, as
+  // does every later one: step() throws the message, and the session so far is in the export
+  // directory, replayable. (HANDSON_FAULT: render/vk_context.h.)
+  const fs::path dir = fs::temp_directory_path() / ("handson_uilost_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  std::ofstream(dir / "play.json") << R"({"format": "handson-session", "version": 1, "viewport": [640, 480],
+    "events": [{"t": 0.0, "ui": "set-preset", "value": "ct-bone"}, {"t": 0.01, "ui": "set-mode", "value": "select"}]})";
+  ViewerOptions o = smallWindow();
+  o.play = (dir / "play.json").string();
+  o.frames = 200;
+  o.exportDir = (dir / "out").string();
+  setenv("HANDSON_FAULT", "device-lost:40", 1);
+  std::string message;
+  {
+    Viewer v(o);
+    unsetenv("HANDSON_FAULT");
+    try {
+      while (v.step()) {
+      }
+      ADD_FAILURE() << "the session ran to its end";
+    } catch (const Error& e) {
+      message = e.what();
+    }
+  }  // the viewer tears down after the failure without crashing
+  unsetenv("HANDSON_FAULT");
+  EXPECT_NE(message.find("VK_ERROR_DEVICE_LOST"), std::string::npos) << message;
+  EXPECT_NE(message.find("the session so far is saved"), std::string::npos) << message;
+  const SessionScript s = readSessionScript((dir / "out" / "recovery-session.json").string());
+  ASSERT_GE(s.events.size(), 2u);
+  EXPECT_EQ(s.events[0].action, "set-preset");
+  EXPECT_TRUE(readHandles((dir / "out" / "recovery-handles.json").string()).handles.empty());
   fs::remove_all(dir);
 }
