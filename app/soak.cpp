@@ -179,7 +179,8 @@ int runSoak(const SoakOptions& o) {
     std::ofstream(gp) << "set datafile separator ','\nset terminal pngcairo size 900,520 font ',11'\nset output '" << (out / "soak.png").string()
                       << "'\nset termoption noenhanced\nset title 'Soak: " << o.frames << " frames (" << o.width << "x" << o.height
                       << (o.sim.enabled ? ", simulation on" : "") << ")'\nset xlabel 'frame'\nset ylabel 'MiB'\nset y2label 'live Vulkan allocations'\n"
-                      << "set ytics nomirror\nset y2tics\nset yrange [0:*]\nset y2range [0:*]\nset grid\nset key bottom right\n"
+                      << "set ytics nomirror\nset y2tics\nset yrange [0:*]\nset y2range [0:" << std::max<std::int64_t>({4, base->vkAllocations * 5 / 4, peak.vkAllocations * 5 / 4})
+                      << "]\nset grid\nset key bottom right\n"
                       << "set arrow from " << warmup << ", graph 0 to " << warmup << ", graph 1 nohead dt 2\n"
                       << "plot '" << (out / "soak.csv").string() << "' every ::1 using 1:2 with lines lw 2 title 'resident memory (MiB)', "
                       << "'' every ::1 using 1:4 with lines lw 2 title 'Vulkan device memory (MiB)', "
