@@ -47,8 +47,9 @@ asan-test: fuzz-deps
 	ctest --preset asan
 
 # libFuzzer: the NIfTI reader, the DICOM reader and the session-script parser (tests/fuzz), each run
-# for FUZZ_SECONDS over a working copy of its seed corpus (new inputs stay in build-asan/corpus);
-# a finding stops the run with the crashing input written to build-asan/findings/.
+# for FUZZ_SECONDS over a working copy of its seed corpus (new inputs stay in build-asan/corpus), the
+# three at once (each its own process; logs in build-asan/findings/<kind>.log, printed at the end);
+# a finding stops that fuzzer with the crashing input written to build-asan/findings/ and fails the target.
 fuzz: fuzz-deps
 	cmake --preset asan
 	cmake --build --preset fuzz
@@ -56,10 +57,16 @@ fuzz: fuzz-deps
 	set -e; for t in nifti dicom script; do \
 	  mkdir -p build-asan/corpus/$$t; cp -n tests/fuzz/corpus/$$t/* build-asan/corpus/$$t/; \
 	  if [ $$t = script ]; then cp -n assets/gestures/*.json build-asan/corpus/$$t/; fi; \
-	  echo "fuzzing $$t for $(FUZZ_SECONDS) s"; \
+	done; \
+	echo "fuzzing nifti, dicom and script for $(FUZZ_SECONDS) s each, at once"; \
+	pids=""; for t in nifti dicom script; do \
 	  ./build-asan/tests/fuzz/fuzz_$$t build-asan/corpus/$$t -max_total_time=$(FUZZ_SECONDS) -timeout=20 -rss_limit_mb=3072 \
-	    -malloc_limit_mb=2048 -artifact_prefix=build-asan/findings/$$t- -print_final_stats=1; \
-	done
+	    -malloc_limit_mb=2048 -artifact_prefix=build-asan/findings/$$t- -print_final_stats=1 > build-asan/findings/$$t.log 2>&1 & pids="$$pids $$!"; \
+	done; \
+	status=0; for p in $$pids; do wait $$p || status=1; done; \
+	for t in nifti dicom script; do echo "== fuzz_$$t"; grep -E "^(stat::|Done|INFO: Loaded|==[0-9]+==|SUMMARY|artifact_prefix|Test unit written)" build-asan/findings/$$t.log || true; done; \
+	if [ $$status != 0 ]; then for t in nifti dicom script; do echo "== fuzz_$$t (last lines)"; tail -40 build-asan/findings/$$t.log; done; fi; \
+	exit $$status
 
 clean:
 	rm -rf build build-debug build-asan

@@ -54,12 +54,12 @@ void writeChart(const std::filesystem::path& chartCsv, const std::filesystem::pa
 }  // namespace
 
 int cmdBenchSelection(const Words& words) {
-  Args args(words, {"--data", "--out", "--repeat", "--device"}, {"--quick", "--validation"});
+  Args args(words, {"--data", "--out", "--repeat", "--device", "--extents"}, {"--quick", "--validation"});
   if (args.help() || !args.positional().empty()) {
-    usageStream(args) << "usage: handson bench selection [--data DIR] [--out DIR] [--repeat N] [--quick]\n"
+    usageStream(args) << "usage: handson bench selection [--data DIR] [--out DIR] [--repeat N] [--extents MM,..] [--quick]\n"
                          "  Region-growing accuracy on labelled CT (default DIR ../shared/data: ircadb1.1 kidneys, aorta,\n"
                          "  portal vein, liver; totalseg-small kidneys, liver), seeds at each organ's deepest typical voxel,\n"
-                         "  extents 10, 20, 40 mm, both criteria -> selection_accuracy.csv, .md and .png in --out (default\n"
+                         "  extents 10, 20, 40 mm (--extents), both criteria -> selection_accuracy.csv, .md and .png in --out (default\n"
                          "  bench-out); and grow/shrink update times of a ~100k-voxel liver selection: sparse-brick GPU pass,\n"
                          "  dense dispatch, CPU reference (median of N, default 5) -> selection_timing.csv.\n";
     return args.help() ? 0 : 2;
@@ -68,6 +68,9 @@ int cmdBenchSelection(const Words& words) {
   const std::filesystem::path out = args.valueOr("--out", "bench-out");
   std::filesystem::create_directories(out);
   const int repeat = int(args.integer("--repeat", args.flag("--quick") ? 3 : 5, 1, 1000));
+  const std::vector<double> extents = parseNumberList(args.valueOr("--extents", "10,20,40"), "--extents");
+  for (double e : extents)
+    if (!(e > 0.0 && e <= 200.0)) throw UsageError("--extents are millimetres in (0, 200]");
   std::vector<Dataset> sets = {
       {"ircadb1.1", data + "/ircadb1.1", {{3, "kidney_left"}, {4, "kidney_right"}, {9, "artery"}, {10, "portal_vein"}, {8, "liver"}}},
       {"totalseg-small", data + "/totalseg-small", {{2, "kidney_right"}, {3, "kidney_left"}, {5, "liver"}}}};
@@ -86,7 +89,7 @@ int cmdBenchSelection(const Words& words) {
     }
     const Volume ct = readNifti(s.dir + "/ct.nii.gz");
     const Volume labels = readNifti(s.dir + "/labels.nii.gz");
-    const auto rows = evaluateSelection(s.name, ct, labels, s.organs, {10, 20, 40}, {GrowCriterion::Paper, GrowCriterion::Smoothed});
+    const auto rows = evaluateSelection(s.name, ct, labels, s.organs, extents, {GrowCriterion::Paper, GrowCriterion::Smoothed});
     for (const auto& r : rows)
       csv << r.dataset << "," << r.organ << "," << growCriterionName(r.criterion) << "," << r.extentMm << "," << r.seed.x() << " " << r.seed.y()
           << " " << r.seed.z() << "," << r.selected << "," << r.precision << "," << r.recall << "\n";

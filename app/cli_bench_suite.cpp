@@ -2,7 +2,8 @@
 // default scene with the simulation on (per-stage GPU times, frame time and input-to-present latency
 // from each replay's timing log), then every component benchmark into its own folder (raymarch,
 // gesture, selection when ../shared/data is there, sim, deform, mesh, stability), and a summary.
-// --quick shrinks each so the whole suite takes a few minutes on 2 cores.
+// --quick shrinks each so the whole suite takes a few minutes on 2 cores; --smoke runs every part at
+// the smallest size that still runs it (the test suite's check of the suite itself).
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -31,7 +32,7 @@ namespace handson::cli {
 
 namespace {
 const char* const kBenchSuiteHelp =
-    "usage: handson bench --out DIR [--quick] [--data DIR]\n"
+    "usage: handson bench --out DIR [--quick | --smoke] [--data DIR]\n"
     "  The benchmark suite: the paper's scenarios (assets/gestures: kidney translated with two fingers,\n"
     "  rotated in plane, rotated out of plane with three, a vessel moved with one) replayed headless with\n"
     "  the simulation on, on each scene: the phantom, and with DIR/ircadb1.1 present (--data, default\n"
@@ -40,7 +41,9 @@ const char* const kBenchSuiteHelp =
     "  scenario_stages_wide.csv, stages.png, latency.csv, latency.png). Then the component benchmarks\n"
     "  into DIR/raymarch, gesture, selection, sim (phantom, and sim-ircadb1.1: the right kidney of the real\n"
     "  CT), deform, mesh and stability; summary.txt lists what ran and took how long.\n"
-    "  --quick: smaller scenes and sweeps, no 34 M scene (a few minutes on 2 cores).\n";
+    "  --quick: smaller scenes and sweeps, no 34 M scene (a few minutes on 2 cores).\n"
+    "  --smoke: every scenario and component at the smallest size that runs it: a check that the suite\n"
+    "  works (about a minute), its figures are not measurements.\n";
 
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return std::nan("");
@@ -70,17 +73,19 @@ std::map<std::string, std::vector<double>> readTimings(const std::filesystem::pa
 }  // namespace
 
 int cmdBenchSuite(const Words& words) {
-  Args args(words, {"--out", "--data"}, {"--quick"});
+  Args args(words, {"--out", "--data"}, {"--quick", "--smoke"});
   if (args.help() || !args.positional().empty() || !args.value("--out")) {
     usageStream(args) << kBenchSuiteHelp;
     return args.help() ? 0 : 2;
   }
-  const bool quick = args.flag("--quick");
+  const bool smoke = args.flag("--smoke");
+  const bool quick = smoke || args.flag("--quick");
+  if (smoke && args.flag("--quick")) throw UsageError("--quick and --smoke: choose one");
   const std::filesystem::path out = *args.value("--out");
   std::filesystem::create_directories(out / "scenarios");
   std::ofstream summary(out / "summary.txt");
   summary << std::fixed << std::setprecision(1);
-  summary << "handson benchmark suite" << (quick ? " (--quick)" : "") << "\n";
+  summary << "handson benchmark suite" << (smoke ? " (--smoke: not measurements)" : quick ? " (--quick)" : "") << "\n";
   auto since = [](std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   int failures = 0;
 
@@ -114,8 +119,9 @@ int cmdBenchSuite(const Words& words) {
       std::filesystem::create_directories(out / "scenes");
       const Volume ct = readNifti((ircadb / "ct.nii.gz").string());
       const Volume labels = readNifti((ircadb / "labels.nii.gz").string());
-      const std::size_t voxels = quick ? 1'000'000 : 5'000'000;
-      const std::string smallName = "ircadb1.1-" + std::to_string(voxels / 1'000'000) + "M";
+      const std::size_t voxels = smoke ? 250'000 : quick ? 1'000'000 : 5'000'000;
+      const std::string smallName =
+          "ircadb1.1-" + (voxels >= 1'000'000 ? std::to_string(voxels / 1'000'000) + "M" : std::to_string(voxels / 1'000) + "k");
       const auto smallPath = out / "scenes" / (smallName + ".nii.gz");
       writeNifti(resampleToVoxelCount(ct, voxels), smallPath.string());
       Scene small{smallName, smallPath.string(), {}}, full{"ircadb1.1-34M", (ircadb / "ct.nii.gz").string(), {}};
@@ -171,14 +177,14 @@ int cmdBenchSuite(const Words& words) {
       o.script = scene.scripts[k];
       o.volume = scene.volume;
       o.fps = 10;
-      o.width = o.height = quick ? 128 : 256;
+      o.width = o.height = smoke ? 64 : quick ? 128 : 256;
       o.quiet = true;
       o.timings = (out / "scenarios" / (tag + "_timings.csv")).string();
       o.exportPath = (out / "scenarios" / (tag + "_deformed.nii.gz")).string();
       o.exportDir = (out / "scenarios" / "exports").string();
       if (quick) {
-        o.sim.sim.coarseTets = 1500;
-        o.sim.sim.fineTets = 96000;
+        o.sim.sim.coarseTets = smoke ? 300 : 1500;
+        o.sim.sim.fineTets = smoke ? 19200 : 96000;
       }
       try {
         if (runReplay(o) != 0) throw Error("the replay reported an error");
@@ -272,31 +278,50 @@ int cmdBenchSuite(const Words& words) {
     summary << name << ": " << (rc == 0 ? "ok" : "FAILED") << ", " << std::setprecision(1) << since(t0) << " s, in " << (out / name).string() << "\n";
   };
   const std::string o = (out / "").string();
-  component("raymarch", quick ? Words{"--voxels", "1000000", "--sizes", "256", "--repeat", "2", "--csv", o + "raymarch/raymarch.csv", "--quiet"}
-                              : Words{"--voxels", "5000000", "--sizes", "256,512", "--repeat", "5", "--csv", o + "raymarch/raymarch.csv", "--quiet"},
+  // Each component's arguments: full, --quick, --smoke.
+  const auto pick = [&](Words full, Words quickArgs, Words smokeArgs) { return smoke ? smokeArgs : quick ? quickArgs : full; };
+  component("raymarch",
+            pick({"--voxels", "5000000", "--sizes", "256,512", "--repeat", "5", "--csv", o + "raymarch/raymarch.csv", "--quiet"},
+                 {"--voxels", "1000000", "--sizes", "256", "--repeat", "2", "--csv", o + "raymarch/raymarch.csv", "--quiet"},
+                 {"--voxels", "250000", "--sizes", "64", "--repeat", "1", "--csv", o + "raymarch/raymarch.csv", "--quiet"}),
             cmdBench);
-  component("gesture", quick ? Words{"--out", o + "gesture", "--cases", "50"} : Words{"--out", o + "gesture"}, cmdBenchGesture);
+  component("gesture", pick({"--out", o + "gesture"}, {"--out", o + "gesture", "--cases", "50"}, {"--out", o + "gesture", "--cases", "5", "--quick"}),
+            cmdBenchGesture);
   if (std::filesystem::is_directory(data))
-    component("selection", quick ? Words{"--data", data, "--out", o + "selection", "--repeat", "1"} : Words{"--data", data, "--out", o + "selection"},
+    component("selection",
+              pick({"--data", data, "--out", o + "selection"}, {"--data", data, "--out", o + "selection", "--repeat", "1"},
+                   {"--data", data, "--out", o + "selection", "--repeat", "1", "--extents", "20"}),
               cmdBenchSelection);
   else
     summary << "selection: skipped (no data at " << data << ")\n";
-  component("sim", quick ? Words{"--coarse-list", "600,1500", "--refine-steps", "2", "--quiet", "--out", o + "sim"} : Words{"--quiet", "--out", o + "sim"},
+  component("sim",
+            pick({"--quiet", "--out", o + "sim"}, {"--coarse-list", "600,1500", "--refine-steps", "2", "--quiet", "--out", o + "sim"},
+                 {"--coarse-list", "300", "--fine-per-coarse", "8", "--spacing", "4", "--refine-steps", "1", "--quiet", "--out", o + "sim"}),
             cmdBenchSim);
-  if (std::filesystem::exists(ircadb / "labels.nii.gz"))
+  if (std::filesystem::exists(ircadb / "labels.nii.gz")) {
+    const Words realCt{(ircadb / "ct.nii.gz").string(), "--handle", (ircadb / "labels.nii.gz").string(), "--handle-label", "4", "--quiet", "--out",
+                       o + "sim-ircadb1.1"};
+    auto with = [&](Words w) {
+      w.insert(w.begin(), realCt.begin(), realCt.end());
+      return w;
+    };
     component("sim-ircadb1.1",
-              quick ? Words{(ircadb / "ct.nii.gz").string(), "--handle", (ircadb / "labels.nii.gz").string(), "--handle-label", "4", "--coarse-list", "600",
-                            "--refine-steps", "1", "--quiet", "--out", o + "sim-ircadb1.1"}
-                    : Words{(ircadb / "ct.nii.gz").string(), "--handle", (ircadb / "labels.nii.gz").string(), "--handle-label", "4", "--quiet", "--out",
-                            o + "sim-ircadb1.1"},
+              pick(realCt, with({"--coarse-list", "600", "--refine-steps", "1"}), with({"--coarse-list", "300", "--fine-per-coarse", "8", "--refine-steps", "1"})),
               cmdBenchSim);
-  component("deform", quick ? Words{"--spacing", "3", "--frames", "5", "--quiet", "--out", o + "deform"} : Words{"--quiet", "--out", o + "deform"},
+  }
+  component("deform",
+            pick({"--quiet", "--out", o + "deform"}, {"--spacing", "3", "--frames", "5", "--quiet", "--out", o + "deform"},
+                 {"--spacing", "6", "--frames", "2", "--coarse-tets", "300", "--fine-tets", "19200", "--quiet", "--out", o + "deform"}),
             cmdBenchDeform);
   component("mesh",
-            quick ? Words{"--coarse-tets", "300", "--regular-list", "2,3,4", "--adapted-list", "2,3", "--truth-refinement", "6", "--quiet", "--out", o + "mesh"}
-                  : Words{"--quiet", "--out", o + "mesh"},
+            pick({"--quiet", "--out", o + "mesh"},
+                 {"--coarse-tets", "300", "--regular-list", "2,3,4", "--adapted-list", "2,3", "--truth-refinement", "6", "--quiet", "--out", o + "mesh"},
+                 {"--coarse-tets", "300", "--regular-list", "2", "--adapted-list", "2", "--truth-refinement", "3", "--spacing", "4", "--quiet", "--out",
+                  o + "mesh"}),
             cmdBenchMesh);
-  component("stability", quick ? Words{"--angles", "30,90,180", "--contrasts", "1,1000,1000000", "--quick", "--out", o + "stability"} : Words{"--out", o + "stability"},
+  component("stability",
+            pick({"--out", o + "stability"}, {"--angles", "30,90,180", "--contrasts", "1,1000,1000000", "--quick", "--out", o + "stability"},
+                 {"--angles", "30", "--contrasts", "1000", "--quick", "--out", o + "stability"}),
             cmdBenchStability);
   summary.close();
   std::cout << "\nwrote " << (out / "summary.txt").string() << ", scenario_stages.csv, stages.png and the component folders in " << out.string()

@@ -44,6 +44,9 @@ StabilityOutcome solveBoxMotion(const BoxScene& s, const std::function<std::vect
       const auto st = model.solve(at(double(k) / increments), xc, 30);
       o.coarseIterations += st.iterations;
       o.coarseConverged = o.coarseConverged && st.converged;
+      const auto xk = model.reconstruct(at(double(k) / increments), xc);
+      if (!finite(xk)) break;
+      o.coarseInvertedAt.push_back(countInvertedTets(s.meshes.fine, xk));
     }
     o.coarse = model.reconstruct(at(1.0), xc);
     o.coarseFinite = finite(xc) && finite(o.coarse);
@@ -63,6 +66,8 @@ StabilityOutcome solveBoxMotion(const BoxScene& s, const std::function<std::vect
       x = r.x;
       o.fineConverged = o.fineConverged && r.converged;
       o.fineIterations += r.iterations;
+      if (!finite(x)) break;
+      o.fineInvertedAt.push_back(countInvertedTets(s.meshes.fine, x));
     }
     o.fine = x;
     o.fineFinite = finite(x);

@@ -27,6 +27,7 @@ struct BoxScene {
 struct StabilityOutcome {
   bool coarseFinite = false, coarseConverged = false, fineFinite = false, fineConverged = false;
   int coarseInverted = 0, fineInverted = 0;  ///< fine tets with det F <= 0
+  std::vector<int> coarseInvertedAt, fineInvertedAt;  ///< the same after each increment (while finite)
   int coarseIterations = 0, fineIterations = 0;
   std::vector<Eigen::Vector3d> coarse, fine;  ///< fine node positions of each model
 };

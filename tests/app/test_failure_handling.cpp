@@ -63,7 +63,7 @@ class FailureHandling : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
 
   std::string replay(const fs::path& out, const std::string& extra = "") const {
-    return "replay " + (dir_ / "drag-export.json").string() + " --fps 10 --size 96x96 --quiet --validation --print-handles " +
+    return "replay " + (dir_ / "drag-export.json").string() + " --fps 10 --size 48x48 --quiet --validation --print-handles " +
            "--sim-coarse-tets 300 --sim-fine-tets 19200 --sim-cache off --export-dir " + out.string() + " " + extra;
   }
 

@@ -51,7 +51,7 @@ TEST(Soak, MemoryAndVulkanAllocationsStayFlatOverManyCycles) {
 #else
   const std::string tolerance = "";
 #endif
-  const std::string cmd = std::string("timeout 600 ") + HANDSON_EXE + " soak --frames 480 --size 96x96 --sample-every 20 --quiet " +
+  const std::string cmd = std::string("timeout 600 ") + HANDSON_EXE + " soak --frames 480 --size 48x48 --sample-every 20 --quiet " +
                           "--sim-coarse-tets 300 --sim-fine-tets 19200 --sim-cache off --out " + out.string() + tolerance + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   ASSERT_NE(p, nullptr);
