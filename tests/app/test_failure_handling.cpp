@@ -94,7 +94,7 @@ TEST_F(FailureHandling, EveryVulkanAllocationThatFailsGivesAClearMessageAndKeeps
   // (once the session has started, its script and handles saved), or carries on: the simulation
   // or the export reports the failure and the session goes on, or the allocation was retried
   // (host-visible memory falls back from coherent to non-coherent) and the result is the clean
-  // run's. N = 1..12 (the setup) then every 7th to the last allocation; HANDSON_FULL_FAULT_SWEEP=1
+  // run's. N = 1..12 (the setup) then every 13th to the last allocation; HANDSON_FULL_FAULT_SWEEP=1
   // tries every N (94 allocations on lavapipe, the figures in the README).
   const RunResult clean = run("", replay(dir_ / "clean"));
   ASSERT_EQ(clean.status, 0) << clean.out;
@@ -105,7 +105,7 @@ TEST_F(FailureHandling, EveryVulkanAllocationThatFailsGivesAClearMessageAndKeeps
   ASSERT_FALSE(handleLine(clean.out).empty()) << clean.out;
   const bool full = std::getenv("HANDSON_FULL_FAULT_SWEEP") != nullptr;
   int fatal = 0, reported = 0, recovered = 0, n = 1;
-  for (; n <= 400; n += (full || n < 12) ? 1 : 7) {
+  for (; n <= 400; n += (full || n < 12) ? 1 : 13) {
     const fs::path out = dir_ / ("out" + std::to_string(n));
     const RunResult r = run("HANDSON_FAULT=alloc:" + std::to_string(n), replay(out));
     const std::string context = "alloc:" + std::to_string(n) + "\n" + r.out;

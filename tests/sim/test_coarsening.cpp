@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <cstdio>
 #include <random>
@@ -159,21 +160,30 @@ TEST_P(CoarseningKinds, InTheLinearRegimeItIsTheGalerkinProjectionOntoItsSubspac
           for (int cc = 0; cc < 3; ++cc) trip.emplace_back(3 * F.tets[t][std::size_t(a)] + r, 3 * F.tets[t][std::size_t(b)] + cc, K[t](3 * a + r, 3 * b + cc));
   Eigen::SparseMatrix<double> Kf(nd, nd);
   Kf.setFromTriplets(trip.begin(), trip.end());
-  Eigen::MatrixXd Tm = Eigen::MatrixXd::Zero(nd, nq);
+  // The subspace map u = Tm q + uD (sparse: a node follows itself or the corners of its face).
+  std::vector<Eigen::Triplet<double>> tt;
   Eigen::VectorXd uD = Eigen::VectorXd::Zero(nd);
+  auto identity3 = [&](std::size_t n, int col, double w) {
+    for (int r = 0; r < 3; ++r) tt.emplace_back(3 * int(n) + r, col + r, w);  // duplicates add up
+  };
   for (std::size_t n = 0; n < nf; ++n) {
     if (c.handleOf[n] >= 0 && !c.fixed[n]) uD.segment<3>(3 * Eigen::Index(n)) = T[0].apply(F.nodes[n]) - F.nodes[n];
-    if (qIndex[n] >= 0) Tm.block<3, 3>(3 * Eigen::Index(n), qIndex[n]).setIdentity();
+    if (qIndex[n] >= 0) identity3(n, qIndex[n], 1.0);
     if (onFace[n].first >= 0 && !c.fixed[n])
       for (int k = 0; k < 4; ++k) {
         const int corner = nm.coarseNodeInFine[std::size_t(nm.coarse.tets[std::size_t(onFace[n].first)][std::size_t(k)])];
-        if (qIndex[std::size_t(corner)] >= 0) Tm.block<3, 3>(3 * Eigen::Index(n), qIndex[std::size_t(corner)]) += onFace[n].second[k] * Eigen::Matrix3d::Identity();
+        if (qIndex[std::size_t(corner)] >= 0) identity3(n, qIndex[std::size_t(corner)], onFace[n].second[k]);
         else if (c.handleOf[std::size_t(corner)] >= 0 && !c.fixed[std::size_t(corner)])
           uD.segment<3>(3 * Eigen::Index(n)) += onFace[n].second[k] * (T[0].apply(F.nodes[std::size_t(corner)]) - F.nodes[std::size_t(corner)]);
       }
   }
-  const Eigen::MatrixXd KT = Kf * Tm;
-  const Eigen::VectorXd q = (Tm.transpose() * KT).ldlt().solve(-KT.transpose() * uD);
+  Eigen::SparseMatrix<double> Tm(nd, nq);
+  Tm.setFromTriplets(tt.begin(), tt.end());
+  // The minimiser: (Tm^T K Tm) q = -Tm^T K uD, by a sparse Cholesky (LDL^T) of the reduced matrix.
+  const Eigen::SparseMatrix<double> A = Eigen::SparseMatrix<double>(Tm.transpose()) * (Kf * Tm);
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A);
+  ASSERT_EQ(ldlt.info(), Eigen::Success);
+  const Eigen::VectorXd q = ldlt.solve(-(Tm.transpose() * (Kf * uD)));
   const Eigen::VectorXd ub = Tm * q + uD;
   double err = 0, scale = 0;
   for (std::size_t n = 0; n < nf; ++n) {
