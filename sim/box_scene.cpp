@@ -44,16 +44,15 @@ StabilityOutcome solveBoxMotion(const BoxScene& s, const std::function<std::vect
       const auto st = model.solve(at(double(k) / increments), xc, 30);
       o.coarseIterations += st.iterations;
       o.coarseConverged = o.coarseConverged && st.converged;
-      const auto xk = model.reconstruct(at(double(k) / increments), xc);
-      if (!finite(xk)) break;
-      o.coarseInvertedAt.push_back(countInvertedTets(s.meshes.fine, xk));
+      o.coarse = model.reconstruct(at(double(k) / increments), xc);  // the last one: at(1.0)
+      if (!finite(o.coarse)) break;
+      o.coarseInvertedAt.push_back(countInvertedTets(s.meshes.fine, o.coarse));
     }
-    o.coarse = model.reconstruct(at(1.0), xc);
-    o.coarseFinite = finite(xc) && finite(o.coarse);
+    o.coarseFinite = finite(xc) && finite(o.coarse) && !o.coarseInvertedAt.empty();
   } catch (const std::exception&) {
     o.coarseFinite = false;  // the solve refused a non-finite update
   }
-  if (o.coarseFinite) o.coarseInverted = countInvertedTets(s.meshes.fine, o.coarse);
+  if (o.coarseFinite) o.coarseInverted = o.coarseInvertedAt.back();
   std::vector<char> dir;
   auto x = s.meshes.fine.nodes;
   try {
@@ -75,7 +74,7 @@ StabilityOutcome solveBoxMotion(const BoxScene& s, const std::function<std::vect
     o.fineConverged = false;
     o.fineFinite = false;  // the solve refused a non-finite step
   }
-  if (o.fineFinite) o.fineInverted = countInvertedTets(s.meshes.fine, x);
+  if (o.fineFinite && !o.fineInvertedAt.empty()) o.fineInverted = o.fineInvertedAt.back();
   return o;
 }
 
