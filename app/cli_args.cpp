@@ -141,6 +141,13 @@ CoarseElement coarseElementOption(const Args& args, const char* name) {
   throw UsageError(std::string(name) + " must be cell or tet");
 }
 
+CoarseSolver coarseSolverOption(const Args& args, const char* name) {
+  const std::string v = args.valueOr(name, "pcg");
+  if (v == "pcg") return CoarseSolver::Pcg;
+  if (v == "assembled") return CoarseSolver::Assembled;
+  throw UsageError(std::string(name) + " must be pcg or assembled");
+}
+
 void fineMeshOptions(const Args& args, const char* name, const char* contrastName, SimSettings& s) {
   const std::string v = args.valueOr(name, "regular");
   if (v == "regular") s.fineMesh = SimSettings::FineMesh::Regular;

@@ -11,6 +11,7 @@
 
 namespace handson {
 enum class CoarseElement;
+enum class CoarseSolver;
 struct SimSettings;
 }
 
@@ -52,6 +53,8 @@ std::vector<double> parseNumberList(const std::string& text, const std::string& 
 void parseSize(const std::string& text, int& width, int& height);
 /// The coarse model's element kind from option `name` ("cell" or "tet"; absent: cell).
 CoarseElement coarseElementOption(const Args& args, const char* name);
+/// pcg (default) or assembled (the baseline coarse solve; sim/coarsening.h).
+CoarseSolver coarseSolverOption(const Args& args, const char* name);
 /// The fine mesh kind from option `name` ("regular" or "adapted"; absent: regular) into `settings`,
 /// with `contrastName` the stiffness jump that adds points to an adapted mesh.
 void fineMeshOptions(const Args& args, const char* name, const char* contrastName, SimSettings& settings);

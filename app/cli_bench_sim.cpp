@@ -29,7 +29,8 @@ const char* const kBenchSimHelp =
     "  The coarse model against the fine reference (static corotational FEM on the fine mesh) with a\n"
     "  handle moved 10 mm along x and rotated 30 degrees about z (about its centroid). PATH omitted: the\n"
     "  built-in phantom with its right kidney (label 4) as the handle. Per coarse resolution: scene and\n"
-    "  coarsening time, coarse solve per frame (a 10-frame drag, warm started, 3 iterations a frame),\n"
+    "  coarsening time, coarse solve per frame (a 10-frame drag, warm started, 3 iterations a frame; the\n"
+    "  default matrix-free PCG solve and the assembled baseline, with where the time goes),\n"
     "  fine solve time and their ratio, RMS / max error over free fine nodes relative to the handle's\n"
     "  motion for the coarsened model with both element kinds (grid cells, the default, and the spec's\n"
     "  coarse tets, on the same coarse nodes), a plain coarse FEM and the two-level refinement (cells);\n"
@@ -70,7 +71,9 @@ int cmdBenchSim(const Words& words) {
 
   std::ofstream acc(out / "sim_accuracy.csv"), trade(out / "sim_tradeoff.csv");
   acc << "coarse_tets,fine_tets,scene_s,coarsening_s,frame_ms,fine_solve_s,fine_over_frame,fine_iterations,coarse_iterations_to_converge,rms_coarse,max_coarse,"
-         "coarsening_s_tet,frame_ms_tet,rms_coarse_tet,max_coarse_tet,rms_plain,max_plain";
+         "coarsening_s_tet,frame_ms_tet,rms_coarse_tet,max_coarse_tet,rms_plain,max_plain,frame_ms_assembled,frame_speedup,frame_lag,frame_lag_assembled,"
+         "solver_difference,rotation_ms,products_ms,factor_ms,backsolve_ms,boundary_ms,pcg_per_frame,rotation_ms_assembled,assembly_ms_assembled,"
+         "factor_ms_assembled,backsolve_ms_assembled,boundary_ms_assembled,factorizations_per_frame_assembled";
   for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k;
   acc << ",refine_step_s\n";
   trade << "model,coarse_tets,seconds,rms\n";
@@ -97,29 +100,64 @@ int cmdBenchSim(const Words& words) {
     const auto fine = solveStatic(sc.meshes.fine, sc.fineK, dir, x0, so);
     const double tFine = since(t0);
     // Coarse models: preprocessing, a 10-frame drag (3 iterations a frame), then their converged answers.
+    struct Drag {
+      double frame = 0;        // median frame (ms)
+      CoarseSolveStats mean;   // per frame, averaged over the drag: the breakdown
+      double lag = 0;          // after the drag: largest coarse node distance to the converged state / motion
+    };
     struct Measured {
       std::unique_ptr<CoarseModel> model;
       std::vector<Eigen::Vector3d> xc;
-      double coarsening = 0, frame = 0;
+      double coarsening = 0;
+      Drag drag, baseline;     // the default solver (pcg) and the assembled one (cells only)
       CoarseSolveStats conv;
+      double solverDiff = 0;   // the two solvers' converged states: largest difference / motion
       DeformationError error;
+    };
+    const double motion = std::max(1e-9, compareDeformation(sc, T, sc.meshes.fine.nodes, sc.meshes.fine.nodes).handleMotionMm);
+    // A 10-frame drag from rest, 3 iterations a frame, with `solver`; leaves the model's state in xc.
+    auto drag = [&](CoarseModel& model, CoarseSolver solver, std::vector<Eigen::Vector3d>& xc) {
+      model.setSolver(solver);
+      model.prepareSolve();  // one-off set-up (pcg: the rest factorization), part of the preprocessing
+      xc = model.restState();
+      Drag d;
+      std::vector<double> frameMs;
+      for (int f = 1; f <= 10; ++f) {
+        const std::vector<RigidTransform> Tf{RigidTransform::about(sc.handleCentroid[0], rv * (f / 10.0), tv * (f / 10.0))};
+        const auto t1 = std::chrono::steady_clock::now();
+        const CoarseSolveStats st = model.solve(Tf, xc, 3);
+        frameMs.push_back(1e3 * since(t1));
+        for (auto [sum, v] : {std::pair{&d.mean.rotationMs, st.rotationMs}, {&d.mean.productMs, st.productMs}, {&d.mean.factorMs, st.factorMs},
+                              {&d.mean.backSolveMs, st.backSolveMs}, {&d.mean.boundaryMs, st.boundaryMs}, {&d.mean.solveMs, st.solveMs}})
+          *sum += v / 10.0;
+        d.mean.pcgIterations += st.pcgIterations;
+        d.mean.factorizations += st.factorizations;
+      }
+      std::sort(frameMs.begin(), frameMs.end());
+      d.frame = frameMs[frameMs.size() / 2];
+      auto xconv = xc;
+      model.solve(T, xconv, 2000, 1e-10);
+      for (std::size_t v = 0; v < xc.size(); ++v) d.lag = std::max(d.lag, (xc[v] - xconv[v]).norm() / motion);
+      return d;
     };
     auto measure = [&](CoarseElement kind) {
       Measured m;
       auto t1 = std::chrono::steady_clock::now();
       m.model = std::make_unique<CoarseModel>(sc.meshes, sc.fineK, sc.constraints, progress, kind);
       m.coarsening = since(t1);
-      m.xc = m.model->restState();
-      std::vector<double> frameMs;
-      for (int f = 1; f <= 10; ++f) {
-        const std::vector<RigidTransform> Tf{RigidTransform::about(sc.handleCentroid[0], rv * (f / 10.0), tv * (f / 10.0))};
-        t1 = std::chrono::steady_clock::now();
-        m.model->solve(Tf, m.xc, 3);
-        frameMs.push_back(1e3 * since(t1));
+      std::vector<Eigen::Vector3d> xb;
+      if (kind == CoarseElement::Cell) {
+        m.baseline = drag(*m.model, CoarseSolver::Assembled, xb);
+        m.model->solve(T, xb, 2000, 1e-10);
       }
-      std::sort(frameMs.begin(), frameMs.end());
-      m.frame = frameMs[frameMs.size() / 2];
+      m.drag = drag(*m.model, CoarseSolver::Pcg, m.xc);
       m.conv = m.model->solve(T, m.xc, 500);  // the coarse model's own converged answer
+      if (kind == CoarseElement::Cell) {
+        // Both solvers to 1e-10 of the motion: how far apart their answers are.
+        auto xp = m.xc;
+        m.model->solve(T, xp, 2000, 1e-10);
+        for (std::size_t v = 0; v < xb.size(); ++v) m.solverDiff = std::max(m.solverDiff, (xb[v] - xp[v]).norm() / motion);
+      }
       m.error = compareDeformation(sc, T, m.model->reconstruct(T, m.xc), fine.x);
       return m;
     };
@@ -127,25 +165,38 @@ int cmdBenchSim(const Words& words) {
     Measured cell = measure(CoarseElement::Cell);
     CoarseModel& model = *cell.model;
     auto& xc = cell.xc;
-    const double frame = cell.frame;
+    const double frame = cell.drag.frame;
     const auto& ec = cell.error;
     const auto xcoarse = model.reconstruct(T, xc);
     const auto ep = compareDeformation(sc, T, plainCoarseSolve(sc.meshes, sc.youngs, sc.poisson, sc.constraints, T), fine.x);
     acc << sc.meshes.coarse.tets.size() << "," << sc.meshes.fine.tets.size() << "," << tScene << "," << cell.coarsening << "," << frame << "," << tFine << ","
         << tFine / (frame * 1e-3) << "," << fine.iterations << "," << (cell.conv.converged ? cell.conv.iterations : -1) << "," << ec.rmsOfMotion << ","
-        << ec.maxOfMotion << "," << tet.coarsening << "," << tet.frame << "," << tet.error.rmsOfMotion << "," << tet.error.maxOfMotion << "," << ep.rmsOfMotion
+        << ec.maxOfMotion << "," << tet.coarsening << "," << tet.drag.frame << "," << tet.error.rmsOfMotion << "," << tet.error.maxOfMotion << "," << ep.rmsOfMotion
         << "," << ep.maxOfMotion;
+    const Drag& a = cell.baseline;
+    const CoarseSolveStats& b = cell.drag.mean;
+    acc << "," << a.frame << "," << a.frame / frame << "," << cell.drag.lag << "," << a.lag << "," << cell.solverDiff << "," << b.rotationMs << ","
+        << b.productMs << "," << b.factorMs << "," << b.backSolveMs << "," << b.boundaryMs << "," << b.pcgIterations / 10.0 << "," << a.mean.rotationMs << ","
+        << a.mean.productMs << "," << a.mean.factorMs << "," << a.mean.backSolveMs << "," << a.mean.boundaryMs << "," << a.mean.factorizations / 10.0;
     trade << "coarsened-cells," << sc.meshes.coarse.tets.size() << "," << frame * 1e-3 << "," << ec.rmsOfMotion << "\n";
+    trade << "coarsened-cells-assembled," << sc.meshes.coarse.tets.size() << "," << a.frame * 1e-3 << "," << ec.rmsOfMotion << "\n";
     // The paper's operating point: about 6,000 coarse and 300,000 fine tets (the defaults).
     if (nc == 6000 && finePer == 64) trade << "operating-point," << sc.meshes.coarse.tets.size() << "," << frame * 1e-3 << "," << ec.rmsOfMotion << "\n";
-    trade << "coarsened-tets," << sc.meshes.coarse.tets.size() << "," << tet.frame * 1e-3 << "," << tet.error.rmsOfMotion << "\n";
+    trade << "coarsened-tets," << sc.meshes.coarse.tets.size() << "," << tet.drag.frame * 1e-3 << "," << tet.error.rmsOfMotion << "\n";
     trade << "plain," << sc.meshes.coarse.tets.size() << "," << frame * 1e-3 << "," << ep.rmsOfMotion << "\n";
     std::cout << std::setprecision(3) << "\ncoarse " << sc.meshes.coarse.tets.size() << " tets (" << model.elementCount() << " cells) / fine "
               << sc.meshes.fine.tets.size() << " tets: scene " << tScene << " s, coarsening " << cell.coarsening << " s (tets " << tet.coarsening
-              << " s); coarse frame " << frame << " ms (tets " << tet.frame << " ms), fine solve " << tFine << " s (" << fine.iterations
+              << " s); coarse frame " << frame << " ms (tets " << tet.drag.frame << " ms), fine solve " << tFine << " s (" << fine.iterations
               << " Newton iterations): " << std::setprecision(0) << tFine / (frame * 1e-3) << "x\n"
               << "  coarse model converged in " << cell.conv.iterations << " iterations" << (cell.conv.converged ? "" : " (NOT converged)") << " (tets "
               << tet.conv.iterations << (tet.conv.converged ? "" : ", NOT converged") << ")\n"
+              << std::setprecision(3) << "  coarse frame, pcg " << frame << " ms against assembled " << a.frame << " ms (" << std::setprecision(1)
+              << a.frame / frame << "x); per frame, pcg: rotations " << std::setprecision(3) << b.rotationMs << ", products " << b.productMs
+              << ", factorization " << b.factorMs << ", back-solves " << b.backSolveMs << ", boundary " << b.boundaryMs << " ms, "
+              << b.pcgIterations / 10.0 << " CG iterations; assembled: rotations " << a.mean.rotationMs << ", assembly " << a.mean.productMs
+              << ", factorization " << a.mean.factorMs << ", back-solves " << a.mean.backSolveMs << ", boundary " << a.mean.boundaryMs << " ms\n"
+              << std::setprecision(6) << "  after the drag, distance to the converged state / motion: pcg " << cell.drag.lag << ", assembled " << a.lag
+              << "; converged states differ by " << std::setprecision(2) << std::scientific << cell.solverDiff << std::fixed << " of the motion\n"
               << std::setprecision(4) << "  RMS / max of the handle's motion (" << std::setprecision(2) << ec.handleMotionMm << " mm): coarsened (cells) "
               << std::setprecision(4) << ec.rmsOfMotion << " / " << ec.maxOfMotion << ", coarsened (tets) " << tet.error.rmsOfMotion << " / "
               << tet.error.maxOfMotion << ", plain coarse FEM " << ep.rmsOfMotion << " / " << ep.maxOfMotion << " (plain / cells "
@@ -192,6 +243,7 @@ int cmdBenchSim(const Words& words) {
                       << "set arrow from graph 0, first 0.1 to graph 1, first 0.1 nohead dt 2 lc rgb '#cc4444'\n"
                       << "set arrow from graph 0, first 0.02 to graph 1, first 0.02 nohead dt 3 lc rgb '#44aa44'\n"
                       << "plot '" << f << "' using (strcol(1) eq 'coarsened-cells' ? $3 : 1/0):4 with points pt 7 ps 1.5 title 'coarsened, cell elements (default)', "
+                      << "'' using (strcol(1) eq 'coarsened-cells-assembled' ? $3 : 1/0):4 with points pt 4 ps 1.5 title 'coarsened, cells, assembled solve (baseline)', "
                       << "'' using (strcol(1) eq 'coarsened-tets' ? $3 : 1/0):4 with points pt 6 ps 1.5 title 'coarsened, tet elements (spec)', "
                       << "'' using (strcol(1) eq 'plain' ? $3 : 1/0):4 with points pt 5 ps 1.5 title 'plain coarse FEM', "
                       << "'' using (strcol(1) eq 'coarse-iterations' ? $3 : 1/0):4 with linespoints pt 1 dt 2 title 'coarse solve from rest: 1, 2, 3, 5, 8 iterations', "

@@ -41,6 +41,8 @@ const char* const kDeformHelp =
     "  --coarse-tets N         coarse tets over the region (default 6000; 6 per grid cell)\n"
     "  --coarse-element cell|tet  the coarse model's elements: grid cells (default; 8 corners, the\n"
     "                          cell's diagonal faces condensed) or the coarse tets (the spec's)\n"
+    "  --coarse-solver pcg|assembled  the coarse solve: matrix-free PCG (default) or the assembled\n"
+    "                          warped stiffness (the old one, kept to compare); the same answer\n"
     "  --fine-mesh regular|adapted  the regular refinement (default) or image-adapted: TetGen meshes\n"
     "                          each cell with extra points at stiffness jumps (cell elements only)\n"
     "  --adapt-contrast F      a Young's modulus jump of F or more adds points (default 10)\n"
@@ -117,7 +119,7 @@ GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const Sim
 int cmdDeform(const Words& words) {
   Args args(words,
             {"--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm",
-             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--fine-mesh", "--adapt-contrast", "--cache-dir"},
+             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--fine-mesh", "--adapt-contrast", "--cache-dir"},
             {"--whole-volume", "--quiet", "--validation"});
   if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {
     usageStream(args) << kDeformHelp;
@@ -140,6 +142,7 @@ int cmdDeform(const Words& words) {
   s.paddingMm = args.number("--padding-mm", s.paddingMm, 0.0, 1e4);
   s.wholeVolume = args.flag("--whole-volume");
   s.element = coarseElementOption(args, "--coarse-element");
+  s.coarseSolver = coarseSolverOption(args, "--coarse-solver");
   fineMeshOptions(args, "--fine-mesh", "--adapt-contrast", s);
   if (auto m = args.value("--materials")) s.materials = MaterialTable::load(*m);
   const int refineSteps = int(args.integer("--refine-steps", 0, 0, 1000));

@@ -64,6 +64,8 @@ const char* const kSimHelp =
     "  --sim-fine-tets N       fine elements (default 300000)\n"
     "  --sim-padding-mm D      simulated region: the handles' box plus D mm (default 40)\n"
     "  --sim-coarse-element cell|tet  coarse model elements (default cell; see handson deform --help)\n"
+    "  --sim-coarse-solver pcg|assembled  the coarse solve: matrix-free PCG (default) or the assembled\n"
+    "                          warped stiffness refactorized every third frame (the old one, kept to compare)\n"
     "  --sim-fine-mesh regular|adapted  fine mesh (default regular; see handson deform --help)\n"
     "  --sim-cache DIR|off     preprocessing cache (scene + coarse model; a second open of the same\n"
     "                          volume, handles and settings skips it): default $HANDSON_CACHE_DIR,\n"
@@ -73,7 +75,7 @@ const char* const kSimHelp =
     "  --sim-iterations N      coarse solver iterations per new pose (default 3)\n"
     "  --sim-idle-iterations N more while a pose is held, until converged (default 300); a solve that\n"
     "                          has not converged when they are spent is reported and the session saved\n";
-const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm", "--sim-refine-steps", "--sim-coarse-element", "--sim-fine-mesh",
+const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm", "--sim-refine-steps", "--sim-coarse-element", "--sim-coarse-solver", "--sim-fine-mesh",
                                                  "--sim-adapt-contrast", "--sim-cache", "--sim-iterations", "--sim-idle-iterations"};
 
 DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
@@ -86,6 +88,7 @@ DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   if (d.sim.fineTets < d.sim.coarseTets) throw UsageError("--sim-fine-tets must be at least --sim-coarse-tets");
   d.sim.paddingMm = args.number("--sim-padding-mm", d.sim.paddingMm, 0.0, 1e4);
   d.sim.element = coarseElementOption(args, "--sim-coarse-element");
+  d.sim.coarseSolver = coarseSolverOption(args, "--sim-coarse-solver");
   fineMeshOptions(args, "--sim-fine-mesh", "--sim-adapt-contrast", d.sim);
   d.refineSteps = int(args.integer("--sim-refine-steps", defaultRefineSteps, 0, 100));
   d.coarseIterations = int(args.integer("--sim-iterations", d.coarseIterations, 1, 1000));

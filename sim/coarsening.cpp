@@ -9,6 +9,7 @@
 #include <unordered_map>
 
 #include "sim/binary_io.h"
+#include "sim/coarse_pcg_workspace.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -45,6 +46,12 @@ Eigen::Vector4d barycentric(const std::array<Eigen::Vector3d, 4>& X, const Eigen
 }  // namespace
 
 const char* coarseElementName(CoarseElement e) { return e == CoarseElement::Tet ? "tet" : "cell"; }
+const char* coarseSolverName(CoarseSolver s) { return s == CoarseSolver::Assembled ? "assembled" : "pcg"; }
+
+void CoarseModel::setPcgIterations(int n) {
+  if (n < 1 || n > 16) throw Error("coarse solve: 1 to 16 conjugate-gradient iterations an iteration");
+  pcgIterations_ = n;
+}
 
 int CoarseModel::elementOfFineTet(std::size_t t) const {
   const int p = meshes_.fineParent[t];
@@ -438,12 +445,10 @@ CoarseModel::VecE CoarseModel::handleTerm(const Element& el, const Eigen::Matrix
   return h;
 }
 
-CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tolerance) {
+double CoarseModel::prepareSolve(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, double tolerance) const {
   const TetMesh& C = meshes_.coarse;
   if (int(handles.size()) < constraints_.handleCount) throw Error("coarse solve: a transform per handle expected");
   if (x.size() != C.nodes.size()) x = C.nodes;
-  using Clock = std::chrono::steady_clock;
-  const auto start = Clock::now();
   for (const auto& T : handles)
     if (!T.R.allFinite() || !T.t.allFinite()) throw Error("coarse solve: a handle transform is not finite");
   // Dirichlet coarse nodes take their positions; the motion scale sets the tolerance.
@@ -456,17 +461,36 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
   for (std::size_t v = 0; v < C.nodes.size(); ++v)
     if (coarseRole_[v] >= 0) motion = std::max(motion, (x[v] - C.nodes[v]).norm());
   for (const auto& T : handles) motion = std::max(motion, T.t.norm());
+  return tolerance * std::max(motion, 1e-3);  // a micron at least: zero motion converges too
+}
+
+CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tolerance) {
+  const auto start = std::chrono::steady_clock::now();
+  const double tol = prepareSolve(handles, x, tolerance);
   CoarseSolveStats st;
-  if (dofCount_ == 0) {
-    st.converged = true;
-    return st;
-  }
-  const double tol = tolerance * std::max(motion, 1e-3);  // a micron at least: zero motion converges too
+  if (dofCount_ == 0) st.converged = true;
+  else if (solverKind_ == CoarseSolver::Pcg) st = solvePcg(handles, x, maxIterations, tol);
+  else st = solveAssembled(handles, x, maxIterations, tol);
+  st.solveMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return st;
+}
+
+CoarseSolveStats CoarseModel::solveAssembled(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tol) {
+  const TetMesh& C = meshes_.coarse;
+  using Clock = std::chrono::steady_clock;
+  auto ms = [](Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); };
+  CoarseSolveStats st;
   ++callsSinceFactorization_;
   Eigen::VectorXd rhs(dofCount_);
   double update0 = 0.0, prevUpdate = std::numeric_limits<double>::infinity();  // the last two updates
   double relax = 1.0;
+  std::vector<Eigen::Matrix3d> rotations(elements_.size());
   for (int it = 0; it < maxIterations; ++it) {
+    auto t0 = Clock::now();
+    for (std::size_t e = 0; e < elements_.size(); ++e) rotations[e] = elementRotation(int(e), x);
+    st.rotationMs += ms(t0);
+    t0 = Clock::now();
+    const double boundaryBefore = st.boundaryMs;
     assembler_->zero();
     rhs.setZero();
     const int nc = nc_;
@@ -474,7 +498,7 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
     VecE be(3 * nc);
     for (std::size_t e = 0; e < elements_.size(); ++e) {
       const Element& el = elements_[e];
-      const Eigen::Matrix3d Rc = elementRotation(int(e), x);
+      const Eigen::Matrix3d& Rc = rotations[e];
       // R K_h R^T block by block (3x3 products instead of two full ones).
       for (int a = 0; a < nc; ++a)
         for (int b = 0; b < nc; ++b) Ae.block<3, 3>(3 * a, 3 * b).noalias() = Rc * el.Kh.block<3, 3>(3 * a, 3 * b) * Rc.transpose();
@@ -498,20 +522,27 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
         rhs.segment<3>(da) += r;
       }
     }
+    st.productMs += ms(t0) - (st.boundaryMs - boundaryBefore);
     // x += A_f^-1 (b - A(R) x) with A_f the last factorized matrix: refactorized every third call
     // (frame) and whenever the updates stop halving; otherwise only back-solves (the factorization
     // is the frame's main cost on larger coarse meshes). The fixed point is the same.
     if (!factorized_ || (it == 0 && callsSinceFactorization_ >= 3) || (it > 0 && update0 > 0.5 * prevUpdate)) {
       callsSinceFactorization_ = 0;
+      t0 = Clock::now();
       if (!factorize(assembler_->matrix())) throw Error("coarse solve: the coarse stiffness is not positive definite");
+      st.factorMs += ms(t0);
       factorized_ = true;
       ++st.factorizations;
     }
+    t0 = Clock::now();
     Eigen::VectorXd xf(dofCount_);
     for (std::size_t v = 0; v < C.nodes.size(); ++v)
       if (dof_[v] >= 0) xf.segment<3>(dof_[v]) = x[v];
     const Eigen::VectorXd r = rhs - assembler_->matrix().selfadjointView<Eigen::Lower>() * xf;
+    st.productMs += ms(t0);
+    t0 = Clock::now();
     const Eigen::VectorXd dx = backSolve(r);
+    st.backSolveMs += ms(t0);
     if (!dx.allFinite()) throw Error("coarse solve: diverged (non-finite update)");  // std::max would hide a NaN
     double update = 0.0;
     for (std::size_t v = 0; v < C.nodes.size(); ++v)
@@ -532,9 +563,10 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
       break;
     }
   }
-  st.solveMs = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   return st;
 }
+
+CoarseModel::CoarseModel(const NestedMeshes& meshes, CoarseElement kind) : meshes_(meshes), kind_(kind), nc_(kind == CoarseElement::Tet ? 4 : 8) {}
 
 std::vector<Eigen::Vector3d> CoarseModel::reconstruct(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const {
   const TetMesh& C = meshes_.coarse;
@@ -612,7 +644,13 @@ void CoarseModel::prolongAdd(const Eigen::VectorXd& cv, const std::vector<Eigen:
 }
 
 Eigen::VectorXd CoarseModel::coarseSolve(const Eigen::VectorXd& b) const {
-  if (!analyzed_ || dofCount_ == 0) return Eigen::VectorXd::Zero(dofCount_);
+  if (dofCount_ == 0) return Eigen::VectorXd::Zero(dofCount_);
+  if (solverKind_ == CoarseSolver::Pcg && pcgReady()) {
+    Eigen::VectorXd z;
+    pcgPrecondition(b, z);
+    return z;
+  }
+  if (!analyzed_) return Eigen::VectorXd::Zero(dofCount_);
   return backSolve(b);
 }
 

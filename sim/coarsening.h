@@ -51,14 +51,32 @@ struct FineConstraints {
 
 struct CoarseSolveStats {
   int iterations = 0, factorizations = 0;
+  int pcgIterations = 0;    ///< CoarseSolver::Pcg: inner conjugate-gradient iterations, all together
   double lastUpdate = 0.0;  ///< largest coarse node update of the last iteration (mm)
   bool converged = false;
-  double solveMs = 0.0;     ///< wall time of the solve (all of it)
-  double boundaryMs = 0.0;  ///< of which the rigid handles' boundary forces (the 12x9 / 12x3 blocks)
+  double solveMs = 0.0;     ///< wall time of the solve (all of it), of which:
+  double boundaryMs = 0.0;  ///< the rigid handles' boundary forces (the 3n x 9 / 3n x 3 blocks)
+  double rotationMs = 0.0;  ///< the element rotations (and, Pcg, the preconditioner's node rotations)
+  double productMs = 0.0;   ///< Assembled: assembling R K_h R^T; Pcg: the matrix-free residuals and products
+  double factorMs = 0.0;    ///< sparse Cholesky factorizations
+  double backSolveMs = 0.0; ///< triangular solves with the factor
 };
 
 enum class CoarseElement { Tet, Cell };
 const char* coarseElementName(CoarseElement e);
+
+/// How CoarseModel::solve() iterates toward the same fixed point, f_c(x) = 0 (docs/simulation.md,
+/// "The coarse solve"):
+///  - Assembled (the baseline, kept for comparison): every iteration assembles the warped stiffness
+///    sum R K_h R^T into a sparse matrix and steps x += A_f^-1 (b(R) - A(R) x), with A_f a Cholesky
+///    factor of that matrix refactorized every third call and whenever the updates stop halving.
+///  - Pcg (the default): no assembly and no refactorization. Each iteration takes the element
+///    rotations by a warm-started Newton polar iteration, the residual element by element with
+///    fixed-size blocks, then a few conjugate-gradient iterations on A(R) d = r, matrix-free,
+///    preconditioned by the rest stiffness's Cholesky factor turned by per-node rotations
+///    (Rn A_0^-1 Rn^T: exact when all elements turn alike).
+enum class CoarseSolver { Assembled, Pcg };
+const char* coarseSolverName(CoarseSolver s);
 
 class CoarseModel {
  public:
@@ -72,7 +90,20 @@ class CoarseModel {
   /// truncated, corrupt or does not fit the meshes; `bytes` bounds what may be read.
   static std::unique_ptr<CoarseModel> load(std::istream& is, std::uint64_t bytes, const NestedMeshes& meshes);
 
+  ~CoarseModel();
+  CoarseModel(const CoarseModel&) = delete;
+  CoarseModel& operator=(const CoarseModel&) = delete;
+
   CoarseElement elementKind() const { return kind_; }
+  /// The iteration solve() uses (default Pcg); switching keeps the state x the caller holds.
+  void setSolver(CoarseSolver s) { solverKind_ = s; }
+  CoarseSolver solver() const { return solverKind_; }
+  /// Builds what solve() needs (Pcg: the rest stiffness's Cholesky factor, ~40 ms at 2,000 dofs)
+  /// now rather than in the first call; solve() does it itself otherwise. Throws handson::Error.
+  void prepareSolve();
+  /// Pcg: conjugate-gradient iterations per solve() iteration (1-16). The default, 1, carries the
+  /// directions over the call's iterations (nonlinear conjugate gradients); more restart each one.
+  void setPcgIterations(int n);
   std::size_t elementCount() const { return elements_.size(); }
   /// Corners per element: 4 (Tet) or 8 (Cell).
   int cornersPerElement() const { return kind_ == CoarseElement::Tet ? 4 : 8; }
@@ -104,15 +135,31 @@ class CoarseModel {
   Eigen::VectorXd restrictToCoarse(const std::vector<Eigen::Vector3d>& r, const std::vector<Eigen::Vector3d>& x) const;
   /// P c, added to out (per fine node).
   void prolongAdd(const Eigen::VectorXd& c, const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>& out) const;
-  /// A_c^-1 b with the coarse matrix of the last solve() iteration.
+  /// A_c^-1 b with the coarse matrix of the last solve() iteration (Pcg: its preconditioner,
+  /// Rn A_0^-1 Rn^T at the last solve's rotations).
   Eigen::VectorXd coarseSolve(const Eigen::VectorXd& b) const;
   /// Coarse nodes held by Dirichlet conditions: -2 fixed at rest, k >= 0 moved by handle k, -1 free.
   const std::vector<int>& coarseRole() const { return coarseRole_; }
   std::size_t freeCoarseDofs() const { return std::size_t(dofCount_); }
 
  private:
-  CoarseModel(const NestedMeshes& meshes, CoarseElement kind) : meshes_(meshes), kind_(kind), nc_(kind == CoarseElement::Tet ? 4 : 8) {}
+  CoarseModel(const NestedMeshes& meshes, CoarseElement kind);
   void buildAssembler();
+  /// Sets the Dirichlet coarse nodes of x and returns the convergence threshold (mm).
+  double prepareSolve(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, double tolerance) const;
+  CoarseSolveStats solveAssembled(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tol);
+  // The matrix-free solve (sim/coarse_pcg.cpp).
+  struct PcgWorkspace;
+  CoarseSolveStats solvePcg(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tol);
+  void preparePcg(CoarseSolveStats& st);
+  template <int N>
+  void pcgRotations(const std::vector<Eigen::Vector3d>& x, bool nodes);
+  template <int N>
+  void pcgResidual(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x, Eigen::VectorXd& r, double& boundaryMs) const;
+  template <int N>
+  void pcgProduct(const Eigen::VectorXd& p, Eigen::VectorXd& out) const;
+  void pcgPrecondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) const;
+  bool pcgReady() const;
   // Per-frame temporaries on the stack (at most 24 rows); stored blocks sized to the element kind
   // (a tet's 12x12 is a quarter of a cell's 24x24).
   using MatE = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 24, 24>;
@@ -165,6 +212,9 @@ class CoarseModel {
   Eigen::VectorXd backSolve(const Eigen::VectorXd& b) const;
   bool analyzed_ = false, factorized_ = false;
   int callsSinceFactorization_ = 0;
+  CoarseSolver solverKind_ = CoarseSolver::Pcg;
+  int pcgIterations_ = 1;
+  std::unique_ptr<PcgWorkspace> pcg_;
 };
 
 /// Plain coarse FEM for comparison: coarse tets with the volume-averaged Young's modulus and Poisson

@@ -72,6 +72,42 @@ Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& F) {
   return U * V.transpose();
 }
 
+Eigen::Matrix3d polarRotationWarm(const Eigen::Matrix3d& F, Eigen::Quaterniond& q) {
+  const double fn2 = F.squaredNorm();
+  if (!F.allFinite() || !(fn2 > 0)) {
+    q.setIdentity();
+    return Eigen::Matrix3d::Identity();
+  }
+  if (F.determinant() > 1e-3 * fn2 * std::sqrt(fn2)) {
+    for (int it = 0; it < 8; ++it) {
+      const Eigen::Matrix3d R = q.toRotationMatrix();
+      const Eigen::Matrix3d S = R.transpose() * F;
+      const Eigen::Vector3d skew(0.5 * (S(2, 1) - S(1, 2)), 0.5 * (S(0, 2) - S(2, 0)), 0.5 * (S(1, 0) - S(0, 1)));
+      Eigen::Matrix3d M = -0.5 * (S + S.transpose());
+      M.diagonal().array() += S.trace();
+      // At the polar rotation S is symmetric positive definite, and M's eigenvalues are the sums of
+      // two of S's: positive. At the other stationary points (R turned by a half turn from it) some
+      // sum is negative. So M must be positive definite (leading minors, scaled) to go on.
+      const double tm = M.trace();
+      const double det = M.determinant();
+      if (!(tm > 0) || !(M(0, 0) > 0) || !(M(0, 0) * M(1, 1) - M(0, 1) * M(1, 0) > 0) || !(det > 1e-9 * tm * tm * tm)) break;
+      const Eigen::Vector3d w = 2.0 * (M.inverse() * skew);
+      const double angle = w.norm();
+      if (!(angle < 1.0)) break;  // far from the answer: the direct method is safer
+      if (angle < 1e-5) {
+        // Newton converges quadratically: after this step the error is O(angle^2) < 1e-10 rad.
+        // exp([w]) as the unit quaternion (1, w/2) normalized: exact to O(angle^3).
+        q = (q * Eigen::Quaterniond(1.0, 0.5 * w.x(), 0.5 * w.y(), 0.5 * w.z())).normalized();
+        return q.toRotationMatrix();
+      }
+      q = (q * Eigen::Quaterniond(Eigen::AngleAxisd(angle, w / angle))).normalized();
+    }
+  }
+  const Eigen::Matrix3d R = polarRotation(F);
+  q = Eigen::Quaterniond(R).normalized();
+  return R;
+}
+
 Mat12 blockRotation(const Eigen::Matrix3d& R) {
   Mat12 B = Mat12::Zero();
   for (int i = 0; i < 4; ++i) B.block<3, 3>(3 * i, 3 * i) = R;

@@ -6,6 +6,7 @@
 // tests check by finite differences; R K_e R^T ("warped stiffness") is its Jacobian in any rigidly
 // moved rest configuration.
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <array>
 #include <vector>
 
@@ -22,6 +23,16 @@ Mat12 tetStiffness(const std::array<Eigen::Vector3d, 4>& X, double youngs, doubl
 /// SVD F = U S V^T with the sign of the smallest singular direction flipped when det(U V^T) < 0,
 /// so the result is always a proper rotation (det +1) and the element pushes back out of inversion.
 Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& F);
+
+/// polarRotation(F) by Newton's iteration on the rotation, warm-started from `q` (the last answer
+/// for this element; identity the first time) and left there: for a rotation R with S = R^T F, the
+/// update R <- R exp([w]) with w = 2 (tr(S) I - sym S)^-1 axial(skew S) makes R^T F symmetric to
+/// first order, so it converges quadratically (a frame's small change: 1-2 steps, against 5-8
+/// inverse-and-scale steps of polarRotation). Stops after a step with |w| < 1e-5 rad (what is left
+/// is O(|w|^2) < 1e-10 rad). Inverted or nearly
+/// degenerate F (det F <= 0, or tr(S) I - sym S near singular), or no convergence in 8 steps: falls
+/// back to polarRotation(F) - the same rotation either way.
+Eigen::Matrix3d polarRotationWarm(const Eigen::Matrix3d& F, Eigen::Quaterniond& q);
 
 /// Deformation gradient of a tet: rest corners X, current corners x.
 Eigen::Matrix3d deformationGradient(const std::array<Eigen::Vector3d, 4>& X, const std::array<Eigen::Vector3d, 4>& x);

@@ -256,7 +256,9 @@ std::unique_ptr<CoarseModel> buildOrLoadSimulation(const Volume& image, const st
   o = CacheOutcome{};
   auto build = [&] {
     scene = buildSimScene(image, handles, settings, progress);
-    return std::make_unique<CoarseModel>(scene.meshes, scene.fineK, scene.constraints, progress, settings.element);
+    auto m = std::make_unique<CoarseModel>(scene.meshes, scene.fineK, scene.constraints, progress, settings.element);
+    m->setSolver(settings.coarseSolver);  // how it iterates: not part of the cached data
+    return m;
   };
   if (cacheDir.empty()) return build();
   const std::filesystem::path file = cacheDir / (simulationCacheKey(image, handles, settings) + ".hsim");
@@ -269,6 +271,7 @@ std::unique_ptr<CoarseModel> buildOrLoadSimulation(const Volume& image, const st
       reportProgress(progress, 1.0, "loading cached simulation");
       o.hit = true;
       std::filesystem::last_write_time(file, std::filesystem::file_time_type::clock::now(), ec);  // recently used
+      model->setSolver(settings.coarseSolver);
       return model;
     } catch (const std::exception& e) {  // corrupt data, or a garbage file too large to read
       o.note = std::string("the cached simulation was unreadable (") + e.what() + "): rebuilt";

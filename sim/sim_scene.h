@@ -30,6 +30,9 @@ struct SimSettings {
   /// The coarse model's elements (CoarseModel; sim/coarsening.h): grid cells by default, measured
   /// more accurate than the spec's coarse tets on the same coarse nodes (README, `bench sim`).
   CoarseElement element = CoarseElement::Cell;
+  /// How the coarse model iterates (CoarseModel::setSolver): the matrix-free PCG by default, the
+  /// assembled warped-stiffness solve as the measured baseline (README, `bench sim`).
+  CoarseSolver coarseSolver = CoarseSolver::Pcg;
   /// The fine mesh: the regular refinement of the coarse grid (default), or image-adapted (TetGen,
   /// sim/adapted_mesh.h: extra points at material boundaries; needs cell elements).
   enum class FineMesh { Regular, ImageAdapted } fineMesh = FineMesh::Regular;

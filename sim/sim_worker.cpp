@@ -95,6 +95,11 @@ bool finite(const std::vector<RigidTransform>& T) {
 }  // namespace
 
 void SimWorker::run() {
+  try {
+    model_.prepareSolve();  // the solver's one-off set-up before the first pose, not inside its frame
+  } catch (const std::exception&) {
+    // Reported by the first solve, which tries again.
+  }
   std::vector<Eigen::Vector3d> x = model_.restState();  // warm start: the last coarse state
   std::vector<Eigen::Vector3d> lastGood = x;
   std::vector<RigidTransform> solved(std::size_t(model_.constraints().handleCount));  // at rest

@@ -107,6 +107,48 @@ TEST(Fem, PolarRotationIsAProperRotationForInvertedAndDegenerateF) {
   }
 }
 
+TEST(Fem, WarmStartedPolarIterationGivesPolarRotationsAnswer) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto randomRotation = [&](double maxAngle) {
+    const Eigen::Vector3d axis = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
+    return Eigen::Matrix3d(Eigen::AngleAxisd(maxAngle * u(rng), axis).toRotationMatrix());
+  };
+  // Uninverted F with stretches from 0.3 to 3, from a cold start (identity) and from warm starts
+  // within 0.5 rad: the same rotation as polarRotation to 1e-9 (its own convergence is ~1e-13).
+  for (int i = 0; i < 500; ++i) {
+    const Eigen::Matrix3d R = randomRotation(M_PI);
+    const Eigen::Matrix3d V = randomRotation(M_PI);
+    const Eigen::Vector3d s(std::exp(1.1 * u(rng)), std::exp(1.1 * u(rng)), std::exp(1.1 * u(rng)));
+    const Eigen::Matrix3d F = R * V * s.asDiagonal() * V.transpose();
+    Eigen::Quaterniond cold = Eigen::Quaterniond::Identity();
+    Eigen::Quaterniond warm(R * randomRotation(0.5));
+    EXPECT_LT((polarRotationWarm(F, cold) - polarRotation(F)).norm(), 1e-9) << i;
+    EXPECT_LT((polarRotationWarm(F, warm) - polarRotation(F)).norm(), 1e-9) << i;
+    EXPECT_LT((warm.toRotationMatrix() - polarRotation(F)).norm(), 1e-9) << "the warm start is left at the answer";
+  }
+  // A drag: F turning by small steps, each solve warm-started from the last, stays on the answer.
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  const Eigen::Matrix3d S = Eigen::Vector3d(1.3, 0.8, 1.05).asDiagonal();
+  for (int k = 0; k <= 200; ++k) {
+    const Eigen::Matrix3d F = Eigen::AngleAxisd(0.01 * k, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix() * S;
+    EXPECT_LT((polarRotationWarm(F, q) - polarRotation(F)).norm(), 1e-9) << k;
+  }
+  // Inverted, degenerate and non-finite F: polarRotation's proper rotation.
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0, 1, 1).normalized()).toRotationMatrix();
+  for (const Eigen::Matrix3d& F : {Eigen::Matrix3d(R * Eigen::Vector3d(1, 1.2, -0.3).asDiagonal()), Eigen::Matrix3d(Eigen::Matrix3d::Zero()),
+                                   Eigen::Matrix3d(Eigen::Vector3d(1, 0, 0).asDiagonal()), Eigen::Matrix3d(-Eigen::Matrix3d::Identity()),
+                                   Eigen::Matrix3d(Eigen::Matrix3d::Constant(std::nan("")))}) {
+    Eigen::Quaterniond w = Eigen::Quaterniond::Identity();
+    const Eigen::Matrix3d Q = polarRotationWarm(F, w);
+    EXPECT_TRUE(Q.allFinite());
+    EXPECT_NEAR(Q.determinant(), 1.0, 1e-12);
+    if (F.allFinite() && F.norm() > 0) {
+      EXPECT_LT((Q - polarRotation(F)).norm(), 1e-12);
+    }
+  }
+}
+
 TEST(FineStatic, BarUnderPrescribedEndDisplacementMatchesLinearElasticity) {
   // A 40 x 10 x 10 mm bar, ends held on the uniaxial-stress field u = eps (x, -nu y, -nu z), sides
   // free: linear elasticity's answer is that field everywhere, with end force E eps A. Linear tets

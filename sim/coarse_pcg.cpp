@@ -1,0 +1,246 @@
+// The coarse model's matrix-free solve (CoarseSolver::Pcg; docs/simulation.md, "The coarse solve").
+//
+// The coarse equilibrium is f(x) = 0 over the free coarse dofs, with per element e (n corners, its
+// 3n-vector of corner positions x_e, its rotation R_e = polar of the corners' least-squares affine
+// fit, K_h its condensed 3n x 3n stiffness, h_e its handles' term, X_e its rest corners):
+//   f_e(x) = -R_e [K_h (R_e^T x_e - X_e) + h_e(R_e)]      (R_e acting on each corner's 3-block).
+// Both solvers iterate x += d with A(R) d ~ f(x), A(R) = sum_e R_e K_h R_e^T (the warped stiffness,
+// symmetric positive definite once Dirichlet nodes are removed), so they share the fixed point.
+// Here, per iteration:
+//  1. R_e by polarRotationWarm (Newton on the rotation, warm-started from the last iteration's);
+//  2. r = f(x), element by element with fixed-size K_h blocks (no assembly);
+//  3. m conjugate-gradient iterations on A(R) d = r from d = 0, with products A(R) p element by
+//     element, preconditioned by M^-1 = Rn A_0^-1 Rn^T: A_0 = sum_e K_h (the rest stiffness over the
+//     free dofs, factorized once by sparse Cholesky), Rn = diag of per-node rotations (the
+//     normalized sum of the node's element quaternions). If every R_e were one R, A(R) = Rn A_0 Rn^T exactly;
+//     with rotations varying smoothly over the mesh M stays close to A(R), and nothing is ever
+//     refactorized while the tissue turns.
+// Shapes: x, positions of all coarse nodes (3-vectors); r, d, p, z, q: free dofs (3 a free node);
+// K_h: 3n x 3n (n = 4 tet, 8 cell), stored packed per element, column-major.
+#include <Eigen/Dense>
+#include <Eigen/SparseCholesky>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <cstdio>
+#include <cstdlib>
+
+#include "sim/coarse_pcg_workspace.h"
+#include "sim/coarsening.h"
+#include "sim/error.h"
+
+namespace handson {
+
+
+CoarseModel::~CoarseModel() = default;
+
+bool CoarseModel::pcgReady() const { return pcg_ && pcg_->ready; }
+
+void CoarseModel::prepareSolve() {
+  if (solverKind_ != CoarseSolver::Pcg || dofCount_ == 0) return;
+  CoarseSolveStats st;
+  preparePcg(st);
+}
+
+void CoarseModel::preparePcg(CoarseSolveStats& st) {
+  if (pcgReady()) return;
+  auto w = std::make_unique<PcgWorkspace>();
+  const int m = 3 * nc_;
+  w->kh.resize(elements_.size() * std::size_t(m * m));
+  for (std::size_t e = 0; e < elements_.size(); ++e)
+    Eigen::Map<Eigen::MatrixXd>(&w->kh[e * std::size_t(m * m)], m, m) = elements_[e].Kh;
+  w->khf.resize(w->kh.size());
+  for (std::size_t i = 0; i < w->kh.size(); ++i) w->khf[i] = float(w->kh[i]);
+  w->elementR.assign(elements_.size(), Eigen::Matrix3d::Identity());
+  w->elementQ.assign(elements_.size(), Eigen::Quaterniond::Identity());
+  // Free nodes in dof order, and the elements around each.
+  const std::size_t nn = meshes_.coarse.nodes.size();
+  w->freeNode.assign(std::size_t(dofCount_ / 3), -1);
+  for (std::size_t v = 0; v < nn; ++v)
+    if (dof_[v] >= 0) w->freeNode[std::size_t(dof_[v] / 3)] = int(v);
+  std::vector<int> count(w->freeNode.size() + 1, 0);
+  for (const auto& el : elements_)
+    for (int c = 0; c < nc_; ++c)
+      if (const int d = dof_[std::size_t(el.node[std::size_t(c)])]; d >= 0) ++count[std::size_t(d / 3) + 1];
+  for (std::size_t i = 1; i < count.size(); ++i) count[i] += count[i - 1];
+  w->adjStart = count;
+  w->adjElement.resize(std::size_t(count.back()));
+  for (std::size_t e = 0; e < elements_.size(); ++e)
+    for (int c = 0; c < nc_; ++c)
+      if (const int d = dof_[std::size_t(elements_[e].node[std::size_t(c)])]; d >= 0) w->adjElement[std::size_t(count[std::size_t(d / 3)]++)] = int(e);
+  w->nodeR.assign(w->freeNode.size(), Eigen::Matrix3d::Identity());
+  // A_0 = sum_e K_h over the free dofs, factorized once.
+  const auto t0 = std::chrono::steady_clock::now();
+  assembler_->zero();
+  for (std::size_t e = 0; e < elements_.size(); ++e) assembler_->add(int(e), elements_[e].Kh);
+  w->rest.compute(assembler_->matrix());
+  if (w->rest.info() != Eigen::Success) throw Error("coarse solve: the rest stiffness is not positive definite");
+  st.factorMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  ++st.factorizations;
+  w->ready = true;
+  pcg_ = std::move(w);
+}
+
+template <int N>
+void CoarseModel::pcgRotations(const std::vector<Eigen::Vector3d>& x, bool nodes) {
+  PcgWorkspace& w = *pcg_;
+  for (std::size_t e = 0; e < elements_.size(); ++e) {
+    const Element& el = elements_[e];
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (int c = 0; c < N; ++c) centroid += x[std::size_t(el.node[std::size_t(c)])];
+    centroid *= 1.0 / N;
+    Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+    for (int c = 0; c < N; ++c) S.noalias() += (x[std::size_t(el.node[std::size_t(c)])] - centroid) * el.dX[std::size_t(c)].transpose();
+    w.elementR[e] = polarRotationWarm(S * el.fitInv, w.elementQ[e]);
+  }
+  if (!nodes) return;
+  // Rn: the normalized sum of the node's element quaternions (signs aligned with the first): the
+  // rotation "between" them, all the preconditioner needs.
+  for (std::size_t i = 0; i < w.freeNode.size(); ++i) {
+    const Eigen::Vector4d first = w.elementQ[std::size_t(w.adjElement[std::size_t(w.adjStart[i])])].coeffs();
+    Eigen::Vector4d sum = Eigen::Vector4d::Zero();
+    for (int k = w.adjStart[i]; k < w.adjStart[i + 1]; ++k) {
+      const Eigen::Vector4d q = w.elementQ[std::size_t(w.adjElement[std::size_t(k)])].coeffs();
+      sum += q.dot(first) < 0 ? Eigen::Vector4d(-q) : q;
+    }
+    const double n = sum.norm();
+    w.nodeR[i] = n > 0 ? Eigen::Quaterniond(sum / n).toRotationMatrix() : Eigen::Matrix3d::Identity();
+  }
+}
+
+template <int N>
+void CoarseModel::pcgResidual(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x, Eigen::VectorXd& r, double& boundaryMs) const {
+  using VecN = Eigen::Matrix<double, 3 * N, 1>;
+  using MatN = Eigen::Matrix<double, 3 * N, 3 * N>;
+  const PcgWorkspace& w = *pcg_;
+  r.setZero(dofCount_);
+  for (std::size_t e = 0; e < elements_.size(); ++e) {
+    const Element& el = elements_[e];
+    const Eigen::Matrix3d& R = w.elementR[e];
+    VecN u;
+    for (int c = 0; c < N; ++c) u.template segment<3>(3 * c).noalias() = R.transpose() * x[std::size_t(el.node[std::size_t(c)])];
+    VecN y = Eigen::Map<const MatN>(&w.kh[e * std::size_t(9 * N * N)]) * u - Eigen::Map<const VecN>(el.KhX.data());
+    if (!el.handles.empty()) {
+      const auto b0 = std::chrono::steady_clock::now();
+      y += handleTerm(el, R, handles);
+      boundaryMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - b0).count();
+    }
+    for (int c = 0; c < N; ++c)
+      if (const int d = dof_[std::size_t(el.node[std::size_t(c)])]; d >= 0) r.template segment<3>(d).noalias() -= R * y.template segment<3>(3 * c);
+  }
+}
+
+template <int N>
+void CoarseModel::pcgProduct(const Eigen::VectorXd& p, Eigen::VectorXd& out) const {
+  // In single precision: a product only sets a step length and a direction (the residual, which sets
+  // the fixed point, stays double), and a float K_h block is half the memory and twice the SIMD width.
+  using VecN = Eigen::Matrix<float, 3 * N, 1>;
+  using MatN = Eigen::Matrix<float, 3 * N, 3 * N>;
+  const PcgWorkspace& w = *pcg_;
+  out.setZero(dofCount_);
+  for (std::size_t e = 0; e < elements_.size(); ++e) {
+    const Element& el = elements_[e];
+    const Eigen::Matrix3d& R = w.elementR[e];
+    int dofs[N];
+    VecN u;
+    for (int c = 0; c < N; ++c) {
+      dofs[c] = dof_[std::size_t(el.node[std::size_t(c)])];
+      if (dofs[c] >= 0) u.template segment<3>(3 * c) = (R.transpose() * p.segment<3>(dofs[c])).template cast<float>();
+      else u.template segment<3>(3 * c).setZero();
+    }
+    const VecN y = Eigen::Map<const MatN>(&w.khf[e * std::size_t(9 * N * N)]) * u;
+    for (int c = 0; c < N; ++c)
+      if (dofs[c] >= 0) out.template segment<3>(dofs[c]).noalias() += R * y.template segment<3>(3 * c).template cast<double>();
+  }
+}
+
+void CoarseModel::pcgPrecondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
+  PcgWorkspace& w = *pcg_;
+  w.tmp.resize(dofCount_);
+  for (std::size_t i = 0; i < w.nodeR.size(); ++i) w.tmp.segment<3>(3 * Eigen::Index(i)).noalias() = w.nodeR[i].transpose() * r.segment<3>(3 * Eigen::Index(i));
+  w.tmp = w.rest.solve(w.tmp);
+  z.resize(dofCount_);
+  for (std::size_t i = 0; i < w.nodeR.size(); ++i) z.segment<3>(3 * Eigen::Index(i)).noalias() = w.nodeR[i] * w.tmp.segment<3>(3 * Eigen::Index(i));
+}
+
+CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tol) {
+  using Clock = std::chrono::steady_clock;
+  auto ms = [](Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); };
+  CoarseSolveStats st;
+  preparePcg(st);
+  PcgWorkspace& w = *pcg_;
+  const bool cell = nc_ == 8;
+  double update0 = 0.0, relax = 1.0;
+  for (int it = 0; it < maxIterations; ++it) {
+    auto t0 = Clock::now();
+    // The preconditioner's node rotations once a call: it need only stay close to A(R).
+    if (cell) pcgRotations<8>(x, it == 0);
+    else pcgRotations<4>(x, it == 0);
+    st.rotationMs += ms(t0);
+    t0 = Clock::now();
+    double boundary = 0.0;
+    if (cell) pcgResidual<8>(handles, x, w.r, boundary);
+    else pcgResidual<4>(handles, x, w.r, boundary);
+    st.boundaryMs += boundary;
+    st.productMs += ms(t0) - boundary;
+    // Conjugate gradients on A(R) d = r from d = 0, pcgIterations_ of them. With one a iteration
+    // the directions are carried over the call's iterations instead (nonlinear conjugate gradients,
+    // Polak-Ribiere+: beta = max(0, z_k . (r_k - r_k-1) / z_k-1 . r_k-1)): within a frame the problem
+    // is nearly linear, so three such iterations do about what three linear CG iterations would.
+    w.d.setZero(dofCount_);
+    w.res = w.r;
+    t0 = Clock::now();
+    pcgPrecondition(w.res, w.z);
+    st.backSolveMs += ms(t0);
+    double rz = w.res.dot(w.z);
+    const double rzOuter = rz;
+    if (pcgIterations_ == 1 && it > 0 && w.rzLast > 0) {
+      const double beta = std::max(0.0, (rz - w.z.dot(w.rLast)) / w.rzLast);
+      w.p = w.z + beta * w.pLast;
+    } else {
+      w.p = w.z;
+    }
+    for (int j = 0; j < pcgIterations_ && rz > 0; ++j) {
+      t0 = Clock::now();
+      if (cell) pcgProduct<8>(w.p, w.q);
+      else pcgProduct<4>(w.p, w.q);
+      st.productMs += ms(t0);
+      const double pq = w.p.dot(w.q);
+      if (!(pq > 0)) break;
+      const double alpha = w.res.dot(w.p) / pq;  // = rz / pq for the linear iterations
+      w.d.noalias() += alpha * w.p;
+      ++st.pcgIterations;
+      if (j + 1 == pcgIterations_) break;
+      w.res.noalias() -= alpha * w.q;
+      t0 = Clock::now();
+      pcgPrecondition(w.res, w.z);
+      st.backSolveMs += ms(t0);
+      const double rzNew = w.res.dot(w.z);
+      w.p = w.z + (rzNew / rz) * w.p;
+      rz = rzNew;
+    }
+    w.rLast = w.r;
+    w.pLast = w.p;
+    w.rzLast = rzOuter;
+    if (!w.d.allFinite()) throw Error("coarse solve: diverged (non-finite update)");
+    double update = 0.0;
+    for (std::size_t i = 0; i < w.freeNode.size(); ++i) {
+      const Eigen::Vector3d step = relax * w.d.segment<3>(3 * Eigen::Index(i));
+      x[std::size_t(w.freeNode[i])] += step;
+      update = std::max(update, step.norm());
+    }
+    if (!std::isfinite(update)) throw Error("coarse solve: diverged (non-finite positions)");
+    st.iterations = it + 1;
+    st.lastUpdate = update;
+    // The same damping as the assembled solve: an update that does not shrink halves the next steps.
+    if (it > 0 && update > 0.9 * update0) relax = std::max(relax * 0.5, 1.0 / 64.0);
+    update0 = update;
+    if (update <= tol) {
+      st.converged = true;
+      break;
+    }
+  }
+  return st;
+}
+
+}  // namespace handson
