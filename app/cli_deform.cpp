@@ -220,7 +220,7 @@ int cmdDeform(const Words& words) {
     for (int k = 1; k <= steps; ++k) m.solve(transformsAt(double(k) / steps), xc, 50);
     x = m.reconstruct(T, xc);
     if (refineSteps > 0) {
-      FineRefiner refiner(m, sc.fineK);
+      FineRefiner refiner(m, sc.fineK, sc.youngs, sc.poisson);
       for (int k = 0; k < refineSteps; ++k) refiner.step(xc, x, 10);
     }
   }

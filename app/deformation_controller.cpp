@@ -198,7 +198,7 @@ void DeformationController::adoptBuilt() {
   wo.reconstructFine = false;  // the GPU interpolates the fine nodes
   wo.elementRotations = true;
   wo.refineSteps = options_.refineSteps;
-  m->worker = std::make_unique<SimWorker>(*m->model, m->scene.fineK, wo);
+  m->worker = std::make_unique<SimWorker>(*m->model, m->scene, wo);
   vk::DeformSetup setup;
   setup.interpolation = &m->data;
   setup.fineTets = &m->scene.meshes.fine.tets;

@@ -86,12 +86,12 @@ void CoarseModel::pcgRotations(const std::vector<Eigen::Vector3d>& x, bool nodes
   PcgWorkspace& w = *pcg_;
   for (std::size_t e = 0; e < elements_.size(); ++e) {
     const Element& el = elements_[e];
-    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-    for (int c = 0; c < N; ++c) centroid += x[std::size_t(el.node[std::size_t(c)])];
-    centroid *= 1.0 / N;
+    // sum_c (x_c - centroid) dX_c^T = sum_c x_c dX_c^T, as the dX_c sum to zero.
     Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
-    for (int c = 0; c < N; ++c) S.noalias() += (x[std::size_t(el.node[std::size_t(c)])] - centroid) * el.dX[std::size_t(c)].transpose();
-    w.elementR[e] = polarRotationWarm(S * el.fitInv, w.elementQ[e]);
+    for (int c = 0; c < N; ++c) S.noalias() += x[std::size_t(el.node[std::size_t(c)])] * el.dX[std::size_t(c)].transpose();
+    // One Newton step a call when the rotation moved less than 1e-3 rad: it keeps converging with
+    // x (quadratically), and is exact at the fixed point.
+    w.elementR[e] = polarRotationWarm(S * el.fitInv, w.elementQ[e], 1e-3);
   }
   if (!nodes) return;
   // Rn: the normalized sum of the node's element quaternions (signs aligned with the first): the

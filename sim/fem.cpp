@@ -72,7 +72,7 @@ Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& F) {
   return U * V.transpose();
 }
 
-Eigen::Matrix3d polarRotationWarm(const Eigen::Matrix3d& F, Eigen::Quaterniond& q) {
+Eigen::Matrix3d polarRotationWarm(const Eigen::Matrix3d& F, Eigen::Quaterniond& q, double stepTolerance) {
   const double fn2 = F.squaredNorm();
   if (!F.allFinite() || !(fn2 > 0)) {
     q.setIdentity();
@@ -94,8 +94,8 @@ Eigen::Matrix3d polarRotationWarm(const Eigen::Matrix3d& F, Eigen::Quaterniond& 
       const Eigen::Vector3d w = 2.0 * (M.inverse() * skew);
       const double angle = w.norm();
       if (!(angle < 1.0)) break;  // far from the answer: the direct method is safer
-      if (angle < 1e-5) {
-        // Newton converges quadratically: after this step the error is O(angle^2) < 1e-10 rad.
+      if (angle < std::min(stepTolerance, 1e-3)) {
+        // Newton converges quadratically: after this step the error is O(angle^2).
         // exp([w]) as the unit quaternion (1, w/2) normalized: exact to O(angle^3).
         q = (q * Eigen::Quaterniond(1.0, 0.5 * w.x(), 0.5 * w.y(), 0.5 * w.z())).normalized();
         return q.toRotationMatrix();

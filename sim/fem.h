@@ -28,11 +28,13 @@ Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& F);
 /// for this element; identity the first time) and left there: for a rotation R with S = R^T F, the
 /// update R <- R exp([w]) with w = 2 (tr(S) I - sym S)^-1 axial(skew S) makes R^T F symmetric to
 /// first order, so it converges quadratically (a frame's small change: 1-2 steps, against 5-8
-/// inverse-and-scale steps of polarRotation). Stops after a step with |w| < 1e-5 rad (what is left
-/// is O(|w|^2) < 1e-10 rad). Inverted or nearly
-/// degenerate F (det F <= 0, or tr(S) I - sym S near singular), or no convergence in 8 steps: falls
-/// back to polarRotation(F) - the same rotation either way.
-Eigen::Matrix3d polarRotationWarm(const Eigen::Matrix3d& F, Eigen::Quaterniond& q);
+/// inverse-and-scale steps of polarRotation). Stops after a step with |w| < `stepTolerance` rad:
+/// what is left is O(|w|^2), so the default 1e-5 leaves < 1e-10 rad. An iteration that calls it
+/// again from the same q each time it moves x may pass a larger tolerance (one step a call: the
+/// rotation keeps converging with x, and is exact at x's fixed point). Inverted or nearly
+/// degenerate F (det F <= 0, or tr(S) I - sym S not positive definite), or no convergence in 8
+/// steps: falls back to polarRotation(F) - the same rotation either way.
+Eigen::Matrix3d polarRotationWarm(const Eigen::Matrix3d& F, Eigen::Quaterniond& q, double stepTolerance = 1e-5);
 
 /// Deformation gradient of a tet: rest corners X, current corners x.
 Eigen::Matrix3d deformationGradient(const std::array<Eigen::Vector3d, 4>& X, const std::array<Eigen::Vector3d, 4>& x);

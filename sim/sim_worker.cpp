@@ -17,6 +17,11 @@ SimWorker::SimWorker(CoarseModel& model, const std::vector<Mat12>& fineK, const 
   thread_ = std::thread([this] { run(); });
 }
 
+SimWorker::SimWorker(CoarseModel& model, const SimScene& scene, const SimWorkerOptions& options)
+    : model_(model), refiner_(model, scene.fineK, scene.youngs, scene.poisson, RefineOptions{options.refineMethod, options.refineThreads}), options_(options) {
+  thread_ = std::thread([this] { run(); });
+}
+
 SimWorker::~SimWorker() {
   {
     std::lock_guard<std::mutex> lock(mutex_);

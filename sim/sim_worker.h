@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "sim/coarsening.h"
+#include "sim/sim_scene.h"
 #include "sim/two_level.h"
 
 namespace handson {
@@ -23,6 +24,10 @@ struct SimWorkerOptions {
   int refineSteps = 0;        ///< two-level steps after each input while it stays the newest (after the
                               ///< coarse solve settled; their snapshots carry fine positions)
   int refineIterations = 10;  ///< PCG iterations per step
+  /// The refinement's linearization (sim/two_level.h); Warped needs the scene's materials (the
+  /// SimScene constructor), the fineK-only constructor always refines with Projected.
+  RefineMethod refineMethod = RefineMethod::Warped;
+  int refineThreads = 0;      ///< Warped: threads for the element passes (0: the hardware's)
   bool reconstructFine = true;    ///< fine nodes on the CPU (false: the GPU interpolates them from the coarse state)
   bool elementRotations = false;  ///< publish each coarse element's rotation (what the GPU interpolation needs)
   /// While an input stays the newest and its coarse solve has not converged: up to this many more
@@ -52,6 +57,8 @@ class SimWorker {
  public:
   /// The model and stiffness must outlive the worker, and nothing else may use the model meanwhile.
   SimWorker(CoarseModel& model, const std::vector<Mat12>& fineK, const SimWorkerOptions& options = {});
+  /// The scene's stiffness and materials (the warped refinement can run).
+  SimWorker(CoarseModel& model, const SimScene& scene, const SimWorkerOptions& options = {});
   ~SimWorker();
   SimWorker(const SimWorker&) = delete;
   SimWorker& operator=(const SimWorker&) = delete;

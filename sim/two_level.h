@@ -1,30 +1,67 @@
 #pragma once
 // The speed-accuracy knob: the coarse model as the coarse-grid correction of a two-level solver on
 // the fine corotational model. Starting from the coarse reconstruction, each refinement step
-// linearizes the fine model at the current positions (the element Hessians, projected to positive
-// semi-definite, applied element by element, nothing assembled) and runs a few preconditioned
-// conjugate-gradient iterations on H dx = f(x), then backtracks on the energy; the preconditioner is block Jacobi plus the coarse correction P A_c^-1 P^T, with P
-// built from the same shape functions as the reconstruction. More iterations per frame (or more
-// frames) converge to the fine static answer; none gives the coarse model.
+// linearizes the fine model at the current positions, runs a few preconditioned conjugate-gradient
+// iterations on H dx = f(x) (nothing assembled), then backtracks on the energy; the preconditioner
+// is block Jacobi plus the coarse correction P A_c^-1 P^T, with P built from the same shape
+// functions as the reconstruction. More iterations per frame (or more frames) converge to the fine
+// static answer; none gives the coarse model.
+//
+// Two linearizations (RefineMethod; docs/simulation.md, "Refinement"):
+//  - Warped (the default): H = sum_t R_t K_t R_t^T, the warped stiffness, applied matrix-free from
+//    each tet's shape-function gradients and Lame parameters (K_t u = V B^T C B u as stress times
+//    gradient: ~130 flops and 21 numbers a tet instead of a 12x12 block), rotations by the
+//    warm-started polar iteration, passes split over threads.
+//  - Projected (the baseline, kept to compare): the exact corotational Hessian of every tet with its
+//    negative eigenvalues clamped (a 12x12 eigendecomposition per tet per step), stored per tet.
+#include <Eigen/Geometry>
 #include <vector>
 
 #include "sim/coarsening.h"
 
 namespace handson {
 
+enum class RefineMethod { Warped, Projected };
+const char* refineMethodName(RefineMethod m);
+
+struct RefineOptions {
+  RefineMethod method = RefineMethod::Warped;
+  int threads = 0;  ///< Warped: threads for the element passes (0: the machine's hardware threads)
+};
+
 class FineRefiner {
  public:
+  /// The projected method only (no material data): `fineK`, the rest stiffness per fine tet.
   FineRefiner(const CoarseModel& coarse, const std::vector<Mat12>& fineK);
+  /// Either method. `youngs` and `poisson` per fine tet are the isotropic material `fineK` was built
+  /// from (tetStiffnesses); the warped method reads only them. Throws handson::Error on wrong sizes.
+  FineRefiner(const CoarseModel& coarse, const std::vector<Mat12>& fineK, const std::vector<double>& youngs, const std::vector<double>& poisson,
+              const RefineOptions& options = {});
+  ~FineRefiner();
+  FineRefiner(const FineRefiner&) = delete;
+  FineRefiner& operator=(const FineRefiner&) = delete;
+
+  RefineMethod method() const { return options_.method; }
 
   /// One refinement step on fine positions x (Dirichlet nodes must already hold their values):
   /// `iterations` PCG iterations, then x += dx. `xc` is the coarse state the coarse matrix was
   /// factorized at (the last CoarseModel::solve). Returns the residual reduction |r_k| / |r_0|.
   double step(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
 
+  /// Warped: the product (sum_t R_t K_t R_t^T) p over all nodes (Dirichlet ones included) with R_t
+  /// the rotations at x; for tests against the stored 12x12 blocks.
+  std::vector<Eigen::Vector3d> warpedProduct(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& p) const;
+
  private:
+  double stepProjected(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
+  double stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
+  struct Warped;  // the warped method's per-tet data and buffers (sim/refine_warped.cpp)
+
   const CoarseModel& coarse_;
   const std::vector<Mat12>& K_;
   std::vector<char> free_;
+  RefineOptions options_;
+  std::unique_ptr<Warped> warped_;
 };
 
 }  // namespace handson

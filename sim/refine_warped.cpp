@@ -1,0 +1,220 @@
+// The two-level refinement with the warped stiffness, matrix-free (RefineMethod::Warped;
+// docs/simulation.md, "Refinement").
+//
+// Per fine tet t: rest edge matrix D_m = [X1-X0, X2-X0, X3-X0] (3x3), G = D_m^-1 (its rows g_1..g_3
+// are the shape-function gradients, g_0 = -(g_1+g_2+g_3)), volume V, Lame parameters
+// lambda = E nu / ((1+nu)(1-2nu)), mu = E / (2(1+nu)). The linear stiffness acts as stress times
+// gradient: for corner vectors u_a, the gradient U = sum_a u_a g_a^T = [u1-u0, u2-u0, u3-u0] G,
+// eps = sym(U), sigma = lambda tr(eps) I + 2 mu eps, and (K u)_a = V sigma g_a - the same numbers as
+// tetStiffness's V B^T C B u (tested). Corotational, with F = D_s G and R = polar(F):
+//   force        f_a = -V R sigma(eps) g_a,     eps = sym(R^T F) - I
+//   energy       V (lambda/2 tr(eps)^2 + mu eps:eps)
+//   product      (H p)_a = V R sigma(sym(R^T P)) g_a,  P = [p1-p0, p2-p0, p3-p0] G   (H = R K R^T)
+//   diagonal     H_aa = V ((lambda+mu) h h^T + mu |h|^2 I), h = R g_a
+// In matrix form the three non-zero corners' vectors are V (R sigma) G^T's columns, corner 0 minus
+// their sum. Each pass runs over the tets in `threads` chunks, each accumulating into its own node
+// buffers, summed after.
+#include <Eigen/Dense>
+#include <cmath>
+
+#include "sim/error.h"
+#include "sim/parallel.h"
+#include "sim/refine_pcg.h"
+#include "sim/two_level.h"
+
+namespace handson {
+
+using refine::Field;
+
+struct FineRefiner::Warped {
+  int threads = 1;
+  std::vector<Eigen::Matrix3d> G;          ///< per tet, D_m^-1 (zero for a degenerate tet)
+  std::vector<double> V, lambda, mu;       ///< per tet
+  mutable std::vector<Eigen::Matrix3d> R;  ///< per tet, the rotation at the step's positions
+  mutable std::vector<Eigen::Quaterniond> q;  ///< per tet, the polar iteration's warm start
+  mutable std::vector<Field> vec;          ///< per thread, a node buffer
+  mutable std::vector<std::vector<Eigen::Matrix3d>> diag;  ///< per thread, diagonal blocks
+};
+
+FineRefiner::FineRefiner(const CoarseModel& coarse, const std::vector<Mat12>& fineK) : coarse_(coarse), K_(fineK) {
+  options_.method = RefineMethod::Projected;
+  const auto& c = coarse.constraints();
+  free_.resize(c.handleOf.size());
+  for (std::size_t i = 0; i < free_.size(); ++i) free_[i] = !c.fixed[i] && c.handleOf[i] < 0;
+  if (fineK.size() != coarse.meshes().fine.tets.size()) throw Error("refiner: one stiffness per fine tet expected");
+}
+
+FineRefiner::FineRefiner(const CoarseModel& coarse, const std::vector<Mat12>& fineK, const std::vector<double>& youngs, const std::vector<double>& poisson,
+                         const RefineOptions& options)
+    : FineRefiner(coarse, fineK) {
+  options_ = options;
+  if (options_.method != RefineMethod::Warped) return;
+  const TetMesh& F = coarse.meshes().fine;
+  const std::size_t nt = F.tets.size();
+  if (youngs.size() != nt || poisson.size() != nt) throw Error("refiner: one material per fine tet expected");
+  auto w = std::make_unique<Warped>();
+  w->threads = simulationThreads(options.threads);
+  w->G.assign(nt, Eigen::Matrix3d::Zero());
+  w->V.assign(nt, 0.0);
+  w->lambda.assign(nt, 0.0);
+  w->mu.assign(nt, 0.0);
+  for (std::size_t t = 0; t < nt; ++t) {
+    const auto X = tetCorners(F.tets[t], F.nodes);
+    Eigen::Matrix3d Dm;
+    Dm << X[1] - X[0], X[2] - X[0], X[3] - X[0];
+    const double V = std::abs(Dm.determinant()) / 6.0;
+    const double scale = (X[1] - X[0]).norm() + (X[2] - X[0]).norm() + (X[3] - X[0]).norm();
+    const double E = youngs[t], nu = poisson[t];
+    // The same degenerate cases as tetStiffness (a zero matrix there, no contribution here).
+    if (!(V > 1e-12 * scale * scale * scale) || !std::isfinite(E) || !std::isfinite(nu)) continue;
+    w->G[t] = Dm.inverse();
+    w->V[t] = V;
+    w->lambda[t] = E * nu / ((1 + nu) * (1 - 2 * nu));
+    w->mu[t] = E / (2 * (1 + nu));
+  }
+  w->R.assign(nt, Eigen::Matrix3d::Identity());
+  w->q.assign(nt, Eigen::Quaterniond::Identity());
+  w->vec.resize(std::size_t(w->threads));
+  w->diag.resize(std::size_t(w->threads));
+  warped_ = std::move(w);
+}
+
+FineRefiner::~FineRefiner() = default;
+
+namespace {
+
+// sigma(eps) = lambda tr(eps) I + 2 mu eps for a symmetric eps.
+Eigen::Matrix3d stress(const Eigen::Matrix3d& eps, double lambda, double mu) {
+  Eigen::Matrix3d s = 2.0 * mu * eps;
+  s.diagonal().array() += lambda * eps.trace();
+  return s;
+}
+
+// Adds the corner vectors of V * M * G^T (columns 1..3, corner 0 minus their sum) to out.
+void scatter(const std::array<int, 4>& tet, const Eigen::Matrix3d& VMGt, Field& out) {
+  const Eigen::Vector3d c1 = VMGt.col(0), c2 = VMGt.col(1), c3 = VMGt.col(2);
+  out[std::size_t(tet[1])] += c1;
+  out[std::size_t(tet[2])] += c2;
+  out[std::size_t(tet[3])] += c3;
+  out[std::size_t(tet[0])] -= c1 + c2 + c3;
+}
+
+Eigen::Matrix3d edges(const std::array<int, 4>& tet, const Field& p) {
+  Eigen::Matrix3d D;
+  const Eigen::Vector3d& p0 = p[std::size_t(tet[0])];
+  D << p[std::size_t(tet[1])] - p0, p[std::size_t(tet[2])] - p0, p[std::size_t(tet[3])] - p0;
+  return D;
+}
+
+}  // namespace
+
+double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
+  if (!warped_) throw Error("refiner: the warped method needs the fine materials");
+  const Warped& w = *warped_;
+  const TetMesh& F = coarse_.meshes().fine;
+  const std::size_t n = F.nodes.size(), nt = F.tets.size();
+  const int T = w.threads;
+  // Sums the per-thread node buffers into out (zero at Dirichlet nodes), split over nodes.
+  auto reduce = [&](Field& out) {
+    out.resize(n);
+    parallelChunks(n, T, [&](std::size_t b, std::size_t e, int) {
+      for (std::size_t i = b; i < e; ++i) {
+        Eigen::Vector3d s = Eigen::Vector3d::Zero();
+        for (int t = 0; t < T; ++t) s += w.vec[std::size_t(t)][i];
+        out[i] = free_[i] ? s : Eigen::Vector3d::Zero();
+      }
+    });
+  };
+  // Rotations, residual, diagonal blocks and energy at x.
+  std::vector<double> energyOf(std::size_t(T), 0.0);
+  parallelChunks(nt, T, [&](std::size_t b, std::size_t e, int c) {
+    Field& r = w.vec[std::size_t(c)];
+    auto& d = w.diag[std::size_t(c)];
+    r.assign(n, Eigen::Vector3d::Zero());
+    d.assign(n, Eigen::Matrix3d::Zero());
+    double energy = 0;
+    for (std::size_t t = b; t < e; ++t) {
+      if (w.V[t] == 0) continue;
+      const auto& tet = F.tets[t];
+      const Eigen::Matrix3d Ft = edges(tet, x) * w.G[t];
+      const Eigen::Matrix3d R = polarRotationWarm(Ft, w.q[t]);
+      w.R[t] = R;
+      const Eigen::Matrix3d S = R.transpose() * Ft;
+      Eigen::Matrix3d eps = 0.5 * (S + S.transpose());
+      eps.diagonal().array() -= 1.0;
+      const double tr = eps.trace();
+      energy += w.V[t] * (0.5 * w.lambda[t] * tr * tr + w.mu[t] * eps.squaredNorm());
+      scatter(tet, -w.V[t] * (R * stress(eps, w.lambda[t], w.mu[t])) * w.G[t].transpose(), r);
+      for (int a = 0; a < 4; ++a) {
+        const Eigen::Vector3d g = a == 0 ? Eigen::Vector3d(-w.G[t].colwise().sum().transpose()) : Eigen::Vector3d(w.G[t].row(a - 1).transpose());
+        const Eigen::Vector3d h = R * g;
+        Eigen::Matrix3d blk = (w.V[t] * (w.lambda[t] + w.mu[t])) * (h * h.transpose());
+        blk.diagonal().array() += w.V[t] * w.mu[t] * h.squaredNorm();
+        d[std::size_t(tet[std::size_t(a)])] += blk;
+      }
+    }
+    energyOf[std::size_t(c)] = energy;
+  });
+  double e0 = 0;
+  for (double v : energyOf) e0 += v;
+  Field r;
+  reduce(r);
+  std::vector<Eigen::Matrix3d> diag(n, Eigen::Matrix3d::Zero());
+  for (std::size_t i = 0; i < n; ++i)
+    for (int t = 0; t < T; ++t) diag[i] += w.diag[std::size_t(t)][i];
+  const std::vector<Eigen::Matrix3d> dinv = refine::jacobiInverse(diag, free_);
+  auto applyK = [&](const Field& p, Field& out) {
+    parallelChunks(nt, T, [&](std::size_t b, std::size_t e, int c) {
+      Field& y = w.vec[std::size_t(c)];
+      y.assign(n, Eigen::Vector3d::Zero());
+      for (std::size_t t = b; t < e; ++t) {
+        if (w.V[t] == 0) continue;
+        const Eigen::Matrix3d S = w.R[t].transpose() * (edges(F.tets[t], p) * w.G[t]);
+        scatter(F.tets[t], w.V[t] * (w.R[t] * stress(0.5 * (S + S.transpose()), w.lambda[t], w.mu[t])) * w.G[t].transpose(), y);
+      }
+    });
+    reduce(out);
+  };
+  auto precondition = [&](const Field& res, Field& z) { refine::twoLevelPrecondition(coarse_, xc, dinv, free_, res, z); };
+  auto energyAt = [&](const Field& pos) {
+    std::vector<double> part(std::size_t(T), 0.0);
+    parallelChunks(nt, T, [&](std::size_t b, std::size_t e, int c) {
+      double s = 0;
+      for (std::size_t t = b; t < e; ++t) {
+        if (w.V[t] == 0) continue;
+        const Eigen::Matrix3d Ft = edges(F.tets[t], pos) * w.G[t];
+        Eigen::Quaterniond q = w.q[t];  // a trial: the warm start stays with x
+        const Eigen::Matrix3d S = polarRotationWarm(Ft, q).transpose() * Ft;
+        Eigen::Matrix3d eps = 0.5 * (S + S.transpose());
+        eps.diagonal().array() -= 1.0;
+        const double tr = eps.trace();
+        s += w.V[t] * (0.5 * w.lambda[t] * tr * tr + w.mu[t] * eps.squaredNorm());
+      }
+      part[std::size_t(c)] = s;
+    });
+    double s = 0;
+    for (double v : part) s += v;
+    return s;
+  };
+  Field dx;
+  const double reduction = refine::pcg(r, free_, iterations, applyK, precondition, dx);
+  refine::backtrack(x, dx, free_, e0, energyAt);
+  return reduction;
+}
+
+std::vector<Eigen::Vector3d> FineRefiner::warpedProduct(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& p) const {
+  if (!warped_) throw Error("refiner: the warped method needs the fine materials");
+  const Warped& w = *warped_;
+  const TetMesh& F = coarse_.meshes().fine;
+  Field out(F.nodes.size(), Eigen::Vector3d::Zero());
+  for (std::size_t t = 0; t < F.tets.size(); ++t) {
+    if (w.V[t] == 0) continue;
+    Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+    const Eigen::Matrix3d R = polarRotationWarm(edges(F.tets[t], x) * w.G[t], q);
+    const Eigen::Matrix3d S = R.transpose() * (edges(F.tets[t], p) * w.G[t]);
+    scatter(F.tets[t], w.V[t] * (R * stress(0.5 * (S + S.transpose()), w.lambda[t], w.mu[t])) * w.G[t].transpose(), out);
+  }
+  return out;
+}
+
+}  // namespace handson
