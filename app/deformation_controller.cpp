@@ -254,7 +254,8 @@ void DeformationController::pull() {
       stages_.add("boundary-forces", s->stats.boundaryMs);
     }
     shownInput_ = s->input;
-    shownConverged_ = s->stats.converged;
+    shownSeconds_ = s->seconds;
+    if (s->refineStep == 0) shownConverged_ = s->stats.converged;  // a refined state keeps its coarse solve's
     shownSettled_ = s->settled;
     shownStats_ = s->stats;
     // States the worker stopped on without converging: a failure of the solve, counted once per
@@ -383,12 +384,11 @@ std::string DeformationController::status() const {
     case State::Ready:
       if (!model_) return "simulation: ready";
       s << "simulation: " << model_->scene.meshes.coarse.tets.size() << " coarse / " << model_->scene.meshes.fine.tets.size() << " fine tets"
-        << (shownInput_ == 0 ? "" : shownRefineStep_ > 0 ? ", refined x" + std::to_string(shownRefineStep_)
-                                  : shownConverged_ ? ", settled"
-                                  : shownSettled_ ? ", did not converge (" + std::to_string(shownStats_.iterations) +
-                                                        (shownStats_.iterations == 1 ? " iteration" : " iterations") + ", last update " +
-                                                        formatMm(shownStats_.lastUpdate) + " mm): showing the last state it reached"
-                                                  : ", settling")
+        << (shownInput_ == 0 ? ""
+            : shownSettled_ && !shownConverged_ && shownRefineStep_ == 0
+                ? ", did not converge (" + std::to_string(shownStats_.iterations) + (shownStats_.iterations == 1 ? " iteration" : " iterations") +
+                      ", last update " + formatMm(shownStats_.lastUpdate) + " mm): showing the last state it reached"
+                : ", " + modelState())
         << (lastError_.empty() ? "" : "; last pose refused: " + lastError_) << (model_->cache.hit ? " (preprocessing from the cache)" : "")
         << (model_->cache.note.empty() ? "" : " [" + model_->cache.note + "]");
       return s.str();
@@ -406,6 +406,20 @@ bool DeformationController::waitBuilt(double seconds) {
     if (std::chrono::steady_clock::now() > end) return false;
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
+}
+
+std::string DeformationController::modelState() const {
+  switch (state()) {
+    case State::Off: return "";
+    case State::Building: return "building";
+    case State::Failed: return "failed";
+    case State::Ready: break;
+  }
+  if (shownInput_ == 0) return "rest";
+  if (shownRefineStep_ == 0 && !shownConverged_) return shownSettled_ ? "unconverged" : "coarse";
+  const int n = options_.refineSteps;
+  if (shownRefineStep_ >= n) return "converged";
+  return "refining " + std::to_string(shownRefineStep_) + "/" + std::to_string(n);
 }
 
 bool DeformationController::waitSettled(double seconds) {

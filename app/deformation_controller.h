@@ -65,6 +65,14 @@ class DeformationController {
   State state() const;
   /// "" when off; else the build's stage and progress, the model's size, or the failure.
   std::string status() const;
+  /// What the shown state is, for the UI and the timing log: "" (off), "building", "failed",
+  /// "rest" (nothing moved yet), "coarse" (the coarse solve still settling), "refining k/N" (the
+  /// coarse solve converged, k of the N refinement steps shown), "converged" (the coarse solve
+  /// converged and every refinement step shown), "unconverged" (it stopped without converging).
+  std::string modelState() const;
+  /// Seconds from the worker taking the shown state's pose to publishing it (how long after the
+  /// pose a refined state landed); 0 when nothing is shown.
+  double shownSeconds() const { return shownSeconds_; }
   /// Input number of the newest state shown, and whether its coarse solve had converged.
   std::uint64_t shownInput() const { return shownInput_; }
   bool shownConverged() const { return shownConverged_; }
@@ -135,6 +143,7 @@ class DeformationController {
   std::vector<Eigen::Vector4f> finePositions_;  // a refined state (voxel index space)
   bool fineFresh_ = false;
   int shownRefineStep_ = 0;
+  double shownSeconds_ = 0.0;
   StageTimes stages_;
 };
 

@@ -45,13 +45,13 @@ void LatencyLog::writeCsv(const std::string& path) const {
     out << "frame,input_count,input_first_s,input_last_s,cpu_start_s,cpu_end_s,submit_s,present_s,frame_ms,input_to_present_ms,wait_ms";
     for (const auto& n : passNames) out << ",gpu_" << n << "_ms";
     for (const auto& n : stageNames) out << ",cpu_" << n << "_ms";
-    out << "\n" << std::fixed << std::setprecision(6);
+    out << ",sim_state,sim_state_s\n" << std::fixed << std::setprecision(6);
     for (const auto& f : frames_) {
       out << f.frame << "," << f.inputCount << "," << f.inputFirst << "," << f.inputLast << "," << f.cpuStart << "," << f.cpuEnd << ","
           << f.submit << "," << f.present << "," << f.frameMs() << "," << f.latencyMs() << "," << f.waitMs;
       for (const auto& n : passNames) out << "," << valueOf(f.gpuMs, n);
       for (const auto& n : stageNames) out << "," << valueOf(f.cpuMs, n);
-      out << "\n";
+      out << "," << (f.simState.empty() ? "off" : f.simState) << "," << f.simStateS << "\n";
     }
     if (!out) throw Error("cannot write '" + path + "'");
   }

@@ -20,6 +20,8 @@ struct FrameTiming {
   double waitMs = 0.0;                         ///< time the CPU spent blocked (fences, acquire, vsync)
   std::vector<std::pair<std::string, double>> gpuMs;  ///< per pass
   std::vector<std::pair<std::string, double>> cpuMs;  ///< per CPU stage (app/stage_times.h)
+  std::string simState;     ///< the simulation state the frame shows (DeformationController::modelState)
+  double simStateS = -1.0;  ///< how long after its pose that state landed (s; -1: none)
 
   double frameMs() const { return (present - cpuStart) * 1e3; }
   /// Input-to-present latency (ms) from the oldest consumed event; negative without input.

@@ -168,6 +168,8 @@ int runReplay(const ReplayOptions& o) {
       ft.frame = r.frame;
       for (const auto& p : r.timings) ft.gpuMs.emplace_back(p.name, p.gpuMs);
       ft.cpuMs = std::move(cpuStages);
+      ft.simState = deform.modelState();
+      ft.simStateS = deform.shownInput() > 0 ? deform.shownSeconds() : -1.0;
       if (!o.framesOut.empty()) {
         char name[32];
         std::snprintf(name, sizeof(name), "frame_%05d.png", k);

@@ -421,6 +421,8 @@ bool Viewer::Impl::step() {
     selection->prepareFrame(req, vp);
     ft.cpuMs = selection->takeStageTimes();
     for (auto& stage : deform->takeStageTimes()) ft.cpuMs.push_back(std::move(stage));
+    ft.simState = deform->modelState();
+    ft.simStateS = deform->shownInput() > 0 ? deform->shownSeconds() : -1.0;
     const bool lastFrame = o.frames > 0 && int(frameNo) + 1 == o.frames;
     if (lastFrame && !o.screenshot.empty())
       shot = std::make_unique<vk::Buffer>(*ctx, VkDeviceSize(vp.width) * vp.height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,

@@ -602,7 +602,7 @@ std::vector<Eigen::Vector3d> CoarseModel::reconstruct(const std::vector<RigidTra
   return out;
 }
 
-Eigen::VectorXd CoarseModel::restrictToCoarse(const std::vector<Eigen::Vector3d>& r, const std::vector<Eigen::Vector3d>& x) const {
+Eigen::VectorXd CoarseModel::restrictToCoarse(const std::vector<Eigen::Vector3d>& r, const std::vector<Eigen::Matrix3d>& R) const {
   const TetMesh& C = meshes_.coarse;
   Eigen::VectorXd out = Eigen::VectorXd::Zero(dofCount_);
   auto add = [&](int coarseNode, const Eigen::Vector3d& v) {
@@ -614,7 +614,6 @@ Eigen::VectorXd CoarseModel::restrictToCoarse(const std::vector<Eigen::Vector3d>
     if (constraints_.fixed[std::size_t(b.fine)]) continue;
     for (int c = 0; c < nc_; ++c) add(elementCorner(b.element, c), b.N[c] * r[std::size_t(b.fine)]);
   }
-  const std::vector<Eigen::Matrix3d> R = elementRotations(x);  // once per element, not per fine node
   for (const auto& in : interior_) {
     const Eigen::Matrix3d& Rc = R[std::size_t(in.element)];
     const Eigen::Vector3d rl = Rc.transpose() * r[std::size_t(in.fine)];
@@ -623,7 +622,7 @@ Eigen::VectorXd CoarseModel::restrictToCoarse(const std::vector<Eigen::Vector3d>
   return out;
 }
 
-void CoarseModel::prolongAdd(const Eigen::VectorXd& cv, const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>& out) const {
+void CoarseModel::prolongAdd(const Eigen::VectorXd& cv, const std::vector<Eigen::Matrix3d>& R, std::vector<Eigen::Vector3d>& out) const {
   const TetMesh& C = meshes_.coarse;
   auto val = [&](int coarseNode) -> Eigen::Vector3d {
     const int d = dof_[std::size_t(coarseNode)];
@@ -634,7 +633,6 @@ void CoarseModel::prolongAdd(const Eigen::VectorXd& cv, const std::vector<Eigen:
     if (constraints_.fixed[std::size_t(b.fine)]) continue;
     for (int c = 0; c < nc_; ++c) out[std::size_t(b.fine)] += b.N[c] * val(elementCorner(b.element, c));
   }
-  const std::vector<Eigen::Matrix3d> R = elementRotations(x);
   for (const auto& in : interior_) {
     const Eigen::Matrix3d& Rc = R[std::size_t(in.element)];
     Eigen::Vector3d acc = Eigen::Vector3d::Zero();

@@ -132,9 +132,10 @@ class CoarseModel {
   // coarse state x): P maps coarse free-dof increments to fine node increments (corners: identity;
   // face nodes: N_b; interior nodes: R_c H_f R_c^T; Dirichlet fine nodes: 0).
   /// P^T r for a fine per-node vector r (Dirichlet nodes ignored); size freeCoarseDofs().
-  Eigen::VectorXd restrictToCoarse(const std::vector<Eigen::Vector3d>& r, const std::vector<Eigen::Vector3d>& x) const;
+  /// `R`: elementRotations(x) of the coarse state x (computed once by the caller, not per call).
+  Eigen::VectorXd restrictToCoarse(const std::vector<Eigen::Vector3d>& r, const std::vector<Eigen::Matrix3d>& R) const;
   /// P c, added to out (per fine node).
-  void prolongAdd(const Eigen::VectorXd& c, const std::vector<Eigen::Vector3d>& x, std::vector<Eigen::Vector3d>& out) const;
+  void prolongAdd(const Eigen::VectorXd& c, const std::vector<Eigen::Matrix3d>& R, std::vector<Eigen::Vector3d>& out) const;
   /// A_c^-1 b with the coarse matrix of the last solve() iteration (Pcg: its preconditioner,
   /// Rn A_0^-1 Rn^T at the last solve's rotations).
   Eigen::VectorXd coarseSolve(const Eigen::VectorXd& b) const;

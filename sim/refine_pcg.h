@@ -63,15 +63,16 @@ double pcg(Field& r, const std::vector<char>& mask, int iterations, ApplyK&& app
 }
 
 /// The two-level preconditioner: z = D^-1 res + P A_c^-1 P^T res (block Jacobi plus the coarse
-/// correction through the coarse model's shape functions at coarse state xc), zero at Dirichlet nodes.
-inline void twoLevelPrecondition(const CoarseModel& coarse, const std::vector<Eigen::Vector3d>& xc, const std::vector<Eigen::Matrix3d>& dinv,
+/// correction through the coarse model's shape functions at the coarse state whose element
+/// rotations are Rc), zero at Dirichlet nodes.
+inline void twoLevelPrecondition(const CoarseModel& coarse, const std::vector<Eigen::Matrix3d>& Rc, const std::vector<Eigen::Matrix3d>& dinv,
                                  const std::vector<char>& mask, const Field& res, Field& z) {
   const std::size_t n = res.size();
   z.assign(n, Eigen::Vector3d::Zero());
   for (std::size_t i = 0; i < n; ++i)
     if (mask[i]) z[i] = dinv[i] * res[i];
-  const Eigen::VectorXd cc = coarse.coarseSolve(coarse.restrictToCoarse(res, xc));
-  coarse.prolongAdd(cc, xc, z);
+  const Eigen::VectorXd cc = coarse.coarseSolve(coarse.restrictToCoarse(res, Rc));
+  coarse.prolongAdd(cc, Rc, z);
   for (std::size_t i = 0; i < n; ++i)
     if (!mask[i]) z[i].setZero();
 }

@@ -137,7 +137,9 @@ double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vect
       if (w.V[t] == 0) continue;
       const auto& tet = F.tets[t];
       const Eigen::Matrix3d Ft = edges(tet, x) * w.G[t];
-      const Eigen::Matrix3d R = polarRotationWarm(Ft, w.q[t]);
+      // One Newton step a step when the rotation moved less than 1e-3 rad (it keeps converging from
+      // step to step with x).
+      const Eigen::Matrix3d R = polarRotationWarm(Ft, w.q[t], 1e-3);
       w.R[t] = R;
       const Eigen::Matrix3d S = R.transpose() * Ft;
       Eigen::Matrix3d eps = 0.5 * (S + S.transpose());
@@ -175,7 +177,8 @@ double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vect
     });
     reduce(out);
   };
-  auto precondition = [&](const Field& res, Field& z) { refine::twoLevelPrecondition(coarse_, xc, dinv, free_, res, z); };
+  const std::vector<Eigen::Matrix3d> Rc = coarse_.elementRotations(xc);
+  auto precondition = [&](const Field& res, Field& z) { refine::twoLevelPrecondition(coarse_, Rc, dinv, free_, res, z); };
   auto energyAt = [&](const Field& pos) {
     std::vector<double> part(std::size_t(T), 0.0);
     parallelChunks(nt, T, [&](std::size_t b, std::size_t e, int c) {
@@ -184,7 +187,7 @@ double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vect
         if (w.V[t] == 0) continue;
         const Eigen::Matrix3d Ft = edges(F.tets[t], pos) * w.G[t];
         Eigen::Quaterniond q = w.q[t];  // a trial: the warm start stays with x
-        const Eigen::Matrix3d S = polarRotationWarm(Ft, q).transpose() * Ft;
+        const Eigen::Matrix3d S = polarRotationWarm(Ft, q, 1e-3).transpose() * Ft;
         Eigen::Matrix3d eps = 0.5 * (S + S.transpose());
         eps.diagonal().array() -= 1.0;
         const double tr = eps.trace();

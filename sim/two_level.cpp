@@ -48,7 +48,8 @@ double FineRefiner::stepProjected(const std::vector<Eigen::Vector3d>& xc, std::v
     for (std::size_t i = 0; i < n; ++i)
       if (!free_[i]) out[i].setZero();
   };
-  auto precondition = [&](const Field& res, Field& z) { refine::twoLevelPrecondition(coarse_, xc, dinv, free_, res, z); };
+  const std::vector<Eigen::Matrix3d> Rc = coarse_.elementRotations(xc);
+  auto precondition = [&](const Field& res, Field& z) { refine::twoLevelPrecondition(coarse_, Rc, dinv, free_, res, z); };
 
   Field dx;
   const double reduction = refine::pcg(r, free_, iterations, applyK, precondition, dx);

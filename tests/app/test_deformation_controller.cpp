@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <set>
+#include <string>
 #include <thread>
 
 #include "app/deformation_controller.h"
@@ -90,7 +92,8 @@ TEST(DeformationController, ShowsTheSimulationWithoutWaitingAndFollowsTheHandles
   }
   ASSERT_TRUE(shown) << dc.status();
   EXPECT_TRUE(s.renderer->deforming());
-  EXPECT_NE(dc.status().find("settled"), std::string::npos) << dc.status();
+  EXPECT_NE(dc.status().find("converged"), std::string::npos) << dc.status();
+  EXPECT_EQ(dc.modelState(), "converged");
   Volume out;
   ASSERT_TRUE(dc.exportDeformed(out));
   std::size_t changed = 0;
@@ -113,6 +116,36 @@ TEST(DeformationController, ShowsTheSimulationWithoutWaitingAndFollowsTheHandles
   s.frame(dc, handles);
   EXPECT_FALSE(s.renderer->deforming());
   EXPECT_EQ(dc.state(), DeformationController::State::Off);
+  EXPECT_EQ(s.ctx->validationMessageCount(), 0u);
+}
+
+TEST(DeformationController, AHeldPoseIsRefinedWhileFramesGoOnAndEachStateIsNamed) {
+  Scene s;
+  HandleSet handles;
+  const int id = handles.add(s.kidney);
+  RigidPose pose;
+  pose.translation = Eigen::Vector3d(8, 0, 0);
+  pose.rotation = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  handles.setPose(id, pose, false);
+  DeformationOptions o = small();
+  o.refineSteps = 2;
+  DeformationController dc(s.phantom.ct, s.q, *s.renderer, o);
+  const auto t0 = Clock::now();
+  std::set<std::string> seen;
+  double coarseSeconds = -1;
+  while (dc.modelState() != "converged" && Clock::now() - t0 < std::chrono::seconds(90)) {
+    s.frame(dc, handles);  // never waits for the solve
+    seen.insert(dc.modelState());
+    if (dc.modelState() == "coarse" || dc.modelState() == "refining 0/2") coarseSeconds = dc.shownSeconds();
+  }
+  ASSERT_EQ(dc.modelState(), "converged") << dc.status();
+  EXPECT_NE(dc.status().find(", converged"), std::string::npos) << dc.status();
+  for (const auto& st : seen)
+    EXPECT_TRUE(st == "building" || st == "rest" || st == "coarse" || st == "refining 0/2" || st == "refining 1/2" || st == "converged") << st;
+  // The refined state landed after the coarse one it started from (worker time since the pose).
+  if (coarseSeconds >= 0) {
+    EXPECT_GT(dc.shownSeconds(), coarseSeconds);
+  }
   EXPECT_EQ(s.ctx->validationMessageCount(), 0u);
 }
 

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <optional>
+#include <sstream>
 #include <filesystem>
 #include <fstream>
 #include <algorithm>
@@ -166,8 +167,24 @@ TEST(Replay, AMovedActiveHandleDeformsTheTissueAroundItAndReplaysBitIdentically)
   const std::string common = "replay " + (dir / "drag.json").string() + " --fps 10 --size 128x128 --validation --print-handles ";
   const std::string sim = "--sim-coarse-tets 300 --sim-fine-tets 19200 --sim-refine-steps 1 ";
   std::string out;
-  ASSERT_EQ(run(common + sim + "--frames-out " + (dir / "a").string(), &out), 0) << out;
-  EXPECT_NE(out.find("fine tets, refined x1"), std::string::npos) << out;  // a held pose shows the refined state
+  ASSERT_EQ(run(common + sim + "--frames-out " + (dir / "a").string() + " --timings " + (dir / "timings.csv").string(), &out), 0) << out;
+  // A held pose shows the refined state: its one refinement step done, "converged".
+  EXPECT_NE(out.find("fine tets, converged"), std::string::npos) << out;
+  {
+    // The timing log records the state each frame shows: off before the first handle, converged
+    // (the replay waits for each pose's solve and refinement) at the end.
+    std::istringstream csv(slurp(dir / "timings.csv"));
+    std::string header, line, last;
+    std::getline(csv, header);
+    ASSERT_NE(header.find(",sim_state,sim_state_s"), std::string::npos) << header;
+    bool rest = false;
+    while (std::getline(csv, line)) {
+      rest = rest || line.find(",off,") != std::string::npos;
+      last = line;
+    }
+    EXPECT_TRUE(rest) << "frames before the first handle";
+    EXPECT_NE(last.find(",converged,"), std::string::npos) << last;
+  }
   ASSERT_EQ(run(common + sim + "--quiet --frames-out " + (dir / "b").string() + " --export " + (dir / "deformed.nii.gz").string(), &out), 0) << out;
   ASSERT_EQ(run(common + "--sim off --quiet --frames-out " + (dir / "rigid").string(), &out), 0) << out;
   std::vector<std::string> frames;
