@@ -28,6 +28,8 @@ using refine::Field;
 
 struct FineRefiner::Warped {
   int threads = 1;
+  bool twist = false;                      ///< Analytic: the clamped twist terms too
+  mutable std::vector<Eigen::Matrix3d> L;  ///< Analytic, per tet: Lambda = sum_k max(lambda_k, 0) v_k v_k^T
   std::vector<Eigen::Matrix3d> G;          ///< per tet, D_m^-1 (zero for a degenerate tet)
   std::vector<double> V, lambda, mu;       ///< per tet
   mutable std::vector<Eigen::Matrix3d> R;  ///< per tet, the rotation at the step's positions
@@ -48,12 +50,14 @@ FineRefiner::FineRefiner(const CoarseModel& coarse, const std::vector<Mat12>& fi
                          const RefineOptions& options)
     : FineRefiner(coarse, fineK) {
   options_ = options;
-  if (options_.method != RefineMethod::Warped) return;
+  if (options_.method == RefineMethod::Projected) return;
   const TetMesh& F = coarse.meshes().fine;
   const std::size_t nt = F.tets.size();
   if (youngs.size() != nt || poisson.size() != nt) throw Error("refiner: one material per fine tet expected");
   auto w = std::make_unique<Warped>();
   w->threads = simulationThreads(options.threads);
+  w->twist = options_.method == RefineMethod::Analytic;
+  if (w->twist) w->L.assign(nt, Eigen::Matrix3d::Zero());
   w->G.assign(nt, Eigen::Matrix3d::Zero());
   w->V.assign(nt, 0.0);
   w->lambda.assign(nt, 0.0);
@@ -99,6 +103,34 @@ void scatter(const std::array<int, 4>& tet, const Eigen::Matrix3d& VMGt, Field& 
   out[std::size_t(tet[0])] -= c1 + c2 + c3;
 }
 
+Eigen::Matrix3d cross(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+// axial(skew(A)): the vector a with skew(A) = [a]x.
+Eigen::Vector3d axialOfSkew(const Eigen::Matrix3d& A) { return 0.5 * Eigen::Vector3d(A(2, 1) - A(1, 2), A(0, 2) - A(2, 0), A(1, 0) - A(0, 1)); }
+
+// Lambda = sum_k max(lambda_k, 0) v_k v_k^T for S = R^T F (symmetric at the polar rotation) with
+// eigenpairs (s_k, v_k): the twist about v_k has lambda_k = (tau_i + tau_j) / (s_i + s_j), i, j the
+// other two, tau = dpsi/ds = 2 mu (s - 1) + lambda (sum s - 3). Where s_i + s_j is near zero (an
+// element folding through itself) the twist is dropped.
+Eigen::Matrix3d twistOperator(const Eigen::Matrix3d& S, double lambda, double mu) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  es.computeDirect(0.5 * (S + S.transpose()));
+  const Eigen::Vector3d s = es.eigenvalues();
+  const Eigen::Vector3d tau = (2.0 * mu * (s.array() - 1.0) + lambda * (s.sum() - 3.0)).matrix();
+  const double scale = s.cwiseAbs().maxCoeff() + 1e-300;
+  Eigen::Vector3d l;
+  for (int k = 0; k < 3; ++k) {
+    const int i = (k + 1) % 3, j = (k + 2) % 3;
+    const double den = s[i] + s[j];
+    l[k] = den > 1e-6 * scale ? std::max(0.0, (tau[i] + tau[j]) / den) : 0.0;
+  }
+  return es.eigenvectors() * l.asDiagonal() * es.eigenvectors().transpose();
+}
+
 Eigen::Matrix3d edges(const std::array<int, 4>& tet, const Field& p) {
   Eigen::Matrix3d D;
   const Eigen::Vector3d& p0 = p[std::size_t(tet[0])];
@@ -109,7 +141,7 @@ Eigen::Matrix3d edges(const std::array<int, 4>& tet, const Field& p) {
 }  // namespace
 
 double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
-  if (!warped_) throw Error("refiner: the warped method needs the fine materials");
+  if (!warped_) throw Error("refiner: the matrix-free methods need the fine materials");
   const Warped& w = *warped_;
   const TetMesh& F = coarse_.meshes().fine;
   const std::size_t n = F.nodes.size(), nt = F.tets.size();
@@ -139,7 +171,7 @@ double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vect
       const Eigen::Matrix3d Ft = edges(tet, x) * w.G[t];
       // One Newton step a step when the rotation moved less than 1e-3 rad (it keeps converging from
       // step to step with x).
-      const Eigen::Matrix3d R = polarRotationWarm(Ft, w.q[t], 1e-3);
+      const Eigen::Matrix3d R = polarRotationWarm(Ft, w.q[t], 1e-5);
       w.R[t] = R;
       const Eigen::Matrix3d S = R.transpose() * Ft;
       Eigen::Matrix3d eps = 0.5 * (S + S.transpose());
@@ -147,11 +179,14 @@ double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vect
       const double tr = eps.trace();
       energy += w.V[t] * (0.5 * w.lambda[t] * tr * tr + w.mu[t] * eps.squaredNorm());
       scatter(tet, -w.V[t] * (R * stress(eps, w.lambda[t], w.mu[t])) * w.G[t].transpose(), r);
+      if (w.twist) w.L[t] = twistOperator(S, w.lambda[t], w.mu[t]);
       for (int a = 0; a < 4; ++a) {
         const Eigen::Vector3d g = a == 0 ? Eigen::Vector3d(-w.G[t].colwise().sum().transpose()) : Eigen::Vector3d(w.G[t].row(a - 1).transpose());
         const Eigen::Vector3d h = R * g;
         Eigen::Matrix3d blk = (w.V[t] * (w.lambda[t] + w.mu[t])) * (h * h.transpose());
         blk.diagonal().array() += w.V[t] * w.mu[t] * h.squaredNorm();
+        // The twist part on this corner: (1/2) V R [g]x^T Lambda [g]x R^T (positive semi-definite).
+        if (w.twist) blk += (0.5 * w.V[t]) * (R * cross(g).transpose() * w.L[t] * cross(g) * R.transpose());
         d[std::size_t(tet[std::size_t(a)])] += blk;
       }
     }
@@ -172,7 +207,9 @@ double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vect
       for (std::size_t t = b; t < e; ++t) {
         if (w.V[t] == 0) continue;
         const Eigen::Matrix3d S = w.R[t].transpose() * (edges(F.tets[t], p) * w.G[t]);
-        scatter(F.tets[t], w.V[t] * (w.R[t] * stress(0.5 * (S + S.transpose()), w.lambda[t], w.mu[t])) * w.G[t].transpose(), y);
+        Eigen::Matrix3d M = stress(0.5 * (S + S.transpose()), w.lambda[t], w.mu[t]);
+        if (w.twist) M += cross(w.L[t] * axialOfSkew(S));
+        scatter(F.tets[t], w.V[t] * (w.R[t] * M) * w.G[t].transpose(), y);
       }
     });
     reduce(out);
@@ -187,7 +224,7 @@ double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vect
         if (w.V[t] == 0) continue;
         const Eigen::Matrix3d Ft = edges(F.tets[t], pos) * w.G[t];
         Eigen::Quaterniond q = w.q[t];  // a trial: the warm start stays with x
-        const Eigen::Matrix3d S = polarRotationWarm(Ft, q, 1e-3).transpose() * Ft;
+        const Eigen::Matrix3d S = polarRotationWarm(Ft, q, 1e-5).transpose() * Ft;
         Eigen::Matrix3d eps = 0.5 * (S + S.transpose());
         eps.diagonal().array() -= 1.0;
         const double tr = eps.trace();
@@ -205,17 +242,20 @@ double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vect
   return reduction;
 }
 
-std::vector<Eigen::Vector3d> FineRefiner::warpedProduct(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& p) const {
-  if (!warped_) throw Error("refiner: the warped method needs the fine materials");
+std::vector<Eigen::Vector3d> FineRefiner::product(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& p) const {
+  if (!warped_) throw Error("refiner: the matrix-free methods need the fine materials");
   const Warped& w = *warped_;
   const TetMesh& F = coarse_.meshes().fine;
   Field out(F.nodes.size(), Eigen::Vector3d::Zero());
   for (std::size_t t = 0; t < F.tets.size(); ++t) {
     if (w.V[t] == 0) continue;
     Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
-    const Eigen::Matrix3d R = polarRotationWarm(edges(F.tets[t], x) * w.G[t], q);
+    const Eigen::Matrix3d Ft = edges(F.tets[t], x) * w.G[t];
+    const Eigen::Matrix3d R = polarRotationWarm(Ft, q);
     const Eigen::Matrix3d S = R.transpose() * (edges(F.tets[t], p) * w.G[t]);
-    scatter(F.tets[t], w.V[t] * (R * stress(0.5 * (S + S.transpose()), w.lambda[t], w.mu[t])) * w.G[t].transpose(), out);
+    Eigen::Matrix3d M = stress(0.5 * (S + S.transpose()), w.lambda[t], w.mu[t]);
+    if (w.twist) M += cross(twistOperator(R.transpose() * Ft, w.lambda[t], w.mu[t]) * axialOfSkew(S));
+    scatter(F.tets[t], w.V[t] * (R * M) * w.G[t].transpose(), out);
   }
   return out;
 }

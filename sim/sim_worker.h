@@ -24,10 +24,10 @@ struct SimWorkerOptions {
   int refineSteps = 0;        ///< two-level steps after each input while it stays the newest (after the
                               ///< coarse solve settled; their snapshots carry fine positions)
   int refineIterations = 10;  ///< PCG iterations per step
-  /// The refinement's linearization (sim/two_level.h); Warped needs the scene's materials (the
-  /// SimScene constructor), the fineK-only constructor always refines with Projected.
-  RefineMethod refineMethod = RefineMethod::Warped;
-  int refineThreads = 0;      ///< Warped: threads for the element passes (0: the hardware's)
+  /// The refinement's linearization (sim/two_level.h); the matrix-free ones need the scene's
+  /// materials (the SimScene constructor), the fineK-only constructor always refines with Projected.
+  RefineMethod refineMethod = RefineMethod::Analytic;
+  int refineThreads = 0;      ///< matrix-free methods: threads for the element passes (0: the hardware's)
   bool reconstructFine = true;    ///< fine nodes on the CPU (false: the GPU interpolates them from the coarse state)
   bool elementRotations = false;  ///< publish each coarse element's rotation (what the GPU interpolation needs)
   /// While an input stays the newest and its coarse solve has not converged: up to this many more

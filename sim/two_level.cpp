@@ -11,11 +11,13 @@ namespace handson {
 
 using refine::Field;
 
-const char* refineMethodName(RefineMethod m) { return m == RefineMethod::Warped ? "warped" : "projected"; }
+const char* refineMethodName(RefineMethod m) {
+  return m == RefineMethod::Analytic ? "analytic" : m == RefineMethod::Warped ? "warped" : "projected";
+}
 
 double FineRefiner::step(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
   if (x.size() != coarse_.meshes().fine.nodes.size()) throw Error("refiner: wrong node count");
-  return options_.method == RefineMethod::Warped ? stepWarped(xc, x, iterations) : stepProjected(xc, x, iterations);
+  return options_.method == RefineMethod::Projected ? stepProjected(xc, x, iterations) : stepWarped(xc, x, iterations);
 }
 
 double FineRefiner::stepProjected(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {

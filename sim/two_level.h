@@ -7,11 +7,14 @@
 // functions as the reconstruction. More iterations per frame (or more frames) converge to the fine
 // static answer; none gives the coarse model.
 //
-// Two linearizations (RefineMethod; docs/simulation.md, "Refinement"):
-//  - Warped (the default): H = sum_t R_t K_t R_t^T, the warped stiffness, applied matrix-free from
-//    each tet's shape-function gradients and Lame parameters (K_t u = V B^T C B u as stress times
-//    gradient: ~130 flops and 21 numbers a tet instead of a 12x12 block), rotations by the
+// Three linearizations (RefineMethod; docs/simulation.md, "Refinement"):
+//  - Analytic (the default): the exact corotational Hessian with its negative part removed in
+//    closed form, matrix-free. Per tet it is the warped stiffness R K R^T plus the twist terms (the
+//    rotation's variation), whose eigenvalues are known from the polar decomposition; negative ones
+//    are clamped. Applied from each tet's shape-function gradients and Lame parameters (stress
+//    times gradient: ~150 flops and 30 numbers a tet instead of a 12x12 block), rotations by the
 //    warm-started polar iteration, passes split over threads.
+//  - Warped: the warped stiffness alone, the same way (no twist terms).
 //  - Projected (the baseline, kept to compare): the exact corotational Hessian of every tet with its
 //    negative eigenvalues clamped (a 12x12 eigendecomposition per tet per step), stored per tet.
 #include <Eigen/Geometry>
@@ -21,20 +24,20 @@
 
 namespace handson {
 
-enum class RefineMethod { Warped, Projected };
+enum class RefineMethod { Analytic, Warped, Projected };
 const char* refineMethodName(RefineMethod m);
 
 struct RefineOptions {
-  RefineMethod method = RefineMethod::Warped;
-  int threads = 0;  ///< Warped: threads for the element passes (0: the machine's hardware threads)
+  RefineMethod method = RefineMethod::Analytic;
+  int threads = 0;  ///< Analytic, Warped: threads for the element passes (0: the machine's hardware threads)
 };
 
 class FineRefiner {
  public:
   /// The projected method only (no material data): `fineK`, the rest stiffness per fine tet.
   FineRefiner(const CoarseModel& coarse, const std::vector<Mat12>& fineK);
-  /// Either method. `youngs` and `poisson` per fine tet are the isotropic material `fineK` was built
-  /// from (tetStiffnesses); the warped method reads only them. Throws handson::Error on wrong sizes.
+  /// Any method. `youngs` and `poisson` per fine tet are the isotropic material `fineK` was built
+  /// from (tetStiffnesses); the matrix-free methods read only them. Throws handson::Error on wrong sizes.
   FineRefiner(const CoarseModel& coarse, const std::vector<Mat12>& fineK, const std::vector<double>& youngs, const std::vector<double>& poisson,
               const RefineOptions& options = {});
   ~FineRefiner();
@@ -48,14 +51,14 @@ class FineRefiner {
   /// factorized at (the last CoarseModel::solve). Returns the residual reduction |r_k| / |r_0|.
   double step(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
 
-  /// Warped: the product (sum_t R_t K_t R_t^T) p over all nodes (Dirichlet ones included) with R_t
-  /// the rotations at x; for tests against the stored 12x12 blocks.
-  std::vector<Eigen::Vector3d> warpedProduct(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& p) const;
+  /// Analytic, Warped: the product H(x) p over all nodes (Dirichlet ones included), rotations at x
+  /// from a cold start; for tests against the stored 12x12 blocks and the exact Hessian.
+  std::vector<Eigen::Vector3d> product(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& p) const;
 
  private:
   double stepProjected(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
   double stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
-  struct Warped;  // the warped method's per-tet data and buffers (sim/refine_warped.cpp)
+  struct Warped;  // the matrix-free methods' per-tet data and buffers (sim/refine_warped.cpp)
 
   const CoarseModel& coarse_;
   const std::vector<Mat12>& K_;

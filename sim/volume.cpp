@@ -260,4 +260,11 @@ std::pair<float, float> Volume::valueRange() const {
   return {lo, hi};
 }
 
+std::vector<std::uint32_t> voxelsLabelled(const Volume& labels, double label) {
+  std::vector<std::uint32_t> out;
+  for (std::size_t i = 0; i < labels.voxelCount(); ++i)
+    if (labels.value(i) == label) out.push_back(std::uint32_t(i));
+  return out;
+}
+
 }  // namespace handson

@@ -121,4 +121,7 @@ template <> constexpr ScalarType scalarTypeOf<std::uint8_t>() { return ScalarTyp
 template <> constexpr ScalarType scalarTypeOf<std::int16_t>() { return ScalarType::Int16; }
 template <> constexpr ScalarType scalarTypeOf<float>() { return ScalarType::Float32; }
 
+/// Linear indices of the voxels whose value equals `label` (a label map's organ), in order.
+std::vector<std::uint32_t> voxelsLabelled(const Volume& labels, double label);
+
 }  // namespace handson

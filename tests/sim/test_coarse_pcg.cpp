@@ -20,9 +20,7 @@ struct KidneyScene {
     po.spacingMm = 4.0;
     const Phantom p = makePhantom(po);
     SimHandle h;
-    const auto* lab = p.labels.data<std::uint8_t>();
-    for (std::size_t i = 0; i < p.labels.voxelCount(); ++i)
-      if (lab[i] == label::kKidneyRight) h.voxels.push_back(std::uint32_t(i));
+    h.voxels = voxelsLabelled(p.labels, label::kKidneyRight);
     SimSettings s;
     s.coarseTets = coarseTets;
     s.fineTets = coarseTets * 8;

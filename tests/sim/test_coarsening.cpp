@@ -20,9 +20,7 @@ namespace {
 
 std::vector<SimHandle> kidneyHandle(const Phantom& p) {
   SimHandle h;
-  const auto* lab = p.labels.data<std::uint8_t>();
-  for (std::size_t i = 0; i < p.labels.voxelCount(); ++i)
-    if (lab[i] == label::kKidneyRight) h.voxels.push_back(std::uint32_t(i));
+  h.voxels = voxelsLabelled(p.labels, label::kKidneyRight);
   return {h};
 }
 
@@ -57,26 +55,28 @@ TEST(Coarsening, KidneyMoved10mmAndRotated30DegMatchesTheFineReference) {
   // 15 GPa next to 3-8 kPa soft tissue locks its linear element boundaries; see README): measured,
   // not asserted beyond sanity. The two-level refinement is what meets the accuracy bounds.
   EXPECT_LT(ec.rmsOfMotion, 0.6);
-  // Both linearizations from the coarse answer: the warped matrix-free one (the default) and the
-  // projected exact Hessian (the baseline).
-  std::vector<double> rms, rmsProjected;
-  for (const RefineMethod method : {RefineMethod::Warped, RefineMethod::Projected}) {
+  // The linearizations from the coarse answer: the analytic matrix-free one (the default), the
+  // warped stiffness alone and the projected exact Hessian (the baseline).
+  std::vector<double> rms, rmsWarped, rmsProjected;
+  for (const RefineMethod method : {RefineMethod::Analytic, RefineMethod::Warped, RefineMethod::Projected}) {
     const FineRefiner refiner(model, sc.fineK, sc.youngs, sc.poisson, RefineOptions{method, 0});
     auto x = coarse;
-    auto& out = method == RefineMethod::Warped ? rms : rmsProjected;
+    auto& out = method == RefineMethod::Analytic ? rms : method == RefineMethod::Warped ? rmsWarped : rmsProjected;
     for (int frame = 0; frame < 4; ++frame) {
       refiner.step(xc, x, 10);
       out.push_back(compareDeformation(sc, T, x, fine.x).rmsOfMotion);
       std::printf("refined frame %d (%s, 10 PCG iterations): RMS %.4f\n", frame + 1, refineMethodName(method), out.back());
     }
   }
-  // Measured, warped: 0.042 after two frames and 0.0086 after four; projected: 0.022 and 0.0021
-  // (with the default coarse solve's coarse correction, the rotated rest factor). Bounds with margin
-  // for compiler and BLAS roundoff differences.
-  EXPECT_LT(rms[1], 0.10) << "<= 10 % of the handle's motion after two frames";
-  EXPECT_LT(rms[3], 0.02) << "<= 2 % after four";
-  EXPECT_LT(rmsProjected[1], 0.10);
-  EXPECT_LT(rmsProjected[3], 0.02);
+  // Measured after two and four frames: analytic 0.021 and 0.0018, warped 0.042 and 0.0086, projected
+  // 0.022 and 0.0021 (with the default coarse solve's coarse correction, the rotated rest factor).
+  // Bounds with margin for compiler and BLAS roundoff differences.
+  EXPECT_LT(rms[1], 0.05) << "<= 5 % of the handle's motion after two frames";
+  EXPECT_LT(rms[3], 0.005) << "<= 0.5 % after four";
+  EXPECT_LT(rmsWarped[1], 0.10);
+  EXPECT_LT(rmsWarped[3], 0.02);
+  EXPECT_LT(rmsProjected[1], 0.05);
+  EXPECT_LT(rmsProjected[3], 0.005);
   EXPECT_LT(3 * rms[3], ep.rmsOfMotion) << "at least 3x better than plain coarse FEM";
 }
 
