@@ -9,6 +9,7 @@
 #include <unordered_map>
 
 #include "sim/binary_io.h"
+#include "sim/blas_threads.h"
 #include "sim/coarse_pcg_workspace.h"
 #include "sim/error.h"
 
@@ -466,6 +467,7 @@ double CoarseModel::prepareSolve(const std::vector<RigidTransform>& handles, std
 
 CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tolerance) {
   const auto start = std::chrono::steady_clock::now();
+  const SingleThreadedBlas blas;  // small triangular solves (sim/blas_threads.h)
   const double tol = prepareSolve(handles, x, tolerance);
   CoarseSolveStats st;
   if (dofCount_ == 0) st.converged = true;

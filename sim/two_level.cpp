@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <cmath>
 
+#include "sim/blas_threads.h"
 #include "sim/error.h"
 #include "sim/refine_pcg.h"
 #include "sim/static_solver.h"
@@ -17,6 +18,7 @@ const char* refineMethodName(RefineMethod m) {
 
 double FineRefiner::step(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
   if (x.size() != coarse_.meshes().fine.nodes.size()) throw Error("refiner: wrong node count");
+  const SingleThreadedBlas blas;  // the coarse correction's small solves (sim/blas_threads.h)
   return options_.method == RefineMethod::Projected ? stepProjected(xc, x, iterations) : stepWarped(xc, x, iterations);
 }
 
