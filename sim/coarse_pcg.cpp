@@ -18,12 +18,9 @@
 // Shapes: x, positions of all coarse nodes (3-vectors); r, d, p, z, q: free dofs (3 a free node);
 // K_h: 3n x 3n (n = 4 tet, 8 cell), stored packed per element, column-major.
 #include <Eigen/Dense>
-#include <Eigen/SparseCholesky>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <limits>
-#include <cstdio>
-#include <cstdlib>
 
 #include "sim/coarse_pcg_workspace.h"
 #include "sim/coarsening.h"
