@@ -46,6 +46,37 @@ const char* const kBenchSimHelp =
     "  --quiet\n";
 
 double since(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
+
+// The two-level refinement from the coarse answer (fine positions xcoarse, coarse state xc), with the
+// analytic matrix-free linearization (the default), the warped stiffness alone and the projected
+// exact Hessian (the baseline), the same steps from the same start: RMS after each step to `acc` and
+// `trade`, and the seconds per step of each method (in that order).
+std::vector<double> compareRefinements(const SimScene& sc, const CoarseModel& model, const std::vector<RigidTransform>& T,
+                                       const std::vector<Eigen::Vector3d>& xc, const std::vector<Eigen::Vector3d>& xcoarse,
+                                       const std::vector<Eigen::Vector3d>& fine, int refineSteps, double frameMs, std::ostream& acc, std::ostream& trade) {
+  std::vector<double> stepSeconds;
+  for (const RefineMethod method : {RefineMethod::Analytic, RefineMethod::Warped, RefineMethod::Projected}) {
+    const FineRefiner refiner(model, sc.fineK, sc.youngs, sc.poisson, RefineOptions{method, 0});
+    auto x = xcoarse;
+    double tStep = 0;
+    for (int k = 1; k <= refineSteps; ++k) {
+      const auto t0 = std::chrono::steady_clock::now();
+      refiner.step(xc, x, 10);
+      tStep += since(t0);
+      const auto e = compareDeformation(sc, T, x, fine);
+      acc << "," << e.rmsOfMotion;
+      trade << (method == RefineMethod::Analytic ? std::string("refined") : std::string("refined-") + refineMethodName(method)) << ","
+            << sc.meshes.coarse.tets.size() << "," << frameMs * 1e-3 + tStep << "," << e.rmsOfMotion << "\n";
+      std::cout << "  refined (" << refineMethodName(method) << ") " << k << " step" << (k > 1 ? "s" : "") << " (" << std::setprecision(2) << tStep
+                << " s): RMS " << std::setprecision(4) << e.rmsOfMotion << ", max " << e.maxOfMotion << "\n";
+    }
+    stepSeconds.push_back(refineSteps ? tStep / refineSteps : 0.0);
+  }
+  if (refineSteps > 0)
+    std::cout << std::setprecision(3) << "  refinement step: analytic " << stepSeconds[0] << " s, warped " << stepSeconds[1] << " s, projected "
+              << stepSeconds[2] << " s (projected / analytic " << std::setprecision(1) << stepSeconds[2] / stepSeconds[0] << "x)\n";
+  return stepSeconds;
+}
 }  // namespace
 
 int cmdBenchSim(const Words& words) {
@@ -219,29 +250,7 @@ int cmdBenchSim(const Words& words) {
       std::cout << "  coarse solve from rest, " << k << " iteration" << (k > 1 ? "s" : "") << " (" << std::setprecision(3) << tk * 1e3
                 << " ms): RMS " << std::setprecision(4) << e.rmsOfMotion << "\n";
     }
-    // The two-level refinement from the coarse answer, with the analytic matrix-free linearization
-    // (the default), the warped stiffness alone and the projected exact Hessian (the baseline), the
-    // same steps from the same start.
-    std::vector<double> stepSeconds;
-    for (const RefineMethod method : {RefineMethod::Analytic, RefineMethod::Warped, RefineMethod::Projected}) {
-      FineRefiner refiner(model, sc.fineK, sc.youngs, sc.poisson, RefineOptions{method, 0});
-      auto x = xcoarse;
-      double tStep = 0;
-      for (int k = 1; k <= refineSteps; ++k) {
-        t0 = std::chrono::steady_clock::now();
-        refiner.step(xc, x, 10);
-        tStep += since(t0);
-        const auto e = compareDeformation(sc, T, x, fine.x);
-        acc << "," << e.rmsOfMotion;
-        trade << (method == RefineMethod::Analytic ? "refined," : std::string("refined-") + refineMethodName(method) + ",") << sc.meshes.coarse.tets.size() << "," << frame * 1e-3 + tStep << "," << e.rmsOfMotion << "\n";
-        std::cout << "  refined (" << refineMethodName(method) << ") " << k << " step" << (k > 1 ? "s" : "") << " (" << std::setprecision(2) << tStep
-                  << " s): RMS " << std::setprecision(4) << e.rmsOfMotion << ", max " << e.maxOfMotion << "\n";
-      }
-      stepSeconds.push_back(refineSteps ? tStep / refineSteps : 0.0);
-    }
-    if (refineSteps > 0)
-      std::cout << std::setprecision(3) << "  refinement step: analytic " << stepSeconds[0] << " s, warped " << stepSeconds[1] << " s, projected "
-                << stepSeconds[2] << " s (projected / analytic " << std::setprecision(1) << stepSeconds[2] / stepSeconds[0] << "x)\n";
+    const std::vector<double> stepSeconds = compareRefinements(sc, model, T, xc, xcoarse, fine.x, refineSteps, frame, acc, trade);
     trade << "fine," << sc.meshes.coarse.tets.size() << "," << tFine << ",1e-4\n";
     acc << "," << stepSeconds[0] << "," << stepSeconds[1] << "," << stepSeconds[2] << std::endl;  // a row at a time: long runs show progress
     trade.flush();

@@ -16,7 +16,8 @@
 //     with rotations varying smoothly over the mesh M stays close to A(R), and nothing is ever
 //     refactorized while the tissue turns.
 // Shapes: x, positions of all coarse nodes (3-vectors); r, d, p, z, q: free dofs (3 a free node);
-// K_h: 3n x 3n (n = 4 tet, 8 cell), stored packed per element, column-major.
+// K_h: 3n x 3n (n = 4 tet, 8 cell), column-major: the element's own (double) for residuals, a packed
+// single-precision copy for the products.
 #include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
@@ -27,7 +28,6 @@
 #include "sim/error.h"
 
 namespace handson {
-
 
 CoarseModel::~CoarseModel() = default;
 
@@ -43,11 +43,9 @@ void CoarseModel::preparePcg(CoarseSolveStats& st) {
   if (pcgReady()) return;
   auto w = std::make_unique<PcgWorkspace>();
   const int m = 3 * nc_;
-  w->kh.resize(elements_.size() * std::size_t(m * m));
+  w->khf.resize(elements_.size() * std::size_t(m * m));
   for (std::size_t e = 0; e < elements_.size(); ++e)
-    Eigen::Map<Eigen::MatrixXd>(&w->kh[e * std::size_t(m * m)], m, m) = elements_[e].Kh;
-  w->khf.resize(w->kh.size());
-  for (std::size_t i = 0; i < w->kh.size(); ++i) w->khf[i] = float(w->kh[i]);
+    Eigen::Map<Eigen::MatrixXf>(&w->khf[e * std::size_t(m * m)], m, m) = elements_[e].Kh.cast<float>();
   w->elementR.assign(elements_.size(), Eigen::Matrix3d::Identity());
   w->elementQ.assign(elements_.size(), Eigen::Quaterniond::Identity());
   // Free nodes in dof order, and the elements around each.
@@ -116,7 +114,7 @@ void CoarseModel::pcgResidual(const std::vector<RigidTransform>& handles, const 
     const Eigen::Matrix3d& R = w.elementR[e];
     VecN u;
     for (int c = 0; c < N; ++c) u.template segment<3>(3 * c).noalias() = R.transpose() * x[std::size_t(el.node[std::size_t(c)])];
-    VecN y = Eigen::Map<const MatN>(&w.kh[e * std::size_t(9 * N * N)]) * u - Eigen::Map<const VecN>(el.KhX.data());
+    VecN y = Eigen::Map<const MatN>(el.Kh.data()) * u - Eigen::Map<const VecN>(el.KhX.data());
     if (!el.handles.empty()) {
       const auto b0 = std::chrono::steady_clock::now();
       y += handleTerm(el, R, handles);

@@ -10,8 +10,7 @@ namespace handson {
 
 struct CoarseModel::PcgWorkspace {
   bool ready = false;
-  std::vector<double> kh;                        ///< per element, K_h (3n x 3n, column-major), back to back
-  std::vector<float> khf;                        ///< the same in single precision (the CG products)
+  std::vector<float> khf;                        ///< per element, K_h in single precision (3n x 3n, column-major), back to back: the CG products
   std::vector<Eigen::Matrix3d> elementR;         ///< R_e at the current iterate
   std::vector<Eigen::Quaterniond> elementQ;      ///< R_e as the polar iteration's warm start
   std::vector<int> freeNode;                     ///< coarse node of free node i (dof 3i)

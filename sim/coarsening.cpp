@@ -446,7 +446,7 @@ CoarseModel::VecE CoarseModel::handleTerm(const Element& el, const Eigen::Matrix
   return h;
 }
 
-double CoarseModel::prepareSolve(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, double tolerance) const {
+double CoarseModel::pinDirichlet(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, double tolerance) const {
   const TetMesh& C = meshes_.coarse;
   if (int(handles.size()) < constraints_.handleCount) throw Error("coarse solve: a transform per handle expected");
   if (x.size() != C.nodes.size()) x = C.nodes;
@@ -468,7 +468,7 @@ double CoarseModel::prepareSolve(const std::vector<RigidTransform>& handles, std
 CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tolerance) {
   const auto start = std::chrono::steady_clock::now();
   const SingleThreadedBlas blas;  // small triangular solves (sim/blas_threads.h)
-  const double tol = prepareSolve(handles, x, tolerance);
+  const double tol = pinDirichlet(handles, x, tolerance);
   CoarseSolveStats st;
   if (dofCount_ == 0) st.converged = true;
   else if (solverKind_ == CoarseSolver::Pcg) st = solvePcg(handles, x, maxIterations, tol);

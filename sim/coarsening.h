@@ -147,7 +147,7 @@ class CoarseModel {
   CoarseModel(const NestedMeshes& meshes, CoarseElement kind);
   void buildAssembler();
   /// Sets the Dirichlet coarse nodes of x and returns the convergence threshold (mm).
-  double prepareSolve(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, double tolerance) const;
+  double pinDirichlet(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, double tolerance) const;
   CoarseSolveStats solveAssembled(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tol);
   // The matrix-free solve (sim/coarse_pcg.cpp).
   struct PcgWorkspace;

@@ -82,7 +82,7 @@ Eigen::Matrix3d polarRotationWarm(const Eigen::Matrix3d& F, Eigen::Quaterniond& 
     for (int it = 0; it < 8; ++it) {
       const Eigen::Matrix3d R = q.toRotationMatrix();
       const Eigen::Matrix3d S = R.transpose() * F;
-      const Eigen::Vector3d skew(0.5 * (S(2, 1) - S(1, 2)), 0.5 * (S(0, 2) - S(2, 0)), 0.5 * (S(1, 0) - S(0, 1)));
+      const Eigen::Vector3d skew = axialOfSkew(S);
       Eigen::Matrix3d M = -0.5 * (S + S.transpose());
       M.diagonal().array() += S.trace();
       // At the polar rotation S is symmetric positive definite, and M's eigenvalues are the sums of
@@ -145,22 +145,16 @@ Mat12 corotationalHessian(const Mat12& K, const std::array<Eigen::Vector3d, 4>& 
       const Eigen::RowVector3d row = j == 0 ? Eigen::RowVector3d(-(DmInv.row(0) + DmInv.row(1) + DmInv.row(2))) : Eigen::RowVector3d(DmInv.row(j - 1));
       for (int c = 0; c < 3; ++c) {
         const Eigen::Matrix3d A = R.transpose() * (Eigen::Vector3d::Unit(c) * row);
-        const Eigen::Vector3d a(0.5 * (A(2, 1) - A(1, 2)), 0.5 * (A(0, 2) - A(2, 0)), 0.5 * (A(1, 0) - A(0, 1)));
-        W.col(3 * j + c) = Minv2 * a;
+        W.col(3 * j + c) = Minv2 * axialOfSkew(A);
       }
     }
-    auto cross = [](const Eigen::Vector3d& v) {
-      Eigen::Matrix3d m;
-      m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-      return m;
-    };
     Vec12 local;
     for (int i = 0; i < 4; ++i) local.segment<3>(3 * i) = R.transpose() * x[std::size_t(i)] - X[std::size_t(i)];
     const Vec12 g = K * local;
     Eigen::Matrix<double, 12, 3> G, Xr;
     for (int i = 0; i < 4; ++i) {
-      G.middleRows<3>(3 * i) = cross(g.segment<3>(3 * i));
-      Xr.middleRows<3>(3 * i) = cross(R.transpose() * x[std::size_t(i)]);
+      G.middleRows<3>(3 * i) = crossMatrix(g.segment<3>(3 * i));
+      Xr.middleRows<3>(3 * i) = crossMatrix(R.transpose() * x[std::size_t(i)]);
     }
     H += B * (K * Xr - G) * W;
   }

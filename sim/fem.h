@@ -57,6 +57,16 @@ inline std::array<Eigen::Vector3d, 4> tetCorners(const std::array<int, 4>& tet, 
   return {x[std::size_t(tet[0])], x[std::size_t(tet[1])], x[std::size_t(tet[2])], x[std::size_t(tet[3])]};
 }
 
+/// [v]x, the cross-product matrix: [v]x u = v x u.
+inline Eigen::Matrix3d crossMatrix(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+/// axial(skew(A)): the vector a with (A - A^T) / 2 = [a]x.
+inline Eigen::Vector3d axialOfSkew(const Eigen::Matrix3d& A) { return 0.5 * Eigen::Vector3d(A(2, 1) - A(1, 2), A(0, 2) - A(2, 0), A(1, 0) - A(0, 1)); }
+
 /// Stacks 4 points into a 12 vector.
 Vec12 stack(const std::array<Eigen::Vector3d, 4>& p);
 

@@ -103,15 +103,6 @@ void scatter(const std::array<int, 4>& tet, const Eigen::Matrix3d& VMGt, Field& 
   out[std::size_t(tet[0])] -= c1 + c2 + c3;
 }
 
-Eigen::Matrix3d cross(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
-
-// axial(skew(A)): the vector a with skew(A) = [a]x.
-Eigen::Vector3d axialOfSkew(const Eigen::Matrix3d& A) { return 0.5 * Eigen::Vector3d(A(2, 1) - A(1, 2), A(0, 2) - A(2, 0), A(1, 0) - A(0, 1)); }
-
 // Lambda = sum_k max(lambda_k, 0) v_k v_k^T for S = R^T F (symmetric at the polar rotation) with
 // eigenpairs (s_k, v_k): the twist about v_k has lambda_k = (tau_i + tau_j) / (s_i + s_j), i, j the
 // other two, tau = dpsi/ds = 2 mu (s - 1) + lambda (sum s - 3). Where s_i + s_j is near zero (an
@@ -186,7 +177,7 @@ double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vect
         Eigen::Matrix3d blk = (w.V[t] * (w.lambda[t] + w.mu[t])) * (h * h.transpose());
         blk.diagonal().array() += w.V[t] * w.mu[t] * h.squaredNorm();
         // The twist part on this corner: (1/2) V R [g]x^T Lambda [g]x R^T (positive semi-definite).
-        if (w.twist) blk += (0.5 * w.V[t]) * (R * cross(g).transpose() * w.L[t] * cross(g) * R.transpose());
+        if (w.twist) blk += (0.5 * w.V[t]) * (R * crossMatrix(g).transpose() * w.L[t] * crossMatrix(g) * R.transpose());
         d[std::size_t(tet[std::size_t(a)])] += blk;
       }
     }
@@ -208,7 +199,7 @@ double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vect
         if (w.V[t] == 0) continue;
         const Eigen::Matrix3d S = w.R[t].transpose() * (edges(F.tets[t], p) * w.G[t]);
         Eigen::Matrix3d M = stress(0.5 * (S + S.transpose()), w.lambda[t], w.mu[t]);
-        if (w.twist) M += cross(w.L[t] * axialOfSkew(S));
+        if (w.twist) M += crossMatrix(w.L[t] * axialOfSkew(S));
         scatter(F.tets[t], w.V[t] * (w.R[t] * M) * w.G[t].transpose(), y);
       }
     });
@@ -254,7 +245,7 @@ std::vector<Eigen::Vector3d> FineRefiner::product(const std::vector<Eigen::Vecto
     const Eigen::Matrix3d R = polarRotationWarm(Ft, q);
     const Eigen::Matrix3d S = R.transpose() * (edges(F.tets[t], p) * w.G[t]);
     Eigen::Matrix3d M = stress(0.5 * (S + S.transpose()), w.lambda[t], w.mu[t]);
-    if (w.twist) M += cross(twistOperator(R.transpose() * Ft, w.lambda[t], w.mu[t]) * axialOfSkew(S));
+    if (w.twist) M += crossMatrix(twistOperator(R.transpose() * Ft, w.lambda[t], w.mu[t]) * axialOfSkew(S));
     scatter(F.tets[t], w.V[t] * (R * M) * w.G[t].transpose(), out);
   }
   return out;
