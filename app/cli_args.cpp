@@ -167,6 +167,12 @@ std::vector<int> integerListOption(const Args& args, const char* name, const cha
   return out;
 }
 
+LoadOptions loadOptions(const Args& args) {
+  LoadOptions o;
+  o.frame = args.integer("--frame", 0, 0, 1000000000L);
+  return o;
+}
+
 HandleScene handleSceneOptions(const Args& args, double defaultSpacingMm, const ProgressFn& progress) {
   const std::optional<long> label = args.value("--handle-label") ? std::optional<long>(args.integer("--handle-label", 0, 1, 65535)) : std::nullopt;
   return loadHandleScene(args.positional().empty() ? "" : args.positional()[0], args.valueOr("--handle", ""), label,

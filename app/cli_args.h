@@ -63,5 +63,9 @@ std::vector<int> integerListOption(const Args& args, const char* name, const cha
 /// The simulation benchmarks' scene: PATH --handle MASK [--handle-label N], or without PATH the
 /// built-in phantom at --spacing (default `defaultSpacingMm`) with its right kidney as the handle.
 HandleScene handleSceneOptions(const Args& args, double defaultSpacingMm, const ProgressFn& progress);
+/// `--frame N`: which volume of a 4D NIfTI image to load (default 0).
+LoadOptions loadOptions(const Args& args);
+/// The help line for it.
+inline constexpr const char* kFrameHelp = "  --frame N                the volume of a 4D NIfTI image to load (default 0)\n";
 
 }  // namespace handson::cli

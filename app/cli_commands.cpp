@@ -67,15 +67,18 @@ void printGeometry(const Volume& v) {
 }  // namespace
 
 int cmdInfo(const Words& words) {
-  Args args(words, {}, {"--quiet"});
+  Args args(words, {"--frame"}, {"--quiet"});
   if (args.help() || args.positional().size() != 1) {
-    usageStream(args) << "usage: handson info PATH\n  PATH: a NIfTI file (.nii, .nii.gz) or a DICOM series directory\n";
+    usageStream(args) << "usage: handson info PATH [--frame N]\n  PATH: a NIfTI file (.nii, .nii.gz, .hdr/.img), a DICOM series directory or one of\n"
+                         "  its files (the format is told by the content)\n"
+                      << kFrameHelp;
     return args.help() ? 0 : 2;
   }
   LoadReport rep;
-  const Volume v = loadVolume(args.positional()[0], &rep, args.flag("--quiet") ? ProgressFn{} : consoleProgress());
+  const Volume v = loadVolume(args.positional()[0], &rep, args.flag("--quiet") ? ProgressFn{} : consoleProgress(), loadOptions(args));
   for (const auto& w : rep.warnings) std::cerr << "warning: " << w << "\n";
   std::cout << "file:        " << args.positional()[0] << "\nformat:      " << rep.format << "\n";
+  if (rep.frames > 1) std::cout << "volumes:     " << rep.frames << " (this is volume " << rep.frame << ")\n";
   printGeometry(v);
   return 0;
 }

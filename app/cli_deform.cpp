@@ -32,6 +32,7 @@ const char* const kDeformHelp =
     "  Moves the handle (the mask's non-zero voxels) rigidly and deforms the tissue around it; writes the\n"
     "  deformed image on the input's grid (tetrahedral rasterization of the deformed fine mesh).\n"
     "  --handle-label N        only the mask's voxels equal to N (a label map as the mask)\n"
+    "  --frame N               the volume of a 4D NIfTI image to load (default 0)\n"
     "  --fixed MASK.nii.gz     voxels held in place (a fixed handle; wins where the masks overlap)\n"
     "  --fixed-label N         only the fixed mask's voxels equal to N\n"
     "  --rotate-deg AX,AY,AZ   rotation vector in RAS+ degrees about the handle's centroid (default 0)\n"
@@ -118,7 +119,7 @@ GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const Sim
 
 int cmdDeform(const Words& words) {
   Args args(words,
-            {"--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm",
+            {"--frame", "--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm",
              "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--fine-mesh", "--adapt-contrast", "--cache-dir"},
             {"--whole-volume", "--quiet", "--validation"});
   if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {
@@ -151,7 +152,7 @@ int cmdDeform(const Words& words) {
   const bool quiet = args.flag("--quiet");
   const ProgressFn progress = quiet ? ProgressFn{} : consoleProgress();
 
-  const Volume image = loadVolume(args.positional()[0], nullptr, progress);
+  const Volume image = loadVolume(args.positional()[0], nullptr, progress, loadOptions(args));
   auto labelOf = [&](const char* opt) { return args.value(opt) ? std::optional<long>(args.integer(opt, 0, 1, 65535)) : std::nullopt; };
   std::vector<SimHandle> handles{{maskVoxels(*args.value("--handle"), image, "handle mask", labelOf("--handle-label")), {}}};
   if (auto f = args.value("--fixed")) handles.push_back({maskVoxels(*f, image, "fixed mask", labelOf("--fixed-label")), {}});

@@ -26,6 +26,7 @@ const char* const kSelectHelp =
     "  and prints the voxel count and the time. --seed-voxel is a 0-based index in the file's own index\n"
     "  order; --seed-mm a RAS+ point in mm (the nearest voxel is used).\n"
     "  --extent-mm D          selection extent (radius about the seed)\n"
+    "  --frame N              the volume of a 4D NIfTI image to load (default 0)\n"
     "  --hmax H               homogeneity threshold in seed standard deviations (default 1.1)\n"
     "  --criterion NAME       smoothed (default: 3x3x3 means, a ball in mm, statistics refined from the\n"
     "                         region) or paper (the paper's rule: raw values, breadth-first passes)\n"
@@ -34,7 +35,7 @@ const char* const kSelectHelp =
 }  // namespace
 
 int cmdSelect(const Words& words) {
-  Args args(words, {"--seed-voxel", "--seed-mm", "--extent-mm", "--hmax", "--criterion", "--backend", "-o", "--device"},
+  Args args(words, {"--frame", "--seed-voxel", "--seed-mm", "--extent-mm", "--hmax", "--criterion", "--backend", "-o", "--device"},
             {"--validation", "--quiet"});
   if (args.help() || args.positional().size() != 1 || !args.value("-o") || !args.value("--extent-mm") ||
       (!args.value("--seed-voxel") && !args.value("--seed-mm"))) {
@@ -51,7 +52,7 @@ int cmdSelect(const Words& words) {
   if (backend != "cpu" && backend != "gpu") throw UsageError("--backend must be cpu or gpu");
   const bool quiet = args.flag("--quiet");
 
-  const Volume v = loadVolume(args.positional()[0], nullptr, quiet ? ProgressFn{} : consoleProgress());
+  const Volume v = loadVolume(args.positional()[0], nullptr, quiet ? ProgressFn{} : consoleProgress(), loadOptions(args));
   const auto& g = v.geometry();
   Eigen::Vector3i seed;
   if (auto s = args.value("--seed-voxel")) {

@@ -30,6 +30,7 @@ const char* const kViewHelp =
     "  Mouse: left drag = one finger; Shift = two fingers moving together; Ctrl = two fingers\n"
     "  mirrored about the window centre (pinch, twist); Ctrl+Shift = three fingers; wheel zooms.\n"
     "  Keys: 1/2/3 navigate/select/manipulate, R reset view, Esc quit.\n"
+    "  --frame N               the volume of a 4D NIfTI image to load (default 0)\n"
     "  --size WxH              window size in points (default 1280x800)\n"
     "  --present-mode MODE     fifo (vsync, default), mailbox or immediate\n"
     "  --render-scale F        raymarch resolution relative to the window (default 1 on a GPU, 0.5 on a CPU)\n"
@@ -107,7 +108,7 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 
 int cmdView(const Words& words) {
   Args args(words,
-            with({"--size", "--present-mode", "--render-scale", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
+            with({"--frame", "--size", "--present-mode", "--render-scale", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
                   "--frames-in-flight", "--play-repeat", "--export-dir"},
                  kSimOptions),
             {"--validation", "--quiet", "--print-camera"});
@@ -117,6 +118,7 @@ int cmdView(const Words& words) {
   }
   ViewerOptions o;
   if (!args.positional().empty()) o.path = args.positional()[0];
+  o.frame = loadOptions(args).frame;
   if (auto s = args.value("--size")) parseSize(*s, o.width, o.height);
   o.presentMode = args.valueOr("--present-mode", "fifo");
   if (o.presentMode != "fifo" && o.presentMode != "mailbox" && o.presentMode != "immediate")

@@ -524,7 +524,8 @@ std::string subdirectoryHint(const DirectoryListing& listing) {
 
 }  // namespace
 
-Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress) {
+Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress,
+                                 const std::string& seriesOf) {
   DicomReadReport report;
   std::error_code ec;
   const fs::file_status st = fs::status(directory, ec);
@@ -647,6 +648,17 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
   std::stable_sort(report.seriesFound.begin(), report.seriesFound.end(),
                    [](const DicomSeriesInfo& a, const DicomSeriesInfo& b) { return a.fileCount > b.fileCount; });
   report.chosen = report.seriesFound.front();
+  if (!seriesOf.empty()) {  // the series of the file the user gave
+    const std::string want = fileName(seriesOf);
+    const auto holds = [&](const DicomSeriesInfo& s) {
+      const auto& sl = bySeries[s.seriesInstanceUid];
+      return std::any_of(sl.begin(), sl.end(), [&](const SliceHeader& h) { return fileName(h.path) == want; });
+    };
+    const auto it = std::find_if(report.seriesFound.begin(), report.seriesFound.end(), holds);
+    if (it == report.seriesFound.end())
+      throw Error("DICOM file '" + seriesOf + "' is not a DICOM image this reader can load (no pixel data or not an image)");
+    report.chosen = *it;
+  }
   auto seriesName = [](const DicomSeriesInfo& s) {
     std::string n = s.seriesInstanceUid.empty() ? std::string("(no SeriesInstanceUID)") : s.seriesInstanceUid;
     if (!s.description.empty()) n += " \"" + s.description + "\"";
@@ -654,11 +666,15 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
   };
   if (report.seriesFound.size() > 1) {
     std::ostringstream w;
-    w << report.seriesFound.size() << " DICOM series found in '" << directory << "'; loading the largest, "
+    w << report.seriesFound.size() << " DICOM series found in '" << directory << "'; loading "
+      << (seriesOf.empty() ? std::string("the largest") : "the one of '" + fileName(seriesOf) + "'") << ", "
       << seriesName(report.chosen) << " (" << report.chosen.fileCount << " files). Others:";
-    for (std::size_t s = 1; s < report.seriesFound.size(); ++s)
-      w << (s > 1 ? "," : "") << " " << seriesName(report.seriesFound[s]) << " (" << report.seriesFound[s].fileCount
-        << " files)";
+    bool first = true;
+    for (const DicomSeriesInfo& other : report.seriesFound) {
+      if (other.seriesInstanceUid == report.chosen.seriesInstanceUid) continue;
+      w << (first ? "" : ",") << " " << seriesName(other) << " (" << other.fileCount << " files)";
+      first = false;
+    }
     report.warnings.push_back(w.str());
   }
   if (skipped > 0)
@@ -1029,7 +1045,7 @@ DecodedResult decodeResult(const std::string& payload) {
   return out;
 }
 
-[[noreturn]] void runChild(int fd, const std::string& directory) {
+[[noreturn]] void runChild(int fd, const std::string& directory, const std::string& seriesOf) {
   int code = 0;
   try {
     DicomReadReport report;
@@ -1039,7 +1055,7 @@ DecodedResult decodeResult(const std::string& payload) {
       w.pod(fraction);
       w.string(stage);
       writeFrame(fd, FrameKind::Progress, os.str());
-    });
+    }, seriesOf);
     if (!writeFrame(fd, FrameKind::Result, encodeResult(report, volume)) ||
         !writeAll(fd, volume.bytes(), volume.byteSize()))
       code = 3;
@@ -1108,7 +1124,7 @@ std::string signalName(int sig) {
 
 }  // namespace
 
-Volume readDicomSeries(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress) {
+Volume readDicomSeries(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress, const std::string& seriesOf) {
   int fds[2];
   if (::pipe(fds) != 0)
     throw Error("cannot read DICOM series in '" + directory + "': no pipe for the reader process (" +
@@ -1124,7 +1140,7 @@ Volume readDicomSeries(const std::string& directory, DicomReadReport* reportOut,
   }
   if (pid == 0) {
     ::close(fds[0]);
-    runChild(fds[1], directory);
+    runChild(fds[1], directory, seriesOf);
   }
   ::close(fds[1]);
   ChildGuard child(pid);

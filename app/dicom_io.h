@@ -49,8 +49,9 @@ struct DicomReadReport {
 /// malformed files make it abort. Such an abort, or any other death of the child, ends this call
 /// with DicomParserAborted and leaves the calling process (and the user's session) untouched.
 /// The volume comes back through a pipe: while it is handed over, it is in memory twice.
+/// `seriesOf`: a file in `directory` (its name is enough); its series is loaded instead of the largest.
 Volume readDicomSeries(const std::string& directory, DicomReadReport* report = nullptr,
-                       const ProgressFn& progress = {});
+                       const ProgressFn& progress = {}, const std::string& seriesOf = {});
 
 /// GDCM stopped the child process reading a series (an assertion in the library, a signal).
 class DicomParserAborted : public Error {
@@ -64,6 +65,6 @@ class DicomParserAborted : public Error {
 /// The same reader in this process, without the child: a malformed file may abort the process.
 /// For the fuzzer (which needs the coverage of the parsing) and for tests that compare the two.
 Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* report = nullptr,
-                                const ProgressFn& progress = {});
+                                const ProgressFn& progress = {}, const std::string& seriesOf = {});
 
 }  // namespace handson

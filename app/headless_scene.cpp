@@ -12,6 +12,7 @@
 namespace handson {
 
 const char* const kRenderOptionsHelp =
+    "  --frame N                the volume of a 4D NIfTI image to load (default 0)\n"
     "  --size WxH               output size in pixels (default 512x512)\n"
     "  --preset NAME            transfer function: ct-abdomen, ct-bone, mri (default: by value range)\n"
     "  --tf FILE                transfer function file: lines 'value r g b a' (opacity per mm)\n"
@@ -46,7 +47,7 @@ HeadlessScene openHeadlessScene(const std::string& path, const cli::Args& args) 
     s.source = "built-in phantom";
   } else {
     LoadReport rep;
-    s.volume = loadVolume(path, &rep, progress);
+    s.volume = loadVolume(path, &rep, progress, cli::loadOptions(args));
     for (const auto& w : rep.warnings) std::cerr << "warning: " << w << "\n";
     s.source = path;
   }

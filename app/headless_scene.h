@@ -16,7 +16,7 @@
 namespace handson {
 
 /// Options every rendering command accepts.
-inline const std::vector<std::string> kRenderValueOptions = {"--size", "--preset", "--tf", "--camera", "--device", "--step", "--voxels"};
+inline const std::vector<std::string> kRenderValueOptions = {"--frame", "--size", "--preset", "--tf", "--camera", "--device", "--step", "--voxels"};
 inline const std::vector<std::string> kRenderFlagOptions = {"--validation", "--no-skip", "--no-early-termination", "--no-shading", "--quiet"};
 extern const char* const kRenderOptionsHelp;
 

@@ -12,6 +12,7 @@
 #include <array>
 #include <bit>
 #include <cerrno>
+#include <cctype>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -21,7 +22,9 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <iomanip>
 #include <memory>
+#include <optional>
 #include <new>
 #include <sstream>
 #include <type_traits>
@@ -458,9 +461,15 @@ Eigen::Vector3d pixdimSpacing(const HeaderInfo& h, const std::string& path) {
   return s.cwiseAbs();
 }
 
-VolumeGeometry decodeGeometry(const HeaderInfo& h, const Eigen::Vector3i& dims, const std::string& path) {
+VolumeGeometry decodeGeometry(HeaderInfo h, const Eigen::Vector3i& dims, const std::string& path) {
   VolumeGeometry g;
   g.dims = dims;
+  // A 1D or 2D image: its missing axes are one voxel thick; writers leave their pixdim at 0 or 1 and
+  // their sform column at zero, so a missing axis takes 1 mm and the direction completing a
+  // right-handed frame.
+  const int rank = int(std::clamp<std::int64_t>(h.dim[0], 1, 3));
+  for (int i = rank + 1; i <= 3; ++i)
+    if (!std::isfinite(h.pixdim[i]) || h.pixdim[i] == 0.0) h.pixdim[i] = 1.0;
   if (h.sformCode > 0) {
     Eigen::Matrix3d a;
     Eigen::Vector3d t;
@@ -469,6 +478,14 @@ VolumeGeometry decodeGeometry(const HeaderInfo& h, const Eigen::Vector3i& dims, 
       t[r] = h.srow[r][3];
     }
     if (!a.allFinite() || !t.allFinite()) readFail(path, "the sform matrix contains non-finite values");
+    for (int c = rank; c < 3; ++c) {
+      if (a.col(c).norm() > 0.0) continue;
+      const Eigen::Vector3d e[3] = {Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ()};
+      const Eigen::Vector3d u = a.col((c + 1) % 3).norm() > 0.0 ? Eigen::Vector3d(a.col((c + 1) % 3)) : e[(c + 1) % 3];
+      const Eigen::Vector3d v = a.col((c + 2) % 3).norm() > 0.0 ? Eigen::Vector3d(a.col((c + 2) % 3)) : e[(c + 2) % 3];
+      const Eigen::Vector3d n = u.cross(v);
+      a.col(c) = n.norm() > 0.0 ? Eigen::Vector3d(n.normalized() * std::abs(h.pixdim[c + 1])) : e[c];
+    }
     for (int c = 0; c < 3; ++c) {
       const double norm = a.col(c).norm();
       if (!(norm > 0.0)) readFail(path, "the sform matrix is singular (column " + std::to_string(c + 1) + " is zero)");
@@ -571,7 +588,38 @@ void readRestOfHeader(InputFile& in, const std::string& path, unsigned char* hea
   }
 }
 
-Volume readNiftiImpl(const std::string& path) {
+// A file name's extension, lower case, with ".gz" kept: "a.HDR.gz" -> ".hdr.gz".
+std::string niftiExtension(const std::string& path) {
+  std::string name = std::filesystem::path(path).filename().string();
+  std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  const bool gz = name.size() > 3 && name.compare(name.size() - 3, 3, ".gz") == 0;
+  if (gz) name.resize(name.size() - 3);
+  const std::size_t dot = name.rfind('.');
+  return (dot == std::string::npos ? std::string() : name.substr(dot)) + (gz ? ".gz" : "");
+}
+
+// The other file of a two-file pair (.hdr <-> .img, each gzipped or not, either case): the first of
+// the candidates that exists, or "" when none does.
+std::string companionFile(const std::string& path, const char* fromExt, const char* toExt) {
+  const std::string ext = niftiExtension(path);
+  const bool gz = ext.size() > 3 && ext.compare(ext.size() - 3, 3, ".gz") == 0;
+  if (ext.substr(0, 4) != fromExt) return {};
+  const std::size_t cut = path.size() - ext.size();
+  const std::string stem = path.substr(0, cut);
+  const bool upper = std::isupper(static_cast<unsigned char>(path[cut + 1])) != 0;
+  std::string to = toExt;
+  if (upper) std::transform(to.begin(), to.end(), to.begin(), [](unsigned char c) { return char(std::toupper(c)); });
+  const std::string gzTail = path.substr(path.size() - (gz ? 3 : 0));
+  std::error_code ec;
+  for (const std::string& candidate : {stem + to + gzTail, stem + to, stem + to + ".gz"})
+    if (std::filesystem::is_regular_file(candidate, ec)) return candidate;
+  return {};
+}
+
+Volume readNiftiImpl(const std::string& givenPath, const NiftiReadOptions& options, NiftiInfo* info) {
+  // An .img (or .img.gz) given for a two-file pair: the header is its .hdr.
+  std::string path = givenPath;
+  if (const std::string hdr = companionFile(givenPath, ".img", ".hdr"); !hdr.empty()) path = hdr;
   InputFile in(path);
 
   // --- header: sizeof_hdr tells the version and the byte order.
@@ -592,13 +640,13 @@ Volume readNiftiImpl(const std::string& path) {
   HeaderInfo h;
   std::size_t headerBytes = 0;
   std::size_t minDataStart = 0;
+  bool twoFile = false;
   if (version == 1) {
     Nifti1Header raw;
     std::memcpy(&raw, &sizeofHdr, sizeof sizeofHdr);
     readRestOfHeader(in, path, reinterpret_cast<unsigned char*>(&raw), sizeof raw, "NIfTI-1");
-    if (std::memcmp(raw.magic, "ni1\0", 4) == 0)
-      readFail(path, "two-file NIfTI-1 (.hdr/.img) is not supported; convert it to a single .nii file");
-    if (std::memcmp(raw.magic, "n+1\0", 4) != 0)
+    twoFile = std::memcmp(raw.magic, "ni1\0", 4) == 0;
+    if (!twoFile && std::memcmp(raw.magic, "n+1\0", 4) != 0)
       readFail(path, "not a NIfTI-1 file (bad magic; Analyze 7.5 headers are not supported)");
     h = decodeHeader(raw, swap, 1);
     headerBytes = sizeof raw;
@@ -607,15 +655,14 @@ Volume readNiftiImpl(const std::string& path) {
     Nifti2Header raw;
     std::memcpy(&raw, &sizeofHdr, sizeof sizeofHdr);
     readRestOfHeader(in, path, reinterpret_cast<unsigned char*>(&raw), sizeof raw, "NIfTI-2");
-    if (std::memcmp(raw.magic, "ni2\0\r\n\032\n", 8) == 0)
-      readFail(path, "two-file NIfTI-2 (.hdr/.img) is not supported; convert it to a single .nii file");
-    if (std::memcmp(raw.magic, "n+2\0\r\n\032\n", 8) != 0) readFail(path, "not a NIfTI-2 file (bad magic)");
+    twoFile = std::memcmp(raw.magic, "ni2\0\r\n\032\n", 8) == 0;
+    if (!twoFile && std::memcmp(raw.magic, "n+2\0\r\n\032\n", 8) != 0) readFail(path, "not a NIfTI-2 file (bad magic)");
     h = decodeHeader(raw, swap, 2);
     headerBytes = sizeof raw;
     minDataStart = kNifti2DataStart;
   }
 
-  // --- dimensions: a single 3D volume.
+  // --- dimensions: one 3D volume (1D and 2D images are one voxel thick); dims 4 to 7 count volumes.
   const std::int64_t rank = h.dim[0];
   if (rank < 1 || rank > 7) readFail(path, "invalid number of dimensions dim[0] = " + std::to_string(rank));
   for (int i = 1; i <= rank; ++i) {
@@ -623,17 +670,18 @@ Volume readNiftiImpl(const std::string& path) {
       readFail(path, "invalid image size: dim[" + std::to_string(i) + "] = " + std::to_string(h.dim[i]) +
                          " (each must be >= 1)");
   }
-  if (rank < 3) readFail(path, "is a " + std::to_string(rank) + "D image; only 3D volumes are supported");
-  {
-    double extra = 1.0;
-    for (int i = 4; i <= rank; ++i) extra *= static_cast<double>(h.dim[i]);
-    if (extra > 1.0) {
-      std::ostringstream msg;
-      msg << "contains " << extra << " volumes (" << rank << "D image, size";
-      for (int i = 1; i <= rank; ++i) msg << (i == 1 ? " " : "x") << h.dim[i];
-      msg << "); only a single 3D volume is supported";
-      readFail(path, msg.str());
-    }
+  for (std::int64_t i = rank + 1; i <= 3; ++i) h.dim[i] = 1;
+  double framesD = 1.0;
+  for (int i = 4; i <= rank; ++i) framesD *= static_cast<double>(h.dim[i]);
+  if (framesD > 1e12) readFail(path, "absurd number of volumes (" + formatNumber(framesD) + ")");
+  const std::int64_t frames = static_cast<std::int64_t>(framesD);
+  if (options.frame < 0 || options.frame >= frames) {
+    std::ostringstream msg;
+    msg << "volume " << options.frame << " was asked for, but the image holds " << frames << " volume" << (frames == 1 ? "" : "s");
+    if (frames > 1) msg << " (" << rank << "D, size";
+    if (frames > 1) for (int i = 1; i <= rank; ++i) msg << (i == 1 ? " " : "x") << h.dim[i];
+    msg << (frames > 1 ? "; --frame takes 0 to " + std::to_string(frames - 1) + ")" : std::string());
+    readFail(path, msg.str());
   }
   for (int i = 1; i <= 3; ++i) {
     if (h.dim[i] > std::numeric_limits<int>::max())
@@ -650,25 +698,39 @@ Volume readNiftiImpl(const std::string& path) {
   // --- geometry (validates dims, voxel count, spacing and direction before any allocation).
   const VolumeGeometry geometry = decodeGeometry(h, dims, path);
 
-  // --- where the data are, and whether the file can hold them.
+  // --- where the data are, and whether the file can hold them. A two-file pair keeps them in the
+  // .img beside the .hdr, from vox_offset (usually 0).
+  std::optional<InputFile> imgFile;
+  std::string dataPath = path;
+  if (twoFile) {
+    dataPath = companionFile(path, ".hdr", ".img");
+    if (dataPath.empty())
+      readFail(path, "is the header of a two-file NIfTI pair, but its image file (" +
+                         std::filesystem::path(path).stem().string() + ".img or .img.gz) is not beside it");
+    imgFile.emplace(dataPath);
+  }
+  InputFile& data = twoFile ? *imgFile : in;
   if (!std::isfinite(h.voxOffset) || h.voxOffset < 0.0 || h.voxOffset > 1e15)
     readFail(path, "invalid data offset vox_offset = " + formatNumber(h.voxOffset));
-  const std::size_t dataStart = std::max(static_cast<std::size_t>(h.voxOffset), minDataStart);
+  const std::size_t dataStart = twoFile ? static_cast<std::size_t>(h.voxOffset) : std::max(static_cast<std::size_t>(h.voxOffset), minDataStart);
   const std::size_t n = geometry.voxelCount();  // <= kMaxVoxels after validate()
   const std::size_t dataBytes = n * elementSize;
-  const std::size_t needed = dataStart + dataBytes;
-  if (!in.compressed() && in.fileSize() < needed) {
+  // Every volume must be in the file; the chosen one is read.
+  const double allBytes = static_cast<double>(dataStart) + framesD * static_cast<double>(dataBytes);
+  const std::size_t frameStart = dataStart + static_cast<std::size_t>(options.frame) * dataBytes;
+  if (!data.compressed() && static_cast<double>(data.fileSize()) < allBytes) {
     std::ostringstream msg;
-    msg << "file is truncated: the header describes " << dataBytes << " bytes of image data ending at byte " << needed
-        << ", but the file has only " << in.fileSize() << " bytes";
-    readFail(path, msg.str());
+    msg << "file is truncated: the header describes " << std::setprecision(15) << allBytes - double(dataStart)
+        << " bytes of image data ending at byte " << allBytes << ", but " << (twoFile ? "the image file" : "the file") << " has only "
+        << data.fileSize() << " bytes";
+    readFail(dataPath, msg.str());
   }
   // Deflate cannot expand data by more than about 1032:1, which bounds what a .gz can hold.
-  if (in.compressed() && static_cast<double>(needed) > static_cast<double>(in.fileSize()) * 1040.0 + 65536.0) {
+  if (data.compressed() && allBytes > static_cast<double>(data.fileSize()) * 1040.0 + 65536.0) {
     std::ostringstream msg;
-    msg << "file is truncated: the header describes " << dataBytes << " bytes of image data, more than the "
-        << in.fileSize() << "-byte compressed file can contain";
-    readFail(path, msg.str());
+    msg << "file is truncated: the header describes " << std::setprecision(15) << allBytes - double(dataStart)
+        << " bytes of image data, more than the " << data.fileSize() << "-byte compressed file can contain";
+    readFail(dataPath, msg.str());
   }
 
   // --- scaling.
@@ -678,8 +740,15 @@ Volume readNiftiImpl(const std::string& path) {
     scaling.inter = std::isfinite(h.inter) ? h.inter : 0.0;
     scaling.apply = !(scaling.slope == 1.0 && scaling.inter == 0.0);
   }
+  if (info) {
+    info->frames = frames;
+    info->rank = int(rank);
+    info->twoFile = twoFile;
+    info->dataPath = dataPath;
+  }
 
-  in.skip(dataStart - headerBytes, "header extensions");
+  data.skip(frameStart - (twoFile ? 0 : headerBytes), options.frame > 0 ? "the volumes before the one asked for" : "header extensions");
+  const bool checkEnd = options.frame == frames - 1;  // gzip: its trailer checked when the last volume is read
 
   // Types Volume stores as-is are read straight into the volume; the rest go through a raw buffer.
   const bool direct = (h.datatype == kDtUInt8 && !scaling.apply) || (h.datatype == kDtInt16 && !scaling.apply) ||
@@ -695,8 +764,8 @@ Volume readNiftiImpl(const std::string& path) {
       readFail(path, e.what());
     }
     Volume volume(geometry, type);
-    in.readExact(volume.bytes(), dataBytes, "image data");
-    in.checkEnd();
+    data.readExact(volume.bytes(), dataBytes, "image data");
+    if (checkEnd) data.checkEnd();
     if (swap && elementSize > 1) swapBuffer(volume.bytes(), n, elementSize);
     if (scaling.apply) {  // float32 only
       float* d = volume.data<float>();
@@ -711,8 +780,8 @@ Volume readNiftiImpl(const std::string& path) {
     readFail(path, e.what());
   }
   auto raw = std::make_unique_for_overwrite<std::byte[]>(dataBytes);
-  in.readExact(raw.get(), dataBytes, "image data");
-  in.checkEnd();
+  data.readExact(raw.get(), dataBytes, "image data");
+  if (checkEnd) data.checkEnd();
   return convertRaw(h.datatype, raw.get(), geometry, swap, scaling);
 }
 
@@ -838,9 +907,9 @@ bool endsWithGz(const std::string& path) {
 
 }  // namespace
 
-Volume readNifti(const std::string& path) {
+Volume readNifti(const std::string& path, const NiftiReadOptions& options, NiftiInfo* info) {
   try {
-    return readNiftiImpl(path);
+    return readNiftiImpl(path, options, info);
   } catch (const std::bad_alloc&) {
     readFail(path, "not enough memory to load the image");
   }

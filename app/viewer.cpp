@@ -245,7 +245,7 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
     volume = makePhantom().ct;
   } else {
     LoadReport rep;
-    volume = loadVolume(o.path, &rep, progress);
+    volume = loadVolume(o.path, &rep, progress, LoadOptions{o.frame});
     for (const auto& warning : rep.warnings) std::cerr << "warning: " << warning << "\n";
   }
   q = quantizeVolume(volume);

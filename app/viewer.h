@@ -13,6 +13,7 @@ namespace handson {
 
 struct ViewerOptions {
   std::string path;  ///< volume (empty: the built-in phantom)
+  std::int64_t frame = 0;  ///< the volume of a 4D NIfTI image
   int width = 1280, height = 800;
   std::string presentMode = "fifo";
   int frames = 0;           ///< 0: until the window is closed

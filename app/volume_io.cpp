@@ -1,6 +1,10 @@
 #include "volume_io.h"
 
+#include <algorithm>
+#include <array>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <system_error>
 
 #include "app/dicom_io.h"
@@ -10,23 +14,62 @@
 
 namespace handson {
 
-Volume loadVolume(const std::string& path, LoadReport* report, const ProgressFn& progress) {
+std::string sniffVolumeFormat(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::array<unsigned char, 132> b{};
+  in.read(reinterpret_cast<char*>(b.data()), std::streamsize(b.size()));
+  const std::size_t got = std::size_t(std::max<std::streamsize>(0, in.gcount()));
+  const auto starts = [&](const char* magic) { return got >= std::strlen(magic) && std::memcmp(b.data(), magic, std::strlen(magic)) == 0; };
+  if (got >= 132 && std::memcmp(b.data() + 128, "DICM", 4) == 0) return "dicom";
+  if (got >= 2 && b[0] == 0x1f && b[1] == 0x8b) return "nifti";  // gzip: .nii.gz, .hdr.gz
+  if (got >= 4) {
+    std::int32_t size = 0;
+    std::memcpy(&size, b.data(), 4);
+    const std::int32_t swapped = std::int32_t(__builtin_bswap32(std::uint32_t(size)));
+    if (size == 348 || size == 540 || swapped == 348 || swapped == 540) return "nifti";
+  }
+  if (starts("NRRD000")) return "nrrd";
+  if (starts("ObjectType") || starts("NDims")) return "metaimage";
+  // DICOM without the preamble (ACR-NEMA style, or stripped): a little-endian group 0x0002 or
+  // 0x0008 tag first.
+  if (got >= 8 && (b[0] == 0x02 || b[0] == 0x08) && b[1] == 0x00 && b[3] == 0x00) return "dicom";
+  return {};
+}
+
+Volume loadVolume(const std::string& path, LoadReport* report, const ProgressFn& progress, const LoadOptions& options) {
   std::error_code ec;
   const auto status = std::filesystem::status(path, ec);
   if (ec || !std::filesystem::exists(status)) throw Error("'" + path + "' does not exist");
-  if (std::filesystem::is_directory(status)) {
+  const std::string kind = std::filesystem::is_directory(status) ? std::string("dicom") : sniffVolumeFormat(path);
+  if (kind == "dicom") {
+    // A directory, or one of its files: that file's series.
+    const bool file = !std::filesystem::is_directory(status);
+    const std::string directory = file ? std::filesystem::absolute(path).parent_path().string() : path;
+    if (options.frame != 0) throw Error("--frame selects a volume of a 4D NIfTI image; '" + path + "' is a DICOM series");
     DicomReadReport dr;
-    Volume v = readDicomSeries(path, &dr, progress);
+    Volume v = readDicomSeries(directory, &dr, progress, file ? path : std::string());
     if (report) {
       report->format = "DICOM (" + dr.transferSyntax + ")";
       report->warnings = dr.warnings;
     }
     return v;
   }
+  if (kind == "nrrd" || kind == "metaimage")
+    throw Error("'" + path + "' is a " + (kind == "nrrd" ? std::string("NRRD") : std::string("MetaImage")) +
+                " file, which this version cannot read yet: convert it to NIfTI (e.g. with 3D Slicer or `c3d`) or give the DICOM series");
   reportProgress(progress, 0.0, "reading NIfTI");
-  Volume v = readNifti(path);
+  NiftiInfo info;
+  Volume v = readNifti(path, NiftiReadOptions{options.frame}, &info);
   reportProgress(progress, 1.0, "reading NIfTI");
-  if (report) report->format = "NIfTI";
+  if (report) {
+    report->format = info.twoFile ? "NIfTI (.hdr/.img pair)" : "NIfTI";
+    report->frames = info.frames;
+    report->frame = options.frame;
+    if (info.frames > 1)
+      report->warnings.push_back("'" + path + "' holds " + std::to_string(info.frames) + " volumes (a " + std::to_string(info.rank) +
+                                 "D image); volume " + std::to_string(options.frame) + " is loaded (choose another with --frame N)");
+    if (info.rank < 3) report->warnings.push_back("'" + path + "' is a " + std::to_string(info.rank) + "D image: loaded as one slice");
+  }
   return v;
 }
 

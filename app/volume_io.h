@@ -2,7 +2,10 @@
 #include <cstdint>
 #include <optional>
 #include <vector>
-// Opening a volume from a path: a DICOM series directory or a NIfTI file (.nii, .nii.gz).
+// Opening a volume from a path: a DICOM series directory, one DICOM file (its directory's series
+// with that file's SeriesInstanceUID), or a NIfTI file (.nii, .nii.gz, a .hdr/.img pair). A file's
+// format is told by its content (DICOM preamble "DICM" or a leading DICOM group, NIfTI header size,
+// gzip, NRRD and MetaImage signatures), not by its name.
 #include <string>
 #include <vector>
 
@@ -12,12 +15,22 @@
 namespace handson {
 
 struct LoadReport {
-  std::string format;                 ///< "NIfTI" or "DICOM"
-  std::vector<std::string> warnings;  ///< e.g. several series, slice gaps
+  std::string format;                 ///< "NIfTI" or "DICOM (transfer syntax)"
+  std::vector<std::string> warnings;  ///< e.g. several series, slice gaps, a 4D image
+  std::int64_t frames = 1;            ///< 3D volumes in the file (4D NIfTI)
+  std::int64_t frame = 0;             ///< the one loaded
+};
+
+struct LoadOptions {
+  std::int64_t frame = 0;  ///< which 3D volume of a 4D NIfTI image (`--frame N`)
 };
 
 /// Throws handson::Error with a clear message on a missing path or unreadable data.
-Volume loadVolume(const std::string& path, LoadReport* report = nullptr, const ProgressFn& progress = {});
+Volume loadVolume(const std::string& path, LoadReport* report = nullptr, const ProgressFn& progress = {}, const LoadOptions& options = {});
+
+/// What a file holds, from its first bytes: "dicom", "nifti" (or gzip, read as NIfTI), "nrrd",
+/// "metaimage", or "" when it is none of them (or cannot be read).
+std::string sniffVolumeFormat(const std::string& path);
 
 /// Linear indices of a NIfTI mask's voxels that are non-zero (or equal to `label`), on the image's
 /// grid. Throws handson::Error, naming `what` and the path, if the grids differ or nothing is selected.

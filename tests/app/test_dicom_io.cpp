@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "app/dicom_io.h"
+#include "app/volume_io.h"
 #include "sim/error.h"
 
 #ifndef HANDSON_SHARED_DATA_DIR
@@ -527,6 +528,41 @@ TEST(DicomIo, TwoSeriesPicksLargerAndWarns) {
   EXPECT_NEAR(v.geometry().spacing.x(), 0.57, 1e-5);
   EXPECT_TRUE(anyWarningContains(r, "2 DICOM series")) << (r.warnings.empty() ? "" : r.warnings.front());
   expectSameVolume(v, expected);
+}
+
+// One file given as the path (what a viewer does with a dropped file): its directory's series with
+// that file's SeriesInstanceUID, whichever series is larger; the format is told by the content.
+TEST(DicomIo, OneFileGivenLoadsItsOwnSeries) {
+  REQUIRE_IRCADB();
+  REQUIRE_JPEG2000();
+  TempDir dir;
+  for (int k = 0; k < 10; ++k) dir.link(ircadbSlice(k), "image_" + std::to_string(k));
+  const std::vector<std::string> j2k = jpeg2000Files();
+  for (int k = 0; k < 3; ++k) dir.link(j2k[k], "other_" + std::to_string(k));
+  EXPECT_EQ(sniffVolumeFormat(dir.file("image_4")), "dicom");
+  EXPECT_EQ(sniffVolumeFormat(dir.file("other_1")), "dicom");
+
+  LoadReport big, small;
+  const Volume vb = loadVolume(dir.file("image_4"), &big);
+  const Volume vs = loadVolume(dir.file("other_1"), &small);
+  EXPECT_EQ(vb.dims(), Eigen::Vector3i(512, 512, 10));
+  EXPECT_EQ(vs.dims().z(), 3);
+  EXPECT_EQ(big.format.rfind("DICOM", 0), 0u) << big.format;
+  // The same volumes as the series read on their own.
+  DicomReadReport alone;
+  expectSameVolume(vb, readIrcadbSlices({0, 1, 2, 3, 4, 5, 6, 7, 8, 9}, &alone));
+  TempDir other;
+  for (int k = 0; k < 3; ++k) other.link(j2k[k], "other_" + std::to_string(k));
+  expectSameVolume(vs, readDicomSeries(other.path()));
+  const auto said = [](const LoadReport& r, const char* what) {
+    return std::any_of(r.warnings.begin(), r.warnings.end(), [&](const std::string& w) { return w.find(what) != std::string::npos; });
+  };
+  EXPECT_TRUE(said(small, "the one of 'other_1'"));
+  EXPECT_TRUE(said(big, "the one of 'image_4'"));
+  // A file of the directory that is not a DICOM image is refused, naming it.
+  writeBytes(dir.file("notes.txt"), "DICM? no, some notes long enough to be looked at by the reader of headers");
+  EXPECT_THROW(loadVolume(dir.file("notes.txt")), Error);
+  EXPECT_THROW(loadVolume(dir.file("image_4"), nullptr, {}, LoadOptions{1}), Error);  // --frame is for 4D NIfTI
 }
 
 TEST(DicomIo, SingleSliceUsesSliceThickness) {

@@ -779,7 +779,7 @@ TEST_F(NiftiIo, WrongMagicAndNotNifti) {
   s.magic = {'n', 'i', '1', '\0'};
   Bytes pair = buildN1(s);
   writeFile(path("pair.hdr"), pair.data);
-  expectReadError(path("pair.hdr"), {"two-file"});
+  expectReadError(path("pair.hdr"), {"two-file"});  // its .img is not there
 
   const std::string text = "this is not a medical image, just some text that is long enough to be a header";
   writeFile(path("text.nii"), std::vector<unsigned char>(text.begin(), text.end()));
@@ -796,24 +796,138 @@ TEST_F(NiftiIo, BadDimensions) {
     writeFile(path("dims.nii"), b.data);
     expectReadError(path("dims.nii"), {"invalid"});
   }
-  N1Spec two;
-  two.dim = {2, 4, 6, 1, 1, 1, 1, 1};
-  Bytes b = buildN1(two);
-  b.append(std::vector<std::int16_t>(24, 1));
-  writeFile(path("2d.nii"), b.data);
-  expectReadError(path("2d.nii"), {"only 3D"});
 }
 
-TEST_F(NiftiIo, FourDimensionalRefused) {
+// A 2D image (a single slice, as written by 2D tools): a volume one voxel thick. Its missing axis
+// takes 1 mm where pixdim[3] is 0, and the direction completing a right-handed frame where the
+// sform leaves that column at zero.
+TEST_F(NiftiIo, TwoDimensionalIsOneSlice) {
+  N1Spec two;
+  two.dim = {2, 4, 6, 1, 1, 1, 1, 1};
+  two.pixdim = {1, 0.5, 0.75, 0, 1, 1, 1, 1};
+  std::vector<std::int16_t> values(24);
+  for (int i = 0; i < 24; ++i) values[std::size_t(i)] = std::int16_t(i * 7 - 50);
+  const Volume v = roundTripRaw(path("2d.nii"), two, values);
+  EXPECT_EQ(v.dims(), Eigen::Vector3i(4, 6, 1));
+  expectNear(v.geometry().spacing, Eigen::Vector3d(0.5, 0.75, 1.0), 1e-6, "spacing");
+  for (int i = 0; i < 24; ++i) EXPECT_EQ(v.value(std::size_t(i)), values[std::size_t(i)]);
+  // An sform whose third column is zero: axes x' = -y, y' = x (a turn about z), so z' = +z.
+  two.sformCode = 1;
+  two.srow = {0, 0.5, 0, 10, -0.75, 0, 0, 20, 0, 0, 0, 30};
+  const Volume s = roundTripRaw(path("2d_sform.nii"), two, values);
+  Eigen::Matrix3d expected;
+  expected << 0, 1, 0, -1, 0, 0, 0, 0, 1;
+  expectNear(s.geometry().direction, expected, 1e-6, "direction");
+  expectNear(s.geometry().spacing, Eigen::Vector3d(0.75, 0.5, 1.0), 1e-6, "spacing");
+  expectNear(s.geometry().origin, Eigen::Vector3d(10, 20, 30), 1e-6, "origin");
+}
+
+// A 4D image (fMRI, multi-phase CT, 4D label sets): one 3D volume at a time, chosen by frame, the
+// count told; a frame past the last is refused with the count; a file missing its last volume is
+// truncated.
+TEST_F(NiftiIo, FourDimensionalImageIsReadOneVolumeAtATime) {
   N1Spec s;
   s.dim = {4, 4, 3, 2, 3, 1, 1, 1};
+  std::vector<std::int16_t> values(72);
+  for (int i = 0; i < 72; ++i) values[std::size_t(i)] = std::int16_t(1000 * (i / 24) + i % 24);
   Bytes b = buildN1(s);
-  b.append(std::vector<std::int16_t>(72, 1));
+  b.append(values);
   writeFile(path("4d.nii"), b.data);
-  expectReadError(path("4d.nii"), {"3 volumes"});
+  writeGzFile(path("4d.nii.gz"), b.data);
+  for (const char* file : {"4d.nii", "4d.nii.gz"}) {
+    SCOPED_TRACE(file);
+    for (int f = 0; f < 3; ++f) {
+      handson::NiftiInfo info;
+      const Volume v = handson::readNifti(path(file), handson::NiftiReadOptions{f}, &info);
+      EXPECT_EQ(info.frames, 3);
+      EXPECT_EQ(info.rank, 4);
+      ASSERT_EQ(v.dims(), Eigen::Vector3i(4, 3, 2));
+      for (int i = 0; i < 24; ++i) EXPECT_EQ(v.value(std::size_t(i)), 1000 * f + i);
+    }
+    try {
+      (void)handson::readNifti(path(file), handson::NiftiReadOptions{3});
+      ADD_FAILURE() << "frame 3 of 3 accepted";
+    } catch (const handson::Error& e) {
+      EXPECT_NE(std::string(e.what()).find("holds 3 volumes"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("0 to 2"), std::string::npos) << e.what();
+    }
+  }
+  // 5D (e.g. a vector per voxel over time): dims 4 to 7 multiply.
+  s.dim = {5, 4, 3, 2, 1, 3, 1, 1};
+  Bytes b5 = buildN1(s);
+  b5.append(values);
+  writeFile(path("5d.nii"), b5.data);
+  handson::NiftiInfo info5;
+  EXPECT_EQ(handson::readNifti(path("5d.nii"), handson::NiftiReadOptions{2}, &info5).value(0), 2000);
+  EXPECT_EQ(info5.frames, 3);
+  // The last volume cut short: truncated, whichever volume is asked for.
+  s.dim = {4, 4, 3, 2, 3, 1, 1, 1};
+  Bytes cut = buildN1(s);
+  cut.append(std::vector<std::int16_t>(values.begin(), values.end() - 5));
+  writeFile(path("4d_cut.nii"), cut.data);
+  expectReadError(path("4d_cut.nii"), {"truncated"});
 
-  s.dim = {4, 4, 3, 2, 1, 1, 1, 1};  // a 4D header holding one volume is fine
+  s.dim = {4, 4, 3, 2, 1, 1, 1, 1};  // a 4D header holding one volume is an ordinary volume
   EXPECT_EQ(roundTripRaw(path("4d1.nii"), s, std::vector<std::int16_t>(24, 1)).dims(), Eigen::Vector3i(4, 3, 2));
+}
+
+// Two-file NIfTI (.hdr + .img; magic "ni1" / "ni2"), each file gzipped or not, upper or lower
+// case, given by either file: the same volume as the single-file image of the same header.
+TEST_F(NiftiIo, TwoFilePairsReadLikeSingleFiles) {
+  std::vector<std::int16_t> values(24);
+  for (int i = 0; i < 24; ++i) values[std::size_t(i)] = std::int16_t(3 * i - 11);
+  N1Spec single;
+  single.sformCode = 1;
+  single.srow = {0.8, 0, 0, -5, 0, 0.9, 0, 6, 0, 0, 2.5, 7};
+  const Volume expected = roundTripRaw(path("single.nii"), single, values);
+
+  N1Spec pair = single;
+  pair.magic = {'n', 'i', '1', '\0'};
+  pair.voxOffset = 0;
+  Bytes hdr = buildN1(pair);
+  hdr.resize(348);
+  Bytes img;
+  img.append(values);
+  struct Case { const char* hdr; const char* img; bool gzHdr, gzImg; const char* given; };
+  for (const Case& c : {Case{"a.hdr", "a.img", false, false, "a.hdr"}, Case{"b.hdr", "b.img", false, false, "b.img"},
+                        Case{"c.hdr.gz", "c.img.gz", true, true, "c.hdr.gz"}, Case{"d.hdr.gz", "d.img.gz", true, true, "d.img.gz"},
+                        Case{"e.hdr", "e.img.gz", false, true, "e.hdr"}, Case{"F.HDR", "F.IMG", false, false, "F.HDR"}}) {
+    SCOPED_TRACE(c.given);
+    if (c.gzHdr) writeGzFile(path(c.hdr), hdr.data); else writeFile(path(c.hdr), hdr.data);
+    if (c.gzImg) writeGzFile(path(c.img), img.data); else writeFile(path(c.img), img.data);
+    handson::NiftiInfo info;
+    const Volume v = handson::readNifti(path(c.given), {}, &info);
+    EXPECT_TRUE(info.twoFile);
+    EXPECT_EQ(info.dataPath, path(c.img));
+    expectSameGeometry(v.geometry(), expected.geometry());
+    EXPECT_EQ(allValues(v), allValues(expected));
+  }
+  // NIfTI-2 pairs too.
+  N2Spec n2;
+  n2.voxOffset = 0;
+  Bytes h2 = buildN2(n2);
+  h2.putRaw(4, "ni2\0\r\n\032\n", 8);
+  h2.resize(540);
+  Bytes i2;
+  std::vector<std::int32_t> v32(24);
+  for (int i = 0; i < 24; ++i) v32[std::size_t(i)] = 100 * i;
+  i2.append(v32);
+  writeFile(path("n2.hdr"), h2.data);
+  writeFile(path("n2.img"), i2.data);
+  const Volume v2 = handson::readNifti(path("n2.hdr"));
+  EXPECT_EQ(v2.value(23), 2300.0f);
+  // The image file missing, or too short.
+  writeFile(path("lonely.hdr"), hdr.data);
+  expectReadError(path("lonely.hdr"), {"image file"});
+  writeFile(path("short.hdr"), hdr.data);
+  writeFile(path("short.img"), std::vector<unsigned char>(img.data.begin(), img.data.end() - 4));
+  try {
+    (void)handson::readNifti(path("short.hdr"));
+    ADD_FAILURE() << "short .img accepted";
+  } catch (const handson::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("short.img"), std::string::npos) << e.what();
+  }
 }
 
 TEST_F(NiftiIo, AbsurdDimensionsRefusedQuickly) {
