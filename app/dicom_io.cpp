@@ -315,7 +315,12 @@ class DicomStructureCheck {
       ++metaElements;
     }
     if (metaElements == 0) return fail("no file meta information after the DICM signature");
-    if (transferSyntax == "1.2.840.10008.1.2.1.99") return Verdict::Ok;  // deflated: GDCM inflates it
+    if (transferSyntax == "1.2.840.10008.1.2.1.99") {
+      // Deflated: the data set cannot be walked without inflating it; GDCM inflates it, and says so
+      // if no pixel data is inside.
+      hasPixelData_ = true;
+      return Verdict::Ok;
+    }
     bool explicitVr = transferSyntax != "1.2.840.10008.1.2";
     bigEndian_ = transferSyntax == "1.2.840.10008.1.2.2";
     if (transferSyntax.empty()) {
@@ -894,7 +899,9 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
       const gdcm::ByteValue* bv = pd.GetByteValue();
       std::error_code sizeError;
       const std::uintmax_t fileSize = fs::file_size(path, sizeError);
-      if (bv && (incomplete || bv->GetLength() < expected || (!sizeError && fileSize < expected)))
+      // (A deflated file is legitimately smaller than its pixel data.)
+      const bool deflated = reader.GetFile().GetHeader().GetDataSetTransferSyntax() == gdcm::TransferSyntax::DeflatedExplicitVRLittleEndian;
+      if (bv && (incomplete || bv->GetLength() < expected || (!sizeError && !deflated && fileSize < expected)))
         throw Error("DICOM file '" + path + "' is truncated: its pixel data is shorter than the " +
                     std::to_string(ref.columns) + "x" + std::to_string(ref.rows) + " image it declares");
       if (!bv && !pd.GetSequenceOfFragments())

@@ -565,6 +565,63 @@ TEST(DicomIo, OneFileGivenLoadsItsOwnSeries) {
   EXPECT_THROW(loadVolume(dir.file("image_4"), nullptr, {}, LoadOptions{1}), Error);  // --frame is for 4D NIfTI
 }
 
+// A slice re-encoded in Deflated Explicit VR Little Endian (1.2.840.10008.1.2.1.99): the file meta
+// information as before with the transfer syntax changed, the data set raw-deflated. Read as the
+// original slices are.
+std::string deflatedCopy(const std::string& file) {
+  const std::string d = readBytes(file);
+  std::string meta;
+  std::size_t i = 132, groupLengthAt = std::string::npos;
+  while (i + 8 <= d.size() && d[i] == 0x02 && d[i + 1] == 0x00) {
+    const std::uint16_t element = std::uint16_t(std::uint8_t(d[i + 2]) | (std::uint8_t(d[i + 3]) << 8));
+    const std::string vr = d.substr(i + 4, 2);
+    const bool longForm = vr == "OB" || vr == "OW" || vr == "OF" || vr == "SQ" || vr == "UT" || vr == "UN";
+    std::uint32_t length = 0;
+    std::memcpy(&length, d.data() + i + (longForm ? 8 : 6), longForm ? 4 : 2);
+    const std::size_t header = longForm ? 12 : 8;
+    if (element == 0x0000) groupLengthAt = meta.size() + header;
+    if (element == 0x0010) {
+      const std::string ts = "1.2.840.10008.1.2.1.99";  // even length: no padding
+      std::string el = d.substr(i, 6);
+      el.push_back(char(ts.size()));
+      el.push_back(0);
+      meta += el + ts;
+    } else {
+      meta += d.substr(i, header + length);
+    }
+    i += header + length;
+  }
+  if (groupLengthAt == std::string::npos) throw std::runtime_error("no group length in " + file);
+  const std::uint32_t groupLength = std::uint32_t(meta.size() - groupLengthAt - 4);
+  std::memcpy(meta.data() + groupLengthAt, &groupLength, 4);
+  z_stream z{};
+  if (deflateInit2(&z, 6, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK) throw std::runtime_error("deflateInit2");
+  std::string body(deflateBound(&z, uLong(d.size() - i)), '\0');
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(d.data() + i));
+  z.avail_in = uInt(d.size() - i);
+  z.next_out = reinterpret_cast<Bytef*>(body.data());
+  z.avail_out = uInt(body.size());
+  if (deflate(&z, Z_FINISH) != Z_STREAM_END) throw std::runtime_error("deflate");
+  body.resize(z.total_out);
+  deflateEnd(&z);
+  return d.substr(0, 132) + meta + body;
+}
+
+TEST(DicomIo, DeflatedExplicitVrLittleEndianIsRead) {
+  REQUIRE_IRCADB();
+  TempDir dir;
+  for (int k = 0; k < 3; ++k) writeBytes(dir.file("deflated_" + std::to_string(k)), deflatedCopy(ircadbSlice(k)));
+  DicomReadReport r;
+  const Volume v = readDicomSeries(dir.path(), &r);
+  EXPECT_NE(r.transferSyntax.find("1.2.840.10008.1.2.1.99"), std::string::npos) << r.transferSyntax;
+  DicomReadReport alone;
+  expectSameVolume(v, readIrcadbSlices({0, 1, 2}, &alone));
+  // Cut short inside the deflated stream: refused with an error, never a short or made-up slice.
+  const std::string full = deflatedCopy(ircadbSlice(1));
+  writeBytes(dir.file("deflated_1"), full.substr(0, full.size() / 2));
+  EXPECT_THROW(readDicomSeries(dir.path()), Error);
+}
+
 TEST(DicomIo, SingleSliceUsesSliceThickness) {
   REQUIRE_IRCADB();
   TempDir dir;
