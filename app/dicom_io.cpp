@@ -125,6 +125,8 @@ struct SliceHeader {
   std::string sopUid;
   int rows = 0, columns = 0;
   int frames = 1;
+  int pixelRepresentation = -1;                     // 0 unsigned, 1 signed, -1 not given
+  int bitsStored = 0;                               // 0: not given
   std::optional<std::vector<double>> pixelSpacing;  // row spacing \ column spacing
   std::optional<std::vector<double>> orientation;   // row cosine, column cosine (LPS)
   std::optional<std::vector<double>> position;      // LPS mm
@@ -211,6 +213,63 @@ bool convertSlice(const char* buffer, std::size_t count, double slope, double in
     }
   }
   return true;
+}
+
+// The header's PixelRepresentation is authoritative over what a codec decoded: a JPEG 2000 (or JPEG-LS)
+// codestream may call signed stored values unsigned, or the other way round. Stored values are
+// BitsStored-bit integers, two's complement when signed. A compressed slice whose decoded values
+// (whichever type the codec reported) are all in [0, 2^bits) with some at or above 2^(bits-1), under a
+// header that says signed, was decoded as unsigned: its values are sign-extended from BitsStored bits (-2000 HU read as 6192 is
+// -2000 again). Negative decoded values under a header that says unsigned are taken modulo 2^bits.
+// Values outside the BitsStored range (files whose BitsStored is too small) are left alone.
+// Returns the type to read the (rewritten) buffer as; unchanged when codec and header agree.
+template <class T, class Signed, class Unsigned>
+gdcm::PixelFormat::ScalarType fixSignedness(char* buffer, std::size_t count, bool headerSigned, int bits, gdcm::PixelFormat::ScalarType type,
+                                            gdcm::PixelFormat::ScalarType signedType, gdcm::PixelFormat::ScalarType unsignedType, bool& changed) {
+  bits = std::clamp(bits, 2, int(8 * sizeof(T)));
+  std::int64_t lo = std::numeric_limits<std::int64_t>::max(), hi = std::numeric_limits<std::int64_t>::min();
+  for (std::size_t n = 0; n < count; ++n) {
+    T raw;
+    std::memcpy(&raw, buffer + n * sizeof(T), sizeof(T));
+    lo = std::min<std::int64_t>(lo, std::int64_t(raw));
+    hi = std::max<std::int64_t>(hi, std::int64_t(raw));
+  }
+  const std::int64_t span = std::int64_t(1) << bits, half = span / 2;
+  if (headerSigned && lo >= 0 && hi < span && hi >= half) {
+    for (std::size_t n = 0; n < count; ++n) {
+      T raw;
+      std::memcpy(&raw, buffer + n * sizeof(T), sizeof(T));
+      const Signed v = Signed(std::int64_t(raw) >= half ? std::int64_t(raw) - span : std::int64_t(raw));
+      std::memcpy(buffer + n * sizeof(T), &v, sizeof(T));
+    }
+    changed = true;
+    return signedType;
+  }
+  if (!headerSigned && lo < 0 && lo >= -half && hi < half) {
+    for (std::size_t n = 0; n < count; ++n) {
+      T raw;
+      std::memcpy(&raw, buffer + n * sizeof(T), sizeof(T));
+      const Unsigned v = Unsigned(std::int64_t(raw) < 0 ? std::int64_t(raw) + span : std::int64_t(raw));
+      std::memcpy(buffer + n * sizeof(T), &v, sizeof(T));
+    }
+    changed = true;
+    return unsignedType;
+  }
+  return type;
+}
+
+gdcm::PixelFormat::ScalarType applyHeaderSignedness(gdcm::PixelFormat::ScalarType type, char* buffer, std::size_t count, bool headerSigned,
+                                                    int bits, bool& changed) {
+  using PF = gdcm::PixelFormat;
+  switch (type) {
+    case PF::UINT8: return fixSignedness<std::uint8_t, std::int8_t, std::uint8_t>(buffer, count, headerSigned, bits, type, PF::INT8, PF::UINT8, changed);
+    case PF::INT8: return fixSignedness<std::int8_t, std::int8_t, std::uint8_t>(buffer, count, headerSigned, bits, type, PF::INT8, PF::UINT8, changed);
+    case PF::UINT16: return fixSignedness<std::uint16_t, std::int16_t, std::uint16_t>(buffer, count, headerSigned, bits, type, PF::INT16, PF::UINT16, changed);
+    case PF::INT16: return fixSignedness<std::int16_t, std::int16_t, std::uint16_t>(buffer, count, headerSigned, bits, type, PF::INT16, PF::UINT16, changed);
+    case PF::UINT32: return fixSignedness<std::uint32_t, std::int32_t, std::uint32_t>(buffer, count, headerSigned, bits, type, PF::INT32, PF::UINT32, changed);
+    case PF::INT32: return fixSignedness<std::int32_t, std::int32_t, std::uint32_t>(buffer, count, headerSigned, bits, type, PF::INT32, PF::UINT32, changed);
+    default: return type;
+  }
 }
 
 template <class Out>
@@ -631,6 +690,8 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
     }
     h.rows = int((*rows)[0]);
     h.columns = int((*cols)[0]);
+    if (representation) h.pixelRepresentation = int(*representation);
+    if (stored) h.bitsStored = int(*stored);
     h.seriesUid = tagText(scanner, f, kSeriesInstanceUid);
     h.sopUid = tagText(scanner, f, kSopInstanceUid);
     if (const auto fr = parseNumbers(tagText(scanner, f, kNumberOfFrames)); fr && fr->size() == 1 && (*fr)[0] >= 1)
@@ -850,7 +911,7 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
 
   // --- Read and rescale the pixel data slice by slice.
   std::vector<char> buffer;
-  bool warnedMono1 = false, warnedMixedSyntax = false;
+  bool warnedMono1 = false, warnedMixedSyntax = false, warnedSignedness = false;
   for (int s = 0; s < n; ++s) {
     const std::string& path = slices[s].path;
     gdcm::ImageReader reader;
@@ -912,6 +973,22 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
       throw Error("cannot decode the pixel data of DICOM file '" + path + "' (transfer syntax " + syntax +
                   "): the file is truncated or corrupt, or the compression is not supported");
 
+    // Signedness: the header's PixelRepresentation decides (a codestream that disagrees is re-read).
+    gdcm::PixelFormat::ScalarType decodedType = pixelType;
+    const int rep = slices[s].pixelRepresentation;
+    if (image.GetTransferSyntax().IsEncapsulated() && (rep == 0 || rep == 1)) {
+      const int bitsStored = slices[s].bitsStored >= 1 ? slices[s].bitsStored : int(8 * pixelSize);
+      bool changed = false;
+      decodedType = applyHeaderSignedness(pixelType, buffer.data(), sliceVoxels, rep == 1, bitsStored, changed);
+      if (changed && !warnedSignedness) {
+        report.warnings.push_back("DICOM file '" + fileName(path) + "': the compressed pixel data decode as " +
+                                  (rep == 1 ? "unsigned" : "signed") + " values, the header (PixelRepresentation) says " +
+                                  (rep == 1 ? "signed" : "unsigned") + "; read as the header says (" + std::to_string(bitsStored) +
+                                  "-bit stored values)");
+        warnedSignedness = true;
+      }
+    }
+
     double slope = 1.0, intercept = 0.0;
     if (const auto v = parseNumbers(datasetText(ds, kRescaleSlope)); v && !v->empty() && (*v)[0] != 0.0)
       slope = (*v)[0];
@@ -920,7 +997,7 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
     const std::size_t offset = std::size_t(s) * sliceVoxels;
     bool stored = false;
     if (volume.type() == ScalarType::Int16)
-      stored = convertSlice(pixelType, buffer.data(), sliceVoxels, slope, intercept,
+      stored = convertSlice(decodedType, buffer.data(), sliceVoxels, slope, intercept,
                             volume.data<std::int16_t>() + offset);
     if (!stored) {
       if (volume.type() == ScalarType::Int16) {
@@ -933,7 +1010,7 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
         for (std::size_t v = 0; v < offset; ++v) dst[v] = float(src[v]);
         volume = std::move(promoted);
       }
-      convertSlice(pixelType, buffer.data(), sliceVoxels, slope, intercept, volume.data<float>() + offset);
+      convertSlice(decodedType, buffer.data(), sliceVoxels, slope, intercept, volume.data<float>() + offset);
     }
     reportProgress(progress, double(s + 1) / double(n), "reading DICOM slices");
   }

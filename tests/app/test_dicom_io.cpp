@@ -622,6 +622,48 @@ TEST(DicomIo, DeflatedExplicitVrLittleEndianIsRead) {
   EXPECT_THROW(readDicomSeries(dir.path()), Error);
 }
 
+// The header is authoritative over the codestream's signedness: JPEG 2000 slices whose codestream
+// stores 12-bit values as unsigned, under a header that says signed (PixelRepresentation 1), are
+// read as 12-bit two's complement values - not as 0..4095 - with a warning.
+TEST(DicomIo, HeaderSignednessWinsOverTheCodestream) {
+  REQUIRE_JPEG2000();
+  const std::vector<std::string> j2k = jpeg2000Files();
+  TempDir plain, flipped;
+  const std::string tag("\x28\x00\x03\x01US\x02\x00", 8);
+  for (std::size_t k = 0; k < j2k.size(); ++k) {
+    plain.link(j2k[k], "s" + std::to_string(k));
+    std::string bytes = readBytes(j2k[k]);
+    const std::size_t at = bytes.find(tag);
+    ASSERT_NE(at, std::string::npos);
+    ASSERT_EQ(bytes[at + 8], 0);  // unsigned in the original
+    bytes[at + 8] = 1;
+    writeBytes(flipped.file("s" + std::to_string(k)), bytes);
+  }
+  // Rescale of the series (the same on every slice here): from the original's text.
+  const std::string first = readBytes(j2k.front());
+  auto ds = [&](const char* t) {
+    const std::size_t at = first.find(std::string(t, 6));
+    EXPECT_NE(at, std::string::npos);
+    const std::size_t len = std::uint8_t(first[at + 6]) | (std::uint8_t(first[at + 7]) << 8);
+    return std::stod(first.substr(at + 8, len));
+  };
+  const double intercept = ds("\x28\x00\x52\x10" "DS"), slope = ds("\x28\x00\x53\x10" "DS");
+  DicomReadReport ro, rf;
+  const Volume a = readDicomSeries(plain.path(), &ro);
+  const Volume b = readDicomSeries(flipped.path(), &rf);
+  ASSERT_EQ(a.dims(), b.dims());
+  std::size_t changed = 0;
+  for (std::size_t i = 0; i < a.voxelCount(); ++i) {
+    const double raw = std::round((double(a.value(i)) - intercept) / slope);
+    const double expected = (raw >= 2048 ? raw - 4096 : raw) * slope + intercept;
+    ASSERT_EQ(double(b.value(i)), expected) << "voxel " << i;
+    changed += raw >= 2048;
+  }
+  EXPECT_GT(changed, 0u) << "no stored value above 2047: the test shows nothing";
+  EXPECT_TRUE(std::any_of(rf.warnings.begin(), rf.warnings.end(), [](const std::string& w) { return w.find("PixelRepresentation") != std::string::npos; }));
+  EXPECT_FALSE(std::any_of(ro.warnings.begin(), ro.warnings.end(), [](const std::string& w) { return w.find("PixelRepresentation") != std::string::npos; }));
+}
+
 TEST(DicomIo, SingleSliceUsesSliceThickness) {
   REQUIRE_IRCADB();
   TempDir dir;
