@@ -664,6 +664,35 @@ TEST(DicomIo, HeaderSignednessWinsOverTheCodestream) {
   EXPECT_FALSE(std::any_of(ro.warnings.begin(), ro.warnings.end(), [](const std::string& w) { return w.find("PixelRepresentation") != std::string::npos; }));
 }
 
+// A JPEG 2000 fragment whose codestream holds the bytes of a sequence delimiter (FFFE,E0DD), here in
+// a comment marker segment after SIZ: a delimiter only counts at an item boundary, so the slice reads
+// like the original.
+TEST(DicomIo, DelimiterBytesInsideAFragmentAreData) {
+  REQUIRE_JPEG2000();
+  const std::vector<std::string> j2k = jpeg2000Files();
+  TempDir plain, tricky;
+  for (std::size_t k = 0; k < 3; ++k) {
+    plain.link(j2k[k], "s" + std::to_string(k));
+    std::string d = readBytes(j2k[k]);
+    const std::size_t pixel = d.find(std::string("\xe0\x7f\x10\x00OB", 6));
+    ASSERT_NE(pixel, std::string::npos);
+    auto u32 = [&](std::size_t at) { std::uint32_t v; std::memcpy(&v, d.data() + at, 4); return v; };
+    std::size_t item = pixel + 12;                 // the basic offset table
+    ASSERT_EQ(u32(item), 0xe000fffeu);
+    item += 8 + u32(item + 4);                     // the first fragment
+    ASSERT_EQ(u32(item), 0xe000fffeu);
+    const std::size_t cs = item + 8;
+    ASSERT_EQ(d.substr(cs, 4), std::string("\xff\x4f\xff\x51", 4));
+    const std::size_t siz = (std::uint8_t(d[cs + 4]) << 8) | std::uint8_t(d[cs + 5]);
+    const std::string com("\xff\x64\x00\x0c\x00\x01\xfe\xff\xdd\xe0\x00\x00\x00\x00", 14);
+    d.insert(cs + 4 + siz, com);
+    const std::uint32_t length = u32(item + 4) + std::uint32_t(com.size());
+    std::memcpy(d.data() + item + 4, &length, 4);
+    writeBytes(tricky.file("s" + std::to_string(k)), d);
+  }
+  expectSameVolume(readDicomSeries(tricky.path()), readDicomSeries(plain.path()));
+}
+
 TEST(DicomIo, SingleSliceUsesSliceThickness) {
   REQUIRE_IRCADB();
   TempDir dir;
