@@ -588,6 +588,42 @@ std::string subdirectoryHint(const DirectoryListing& listing) {
 
 }  // namespace
 
+// Slices at positions `keys` (mm along the normal, increasing; the volume's k-th slice at keys[k])
+// resampled onto keys.front() + k * step, k = 0 .. round(span / step), linearly between the two
+// slices around each position (a position on a slice takes that slice exactly). The geometry keeps
+// its origin and k axis; its k spacing must already be the new one.
+Volume regularizeSlices(const Volume& in, const std::vector<double>& keys, double step) {
+  const int n = int(keys.size());
+  const double span = keys.back() - keys.front();
+  const int out = int(std::lround(span / step)) + 1;
+  VolumeGeometry g = in.geometry();
+  g.dims.z() = out;
+  g.validate();
+  const std::size_t sliceVoxels = std::size_t(g.dims.x()) * std::size_t(g.dims.y());
+  checkAllocation(g.voxelCount(), g.voxelCount() * (in.type() == ScalarType::Int16 ? 2 : 4), "the regularized DICOM series");
+  Volume v(g, in.type());
+  int j = 0;
+  for (int k = 0; k < out; ++k) {
+    const double q = std::min(keys.front() + double(k) * step, keys.back());
+    while (j + 2 < n && keys[std::size_t(j) + 1] <= q) ++j;
+    double w = std::clamp((q - keys[std::size_t(j)]) / (keys[std::size_t(j) + 1] - keys[std::size_t(j)]), 0.0, 1.0);
+    if (w < 1e-6) w = 0.0;
+    if (w > 1.0 - 1e-6) w = 1.0;
+    const std::size_t a = std::size_t(j) * sliceVoxels, b = a + sliceVoxels, o = std::size_t(k) * sliceVoxels;
+    if (in.type() == ScalarType::Int16) {
+      const std::int16_t* src = in.data<std::int16_t>();
+      std::int16_t* dst = v.data<std::int16_t>();
+      for (std::size_t p = 0; p < sliceVoxels; ++p)
+        dst[o + p] = std::int16_t(std::lround(double(src[a + p]) + w * (double(src[b + p]) - double(src[a + p]))));
+    } else {
+      const float* src = in.data<float>();
+      float* dst = v.data<float>();
+      for (std::size_t p = 0; p < sliceVoxels; ++p) dst[o + p] = float(double(src[a + p]) + w * (double(src[b + p]) - double(src[a + p])));
+    }
+  }
+  return v;
+}
+
 Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress,
                                  const std::string& seriesOf) {
   DicomReadReport report;
@@ -843,6 +879,7 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
 
   // --- Slice spacing and the k axis.
   double kSpacing = 1.0;
+  double regularStep = 0.0;  // > 0: resample the slices onto this step along the normal (mm)
   Eigen::Vector3d kDir = normal;
   if (n > 1) {
     std::vector<double> steps;
@@ -854,16 +891,24 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
     for (double s : steps)
       if (std::abs(s - med) > 0.1 * med) report.spacingGaps = true;
     if (report.spacingGaps) {
-      report.warnings.push_back("DICOM slice spacing is uneven: steps range from " + formatMm(report.minStepMm) +
-                                " to " + formatMm(report.maxStepMm) + " mm (missing slices?); using the median step " +
-                                formatMm(med) + " mm, so slices beyond a gap are misplaced");
+      // Resampled onto a regular grid at the smallest step (at most twice the slice count, so that
+      // two near-duplicate positions cannot blow the volume up), by linear interpolation between the
+      // two slices around each grid position: every slice stays where it was acquired.
+      const double span = slices.back().key - slices.front().key;
+      regularStep = std::max(report.minStepMm, span / double(2 * n));
+      std::ostringstream w;
+      w << "DICOM slice spacing is uneven: steps range from " << formatMm(report.minStepMm) << " to " << formatMm(report.maxStepMm)
+        << " mm (missing slices?); the " << n << " slices are resampled onto a regular grid of " << std::lround(span / regularStep) + 1
+        << " slices " << formatMm(regularStep) << " mm apart (linear interpolation between neighbouring slices)";
+      report.warnings.push_back(w.str());
+      report.sliceStepMm = regularStep;
     }
     const Eigen::Vector3d span = positions.back() - positions.front();
     kDir = span.normalized();
     const double cosTilt = kDir.dot(normal);
     if (!(cosTilt > 0.1))
       throw Error("DICOM slice positions in '" + directory + "' do not advance along the slice normal");
-    kSpacing = med / cosTilt;
+    kSpacing = (regularStep > 0 ? regularStep : med) / cosTilt;
     if (cosTilt < std::cos(0.5 * 3.14159265358979 / 180.0)) {
       std::ostringstream w;
       w << "DICOM slices are sheared (gantry tilt of " << formatMm(std::acos(std::min(1.0, cosTilt)) * 180.0 / 3.14159265358979)
@@ -1015,6 +1060,12 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
     reportProgress(progress, double(s + 1) / double(n), "reading DICOM slices");
   }
 
+  if (regularStep > 0) {
+    std::vector<double> keys;
+    for (const SliceHeader& h : slices) keys.push_back(h.key);
+    volume = regularizeSlices(volume, keys, regularStep);
+  }
+  report.slices = volume.dims().z();
   if (reportOut) *reportOut = std::move(report);
   return volume;
 }
