@@ -12,7 +12,9 @@
 // Geometry: DICOM patient coordinates are LPS; the volume is in NIfTI RAS+ millimetres (x and y
 // negated). The i axis runs along a row (increasing column index, DICOM row cosine), the j axis
 // down the columns (column cosine), the k axis from the first to the last sorted slice. The origin
-// is the centre of the first pixel of the first sorted slice.
+// is the centre of the first pixel of the first sorted slice. Unevenly spaced slices (steps more than
+// 10 % from the median: missing slices, mixed spacing) are resampled onto a regular grid at the
+// smallest step, linearly between neighbouring slices, with a warning.
 #include <string>
 #include <vector>
 
@@ -31,8 +33,8 @@ struct DicomSeriesInfo {
 struct DicomReadReport {
   std::vector<DicomSeriesInfo> seriesFound;  ///< every image series in the directory, largest first
   DicomSeriesInfo chosen;                    ///< the series that was loaded
-  int slices = 0;                            ///< slices in the volume (after dropping duplicates)
-  double sliceStepMm = 0.0;                  ///< k spacing used: median step between slices
+  int slices = 0;                            ///< slices in the volume (after dropping duplicates; resampled if uneven)
+  double sliceStepMm = 0.0;                  ///< step along the normal: the median one, or the regular grid's when resampled
   bool spacingGaps = false;                  ///< some step differs from the median by more than 10 %
   double minStepMm = 0.0, maxStepMm = 0.0;   ///< smallest / largest step between adjacent slices
   std::string transferSyntax;                ///< "UID (name)" of the first slice's transfer syntax
