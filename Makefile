@@ -7,7 +7,7 @@
 PACKAGES := build-essential cmake ninja-build pkg-config \
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslc \
   libsdl2-dev libeigen3-dev libtet1.5-dev libglm-dev libgtest-dev libgmock-dev libbenchmark-dev \
-  libsuitesparse-dev libopenblas0-pthread libgdcm-dev libpng-dev zlib1g-dev libimgui-dev libstb-dev nlohmann-json3-dev gnuplot-nox xvfb xauth xdotool
+  libsuitesparse-dev libteem-dev libopenblas0-pthread libgdcm-dev libpng-dev zlib1g-dev libimgui-dev libstb-dev nlohmann-json3-dev gnuplot-nox xvfb xauth xdotool
 FUZZ_PACKAGES := clang libclang-rt-14-dev
 FUZZ_SECONDS ?= 60
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
@@ -41,31 +41,33 @@ fuzz-deps: deps
 	@missing=$$(for p in $(FUZZ_PACKAGES); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q 'install ok installed' || echo $$p; done); \
 	if [ -n "$$missing" ]; then $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; fi
 
+LSAN := LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp
+
 asan-test: fuzz-deps
 	cmake --preset asan
 	cmake --build --preset asan -j $(JOBS)
-	ctest --preset asan
+	$(LSAN) ctest --preset asan
 
-# libFuzzer: the NIfTI reader, the DICOM reader and the session-script parser (tests/fuzz), each run
+# libFuzzer: the NIfTI reader, the NRRD reader, the DICOM reader and the session-script parser (tests/fuzz), each run
 # for FUZZ_SECONDS over a working copy of its seed corpus (new inputs stay in build-asan/corpus), the
-# three at once (each its own process; logs in build-asan/findings/<kind>.log, printed at the end);
+# four at once (each its own process; logs in build-asan/findings/<kind>.log, printed at the end);
 # a finding stops that fuzzer with the crashing input written to build-asan/findings/ and fails the target.
 fuzz: fuzz-deps
 	cmake --preset asan
 	cmake --build --preset fuzz
 	mkdir -p build-asan/findings
-	set -e; for t in nifti dicom script; do \
+	set -e; for t in nifti nrrd dicom script; do \
 	  mkdir -p build-asan/corpus/$$t; cp -n tests/fuzz/corpus/$$t/* build-asan/corpus/$$t/; \
 	  if [ $$t = script ]; then cp -n assets/gestures/*.json build-asan/corpus/$$t/; fi; \
 	done; \
-	echo "fuzzing nifti, dicom and script for $(FUZZ_SECONDS) s each, at once"; \
-	pids=""; for t in nifti dicom script; do \
-	  ./build-asan/tests/fuzz/fuzz_$$t build-asan/corpus/$$t -max_total_time=$(FUZZ_SECONDS) -timeout=20 -rss_limit_mb=3072 \
+	echo "fuzzing nifti, nrrd, dicom and script for $(FUZZ_SECONDS) s each, at once"; \
+	pids=""; for t in nifti nrrd dicom script; do \
+	  $(LSAN) ./build-asan/tests/fuzz/fuzz_$$t build-asan/corpus/$$t -max_total_time=$(FUZZ_SECONDS) -timeout=20 -rss_limit_mb=3072 \
 	    -malloc_limit_mb=2048 -artifact_prefix=build-asan/findings/$$t- -print_final_stats=1 > build-asan/findings/$$t.log 2>&1 & pids="$$pids $$!"; \
 	done; \
 	status=0; for p in $$pids; do wait $$p || status=1; done; \
-	for t in nifti dicom script; do echo "== fuzz_$$t"; grep -E "^(stat::|Done|INFO: Loaded|==[0-9]+==|SUMMARY|artifact_prefix|Test unit written)" build-asan/findings/$$t.log || true; done; \
-	if [ $$status != 0 ]; then for t in nifti dicom script; do echo "== fuzz_$$t (last lines)"; tail -40 build-asan/findings/$$t.log; done; fi; \
+	for t in nifti nrrd dicom script; do echo "== fuzz_$$t"; grep -E "^(stat::|Done|INFO: Loaded|==[0-9]+==|SUMMARY|artifact_prefix|Test unit written)" build-asan/findings/$$t.log || true; done; \
+	if [ $$status != 0 ]; then for t in nifti nrrd dicom script; do echo "== fuzz_$$t (last lines)"; tail -40 build-asan/findings/$$t.log; done; fi; \
 	exit $$status
 
 clean:

@@ -9,6 +9,7 @@
 
 #include "app/dicom_io.h"
 #include "app/nifti_io.h"
+#include "app/nrrd_io.h"
 #include "sim/error.h"
 #include "sim/phantom.h"
 
@@ -54,9 +55,23 @@ Volume loadVolume(const std::string& path, LoadReport* report, const ProgressFn&
     }
     return v;
   }
-  if (kind == "nrrd" || kind == "metaimage")
-    throw Error("'" + path + "' is a " + (kind == "nrrd" ? std::string("NRRD") : std::string("MetaImage")) +
-                " file, which this version cannot read yet: convert it to NIfTI (e.g. with 3D Slicer or `c3d`) or give the DICOM series");
+  if (kind == "metaimage")
+    throw Error("'" + path + "' is a MetaImage file, which this version cannot read yet: convert it to NIfTI or NRRD (e.g. with 3D Slicer or `c3d`)");
+  if (kind == "nrrd") {
+    reportProgress(progress, 0.0, "reading NRRD");
+    NrrdInfo info;
+    Volume v = readNrrd(path, options.frame, &info);
+    reportProgress(progress, 1.0, "reading NRRD");
+    if (report) {
+      report->format = "NRRD" + (info.space.empty() ? std::string() : " (" + info.space + " space)");
+      report->frames = info.frames;
+      report->frame = options.frame;
+      if (info.frames > 1)
+        report->warnings.push_back("'" + path + "' holds " + std::to_string(info.frames) + " volumes; volume " + std::to_string(options.frame) +
+                                   " is loaded (choose another with --frame N)");
+    }
+    return v;
+  }
   reportProgress(progress, 0.0, "reading NIfTI");
   NiftiInfo info;
   Volume v = readNifti(path, NiftiReadOptions{options.frame}, &info);
@@ -74,7 +89,7 @@ Volume loadVolume(const std::string& path, LoadReport* report, const ProgressFn&
 }
 
 std::vector<std::uint32_t> maskVoxels(const std::string& path, const Volume& image, const char* what, std::optional<long> label) {
-  const Volume m = readNifti(path);
+  const Volume m = loadVolume(path);  // NIfTI, NRRD (.seg.nrrd), ... told by the content
   const auto& a = m.geometry();
   const auto& b = image.geometry();
   if (a.dims != b.dims) throw Error(std::string(what) + " " + path + ": its grid is not the image's (dimensions differ)");

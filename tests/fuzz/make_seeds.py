@@ -72,6 +72,16 @@ def main():
     out("nifti", "int16-4x3x2.nii.gz", gzip.compress(nifti1((4, 3, 2), 4, 16, i16), mtime=0))
     out("nifti", "uint8-labels-3x3x3.nii", nifti1((3, 3, 3), 2, 8, bytes(i % 5 for i in range(27)), sform=False))
     out("nifti", "float32-2x2x2.nii", nifti1((2, 2, 2), 16, 32, b"".join(struct.pack("<f", v * 0.5) for v in range(8))))
+    # NRRD: attached headers, raw and gzip, LPS with directions, a list axis, no space.
+    hdr = (b"NRRD0004\ntype: short\ndimension: 3\nspace: left-posterior-superior\nsizes: 4 3 2\n"
+           b"space directions: (0.8,0,0) (0,0.8,0) (0,0,2.5)\nkinds: domain domain domain\nendian: little\n")
+    out("nrrd", "lps-raw.nrrd", hdr + b"encoding: raw\nspace origin: (1,2,3)\n\n" + i16)
+    out("nrrd", "lps-gzip.nrrd", hdr + b"encoding: gzip\nspace origin: (1,2,3)\n\n" + gzip.compress(i16, mtime=0))
+    out("nrrd", "list-float.nrrd", b"NRRD0004\ntype: float\ndimension: 4\nspace: right-anterior-superior\nsizes: 2 2 2 2\n"
+        b"space directions: none (1,0,0) (0,1,0) (0,0,1)\nkinds: list domain domain domain\nendian: little\nencoding: raw\n\n"
+        + b"".join(struct.pack("<f", v * 0.25) for v in range(16)))
+    out("nrrd", "nospace-uint8.nrrd", b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 3 3 3\nspacings: 1 1 2\nencoding: ascii\n\n"
+        + b" ".join(str(i % 5).encode() for i in range(27)) + b"\n")
     # The DICOM fuzzer splits its input into files at "\n--slice--\n": a one- and a two-slice series.
     sep = b"\n--slice--\n"
     out("dicom", "one-slice.dcm", dicom_slice(0))
