@@ -394,6 +394,7 @@ class DicomStructureCheck {
     const std::string firstProblem = problem_.empty() ? "no data set after the file meta information" : problem_;
     elements_ = 0;
     hasPixelData_ = false;
+    fragments_.clear();
     if (seek(start) && walkElements(!explicitVr, false, 0) && elements_ > 0) return Verdict::Ok;
     problem_ = firstProblem;
     return Verdict::Broken;
@@ -402,6 +403,9 @@ class DicomStructureCheck {
   const std::string& problem() const { return problem_; }
   /// Whether the top-level data set holds pixel data (7FE0,0008/0009/0010).
   bool hasPixelData() const { return hasPixelData_; }
+  /// Encapsulated pixel data: each item's (file offset, length), the basic offset table first, as
+  /// the item lengths say (a delimiter's bytes inside an item are data).
+  const std::vector<std::pair<std::uint64_t, std::uint32_t>>& fragments() const { return fragments_; }
 
  private:
   static constexpr std::uint32_t kUndefined = 0xffffffffu;
@@ -540,8 +544,9 @@ class DicomStructureCheck {
       if (h.length == kUndefined) {
         if (encapsulated) return failed("a pixel data fragment has undefined length");
         if (!walkElements(explicitVr, true, depth + 1)) return false;
-      } else if (!skip(h, h.length)) {
-        return false;
+      } else {
+        if (encapsulated && depth == 1) fragments_.push_back({pos_, h.length});
+        if (!skip(h, h.length)) return false;
       }
     }
   }
@@ -551,6 +556,7 @@ class DicomStructureCheck {
   std::uint64_t size_ = 0, pos_ = 0;
   bool bigEndian_ = false;
   bool hasPixelData_ = false;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> fragments_;
   int elements_ = 0;
   std::string problem_;
 };
@@ -587,6 +593,25 @@ std::string subdirectoryHint(const DirectoryListing& listing) {
 }
 
 }  // namespace
+
+// For a JPEG 2000 slice that does not decode: what its codestream's SIZ marker says against the
+// header ("its JPEG 2000 codestream describes a W x H image, the header C x R; "), found through the
+// pixel data items as their lengths define them; "" when they agree or it cannot be told.
+std::string codestreamMismatch(const std::string& path, int columns, int rows) {
+  DicomStructureCheck check(path);
+  if (check.run() != DicomStructureCheck::Verdict::Ok || check.fragments().size() < 2) return {};
+  const auto [offset, length] = check.fragments()[1];  // [0] is the basic offset table
+  if (length < 28) return {};
+  std::ifstream in(path, std::ios::binary);
+  unsigned char b[28];
+  in.seekg(std::streamoff(offset));
+  if (!in.read(reinterpret_cast<char*>(b), 28) || b[0] != 0xff || b[1] != 0x4f || b[2] != 0xff || b[3] != 0x51) return {};
+  auto u32 = [&](int at) { return (std::uint64_t(b[at]) << 24) | (std::uint64_t(b[at + 1]) << 16) | (std::uint64_t(b[at + 2]) << 8) | b[at + 3]; };
+  const std::uint64_t x = u32(8), y = u32(12), x0 = u32(16), y0 = u32(20);  // Xsiz, Ysiz, XOsiz, YOsiz
+  if (x < x0 || y < y0 || (x - x0 == std::uint64_t(columns) && y - y0 == std::uint64_t(rows))) return {};
+  return "its JPEG 2000 codestream describes a " + std::to_string(x - x0) + "x" + std::to_string(y - y0) + " image, the header " +
+         std::to_string(columns) + "x" + std::to_string(rows) + "; ";
+}
 
 // Slices at positions `keys` (mm along the normal, increasing; the volume's k-th slice at keys[k])
 // resampled onto keys.front() + k * step, k = 0 .. round(span / step), linearly between the two
@@ -653,6 +678,13 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
         break;
       case DicomStructureCheck::Verdict::NotDicom: ++skipped; break;
       case DicomStructureCheck::Verdict::Broken:
+        // One file given (its series wanted): a damaged file of the directory that is not it is
+        // left out, with a warning, rather than refusing the series.
+        if (!seriesOf.empty() && fileName(files[f]) != fileName(seriesOf)) {
+          report.warnings.push_back("DICOM file '" + fileName(files[f]) + "' in '" + directory + "' is truncated or corrupt (" + check.problem() +
+                                    "): left out");
+          break;
+        }
         throw Error("DICOM file '" + files[f] + "' is truncated or corrupt (" + check.problem() +
                     "); remove or replace it");
     }
@@ -677,6 +709,10 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
 
   std::map<std::string, std::vector<SliceHeader>> bySeries;
   std::map<std::string, std::string> descriptions;
+  std::optional<std::string> wantedUid;  // the series of the file given, if one was
+  if (!seriesOf.empty())
+    for (const std::string& f : candidates)
+      if (fileName(f) == fileName(seriesOf) && scanner.IsKey(f.c_str())) wantedUid = tagText(scanner, f, kSeriesInstanceUid);
   for (const std::string& f : candidates) {
     if (!scanner.IsKey(f.c_str())) {
       ++skipped;
@@ -689,54 +725,62 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
       ++skipped;  // DICOM, but not an image (DICOMDIR, structured report, ...)
       continue;
     }
-    // An image whose header or pixel data stops early: cut at an element boundary, so GDCM would
-    // read it without complaint.
-    const auto rows = parseNumbers(rowsText);
-    const auto cols = parseNumbers(colsText);
-    if (!rows || !cols || rows->size() != 1 || cols->size() != 1 || (*rows)[0] < 1 || (*cols)[0] < 1)
-      throw Error("DICOM file '" + f + "' is truncated or corrupt (no valid Rows and Columns); remove or replace it");
-    if (!withPixelData.count(f))
-      throw Error("DICOM file '" + f + "' is truncated or corrupt (an image without pixel data); remove or replace it");
-    // Checked before GDCM decodes the pixels: its pixmap reader asserts (aborts the process) on a
-    // photometric interpretation it does not know (found by fuzz_dicom).
-    const std::string photometric = trim(tagText(scanner, f, kPhotometric));
-    if (photometric != "MONOCHROME1" && photometric != "MONOCHROME2")
-      throw Error("DICOM file '" + f + "' has photometric interpretation '" + photometric +
-                  "': only grayscale images (MONOCHROME1, MONOCHROME2) can be read as a CT or MR volume");
-    // GDCM asserts on these too (SamplesPerPixel over 4, found by fuzz_dicom): one grayscale sample
-    // of 8, 16 or 32 bits, stored bits and high bit within it, signed or unsigned.
-    auto number = [&](const gdcm::Tag& tag) -> std::optional<double> {
-      const auto v = parseNumbers(tagText(scanner, f, tag));
-      return v && v->size() == 1 ? std::optional<double>((*v)[0]) : std::nullopt;
-    };
-    const auto spp = number(kSamplesPerPixel), allocated = number(kBitsAllocated), stored = number(kBitsStored),
-               high = number(kHighBit), representation = number(kPixelRepresentation);
-    if ((spp && *spp != 1) || !allocated || (*allocated != 8 && *allocated != 16 && *allocated != 32) ||
-        (stored && (*stored < 1 || *stored > *allocated)) || (high && (*high < 0 || *high >= *allocated)) ||
-        (representation && *representation != 0 && *representation != 1))
-      throw Error("DICOM file '" + f + "' has a pixel format this reader does not take (samples per pixel " +
-                  tagText(scanner, f, kSamplesPerPixel) + ", bits allocated " + tagText(scanner, f, kBitsAllocated) + ", stored " +
-                  tagText(scanner, f, kBitsStored) + ", high bit " + tagText(scanner, f, kHighBit) +
-                  "): one grayscale sample of 8, 16 or 32 bits is expected");
-    // And on an ACR-NEMA recognition code it does not know (found by fuzz_dicom).
-    if (scanner.GetValue(f.c_str(), kRecognitionCode)) {
-      const std::string code = trim(tagText(scanner, f, kRecognitionCode));
-      if (code.rfind("ACR-NEMA", 0) != 0 && code.rfind("ACRNEMA", 0) != 0 && code.rfind("MIPS 2.0", 0) != 0)
-        throw Error("DICOM file '" + f + "' has an unknown ACR-NEMA recognition code '" + code + "'");
+    // One file given: files of other series that this reader cannot take are left out with a
+    // warning; the given file's own series must be sound.
+    try {
+      // An image whose header or pixel data stops early: cut at an element boundary, so GDCM would
+      // read it without complaint.
+      const auto rows = parseNumbers(rowsText);
+      const auto cols = parseNumbers(colsText);
+      if (!rows || !cols || rows->size() != 1 || cols->size() != 1 || (*rows)[0] < 1 || (*cols)[0] < 1)
+        throw Error("DICOM file '" + f + "' is truncated or corrupt (no valid Rows and Columns); remove or replace it");
+      if (!withPixelData.count(f))
+        throw Error("DICOM file '" + f + "' is truncated or corrupt (an image without pixel data); remove or replace it");
+      // Checked before GDCM decodes the pixels: its pixmap reader asserts (aborts the process) on a
+      // photometric interpretation it does not know (found by fuzz_dicom).
+      const std::string photometric = trim(tagText(scanner, f, kPhotometric));
+      if (photometric != "MONOCHROME1" && photometric != "MONOCHROME2")
+        throw Error("DICOM file '" + f + "' has photometric interpretation '" + photometric +
+                    "': only grayscale images (MONOCHROME1, MONOCHROME2) can be read as a CT or MR volume");
+      // GDCM asserts on these too (SamplesPerPixel over 4, found by fuzz_dicom): one grayscale sample
+      // of 8, 16 or 32 bits, stored bits and high bit within it, signed or unsigned.
+      auto number = [&](const gdcm::Tag& tag) -> std::optional<double> {
+        const auto v = parseNumbers(tagText(scanner, f, tag));
+        return v && v->size() == 1 ? std::optional<double>((*v)[0]) : std::nullopt;
+      };
+      const auto spp = number(kSamplesPerPixel), allocated = number(kBitsAllocated), stored = number(kBitsStored),
+                 high = number(kHighBit), representation = number(kPixelRepresentation);
+      if ((spp && *spp != 1) || !allocated || (*allocated != 8 && *allocated != 16 && *allocated != 32) ||
+          (stored && (*stored < 1 || *stored > *allocated)) || (high && (*high < 0 || *high >= *allocated)) ||
+          (representation && *representation != 0 && *representation != 1))
+        throw Error("DICOM file '" + f + "' has a pixel format this reader does not take (samples per pixel " +
+                    tagText(scanner, f, kSamplesPerPixel) + ", bits allocated " + tagText(scanner, f, kBitsAllocated) + ", stored " +
+                    tagText(scanner, f, kBitsStored) + ", high bit " + tagText(scanner, f, kHighBit) +
+                    "): one grayscale sample of 8, 16 or 32 bits is expected");
+      // And on an ACR-NEMA recognition code it does not know (found by fuzz_dicom).
+      if (scanner.GetValue(f.c_str(), kRecognitionCode)) {
+        const std::string code = trim(tagText(scanner, f, kRecognitionCode));
+        if (code.rfind("ACR-NEMA", 0) != 0 && code.rfind("ACRNEMA", 0) != 0 && code.rfind("MIPS 2.0", 0) != 0)
+          throw Error("DICOM file '" + f + "' has an unknown ACR-NEMA recognition code '" + code + "'");
+      }
+      h.rows = int((*rows)[0]);
+      h.columns = int((*cols)[0]);
+      if (representation) h.pixelRepresentation = int(*representation);
+      if (stored) h.bitsStored = int(*stored);
+      h.seriesUid = tagText(scanner, f, kSeriesInstanceUid);
+      h.sopUid = tagText(scanner, f, kSopInstanceUid);
+      if (const auto fr = parseNumbers(tagText(scanner, f, kNumberOfFrames)); fr && fr->size() == 1 && (*fr)[0] >= 1)
+        h.frames = int((*fr)[0]);
+      h.pixelSpacing = parseNumbers(tagText(scanner, f, kPixelSpacing));
+      h.orientation = parseNumbers(tagText(scanner, f, kImageOrientation));
+      h.position = parseNumbers(tagText(scanner, f, kImagePosition));
+      if (!descriptions.count(h.seriesUid)) descriptions[h.seriesUid] = tagText(scanner, f, kSeriesDescription);
+      bySeries[h.seriesUid].push_back(std::move(h));
+    } catch (const Error& e) {
+      if (!wantedUid || tagText(scanner, f, kSeriesInstanceUid) == *wantedUid) throw;
+      report.warnings.push_back(std::string(e.what()) + " (another series than the file's: left out)");
+      continue;
     }
-    h.rows = int((*rows)[0]);
-    h.columns = int((*cols)[0]);
-    if (representation) h.pixelRepresentation = int(*representation);
-    if (stored) h.bitsStored = int(*stored);
-    h.seriesUid = tagText(scanner, f, kSeriesInstanceUid);
-    h.sopUid = tagText(scanner, f, kSopInstanceUid);
-    if (const auto fr = parseNumbers(tagText(scanner, f, kNumberOfFrames)); fr && fr->size() == 1 && (*fr)[0] >= 1)
-      h.frames = int((*fr)[0]);
-    h.pixelSpacing = parseNumbers(tagText(scanner, f, kPixelSpacing));
-    h.orientation = parseNumbers(tagText(scanner, f, kImageOrientation));
-    h.position = parseNumbers(tagText(scanner, f, kImagePosition));
-    if (!descriptions.count(h.seriesUid)) descriptions[h.seriesUid] = tagText(scanner, f, kSeriesDescription);
-    bySeries[h.seriesUid].push_back(std::move(h));
   }
   if (bySeries.empty()) {
     std::ostringstream msg;
@@ -999,7 +1043,9 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
     const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
     if (!ds.FindDataElement(gdcm::Tag(0x7fe0, 0x0010)))
       throw Error("DICOM file '" + path + "' has no pixel data: the file is truncated or not an image");
-    {
+    if (image.GetTransferSyntax().IsEncapsulated()) {
+      // Compressed: the codec checks its own data (see the decode below).
+    } else {
       // Uncompressed pixel data shorter than the image: GDCM may accept a truncated file.
       const gdcm::DataElement& pd = ds.GetDataElement(gdcm::Tag(0x7fe0, 0x0010));
       const gdcm::ByteValue* bv = pd.GetByteValue();
@@ -1016,7 +1062,7 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
     buffer.resize(expected);
     if (!image.GetBuffer(buffer.data()))
       throw Error("cannot decode the pixel data of DICOM file '" + path + "' (transfer syntax " + syntax +
-                  "): the file is truncated or corrupt, or the compression is not supported");
+                  "): " + codestreamMismatch(path, ref.columns, ref.rows) + "the file is truncated or corrupt, or the compression is not supported");
 
     // Signedness: the header's PixelRepresentation decides (a codestream that disagrees is re-read).
     gdcm::PixelFormat::ScalarType decodedType = pixelType;
