@@ -13,7 +13,7 @@ FUZZ_SECONDS ?= 60
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 JOBS ?= 2
 
-.PHONY: deps fuzz-deps build run test bench asan-test fuzz clean
+.PHONY: deps fuzz-deps build run test bench asan-test fuzz clean external-data
 
 deps:
 	@missing=$$(for p in $(PACKAGES); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q 'install ok installed' || echo $$p; done); \
@@ -29,8 +29,22 @@ build: deps
 run: build
 	./build/app/handson
 
-test: build
+test: build external-data
 	ctest --preset release
+
+# Other projects' test files (nibabel's NIfTI, pydicom's DICOM), from Debian's packages, unpacked
+# into build/external-data without installing them (their Python dependencies are not needed);
+# tests/app/test_external_files.cpp compares our readers with the values nibabel and pydicom give.
+# Without network the download is skipped and those tests say so.
+EXTERNAL_DATA := build/external-data
+external-data:
+	@if [ ! -f $(EXTERNAL_DATA)/usr/lib/python3/dist-packages/pydicom/data/test_files/CT_small.dcm ]; then \
+	  mkdir -p $(EXTERNAL_DATA)/debs && cd $(EXTERNAL_DATA)/debs && \
+	  { apt-get download python3-nibabel python3-pydicom >/dev/null 2>&1 || \
+	    { $(SUDO) apt-get update -qq && apt-get download python3-nibabel python3-pydicom >/dev/null 2>&1; }; } && \
+	  for d in *.deb; do dpkg -x $$d ..; done && echo "external test data: nibabel's and pydicom's test files unpacked" || \
+	  echo "external test data could not be downloaded: those tests will be skipped"; \
+	fi
 
 bench: build
 	./build/app/handson bench $(BENCH_ARGS)
@@ -43,7 +57,7 @@ fuzz-deps: deps
 
 LSAN := LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp
 
-asan-test: fuzz-deps
+asan-test: fuzz-deps external-data
 	cmake --preset asan
 	cmake --build --preset asan -j $(JOBS)
 	$(LSAN) ctest --preset asan
