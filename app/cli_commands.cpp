@@ -97,11 +97,11 @@ int cmdPhantom(const Words& words) {
   o.noiseHu = args.number("--noise", o.noiseHu, 0.0, 500.0);
   o.seed = std::uint32_t(args.integer("--seed", o.seed, 0, 0xffffffffL));
   const Phantom ph = makePhantom(o);
-  writeNifti(ph.ct, *args.value("-o"));
+  writeVolume(ph.ct, *args.value("-o"));
   std::cout << "wrote " << *args.value("-o") << " (" << ph.ct.dims().x() << "x" << ph.ct.dims().y() << "x" << ph.ct.dims().z() << ", "
             << o.spacingMm << " mm)\n";
   if (auto l = args.value("--labels-out")) {
-    writeNifti(ph.labels, *l);
+    writeVolume(ph.labels, *l);
     std::cout << "wrote " << *l << "\n";
   }
   return 0;
@@ -119,7 +119,7 @@ int cmdResample(const Words& words) {
   const long n = args.integer("--voxels", 0, 1, long(kMaxVoxels));
   const Volume v = loadVolume(args.positional()[0], nullptr, progress);
   const Volume r = resampleToVoxelCount(v, std::size_t(n), progress);
-  writeNifti(r, *args.value("-o"));
+  writeVolume(r, *args.value("-o"));
   std::cout << "wrote " << *args.value("-o") << " (" << r.dims().x() << "x" << r.dims().y() << "x" << r.dims().z() << " = " << r.voxelCount()
             << " voxels)\n";
   return 0;

@@ -30,7 +30,8 @@ namespace {
 const char* const kDeformHelp =
     "usage: handson deform PATH --handle MASK.nii.gz --translate-mm X,Y,Z -o DEFORMED.nii.gz [options]\n"
     "  Moves the handle (the mask's non-zero voxels) rigidly and deforms the tissue around it; writes the\n"
-    "  deformed image on the input's grid (tetrahedral rasterization of the deformed fine mesh).\n"
+    "  deformed image on the input's grid (tetrahedral rasterization of the deformed fine mesh); an -o\n"
+    "  ending in .nrrd writes NRRD (LPS space, as 3D Slicer writes it), anything else NIfTI.\n"
     "  --handle-label N        only the mask's voxels equal to N (a label map as the mask)\n"
     "  --frame N               the volume of a 4D NIfTI image to load (default 0)\n"
     "  --fixed MASK.nii.gz     voxels held in place (a fixed handle; wins where the masks overlap)\n"
@@ -250,7 +251,7 @@ int cmdDeform(const Words& words) {
     if (ctx.validationMessageCount()) throw Error("Vulkan validation messages were reported");
   }
   const double tRaster = seconds(t0);
-  writeNifti(out, *args.value("-o"));
+  writeVolume(out, *args.value("-o"));
   // The coarse model's preprocessing (scene and coarsening, or their cache) is one step.
   std::cout << std::setprecision(3) << "model " << model << ": " << (model == "coarse" ? "scene + coarsening " : "scene ") << tScene << " s, ";
   std::cout << "solve " << tSolve << " s (" << steps << " increment" << (steps > 1 ? "s" : "") << "), resampling " << tRaster << " s\n"

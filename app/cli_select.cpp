@@ -23,6 +23,7 @@ namespace {
 const char* const kSelectHelp =
     "usage: handson select PATH (--seed-voxel I,J,K | --seed-mm X,Y,Z) --extent-mm D -o MASK.nii.gz [options]\n"
     "  Seeded region growing; writes a uint8 mask (1 = selected) on the input's exact grid and geometry\n"
+    "  (NIfTI, or NRRD when -o ends in .nrrd)\n"
     "  and prints the voxel count and the time. --seed-voxel is a 0-based index in the file's own index\n"
     "  order; --seed-mm a RAS+ point in mm (the nearest voxel is used).\n"
     "  --extent-mm D          selection extent (radius about the seed)\n"
@@ -123,7 +124,7 @@ int cmdSelect(const Words& words) {
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   Volume out(g, ScalarType::UInt8);
   std::copy(mask.begin(), mask.end(), out.data<std::uint8_t>());
-  writeNifti(out, *args.value("-o"));
+  writeVolume(out, *args.value("-o"));
   const double voxelMm3 = g.spacing.prod();
   std::cout << std::fixed << std::setprecision(1) << "selected " << count << " voxels (" << count * voxelMm3 / 1000.0 << " ml) from seed ("
             << seed.x() << ", " << seed.y() << ", " << seed.z() << "), criterion " << growCriterionName(p.criterion) << ", " << backend

@@ -12,6 +12,7 @@
 #include <memory>
 #include <vector>
 
+#include "app/atomic_file.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -198,6 +199,39 @@ Volume readNrrd(const std::string& path, std::int64_t frame, NrrdInfo* info) {
     else v.data<float>()[i] = std::isfinite(x) && std::abs(x) > 3.4e38 ? float(std::copysign(3.4e38, x)) : float(x);
   }
   return v;
+}
+
+void writeNrrd(const Volume& volume, const std::string& path) {
+  if (volume.empty()) throw Error("Cannot write NRRD file '" + path + "': the volume is empty");
+  AtomicFile out(path);
+  const VolumeGeometry& g = volume.geometry();
+  const int type = volume.type() == ScalarType::UInt8 ? nrrdTypeUChar : volume.type() == ScalarType::Int16 ? nrrdTypeShort : nrrdTypeFloat;
+  std::unique_ptr<Nrrd, NrrdDeleter> n(nrrdNew());
+  // Teem writes from our buffer without taking it (nrrdNix, not nrrdNuke, afterwards).
+  const std::size_t sizes[3] = {std::size_t(g.dims.x()), std::size_t(g.dims.y()), std::size_t(g.dims.z())};
+  if (nrrdWrap_nva(n.get(), const_cast<std::byte*>(volume.bytes()), type, 3, sizes)) {
+    const std::string e = teemError();
+    nrrdNix(n.release());
+    throw Error("Cannot write NRRD file '" + path + "': " + e);
+  }
+  const Eigen::Vector3d lps(-1, -1, 1);
+  nrrdSpaceSet(n.get(), nrrdSpaceLeftPosteriorSuperior);
+  for (int c = 0; c < 3; ++c) {
+    const Eigen::Vector3d d = lps.cwiseProduct(g.direction.col(c)) * g.spacing[c];
+    for (int r = 0; r < 3; ++r) n->axis[c].spaceDirection[r] = d[r];
+    n->axis[c].kind = nrrdKindDomain;
+  }
+  const Eigen::Vector3d o = lps.cwiseProduct(g.origin);
+  const double origin[3] = {o.x(), o.y(), o.z()};
+  nrrdSpaceOriginSet(n.get(), origin);
+  std::unique_ptr<NrrdIoState, IoDeleter> io(nrrdIoStateNew());
+  io->format = nrrdFormatNRRD;
+  io->encoding = nrrdEncodingGzip;
+  const int failed = nrrdSave(out.tempPath().c_str(), n.get(), io.get());
+  const std::string e = failed ? teemError() : std::string();
+  nrrdNix(n.release());
+  if (failed) throw Error("Cannot write NRRD file '" + path + "': " + e);
+  out.commit();
 }
 
 }  // namespace handson

@@ -28,4 +28,9 @@ struct NrrdInfo {
 
 Volume readNrrd(const std::string& path, std::int64_t frame = 0, NrrdInfo* info = nullptr);
 
+/// Writes a gzip-encoded NRRD in left-posterior-superior space (3D Slicer's), with the volume's type,
+/// space directions and origin, through a temporary file renamed into place (a failure leaves
+/// nothing). Throws handson::Error.
+void writeNrrd(const Volume& volume, const std::string& path);
+
 }  // namespace handson

@@ -1,6 +1,7 @@
 #include "volume_io.h"
 
 #include <algorithm>
+#include <cctype>
 #include <array>
 #include <cstring>
 #include <filesystem>
@@ -14,6 +15,13 @@
 #include "sim/phantom.h"
 
 namespace handson {
+
+void writeVolume(const Volume& volume, const std::string& path) {
+  std::string lower = path;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (lower.size() >= 5 && lower.compare(lower.size() - 5, 5, ".nrrd") == 0) writeNrrd(volume, path);
+  else writeNifti(volume, path);
+}
 
 std::string sniffVolumeFormat(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

@@ -28,6 +28,10 @@ struct LoadOptions {
 /// Throws handson::Error with a clear message on a missing path or unreadable data.
 Volume loadVolume(const std::string& path, LoadReport* report = nullptr, const ProgressFn& progress = {}, const LoadOptions& options = {});
 
+/// Writes the volume as NRRD when the path ends in ".nrrd" (any case), else as NIfTI (gzipped when
+/// it ends in ".gz"). Throws handson::Error.
+void writeVolume(const Volume& volume, const std::string& path);
+
 /// What a file holds, from its first bytes: "dicom", "nifti" (or gzip, read as NIfTI), "nrrd",
 /// "metaimage", or "" when it is none of them (or cannot be read).
 std::string sniffVolumeFormat(const std::string& path);
