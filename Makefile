@@ -7,7 +7,7 @@
 PACKAGES := build-essential cmake ninja-build pkg-config \
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslc \
   libsdl2-dev libeigen3-dev libtet1.5-dev libglm-dev libgtest-dev libgmock-dev libbenchmark-dev \
-  libsuitesparse-dev libteem-dev libopenblas0-pthread libgdcm-dev libpng-dev zlib1g-dev libimgui-dev libstb-dev nlohmann-json3-dev gnuplot-nox xvfb xauth xdotool
+  libsuitesparse-dev libteem-dev libinsighttoolkit5-dev libopenblas0-pthread libgdcm-dev libpng-dev zlib1g-dev libimgui-dev libstb-dev nlohmann-json3-dev gnuplot-nox xvfb xauth xdotool
 FUZZ_PACKAGES := clang libclang-rt-14-dev
 FUZZ_SECONDS ?= 60
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
@@ -62,7 +62,7 @@ asan-test: fuzz-deps external-data
 	cmake --build --preset asan -j $(JOBS)
 	$(LSAN) ctest --preset asan
 
-# libFuzzer: the NIfTI reader, the NRRD reader, the DICOM reader and the session-script parser (tests/fuzz), each run
+# libFuzzer: the NIfTI and NRRD readers, the DICOM reader and the session-script parser (tests/fuzz), each run
 # for FUZZ_SECONDS over a working copy of its seed corpus (new inputs stay in build-asan/corpus), the
 # four at once (each its own process; logs in build-asan/findings/<kind>.log, printed at the end);
 # a finding stops that fuzzer with the crashing input written to build-asan/findings/ and fails the target.

@@ -10,6 +10,7 @@
 
 #include "app/dicom_io.h"
 #include "app/nifti_io.h"
+#include "app/metaimage_io.h"
 #include "app/nrrd_io.h"
 #include "sim/error.h"
 #include "sim/phantom.h"
@@ -63,8 +64,21 @@ Volume loadVolume(const std::string& path, LoadReport* report, const ProgressFn&
     }
     return v;
   }
-  if (kind == "metaimage")
-    throw Error("'" + path + "' is a MetaImage file, which this version cannot read yet: convert it to NIfTI or NRRD (e.g. with 3D Slicer or `c3d`)");
+  if (kind == "metaimage") {
+    reportProgress(progress, 0.0, "reading MetaImage");
+    MetaImageInfo info;
+    Volume v = readMetaImage(path, options.frame, &info);
+    reportProgress(progress, 1.0, "reading MetaImage");
+    if (report) {
+      report->format = "MetaImage";
+      report->frames = info.frames;
+      report->frame = options.frame;
+      if (info.frames > 1)
+        report->warnings.push_back("'" + path + "' holds " + std::to_string(info.frames) + " volumes; volume " + std::to_string(options.frame) +
+                                   " is loaded (choose another with --frame N)");
+    }
+    return v;
+  }
   if (kind == "nrrd") {
     reportProgress(progress, 0.0, "reading NRRD");
     NrrdInfo info;
@@ -82,7 +96,13 @@ Volume loadVolume(const std::string& path, LoadReport* report, const ProgressFn&
   }
   reportProgress(progress, 0.0, "reading NIfTI");
   NiftiInfo info;
-  Volume v = readNifti(path, NiftiReadOptions{options.frame}, &info);
+  Volume v;
+  try {
+    v = readNifti(path, NiftiReadOptions{options.frame}, &info);
+  } catch (const Error& e) {
+    if (!kind.empty()) throw;
+    throw Error(std::string(e.what()) + "; nor is it DICOM, NRRD or MetaImage (its first bytes match none of them)");
+  }
   reportProgress(progress, 1.0, "reading NIfTI");
   if (report) {
     report->format = info.twoFile ? "NIfTI (.hdr/.img pair)" : "NIfTI";

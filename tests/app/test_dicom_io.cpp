@@ -597,6 +597,7 @@ std::string deflatedCopy(const std::string& file) {
     std::uint32_t length = 0;
     std::memcpy(&length, d.data() + i + (longForm ? 8 : 6), longForm ? 4 : 2);
     const std::size_t header = longForm ? 12 : 8;
+    if (length > d.size() - i - header) throw std::runtime_error("bad meta element in " + file);
     if (element == 0x0000) groupLengthAt = meta.size() + header;
     if (element == 0x0010) {
       const std::string ts = "1.2.840.10008.1.2.1.99";  // even length: no padding
@@ -702,6 +703,7 @@ TEST(DicomIo, DelimiterBytesInsideAFragmentAreData) {
     const std::size_t cs = item + 8;
     ASSERT_EQ(d.substr(cs, 4), std::string("\xff\x4f\xff\x51", 4));
     const std::size_t siz = (std::uint8_t(d[cs + 4]) << 8) | std::uint8_t(d[cs + 5]);
+    ASSERT_LT(cs + 4 + siz, d.size());
     const std::string com("\xff\x64\x00\x0c\x00\x01\xfe\xff\xdd\xe0\x00\x00\x00\x00", 14);
     d.insert(cs + 4 + siz, com);
     const std::uint32_t length = u32(item + 4) + std::uint32_t(com.size());
