@@ -167,6 +167,12 @@ std::vector<int> integerListOption(const Args& args, const char* name, const cha
   return out;
 }
 
+bool exportFormatIsNrrd(const Args& args) {
+  const std::string f = args.valueOr("--export-format", "nifti");
+  if (f != "nifti" && f != "nrrd") throw UsageError("--export-format must be nifti or nrrd");
+  return f == "nrrd";
+}
+
 LoadOptions loadOptions(const Args& args) {
   LoadOptions o;
   o.frame = args.integer("--frame", 0, 0, 1000000000L);

@@ -41,6 +41,7 @@ const char* const kViewHelp =
     "  --record SCRIPT.json    write what the user did as a session script\n"
     "  --export-dir DIR        where the Export button writes the session, the deformed volume, the\n"
     "                          mesh and a screenshot (default handson-export)\n"
+    "  --export-format F       nifti (default) or nrrd: the deformed volume's format in those exports\n"
     "  --timings LOG.csv       per-frame latency log (input, CPU, GPU passes, submit, present)\n"
     "  --play SCRIPT.json      feed a session script in as live input, in real time; exits after it\n"
     "  --play-repeat N         play it N times in a row, resetting the view in between (default 1)\n"
@@ -57,6 +58,7 @@ const char* const kReplayHelp =
     "  --fps F             frames per second of script time\n"
     "  --export OUT.nii.gz the deformed volume at the end, on the input's grid\n"
     "  --export-dir DIR    where the script's export actions write (default handson-export)\n"
+    "  --export-format F   nifti (default) or nrrd for the deformed volume in those exports\n"
     "  --device NAME, --validation, --quiet, --print-camera, --print-handles\n";
 
 const char* const kSimHelp =
@@ -109,7 +111,7 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 int cmdView(const Words& words) {
   Args args(words,
             with({"--frame", "--size", "--present-mode", "--render-scale", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
-                  "--frames-in-flight", "--play-repeat", "--export-dir"},
+                  "--frames-in-flight", "--play-repeat", "--export-dir", "--export-format"},
                  kSimOptions),
             {"--validation", "--quiet", "--print-camera"});
   if (args.help() || args.positional().size() > 1) {
@@ -131,6 +133,7 @@ int cmdView(const Words& words) {
   if (!o.screenshot.empty() && o.frames <= 0) throw UsageError("--screenshot needs --frames N");
   o.record = args.valueOr("--record", "");
   o.exportDir = args.valueOr("--export-dir", o.exportDir);
+  o.exportNrrd = exportFormatIsNrrd(args);
   o.timings = args.valueOr("--timings", "");
   o.play = args.valueOr("--play", "");
   o.framesInFlight = int(args.integer("--frames-in-flight", 2, 1, 3));
@@ -145,7 +148,7 @@ int cmdView(const Words& words) {
 }
 
 int cmdReplay(const Words& words) {
-  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--size", "--device", "--export", "--export-dir"}, kSimOptions),
+  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--size", "--device", "--export", "--export-dir", "--export-format"}, kSimOptions),
             {"--validation", "--quiet", "--print-camera", "--print-handles"});
   if (args.help() || args.positional().size() > 1) {
     usageStream(args) << kReplayHelp << kSimHelp << "  (replay waits each frame for the simulation to settle: frames do not depend on timing)\n";
@@ -165,6 +168,7 @@ int cmdReplay(const Words& words) {
   o.printHandles = args.flag("--print-handles");
   o.exportPath = args.valueOr("--export", "");
   o.exportDir = args.valueOr("--export-dir", o.exportDir);
+  o.exportNrrd = exportFormatIsNrrd(args);
   o.sim = simOptions(args, 0);
   return runReplay(o);
 }

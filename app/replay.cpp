@@ -95,7 +95,7 @@ int runReplay(const ReplayOptions& o) {
     }
     session.startRecording(header);
   }
-  SessionExport exporter(o.exportDir, volume);
+  SessionExport exporter(o.exportDir, volume, o.exportNrrd);
   session.addUiExtension([&](const ScriptEvent& e) { return exporter.onUi(e); });
   std::string simStatus;
   if (!o.framesOut.empty()) {

@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <sstream>
 
-#include "app/nifti_io.h"
+#include "app/volume_io.h"
 #include "app/png_io.h"
 #include "app/session_recovery.h"
 #include "app/session_script.h"
@@ -27,7 +27,7 @@ std::string SessionExport::write(const Session& session, const HandleSet& handle
     for (const auto& e : std::filesystem::directory_iterator(dir_, ec)) {
       const std::string n = e.path().filename().string();
       int k = 0;
-      if (std::sscanf(n.c_str(), "session-%d.json", &k) == 1 || std::sscanf(n.c_str(), "deformed-%d.nii.gz", &k) == 1 ||
+      if (std::sscanf(n.c_str(), "session-%d.json", &k) == 1 || std::sscanf(n.c_str(), "deformed-%d.", &k) == 1 ||
           std::sscanf(n.c_str(), "screenshot-%d.png", &k) == 1 || std::sscanf(n.c_str(), "mesh-%d.vtu", &k) == 1 ||
           std::sscanf(n.c_str(), "handles-%d.json", &k) == 1)
         next_ = std::max(next_, k);
@@ -46,14 +46,15 @@ std::string SessionExport::write(const Session& session, const HandleSet& handle
     writeHandles(handles, picked, input_.dims(), path("handles", ".json"));
     Volume shown;
     const bool simulated = deform.exportDeformed(shown);
-    writeNifti(simulated ? shown : input_, path("deformed", ".nii.gz"));
+    const char* volumeExt = nrrd_ ? ".nrrd" : ".nii.gz";
+    writeVolume(simulated ? shown : input_, path("deformed", volumeExt));
     const bool mesh = simulated && deform.exportMesh(path("mesh", ".vtu"));
     const bool image = !frame.rgba.empty();
     if (image) writePng(path("screenshot", ".png"), frame.width, frame.height, frame.rgba);
     ++count_;
     summary << "exported to " << dir_.string() << ": session-" << tag << ".json (" << session.script().events.size() << " events), handles-" << tag << ".json ("
             << handles.handles().size() << "), deformed-" << tag
-            << ".nii.gz" << (simulated ? "" : " (nothing simulated: the input)") << (mesh ? std::string(", mesh-") + tag + ".vtu" : "")
+            << volumeExt << (simulated ? "" : " (nothing simulated: the input)") << (mesh ? std::string(", mesh-") + tag + ".vtu" : "")
             << (image ? std::string(", screenshot-") + tag + ".png" : "");
   } catch (const std::exception& e) {
     return std::string("export failed: ") + e.what();

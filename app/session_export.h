@@ -25,7 +25,8 @@ namespace handson {
 class SessionExport {
  public:
   /// `dir` is created at the first export. `input` must outlive this.
-  SessionExport(std::filesystem::path dir, const Volume& input) : dir_(std::move(dir)), input_(input) {}
+  /// `nrrd`: the deformed volume as NRRD (deformed-NN.nrrd) instead of NIfTI (deformed-NN.nii.gz).
+  SessionExport(std::filesystem::path dir, const Volume& input, bool nrrd = false) : dir_(std::move(dir)), input_(input), nrrd_(nrrd) {}
 
   /// The session extension for the "export" action: marks an export as pending.
   bool onUi(const ScriptEvent& e);
@@ -40,6 +41,7 @@ class SessionExport {
  private:
   std::filesystem::path dir_;
   const Volume& input_;
+  bool nrrd_ = false;
   bool pending_ = false;
   int count_ = 0;  ///< exports written by this session
   int next_ = 0;   ///< the number of the last export in the directory

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "app/nifti_io.h"
+#include "app/volume_io.h"
 #include "app/png_io.h"
 #include "app/session_recovery.h"
 #include "sim/phantom.h"
@@ -390,11 +391,15 @@ TEST(Replay, TheExportActionWritesTheSessionTheDeformedVolumeTheMeshAndAScreensh
   EXPECT_LT((saved.handles[0].pose.translation - before->translation).norm(), 1e-3);
   std::string again;
   // (It holds the export action too: replayed into the same directory, it numbers on, never overwrites.)
-  ASSERT_EQ(run("replay " + (out / "session-01.json").string() + " --fps 10 --size 96x96 --quiet --sim off --print-handles --export-dir " + out.string(),
+  // (This time the deformed volume as NRRD, --export-format nrrd: numbered on after the NIfTI.)
+  ASSERT_EQ(run("replay " + (out / "session-01.json").string() + " --fps 10 --size 96x96 --quiet --sim off --print-handles --export-format nrrd --export-dir " +
+                    out.string(),
                 &again),
             0)
       << again;
   EXPECT_TRUE(fs::exists(out / "session-02.json")) << again;
+  ASSERT_TRUE(fs::exists(out / "deformed-02.nrrd")) << again;
+  EXPECT_EQ(handson::loadVolume((out / "deformed-02.nrrd").string()).dims(), def.dims());
   const auto after = firstHandle(again);
   ASSERT_TRUE(after.has_value()) << again;
   EXPECT_LT((after->translation - before->translation).norm(), 0.5) << log << again;
