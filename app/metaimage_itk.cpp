@@ -63,19 +63,19 @@ bool readHeader(const std::string& path, Header& h, std::string& error) {
       return false;
     }
     io->ReadImageInformation();
-  } catch (const itk::ExceptionObject& e) {
-    error = withCapture(e.GetDescription(), capture.text());
+    h.dimensions = io->GetNumberOfDimensions();
+    h.components = io->GetNumberOfComponents();
+    h.component = componentOf(io->GetComponentType());
+    h.componentBytes = h.component == Component::Other ? 0 : io->GetComponentSize();  // (throws on an unknown type)
+    for (unsigned d = 0; d < h.dimensions; ++d) {
+      h.size.push_back(io->GetDimensions(d));
+      h.spacing.push_back(io->GetSpacing(d));
+      h.origin.push_back(io->GetOrigin(d));
+      h.direction.push_back(io->GetDirection(d));
+    }
+  } catch (const std::exception& e) {  // itk::ExceptionObject and the standard ones ITK may let through
+    error = withCapture(e.what(), capture.text());
     return false;
-  }
-  h.dimensions = io->GetNumberOfDimensions();
-  h.components = io->GetNumberOfComponents();
-  h.component = componentOf(io->GetComponentType());
-  h.componentBytes = io->GetComponentSize();
-  for (unsigned d = 0; d < h.dimensions; ++d) {
-    h.size.push_back(io->GetDimensions(d));
-    h.spacing.push_back(io->GetSpacing(d));
-    h.origin.push_back(io->GetOrigin(d));
-    h.direction.push_back(io->GetDirection(d));
   }
   return true;
 }
@@ -109,6 +109,9 @@ bool readData(const std::string& path, const Header& h, void* out, std::string& 
     }
   } catch (const itk::ExceptionObject& e) {
     error = withCapture(e.GetDescription(), capture.text());
+    return false;
+  } catch (const std::exception& e) {
+    error = withCapture(e.what(), capture.text());
     return false;
   }
   return true;
