@@ -6,6 +6,7 @@
 #include <limits>
 #include <vector>
 
+#include "app/volume_import.h"
 #include "sim/error.h"
 #ifdef HANDSON_HAVE_ITK
 #include "app/metaimage_itk.h"
@@ -66,22 +67,11 @@ VolumeGeometry geometryOf(const metaio::Header& h, const std::string& path) {
     a.col(2) = Eigen::Vector3d(a.col(0)).cross(Eigen::Vector3d(a.col(1))).normalized();
   }
   const Eigen::Vector3d flip(-1, -1, 1);
-  a = flip.asDiagonal() * a;
-  origin = flip.cwiseProduct(origin);
-  if (!a.allFinite() || !origin.allFinite()) fail(path, "its spacing, direction or origin is not finite");
-  for (int c = 0; c < 3; ++c) {
-    const double n = a.col(c).norm();
-    if (!(n > 0)) fail(path, "axis " + std::to_string(c + 1) + " has zero spacing or direction");
-    g.spacing[c] = n;
-    g.direction.col(c) = a.col(c) / n;
-  }
-  g.origin = origin;
   try {
-    g.validate();
+    return geometryFromAxes(flip.asDiagonal() * a, flip.cwiseProduct(origin), g.dims);
   } catch (const Error& e) {
     fail(path, e.what());
   }
-  return g;
 }
 
 }  // namespace
@@ -110,23 +100,9 @@ Volume readMetaImage(const std::string& path, std::int64_t frame, MetaImageInfo*
   if (!metaio::readData(path, h, buffer.data(), error)) fail(path, error);
   if (info) info->frames = frames;
   const std::size_t base = std::size_t(frame) * count;
-  if (h.component == metaio::Component::UInt8) {
-    Volume v(g, ScalarType::UInt8);
-    std::memcpy(v.bytes(), buffer.data() + base, count);
-    return v;
-  }
-  bool fitsInt16 = h.component != metaio::Component::Float32 && h.component != metaio::Component::Float64;
-  for (std::size_t i = 0; fitsInt16 && i < count; ++i) {
-    const double x = valueAt(h.component, buffer, base + i);
-    fitsInt16 = x >= -32768.0 && x <= 32767.0;
-  }
-  Volume v(g, fitsInt16 ? ScalarType::Int16 : ScalarType::Float32);
-  for (std::size_t i = 0; i < count; ++i) {
-    const double x = valueAt(h.component, buffer, base + i);
-    if (fitsInt16) v.data<std::int16_t>()[i] = std::int16_t(x);
-    else v.data<float>()[i] = std::isfinite(x) && std::abs(x) > 3.4e38 ? float(std::copysign(3.4e38, x)) : float(x);
-  }
-  return v;
+  return volumeFromValues(g, h.component == metaio::Component::UInt8,
+                          h.component != metaio::Component::Float32 && h.component != metaio::Component::Float64,
+                          [&](std::size_t i) { return valueAt(h.component, buffer, base + i); });
 }
 #endif
 

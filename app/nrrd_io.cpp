@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "app/atomic_file.h"
+#include "app/volume_import.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -119,26 +120,15 @@ VolumeGeometry geometryOf(const Nrrd* n, const Layout& l, const std::string& pat
     const Eigen::Vector3d normal = Eigen::Vector3d(a.col(0)).cross(Eigen::Vector3d(a.col(1)));
     a.col(2) = normal.norm() > 0 ? Eigen::Vector3d(normal.normalized()) : Eigen::Vector3d::UnitZ();
   }
-  if (!a.allFinite()) fail(path, "its space directions are not finite");
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   if (n->spaceDim == 3)
     for (int r = 0; r < 3; ++r) origin[r] = std::isfinite(n->spaceOrigin[r]) ? n->spaceOrigin[r] : 0.0;
   const Eigen::Vector3d sign = toRasSigns(n->space);
-  a = sign.asDiagonal() * a;
-  origin = sign.cwiseProduct(origin);
-  for (int c = 0; c < 3; ++c) {
-    const double norm = a.col(c).norm();
-    if (!(norm > 0)) fail(path, "space direction " + std::to_string(c + 1) + " is zero");
-    g.spacing[c] = norm;
-    g.direction.col(c) = a.col(c) / norm;
-  }
-  g.origin = origin;
   try {
-    g.validate();
+    return geometryFromAxes(sign.asDiagonal() * a, sign.cwiseProduct(origin), g.dims);
   } catch (const Error& e) {
     fail(path, e.what());
   }
-  return g;
 }
 
 }  // namespace
@@ -181,24 +171,8 @@ Volume readNrrd(const std::string& path, std::int64_t frame, NrrdInfo* info) {
     const std::size_t x = i % std::size_t(d.x()), y = (i / std::size_t(d.x())) % std::size_t(d.y()), z = i / (std::size_t(d.x()) * std::size_t(d.y()));
     return base + x * s[0] + y * s[1] + z * s[2];
   };
-  const std::size_t count = geometry.voxelCount();
-  if (n->type == nrrdTypeUChar) {
-    Volume v(geometry, ScalarType::UInt8);
-    for (std::size_t i = 0; i < count; ++i) v.data<std::uint8_t>()[i] = static_cast<const std::uint8_t*>(n->data)[sourceIndex(i)];
-    return v;
-  }
-  bool fitsInt16 = n->type != nrrdTypeFloat && n->type != nrrdTypeDouble;
-  for (std::size_t i = 0; fitsInt16 && i < count; ++i) {
-    const double x = valueAt(n.get(), sourceIndex(i));
-    fitsInt16 = x >= -32768.0 && x <= 32767.0;
-  }
-  Volume v(geometry, fitsInt16 ? ScalarType::Int16 : ScalarType::Float32);
-  for (std::size_t i = 0; i < count; ++i) {
-    const double x = valueAt(n.get(), sourceIndex(i));
-    if (fitsInt16) v.data<std::int16_t>()[i] = std::int16_t(x);
-    else v.data<float>()[i] = std::isfinite(x) && std::abs(x) > 3.4e38 ? float(std::copysign(3.4e38, x)) : float(x);
-  }
-  return v;
+  return volumeFromValues(geometry, n->type == nrrdTypeUChar, n->type != nrrdTypeFloat && n->type != nrrdTypeDouble,
+                          [&](std::size_t i) { return valueAt(n.get(), sourceIndex(i)); });
 }
 
 void writeNrrd(const Volume& volume, const std::string& path) {

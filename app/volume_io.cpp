@@ -12,6 +12,7 @@
 #include "app/nifti_io.h"
 #include "app/metaimage_io.h"
 #include "app/nrrd_io.h"
+#include "app/volume_import.h"
 #include "sim/error.h"
 #include "sim/phantom.h"
 
@@ -71,11 +72,7 @@ Volume loadVolume(const std::string& path, LoadReport* report, const ProgressFn&
     reportProgress(progress, 1.0, "reading MetaImage");
     if (report) {
       report->format = "MetaImage";
-      report->frames = info.frames;
-      report->frame = options.frame;
-      if (info.frames > 1)
-        report->warnings.push_back("'" + path + "' holds " + std::to_string(info.frames) + " volumes; volume " + std::to_string(options.frame) +
-                                   " is loaded (choose another with --frame N)");
+      reportFrames(*report, path, info.frames, options.frame);
     }
     return v;
   }
@@ -86,11 +83,7 @@ Volume loadVolume(const std::string& path, LoadReport* report, const ProgressFn&
     reportProgress(progress, 1.0, "reading NRRD");
     if (report) {
       report->format = "NRRD" + (info.space.empty() ? std::string() : " (" + info.space + " space)");
-      report->frames = info.frames;
-      report->frame = options.frame;
-      if (info.frames > 1)
-        report->warnings.push_back("'" + path + "' holds " + std::to_string(info.frames) + " volumes; volume " + std::to_string(options.frame) +
-                                   " is loaded (choose another with --frame N)");
+      reportFrames(*report, path, info.frames, options.frame);
     }
     return v;
   }

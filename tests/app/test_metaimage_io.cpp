@@ -19,6 +19,7 @@
 
 #include "app/nrrd_io.h"
 #include "app/volume_io.h"
+#include "file_test_fixture.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -26,29 +27,16 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class MetaImageIo : public ::testing::Test {
+class MetaImageIo : public test::FileTest {
  protected:
   void SetUp() override {
 #ifndef HANDSON_HAVE_ITK
     GTEST_SKIP() << "built without MetaImage support (ITK's headers build with GCC only)";
 #endif
-    static std::atomic<int> counter{0};
-    dir_ = fs::temp_directory_path() / ("handson_mha_test_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
-    fs::create_directories(dir_);
+    FileTest::SetUp();
   }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-  void write(const std::string& name, const std::string& bytes) const {
-    std::ofstream out(path(name), std::ios::binary);
-    out << bytes;
-  }
-  fs::path dir_;
 };
-
-template <class T> std::string raw(const std::vector<T>& v) { return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T)); }
+using test::raw;
 
 std::string zlibbed(const std::string& s) {
   uLongf n = compressBound(uLong(s.size()));
@@ -127,7 +115,7 @@ TEST_F(MetaImageIo, CompressedDetached4DAnd2D) {
 }
 
 // Short data (MetaIO only says so on its streams), a missing data file, colour, absurd sizes and
-// garbage: one clear error naming the file (also in a build without MetaImage support).
+// garbage: one clear error naming the file.
 TEST_F(MetaImageIo, BrokenFilesAreRefused) {
   const std::string head = "ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_SHORT\n";
   write("short.mha", head + "ElementDataFile = LOCAL\n" + std::string(20, '\1'));

@@ -18,6 +18,7 @@
 
 #include "app/nifti_io.h"
 #include "app/volume_io.h"
+#include "file_test_fixture.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -25,26 +26,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class NrrdIo : public ::testing::Test {
- protected:
-  void SetUp() override {
-    static std::atomic<int> counter{0};
-    dir_ = fs::temp_directory_path() / ("handson_nrrd_test_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-  void write(const std::string& name, const std::string& bytes) const {
-    std::ofstream out(path(name), std::ios::binary);
-    out << bytes;
-  }
-  fs::path dir_;
-};
-
-template <class T> std::string raw(const std::vector<T>& v) { return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T)); }
+using NrrdIo = test::FileTest;
+using test::raw;
 
 std::string gzipped(const std::string& s) {
   z_stream z{};
