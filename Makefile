@@ -7,7 +7,7 @@
 PACKAGES := build-essential cmake ninja-build pkg-config \
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslc \
   libsdl2-dev libeigen3-dev libtet1.5-dev libglm-dev libgtest-dev libgmock-dev libbenchmark-dev \
-  libsuitesparse-dev libteem-dev libinsighttoolkit5-dev libopenblas0-pthread libgdcm-dev libpng-dev zlib1g-dev libimgui-dev libstb-dev nlohmann-json3-dev gnuplot-nox xvfb xauth xdotool
+  libsuitesparse-dev libteem-dev libopenblas0-pthread libgdcm-dev libpng-dev zlib1g-dev libimgui-dev libstb-dev nlohmann-json3-dev gnuplot-nox xvfb xauth xdotool
 FUZZ_PACKAGES := clang libclang-rt-14-dev
 FUZZ_SECONDS ?= 60
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)

@@ -1,5 +1,5 @@
 #pragma once
-// What the readers built on other libraries (NRRD through Teem, MetaImage through ITK) share: the
+// What the readers built on other libraries (NRRD through Teem) share with the loader: the
 // grid from a file's axes, and the values kept the way the NIfTI reader keeps them.
 #include <Eigen/Core>
 #include <cstddef>

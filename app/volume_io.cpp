@@ -10,7 +10,6 @@
 
 #include "app/dicom_io.h"
 #include "app/nifti_io.h"
-#include "app/metaimage_io.h"
 #include "app/nrrd_io.h"
 #include "app/volume_import.h"
 #include "sim/error.h"
@@ -65,17 +64,8 @@ Volume loadVolume(const std::string& path, LoadReport* report, const ProgressFn&
     }
     return v;
   }
-  if (kind == "metaimage") {
-    reportProgress(progress, 0.0, "reading MetaImage");
-    MetaImageInfo info;
-    Volume v = readMetaImage(path, options.frame, &info);
-    reportProgress(progress, 1.0, "reading MetaImage");
-    if (report) {
-      report->format = "MetaImage";
-      reportFrames(*report, path, info.frames, options.frame);
-    }
-    return v;
-  }
+  if (kind == "metaimage")
+    throw Error("'" + path + "' is a MetaImage file, which this version cannot read yet: convert it to NIfTI or NRRD (e.g. with 3D Slicer or `c3d`)");
   if (kind == "nrrd") {
     reportProgress(progress, 0.0, "reading NRRD");
     NrrdInfo info;
