@@ -526,13 +526,19 @@ TEST(DicomIo, TruncatedOrCorruptJpeg2000SliceThrowsNamingFile) {
 #endif
 }
 
+// Two series in one directory: ircadb's first 10 slices (image_0..9) and 3 JPEG 2000 slices
+// (other_0..2).
+void linkTwoSeries(const TempDir& dir) {
+  for (int k = 0; k < 10; ++k) dir.link(ircadbSlice(k), "image_" + std::to_string(k));
+  const std::vector<std::string> j2k = jpeg2000Files();
+  for (int k = 0; k < 3; ++k) dir.link(j2k[k], "other_" + std::to_string(k));
+}
+
 TEST(DicomIo, TwoSeriesPicksLargerAndWarns) {
   REQUIRE_IRCADB();
   REQUIRE_JPEG2000();
   TempDir dir;
-  for (int k = 0; k < 10; ++k) dir.link(ircadbSlice(k), "image_" + std::to_string(k));
-  const std::vector<std::string> j2k = jpeg2000Files();
-  for (int k = 0; k < 3; ++k) dir.link(j2k[k], "other_" + std::to_string(k));
+  linkTwoSeries(dir);
   DicomReadReport r;
   const Volume v = readDicomSeries(dir.path(), &r);
   ASSERT_EQ(r.seriesFound.size(), 2u);
@@ -554,9 +560,8 @@ TEST(DicomIo, OneFileGivenLoadsItsOwnSeries) {
   REQUIRE_IRCADB();
   REQUIRE_JPEG2000();
   TempDir dir;
-  for (int k = 0; k < 10; ++k) dir.link(ircadbSlice(k), "image_" + std::to_string(k));
+  linkTwoSeries(dir);
   const std::vector<std::string> j2k = jpeg2000Files();
-  for (int k = 0; k < 3; ++k) dir.link(j2k[k], "other_" + std::to_string(k));
   EXPECT_EQ(sniffVolumeFormat(dir.file("image_4")), "dicom");
   EXPECT_EQ(sniffVolumeFormat(dir.file("other_1")), "dicom");
 
