@@ -649,155 +649,134 @@ Volume regularizeSlices(const Volume& in, const std::vector<double>& keys, doubl
   return v;
 }
 
-Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress,
-                                 const std::string& seriesOf) {
-  DicomReadReport report;
-  std::error_code ec;
-  const fs::file_status st = fs::status(directory, ec);
-  if (directory.empty() || ec || !fs::exists(st)) throw Error("DICOM directory '" + directory + "' does not exist");
-  if (!fs::is_directory(st))
-    throw Error("'" + directory +
-                "' is not a directory: give the directory that holds the DICOM series' slice files, not a single file");
+// The slice axis of two or more slices sorted by `key` (their position along `normal`, mm) at
+// `positions`: its direction, its spacing, and - steps more than 10 % from the median - the regular
+// step to resample onto (0 when even). Fills the report's step figures and warnings.
+struct SliceAxis {
+  Eigen::Vector3d direction;
+  double spacing = 1.0, regularStep = 0.0;
+};
 
-  reportProgress(progress, 0.0, "scanning DICOM directory");
-  const DirectoryListing listing = listDirectory(directory);
-  const std::vector<std::string>& files = listing.files;
-  if (files.empty())
-    throw Error("DICOM directory '" + directory + "' holds no files: no DICOM images found" + subdirectoryHint(listing));
-
-  // --- Check each file's structure first: GDCM aborts on some truncated headers.
-  std::vector<std::string> candidates;
-  std::set<std::string> withPixelData;
-  int skipped = 0;
-  for (std::size_t f = 0; f < files.size(); ++f) {
-    DicomStructureCheck check(files[f]);
-    switch (check.run()) {
-      case DicomStructureCheck::Verdict::Ok:
-        candidates.push_back(files[f]);
-        if (check.hasPixelData()) withPixelData.insert(files[f]);
-        break;
-      case DicomStructureCheck::Verdict::NotDicom: ++skipped; break;
-      case DicomStructureCheck::Verdict::Broken:
-        // One file given (its series wanted): a damaged file of the directory that is not it is
-        // left out, with a warning, rather than refusing the series.
-        if (!seriesOf.empty() && fileName(files[f]) != fileName(seriesOf)) {
-          report.warnings.push_back("DICOM file '" + fileName(files[f]) + "' in '" + directory + "' is truncated or corrupt (" + check.problem() +
-                                    "): left out");
-          break;
-        }
-        throw Error("DICOM file '" + files[f] + "' is truncated or corrupt (" + check.problem() +
-                    "); remove or replace it");
-    }
+SliceAxis sliceAxisOf(const std::vector<SliceHeader>& slices, const std::vector<Eigen::Vector3d>& positions, const Eigen::Vector3d& normal,
+                      double pixelSpacing, const std::string& directory, DicomReadReport& report) {
+  const int n = int(slices.size());
+  SliceAxis axis;
+  std::vector<double> steps;
+  for (int s = 0; s + 1 < n; ++s) steps.push_back(slices[s + 1].key - slices[s].key);
+  const double med = median(steps);
+  report.minStepMm = *std::min_element(steps.begin(), steps.end());
+  report.maxStepMm = *std::max_element(steps.begin(), steps.end());
+  report.sliceStepMm = med;
+  for (double s : steps)
+    if (std::abs(s - med) > 0.1 * med) report.spacingGaps = true;
+  if (report.spacingGaps) {
+    // Resampled onto a regular grid at the smallest step (at most twice the slice count, so that
+    // two near-duplicate positions cannot blow the volume up), by linear interpolation between the
+    // two slices around each grid position: every slice stays where it was acquired.
+    const double span = slices.back().key - slices.front().key;
+    axis.regularStep = std::max(report.minStepMm, span / double(2 * n));
+    std::ostringstream w;
+    w << "DICOM slice spacing is uneven: steps range from " << formatMm(report.minStepMm) << " to " << formatMm(report.maxStepMm)
+      << " mm (missing slices?); the " << n << " slices are resampled onto a regular grid of " << std::lround(span / axis.regularStep) + 1
+      << " slices " << formatMm(axis.regularStep) << " mm apart (linear interpolation between neighbouring slices)";
+    report.warnings.push_back(w.str());
+    report.sliceStepMm = axis.regularStep;
   }
-  if (candidates.empty()) {
-    std::ostringstream msg;
-    msg << "no DICOM images found in '" << directory << "' (" << files.size() << " file"
-        << (files.size() == 1 ? "" : "s") << " checked, none is a DICOM file)" << subdirectoryHint(listing);
-    throw Error(msg.str());
+  const Eigen::Vector3d span = positions.back() - positions.front();
+  axis.direction = span.normalized();
+  const double cosTilt = axis.direction.dot(normal);
+  if (!(cosTilt > 0.1))
+    throw Error("DICOM slice positions in '" + directory + "' do not advance along the slice normal");
+  axis.spacing = (axis.regularStep > 0 ? axis.regularStep : med) / cosTilt;
+  if (cosTilt < std::cos(0.5 * 3.14159265358979 / 180.0)) {
+    std::ostringstream w;
+    w << "DICOM slices are sheared (gantry tilt of " << formatMm(std::acos(std::min(1.0, cosTilt)) * 180.0 / 3.14159265358979)
+      << " degrees); the volume keeps the tilted slice axis";
+    report.warnings.push_back(w.str());
   }
-
-  GdcmTraceCapture quiet;
-
-  // --- Scan headers and group the image files by series.
-  gdcm::Scanner scanner;
-  for (const gdcm::Tag& t : {kSeriesInstanceUid, kSeriesDescription, kSopInstanceUid, kImagePosition,
-                             kImageOrientation, kRows, kColumns, kPixelSpacing, kNumberOfFrames, kSliceThickness,
-                             kSpacingBetweenSlices, kPhotometric, kSamplesPerPixel, kBitsAllocated, kBitsStored, kHighBit,
-                             kPixelRepresentation, kRecognitionCode})
-    scanner.AddTag(t);
-  scanner.Scan(candidates);
-
-  std::map<std::string, std::vector<SliceHeader>> bySeries;
-  std::map<std::string, std::string> descriptions;
-  std::optional<std::string> wantedUid;  // the series of the file given, if one was
-  if (!seriesOf.empty())
-    for (const std::string& f : candidates)
-      if (fileName(f) == fileName(seriesOf) && scanner.IsKey(f.c_str())) wantedUid = tagText(scanner, f, kSeriesInstanceUid);
-  for (const std::string& f : candidates) {
-    if (!scanner.IsKey(f.c_str())) {
-      ++skipped;
-      continue;
-    }
-    SliceHeader h;
-    h.path = f;
-    const std::string rowsText = tagText(scanner, f, kRows), colsText = tagText(scanner, f, kColumns);
-    if (rowsText.empty() && colsText.empty()) {
-      ++skipped;  // DICOM, but not an image (DICOMDIR, structured report, ...)
-      continue;
-    }
-    // One file given: files of other series that this reader cannot take are left out with a
-    // warning; the given file's own series must be sound.
-    try {
-      // An image whose header or pixel data stops early: cut at an element boundary, so GDCM would
-      // read it without complaint.
-      const auto rows = parseNumbers(rowsText);
-      const auto cols = parseNumbers(colsText);
-      if (!rows || !cols || rows->size() != 1 || cols->size() != 1 || (*rows)[0] < 1 || (*cols)[0] < 1)
-        throw Error("DICOM file '" + f + "' is truncated or corrupt (no valid Rows and Columns); remove or replace it");
-      if (!withPixelData.count(f))
-        throw Error("DICOM file '" + f + "' is truncated or corrupt (an image without pixel data); remove or replace it");
-      // Checked before GDCM decodes the pixels: its pixmap reader asserts (aborts the process) on a
-      // photometric interpretation it does not know (found by fuzz_dicom).
-      const std::string photometric = trim(tagText(scanner, f, kPhotometric));
-      if (photometric != "MONOCHROME1" && photometric != "MONOCHROME2")
-        throw Error("DICOM file '" + f + "' has photometric interpretation '" + photometric +
-                    "': only grayscale images (MONOCHROME1, MONOCHROME2) can be read as a CT or MR volume");
-      // GDCM asserts on these too (SamplesPerPixel over 4, found by fuzz_dicom): one grayscale sample
-      // of 8, 16 or 32 bits, stored bits and high bit within it, signed or unsigned.
-      auto number = [&](const gdcm::Tag& tag) -> std::optional<double> {
-        const auto v = parseNumbers(tagText(scanner, f, tag));
-        return v && v->size() == 1 ? std::optional<double>((*v)[0]) : std::nullopt;
-      };
-      const auto spp = number(kSamplesPerPixel), allocated = number(kBitsAllocated), stored = number(kBitsStored),
-                 high = number(kHighBit), representation = number(kPixelRepresentation);
-      if ((spp && *spp != 1) || !allocated || (*allocated != 8 && *allocated != 16 && *allocated != 32) ||
-          (stored && (*stored < 1 || *stored > *allocated)) || (high && (*high < 0 || *high >= *allocated)) ||
-          (representation && *representation != 0 && *representation != 1))
-        throw Error("DICOM file '" + f + "' has a pixel format this reader does not take (samples per pixel " +
-                    tagText(scanner, f, kSamplesPerPixel) + ", bits allocated " + tagText(scanner, f, kBitsAllocated) + ", stored " +
-                    tagText(scanner, f, kBitsStored) + ", high bit " + tagText(scanner, f, kHighBit) +
-                    "): one grayscale sample of 8, 16 or 32 bits is expected");
-      // And on an ACR-NEMA recognition code it does not know (found by fuzz_dicom).
-      if (scanner.GetValue(f.c_str(), kRecognitionCode)) {
-        const std::string code = trim(tagText(scanner, f, kRecognitionCode));
-        if (code.rfind("ACR-NEMA", 0) != 0 && code.rfind("ACRNEMA", 0) != 0 && code.rfind("MIPS 2.0", 0) != 0)
-          throw Error("DICOM file '" + f + "' has an unknown ACR-NEMA recognition code '" + code + "'");
-      }
-      h.rows = int((*rows)[0]);
-      h.columns = int((*cols)[0]);
-      if (representation) h.pixelRepresentation = int(*representation);
-      if (stored) h.bitsStored = int(*stored);
-      h.seriesUid = tagText(scanner, f, kSeriesInstanceUid);
-      h.sopUid = tagText(scanner, f, kSopInstanceUid);
-      if (const auto fr = parseNumbers(tagText(scanner, f, kNumberOfFrames)); fr && fr->size() == 1 && (*fr)[0] >= 1)
-        h.frames = int((*fr)[0]);
-      h.pixelSpacing = parseNumbers(tagText(scanner, f, kPixelSpacing));
-      h.orientation = parseNumbers(tagText(scanner, f, kImageOrientation));
-      h.position = parseNumbers(tagText(scanner, f, kImagePosition));
-      if (!descriptions.count(h.seriesUid)) descriptions[h.seriesUid] = tagText(scanner, f, kSeriesDescription);
-      bySeries[h.seriesUid].push_back(std::move(h));
-    } catch (const Error& e) {
-      if (!wantedUid || tagText(scanner, f, kSeriesInstanceUid) == *wantedUid) throw;
-      report.warnings.push_back(std::string(e.what()) + " (another series than the file's: left out)");
-      continue;
-    }
+  // Slices far off the line from the first to the last position.
+  double offLine = 0.0;
+  for (const Eigen::Vector3d& p : positions) {
+    const Eigen::Vector3d d = p - positions.front();
+    offLine = std::max(offLine, (d - d.dot(axis.direction) * axis.direction).norm());
   }
-  if (bySeries.empty()) {
-    std::ostringstream msg;
-    msg << "no DICOM images found in '" << directory << "' (" << files.size() << " file"
-        << (files.size() == 1 ? "" : "s") << " checked, none is a readable DICOM image)" << subdirectoryHint(listing);
-    throw Error(msg.str());
-  }
+  if (offLine > 0.5 * pixelSpacing)
+    report.warnings.push_back("DICOM slice positions do not lie on one line (up to " + formatMm(offLine) +
+                              " mm off); the volume assumes they do");
+  return axis;
+}
 
+// One slice read by GDCM: checked against the series' size and its own pixel data, decoded into
+// `buffer` (its stored values, as GDCM's pixel type says). Throws handson::Error naming the file.
+struct DecodedSlice {
+  std::string syntax;
+  gdcm::PixelFormat::ScalarType pixelType{};
+  bool monochrome1 = false;
+  double slope = 1.0, intercept = 0.0;
+};
+
+DecodedSlice decodeSlice(const gdcm::ImageReader& reader, const std::string& path, bool incomplete, int columns, int rows, std::vector<char>& buffer) {
+  DecodedSlice d;
+  const gdcm::Image& image = reader.GetImage();
+  d.syntax = transferSyntaxText(image.GetTransferSyntax());
+  const std::string& syntax = d.syntax;
+  if (image.GetNumberOfDimensions() == 3 && image.GetDimension(2) > 1)
+    throw Error("DICOM file '" + path + "' holds several frames: multi-frame DICOM is not supported");
+  if (int(image.GetColumns()) != columns || int(image.GetRows()) != rows)
+    throw Error("DICOM file '" + path + "' has a pixel matrix of " + std::to_string(image.GetColumns()) + "x" +
+                std::to_string(image.GetRows()) + ", unlike the rest of the series (" + std::to_string(columns) + "x" + std::to_string(rows) + ")");
+  const gdcm::PixelFormat& pf = image.GetPixelFormat();
+  if (pf.GetSamplesPerPixel() != 1)
+    throw Error("DICOM file '" + path + "' holds colour images (" + std::to_string(pf.GetSamplesPerPixel()) +
+                " samples per pixel): only greyscale volumes are supported");
+  d.pixelType = pf.GetScalarType();
+  const std::size_t pixelSize = pixelTypeSize(d.pixelType);
+  if (pixelSize == 0) throw Error("DICOM file '" + path + "' uses an unsupported pixel format (" + pf.GetScalarTypeAsString() + ")");
+  d.monochrome1 = image.GetPhotometricInterpretation() == gdcm::PhotometricInterpretation::MONOCHROME1;
+  const std::size_t expected = std::size_t(columns) * std::size_t(rows) * pixelSize;
+  if (image.GetBufferLength() != expected)
+    throw Error("DICOM file '" + path + "': unexpected pixel data size (" + std::to_string(image.GetBufferLength()) + " bytes instead of " +
+                std::to_string(expected) + ")");
+  const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
+  if (!ds.FindDataElement(gdcm::Tag(0x7fe0, 0x0010)))
+    throw Error("DICOM file '" + path + "' has no pixel data: the file is truncated or not an image");
+  if (!image.GetTransferSyntax().IsEncapsulated()) {  // (compressed data: the codec checks its own)
+    // Uncompressed pixel data shorter than the image: GDCM may accept a truncated file.
+    const gdcm::DataElement& pd = ds.GetDataElement(gdcm::Tag(0x7fe0, 0x0010));
+    const gdcm::ByteValue* bv = pd.GetByteValue();
+    std::error_code sizeError;
+    const std::uintmax_t fileSize = fs::file_size(path, sizeError);
+    // (A deflated file is legitimately smaller than its pixel data.)
+    const bool deflated = reader.GetFile().GetHeader().GetDataSetTransferSyntax() == gdcm::TransferSyntax::DeflatedExplicitVRLittleEndian;
+    if (bv && (incomplete || bv->GetLength() < expected || (!sizeError && !deflated && fileSize < expected)))
+      throw Error("DICOM file '" + path + "' is truncated: its pixel data is shorter than the " + std::to_string(columns) + "x" +
+                  std::to_string(rows) + " image it declares");
+    if (!bv && !pd.GetSequenceOfFragments())
+      throw Error("DICOM file '" + path + "' has empty pixel data: the file is truncated or corrupt");
+  }
+  buffer.resize(expected);
+  if (!image.GetBuffer(buffer.data()))
+    throw Error("cannot decode the pixel data of DICOM file '" + path + "' (transfer syntax " + syntax + "): " +
+                codestreamMismatch(path, columns, rows) + "the file is truncated or corrupt, or the compression is not supported");
+  if (const auto v = parseNumbers(datasetText(ds, kRescaleSlope)); v && !v->empty() && (*v)[0] != 0.0) d.slope = (*v)[0];
+  if (const auto v = parseNumbers(datasetText(ds, kRescaleIntercept)); v && !v->empty()) d.intercept = (*v)[0];
+  return d;
+}
+
+// Lists the series found (largest first) in the report and chooses one: the series of the file
+// `seriesOf` when given, else the largest; says so when there are several. Throws handson::Error
+// when the given file is in none of them.
+void chooseSeries(const std::map<std::string, std::vector<SliceHeader>>& bySeries, const std::map<std::string, std::string>& descriptions,
+                  const std::string& seriesOf, const std::string& directory, DicomReadReport& report) {
   for (const auto& [uid, slices] : bySeries)
-    report.seriesFound.push_back(DicomSeriesInfo{uid, descriptions[uid], int(slices.size())});
+    report.seriesFound.push_back(DicomSeriesInfo{uid, descriptions.at(uid), int(slices.size())});
   std::stable_sort(report.seriesFound.begin(), report.seriesFound.end(),
                    [](const DicomSeriesInfo& a, const DicomSeriesInfo& b) { return a.fileCount > b.fileCount; });
   report.chosen = report.seriesFound.front();
   if (!seriesOf.empty()) {  // the series of the file the user gave
     const std::string want = fileName(seriesOf);
     const auto holds = [&](const DicomSeriesInfo& s) {
-      const auto& sl = bySeries[s.seriesInstanceUid];
+      const auto& sl = bySeries.at(s.seriesInstanceUid);
       return std::any_of(sl.begin(), sl.end(), [&](const SliceHeader& h) { return fileName(h.path) == want; });
     };
     const auto it = std::find_if(report.seriesFound.begin(), report.seriesFound.end(), holds);
@@ -823,14 +802,12 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
     }
     report.warnings.push_back(w.str());
   }
-  if (skipped > 0)
-    report.warnings.push_back(std::to_string(skipped) + " file" + (skipped == 1 ? "" : "s") + " in '" + directory +
-                              "' ignored: not DICOM images");
+}
 
-  std::vector<SliceHeader> slices = std::move(bySeries[report.chosen.seriesInstanceUid]);
-
-  // --- Check the slices agree on size, pixel spacing and orientation.
-  const SliceHeader ref = slices.front();  // a copy: `slices` is rebuilt below
+// The slices of one series agree on size, pixel spacing and orientation, one slice per file.
+// Throws handson::Error naming the two files that differ.
+void checkSlicesAgree(const std::vector<SliceHeader>& slices, const std::string& directory) {
+  const SliceHeader& ref = slices.front();
   for (const SliceHeader& h : slices) {
     if (h.frames > 1)
       throw Error("DICOM file '" + h.path + "' holds " + std::to_string(h.frames) +
@@ -855,36 +832,12 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
       throw Error("DICOM slices differ in orientation (ImageOrientationPatient): '" + fileName(ref.path) + "' and '" +
                   fileName(h.path) + "' (in '" + directory + "')");
   }
+}
 
-  // Pixel spacing: DICOM gives "row spacing \ column spacing".
-  double rowSpacing = 1.0, columnSpacing = 1.0;
-  if (ref.pixelSpacing && ref.pixelSpacing->size() == 2 && (*ref.pixelSpacing)[0] > 0 && (*ref.pixelSpacing)[1] > 0) {
-    rowSpacing = (*ref.pixelSpacing)[0];
-    columnSpacing = (*ref.pixelSpacing)[1];
-  } else {
-    report.warnings.push_back("DICOM series has no valid PixelSpacing (0028,0030); assuming 1 mm pixels");
-  }
-
-  // Orientation (converted to RAS right away; dot and cross products are unaffected).
-  Eigen::Vector3d rowDir(-1, 0, 0), colDir(0, -1, 0);  // RAS of LPS identity
-  if (ref.orientation && ref.orientation->size() == 6) {
-    const auto& o = *ref.orientation;
-    Eigen::Vector3d r = lpsToRas({o[0], o[1], o[2]}), c = lpsToRas({o[3], o[4], o[5]});
-    if (r.norm() < 0.5 || c.norm() < 0.5 || std::abs(r.normalized().dot(c.normalized())) > 1e-2)
-      throw Error("DICOM ImageOrientationPatient of '" + fileName(ref.path) +
-                  "' is not a pair of perpendicular unit vectors");
-    rowDir = r.normalized();
-    colDir = c.normalized();
-  } else if (slices.size() > 1) {
-    throw Error("DICOM series in '" + directory +
-                "' has no valid ImageOrientationPatient (0020,0037): the slices cannot be placed in space");
-  } else {
-    report.warnings.push_back("DICOM image has no valid ImageOrientationPatient; assuming axial orientation");
-  }
-  const Eigen::Vector3d normal = rowDir.cross(colDir).normalized();
-
-  // --- Sort by position along the normal.
-  std::vector<Eigen::Vector3d> positions;
+// Sorts the slices by position along `normal` (their key, mm) and drops a second copy of the same
+// instance; two different images at one position are refused. A single slice without a position is
+// placed at the origin.
+void sortSlicesAlong(std::vector<SliceHeader>& slices, const Eigen::Vector3d& normal, const std::string& directory, DicomReadReport& report) {
   for (SliceHeader& h : slices) {
     if (!h.position || h.position->size() != 3) {
       if (slices.size() > 1)
@@ -918,6 +871,291 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
     }
     slices = std::move(unique);
   }
+}
+
+// Each file's structure walked before GDCM parses it (GDCM aborts on some truncated headers): the
+// DICOM files go to `candidates` (those with pixel data also to `withPixelData`), the rest count as
+// skipped. A damaged file is refused - unless one file was given (`seriesOf`) and it is another.
+void checkStructures(const std::vector<std::string>& files, const std::string& seriesOf, const std::string& directory, DicomReadReport& report,
+                     std::vector<std::string>& candidates, std::set<std::string>& withPixelData, int& skipped) {
+  for (std::size_t f = 0; f < files.size(); ++f) {
+    DicomStructureCheck check(files[f]);
+    switch (check.run()) {
+      case DicomStructureCheck::Verdict::Ok:
+        candidates.push_back(files[f]);
+        if (check.hasPixelData()) withPixelData.insert(files[f]);
+        break;
+      case DicomStructureCheck::Verdict::NotDicom: ++skipped; break;
+      case DicomStructureCheck::Verdict::Broken:
+        // One file given (its series wanted): a damaged file of the directory that is not it is
+        // left out, with a warning, rather than refusing the series.
+        if (!seriesOf.empty() && fileName(files[f]) != fileName(seriesOf)) {
+          report.warnings.push_back("DICOM file '" + fileName(files[f]) + "' in '" + directory + "' is truncated or corrupt (" + check.problem() +
+                                    "): left out");
+          break;
+        }
+        throw Error("DICOM file '" + files[f] + "' is truncated or corrupt (" + check.problem() +
+                    "); remove or replace it");
+    }
+  }
+}
+
+// The header of one image file as the scanner read it (rows and columns present), checked for what
+// this reader and GDCM take. Throws handson::Error naming the file otherwise.
+SliceHeader sliceHeaderOf(const gdcm::Scanner& scanner, const std::string& f, const std::string& rowsText, const std::string& colsText,
+                          bool hasPixelData) {
+  SliceHeader h;
+  h.path = f;
+  // An image whose header or pixel data stops early: cut at an element boundary, so GDCM would
+  // read it without complaint.
+  const auto rows = parseNumbers(rowsText);
+  const auto cols = parseNumbers(colsText);
+  if (!rows || !cols || rows->size() != 1 || cols->size() != 1 || (*rows)[0] < 1 || (*cols)[0] < 1)
+    throw Error("DICOM file '" + f + "' is truncated or corrupt (no valid Rows and Columns); remove or replace it");
+  if (!hasPixelData)
+    throw Error("DICOM file '" + f + "' is truncated or corrupt (an image without pixel data); remove or replace it");
+  // Checked before GDCM decodes the pixels: its pixmap reader asserts (aborts the process) on a
+  // photometric interpretation it does not know (found by fuzz_dicom).
+  const std::string photometric = trim(tagText(scanner, f, kPhotometric));
+  if (photometric != "MONOCHROME1" && photometric != "MONOCHROME2")
+    throw Error("DICOM file '" + f + "' has photometric interpretation '" + photometric +
+                "': only grayscale images (MONOCHROME1, MONOCHROME2) can be read as a CT or MR volume");
+  // GDCM asserts on these too (SamplesPerPixel over 4, found by fuzz_dicom): one grayscale sample
+  // of 8, 16 or 32 bits, stored bits and high bit within it, signed or unsigned.
+  auto number = [&](const gdcm::Tag& tag) -> std::optional<double> {
+    const auto v = parseNumbers(tagText(scanner, f, tag));
+    return v && v->size() == 1 ? std::optional<double>((*v)[0]) : std::nullopt;
+  };
+  const auto spp = number(kSamplesPerPixel), allocated = number(kBitsAllocated), stored = number(kBitsStored),
+             high = number(kHighBit), representation = number(kPixelRepresentation);
+  if ((spp && *spp != 1) || !allocated || (*allocated != 8 && *allocated != 16 && *allocated != 32) ||
+      (stored && (*stored < 1 || *stored > *allocated)) || (high && (*high < 0 || *high >= *allocated)) ||
+      (representation && *representation != 0 && *representation != 1))
+    throw Error("DICOM file '" + f + "' has a pixel format this reader does not take (samples per pixel " +
+                tagText(scanner, f, kSamplesPerPixel) + ", bits allocated " + tagText(scanner, f, kBitsAllocated) + ", stored " +
+                tagText(scanner, f, kBitsStored) + ", high bit " + tagText(scanner, f, kHighBit) +
+                "): one grayscale sample of 8, 16 or 32 bits is expected");
+  // And on an ACR-NEMA recognition code it does not know (found by fuzz_dicom).
+  if (scanner.GetValue(f.c_str(), kRecognitionCode)) {
+    const std::string code = trim(tagText(scanner, f, kRecognitionCode));
+    if (code.rfind("ACR-NEMA", 0) != 0 && code.rfind("ACRNEMA", 0) != 0 && code.rfind("MIPS 2.0", 0) != 0)
+      throw Error("DICOM file '" + f + "' has an unknown ACR-NEMA recognition code '" + code + "'");
+  }
+  h.rows = int((*rows)[0]);
+  h.columns = int((*cols)[0]);
+  if (representation) h.pixelRepresentation = int(*representation);
+  if (stored) h.bitsStored = int(*stored);
+  h.seriesUid = tagText(scanner, f, kSeriesInstanceUid);
+  h.sopUid = tagText(scanner, f, kSopInstanceUid);
+  if (const auto fr = parseNumbers(tagText(scanner, f, kNumberOfFrames)); fr && fr->size() == 1 && (*fr)[0] >= 1)
+    h.frames = int((*fr)[0]);
+  h.pixelSpacing = parseNumbers(tagText(scanner, f, kPixelSpacing));
+  h.orientation = parseNumbers(tagText(scanner, f, kImageOrientation));
+  h.position = parseNumbers(tagText(scanner, f, kImagePosition));
+  return h;
+}
+
+// The scanned image files grouped by SeriesInstanceUID (with each series' description), their
+// headers checked; non-images count as skipped. One file given (`seriesOf`): files of other series
+// this reader cannot take are left out with a warning; the given file's own series must be sound.
+void groupBySeries(const gdcm::Scanner& scanner, const std::vector<std::string>& candidates, const std::set<std::string>& withPixelData,
+                   const std::string& seriesOf, DicomReadReport& report, int& skipped, std::map<std::string, std::vector<SliceHeader>>& bySeries,
+                   std::map<std::string, std::string>& descriptions) {
+  std::optional<std::string> wantedUid;  // the series of the file given, if one was
+  if (!seriesOf.empty())
+    for (const std::string& f : candidates)
+      if (fileName(f) == fileName(seriesOf) && scanner.IsKey(f.c_str())) wantedUid = tagText(scanner, f, kSeriesInstanceUid);
+  for (const std::string& f : candidates) {
+    if (!scanner.IsKey(f.c_str())) {
+      ++skipped;
+      continue;
+    }
+    const std::string rowsText = tagText(scanner, f, kRows), colsText = tagText(scanner, f, kColumns);
+    if (rowsText.empty() && colsText.empty()) {
+      ++skipped;  // DICOM, but not an image (DICOMDIR, structured report, ...)
+      continue;
+    }
+    try {
+      SliceHeader h = sliceHeaderOf(scanner, f, rowsText, colsText, withPixelData.count(f) > 0);
+      if (!descriptions.count(h.seriesUid)) descriptions[h.seriesUid] = tagText(scanner, f, kSeriesDescription);
+      bySeries[h.seriesUid].push_back(std::move(h));
+    } catch (const Error& e) {
+      if (!wantedUid || tagText(scanner, f, kSeriesInstanceUid) == *wantedUid) throw;
+      report.warnings.push_back(std::string(e.what()) + " (another series than the file's: left out)");
+      continue;
+    }
+  }
+}
+
+// The slices' pixel data, read by GDCM one file at a time, signedness as the header says, rescaled
+// into the volume of grid `geom` (int16 while every value fits, then float32).
+Volume readPixels(const std::vector<SliceHeader>& slices, const VolumeGeometry& geom, GdcmTraceCapture& quiet, const std::string& directory,
+                  DicomReadReport& report, const ProgressFn& progress) {
+  const std::size_t sliceVoxels = std::size_t(geom.dims.x()) * std::size_t(geom.dims.y());
+  const std::size_t voxels = geom.voxelCount();
+  checkAllocation(voxels, voxels * sizeof(std::int16_t), "DICOM series in '" + directory + "'");
+  Volume volume(geom, ScalarType::Int16);
+
+  // --- Read and rescale the pixel data slice by slice.
+  std::vector<char> buffer;
+  bool warnedMono1 = false, warnedMixedSyntax = false, warnedSignedness = false;
+  const int n = int(slices.size());
+  for (int s = 0; s < n; ++s) {
+    const std::string& path = slices[s].path;
+    gdcm::ImageReader reader;
+    reader.SetFileName(path.c_str());
+    quiet.take();
+    if (!reader.Read())
+      throw Error("cannot read DICOM file '" + path + "': the file is corrupt or truncated");
+    const bool incomplete = quiet.take().find("Incomplete Pixel Data") != std::string::npos;
+    const DecodedSlice d = decodeSlice(reader, path, incomplete, geom.dims.x(), geom.dims.y(), buffer);
+    const gdcm::Image& image = reader.GetImage();
+    const std::string& syntax = d.syntax;
+    if (s == 0) {
+      report.transferSyntax = syntax;
+    } else if (syntax != report.transferSyntax && !warnedMixedSyntax) {
+      report.warnings.push_back("DICOM slices use different transfer syntaxes (" + report.transferSyntax + ", " +
+                                syntax + ")");
+      warnedMixedSyntax = true;
+    }
+    if (d.monochrome1 && !warnedMono1) {
+      report.warnings.push_back("DICOM series is MONOCHROME1 (low values display white); values are kept as stored");
+      warnedMono1 = true;
+    }
+    const gdcm::PixelFormat::ScalarType pixelType = d.pixelType;
+    const std::size_t pixelSize = pixelTypeSize(pixelType);
+
+    // Signedness: the header's PixelRepresentation decides (a codestream that disagrees is re-read).
+    gdcm::PixelFormat::ScalarType decodedType = pixelType;
+    const int rep = slices[s].pixelRepresentation;
+    if (image.GetTransferSyntax().IsEncapsulated() && (rep == 0 || rep == 1)) {
+      const int bitsStored = slices[s].bitsStored >= 1 ? slices[s].bitsStored : int(8 * pixelSize);
+      bool changed = false;
+      decodedType = applyHeaderSignedness(pixelType, buffer.data(), sliceVoxels, rep == 1, bitsStored, changed);
+      if (changed && !warnedSignedness) {
+        report.warnings.push_back("DICOM file '" + fileName(path) + "': the compressed pixel data decode as " +
+                                  (rep == 1 ? "unsigned" : "signed") + " values, the header (PixelRepresentation) says " +
+                                  (rep == 1 ? "signed" : "unsigned") + "; read as the header says (" + std::to_string(bitsStored) +
+                                  "-bit stored values)");
+        warnedSignedness = true;
+      }
+    }
+
+    const double slope = d.slope, intercept = d.intercept;
+
+    const std::size_t offset = std::size_t(s) * sliceVoxels;
+    bool stored = false;
+    if (volume.type() == ScalarType::Int16)
+      stored = convertSlice(decodedType, buffer.data(), sliceVoxels, slope, intercept,
+                            volume.data<std::int16_t>() + offset);
+    if (!stored) {
+      if (volume.type() == ScalarType::Int16) {
+        // A value that does not fit int16: switch to float32, keeping the slices read so far.
+        checkAllocation(voxels, voxels * (sizeof(float) + sizeof(std::int16_t)),
+                        "DICOM series in '" + directory + "' (as float32)");
+        Volume promoted(geom, ScalarType::Float32);
+        const std::int16_t* src = volume.data<std::int16_t>();
+        float* dst = promoted.data<float>();
+        for (std::size_t v = 0; v < offset; ++v) dst[v] = float(src[v]);
+        volume = std::move(promoted);
+      }
+      convertSlice(decodedType, buffer.data(), sliceVoxels, slope, intercept, volume.data<float>() + offset);
+    }
+    reportProgress(progress, double(s + 1) / double(n), "reading DICOM slices");
+  }
+  return volume;
+}
+
+Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress,
+                                 const std::string& seriesOf) {
+  DicomReadReport report;
+  std::error_code ec;
+  const fs::file_status st = fs::status(directory, ec);
+  if (directory.empty() || ec || !fs::exists(st)) throw Error("DICOM directory '" + directory + "' does not exist");
+  if (!fs::is_directory(st))
+    throw Error("'" + directory +
+                "' is not a directory: give the directory that holds the DICOM series' slice files, not a single file");
+
+  reportProgress(progress, 0.0, "scanning DICOM directory");
+  const DirectoryListing listing = listDirectory(directory);
+  const std::vector<std::string>& files = listing.files;
+  if (files.empty())
+    throw Error("DICOM directory '" + directory + "' holds no files: no DICOM images found" + subdirectoryHint(listing));
+
+  // --- Check each file's structure first: GDCM aborts on some truncated headers.
+  std::vector<std::string> candidates;
+  std::set<std::string> withPixelData;
+  int skipped = 0;
+  checkStructures(files, seriesOf, directory, report, candidates, withPixelData, skipped);
+  if (candidates.empty()) {
+    std::ostringstream msg;
+    msg << "no DICOM images found in '" << directory << "' (" << files.size() << " file"
+        << (files.size() == 1 ? "" : "s") << " checked, none is a DICOM file)" << subdirectoryHint(listing);
+    throw Error(msg.str());
+  }
+
+  GdcmTraceCapture quiet;
+
+  // --- Scan headers and group the image files by series.
+  gdcm::Scanner scanner;
+  for (const gdcm::Tag& t : {kSeriesInstanceUid, kSeriesDescription, kSopInstanceUid, kImagePosition,
+                             kImageOrientation, kRows, kColumns, kPixelSpacing, kNumberOfFrames, kSliceThickness,
+                             kSpacingBetweenSlices, kPhotometric, kSamplesPerPixel, kBitsAllocated, kBitsStored, kHighBit,
+                             kPixelRepresentation, kRecognitionCode})
+    scanner.AddTag(t);
+  scanner.Scan(candidates);
+
+  std::map<std::string, std::vector<SliceHeader>> bySeries;
+  std::map<std::string, std::string> descriptions;
+  groupBySeries(scanner, candidates, withPixelData, seriesOf, report, skipped, bySeries, descriptions);
+  if (bySeries.empty()) {
+    std::ostringstream msg;
+    msg << "no DICOM images found in '" << directory << "' (" << files.size() << " file"
+        << (files.size() == 1 ? "" : "s") << " checked, none is a readable DICOM image)" << subdirectoryHint(listing);
+    throw Error(msg.str());
+  }
+
+  chooseSeries(bySeries, descriptions, seriesOf, directory, report);
+  if (skipped > 0)
+    report.warnings.push_back(std::to_string(skipped) + " file" + (skipped == 1 ? "" : "s") + " in '" + directory +
+                              "' ignored: not DICOM images");
+
+  std::vector<SliceHeader> slices = std::move(bySeries[report.chosen.seriesInstanceUid]);
+
+  // --- Check the slices agree on size, pixel spacing and orientation.
+  const SliceHeader ref = slices.front();  // a copy: `slices` is rebuilt below
+  checkSlicesAgree(slices, directory);
+
+  // Pixel spacing: DICOM gives "row spacing \ column spacing".
+  double rowSpacing = 1.0, columnSpacing = 1.0;
+  if (ref.pixelSpacing && ref.pixelSpacing->size() == 2 && (*ref.pixelSpacing)[0] > 0 && (*ref.pixelSpacing)[1] > 0) {
+    rowSpacing = (*ref.pixelSpacing)[0];
+    columnSpacing = (*ref.pixelSpacing)[1];
+  } else {
+    report.warnings.push_back("DICOM series has no valid PixelSpacing (0028,0030); assuming 1 mm pixels");
+  }
+
+  // Orientation (converted to RAS right away; dot and cross products are unaffected).
+  Eigen::Vector3d rowDir(-1, 0, 0), colDir(0, -1, 0);  // RAS of LPS identity
+  if (ref.orientation && ref.orientation->size() == 6) {
+    const auto& o = *ref.orientation;
+    Eigen::Vector3d r = lpsToRas({o[0], o[1], o[2]}), c = lpsToRas({o[3], o[4], o[5]});
+    if (r.norm() < 0.5 || c.norm() < 0.5 || std::abs(r.normalized().dot(c.normalized())) > 1e-2)
+      throw Error("DICOM ImageOrientationPatient of '" + fileName(ref.path) +
+                  "' is not a pair of perpendicular unit vectors");
+    rowDir = r.normalized();
+    colDir = c.normalized();
+  } else if (slices.size() > 1) {
+    throw Error("DICOM series in '" + directory +
+                "' has no valid ImageOrientationPatient (0020,0037): the slices cannot be placed in space");
+  } else {
+    report.warnings.push_back("DICOM image has no valid ImageOrientationPatient; assuming axial orientation");
+  }
+  const Eigen::Vector3d normal = rowDir.cross(colDir).normalized();
+
+  // --- Sort by position along the normal.
+  sortSlicesAlong(slices, normal, directory, report);
+  std::vector<Eigen::Vector3d> positions;
   const int n = int(slices.size());
   for (const SliceHeader& h : slices) positions.push_back(lpsToRas({(*h.position)[0], (*h.position)[1], (*h.position)[2]}));
 
@@ -926,48 +1164,10 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
   double regularStep = 0.0;  // > 0: resample the slices onto this step along the normal (mm)
   Eigen::Vector3d kDir = normal;
   if (n > 1) {
-    std::vector<double> steps;
-    for (int s = 0; s + 1 < n; ++s) steps.push_back(slices[s + 1].key - slices[s].key);
-    const double med = median(steps);
-    report.minStepMm = *std::min_element(steps.begin(), steps.end());
-    report.maxStepMm = *std::max_element(steps.begin(), steps.end());
-    report.sliceStepMm = med;
-    for (double s : steps)
-      if (std::abs(s - med) > 0.1 * med) report.spacingGaps = true;
-    if (report.spacingGaps) {
-      // Resampled onto a regular grid at the smallest step (at most twice the slice count, so that
-      // two near-duplicate positions cannot blow the volume up), by linear interpolation between the
-      // two slices around each grid position: every slice stays where it was acquired.
-      const double span = slices.back().key - slices.front().key;
-      regularStep = std::max(report.minStepMm, span / double(2 * n));
-      std::ostringstream w;
-      w << "DICOM slice spacing is uneven: steps range from " << formatMm(report.minStepMm) << " to " << formatMm(report.maxStepMm)
-        << " mm (missing slices?); the " << n << " slices are resampled onto a regular grid of " << std::lround(span / regularStep) + 1
-        << " slices " << formatMm(regularStep) << " mm apart (linear interpolation between neighbouring slices)";
-      report.warnings.push_back(w.str());
-      report.sliceStepMm = regularStep;
-    }
-    const Eigen::Vector3d span = positions.back() - positions.front();
-    kDir = span.normalized();
-    const double cosTilt = kDir.dot(normal);
-    if (!(cosTilt > 0.1))
-      throw Error("DICOM slice positions in '" + directory + "' do not advance along the slice normal");
-    kSpacing = (regularStep > 0 ? regularStep : med) / cosTilt;
-    if (cosTilt < std::cos(0.5 * 3.14159265358979 / 180.0)) {
-      std::ostringstream w;
-      w << "DICOM slices are sheared (gantry tilt of " << formatMm(std::acos(std::min(1.0, cosTilt)) * 180.0 / 3.14159265358979)
-        << " degrees); the volume keeps the tilted slice axis";
-      report.warnings.push_back(w.str());
-    }
-    // Slices far off the line from the first to the last position.
-    double offLine = 0.0;
-    for (const Eigen::Vector3d& p : positions) {
-      const Eigen::Vector3d d = p - positions.front();
-      offLine = std::max(offLine, (d - d.dot(kDir) * kDir).norm());
-    }
-    if (offLine > 0.5 * std::min(rowSpacing, columnSpacing))
-      report.warnings.push_back("DICOM slice positions do not lie on one line (up to " + formatMm(offLine) +
-                                " mm off); the volume assumes they do");
+    const SliceAxis axis = sliceAxisOf(slices, positions, normal, std::min(rowSpacing, columnSpacing), directory, report);
+    kDir = axis.direction;
+    kSpacing = axis.spacing;
+    regularStep = axis.regularStep;
   } else {
     const auto thick = parseNumbers(tagText(scanner, slices[0].path, kSliceThickness));
     const auto between = parseNumbers(tagText(scanner, slices[0].path, kSpacingBetweenSlices));
@@ -993,118 +1193,7 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
   geom.direction.col(2) = kDir;
   geom.validate();
 
-  const std::size_t sliceVoxels = std::size_t(ref.columns) * std::size_t(ref.rows);
-  const std::size_t voxels = geom.voxelCount();
-  checkAllocation(voxels, voxels * sizeof(std::int16_t), "DICOM series in '" + directory + "'");
-  Volume volume(geom, ScalarType::Int16);
-
-  // --- Read and rescale the pixel data slice by slice.
-  std::vector<char> buffer;
-  bool warnedMono1 = false, warnedMixedSyntax = false, warnedSignedness = false;
-  for (int s = 0; s < n; ++s) {
-    const std::string& path = slices[s].path;
-    gdcm::ImageReader reader;
-    reader.SetFileName(path.c_str());
-    quiet.take();
-    if (!reader.Read())
-      throw Error("cannot read DICOM file '" + path + "': the file is corrupt or truncated");
-    const bool incomplete = quiet.take().find("Incomplete Pixel Data") != std::string::npos;
-    const gdcm::Image& image = reader.GetImage();
-    const std::string syntax = transferSyntaxText(image.GetTransferSyntax());
-    if (s == 0) {
-      report.transferSyntax = syntax;
-    } else if (syntax != report.transferSyntax && !warnedMixedSyntax) {
-      report.warnings.push_back("DICOM slices use different transfer syntaxes (" + report.transferSyntax + ", " +
-                                syntax + ")");
-      warnedMixedSyntax = true;
-    }
-    if (image.GetNumberOfDimensions() == 3 && image.GetDimension(2) > 1)
-      throw Error("DICOM file '" + path + "' holds several frames: multi-frame DICOM is not supported");
-    if (int(image.GetColumns()) != ref.columns || int(image.GetRows()) != ref.rows)
-      throw Error("DICOM file '" + path + "' has a pixel matrix of " + std::to_string(image.GetColumns()) + "x" +
-                  std::to_string(image.GetRows()) + ", unlike the rest of the series (" + std::to_string(ref.columns) +
-                  "x" + std::to_string(ref.rows) + ")");
-    const gdcm::PixelFormat& pf = image.GetPixelFormat();
-    if (pf.GetSamplesPerPixel() != 1)
-      throw Error("DICOM file '" + path + "' holds colour images (" + std::to_string(pf.GetSamplesPerPixel()) +
-                  " samples per pixel): only greyscale volumes are supported");
-    const gdcm::PixelFormat::ScalarType pixelType = pf.GetScalarType();
-    const std::size_t pixelSize = pixelTypeSize(pixelType);
-    if (pixelSize == 0)
-      throw Error("DICOM file '" + path + "' uses an unsupported pixel format (" + pf.GetScalarTypeAsString() + ")");
-    if (image.GetPhotometricInterpretation() == gdcm::PhotometricInterpretation::MONOCHROME1 && !warnedMono1) {
-      report.warnings.push_back("DICOM series is MONOCHROME1 (low values display white); values are kept as stored");
-      warnedMono1 = true;
-    }
-    const std::size_t expected = sliceVoxels * pixelSize;
-    if (image.GetBufferLength() != expected)
-      throw Error("DICOM file '" + path + "': unexpected pixel data size (" + std::to_string(image.GetBufferLength()) +
-                  " bytes instead of " + std::to_string(expected) + ")");
-    const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
-    if (!ds.FindDataElement(gdcm::Tag(0x7fe0, 0x0010)))
-      throw Error("DICOM file '" + path + "' has no pixel data: the file is truncated or not an image");
-    if (image.GetTransferSyntax().IsEncapsulated()) {
-      // Compressed: the codec checks its own data (see the decode below).
-    } else {
-      // Uncompressed pixel data shorter than the image: GDCM may accept a truncated file.
-      const gdcm::DataElement& pd = ds.GetDataElement(gdcm::Tag(0x7fe0, 0x0010));
-      const gdcm::ByteValue* bv = pd.GetByteValue();
-      std::error_code sizeError;
-      const std::uintmax_t fileSize = fs::file_size(path, sizeError);
-      // (A deflated file is legitimately smaller than its pixel data.)
-      const bool deflated = reader.GetFile().GetHeader().GetDataSetTransferSyntax() == gdcm::TransferSyntax::DeflatedExplicitVRLittleEndian;
-      if (bv && (incomplete || bv->GetLength() < expected || (!sizeError && !deflated && fileSize < expected)))
-        throw Error("DICOM file '" + path + "' is truncated: its pixel data is shorter than the " +
-                    std::to_string(ref.columns) + "x" + std::to_string(ref.rows) + " image it declares");
-      if (!bv && !pd.GetSequenceOfFragments())
-        throw Error("DICOM file '" + path + "' has empty pixel data: the file is truncated or corrupt");
-    }
-    buffer.resize(expected);
-    if (!image.GetBuffer(buffer.data()))
-      throw Error("cannot decode the pixel data of DICOM file '" + path + "' (transfer syntax " + syntax +
-                  "): " + codestreamMismatch(path, ref.columns, ref.rows) + "the file is truncated or corrupt, or the compression is not supported");
-
-    // Signedness: the header's PixelRepresentation decides (a codestream that disagrees is re-read).
-    gdcm::PixelFormat::ScalarType decodedType = pixelType;
-    const int rep = slices[s].pixelRepresentation;
-    if (image.GetTransferSyntax().IsEncapsulated() && (rep == 0 || rep == 1)) {
-      const int bitsStored = slices[s].bitsStored >= 1 ? slices[s].bitsStored : int(8 * pixelSize);
-      bool changed = false;
-      decodedType = applyHeaderSignedness(pixelType, buffer.data(), sliceVoxels, rep == 1, bitsStored, changed);
-      if (changed && !warnedSignedness) {
-        report.warnings.push_back("DICOM file '" + fileName(path) + "': the compressed pixel data decode as " +
-                                  (rep == 1 ? "unsigned" : "signed") + " values, the header (PixelRepresentation) says " +
-                                  (rep == 1 ? "signed" : "unsigned") + "; read as the header says (" + std::to_string(bitsStored) +
-                                  "-bit stored values)");
-        warnedSignedness = true;
-      }
-    }
-
-    double slope = 1.0, intercept = 0.0;
-    if (const auto v = parseNumbers(datasetText(ds, kRescaleSlope)); v && !v->empty() && (*v)[0] != 0.0)
-      slope = (*v)[0];
-    if (const auto v = parseNumbers(datasetText(ds, kRescaleIntercept)); v && !v->empty()) intercept = (*v)[0];
-
-    const std::size_t offset = std::size_t(s) * sliceVoxels;
-    bool stored = false;
-    if (volume.type() == ScalarType::Int16)
-      stored = convertSlice(decodedType, buffer.data(), sliceVoxels, slope, intercept,
-                            volume.data<std::int16_t>() + offset);
-    if (!stored) {
-      if (volume.type() == ScalarType::Int16) {
-        // A value that does not fit int16: switch to float32, keeping the slices read so far.
-        checkAllocation(voxels, voxels * (sizeof(float) + sizeof(std::int16_t)),
-                        "DICOM series in '" + directory + "' (as float32)");
-        Volume promoted(geom, ScalarType::Float32);
-        const std::int16_t* src = volume.data<std::int16_t>();
-        float* dst = promoted.data<float>();
-        for (std::size_t v = 0; v < offset; ++v) dst[v] = float(src[v]);
-        volume = std::move(promoted);
-      }
-      convertSlice(decodedType, buffer.data(), sliceVoxels, slope, intercept, volume.data<float>() + offset);
-    }
-    reportProgress(progress, double(s + 1) / double(n), "reading DICOM slices");
-  }
+  Volume volume = readPixels(slices, geom, quiet, directory, report, progress);
 
   if (regularStep > 0) {
     std::vector<double> keys;
