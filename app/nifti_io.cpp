@@ -616,6 +616,37 @@ std::string companionFile(const std::string& path, const char* fromExt, const ch
   return {};
 }
 
+// The header's dimensions checked (1 to 7, each >= 1, the 3D part within int), the missing axes of
+// a 1D or 2D image set to 1, and the volume `frame` of dims 4 to 7 checked against their count,
+// which is returned. Fails naming the file.
+std::int64_t checkDimensions(HeaderInfo& h, std::int64_t frame, const std::string& path) {
+  const std::int64_t rank = h.dim[0];
+  if (rank < 1 || rank > 7) readFail(path, "invalid number of dimensions dim[0] = " + std::to_string(rank));
+  for (int i = 1; i <= rank; ++i) {
+    if (h.dim[i] <= 0)
+      readFail(path, "invalid image size: dim[" + std::to_string(i) + "] = " + std::to_string(h.dim[i]) +
+                         " (each must be >= 1)");
+  }
+  for (std::int64_t i = rank + 1; i <= 3; ++i) h.dim[i] = 1;
+  double framesD = 1.0;
+  for (int i = 4; i <= rank; ++i) framesD *= static_cast<double>(h.dim[i]);
+  if (framesD > 1e12) readFail(path, "absurd number of volumes (" + formatNumber(framesD) + ")");
+  const std::int64_t frames = static_cast<std::int64_t>(framesD);
+  if (frame < 0 || frame >= frames) {
+    std::ostringstream msg;
+    msg << "volume " << frame << " was asked for, but the image holds " << frames << " volume" << (frames == 1 ? "" : "s");
+    if (frames > 1) msg << " (" << rank << "D, size";
+    if (frames > 1) for (int i = 1; i <= rank; ++i) msg << (i == 1 ? " " : "x") << h.dim[i];
+    msg << (frames > 1 ? "; --frame takes 0 to " + std::to_string(frames - 1) + ")" : std::string());
+    readFail(path, msg.str());
+  }
+  for (int i = 1; i <= 3; ++i) {
+    if (h.dim[i] > std::numeric_limits<int>::max())
+      readFail(path, "image size dim[" + std::to_string(i) + "] = " + std::to_string(h.dim[i]) + " is too large");
+  }
+  return frames;
+}
+
 Volume readNiftiImpl(const std::string& givenPath, const NiftiReadOptions& options, NiftiInfo* info) {
   // An .img (or .img.gz) given for a two-file pair: the header is its .hdr.
   std::string path = givenPath;
@@ -664,29 +695,7 @@ Volume readNiftiImpl(const std::string& givenPath, const NiftiReadOptions& optio
 
   // --- dimensions: one 3D volume (1D and 2D images are one voxel thick); dims 4 to 7 count volumes.
   const std::int64_t rank = h.dim[0];
-  if (rank < 1 || rank > 7) readFail(path, "invalid number of dimensions dim[0] = " + std::to_string(rank));
-  for (int i = 1; i <= rank; ++i) {
-    if (h.dim[i] <= 0)
-      readFail(path, "invalid image size: dim[" + std::to_string(i) + "] = " + std::to_string(h.dim[i]) +
-                         " (each must be >= 1)");
-  }
-  for (std::int64_t i = rank + 1; i <= 3; ++i) h.dim[i] = 1;
-  double framesD = 1.0;
-  for (int i = 4; i <= rank; ++i) framesD *= static_cast<double>(h.dim[i]);
-  if (framesD > 1e12) readFail(path, "absurd number of volumes (" + formatNumber(framesD) + ")");
-  const std::int64_t frames = static_cast<std::int64_t>(framesD);
-  if (options.frame < 0 || options.frame >= frames) {
-    std::ostringstream msg;
-    msg << "volume " << options.frame << " was asked for, but the image holds " << frames << " volume" << (frames == 1 ? "" : "s");
-    if (frames > 1) msg << " (" << rank << "D, size";
-    if (frames > 1) for (int i = 1; i <= rank; ++i) msg << (i == 1 ? " " : "x") << h.dim[i];
-    msg << (frames > 1 ? "; --frame takes 0 to " + std::to_string(frames - 1) + ")" : std::string());
-    readFail(path, msg.str());
-  }
-  for (int i = 1; i <= 3; ++i) {
-    if (h.dim[i] > std::numeric_limits<int>::max())
-      readFail(path, "image size dim[" + std::to_string(i) + "] = " + std::to_string(h.dim[i]) + " is too large");
-  }
+  const std::int64_t frames = checkDimensions(h, options.frame, path);
   const Eigen::Vector3i dims(static_cast<int>(h.dim[1]), static_cast<int>(h.dim[2]), static_cast<int>(h.dim[3]));
 
   // --- voxel type.
@@ -716,7 +725,7 @@ Volume readNiftiImpl(const std::string& givenPath, const NiftiReadOptions& optio
   const std::size_t n = geometry.voxelCount();  // <= kMaxVoxels after validate()
   const std::size_t dataBytes = n * elementSize;
   // Every volume must be in the file; the chosen one is read.
-  const double allBytes = static_cast<double>(dataStart) + framesD * static_cast<double>(dataBytes);
+  const double allBytes = static_cast<double>(dataStart) + static_cast<double>(frames) * static_cast<double>(dataBytes);
   const std::size_t frameStart = dataStart + static_cast<std::size_t>(options.frame) * dataBytes;
   if (!data.compressed() && static_cast<double>(data.fileSize()) < allBytes) {
     std::ostringstream msg;
