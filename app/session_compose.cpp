@@ -338,7 +338,7 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
     throw Error("compose: the selection of label " + std::to_string(o.organ) + " shows too little surface for the fingers (" +
                 std::to_string(rh) + " px of room, 8 needed)");
   out.handleRadiusPx = rh;
-  // A tilt's outcome is not up to the fingers alone (methods.md: three fingers are ill-posed when
+  // A tilt's outcome is not up to the fingers alone (docs/gesture-solve.md: three fingers are ill-posed when
   // the touched surface faces the viewer: a small screen motion is a large turn either way). Of the
   // layout turned by 0, 90, 180 and 270 degrees, only one whose result is stable is used: run again
   // with every finger 1 px off (as picks on another driver or grid may land), it turns about an axis

@@ -1,6 +1,6 @@
 #pragma once
 // Direct manipulation: the rigid increment that brings handle points under the fingers
-// (spec: methods.md section 4). View space: camera at the origin looking along +z (depth z > 0);
+// (docs/gesture-solve.md). View space: camera at the origin looking along +z (depth z > 0);
 // a point v projects to NDC as Proj(v) = P v / (k^T v), P the 2x3 linear part of the projection,
 // k = (0, 0, 1).
 //

@@ -1,5 +1,5 @@
 #pragma once
-// Handles: selected regions of the volume that the user manipulates (spec: methods.md section 3).
+// Handles: selected regions of the volume that the user manipulates (docs/touch-app.md).
 // Each handle keeps its voxels (linear indices on the volume grid); a voxel belongs to one handle
 // only, the last one that claimed it. Union and difference combine two handles. Status: active
 // (follows the manipulation), fixed (held in place) or idle (kept for later). Every edit can be

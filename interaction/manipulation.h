@@ -1,5 +1,5 @@
 #pragma once
-// Moving a handle with one, two or three fingers (spec: methods.md section 4, "in the app"): at
+// Moving a handle with one, two or three fingers (docs/gesture-solve.md, "in the app"): at
 // touch-down each finger's point on the handle is picked (world, RAS mm); as the fingers move, the
 // rigid increment that keeps those points under them is solved in the camera's frame (sub-stepped
 // linearized solve) and composed into the handle's cumulative pose (R_m, t_m), world = R_m rest + t_m.

@@ -1,5 +1,5 @@
 #pragma once
-// Seeded region growing (spec: methods.md section 2) on the GPU's 16-bit view of the volume
+// Seeded region growing (docs/region-growing.md) on the GPU's 16-bit view of the volume
 // (sim/quantized_volume.h), as the CPU reference of the region-growing compute pass.
 //
 // Seed statistics: delta_seed and sigma_seed are the mean and the standard deviation of the 3x3x3

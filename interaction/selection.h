@@ -1,5 +1,5 @@
 #pragma once
-// Selection by a two-finger pinch (spec: methods.md section 1): in select mode, when the second
+// Selection by a two-finger pinch (docs/touch-app.md): in select mode, when the second
 // finger lands, both fingers' screen points are depth-picked (by the GPU, answered a frame or two
 // later). Seed s = midpoint of the two surface points; the pixel scale sigma_px at the seed's depth;
 // extent d = sigma_px * |p_i - p_t|, following the fingers as they spread or close. Lifting a finger

@@ -1,5 +1,5 @@
 #pragma once
-// The GPU deformation of the volume (../shared/spec/methods.md sections 5 and 6), as frame-graph
+// The GPU deformation of the volume (docs/gpu-deformation.md), as frame-graph
 // passes: interpolation of the fine node positions from the coarse state (deform_interpolate.comp),
 // the box of voxels whose tissue moved since the last frame (deform_bounds.comp, deform_args.comp),
 // and the tetrahedral rasterization of the fine mesh into a deformed copy of the volume and of the

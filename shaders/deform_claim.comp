@@ -1,6 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// Tetrahedral rasterization of the deformed fine mesh (../shared/spec/methods.md section 6), step
+// Tetrahedral rasterization of the deformed fine mesh (docs/gpu-deformation.md), step
 // one: each fine tet claims the region voxels of this frame's box whose centres it covers, for the
 // lowest-numbered tet (atomicMin of tet + 1; the owner buffer holds 0 outside the region, so those
 // voxels are never claimed). One invocation per tet. deform_resolve.comp then fills each claimed

@@ -1,6 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// Fine node positions from the coarse state (../shared/spec/methods.md section 5): one invocation
+// Fine node positions from the coarse state (docs/simulation-model.md): one invocation
 // per fine node, output in voxel index space. CPU reference: interpolateFineReference in
 // sim/fine_interpolation.cpp (same float expressions, same order).
 // A node's position is committed (and its tets redone) only when it moved by more than

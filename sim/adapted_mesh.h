@@ -1,5 +1,5 @@
 #pragma once
-// An image-adapted fine mesh (../shared/spec/methods.md section 5, "fine mesh construction"): the
+// An image-adapted fine mesh (docs/simulation-model.md, the image-adapted fine mesh): the
 // coarse grid and the regular fine lattice as in buildNestedMeshes, but each coarse cell is meshed by
 // TetGen (sim/tetgen_mesher.h) from
 //   - its six faces, triangulated exactly as the regular fine mesh triangulates them (m x m squares,

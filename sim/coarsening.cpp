@@ -46,7 +46,13 @@ Eigen::Vector4d barycentric(const std::array<Eigen::Vector3d, 4>& X, const Eigen
 
 }  // namespace
 
-const char* coarseElementName(CoarseElement e) { return e == CoarseElement::Tet ? "tet" : "cell"; }
+const char* coarseElementName(CoarseElement e) {
+  switch (e) {
+    case CoarseElement::Tet: return "tet";
+    case CoarseElement::Cell: return "cell";
+  }
+  return "?";
+}
 const char* coarseSolverName(CoarseSolver s) { return s == CoarseSolver::Assembled ? "assembled" : "pcg"; }
 
 void CoarseModel::setPcgIterations(int n) {
@@ -67,7 +73,7 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
   if (fineK.size() != F.tets.size() || cons.handleOf.size() != F.nodes.size() || cons.fixed.size() != F.nodes.size() ||
       meshes.fineParent.size() != F.tets.size())
     throw Error("coarsening: inconsistent sizes");
-  if (kind_ == CoarseElement::Cell && C.tets.size() != meshes.coarseGrid.cellCount() * 6)
+  if (kind_ != CoarseElement::Tet && C.tets.size() != meshes.coarseGrid.cellCount() * 6)
     throw Error("coarsening: cell elements need the coarse mesh of the coarse grid");
   if (kind_ == CoarseElement::Tet && !meshes.regularFine)
     throw Error("coarsening: tet elements need the regular fine mesh (an image-adapted one is nested in cells, not tets)");
@@ -75,7 +81,6 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
   for (std::size_t i = 0; i < F.nodes.size(); ++i)
     if (constraints_.fixed[i]) constraints_.handleOf[i] = -1;
   const auto& handleOf = constraints_.handleOf;
-  const int nc = nc_;
 
   const std::size_t elementCount = kind_ == CoarseElement::Tet ? C.tets.size() : meshes.coarseGrid.cellCount();
   std::vector<std::vector<int>> tetsOf(elementCount);
@@ -83,6 +88,26 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
     if (meshes.fineParent[t] < 0 || std::size_t(meshes.fineParent[t]) >= C.tets.size()) throw Error("coarsening: a fine tet lies outside the coarse mesh");
     tetsOf[std::size_t(elementOfFineTet(t))].push_back(int(t));
   }
+  buildConforming(fineK, tetsOf, progress);
+  // Coarse Dirichlet roles and the free dofs' system.
+  coarseRole_.assign(C.nodes.size(), -1);
+  dof_.assign(C.nodes.size(), -1);
+  for (std::size_t v = 0; v < C.nodes.size(); ++v) {
+    const int f = meshes.coarseNodeInFine[v];
+    if (constraints_.fixed[std::size_t(f)]) coarseRole_[v] = -2;
+    else if (handleOf[std::size_t(f)] >= 0) coarseRole_[v] = handleOf[std::size_t(f)];
+    else dof_[v] = (dofCount_ += 3) - 3;
+  }
+  buildAssembler();
+  reportProgress(progress, 1.0, "coarsening");
+}
+
+void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::vector<std::vector<int>>& tetsOf, const ProgressFn& progress) {
+  const TetMesh& C = meshes_.coarse;
+  const TetMesh& F = meshes_.fine;
+  const auto& handleOf = constraints_.handleOf;
+  const int nc = nc_;
+  const std::size_t elementCount = tetsOf.size();
   std::vector<char> boundaryDone(F.nodes.size(), 0);
   elements_.resize(elementCount);
   std::unordered_map<int, int> local;
@@ -92,14 +117,14 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
     if (kind_ == CoarseElement::Tet)
       for (int c = 0; c < 4; ++c) el.node[std::size_t(c)] = C.tets[e][std::size_t(c)];
     else
-      el.node = meshes.coarseGrid.cellNodes(int(e));
+      el.node = meshes_.coarseGrid.cellNodes(int(e));
     std::array<Eigen::Vector3d, 4> Xt;
     if (kind_ == CoarseElement::Tet) Xt = cornersOf(C, int(e), C.nodes);
     // Local nodes: the corners first.
     local.clear();
     std::vector<int> nodes;
     for (int c = 0; c < nc; ++c) {
-      const int f = meshes.coarseNodeInFine[std::size_t(el.node[std::size_t(c)])];
+      const int f = meshes_.coarseNodeInFine[std::size_t(el.node[std::size_t(c)])];
       local.emplace(f, int(nodes.size()));
       nodes.push_back(f);
     }
@@ -131,7 +156,7 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
         onBoundary = lam.minCoeff() < 1e-9 * std::max(1.0, scale);
         w.head<4>() = lam.cwiseMax(0.0) / lam.cwiseMax(0.0).sum();
       } else {
-        w = meshes.coarseGrid.cellWeights(int(e), F.nodes[std::size_t(f)], &onBoundary);
+        w = meshes_.coarseGrid.cellWeights(int(e), F.nodes[std::size_t(f)], &onBoundary);
       }
       if (onBoundary) {
         Bn.push_back(l);
@@ -171,38 +196,13 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
     }
     const Mat KPhic = K * Phic;
     el.Kh = Phic.transpose() * KPhic;
-    el.Kh = 0.5 * (el.Kh + el.Kh.transpose()).eval();
-    VecE Xc(3 * nc);
-    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-    for (int c = 0; c < nc; ++c) {
-      Xc.segment<3>(3 * c) = C.nodes[std::size_t(el.node[std::size_t(c)])];
-      centroid += C.nodes[std::size_t(el.node[std::size_t(c)])] / double(nc);
-    }
-    el.KhX = el.Kh * Xc;
-    Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
-    for (int c = 0; c < nc; ++c) {
-      el.dX[std::size_t(c)] = C.nodes[std::size_t(el.node[std::size_t(c)])] - centroid;
-      M += el.dX[std::size_t(c)] * el.dX[std::size_t(c)].transpose();
-    }
-    el.fitInv = M.inverse();
+    finishElement(el);
     // Handle blocks, per handle among the D nodes.
     if (nD > 0) {
       const Mat Khd = KPhic.transpose() * PhiD;  // 3nc x 3nD
       for (int i = 0; i < nD; ++i) {
         const int f = nodes[std::size_t(Dn[std::size_t(i)])];
-        const int h = handleOf[std::size_t(f)];
-        auto it = std::find_if(el.handles.begin(), el.handles.end(), [&](const HandleBlock& b) { return b.handle == h; });
-        if (it == el.handles.end()) {
-          HandleBlock hb{h, {}, {}};
-          hb.A.setZero(3 * nc, 9);
-          hb.B.setZero(3 * nc, 3);
-          el.handles.push_back(std::move(hb));
-          it = el.handles.end() - 1;
-        }
-        const Mat blk = Khd.middleCols(3 * i, 3);
-        const Eigen::Vector3d& X = F.nodes[std::size_t(f)];
-        for (int c = 0; c < 3; ++c) it->A.middleCols(3 * c, 3) += X[c] * blk;
-        it->B += blk;
+        addHandleBlock(el, handleOf[std::size_t(f)], F.nodes[std::size_t(f)], Khd.middleCols(3 * i, 3));
       }
     }
     // Reconstruction data.
@@ -213,16 +213,7 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
       in.H = H.middleRows(3 * i, 3);
       for (int d = 0; d < nD; ++d) {
         const int f = nodes[std::size_t(Dn[std::size_t(d)])];
-        const int h = handleOf[std::size_t(f)];
-        auto it = std::find_if(in.g.begin(), in.g.end(), [&](const InteriorNode::G& g) { return g.handle == h; });
-        if (it == in.g.end()) {
-          in.g.push_back({h, Eigen::Matrix<double, 3, 9>::Zero(), Eigen::Matrix3d::Zero()});
-          it = in.g.end() - 1;
-        }
-        const Eigen::Matrix3d blk = G.block<3, 3>(3 * i, 3 * d);
-        const Eigen::Vector3d& X = F.nodes[std::size_t(f)];
-        for (int c = 0; c < 3; ++c) it->A.middleCols(3 * c, 3) += X[c] * blk;
-        it->B += blk;
+        addInteriorHandleBlock(in, handleOf[std::size_t(f)], F.nodes[std::size_t(f)], G.block<3, 3>(3 * i, 3 * d));
       }
       interior_.push_back(std::move(in));
     }
@@ -233,17 +224,48 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
       boundary_.push_back({f, int(e), Bw[std::size_t(i)]});
     }
   }
-  // Coarse Dirichlet roles and the free dofs' system.
-  coarseRole_.assign(C.nodes.size(), -1);
-  dof_.assign(C.nodes.size(), -1);
-  for (std::size_t v = 0; v < C.nodes.size(); ++v) {
-    const int f = meshes.coarseNodeInFine[v];
-    if (constraints_.fixed[std::size_t(f)]) coarseRole_[v] = -2;
-    else if (handleOf[std::size_t(f)] >= 0) coarseRole_[v] = handleOf[std::size_t(f)];
-    else dof_[v] = (dofCount_ += 3) - 3;
+}
+
+void CoarseModel::finishElement(Element& el) const {
+  const TetMesh& C = meshes_.coarse;
+  const int nc = nc_;
+  el.Kh = 0.5 * (el.Kh + el.Kh.transpose()).eval();
+  VecE Xc(3 * nc);
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (int c = 0; c < nc; ++c) {
+    Xc.segment<3>(3 * c) = C.nodes[std::size_t(el.node[std::size_t(c)])];
+    centroid += C.nodes[std::size_t(el.node[std::size_t(c)])] / double(nc);
   }
-  buildAssembler();
-  reportProgress(progress, 1.0, "coarsening");
+  el.KhX = el.Kh * Xc;
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+  for (int c = 0; c < nc; ++c) {
+    el.dX[std::size_t(c)] = C.nodes[std::size_t(el.node[std::size_t(c)])] - centroid;
+    M += el.dX[std::size_t(c)] * el.dX[std::size_t(c)].transpose();
+  }
+  el.fitInv = M.inverse();
+}
+
+void CoarseModel::addHandleBlock(Element& el, int handle, const Eigen::Vector3d& X, const Eigen::Ref<const Eigen::MatrixXd>& blk) const {
+  auto it = std::find_if(el.handles.begin(), el.handles.end(), [&](const HandleBlock& b) { return b.handle == handle; });
+  if (it == el.handles.end()) {
+    HandleBlock hb{handle, {}, {}};
+    hb.A.setZero(3 * nc_, 9);
+    hb.B.setZero(3 * nc_, 3);
+    el.handles.push_back(std::move(hb));
+    it = el.handles.end() - 1;
+  }
+  for (int c = 0; c < 3; ++c) it->A.middleCols(3 * c, 3) += X[c] * blk;
+  it->B += blk;
+}
+
+void CoarseModel::addInteriorHandleBlock(InteriorNode& in, int handle, const Eigen::Vector3d& X, const Eigen::Matrix3d& blk) {
+  auto it = std::find_if(in.g.begin(), in.g.end(), [&](const InteriorNode::G& g) { return g.handle == handle; });
+  if (it == in.g.end()) {
+    in.g.push_back({handle, Eigen::Matrix<double, 3, 9>::Zero(), Eigen::Matrix3d::Zero()});
+    it = in.g.end() - 1;
+  }
+  for (int c = 0; c < 3; ++c) it->A.middleCols(3 * c, 3) += X[c] * blk;
+  it->B += blk;
 }
 
 void CoarseModel::buildAssembler() {
@@ -256,7 +278,7 @@ void CoarseModel::buildAssembler() {
 
 void CoarseModel::save(std::ostream& os) const {
   bin::Writer w{os};
-  w.pod(std::uint32_t(kind_ == CoarseElement::Tet ? 0 : 1));
+  w.pod(std::uint32_t(kind_));
   w.podVector(constraints_.handleOf);
   w.podVector(constraints_.fixed);
   w.pod(std::int32_t(constraints_.handleCount));
@@ -300,8 +322,8 @@ void CoarseModel::save(std::ostream& os) const {
 std::unique_ptr<CoarseModel> CoarseModel::load(std::istream& is, std::uint64_t bytes, const NestedMeshes& meshes) {
   bin::Reader r{is, bytes};
   const auto kind = r.pod<std::uint32_t>();
-  if (kind > 1) throw Error("cache file corrupt (element kind)");
-  std::unique_ptr<CoarseModel> m(new CoarseModel(meshes, kind == 0 ? CoarseElement::Tet : CoarseElement::Cell));
+  if (kind > std::uint32_t(CoarseElement::Cell)) throw Error("cache file corrupt (element kind)");
+  std::unique_ptr<CoarseModel> m(new CoarseModel(meshes, CoarseElement(kind)));
   const int nc = m->nc_;
   const std::size_t nf = meshes.fine.nodes.size(), ncn = meshes.coarse.nodes.size();
   m->constraints_.handleOf = r.podVector<int>();

@@ -1,5 +1,5 @@
 #pragma once
-// Corotational coarsening (../shared/spec/methods.md section 5, coarse model [team formulation]).
+// Corotational coarsening (docs/simulation-model.md, the coarse model; solvers in docs/simulation.md).
 //
 // Per coarse element e, its fine nodes split into the n corners c, handle nodes D (not corners),
 // boundary nodes b (on e's faces and edges: u_b = N_b u_c) and interior nodes I, condensed:
@@ -19,6 +19,7 @@
 //    cell. Same coarse nodes and dofs; the rotation R_c is the polar rotation of the least-squares
 //    affine fit of the corners (for a tet, the exact F = D_s D_m^-1).
 #include <Eigen/Core>
+#include <cstdint>
 #include <iosfwd>
 #include <memory>
 #include <vector>
@@ -62,7 +63,7 @@ struct CoarseSolveStats {
   double backSolveMs = 0.0; ///< triangular solves with the factor
 };
 
-enum class CoarseElement { Tet, Cell };
+enum class CoarseElement { Tet = 0, Cell = 1 };
 const char* coarseElementName(CoarseElement e);
 
 /// How CoarseModel::solve() iterates toward the same fixed point, f_c(x) = 0 (docs/simulation.md,
@@ -146,6 +147,8 @@ class CoarseModel {
  private:
   CoarseModel(const NestedMeshes& meshes, CoarseElement kind);
   void buildAssembler();
+  /// The per-element condensation of Tet and Cell elements (linear faces).
+  void buildConforming(const std::vector<Mat12>& fineK, const std::vector<std::vector<int>>& tetsOf, const ProgressFn& progress);
   /// Sets the Dirichlet coarse nodes of x and returns the convergence threshold (mm).
   double pinDirichlet(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, double tolerance) const;
   CoarseSolveStats solveAssembled(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tol);
@@ -193,6 +196,11 @@ class CoarseModel {
     Eigen::Matrix<double, 8, 1> N;  ///< weights of the element's corners (first n)
   };
   Eigen::Matrix3d elementRotation(int e, const std::vector<Eigen::Vector3d>& x) const;
+  /// Symmetrizes el.Kh and derives KhX, the corners' offsets and fitInv.
+  void finishElement(Element& el) const;
+  /// Adds the blocks of one handle node at rest position X (blk: 3n x 3, K_hd's columns of the node).
+  void addHandleBlock(Element& el, int handle, const Eigen::Vector3d& X, const Eigen::Ref<const Eigen::MatrixXd>& blk) const;
+  static void addInteriorHandleBlock(InteriorNode& in, int handle, const Eigen::Vector3d& X, const Eigen::Matrix3d& blk);
   VecE handleTerm(const Element& el, const Eigen::Matrix3d& Rc, const std::vector<RigidTransform>& handles) const;
 
   const NestedMeshes& meshes_;

@@ -1,5 +1,5 @@
 #pragma once
-// Linear corotational FEM on tetrahedra (../shared/spec/methods.md section 5, fine model):
+// Linear corotational FEM on tetrahedra (docs/simulation-model.md, the fine model):
 // per tet, F = D_s D_m^-1, R = polar(F) (inversion-safe), f_e = -R K_e (R^T x_e - X_e),
 // K_e = V B^T C(E, nu) B. For an isotropic C this force is exactly minus the gradient of
 // E_e = 1/2 (R^T x_e - X_e)^T K_e (R^T x_e - X_e) (the rotation's variation drops out), which the

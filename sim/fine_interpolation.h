@@ -1,5 +1,5 @@
 #pragma once
-// The coarse model's fine reconstruction (../shared/spec/methods.md section 5) packed for the GPU's
+// The coarse model's fine reconstruction (docs/simulation-model.md) packed for the GPU's
 // interpolation pass (shaders/deform_interpolate.comp), and its CPU reference in the same float
 // arithmetic. Static data (uploaded once per selection): a record per fine node and its
 // reconstruction blocks. Per frame only the coarse state goes to the GPU: coarse node positions,

@@ -1,5 +1,5 @@
 #pragma once
-// Materials from image values (../shared/spec/methods.md section 7): an editable table of value
+// Materials from image values (docs/simulation-model.md, "Materials"): an editable table of value
 // bands, each a tissue class with a Young's modulus and a Poisson ratio. CT tables are in
 // Hounsfield units; tables for uncalibrated images (MRI) give their bands as percentiles of the
 // image's values and are resolved against the image before use.

@@ -1,8 +1,7 @@
 #pragma once
 // The simulated scene of an image and its handles: the region of interest (a padded box around the
 // handles, or the whole volume), the nested coarse and fine meshes over it, a material per fine tet
-// from the image values, and the fine nodes' Dirichlet roles (../shared/spec/methods.md sections 3,
-// 5 and 7).
+// from the image values, and the fine nodes' Dirichlet roles (docs/simulation-model.md).
 #include <cstdint>
 #include <vector>
 

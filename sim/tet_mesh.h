@@ -1,5 +1,5 @@
 #pragma once
-// Tetrahedral meshes for the simulation (../shared/spec/methods.md section 5).
+// Tetrahedral meshes for the simulation (docs/simulation-model.md).
 //
 // KuhnGrid: a box of equal cells, each split into the six tetrahedra of the Kuhn (Freudenthal)
 // triangulation, x_s0 >= x_s1 >= x_s2 in the cell's unit coordinates for each permutation s of the

@@ -1,5 +1,5 @@
 #pragma once
-// Volume resampling by tetrahedral rasterization (../shared/spec/methods.md section 6), the CPU
+// Volume resampling by tetrahedral rasterization (docs/gpu-deformation.md), the CPU
 // reference: each deformed tet's voxels (centres inside it, barycentric coordinates >= -1e-9) take
 // the source image sampled trilinearly at the rest position sum_k lambda_k X_k. Voxels of the
 // region no tet covers keep the background value; overlaps (inverted or folded tets) go to the
