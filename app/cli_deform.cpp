@@ -10,6 +10,7 @@
 #include "app/cli.h"
 #include "app/cli_args.h"
 #include "app/console.h"
+#include "app/forces_json.h"
 #include "app/nifti_io.h"
 #include "app/volume_io.h"
 #include "app/vtu_io.h"
@@ -18,6 +19,7 @@
 #include "sim/quantized_volume.h"
 #include "sim/coarsening.h"
 #include "sim/error.h"
+#include "sim/handle_reaction.h"
 #include "sim/scene_cache.h"
 #include "sim/sim_scene.h"
 #include "sim/static_solver.h"
@@ -59,6 +61,8 @@ const char* const kDeformHelp =
     "                          fine and refined positions are uploaded\n"
     "  --device NAME           Vulkan device for --backend gpu (default: automatic; see handson render)\n"
     "  --validation            Khronos validation layer on (any message is an error)\n"
+    "  --forces-out F.json     each handle's reaction: the force (N) and torque (N mm, about its current\n"
+    "                          centroid) the tissue exerts on it, RAS; from the model that was solved\n"
     "  --mesh-out MESH.vtu     the fine mesh for ParaView: rest positions, point data displacement and\n"
     "                          dirichlet, cell data youngs_modulus, poisson_ratio, coarse_element (the\n"
     "                          coarse model's element: grid cell or coarse tet)\n"
@@ -121,7 +125,7 @@ GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const Sim
 int cmdDeform(const Words& words) {
   Args args(words,
             {"--frame", "--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm",
-             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--fine-mesh", "--adapt-contrast", "--cache-dir"},
+             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--fine-mesh", "--adapt-contrast", "--cache-dir", "--forces-out"},
             {"--whole-volume", "--quiet", "--validation"});
   if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {
     usageStream(args) << kDeformHelp;
@@ -257,6 +261,12 @@ int cmdDeform(const Words& words) {
   std::cout << "solve " << tSolve << " s (" << steps << " increment" << (steps > 1 ? "s" : "") << "), resampling " << tRaster << " s\n"
             << "largest displacement " << maxDisp << " mm; inverted fine tets " << inverted << "; region voxels " << regionVoxels << ", covered "
             << covered << " (" << backend << ")\nwrote " << *args.value("-o") << "\n";
+  if (auto fo = args.value("--forces-out")) {
+    const bool coarseOnly = model == "coarse" && refineSteps == 0;
+    writeForcesJson(*fo, coarseOnly ? model_->handleReactions(T, xc) : fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, T, x),
+                    coarseOnly ? "coarse" : (model == "fine" ? "fine" : "refined"));
+    std::cout << "wrote " << *fo << "\n";
+  }
   if (auto mo = args.value("--mesh-out")) {
     std::vector<Eigen::Vector3d> disp(x.size());
     std::vector<double> dir(x.size()), coarseEl(sc.meshes.fine.tets.size());

@@ -93,6 +93,7 @@ void DeformationController::stopAll() {
   shownRefineStep_ = 0;
   sentPoses_.clear();
   shownInput_ = lastSent_ = answeredInput_ = 0;
+  shownReactions_.clear();
   shownConverged_ = shownSettled_ = answeredSettled_ = false;
   unconverged_ = false;
   lastError_.clear();
@@ -258,6 +259,7 @@ void DeformationController::pull() {
     if (s->refineStep == 0) shownConverged_ = s->stats.converged;  // a refined state keeps its coarse solve's
     shownSettled_ = s->settled;
     shownStats_ = s->stats;
+    shownReactions_ = s->reactions;
     // States the worker stopped on without converging: a failure of the solve, counted once per
     // episode (a drag gives one unconverged pose after another until a pose converges again).
     if (s->settled && s->refineStep == 0) {
@@ -406,6 +408,13 @@ bool DeformationController::waitBuilt(double seconds) {
     if (std::chrono::steady_clock::now() > end) return false;
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
+}
+
+std::vector<std::pair<int, HandleReaction>> DeformationController::shownReactions() const {
+  std::vector<std::pair<int, HandleReaction>> out;
+  if (!model_ || shownInput_ == 0) return out;
+  for (std::size_t k = 0; k < shownReactions_.size() && k < simIds_.size(); ++k) out.emplace_back(simIds_[k], shownReactions_[k]);
+  return out;
 }
 
 std::string DeformationController::modelState() const {

@@ -16,6 +16,7 @@
 
 #include "app/stage_times.h"
 #include "interaction/handles.h"
+#include "sim/handle_reaction.h"
 #include "render/volume_renderer.h"
 #include "sim/sim_scene.h"
 #include "sim/sim_worker.h"
@@ -75,6 +76,9 @@ class DeformationController {
   double shownSeconds() const { return shownSeconds_; }
   /// Input number of the newest state shown, and whether its coarse solve had converged.
   std::uint64_t shownInput() const { return shownInput_; }
+  /// The shown state's reaction on each simulated handle (sim/handle_reaction.h), with the app's
+  /// handle id of each (active handles, then fixed ones); empty when nothing is shown.
+  std::vector<std::pair<int, HandleReaction>> shownReactions() const;
   bool shownConverged() const { return shownConverged_; }
   /// Failures so far, for a caller that saves the session when one happens: poses the solve
   /// refused, solves that stopped without converging (each counted once per episode: until a pose
@@ -133,6 +137,7 @@ class DeformationController {
   std::uint64_t lastSent_ = 0, shownInput_ = 0;
   bool shownConverged_ = false, shownSettled_ = false;
   CoarseSolveStats shownStats_;
+  std::vector<HandleReaction> shownReactions_;
   std::uint64_t failures_ = 0;
   bool unconverged_ = false;  // the last settled state shown stopped without converging
   std::uint64_t answeredInput_ = 0;  // newest input answered, with a state or an error

@@ -29,9 +29,11 @@ void LatencyLog::setGpuTimes(std::uint64_t frame, const std::vector<std::pair<st
 
 void LatencyLog::writeCsv(const std::string& path) const {
   std::set<std::string> passNames, stageNames;
+  std::set<int> handleIds;
   for (const auto& f : frames_) {
     for (const auto& [name, ms] : f.gpuMs) passNames.insert(name);
     for (const auto& [name, ms] : f.cpuMs) stageNames.insert(name);
+    for (const auto& [id, r] : f.reactions) handleIds.insert(id);
   }
   // -1: no value that frame.
   auto valueOf = [](const std::vector<std::pair<std::string, double>>& v, const std::string& n) {
@@ -45,13 +47,25 @@ void LatencyLog::writeCsv(const std::string& path) const {
     out << "frame,input_count,input_first_s,input_last_s,cpu_start_s,cpu_end_s,submit_s,present_s,frame_ms,input_to_present_ms,wait_ms";
     for (const auto& n : passNames) out << ",gpu_" << n << "_ms";
     for (const auto& n : stageNames) out << ",cpu_" << n << "_ms";
-    out << ",sim_state,sim_state_s\n" << std::fixed << std::setprecision(6);
+    out << ",sim_state,sim_state_s";
+    // Each simulated handle's reaction (empty fields on frames without it).
+    for (int id : handleIds)
+      for (const char* q : {"force_x_N", "force_y_N", "force_z_N", "torque_x_Nmm", "torque_y_Nmm", "torque_z_Nmm"}) out << ",handle" << id << "_" << q;
+    out << "\n" << std::fixed << std::setprecision(6);
     for (const auto& f : frames_) {
       out << f.frame << "," << f.inputCount << "," << f.inputFirst << "," << f.inputLast << "," << f.cpuStart << "," << f.cpuEnd << ","
           << f.submit << "," << f.present << "," << f.frameMs() << "," << f.latencyMs() << "," << f.waitMs;
       for (const auto& n : passNames) out << "," << valueOf(f.gpuMs, n);
       for (const auto& n : stageNames) out << "," << valueOf(f.cpuMs, n);
-      out << "," << (f.simState.empty() ? "off" : f.simState) << "," << f.simStateS << "\n";
+      out << "," << (f.simState.empty() ? "off" : f.simState) << "," << f.simStateS;
+      for (int id : handleIds) {
+        const auto it = std::find_if(f.reactions.begin(), f.reactions.end(), [&](const auto& p) { return p.first == id; });
+        for (int i = 0; i < 6; ++i) {
+          out << ",";
+          if (it != f.reactions.end()) out << (i < 3 ? it->second.forceN[i] : it->second.torqueNmm[i - 3]);
+        }
+      }
+      out << "\n";
     }
     if (!out) throw Error("cannot write '" + path + "'");
   }

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "sim/handle_reaction.h"
+
 namespace handson {
 
 struct FrameTiming {
@@ -22,6 +24,8 @@ struct FrameTiming {
   std::vector<std::pair<std::string, double>> cpuMs;  ///< per CPU stage (app/stage_times.h)
   std::string simState;     ///< the simulation state the frame shows (DeformationController::modelState)
   double simStateS = -1.0;  ///< how long after its pose that state landed (s; -1: none)
+  /// The shown state's reaction on each simulated handle, by the app's handle id (N, N mm; RAS).
+  std::vector<std::pair<int, HandleReaction>> reactions;
 
   double frameMs() const { return (present - cpuStart) * 1e3; }
   /// Input-to-present latency (ms) from the oldest consumed event; negative without input.

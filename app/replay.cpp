@@ -170,6 +170,7 @@ int runReplay(const ReplayOptions& o) {
       ft.cpuMs = std::move(cpuStages);
       ft.simState = deform.modelState();
       ft.simStateS = deform.shownInput() > 0 ? deform.shownSeconds() : -1.0;
+      ft.reactions = deform.shownReactions();
       if (!o.framesOut.empty()) {
         char name[32];
         std::snprintf(name, sizeof(name), "frame_%05d.png", k);

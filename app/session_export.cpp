@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "app/volume_io.h"
+#include "app/forces_json.h"
 #include "app/png_io.h"
 #include "app/session_recovery.h"
 #include "app/session_script.h"
@@ -28,7 +29,7 @@ std::string SessionExport::write(const Session& session, const HandleSet& handle
       const std::string n = e.path().filename().string();
       int k = 0;
       if (std::sscanf(n.c_str(), "session-%d.json", &k) == 1 || std::sscanf(n.c_str(), "deformed-%d.", &k) == 1 ||
-          std::sscanf(n.c_str(), "screenshot-%d.png", &k) == 1 || std::sscanf(n.c_str(), "mesh-%d.vtu", &k) == 1 ||
+          std::sscanf(n.c_str(), "screenshot-%d.png", &k) == 1 || std::sscanf(n.c_str(), "mesh-%d.vtu", &k) == 1 || std::sscanf(n.c_str(), "forces-%d.json", &k) == 1 ||
           std::sscanf(n.c_str(), "handles-%d.json", &k) == 1)
         next_ = std::max(next_, k);
     }
@@ -49,12 +50,23 @@ std::string SessionExport::write(const Session& session, const HandleSet& handle
     const char* volumeExt = nrrd_ ? ".nrrd" : ".nii.gz";
     writeVolume(simulated ? shown : input_, path("deformed", volumeExt));
     const bool mesh = simulated && deform.exportMesh(path("mesh", ".vtu"));
+    const auto reactions = deform.shownReactions();
+    const bool forces = simulated && !reactions.empty();
+    if (forces) {
+      std::vector<HandleReaction> r;
+      std::vector<int> ids;
+      for (const auto& [id, rr] : reactions) {
+        ids.push_back(id);
+        r.push_back(rr);
+      }
+      writeForcesJson(path("forces", ".json"), r, deform.modelState(), ids);
+    }
     const bool image = !frame.rgba.empty();
     if (image) writePng(path("screenshot", ".png"), frame.width, frame.height, frame.rgba);
     ++count_;
     summary << "exported to " << dir_.string() << ": session-" << tag << ".json (" << session.script().events.size() << " events), handles-" << tag << ".json ("
             << handles.handles().size() << "), deformed-" << tag
-            << volumeExt << (simulated ? "" : " (nothing simulated: the input)") << (mesh ? std::string(", mesh-") + tag + ".vtu" : "")
+            << volumeExt << (simulated ? "" : " (nothing simulated: the input)") << (mesh ? std::string(", mesh-") + tag + ".vtu" : "") << (forces ? std::string(", forces-") + tag + ".json" : "")
             << (image ? std::string(", screenshot-") + tag + ".png" : "");
   } catch (const std::exception& e) {
     return std::string("export failed: ") + e.what();

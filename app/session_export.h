@@ -6,6 +6,7 @@
 //   deformed-NN.nii.gz  the volume as shown (the simulated deformation on the input's grid and
 //                       value type; the input unchanged when nothing is simulated)
 //   mesh-NN.vtu         the simulated fine mesh with its displacements (only when simulated)
+//   forces-NN.json      each simulated handle's reaction force and torque (app/forces_json.h)
 //   screenshot-NN.png   the rendered image of the frame after the request (no UI overlay)
 // Every file is written atomically (a failure never leaves a partial file), numbering continues
 // after the exports already in the directory (nothing is overwritten), and a failed export is

@@ -167,6 +167,7 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
     ImGui::PushID(h.id);
     const bool isPicked = std::find(st.picked.begin(), st.picked.end(), h.id) != st.picked.end();
     ImGui::Text("%s#%d %s, %zu voxels", isPicked ? "> " : "", h.id, h.status.c_str(), h.voxels);
+    if (!h.reaction.empty()) ImGui::TextUnformatted(h.reaction.c_str());
     for (const char* stName : {"active", "fixed", "idle"}) {
       const bool on = h.status == stName;
       if (on) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));

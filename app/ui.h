@@ -26,6 +26,7 @@ struct UiStatus {
     int id;
     std::string status;
     std::size_t voxels;
+    std::string reaction;  ///< what the tissue does to it (force, torque), while simulated
   };
   std::vector<HandleRow> handles;
   std::vector<int> picked;     ///< handles picked by tapping (union / difference act on the last two)

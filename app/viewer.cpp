@@ -387,7 +387,10 @@ bool Viewer::Impl::step() {
     status.preset = session->preset();
     status.fingers = int(session->gestures().input().fingers().size());
     status.handles.clear();
-    for (const auto& h : selection->handles().handles()) status.handles.push_back({h.id, handleStatusName(h.status), h.voxels.size()});
+    for (const auto& h : selection->handles().handles()) status.handles.push_back({h.id, handleStatusName(h.status), h.voxels.size(), {}});
+    for (const auto& [id, r] : deform->shownReactions())
+      for (auto& row : status.handles)
+        if (row.id == id) row.reaction = formatReaction(r);
     status.picked = selection->picked();
     status.locks = selection->locks();
     status.canUndo = selection->handles().canUndo();
@@ -423,6 +426,7 @@ bool Viewer::Impl::step() {
     for (auto& stage : deform->takeStageTimes()) ft.cpuMs.push_back(std::move(stage));
     ft.simState = deform->modelState();
     ft.simStateS = deform->shownInput() > 0 ? deform->shownSeconds() : -1.0;
+    ft.reactions = deform->shownReactions();
     const bool lastFrame = o.frames > 0 && int(frameNo) + 1 == o.frames;
     if (lastFrame && !o.screenshot.empty())
       shot = std::make_unique<vk::Buffer>(*ctx, VkDeviceSize(vp.width) * vp.height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,

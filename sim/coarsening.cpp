@@ -27,6 +27,18 @@ namespace {
 
 using Mat = Eigen::MatrixXd;
 
+}  // namespace
+
+Eigen::Matrix<double, 3, 12> unitMotions(const Eigen::Vector3d& X) {
+  Eigen::Matrix<double, 3, 12> U = Eigen::Matrix<double, 3, 12>::Zero();
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r) U(r, 3 * c + r) = X[c];
+  U.rightCols<3>().setIdentity();
+  return U;
+}
+
+namespace {
+
 // vec (column-major) of M = R_c^T R - I as the 9 numbers A multiplies.
 Eigen::Matrix<double, 9, 1> unroll(const Eigen::Matrix3d& M) {
   Eigen::Matrix<double, 9, 1> v;
@@ -204,6 +216,18 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
         const int f = nodes[std::size_t(Dn[std::size_t(i)])];
         addHandleBlock(el, handleOf[std::size_t(f)], F.nodes[std::size_t(f)], Khd.middleCols(3 * i, 3));
       }
+      // The handles' own condensed stiffness for their reactions: Q = (Phi_D U)^T K (Phi_D U),
+      // U (3nD x 12h) each D node's 12 unit motions in its handle's columns (el.handles order).
+      const int h = int(el.handles.size());
+      Mat U = Mat::Zero(3 * nD, 12 * h);
+      for (int i = 0; i < nD; ++i) {
+        const int f = nodes[std::size_t(Dn[std::size_t(i)])];
+        const auto it = std::find_if(el.handles.begin(), el.handles.end(), [&](const HandleBlock& b) { return b.handle == handleOf[std::size_t(f)]; });
+        U.block<3, 12>(3 * i, 12 * int(it - el.handles.begin())) = unitMotions(F.nodes[std::size_t(f)]);
+      }
+      const Mat PU = PhiD * U;
+      el.Q = PU.transpose() * (K * PU);
+      el.Q = 0.5 * (el.Q + el.Q.transpose()).eval();
     }
     // Reconstruction data.
     for (int i = 0; i < nI; ++i) {
@@ -295,6 +319,7 @@ void CoarseModel::save(std::ostream& os) const {
       w.matrix(h.A);
       w.matrix(h.B);
     }
+    if (!el.handles.empty()) w.matrix(el.Q);
   }
   w.pod(std::uint64_t(interior_.size()));
   for (const auto& in : interior_) {
@@ -353,6 +378,7 @@ std::unique_ptr<CoarseModel> CoarseModel::load(std::istream& is, std::uint64_t b
       r.matrix(h.A, 3 * nc, 9);
       r.matrix(h.B, 3 * nc, 3);
     }
+    if (nh > 0) r.matrix(el.Q, 12 * Eigen::Index(nh), 12 * Eigen::Index(nh));
   }
   const auto ni = r.pod<std::uint64_t>();
   if (ni > nf) throw Error("cache file corrupt (interior nodes)");

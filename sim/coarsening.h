@@ -34,6 +34,8 @@
 
 namespace handson {
 
+struct HandleReaction;  // sim/handle_reaction.h
+
 /// x = R X + t, world millimetres.
 struct RigidTransform {
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
@@ -121,6 +123,11 @@ class CoarseModel {
   /// Fine node positions from a coarse state (the nonlinear shape functions).
   std::vector<Eigen::Vector3d> reconstruct(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const;
 
+  /// The resultant elastic force and torque on each handle at coarse state x (sim/handle_reaction.h:
+  /// units, sign, moment centre), from the condensed blocks alone - no fine work. Throws
+  /// handson::Error on a size mismatch.
+  std::vector<HandleReaction> handleReactions(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const;
+
   /// The reconstruction packed for the GPU interpolation pass (see sim/fine_interpolation.h).
   FineInterpolationData interpolationData() const;
   /// R_e of every coarse element at state x (what reconstruct() uses).
@@ -175,6 +182,9 @@ class CoarseModel {
   };
   struct Element {
     std::array<int, 8> node{};  ///< coarse corner nodes (first n)
+    /// The handles' condensed stiffness against their unit motions (12h x 12h, h = handles.size(),
+    /// block (a, b) for handles[a], handles[b]): handleReactions() needs it, the solve does not.
+    Eigen::MatrixXd Q;
     Eigen::MatrixXd Kh;
     Eigen::VectorXd KhX;        ///< K_h X_c (constant)
     Eigen::Matrix3d fitInv;     ///< (sum dX dX^T)^-1 of the rest corners about their centroid
@@ -231,6 +241,11 @@ class CoarseModel {
 /// fine nodes interpolated linearly. Returns the fine node positions.
 std::vector<Eigen::Vector3d> plainCoarseSolve(const NestedMeshes& meshes, const std::vector<double>& fineYoungs, const std::vector<double>& finePoisson,
                                               const FineConstraints& constraints, const std::vector<RigidTransform>& handles);
+
+/// A handle node's 12 unit motions at rest position X (3 x 12): column 3c+r is e_r X_c (the motion
+/// u = M X with M = e_r e_c^T), column 9+j is e_j (a translation). A handle's motion R X + t is
+/// u = (R - I) X + t = U(X) [vec(R - I); t] (vec column-major), the order of A_k's and B_k's columns.
+Eigen::Matrix<double, 3, 12> unitMotions(const Eigen::Vector3d& X);
 
 /// Fine-mesh Dirichlet positions: handle nodes moved by their transform, fixed nodes at rest, the
 /// rest free (at rest) - the start of the fine static solve.

@@ -13,12 +13,12 @@
 namespace handson {
 
 SimWorker::SimWorker(CoarseModel& model, const std::vector<Mat12>& fineK, const SimWorkerOptions& options)
-    : model_(model), refiner_(model, fineK), options_(options) {
+    : model_(model), fineK_(fineK), refiner_(model, fineK), options_(options) {
   thread_ = std::thread([this] { run(); });
 }
 
 SimWorker::SimWorker(CoarseModel& model, const SimScene& scene, const SimWorkerOptions& options)
-    : model_(model), refiner_(model, scene.fineK, scene.youngs, scene.poisson, RefineOptions{options.refineMethod, options.refineThreads}), options_(options) {
+    : model_(model), fineK_(scene.fineK), refiner_(model, scene.fineK, scene.youngs, scene.poisson, RefineOptions{options.refineMethod, options.refineThreads}), options_(options) {
   thread_ = std::thread([this] { run(); });
 }
 
@@ -116,6 +116,7 @@ void SimWorker::run() {
     s.handles = handles;
     if (options_.reconstructFine) s.fine = model_.reconstruct(handles, x);
     if (options_.elementRotations) s.rotations = model_.elementRotations(x);
+    s.reactions = model_.handleReactions(handles, x);
     s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return s;
   };
@@ -211,6 +212,7 @@ void SimWorker::run() {
         r.handles = handles;
         r.settled = step == options_.refineSteps;
         if (options_.elementRotations) r.rotations = model_.elementRotations(x);
+        r.reactions = fineHandleReactions(model_.meshes().fine, fineK_, model_.constraints(), handles, fine);
       } catch (const std::exception& e) {
         r = SimSnapshot{};
         r.input = input;

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "sim/coarsening.h"
+#include "sim/handle_reaction.h"
 #include "sim/sim_scene.h"
 #include "sim/two_level.h"
 
@@ -45,6 +46,9 @@ struct SimSnapshot {
   std::vector<Eigen::Vector3d> fine;    ///< fine node positions (empty without reconstructFine)
   std::vector<Eigen::Matrix3d> rotations;  ///< per coarse element (with elementRotations)
   std::vector<RigidTransform> handles;  ///< the input's handle transforms
+  /// Each handle's reaction (sim/handle_reaction.h): from the coarse model's condensed blocks for a
+  /// coarse answer, from the fine tets at the refined positions after a refinement step.
+  std::vector<HandleReaction> reactions;
   CoarseSolveStats stats;
   bool settled = false;                 ///< no more coarse snapshots for this input (converged, or the idle budget spent)
   double seconds = 0.0;                 ///< worker time for this snapshot since its input was taken
@@ -76,6 +80,7 @@ class SimWorker {
   void publish(SimSnapshot s);
 
   CoarseModel& model_;
+  const std::vector<Mat12>& fineK_;
   FineRefiner refiner_;
   SimWorkerOptions options_;
   std::mutex mutex_;

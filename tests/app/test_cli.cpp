@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -194,8 +195,19 @@ TEST_F(Cli, DeformMovesTheHandleRegionOnlyAndWritesAMeshForParaView) {
   // The coarse model, the fine reference, and the coarse model on the image-adapted (TetGen) fine mesh.
   for (const char* model : {"coarse", "fine", "coarse --fine-mesh adapted"}) {
     const std::string out = p((std::string(model).substr(0, 6) + std::to_string(std::string(model).size()) + ".nii.gz").c_str());
-    r = runHandson(common + "--model " + model + " --translate-mm 12,0,0 --rotate-deg 0,0,20 -o " + out + " --mesh-out " + p("mesh.vtu"));
+    r = runHandson(common + "--model " + model + " --translate-mm 12,0,0 --rotate-deg 0,0,20 -o " + out + " --mesh-out " + p("mesh.vtu") +
+                   " --forces-out " + p("forces.json"));
     ASSERT_EQ(r.status, 0) << r.output;
+    {
+      // The tissue pulls the kidney back against its +12 mm in x (the handle's reaction, newtons).
+      std::ifstream f(p("forces.json"));
+      const std::string json((std::istreambuf_iterator<char>(f)), {});
+      const auto at = json.find("\"force_N\": [");
+      ASSERT_NE(at, std::string::npos) << json;
+      EXPECT_LT(std::strtod(json.c_str() + at + 12, nullptr), 0.0) << model << "\n" << json;
+      EXPECT_NE(json.find("\"torque_Nmm\": ["), std::string::npos) << json;
+      EXPECT_NE(json.find(std::string("\"model\": \"") + (std::string(model) == "fine" ? "fine" : "coarse")), std::string::npos) << json;
+    }
     EXPECT_NE(r.output.find("inverted fine tets"), std::string::npos) << r.output;
     if (std::string(model).find("adapted") != std::string::npos) {
       const auto at = r.output.find("image-adapted: ");

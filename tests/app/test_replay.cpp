@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <algorithm>
+#include <cmath>
 #include <iterator>
 #include <vector>
 
@@ -185,6 +186,15 @@ TEST(Replay, AMovedActiveHandleDeformsTheTissueAroundItAndReplaysBitIdentically)
     }
     EXPECT_TRUE(rest) << "frames before the first handle";
     EXPECT_NE(last.find(",converged,"), std::string::npos) << last;
+    // Each simulated handle's reaction (newtons, newton-millimetres): the last frame has them.
+    const auto col = header.find(",handle1_force_x_N,handle1_force_y_N,handle1_force_z_N,handle1_torque_x_Nmm");
+    ASSERT_NE(col, std::string::npos) << header;
+    const auto field = std::count(header.begin(), header.begin() + long(col) + 1, ',');
+    std::istringstream fields(last);
+    std::string v;
+    for (long i = 0; i <= field; ++i) std::getline(fields, v, ',');
+    EXPECT_FALSE(v.empty()) << last;
+    EXPECT_TRUE(std::isfinite(std::strtod(v.c_str(), nullptr))) << v;
   }
   ASSERT_EQ(run(common + sim + "--quiet --frames-out " + (dir / "b").string() + " --export " + (dir / "deformed.nii.gz").string(), &out), 0) << out;
   ASSERT_EQ(run(common + "--sim off --quiet --frames-out " + (dir / "rigid").string(), &out), 0) << out;
@@ -371,8 +381,9 @@ TEST(Replay, TheExportActionWritesTheSessionTheDeformedVolumeTheMeshAndAScreensh
             0)
       << log;
   EXPECT_NE(log.find("exported to"), std::string::npos) << log;
-  for (const char* f : {"session-01.json", "handles-01.json", "deformed-01.nii.gz", "mesh-01.vtu", "screenshot-01.png"})
+  for (const char* f : {"session-01.json", "handles-01.json", "deformed-01.nii.gz", "mesh-01.vtu", "forces-01.json", "screenshot-01.png"})
     EXPECT_TRUE(fs::exists(out / f)) << f << "\n" << log;
+  EXPECT_NE(slurp(out / "forces-01.json").find("\"force_N\": ["), std::string::npos) << "the moved handle's reaction";
   int w = 0, h = 0;
   EXPECT_FALSE(handson::readPng((out / "screenshot-01.png").string(), w, h).empty());
   EXPECT_EQ(w, 96);

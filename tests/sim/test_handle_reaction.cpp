@@ -1,0 +1,122 @@
+// Handle reaction force and torque against exact answers: a bar stretched by a rigid end (E A eps / L),
+// a rigid motion of everything (zero), the coarse model's reaction against the fine forces at its own
+// reconstruction (equal in the small-motion limit), linearity in a small motion.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "sim/box_scene.h"
+#include "sim/coarsening.h"
+#include "sim/handle_reaction.h"
+#include "sim/static_solver.h"
+
+using namespace handson;
+
+namespace {
+
+// A 50 x 10 x 10 mm bar along x: nodes at x = 0 are handle 0 (or fixed), nodes at x = 50 handle 1.
+struct Bar {
+  NestedMeshes meshes = buildNestedMeshes({0, 0, 0}, {50, 10, 10}, 600, 27);
+  std::vector<Mat12> K;
+  FineConstraints c;
+  Bar(double youngs, double poisson, bool clampedStart) {
+    const auto& F = meshes.fine;
+    K = tetStiffnesses(F, std::vector<double>(F.tets.size(), youngs), std::vector<double>(F.tets.size(), poisson));
+    c.handleOf.assign(F.nodes.size(), -1);
+    c.fixed.assign(F.nodes.size(), 0);
+    for (std::size_t n = 0; n < F.nodes.size(); ++n) {
+      if (F.nodes[n].x() < 1e-9) (clampedStart ? c.fixed[n] = 1 : c.handleOf[n] = 0);
+      if (F.nodes[n].x() > 50 - 1e-9) c.handleOf[n] = clampedStart ? 0 : 1;
+    }
+    c.handleCount = clampedStart ? 1 : 2;
+  }
+  std::vector<Eigen::Vector3d> fineSolve(const std::vector<RigidTransform>& T) const {
+    std::vector<char> dir;
+    const auto x0 = prescribedPositions(meshes.fine, c, T, &dir);
+    StaticSolveOptions o;
+    o.tolerance = 1e-9;
+    const auto r = solveStatic(meshes.fine, K, dir, x0, o);
+    EXPECT_TRUE(r.converged);
+    return r.x;
+  }
+};
+
+}  // namespace
+
+TEST(HandleReaction, BarStretchedByARigidEndPullsBackWithEAEpsilonOverL) {
+  // nu = 0: uniaxial stress is uniaxial strain, the displacement is linear in x and every model
+  // here represents it exactly, so F = E A eps / L holds to the solvers' tolerance. E = 10 kPa,
+  // A = 100 mm^2, eps = 1 %: 10e3 Pa * 100e-6 m^2 * 0.01 = 0.01 N.
+  const Bar bar(10e3, 0.0, true);
+  const std::vector<RigidTransform> T{{Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.5, 0, 0)}};
+  const double exact = 10e3 * 100e-6 * 0.01;
+  const auto fine = fineHandleReactions(bar.meshes.fine, bar.K, bar.c, T, bar.fineSolve(T));
+  CoarseModel model(bar.meshes, bar.K, bar.c);
+  auto xc = model.restState();
+  ASSERT_TRUE(model.solve(T, xc, 200, 1e-10).converged);
+  const auto coarse = model.handleReactions(T, xc);
+  std::printf("exact %.6f N; fine %.6f N; coarse %.6f N\n", exact, -fine[0].forceN.x(), -coarse[0].forceN.x());
+  for (const auto& r : {fine[0], coarse[0]}) {
+    EXPECT_NEAR(r.forceN.x(), -exact, 1e-6 * exact) << "the tissue pulls the stretched end back";
+    EXPECT_NEAR(r.forceN.tail<2>().norm(), 0.0, 1e-6 * exact);
+    EXPECT_NEAR(r.torqueNmm.norm(), 0.0, 1e-6 * exact * 10) << "symmetric about the bar's axis";
+  }
+}
+
+TEST(HandleReaction, ARigidMotionOfEverythingIsForceFree) {
+  // Both ends are handles moved by the same rotation (40 degrees) and translation: the bar follows
+  // rigidly and nothing pushes on either end.
+  const Bar bar(10e3, 0.45, false);
+  auto at = [](double s) {
+    const RigidTransform T = RigidTransform::about({25, 5, 5}, Eigen::Vector3d(0.3, -0.5, 0.4).normalized() * (s * 40 * M_PI / 180), Eigen::Vector3d(3, -2, 7) * s);
+    return std::vector<RigidTransform>{T, T};
+  };
+  const auto Ts = at(1.0);
+  const auto fine = fineHandleReactions(bar.meshes.fine, bar.K, bar.c, Ts, bar.fineSolve(Ts));
+  CoarseModel model(bar.meshes, bar.K, bar.c);
+  auto xc = model.restState();
+  for (int k = 1; k <= 4; ++k) {  // the app's increments
+    const auto st = model.solve(at(k / 4.0), xc, 2000, 1e-8);
+    std::printf("increment %d: %d iterations, last update %.2e mm\n", k, st.iterations, st.lastUpdate);
+    ASSERT_TRUE(st.converged);
+  }
+  const auto coarse = model.handleReactions(Ts, xc);
+  // Zero to 1e-6 of E A (1 N here; a 1 % stretch pulls with 0.01 N) and of E A times the bar's
+  // half-length for the torques: the condensed blocks cancel a common translation only to their
+  // rounding, amplified by the corner and handle positions (tens of mm).
+  for (int k = 0; k < 2; ++k) {
+    std::printf("end %d: fine %.1e N %.1e N mm, coarse %.1e N %.1e N mm\n", k, fine[std::size_t(k)].forceN.norm(), fine[std::size_t(k)].torqueNmm.norm(),
+                coarse[std::size_t(k)].forceN.norm(), coarse[std::size_t(k)].torqueNmm.norm());
+    EXPECT_LT(fine[std::size_t(k)].forceN.norm(), 1e-6);
+    EXPECT_LT(fine[std::size_t(k)].torqueNmm.norm(), 25e-6);
+    EXPECT_LT(coarse[std::size_t(k)].forceN.norm(), 1e-6);
+    EXPECT_LT(coarse[std::size_t(k)].torqueNmm.norm(), 25e-6);
+  }
+}
+
+TEST(HandleReaction, CoarseReactionIsTheFineForceOnItsOwnReconstructionAndLinearInASmallMotion) {
+  // A ball handle in the box beside a 100x stiffer slab, moved 10 microns and turned 0.01 degrees:
+  // the coarse model's energy is the fine energy of its reconstruction, so its reaction (from the
+  // condensed blocks) is the fine mesh's force on the handle's nodes at that reconstruction, up to
+  // the corotation's second-order terms.
+  BoxScene box(100.0);
+  box.ball({30, 15, 20}, 7.0, 0);
+  CoarseModel model(box.meshes, box.K, box.c);
+  auto at = [&](double s) {
+    return std::vector<RigidTransform>{RigidTransform::about({30, 15, 20}, Eigen::Vector3d(0, 0, s * 0.0001 * M_PI / 180), Eigen::Vector3d(1e-4, -4e-5, 6e-5) * s)};
+  };
+  auto xc = model.restState();
+  ASSERT_TRUE(model.solve(at(1), xc, 300, 1e-10).converged);
+  const auto coarse = model.handleReactions(at(1), xc);
+  const auto fine = fineHandleReactions(box.meshes.fine, box.K, box.c, at(1), model.reconstruct(at(1), xc));
+  const double F = coarse[0].forceN.norm(), M = coarse[0].torqueNmm.norm();
+  std::printf("force %.4e N (fine at the reconstruction %.4e), torque %.4e N mm (%.4e)\n", F, fine[0].forceN.norm(), M, fine[0].torqueNmm.norm());
+  ASSERT_GT(F, 0.0);
+  EXPECT_LT((coarse[0].forceN - fine[0].forceN).norm(), 1e-4 * F);
+  EXPECT_LT((coarse[0].torqueNmm - fine[0].torqueNmm).norm(), 1e-3 * M);
+  auto x2 = model.restState();
+  ASSERT_TRUE(model.solve(at(2), x2, 300, 1e-10).converged);
+  const auto twice = model.handleReactions(at(2), x2);
+  EXPECT_LT((twice[0].forceN - 2.0 * coarse[0].forceN).norm(), 1e-4 * F) << "linear in a small motion";
+  EXPECT_LT((twice[0].torqueNmm - 2.0 * coarse[0].torqueNmm).norm(), 1e-3 * M);
+}
