@@ -12,10 +12,12 @@
 
 #include "app/cli.h"
 #include "app/cli_args.h"
+#include "app/cli_bench_force.h"
 #include "app/console.h"
 #include "app/nifti_io.h"
 #include "app/volume_io.h"
 #include "sim/coarsening.h"
+#include "sim/handle_reaction.h"
 #include "sim/error.h"
 #include "sim/sim_scene.h"
 #include "sim/static_solver.h"
@@ -42,7 +44,8 @@ const char* const kBenchSimHelp =
     "  --refine-steps N       two-level steps measured (default 4, 10 PCG iterations each)\n"
     "  --translate-mm X,Y,Z, --rotate-deg AX,AY,AZ   another motion\n"
     "  --materials CSV        material table (default: the CT defaults, assets/materials/ct-default.csv)\n"
-    "  --out DIR              sim_accuracy.csv, sim_tradeoff.csv and sim_tradeoff.png (default bench-out)\n"
+    "  --out DIR              sim_accuracy.csv, sim_tradeoff.csv, sim_tradeoff.png and sim_force.csv/png\n"
+    "                         (the handle's reaction against its motion, coarse and fine; default bench-out)\n"
     "  --quiet\n";
 
 double since(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
@@ -109,7 +112,7 @@ int cmdBenchSim(const Words& words) {
   for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k;
   for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k << "_warped";
   for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k << "_projected";
-  acc << ",refine_step_s,refine_step_s_warped,refine_step_s_projected\n";
+  acc << ",refine_step_s,refine_step_s_warped,refine_step_s_projected,force_fine_N,force_coarse_N,force_coarse_over_fine,torque_fine_Nmm,torque_coarse_Nmm\n";
   trade << "model,coarse_tets,seconds,rms\n";
   std::cout << std::fixed;
   const MaterialTable materials = args.value("--materials") ? MaterialTable::load(*args.value("--materials")) : MaterialTable::ctDefault();
@@ -252,7 +255,13 @@ int cmdBenchSim(const Words& words) {
     }
     const std::vector<double> stepSeconds = compareRefinements(sc, model, T, xc, xcoarse, fine.x, refineSteps, frame, acc, trade);
     trade << "fine," << sc.meshes.coarse.tets.size() << "," << tFine << ",1e-4\n";
-    acc << "," << stepSeconds[0] << "," << stepSeconds[1] << "," << stepSeconds[2] << std::endl;  // a row at a time: long runs show progress
+    // The handle's reaction (what the tissue does to it), coarse model against the fine reference.
+    const HandleReaction rf = fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, T, fine.x)[0], rc = model.handleReactions(T, xc)[0];
+    std::cout << std::setprecision(4) << "  reaction on the handle: fine " << rf.forceN.norm() << " N, " << rf.torqueNmm.norm() << " N mm; coarse model "
+              << rc.forceN.norm() << " N (" << std::setprecision(2) << rc.forceN.norm() / rf.forceN.norm() << "x), " << std::setprecision(4)
+              << rc.torqueNmm.norm() << " N mm\n";
+    acc << "," << stepSeconds[0] << "," << stepSeconds[1] << "," << stepSeconds[2] << "," << rf.forceN.norm() << "," << rc.forceN.norm() << ","
+        << rc.forceN.norm() / rf.forceN.norm() << "," << rf.torqueNmm.norm() << "," << rc.torqueNmm.norm() << std::endl;  // a row at a time: long runs show progress
     trade.flush();
     std::cout.flush();
   }
@@ -280,7 +289,9 @@ int cmdBenchSim(const Words& words) {
                       << "'' using (strcol(1) eq 'coarsened-cells' ? $3 : 1/0):4:2 with labels offset 1.5,0.6 notitle\n";
     if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no chart\n";
   }
-  std::cout << "\nwrote " << (out / "sim_accuracy.csv").string() << ", " << (out / "sim_tradeoff.csv").string() << " and the chart sim_tradeoff.png\n";
+  benchForceCurve(out);
+  std::cout << "\nwrote " << (out / "sim_accuracy.csv").string() << ", " << (out / "sim_tradeoff.csv").string()
+            << " and the charts sim_tradeoff.png, sim_force.png\n";
   return 0;
 }
 

@@ -79,6 +79,8 @@ class DeformationController {
   /// The shown state's reaction on each simulated handle (sim/handle_reaction.h), with the app's
   /// handle id of each (active handles, then fixed ones); empty when nothing is shown.
   std::vector<std::pair<int, HandleReaction>> shownReactions() const;
+  /// The shown state's refinement step (0: the coarse model's answer).
+  int shownRefineStep() const { return shownRefineStep_; }
   bool shownConverged() const { return shownConverged_; }
   /// Failures so far, for a caller that saves the session when one happens: poses the solve
   /// refused, solves that stopped without converging (each counted once per episode: until a pose

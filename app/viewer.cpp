@@ -390,7 +390,7 @@ bool Viewer::Impl::step() {
     for (const auto& h : selection->handles().handles()) status.handles.push_back({h.id, handleStatusName(h.status), h.voxels.size(), {}});
     for (const auto& [id, r] : deform->shownReactions())
       for (auto& row : status.handles)
-        if (row.id == id) row.reaction = formatReaction(r);
+        if (row.id == id) row.reaction = formatReaction(r, deform->shownRefineStep() == 0);
     status.picked = selection->picked();
     status.locks = selection->locks();
     status.canUndo = selection->handles().canUndo();

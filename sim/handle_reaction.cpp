@@ -39,9 +39,10 @@ std::vector<HandleReaction> aboutCentroids(std::vector<HandleReaction> r, const 
 
 }  // namespace
 
-std::string formatReaction(const HandleReaction& r) {
+std::string formatReaction(const HandleReaction& r, bool coarse) {
   char buf[96];
-  std::snprintf(buf, sizeof buf, "tissue force %.3g N, torque %.3g N mm", r.forceN.norm(), r.torqueNmm.norm());
+  if (coarse) std::snprintf(buf, sizeof buf, "tissue force ~%.2g N (coarse model)", r.forceN.norm());
+  else std::snprintf(buf, sizeof buf, "tissue force %.3g N, torque %.3g N mm", r.forceN.norm(), r.torqueNmm.norm());
   return buf;
 }
 

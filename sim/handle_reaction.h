@@ -20,8 +20,9 @@ struct HandleReaction {
   Eigen::Vector3d centreMm = Eigen::Vector3d::Zero();   ///< the handle's current centroid (world mm)
 };
 
-/// "tissue force 0.42 N, torque 3.1 N mm": for status lines.
-std::string formatReaction(const HandleReaction& r);
+/// "tissue force 0.42 N, torque 3.1 N mm" for status lines; a coarse model's reaction is marked
+/// approximate and its torque left out (docs/simulation-model.md: it is unreliable beside bone).
+std::string formatReaction(const HandleReaction& r, bool coarse = false);
 
 /// The rest centroid of each handle's fine nodes (fixed nodes left out).
 std::vector<Eigen::Vector3d> handleRestCentroids(const TetMesh& fine, const FineConstraints& constraints);
