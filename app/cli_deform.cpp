@@ -20,6 +20,7 @@
 #include "sim/coarsening.h"
 #include "sim/error.h"
 #include "sim/handle_reaction.h"
+#include "sim/strain.h"
 #include "sim/scene_cache.h"
 #include "sim/sim_scene.h"
 #include "sim/static_solver.h"
@@ -61,11 +62,15 @@ const char* const kDeformHelp =
     "                          fine and refined positions are uploaded\n"
     "  --device NAME           Vulkan device for --backend gpu (default: automatic; see handson render)\n"
     "  --validation            Khronos validation layer on (any message is an error)\n"
+    "  --strain-out S.nii.gz   the tissue's strain on the input's grid: per voxel, the largest principal\n"
+    "                          stretch - 1 of the deformed fine tet covering it (0 outside the region)\n"
     "  --forces-out F.json     each handle's reaction: the force (N) and torque (N mm, about its current\n"
-    "                          centroid) the tissue exerts on it, RAS; from the model that was solved\n"
+    "                          centroid) the tissue exerts on it, RAS; from the model that was solved (the\n"
+    "                          coarse model's own is approximate, far off where bone shares its cells with\n"
+    "                          the handle; --refine-steps 2 gives the fine model's within about 5 %)\n"
     "  --mesh-out MESH.vtu     the fine mesh for ParaView: rest positions, point data displacement and\n"
     "                          dirichlet, cell data youngs_modulus, poisson_ratio, coarse_element (the\n"
-    "                          coarse model's element: grid cell or coarse tet)\n"
+    "                          coarse model's element: grid cell or coarse tet), strain\n"
     "  --quiet                 no progress output\n";
 
 double seconds(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
@@ -120,12 +125,52 @@ GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const Sim
   return r;
 }
 
+// resampleOnGpu on a device of its own; any validation message is an error.
+GpuResample resampleOnNewDevice(const vk::ContextOptions& co, const Volume& image, const SimScene& sc, const CoarseModel* model,
+                                const std::vector<RigidTransform>& T, const std::vector<Eigen::Vector3d>& xc, const std::vector<Eigen::Vector3d>& x,
+                                bool interpolate) {
+  const vk::Context ctx(co);
+  GpuResample r = resampleOnGpu(ctx, image, sc, model, T, xc, x, interpolate);
+  if (ctx.validationMessageCount()) throw Error("Vulkan validation messages were reported");
+  return r;
+}
+
+// The strain on the input's grid. `tetOf`: which tet covers each voxel, from the CPU resampling;
+// empty after the GPU one (then rasterized here with the CPU reference).
+void writeStrain(const std::string& path, const Volume& image, const SimScene& sc, const std::vector<Eigen::Vector3d>& x, const std::vector<float>& strain,
+                 std::vector<std::int32_t>& tetOf) {
+  if (tetOf.empty()) {
+    Volume unused;
+    rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, unused, nullptr, nullptr,
+                      defaultMaxTetVoxels(sc.meshes.fine, image.geometry().worldToIndex()), &tetOf);
+  }
+  writeVolume(strainVolume(image.geometry(), tetOf, strain), path);
+}
+
+// The fine mesh for ParaView: displacement and Dirichlet roles per node; material, coarse element
+// and strain per tet.
+void writeMesh(const std::string& path, const SimScene& sc, const std::vector<Eigen::Vector3d>& x, const std::vector<float>& strain, CoarseElement element) {
+  std::vector<Eigen::Vector3d> disp(x.size());
+  std::vector<double> dir(x.size()), coarseEl(sc.meshes.fine.tets.size()), strainD(strain.begin(), strain.end());
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    disp[i] = x[i] - sc.meshes.fine.nodes[i];
+    dir[i] = (sc.constraints.fixed[i] || sc.constraints.handleOf[i] >= 0) ? 1.0 : 0.0;
+  }
+  // The coarse model's element of each fine tet (a grid cell or a coarse tet, --coarse-element).
+  for (std::size_t t = 0; t < coarseEl.size(); ++t) coarseEl[t] = element == CoarseElement::Cell ? sc.meshes.fineParent[t] / 6 : sc.meshes.fineParent[t];
+  VtuArrays a;
+  a.pointVectors = {{"displacement", &disp}};
+  a.pointScalars = {{"dirichlet", &dir}};
+  a.cellScalars = {{"youngs_modulus", &sc.youngs}, {"poisson_ratio", &sc.poisson}, {"coarse_element", &coarseEl}, {"strain", &strainD}};
+  writeVtu(path, sc.meshes.fine, a);
+}
+
 }  // namespace
 
 int cmdDeform(const Words& words) {
   Args args(words,
             {"--frame", "--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm",
-             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--fine-mesh", "--adapt-contrast", "--cache-dir", "--forces-out"},
+             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--fine-mesh", "--adapt-contrast", "--cache-dir", "--forces-out", "--strain-out"},
             {"--whole-volume", "--quiet", "--validation"});
   if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {
     usageStream(args) << kDeformHelp;
@@ -234,12 +279,15 @@ int cmdDeform(const Words& words) {
   const int inverted = countInvertedTets(sc.meshes.fine, x);
   double maxDisp = 0;
   for (std::size_t i = 0; i < x.size(); ++i) maxDisp = std::max(maxDisp, (x[i] - sc.meshes.fine.nodes[i]).norm());
+  const bool wantStrain = args.value("--strain-out").has_value();
+  const std::vector<float> strain = wantStrain || args.value("--mesh-out") ? tetStrain(sc.meshes.fine, x) : std::vector<float>{};
+  std::vector<std::int32_t> tetOf;
   t0 = std::chrono::steady_clock::now();
   Volume out;
   std::size_t regionVoxels = 0, covered = 0;
   if (backend == "cpu") {
     const auto rs = rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, out, nullptr, nullptr,
-                                      defaultMaxTetVoxels(sc.meshes.fine, image.geometry().worldToIndex()));
+                                      defaultMaxTetVoxels(sc.meshes.fine, image.geometry().worldToIndex()), wantStrain ? &tetOf : nullptr);
     regionVoxels = rs.regionVoxels;
     covered = rs.covered;
   } else {
@@ -247,41 +295,32 @@ int cmdDeform(const Words& words) {
     co.device = args.valueOr("--device", "");
     co.validation = args.flag("--validation");
     co.verbose = !quiet;
-    const vk::Context ctx(co);
-    const GpuResample r = resampleOnGpu(ctx, image, sc, model_.get(), T, xc, x, model == "coarse" && refineSteps == 0);
-    out = r.image;
+    GpuResample r = resampleOnNewDevice(co, image, sc, model_.get(), T, xc, x, model == "coarse" && refineSteps == 0);
+    out = std::move(r.image);
     regionVoxels = r.regionVoxels;
     covered = r.covered;
-    if (ctx.validationMessageCount()) throw Error("Vulkan validation messages were reported");
   }
   const double tRaster = seconds(t0);
   writeVolume(out, *args.value("-o"));
+  if (wantStrain) {
+    writeStrain(*args.value("--strain-out"), image, sc, x, strain, tetOf);
+    std::cout << "wrote " << *args.value("--strain-out") << "\n";
+  }
   // The coarse model's preprocessing (scene and coarsening, or their cache) is one step.
   std::cout << std::setprecision(3) << "model " << model << ": " << (model == "coarse" ? "scene + coarsening " : "scene ") << tScene << " s, ";
   std::cout << "solve " << tSolve << " s (" << steps << " increment" << (steps > 1 ? "s" : "") << "), resampling " << tRaster << " s\n"
             << "largest displacement " << maxDisp << " mm; inverted fine tets " << inverted << "; region voxels " << regionVoxels << ", covered "
             << covered << " (" << backend << ")\nwrote " << *args.value("-o") << "\n";
   if (auto fo = args.value("--forces-out")) {
+    // The reactions of the model that was solved: the coarse model's own, or the fine tets' at the
+    // fine or refined positions.
     const bool coarseOnly = model == "coarse" && refineSteps == 0;
     writeForcesJson(*fo, coarseOnly ? model_->handleReactions(T, xc) : fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, T, x),
-                    coarseOnly ? "coarse" : (model == "fine" ? "fine" : "refined"));
+                    coarseOnly ? "coarse" : model == "fine" ? "fine" : "refined");
     std::cout << "wrote " << *fo << "\n";
   }
   if (auto mo = args.value("--mesh-out")) {
-    std::vector<Eigen::Vector3d> disp(x.size());
-    std::vector<double> dir(x.size()), coarseEl(sc.meshes.fine.tets.size());
-    for (std::size_t i = 0; i < x.size(); ++i) {
-      disp[i] = x[i] - sc.meshes.fine.nodes[i];
-      dir[i] = (sc.constraints.fixed[i] || sc.constraints.handleOf[i] >= 0) ? 1.0 : 0.0;
-    }
-    // The coarse model's element of each fine tet (a grid cell or a coarse tet, --coarse-element).
-    for (std::size_t t = 0; t < coarseEl.size(); ++t)
-      coarseEl[t] = s.element == CoarseElement::Cell ? sc.meshes.fineParent[t] / 6 : sc.meshes.fineParent[t];
-    VtuArrays a;
-    a.pointVectors = {{"displacement", &disp}};
-    a.pointScalars = {{"dirichlet", &dir}};
-    a.cellScalars = {{"youngs_modulus", &sc.youngs}, {"poisson_ratio", &sc.poisson}, {"coarse_element", &coarseEl}};
-    writeVtu(*mo, sc.meshes.fine, a);
+    writeMesh(*mo, sc, x, strain, s.element);
     std::cout << "wrote " << *mo << "\n";
   }
   return 0;

@@ -51,7 +51,7 @@ std::size_t takeRegionFromQuantized(Volume& image, const QuantizedVolume& q, con
 
 RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& lo,
                               const Eigen::Vector3d& hi, float background, Volume& out, const std::vector<std::uint8_t>* restMask,
-                              std::vector<std::uint8_t>* outMask, std::uint64_t maxTetVoxels) {
+                              std::vector<std::uint8_t>* outMask, std::uint64_t maxTetVoxels, std::vector<std::int32_t>* tetOf) {
   if (deformed.size() != mesh.nodes.size()) throw Error("rasterization: one deformed position per node expected");
   for (const auto& p : deformed)
     if (!p.allFinite()) throw Error("rasterization: a deformed node position is not finite");
@@ -60,6 +60,8 @@ RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std:
   const VolumeGeometry& g = src.geometry();
   out = src;
   if (outMask) *outMask = *restMask;
+  if (tetOf) tetOf->assign(src.voxelCount(), -1);
+  if (mesh.tets.size() > std::size_t(INT32_MAX)) throw Error("rasterization: too many tets");
   RasterStats st;
   const Eigen::Matrix4d w2i = g.worldToIndex();
   auto toIndex = [&](const Eigen::Vector3d& w) -> Eigen::Vector3d { return (w2i * w.homogeneous()).head<3>(); };
@@ -110,6 +112,7 @@ RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std:
           }
           state[lin] = 2;
           ++st.covered;
+          if (tetOf) (*tetOf)[lin] = std::int32_t(t);
           const Eigen::Vector3d rest = l0 * mesh.nodes[std::size_t(tet[0])] + l.x() * mesh.nodes[std::size_t(tet[1])] + l.y() * mesh.nodes[std::size_t(tet[2])] +
                                        l.z() * mesh.nodes[std::size_t(tet[3])];
           const Eigen::Vector3d ri = toIndex(rest);

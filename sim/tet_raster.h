@@ -35,10 +35,12 @@ struct RasterStats {
 std::uint64_t defaultMaxTetVoxels(const TetMesh& mesh, const Eigen::Matrix4d& worldToIndex);
 
 /// `out` gets the deformed image on the source's grid. `regionLo`/`regionHi`: the world box the mesh
-/// filled at rest (cleared to `background` before rasterizing).
+/// filled at rest (cleared to `background` before rasterizing). `tetOf` (optional): per voxel of the
+/// grid, the tet that wrote it, -1 where none did (outside the region, or uncovered).
 RasterStats rasterizeDeformed(const Volume& source, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& regionLo,
                               const Eigen::Vector3d& regionHi, float background, Volume& out, const std::vector<std::uint8_t>* restMask = nullptr,
-                              std::vector<std::uint8_t>* outMask = nullptr, std::uint64_t maxTetVoxels = UINT64_MAX);
+                              std::vector<std::uint8_t>* outMask = nullptr, std::uint64_t maxTetVoxels = UINT64_MAX,
+                              std::vector<std::int32_t>* tetOf = nullptr);
 
 /// The voxel index box [lo, hi] (inclusive, clamped to the grid) of the voxels whose centres lie in
 /// the world box [regionLo, regionHi] up to 1e-3 mm; empty (lo > hi) when none.

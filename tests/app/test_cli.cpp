@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -196,8 +197,23 @@ TEST_F(Cli, DeformMovesTheHandleRegionOnlyAndWritesAMeshForParaView) {
   for (const char* model : {"coarse", "fine", "coarse --fine-mesh adapted"}) {
     const std::string out = p((std::string(model).substr(0, 6) + std::to_string(std::string(model).size()) + ".nii.gz").c_str());
     r = runHandson(common + "--model " + model + " --translate-mm 12,0,0 --rotate-deg 0,0,20 -o " + out + " --mesh-out " + p("mesh.vtu") +
-                   " --forces-out " + p("forces.json"));
+                   " --forces-out " + p("forces.json") + " --strain-out " + p("strain.nii.gz"));
     ASSERT_EQ(r.status, 0) << r.output;
+    {
+      // The strain on the input's grid: stretched tissue around the moved kidney, nothing outside
+      // the simulated region (the far side of the body), never a non-finite value.
+      const handson::Volume st = handson::readNifti(p("strain.nii.gz"));
+      ASSERT_EQ(st.dims(), handson::readNifti(p("ct.nii.gz")).dims());
+      float hi = 0.0f;
+      bool finite = true;
+      for (std::size_t i = 0; i < st.voxelCount(); ++i) {
+        hi = std::max(hi, st.value(i));
+        finite = finite && std::isfinite(st.value(i));
+      }
+      EXPECT_TRUE(finite);
+      EXPECT_GT(hi, 0.05f) << model << ": 12 mm and 20 degrees stretch the tissue beside the kidney";
+      EXPECT_EQ(st.value(0, 0, 0), 0.0f) << "outside the region";
+    }
     {
       // The tissue pulls the kidney back against its +12 mm in x (the handle's reaction, newtons).
       std::ifstream f(p("forces.json"));
