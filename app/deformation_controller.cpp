@@ -1,5 +1,6 @@
 #include "deformation_controller.h"
 
+#include "app/volume_io.h"
 #include "app/vtu_io.h"
 
 #include <Eigen/Geometry>
@@ -14,6 +15,7 @@
 #include "sim/fine_interpolation.h"
 #include "sim/quantized_volume.h"
 #include "sim/scene_cache.h"
+#include "sim/strain.h"
 #include "sim/tet_raster.h"
 
 namespace handson {
@@ -327,24 +329,46 @@ bool DeformationController::exportDeformed(Volume& out) const {
   return true;
 }
 
+std::vector<Eigen::Vector3d> DeformationController::drawnFinePositions() const {
+  const auto pos = renderer_.deformer()->readPositions();  // voxel index space, as drawn
+  if (pos.size() != model_->scene.meshes.fine.nodes.size()) return {};
+  const Eigen::Matrix4d toWorld = quantized_.geometry.worldToIndex().inverse();
+  std::vector<Eigen::Vector3d> x(pos.size());
+  for (std::size_t i = 0; i < pos.size(); ++i) x[i] = (toWorld * pos[i].cast<double>()).head<3>();
+  return x;
+}
+
 bool DeformationController::exportMesh(const std::string& path) const {
   if (!model_ || !renderer_.deforming() || shownInput_ == 0) return false;
   const SimScene& sc = model_->scene;
-  const auto pos = renderer_.deformer()->readPositions();  // voxel index space, as drawn
-  if (pos.size() != sc.meshes.fine.nodes.size()) return false;
-  const Eigen::Matrix4d toWorld = quantized_.geometry.worldToIndex().inverse();
-  std::vector<Eigen::Vector3d> disp(pos.size());
-  std::vector<double> dir(pos.size()), element(sc.meshes.fine.tets.size());
-  for (std::size_t i = 0; i < pos.size(); ++i) {
-    disp[i] = (toWorld * pos[i].cast<double>()).head<3>() - sc.meshes.fine.nodes[i];
+  const auto x = drawnFinePositions();
+  if (x.empty()) return false;
+  const std::vector<float> strain = tetStrain(sc.meshes.fine, x);
+  std::vector<Eigen::Vector3d> disp(x.size());
+  std::vector<double> dir(x.size()), element(sc.meshes.fine.tets.size()), strainD(strain.begin(), strain.end());
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    disp[i] = x[i] - sc.meshes.fine.nodes[i];
     dir[i] = (sc.constraints.fixed[i] || sc.constraints.handleOf[i] >= 0) ? 1.0 : 0.0;
   }
   for (std::size_t t = 0; t < element.size(); ++t) element[t] = model_->model->elementOfFineTet(t);
   VtuArrays a;
   a.pointVectors = {{"displacement", &disp}};
   a.pointScalars = {{"dirichlet", &dir}};
-  a.cellScalars = {{"youngs_modulus", &sc.youngs}, {"poisson_ratio", &sc.poisson}, {"coarse_element", &element}};
+  a.cellScalars = {{"youngs_modulus", &sc.youngs}, {"poisson_ratio", &sc.poisson}, {"coarse_element", &element}, {"strain", &strainD}};
   writeVtu(path, sc.meshes.fine, a);
+  return true;
+}
+
+bool DeformationController::exportStrain(const std::string& path) const {
+  if (!model_ || !renderer_.deforming() || shownInput_ == 0) return false;
+  const SimScene& sc = model_->scene;
+  const auto x = drawnFinePositions();
+  if (x.empty()) return false;
+  std::vector<std::int32_t> tetOf;
+  Volume unused;
+  rasterizeDeformed(image_, sc.meshes.fine, x, sc.lo, sc.hi, 0.0f, unused, nullptr, nullptr,
+                    defaultMaxTetVoxels(sc.meshes.fine, image_.geometry().worldToIndex()), &tetOf);
+  writeVolume(strainVolume(image_.geometry(), tetOf, tetStrain(sc.meshes.fine, x)), path);
   return true;
 }
 

@@ -59,9 +59,14 @@ class DeformationController {
   /// simulated yet.
   bool exportDeformed(Volume& out) const;
   /// The fine mesh as shown, for ParaView (.vtu, written atomically): rest positions, point data
-  /// displacement (mm) and dirichlet (0/1), cell data youngs_modulus, poisson_ratio, coarse_element.
+  /// displacement (mm) and dirichlet (0/1), cell data youngs_modulus, poisson_ratio, coarse_element,
+  /// strain.
   /// False when nothing is simulated yet.
   bool exportMesh(const std::string& path) const;
+  /// The strain as shown (sim/strain.h) on the input's grid, 0 outside the simulated region
+  /// (written by extension, atomically); false when nothing is simulated. Rasterized on the CPU
+  /// from the drawn fine positions: an export's cost, not a frame's.
+  bool exportStrain(const std::string& path) const;
 
   State state() const;
   /// "" when off; else the build's stage and progress, the model's size, or the failure.
@@ -140,6 +145,8 @@ class DeformationController {
   bool shownConverged_ = false, shownSettled_ = false;
   CoarseSolveStats shownStats_;
   std::vector<HandleReaction> shownReactions_;
+  /// The fine node positions as drawn (world mm); empty when they cannot be read.
+  std::vector<Eigen::Vector3d> drawnFinePositions() const;
   std::uint64_t failures_ = 0;
   bool unconverged_ = false;  // the last settled state shown stopped without converging
   std::uint64_t answeredInput_ = 0;  // newest input answered, with a state or an error

@@ -30,6 +30,7 @@ std::string SessionExport::write(const Session& session, const HandleSet& handle
       int k = 0;
       if (std::sscanf(n.c_str(), "session-%d.json", &k) == 1 || std::sscanf(n.c_str(), "deformed-%d.", &k) == 1 ||
           std::sscanf(n.c_str(), "screenshot-%d.png", &k) == 1 || std::sscanf(n.c_str(), "mesh-%d.vtu", &k) == 1 || std::sscanf(n.c_str(), "forces-%d.json", &k) == 1 ||
+          std::sscanf(n.c_str(), "strain-%d.", &k) == 1 ||
           std::sscanf(n.c_str(), "handles-%d.json", &k) == 1)
         next_ = std::max(next_, k);
     }
@@ -50,6 +51,7 @@ std::string SessionExport::write(const Session& session, const HandleSet& handle
     const char* volumeExt = nrrd_ ? ".nrrd" : ".nii.gz";
     writeVolume(simulated ? shown : input_, path("deformed", volumeExt));
     const bool mesh = simulated && deform.exportMesh(path("mesh", ".vtu"));
+    const bool strain = simulated && deform.exportStrain(path("strain", volumeExt));
     const auto reactions = deform.shownReactions();
     const bool forces = simulated && !reactions.empty();
     if (forces) {
@@ -66,7 +68,7 @@ std::string SessionExport::write(const Session& session, const HandleSet& handle
     ++count_;
     summary << "exported to " << dir_.string() << ": session-" << tag << ".json (" << session.script().events.size() << " events), handles-" << tag << ".json ("
             << handles.handles().size() << "), deformed-" << tag
-            << volumeExt << (simulated ? "" : " (nothing simulated: the input)") << (mesh ? std::string(", mesh-") + tag + ".vtu" : "") << (forces ? std::string(", forces-") + tag + ".json" : "")
+            << volumeExt << (simulated ? "" : " (nothing simulated: the input)") << (mesh ? std::string(", mesh-") + tag + ".vtu" : "") << (forces ? std::string(", forces-") + tag + ".json" : "") << (strain ? std::string(", strain-") + tag + volumeExt : "")
             << (image ? std::string(", screenshot-") + tag + ".png" : "");
   } catch (const std::exception& e) {
     return std::string("export failed: ") + e.what();

@@ -7,6 +7,7 @@
 //                       value type; the input unchanged when nothing is simulated)
 //   mesh-NN.vtu         the simulated fine mesh with its displacements (only when simulated)
 //   forces-NN.json      each simulated handle's reaction force and torque (app/forces_json.h)
+//   strain-NN.nii.gz    the strain as shown on the input's grid (sim/strain.h; .nrrd with nrrd)
 //   screenshot-NN.png   the rendered image of the frame after the request (no UI overlay)
 // Every file is written atomically (a failure never leaves a partial file), numbering continues
 // after the exports already in the directory (nothing is overwritten), and a failed export is

@@ -384,13 +384,22 @@ TEST(Replay, TheExportActionWritesTheSessionTheDeformedVolumeTheMeshAndAScreensh
   for (const char* f : {"session-01.json", "handles-01.json", "deformed-01.nii.gz", "mesh-01.vtu", "forces-01.json", "screenshot-01.png"})
     EXPECT_TRUE(fs::exists(out / f)) << f << "\n" << log;
   EXPECT_NE(slurp(out / "forces-01.json").find("\"force_N\": ["), std::string::npos) << "the moved handle's reaction";
+  {
+    // The strain as shown: on the input's grid, stretched tissue around the moved handle, 0 outside.
+    ASSERT_TRUE(fs::exists(out / "strain-01.nii.gz")) << log;
+    const handson::Volume strain = handson::readNifti((out / "strain-01.nii.gz").string());
+    float hi = 0.0f;
+    for (std::size_t i = 0; i < strain.voxelCount(); ++i) hi = std::max(hi, strain.value(i));
+    EXPECT_GT(hi, 0.0f);
+    EXPECT_EQ(strain.value(0, 0, 0), 0.0f);
+  }
   int w = 0, h = 0;
   EXPECT_FALSE(handson::readPng((out / "screenshot-01.png").string(), w, h).empty());
   EXPECT_EQ(w, 96);
   const handson::Volume def = handson::readNifti((out / "deformed-01.nii.gz").string());
   EXPECT_GT(def.voxelCount(), 0u);
   const std::string vtu = slurp(out / "mesh-01.vtu");
-  for (const char* name : {"Name=\"displacement\"", "Name=\"dirichlet\"", "Name=\"coarse_element\""}) EXPECT_NE(vtu.find(name), std::string::npos) << name;
+  for (const char* name : {"Name=\"displacement\"", "Name=\"dirichlet\"", "Name=\"coarse_element\"", "Name=\"strain\""}) EXPECT_NE(vtu.find(name), std::string::npos) << name;
   // The exported script is the session so far: replayed, it gives the same handle.
   const auto before = firstHandle(log);
   ASSERT_TRUE(before.has_value()) << log;
