@@ -7,7 +7,7 @@
 PACKAGES := build-essential cmake ninja-build pkg-config \
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslc \
   libsdl2-dev libeigen3-dev libtet1.5-dev libglm-dev libgtest-dev libgmock-dev libbenchmark-dev \
-  libsuitesparse-dev libteem-dev libopenblas0-pthread libgdcm-dev libpng-dev zlib1g-dev libimgui-dev libstb-dev nlohmann-json3-dev gnuplot-nox xvfb xauth xdotool
+  libsuitesparse-dev libteem-dev libinsighttoolkit5-dev libopenblas0-pthread libgdcm-dev libpng-dev zlib1g-dev libimgui-dev libstb-dev nlohmann-json3-dev gnuplot-nox xvfb xauth xdotool
 FUZZ_PACKAGES := clang libclang-rt-14-dev
 FUZZ_SECONDS ?= 60
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
@@ -32,17 +32,21 @@ run: build
 test: build external-data
 	ctest --preset release
 
-# Other projects' test files (nibabel's NIfTI, pydicom's DICOM), from Debian's packages, unpacked
+# Other projects' test files (nibabel's NIfTI, pydicom's DICOM, ITK's MetaImage), from Debian's packages, unpacked
 # into build/external-data without installing them (their Python dependencies are not needed);
-# tests/app/test_external_files.cpp compares our readers with the values nibabel and pydicom give.
+# tests/app/test_external_files.cpp compares our readers with the values nibabel and pydicom give,
+# and with ITK's example images' raw data.
 # Without network the download is skipped and those tests say so.
 EXTERNAL_DATA := build/external-data
+EXTERNAL_DEBS := python3-nibabel python3-pydicom insighttoolkit5-examples
+ITK_EXAMPLE_DATA := usr/share/doc/insighttoolkit5-examples/examples/Data
 external-data:
-	@if [ ! -f $(EXTERNAL_DATA)/usr/lib/python3/dist-packages/pydicom/data/test_files/CT_small.dcm ]; then \
+	@if [ ! -f $(EXTERNAL_DATA)/usr/lib/python3/dist-packages/pydicom/data/test_files/CT_small.dcm ] || \
+	    [ ! -f $(EXTERNAL_DATA)/$(ITK_EXAMPLE_DATA)/CorpusCallosumMeanShape.mha ]; then \
 	  mkdir -p $(EXTERNAL_DATA)/debs && cd $(EXTERNAL_DATA)/debs && \
-	  { apt-get download python3-nibabel python3-pydicom >/dev/null 2>&1 || \
-	    { $(SUDO) apt-get update -qq && apt-get download python3-nibabel python3-pydicom >/dev/null 2>&1; }; } && \
-	  for d in *.deb; do dpkg -x $$d ..; done && echo "external test data: nibabel's and pydicom's test files unpacked" || \
+	  { apt-get download $(EXTERNAL_DEBS) >/dev/null 2>&1 || \
+	    { $(SUDO) apt-get update -qq && apt-get download $(EXTERNAL_DEBS) >/dev/null 2>&1; }; } && \
+	  for d in *.deb; do dpkg -x $$d ..; done && echo "external test data: nibabel's, pydicom's and ITK's example files unpacked" || \
 	  echo "external test data could not be downloaded: those tests will be skipped"; \
 	fi
 
@@ -62,26 +66,26 @@ asan-test: fuzz-deps external-data
 	cmake --build --preset asan -j $(JOBS)
 	$(LSAN) ctest --preset asan
 
-# libFuzzer: the NIfTI and NRRD readers, the DICOM reader and the session-script parser (tests/fuzz), each run
+# libFuzzer: the NIfTI, NRRD and MetaImage readers, the DICOM reader and the session-script parser (tests/fuzz), each run
 # for FUZZ_SECONDS over a working copy of its seed corpus (new inputs stay in build-asan/corpus), the
-# four at once (each its own process; logs in build-asan/findings/<kind>.log, printed at the end);
+# five at once (each its own process; logs in build-asan/findings/<kind>.log, printed at the end);
 # a finding stops that fuzzer with the crashing input written to build-asan/findings/ and fails the target.
 fuzz: fuzz-deps
 	cmake --preset asan
 	cmake --build --preset fuzz
 	mkdir -p build-asan/findings
-	set -e; for t in nifti nrrd dicom script; do \
+	set -e; for t in nifti nrrd metaimage dicom script; do \
 	  mkdir -p build-asan/corpus/$$t; cp -n tests/fuzz/corpus/$$t/* build-asan/corpus/$$t/; \
 	  if [ $$t = script ]; then cp -n assets/gestures/*.json build-asan/corpus/$$t/; fi; \
 	done; \
-	echo "fuzzing nifti, nrrd, dicom and script for $(FUZZ_SECONDS) s each, at once"; \
-	pids=""; for t in nifti nrrd dicom script; do \
+	echo "fuzzing nifti, nrrd, metaimage, dicom and script for $(FUZZ_SECONDS) s each, at once"; \
+	pids=""; for t in nifti nrrd metaimage dicom script; do \
 	  $(LSAN) ./build-asan/tests/fuzz/fuzz_$$t build-asan/corpus/$$t -max_total_time=$(FUZZ_SECONDS) -timeout=20 -rss_limit_mb=3072 \
 	    -malloc_limit_mb=2048 -artifact_prefix=build-asan/findings/$$t- -print_final_stats=1 > build-asan/findings/$$t.log 2>&1 & pids="$$pids $$!"; \
 	done; \
 	status=0; for p in $$pids; do wait $$p || status=1; done; \
-	for t in nifti nrrd dicom script; do echo "== fuzz_$$t"; grep -E "^(stat::|Done|INFO: Loaded|==[0-9]+==|SUMMARY|artifact_prefix|Test unit written)" build-asan/findings/$$t.log || true; done; \
-	if [ $$status != 0 ]; then for t in nifti nrrd dicom script; do echo "== fuzz_$$t (last lines)"; tail -40 build-asan/findings/$$t.log; done; fi; \
+	for t in nifti nrrd metaimage dicom script; do echo "== fuzz_$$t"; grep -E "^(stat::|Done|INFO: Loaded|==[0-9]+==|SUMMARY|artifact_prefix|Test unit written)" build-asan/findings/$$t.log || true; done; \
+	if [ $$status != 0 ]; then for t in nifti nrrd metaimage dicom script; do echo "== fuzz_$$t (last lines)"; tail -40 build-asan/findings/$$t.log; done; fi; \
 	exit $$status
 
 clean:

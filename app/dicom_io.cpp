@@ -32,6 +32,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "app/isolated_call.h"
 #include "sim/binary_io.h"
 #include "sim/error.h"
 
@@ -1380,17 +1381,6 @@ class FdGuard {
  private:
   int fd_;
 };
-
-std::string signalName(int sig) {
-  switch (sig) {
-    case SIGABRT: return "SIGABRT, an assertion or abort";
-    case SIGSEGV: return "SIGSEGV, an invalid memory access";
-    case SIGBUS: return "SIGBUS";
-    case SIGFPE: return "SIGFPE";
-    case SIGKILL: return "SIGKILL, killed from outside, possibly for lack of memory";
-    default: return "signal " + std::to_string(sig);
-  }
-}
 
 }  // namespace
 

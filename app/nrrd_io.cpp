@@ -98,7 +98,9 @@ Layout axesOf(const Nrrd* n, const std::string& path) {
   }
   if (l.spatial.size() < 2 || l.spatial.size() > 3)
     fail(path, std::to_string(l.spatial.size()) + " spatial axes: only 2D and 3D images can be read");
-  if (n->spaceDim != 0 && n->spaceDim != 3) fail(path, "a " + std::to_string(n->spaceDim) + "-dimensional space (3 is expected)");
+  // A 2D image may live in a 2D space (ITK writes such files): its plane is z = 0.
+  if (n->spaceDim != 0 && n->spaceDim != 3 && !(n->spaceDim == 2 && l.spatial.size() == 2))
+    fail(path, "a " + std::to_string(n->spaceDim) + "-dimensional space (3, or 2 for a 2D image, is expected)");
   return l;
 }
 
@@ -109,8 +111,8 @@ VolumeGeometry geometryOf(const Nrrd* n, const Layout& l, const std::string& pat
     const NrrdAxisInfo& ax = n->axis[l.spatial[c]];
     if (ax.size > std::size_t(std::numeric_limits<int>::max())) fail(path, "an axis of " + std::to_string(ax.size) + " samples is too large");
     g.dims[Eigen::Index(c)] = int(ax.size);
-    if (n->spaceDim == 3) {
-      for (int r = 0; r < 3; ++r) a(r, Eigen::Index(c)) = ax.spaceDirection[r];
+    if (n->spaceDim > 0) {
+      for (unsigned r = 0; r < n->spaceDim; ++r) a(r, Eigen::Index(c)) = ax.spaceDirection[r];
     } else {
       a(Eigen::Index(c), Eigen::Index(c)) = std::isfinite(ax.spacing) && ax.spacing != 0.0 ? std::abs(ax.spacing) : 1.0;
     }
@@ -121,11 +123,10 @@ VolumeGeometry geometryOf(const Nrrd* n, const Layout& l, const std::string& pat
     a.col(2) = normal.norm() > 0 ? Eigen::Vector3d(normal.normalized()) : Eigen::Vector3d::UnitZ();
   }
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
-  if (n->spaceDim == 3)
-    for (int r = 0; r < 3; ++r) origin[r] = std::isfinite(n->spaceOrigin[r]) ? n->spaceOrigin[r] : 0.0;
+  for (unsigned r = 0; r < n->spaceDim; ++r) origin[r] = std::isfinite(n->spaceOrigin[r]) ? n->spaceOrigin[r] : 0.0;
   const Eigen::Vector3d sign = toRasSigns(n->space);
   try {
-    return geometryFromAxes(sign.asDiagonal() * a, sign.cwiseProduct(origin), g.dims);
+    return geometryFromAxes(sign.asDiagonal() * a, sign.cwiseProduct(origin) + Eigen::Vector3d::Zero(), g.dims);  // + 0: no -0
   } catch (const Error& e) {
     fail(path, e.what());
   }

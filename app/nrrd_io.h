@@ -4,8 +4,9 @@
 // (raw, gzip, bzip2, ASCII, hex), byte order and detached data file.
 //
 // The image's spatial axes are those with a space direction (all of them when the file gives no
-// space); 3 of them make the volume, 2 a one-slice volume. At most one further axis (a list, vector
-// or time axis: a 4D file, or a segmentation's layers) counts volumes: `frame` picks one. Geometry:
+// space); 3 of them make the volume, 2 a one-slice volume (in a 3D space, or in a 2D one: the plane
+// z = 0). At most one further axis (a list, vector or time axis: a 4D file, or a segmentation's
+// layers) counts volumes: `frame` picks one. Geometry:
 // the space directions (spacing = their lengths) and the space origin (the first sample's centre),
 // converted to RAS+: left-posterior-superior (DICOM's, Slicer's default) and scanner-xyz negate x and
 // y, left-anterior-superior negates x; right-anterior-superior and unnamed 3D spaces are taken as is.

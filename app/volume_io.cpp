@@ -9,6 +9,7 @@
 #include <system_error>
 
 #include "app/dicom_io.h"
+#include "app/metaimage_io.h"
 #include "app/nifti_io.h"
 #include "app/nrrd_io.h"
 #include "app/volume_import.h"
@@ -20,9 +21,32 @@ namespace handson {
 void writeVolume(const Volume& volume, const std::string& path) {
   std::string lower = path;
   std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  if (lower.size() >= 5 && lower.compare(lower.size() - 5, 5, ".nrrd") == 0) writeNrrd(volume, path);
+  const auto ends = [&](const char* suffix) {
+    const std::size_t n = std::strlen(suffix);
+    return lower.size() >= n && lower.compare(lower.size() - n, n, suffix) == 0;
+  };
+  if (ends(".nrrd")) writeNrrd(volume, path);
+  else if (ends(".mha")) writeMetaImage(volume, path);
+  else if (ends(".mhd"))
+    throw Error("Cannot write '" + path + "': MetaImage is written as one file (.mha); a .mhd header with a detached data file is not written");
   else writeNifti(volume, path);
 }
+
+namespace {
+
+// A MetaImage header's first line is "Key = value" with one of the format's leading keys.
+bool isMetaImageHeader(const unsigned char* b, std::size_t n) {
+  const std::string head(reinterpret_cast<const char*>(b), n);
+  const std::size_t eq = head.find('=');
+  if (eq == std::string::npos || head.find('\n') < eq) return false;
+  std::string key = head.substr(0, eq);
+  while (!key.empty() && (key.back() == ' ' || key.back() == '\t')) key.pop_back();
+  for (const char* k : {"ObjectType", "ObjectSubType", "Comment", "NDims", "Name", "ID", "ParentID", "AcquisitionDate", "FormatVersion"})
+    if (key == k) return true;
+  return false;
+}
+
+}  // namespace
 
 std::string sniffVolumeFormat(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -39,7 +63,7 @@ std::string sniffVolumeFormat(const std::string& path) {
     if (size == 348 || size == 540 || swapped == 348 || swapped == 540) return "nifti";
   }
   if (starts("NRRD000")) return "nrrd";
-  if (starts("ObjectType") || starts("NDims")) return "metaimage";
+  if (isMetaImageHeader(b.data(), got)) return "metaimage";
   // DICOM without the preamble (ACR-NEMA style, or stripped): a little-endian group 0x0002 or
   // 0x0008 tag first.
   if (got >= 8 && (b[0] == 0x02 || b[0] == 0x08) && b[1] == 0x00 && b[3] == 0x00) return "dicom";
@@ -64,8 +88,18 @@ Volume loadVolume(const std::string& path, LoadReport* report, const ProgressFn&
     }
     return v;
   }
-  if (kind == "metaimage")
-    throw Error("'" + path + "' is a MetaImage file, which this version cannot read yet: convert it to NIfTI or NRRD (e.g. with 3D Slicer or `c3d`)");
+  if (kind == "metaimage") {
+    reportProgress(progress, 0.0, "reading MetaImage");
+    MetaImageInfo info;
+    Volume v = readMetaImage(path, options.frame, &info);
+    reportProgress(progress, 1.0, "reading MetaImage");
+    if (report) {
+      report->format = std::string("MetaImage (") + (info.dataFile == "LOCAL" ? "one file" : "data in " + info.dataFile) +
+                       (info.compressed ? ", compressed)" : ")");
+      reportFrames(*report, path, info.frames, options.frame);
+    }
+    return v;
+  }
   if (kind == "nrrd") {
     reportProgress(progress, 0.0, "reading NRRD");
     NrrdInfo info;

@@ -4,6 +4,7 @@ here so that no data file of unknown origin is committed. Run from anywhere; rew
 import gzip
 import os
 import struct
+import zlib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -82,6 +83,17 @@ def main():
         + b"".join(struct.pack("<f", v * 0.25) for v in range(16)))
     out("nrrd", "nospace-uint8.nrrd", b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 3 3 3\nspacings: 1 1 2\nencoding: ascii\n\n"
         + b" ".join(str(i % 5).encode() for i in range(27)) + b"\n")
+    # MetaImage: one file, raw and zlib, an oblique grid, 4D with channels, big-endian 2D.
+    mha = (b"ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\n"
+           b"TransformMatrix = 0 1 0 -1 0 0 0 0 1\nOffset = 1 2 3\nElementSpacing = 0.8 0.8 2.5\nDimSize = 4 3 2\n"
+           b"ElementType = MET_SHORT\n")
+    out("metaimage", "oblique-raw.mha", mha + b"ElementDataFile = LOCAL\n" + i16)
+    out("metaimage", "oblique-zlib.mha", mha.replace(b"DimSize", b"CompressedData = True\nDimSize") + b"ElementDataFile = LOCAL\n"
+        + zlib.compress(i16))
+    out("metaimage", "4d-channels.mha", b"NDims = 4\nDimSize = 2 2 1 2\nElementNumberOfChannels = 2\nElementType = MET_FLOAT\n"
+        b"ElementDataFile = LOCAL\n" + b"".join(struct.pack("<f", v * 0.25) for v in range(16)))
+    out("metaimage", "msb-2d.mha", b"ObjectType = Image\nNDims = 2\nDimSize = 3 2\nElementByteOrderMSB = True\nElementType = MET_USHORT\n"
+        b"ElementDataFile = LOCAL\n" + b"".join(struct.pack(">H", v * 1000) for v in range(6)))
     # The DICOM fuzzer splits its input into files at "\n--slice--\n": a one- and a two-slice series.
     sep = b"\n--slice--\n"
     out("dicom", "one-slice.dcm", dicom_slice(0))
