@@ -10,6 +10,7 @@
 
 #include "sim/binary_io.h"
 #include "sim/blas_threads.h"
+#include "sim/handle_reaction.h"
 #include "sim/coarse_pcg_workspace.h"
 #include "sim/error.h"
 
@@ -111,6 +112,7 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
     else dof_[v] = (dofCount_ += 3) - 3;
   }
   buildAssembler();
+  handleRestCentroid_ = handleRestCentroids(meshes_.fine, constraints_);
   reportProgress(progress, 1.0, "coarsening");
 }
 
@@ -421,6 +423,7 @@ std::unique_ptr<CoarseModel> CoarseModel::load(std::istream& is, std::uint64_t b
   for (int h : m->constraints_.handleOf)
     if (h < -1 || h >= hc) throw Error("cache file corrupt (handle roles)");
   m->buildAssembler();
+  m->handleRestCentroid_ = handleRestCentroids(meshes.fine, m->constraints_);
   return m;
 }
 

@@ -221,6 +221,7 @@ class CoarseModel {
   std::vector<InteriorNode> interior_;
   std::vector<BoundaryNode> boundary_;
   std::vector<int> coarseRole_, dof_;
+  std::vector<Eigen::Vector3d> handleRestCentroid_;  ///< each handle's free fine nodes' centroid at rest (handleReactions)
   int dofCount_ = 0;
   std::unique_ptr<BlockAssembler> assembler_;
   // The coarse system (10^2-10^4 dofs) with Eigen's simplicial Cholesky: CHOLMOD's per-call

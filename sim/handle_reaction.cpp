@@ -87,14 +87,13 @@ std::vector<HandleReaction> CoarseModel::handleReactions(const std::vector<Rigid
   const TetMesh& C = meshes_.coarse;
   if (int(handles.size()) < constraints_.handleCount || x.size() != C.nodes.size()) throw Error("handle reactions: inconsistent sizes");
   std::vector<HandleReaction> r(std::size_t(constraints_.handleCount));
-  const std::vector<Eigen::Matrix3d> R = elementRotations(x);
   const int nc = nc_;
   for (std::size_t e = 0; e < elements_.size(); ++e) {
     const Element& el = elements_[e];
     bool handleCorner = false;
     for (int c = 0; c < nc; ++c) handleCorner = handleCorner || coarseRole_[std::size_t(el.node[std::size_t(c)])] >= 0;
     if (el.handles.empty() && !handleCorner) continue;
-    const Eigen::Matrix3d& Rc = R[e];
+    const Eigen::Matrix3d Rc = elementRotation(int(e), x);  // only the elements at a handle: not all
     VecE d(3 * nc);
     for (int c = 0; c < nc; ++c) {
       const auto v = std::size_t(el.node[std::size_t(c)]);
@@ -138,7 +137,7 @@ std::vector<HandleReaction> CoarseModel::handleReactions(const std::vector<Rigid
       r[std::size_t(b.handle)].torqueNmm -= T.R * m + T.t.cross(gt);
     }
   }
-  return aboutCentroids(std::move(r), handleRestCentroids(meshes_.fine, constraints_), handles);
+  return aboutCentroids(std::move(r), handleRestCentroid_, handles);
 }
 
 }  // namespace handson

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include "sim/error.h"
+#include "sim/handle_reaction.h"
 #include "sim/phantom.h"
 #include "sim/scene_cache.h"
 
@@ -84,6 +85,17 @@ TEST_P(SceneCacheKinds, ALoadedSceneAndModelAnswerBitForBitLikeTheBuiltOnes) {
   ASSERT_EQ(loaded.fineK.size(), built.fineK.size());
   for (std::size_t t = 0; t < built.fineK.size(); ++t) ASSERT_EQ(loaded.fineK[t], built.fineK[t]) << "tet " << t;
   EXPECT_EQ(answer(*m2, loaded), answer(*m1, built)) << "the same solve, bit for bit";
+  {  // the handle's reaction too (its blocks and rest centroid come from the cache)
+    const std::vector<RigidTransform> T = {RigidTransform::about(built.handleCentroid[0], Eigen::Vector3d(0.2, 0, 0), Eigen::Vector3d(0, 4, 0))};
+    auto x1 = m1->restState(), x2 = m2->restState();
+    m1->solve(T, x1, 5);
+    m2->solve(T, x2, 5);
+    const HandleReaction r1 = m1->handleReactions(T, x1)[0], r2 = m2->handleReactions(T, x2)[0];
+    EXPECT_EQ(r1.forceN, r2.forceN);
+    EXPECT_EQ(r1.torqueNmm, r2.torqueNmm);
+    EXPECT_EQ(r1.centreMm, r2.centreMm);
+    EXPECT_GT(r1.forceN.norm(), 0.0);
+  }
   const auto d1 = m1->interpolationData(), d2 = m2->interpolationData();
   EXPECT_EQ(d1.node, d2.node);
   EXPECT_EQ(d1.blocks, d2.blocks);
