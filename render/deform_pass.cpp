@@ -158,6 +158,7 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   clear_ = ComputePipeline(ctx, shaders::deformClear(), bindings({kParams, kSsbo, kSampled, kSampled, kStorageImage, kStorageImage, kSsbo}), 0);
   claim_ = ComputePipeline(ctx, shaders::deformClaim(), bindings({kParams, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo}), 0);
   resolve_ = ComputePipeline(ctx, shaders::deformResolve(), bindings({kParams, kSsbo, kSsbo, kSsbo, kSampled, kSampled, kStorageImage, kStorageImage}), 0);
+  strain_ = ComputePipeline(ctx, shaders::deformStrain(), bindings({kParams, kSsbo, kSsbo, kSsbo, kSsbo}), 0);
 
   params_ = Buffer(ctx, sizeof(gpu::DeformParams), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::Device);
   uploadToBuffer(ctx, params_, &p_, sizeof(p_));
@@ -498,6 +499,7 @@ void GpuDeformer::bind(GraphExecutor& x) {
   x.bindBuffer(h.owner, owner_);
   x.bindBuffer(h.affine, affine_);
   if (h.fineUpload.valid()) x.bindBuffer(h.fineUpload, *s.fine);
+  if (h.strain.valid()) x.bindBuffer(h.strain, *strainBuffer_);
   if (h.withState) {
     x.bindBuffer(h.positions, *s.positions);
     x.bindBuffer(h.rotations, *s.rotations);

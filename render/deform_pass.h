@@ -77,6 +77,16 @@ class GpuDeformer {
   /// the moved box is redone. Megabytes, not kilobytes: for the occasional refined state, not every frame.
   Outputs addPassesFromPositions(fg::FrameGraph& graph, std::uint32_t slot, const std::vector<Eigen::Vector4f>& indexPositions, Redo redo = Redo::Moved,
                                  fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {}, const Outputs& outputs = {});
+  /// Adds the strain pass (deform_strain.comp): per fine tet, the largest principal stretch - 1 of
+  /// its deformation gradient at the fine positions this frame's addPasses / addPassesFromPositions
+  /// computed (call it after one of them, in the same graph). Returns the float buffer of one value
+  /// per fine tet (NaN for a degenerate tet). CPU reference: tetStrain (sim/strain.h).
+  fg::ResourceHandle addStrainPass(fg::FrameGraph& graph);
+  /// The strain buffer, read back (after a frame with addStrainPass).
+  std::vector<float> readStrain() const;
+  /// One frame on its own graph from fine positions (voxel index space; the region redone) with the
+  /// strain pass, waited for; returns the strain per fine tet.
+  std::vector<float> runStrain(const std::vector<Eigen::Vector4f>& indexPositions);
   /// Imports the deformed images alone (a frame without new state reads them as they are).
   Outputs importOutputs(fg::FrameGraph& graph);
   /// The region's voxel box (inclusive) on the volume grid.
@@ -113,19 +123,20 @@ class GpuDeformer {
   const Image& source_;
   const Image& sourceMask_;
   Sampler nearest_;  ///< the shaders only texelFetch
-  ComputePipeline interpolate_, bounds_, args_, clear_, claim_, resolve_;
+  ComputePipeline interpolate_, bounds_, args_, clear_, claim_, resolve_, strain_;
   Buffer params_, nodeInfo_, rest_, blocks_, elementCorners_, coarseRest_, tetBuffer_, restIdx_, pos_, prev_, box_, argsBuffer_, owner_, affine_;
   Image volume_, mask_;
   std::vector<Slot> slots_;
   std::unique_ptr<GraphExecutor> ownExecutor_;
   std::unique_ptr<Buffer> boxReadback_;
+  std::unique_ptr<Buffer> strainBuffer_;  ///< float per fine tet, made by the first addStrainPass
   gpu::DeformParams p_{};
   std::size_t nodes_ = 0, tets_ = 0, coarseNodes_ = 0, coarseElements_ = 0;
   std::uint32_t handles_ = 0;
   float commit_ = 1e-3f;
   struct Bound {
     fg::ResourceHandle params, nodeInfo, rest, blocks, elementCorners, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, affine, source, sourceMask,
-        volume, mask, positions, rotations, handles;
+        volume, mask, positions, rotations, handles, strain;
     std::uint32_t slot = 0;
     fg::ResourceHandle fineUpload;
     bool withState = false, onlyOutputs = false;

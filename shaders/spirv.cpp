@@ -7,6 +7,7 @@
 #include "deform_clear.spv.h"
 #include "deform_interpolate.spv.h"
 #include "deform_resolve.spv.h"
+#include "deform_strain.spv.h"
 #include "pick.spv.h"
 #include "raymarch.spv.h"
 #include "region_compact.spv.h"
@@ -25,5 +26,6 @@ std::span<const std::uint32_t> deformArgs() { return spirv::deform_args; }
 std::span<const std::uint32_t> deformClear() { return spirv::deform_clear; }
 std::span<const std::uint32_t> deformClaim() { return spirv::deform_claim; }
 std::span<const std::uint32_t> deformResolve() { return spirv::deform_resolve; }
+std::span<const std::uint32_t> deformStrain() { return spirv::deform_strain; }
 
 }  // namespace handson::shaders

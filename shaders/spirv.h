@@ -17,5 +17,6 @@ std::span<const std::uint32_t> deformArgs();
 std::span<const std::uint32_t> deformClear();
 std::span<const std::uint32_t> deformClaim();
 std::span<const std::uint32_t> deformResolve();
+std::span<const std::uint32_t> deformStrain();
 
 }  // namespace handson::shaders

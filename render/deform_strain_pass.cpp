@@ -1,0 +1,62 @@
+// GpuDeformer's strain pass (deform_strain.comp): per fine tet, the largest principal stretch - 1
+// at the fine positions of the frame (render/deform_pass.h). CPU reference: tetStrain
+// (sim/strain.h).
+#include <cstring>
+
+#include "deform_pass.h"
+#include "shaders/shared.h"
+#include "sim/error.h"
+#include "vk_context.h"
+
+namespace handson::vk {
+
+fg::ResourceHandle GpuDeformer::addStrainPass(fg::FrameGraph& g) {
+  using fg::Access;
+  if (h_.onlyOutputs || !h_.posNew.valid()) throw Error("deformation: the strain pass needs this frame's fine positions (addPasses first)");
+  if (!strainBuffer_)
+    strainBuffer_ = std::make_unique<Buffer>(ctx_, VkDeviceSize(tets_ * sizeof(float)),
+                                             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, Buffer::Memory::Device);
+  h_.strain = g.importBuffer("fine-strain", {strainBuffer_->size()}, Access::StorageWrite);
+  const Bound hb = h_;
+  const std::uint32_t groups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
+  g.addPass(
+      "deform-strain",
+      [&](fg::PassBuilder& b) {
+        b.read(hb.params, Access::StorageRead);
+        b.read(hb.tets, Access::StorageRead);
+        b.read(hb.rest, Access::StorageRead);
+        b.read(hb.posNew, Access::StorageRead);
+        b.write(hb.strain, Access::StorageWrite);
+      },
+      [this, hb, groups](fg::Executor& e) {
+        GraphExecutor& x = vulkanExecutor(e);
+        constexpr VkDescriptorType ssbo = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+        vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, strain_.pipeline());
+        DescriptorWriter()
+            .buffer(0, ssbo, x.buffer(hb.params).handle())
+            .buffer(1, ssbo, x.buffer(hb.tets).handle())
+            .buffer(2, ssbo, x.buffer(hb.rest).handle())
+            .buffer(3, ssbo, x.buffer(hb.posNew).handle())
+            .buffer(4, ssbo, x.buffer(hb.strain).handle())
+            .push(ctx_, x.cmd(), strain_);
+        vkCmdDispatch(x.cmd(), groups, 1, 1);
+      });
+  return h_.strain;
+}
+
+std::vector<float> GpuDeformer::readStrain() const {
+  if (!strainBuffer_) throw Error("deformation: no strain computed yet");
+  std::vector<float> out(tets_);
+  downloadFromBuffer(ctx_, *strainBuffer_, out.data(), out.size() * sizeof(float));
+  return out;
+}
+
+std::vector<float> GpuDeformer::runStrain(const std::vector<Eigen::Vector4f>& indexPositions) {
+  runOwn([&](fg::FrameGraph& g) {
+    addPassesFromPositions(g, 0, indexPositions, Redo::Region);
+    addStrainPass(g);
+  });
+  return readStrain();
+}
+
+}  // namespace handson::vk
