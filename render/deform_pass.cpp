@@ -159,6 +159,7 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   claim_ = ComputePipeline(ctx, shaders::deformClaim(), bindings({kParams, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo, kSsbo}), 0);
   resolve_ = ComputePipeline(ctx, shaders::deformResolve(), bindings({kParams, kSsbo, kSsbo, kSsbo, kSampled, kSampled, kStorageImage, kStorageImage}), 0);
   strain_ = ComputePipeline(ctx, shaders::deformStrain(), bindings({kParams, kSsbo, kSsbo, kSsbo, kSsbo}), 0);
+  strainRaster_ = ComputePipeline(ctx, shaders::deformStrainRaster(), bindings({kParams, kSsbo, kSsbo, kSsbo, kStorageImage}), 0);
 
   params_ = Buffer(ctx, sizeof(gpu::DeformParams), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::Device);
   uploadToBuffer(ctx, params_, &p_, sizeof(p_));
@@ -500,6 +501,7 @@ void GpuDeformer::bind(GraphExecutor& x) {
   x.bindBuffer(h.affine, affine_);
   if (h.fineUpload.valid()) x.bindBuffer(h.fineUpload, *s.fine);
   if (h.strain.valid()) x.bindBuffer(h.strain, *strainBuffer_);
+  if (h.strainVolume.valid()) x.bindImage(h.strainVolume, strainVolume_);
   if (h.withState) {
     x.bindBuffer(h.positions, *s.positions);
     x.bindBuffer(h.rotations, *s.rotations);
@@ -561,6 +563,14 @@ DeformFrameStats GpuDeformer::runOwn(const std::function<void(fg::FrameGraph&)>&
 std::vector<Eigen::Vector4f> GpuDeformer::readPositions() const {
   std::vector<Eigen::Vector4f> out(nodes_);
   downloadFromBuffer(ctx_, pos_, out.data(), nodes_ * 16);
+  return out;
+}
+
+std::vector<float> GpuDeformer::readStrainVolume() const {
+  if (!strainBuffer_) throw Error("deformation: no strain computed yet");
+  const fg::ImageDesc d = strainVolume_.desc();
+  std::vector<float> out(std::size_t(d.width) * d.height * d.depth);
+  readImage(ctx_, strainVolume_, out.data(), out.size() * sizeof(float));
   return out;
 }
 

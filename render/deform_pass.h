@@ -77,15 +77,22 @@ class GpuDeformer {
   /// the moved box is redone. Megabytes, not kilobytes: for the occasional refined state, not every frame.
   Outputs addPassesFromPositions(fg::FrameGraph& graph, std::uint32_t slot, const std::vector<Eigen::Vector4f>& indexPositions, Redo redo = Redo::Moved,
                                  fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {}, const Outputs& outputs = {});
-  /// Adds the strain pass (deform_strain.comp): per fine tet, the largest principal stretch - 1 of
-  /// its deformation gradient at the fine positions this frame's addPasses / addPassesFromPositions
-  /// computed (call it after one of them, in the same graph). Returns the float buffer of one value
-  /// per fine tet (NaN for a degenerate tet). CPU reference: tetStrain (sim/strain.h).
-  fg::ResourceHandle addStrainPass(fg::FrameGraph& graph);
-  /// The strain buffer, read back (after a frame with addStrainPass).
+  /// Adds the strain passes: per fine tet, the largest principal stretch - 1 of its deformation
+  /// gradient at the fine positions this frame's addPasses / addPassesFromPositions computed
+  /// (deform_strain.comp), and the strain volume on the deformed volume's grid, redone over the same
+  /// box: each voxel the strain of the tet it was sampled through, 0 where none (deform_strain_raster
+  /// .comp). Call it after one of those, in the same graph. CPU references: tetStrain and
+  /// strainVolume (sim/strain.h).
+  struct StrainOutputs {
+    fg::ResourceHandle perTet;  ///< float per fine tet (NaN for a degenerate one)
+    fg::ResourceHandle volume;  ///< R32 float, the volume's grid, left in Access::Sampled
+  };
+  StrainOutputs addStrainPass(fg::FrameGraph& graph);
+  /// The strain per fine tet and the strain volume (x fastest), read back after a frame with the pass.
   std::vector<float> readStrain() const;
+  std::vector<float> readStrainVolume() const;
   /// One frame on its own graph from fine positions (voxel index space; the region redone) with the
-  /// strain pass, waited for; returns the strain per fine tet.
+  /// strain passes, waited for; returns the strain per fine tet.
   std::vector<float> runStrain(const std::vector<Eigen::Vector4f>& indexPositions);
   /// Imports the deformed images alone (a frame without new state reads them as they are).
   Outputs importOutputs(fg::FrameGraph& graph);
@@ -123,20 +130,21 @@ class GpuDeformer {
   const Image& source_;
   const Image& sourceMask_;
   Sampler nearest_;  ///< the shaders only texelFetch
-  ComputePipeline interpolate_, bounds_, args_, clear_, claim_, resolve_, strain_;
+  ComputePipeline interpolate_, bounds_, args_, clear_, claim_, resolve_, strain_, strainRaster_;
   Buffer params_, nodeInfo_, rest_, blocks_, elementCorners_, coarseRest_, tetBuffer_, restIdx_, pos_, prev_, box_, argsBuffer_, owner_, affine_;
   Image volume_, mask_;
   std::vector<Slot> slots_;
   std::unique_ptr<GraphExecutor> ownExecutor_;
   std::unique_ptr<Buffer> boxReadback_;
   std::unique_ptr<Buffer> strainBuffer_;  ///< float per fine tet, made by the first addStrainPass
+  Image strainVolume_;                    ///< R32 float, made (zero) by the first addStrainPass
   gpu::DeformParams p_{};
   std::size_t nodes_ = 0, tets_ = 0, coarseNodes_ = 0, coarseElements_ = 0;
   std::uint32_t handles_ = 0;
   float commit_ = 1e-3f;
   struct Bound {
     fg::ResourceHandle params, nodeInfo, rest, blocks, elementCorners, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, affine, source, sourceMask,
-        volume, mask, positions, rotations, handles, strain;
+        volume, mask, positions, rotations, handles, strain, strainVolume;
     std::uint32_t slot = 0;
     fg::ResourceHandle fineUpload;
     bool withState = false, onlyOutputs = false;

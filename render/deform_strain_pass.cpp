@@ -10,13 +10,22 @@
 
 namespace handson::vk {
 
-fg::ResourceHandle GpuDeformer::addStrainPass(fg::FrameGraph& g) {
+GpuDeformer::StrainOutputs GpuDeformer::addStrainPass(fg::FrameGraph& g) {
   using fg::Access;
-  if (h_.onlyOutputs || !h_.posNew.valid()) throw Error("deformation: the strain pass needs this frame's fine positions (addPasses first)");
-  if (!strainBuffer_)
+  if (h_.onlyOutputs || !h_.posNew.valid() || !h_.args.valid())
+    throw Error("deformation: the strain passes need this frame's fine positions and resampling (addPasses first)");
+  constexpr VkDescriptorType ssbo = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  if (!strainBuffer_) {
     strainBuffer_ = std::make_unique<Buffer>(ctx_, VkDeviceSize(tets_ * sizeof(float)),
                                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, Buffer::Memory::Device);
+    const fg::ImageDesc d{volume_.desc().width, volume_.desc().height, volume_.desc().depth, fg::Format::R32Sfloat};
+    strainVolume_ = Image(ctx_, d, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                          true);
+    const std::vector<float> zeros(std::size_t(d.width) * d.height * d.depth, 0.0f);
+    uploadToImage(ctx_, strainVolume_, zeros.data(), zeros.size() * sizeof(float), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  }
   h_.strain = g.importBuffer("fine-strain", {strainBuffer_->size()}, Access::StorageWrite);
+  h_.strainVolume = g.importImage("strain-volume", strainVolume_.desc(), Access::Sampled);
   const Bound hb = h_;
   const std::uint32_t groups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
   g.addPass(
@@ -30,7 +39,6 @@ fg::ResourceHandle GpuDeformer::addStrainPass(fg::FrameGraph& g) {
       },
       [this, hb, groups](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
-        constexpr VkDescriptorType ssbo = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, strain_.pipeline());
         DescriptorWriter()
             .buffer(0, ssbo, x.buffer(hb.params).handle())
@@ -41,7 +49,31 @@ fg::ResourceHandle GpuDeformer::addStrainPass(fg::FrameGraph& g) {
             .push(ctx_, x.cmd(), strain_);
         vkCmdDispatch(x.cmd(), groups, 1, 1);
       });
-  return h_.strain;
+  // After the resolve pass (it writes the box's counters): the same box, the same owners.
+  g.addPass(
+      "deform-strain-raster",
+      [&](fg::PassBuilder& b) {
+        b.read(hb.params, Access::StorageRead);
+        b.read(hb.args, Access::IndirectRead);
+        b.read(hb.box, Access::StorageRead);
+        b.read(hb.owner, Access::StorageRead);
+        b.read(hb.strain, Access::StorageRead);
+        b.write(hb.strainVolume, Access::StorageWrite);
+      },
+      [this, hb](fg::Executor& e) {
+        GraphExecutor& x = vulkanExecutor(e);
+        vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, strainRaster_.pipeline());
+        DescriptorWriter()
+            .buffer(0, ssbo, x.buffer(hb.params).handle())
+            .buffer(1, ssbo, x.buffer(hb.box).handle())
+            .buffer(2, ssbo, x.buffer(hb.owner).handle())
+            .buffer(3, ssbo, x.buffer(hb.strain).handle())
+            .storageImage(4, x.image(hb.strainVolume).view())
+            .push(ctx_, x.cmd(), strainRaster_);
+        vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
+      });
+  g.exportResource(hb.strainVolume, Access::Sampled);
+  return {hb.strain, hb.strainVolume};
 }
 
 std::vector<float> GpuDeformer::readStrain() const {

@@ -8,6 +8,7 @@
 #include "deform_interpolate.spv.h"
 #include "deform_resolve.spv.h"
 #include "deform_strain.spv.h"
+#include "deform_strain_raster.spv.h"
 #include "pick.spv.h"
 #include "raymarch.spv.h"
 #include "region_compact.spv.h"
@@ -27,5 +28,6 @@ std::span<const std::uint32_t> deformClear() { return spirv::deform_clear; }
 std::span<const std::uint32_t> deformClaim() { return spirv::deform_claim; }
 std::span<const std::uint32_t> deformResolve() { return spirv::deform_resolve; }
 std::span<const std::uint32_t> deformStrain() { return spirv::deform_strain; }
+std::span<const std::uint32_t> deformStrainRaster() { return spirv::deform_strain_raster; }
 
 }  // namespace handson::shaders

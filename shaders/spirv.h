@@ -18,5 +18,6 @@ std::span<const std::uint32_t> deformClear();
 std::span<const std::uint32_t> deformClaim();
 std::span<const std::uint32_t> deformResolve();
 std::span<const std::uint32_t> deformStrain();
+std::span<const std::uint32_t> deformStrainRaster();
 
 }  // namespace handson::shaders

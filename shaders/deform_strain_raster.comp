@@ -1,0 +1,29 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// The strain volume: every voxel of this frame's box takes the strain of the tet that claimed it
+// (deform_claim.comp's owner, the same tet the deformed image was sampled through), 0 where no tet
+// did (outside the region, uncovered) and where the strain is not finite. One invocation per voxel
+// of the box, dispatched indirectly like deform_resolve.comp. CPU reference: strainVolume in
+// sim/strain.cpp on rasterizeDeformed's tet map.
+#include "shared.h"
+layout(local_size_x = HANDSON_DEFORM_CLEAR_GROUP, local_size_y = HANDSON_DEFORM_CLEAR_GROUP, local_size_z = HANDSON_DEFORM_CLEAR_GROUP) in;
+layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
+layout(std430, set = 0, binding = 1) readonly buffer Box { DeformBox box; };
+layout(std430, set = 0, binding = 2) readonly buffer Owner { uint owner[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Strain { float strain[]; };
+layout(set = 0, binding = 4, r32f) uniform writeonly image3D uOut;
+
+void main() {
+  ivec3 v = box.lo.xyz + ivec3(gl_GlobalInvocationID);
+  if (any(greaterThan(v, box.hi.xyz))) return;
+  float s = 0.0;
+  ivec3 o = v - P.regionVoxLo.xyz;
+  if (all(greaterThanEqual(o, ivec3(0))) && all(lessThan(o, P.ownerDims.xyz))) {
+    uint own = owner[uint(o.x + P.ownerDims.x * (o.y + P.ownerDims.y * o.z))];
+    if (own != 0u && own != kDeformNoOwner) {
+      float e = strain[own - 1u];
+      s = isnan(e) || isinf(e) ? 0.0 : e;
+    }
+  }
+  imageStore(uOut, v, vec4(s));
+}
