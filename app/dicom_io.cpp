@@ -32,6 +32,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "app/fd_io.h"
 #include "app/isolated_call.h"
 #include "sim/binary_io.h"
 #include "sim/error.h"
@@ -1216,31 +1217,6 @@ Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* r
 namespace {
 
 enum class FrameKind : std::uint8_t { Progress = 1, Failure = 2, Result = 3 };
-
-bool writeAll(int fd, const void* data, std::size_t size) {
-  const char* p = static_cast<const char*>(data);
-  while (size > 0) {
-    const ssize_t n = ::write(fd, p, size);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    p += n;
-    size -= std::size_t(n);
-  }
-  return true;
-}
-
-/// Reads exactly `size` bytes; false at end of file (or on an error) before that.
-bool readAll(int fd, void* data, std::size_t size) {
-  char* p = static_cast<char*>(data);
-  while (size > 0) {
-    const ssize_t n = ::read(fd, p, size);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    p += n;
-    size -= std::size_t(n);
-  }
-  return true;
-}
 
 bool writeFrame(int fd, FrameKind kind, const std::string& payload) {
   const std::uint8_t k = std::uint8_t(kind);

@@ -14,6 +14,8 @@
 #include <cstring>
 #include <exception>
 
+#include "app/fd_io.h"
+
 namespace handson {
 
 namespace {
@@ -21,18 +23,6 @@ namespace {
 // The child writes one frame: [kind u8][length u64][bytes].
 enum class Kind : std::uint8_t { Result = 1, Failure = 2 };
 constexpr std::uint64_t kMaxPayload = std::uint64_t{1} << 24;
-
-bool writeAll(int fd, const void* data, std::size_t size) {
-  const char* p = static_cast<const char*>(data);
-  while (size > 0) {
-    const ssize_t n = ::write(fd, p, size);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    p += n;
-    size -= std::size_t(n);
-  }
-  return true;
-}
 
 [[noreturn]] void runChild(int fd, const std::function<std::string()>& work, const std::string& what) {
   Kind kind = Kind::Failure;

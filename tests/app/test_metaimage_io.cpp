@@ -22,28 +22,10 @@ namespace handson {
 namespace {
 
 using MetaImageIo = test::FileTest;
+using test::compressed;
+using test::ramp;
 using test::raw;
 
-// zlib (windowBits 15) or gzip (15 + 16) compression of `s`.
-std::string compressed(const std::string& s, int windowBits) {
-  z_stream z{};
-  EXPECT_EQ(deflateInit2(&z, 6, Z_DEFLATED, windowBits, 8, Z_DEFAULT_STRATEGY), Z_OK);
-  std::string out(deflateBound(&z, uLong(s.size())) + 32, '\0');
-  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(s.data()));
-  z.avail_in = uInt(s.size());
-  z.next_out = reinterpret_cast<Bytef*>(out.data());
-  z.avail_out = uInt(out.size());
-  EXPECT_EQ(deflate(&z, Z_FINISH), Z_STREAM_END);
-  out.resize(z.total_out);
-  deflateEnd(&z);
-  return out;
-}
-
-std::vector<std::int16_t> ramp(std::size_t n) {
-  std::vector<std::int16_t> v(n);
-  for (std::size_t i = 0; i < n; ++i) v[i] = std::int16_t(int(i) * 37 % 4000 - 1024);
-  return v;
-}
 
 std::string header(const std::string& fields, const std::string& dataFile = "LOCAL") {
   return "ObjectType = Image\n" + fields + "ElementDataFile = " + dataFile + "\n";

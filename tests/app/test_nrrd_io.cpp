@@ -27,27 +27,10 @@ namespace {
 namespace fs = std::filesystem;
 
 using NrrdIo = test::FileTest;
+using test::compressed;
+using test::ramp;
 using test::raw;
 
-std::string gzipped(const std::string& s) {
-  z_stream z{};
-  EXPECT_EQ(deflateInit2(&z, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY), Z_OK);
-  std::string out(deflateBound(&z, uLong(s.size())) + 32, '\0');
-  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(s.data()));
-  z.avail_in = uInt(s.size());
-  z.next_out = reinterpret_cast<Bytef*>(out.data());
-  z.avail_out = uInt(out.size());
-  EXPECT_EQ(deflate(&z, Z_FINISH), Z_STREAM_END);
-  out.resize(z.total_out);
-  deflateEnd(&z);
-  return out;
-}
-
-std::vector<std::int16_t> ramp(std::size_t n) {
-  std::vector<std::int16_t> v(n);
-  for (std::size_t i = 0; i < n; ++i) v[i] = std::int16_t(int(i) * 37 % 4000 - 1024);
-  return v;
-}
 
 // An oblique LPS volume (Slicer's default space): directions and origin come back in RAS (x and y
 // negated), values and index order as written; the same volume through our NIfTI writer and the
@@ -91,7 +74,7 @@ TEST_F(NrrdIo, EncodingsDetachedDataAndNoSpace) {
   for (std::size_t i = 0; i < labels.size(); ++i) labels[i] = std::uint8_t(i % 7);
   write("seg.seg.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nspace: right-anterior-superior\nsizes: 6 5 4\n"
                         "space directions: (2,0,0) (0,2,0) (0,0,3)\nkinds: domain domain domain\nencoding: gzip\nspace origin: (1,2,3)\n\n" +
-                            gzipped(raw(labels)));
+                            compressed(raw(labels), 15 + 16));
   const Volume seg = loadVolume(path("seg.seg.nrrd"));
   EXPECT_EQ(seg.type(), ScalarType::UInt8);
   EXPECT_EQ(seg.geometry().origin, Eigen::Vector3d(1, 2, 3));

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 
+#include "deform_fixture.h"
 #include "gpu_test_env.h"
 #include "render/deform_pass.h"
 #include "render/vk_resources.h"
@@ -24,35 +25,8 @@ using namespace handson;
 
 namespace {
 
-struct Fixture {
-  Phantom phantom;
-  QuantizedVolume q;
-  SimScene scene;
-  std::unique_ptr<CoarseModel> model;
-  FineInterpolationData data;
-};
-
-// The phantom at 4 mm with a small scene around its right kidney; built once.
-const Fixture& fixture() {
-  static const Fixture* f = [] {
-    auto* x = new Fixture;
-    PhantomOptions po;
-    po.spacingMm = 4.0;
-    x->phantom = makePhantom(po);
-    x->q = quantizeVolume(x->phantom.ct);
-    SimHandle h;
-    for (std::size_t i = 0; i < x->phantom.labels.voxelCount(); ++i)
-      if (x->phantom.labels.value(i) == label::kKidneyRight) h.voxels.push_back(std::uint32_t(i));
-    SimSettings s;
-    s.coarseTets = 300;
-    s.fineTets = 300 * 64;
-    x->scene = buildSimScene(x->phantom.ct, {h}, s);
-    x->model = std::make_unique<CoarseModel>(x->scene.meshes, x->scene.fineK, x->scene.constraints);
-    x->data = x->model->interpolationData();
-    return x;
-  }();
-  return *f;
-}
+using Fixture = test::DeformFixture;
+const Fixture& fixture() { return test::deformFixture(); }
 
 class StrainGpu : public test::GpuTest {
  protected:
@@ -61,21 +35,9 @@ class StrainGpu : public test::GpuTest {
   void run(const std::vector<Eigen::Vector3d>& x, std::vector<float>& gpu, std::vector<float>& cpu, std::vector<float>* gpuVolume = nullptr,
            Volume* cpuVolume = nullptr) {
     const Fixture& f = fixture();
-    auto& ctx = test::gpuContext();
-    const auto& d = f.q.geometry.dims;
-    const VkImageUsageFlags usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
-    vk::Image volume(ctx, {std::uint32_t(d.x()), std::uint32_t(d.y()), std::uint32_t(d.z()), fg::Format::R16Unorm}, usage, true);
-    vk::Image mask(ctx, {std::uint32_t(d.x()), std::uint32_t(d.y()), std::uint32_t(d.z()), fg::Format::R8Unorm}, usage, true);
-    vk::uploadToImage(ctx, volume, f.q.data.data(), f.q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-    const std::vector<std::uint8_t> zeros(f.q.data.size(), 0);
-    vk::uploadToImage(ctx, mask, zeros.data(), zeros.size(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-    vk::DeformSetup s;
-    s.interpolation = &f.data;
-    s.fineTets = &f.scene.meshes.fine.tets;
-    s.regionLo = f.scene.lo;
-    s.regionHi = f.scene.hi;
-    s.worldToIndex = f.q.geometry.worldToIndex();
-    vk::GpuDeformer deformer(ctx, volume, mask, s);
+    const test::Images im = test::upload(f.q, f.mask);
+    const vk::DeformSetup s = test::setupFor(f, f.data, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi);
+    vk::GpuDeformer deformer(test::gpuContext(), im.volume, im.mask, s);
     const Eigen::Matrix4d w2i = s.worldToIndex, i2w = w2i.inverse();
     std::vector<Eigen::Vector4f> idx(x.size());
     std::vector<Eigen::Vector3d> back(x.size());
@@ -90,7 +52,7 @@ class StrainGpu : public test::GpuTest {
     if (cpuVolume) {
       Volume deformed;
       std::vector<std::int32_t> tetOf;
-      rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, back, f.scene.lo, f.scene.hi, -1000.0f, deformed, nullptr, nullptr, UINT64_MAX, &tetOf);
+      rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, back, f.scene.lo, f.scene.hi, f.backgroundHu, deformed, nullptr, nullptr, UINT64_MAX, &tetOf);
       *cpuVolume = strainVolume(f.phantom.ct.geometry(), tetOf, cpu);
     }
   }
