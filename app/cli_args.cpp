@@ -167,10 +167,12 @@ std::vector<int> integerListOption(const Args& args, const char* name, const cha
   return out;
 }
 
-bool exportFormatIsNrrd(const Args& args) {
+std::string exportVolumeExtension(const Args& args) {
   const std::string f = args.valueOr("--export-format", "nifti");
-  if (f != "nifti" && f != "nrrd") throw UsageError("--export-format must be nifti or nrrd");
-  return f == "nrrd";
+  if (f == "nifti") return ".nii.gz";
+  if (f == "nrrd") return ".nrrd";
+  if (f == "mha") return ".mha";
+  throw UsageError("--export-format must be nifti, nrrd or mha");
 }
 
 LoadOptions loadOptions(const Args& args) {

@@ -63,8 +63,9 @@ std::vector<int> integerListOption(const Args& args, const char* name, const cha
 /// The simulation benchmarks' scene: PATH --handle MASK [--handle-label N], or without PATH the
 /// built-in phantom at --spacing (default `defaultSpacingMm`) with its right kidney as the handle.
 HandleScene handleSceneOptions(const Args& args, double defaultSpacingMm, const ProgressFn& progress);
-/// `--export-format nifti|nrrd` (default nifti): true for nrrd. Throws UsageError otherwise.
-bool exportFormatIsNrrd(const Args& args);
+/// `--export-format nifti|nrrd|mha` (default nifti): the exported volumes' extension (".nii.gz",
+/// ".nrrd", ".mha"). Throws UsageError otherwise.
+std::string exportVolumeExtension(const Args& args);
 /// `--frame N`: which volume of a 4D NIfTI image to load (default 0).
 LoadOptions loadOptions(const Args& args);
 /// The help line for it.

@@ -41,7 +41,7 @@ const char* const kViewHelp =
     "  --record SCRIPT.json    write what the user did as a session script\n"
     "  --export-dir DIR        where the Export button writes the session, the deformed volume, the\n"
     "                          mesh and a screenshot (default handson-export)\n"
-    "  --export-format F       nifti (default) or nrrd: the deformed volume's format in those exports\n"
+    "  --export-format F       nifti (default), nrrd or mha: the exported volumes' format\n"
     "  --timings LOG.csv       per-frame latency log (input, CPU, GPU passes, submit, present)\n"
     "  --play SCRIPT.json      feed a session script in as live input, in real time; exits after it\n"
     "  --play-repeat N         play it N times in a row, resetting the view in between (default 1)\n"
@@ -58,7 +58,7 @@ const char* const kReplayHelp =
     "  --fps F             frames per second of script time\n"
     "  --export OUT.nii.gz the deformed volume at the end, on the input's grid\n"
     "  --export-dir DIR    where the script's export actions write (default handson-export)\n"
-    "  --export-format F   nifti (default) or nrrd for the deformed volume in those exports\n"
+    "  --export-format F   nifti (default), nrrd or mha for the exported volumes\n"
     "  --device NAME, --validation, --quiet, --print-camera, --print-handles\n";
 
 const char* const kSimHelp =
@@ -133,7 +133,7 @@ int cmdView(const Words& words) {
   if (!o.screenshot.empty() && o.frames <= 0) throw UsageError("--screenshot needs --frames N");
   o.record = args.valueOr("--record", "");
   o.exportDir = args.valueOr("--export-dir", o.exportDir);
-  o.exportNrrd = exportFormatIsNrrd(args);
+  o.exportExtension = exportVolumeExtension(args);
   o.timings = args.valueOr("--timings", "");
   o.play = args.valueOr("--play", "");
   o.framesInFlight = int(args.integer("--frames-in-flight", 2, 1, 3));
@@ -168,7 +168,7 @@ int cmdReplay(const Words& words) {
   o.printHandles = args.flag("--print-handles");
   o.exportPath = args.valueOr("--export", "");
   o.exportDir = args.valueOr("--export-dir", o.exportDir);
-  o.exportNrrd = exportFormatIsNrrd(args);
+  o.exportExtension = exportVolumeExtension(args);
   o.sim = simOptions(args, 0);
   return runReplay(o);
 }

@@ -95,7 +95,7 @@ int runReplay(const ReplayOptions& o) {
     }
     session.startRecording(header);
   }
-  SessionExport exporter(o.exportDir, volume, o.exportNrrd);
+  SessionExport exporter(o.exportDir, volume, o.exportExtension);
   session.addUiExtension([&](const ScriptEvent& e) { return exporter.onUi(e); });
   std::string simStatus;
   if (!o.framesOut.empty()) {

@@ -28,7 +28,7 @@ struct ReplayOptions {
   bool printHandles = false;
   std::string exportPath;  ///< the deformed volume at the end (.nii.gz, the input's grid)
   std::string exportDir = "handson-export";  ///< where the script's "export" actions write
-  bool exportNrrd = false;  ///< the deformed volume as NRRD, not NIfTI
+  std::string exportExtension = ".nii.gz";  ///< the exported volumes' format: ".nii.gz", ".nrrd" or ".mha"
   DeformationOptions sim;  ///< the simulation of moved handles (each frame waits for it to settle: deterministic)
   int frames = 0;          ///< frames to render; 0: through the script's last event, plus one
   /// Called after each frame (index, frame count, validation messages so far): soaks sample here.

@@ -48,7 +48,7 @@ std::string SessionExport::write(const Session& session, const HandleSet& handle
     writeHandles(handles, picked, input_.dims(), path("handles", ".json"));
     Volume shown;
     const bool simulated = deform.exportDeformed(shown);
-    const char* volumeExt = nrrd_ ? ".nrrd" : ".nii.gz";
+    const char* volumeExt = volumeExtension_.c_str();
     writeVolume(simulated ? shown : input_, path("deformed", volumeExt));
     const bool mesh = simulated && deform.exportMesh(path("mesh", ".vtu"));
     const bool strain = simulated && deform.exportStrain(path("strain", volumeExt));

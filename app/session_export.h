@@ -7,8 +7,9 @@
 //                       value type; the input unchanged when nothing is simulated)
 //   mesh-NN.vtu         the simulated fine mesh with its displacements (only when simulated)
 //   forces-NN.json      each simulated handle's reaction force and torque (app/forces_json.h)
-//   strain-NN.nii.gz    the strain as shown on the input's grid (sim/strain.h; .nrrd with nrrd)
+//   strain-NN.nii.gz    the strain as shown on the input's grid (sim/strain.h)
 //   screenshot-NN.png   the rendered image of the frame after the request (no UI overlay)
+// (deformed and strain are .nrrd or .mha instead when the export is made with that extension.)
 // Every file is written atomically (a failure never leaves a partial file), numbering continues
 // after the exports already in the directory (nothing is overwritten), and a failed export is
 // reported without ending the session.
@@ -27,8 +28,10 @@ namespace handson {
 class SessionExport {
  public:
   /// `dir` is created at the first export. `input` must outlive this.
-  /// `nrrd`: the deformed volume as NRRD (deformed-NN.nrrd) instead of NIfTI (deformed-NN.nii.gz).
-  SessionExport(std::filesystem::path dir, const Volume& input, bool nrrd = false) : dir_(std::move(dir)), input_(input), nrrd_(nrrd) {}
+  /// `volumeExtension`: the volumes' format, told by it (writeVolume): ".nii.gz" (NIfTI, the
+  /// default), ".nrrd" or ".mha".
+  SessionExport(std::filesystem::path dir, const Volume& input, std::string volumeExtension = ".nii.gz")
+      : dir_(std::move(dir)), input_(input), volumeExtension_(std::move(volumeExtension)) {}
 
   /// The session extension for the "export" action: marks an export as pending.
   bool onUi(const ScriptEvent& e);
@@ -43,7 +46,7 @@ class SessionExport {
  private:
   std::filesystem::path dir_;
   const Volume& input_;
-  bool nrrd_ = false;
+  std::string volumeExtension_;
   bool pending_ = false;
   int count_ = 0;  ///< exports written by this session
   int next_ = 0;   ///< the number of the last export in the directory

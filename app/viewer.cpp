@@ -275,7 +275,7 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
   present = std::make_unique<PresentExtension>(*swapchain, *ui);
   selection = std::make_unique<SelectionController>(q, *session, *renderer);
   deform = std::make_unique<DeformationController>(volume, q, *renderer, o.sim);
-  exporter = std::make_unique<SessionExport>(o.exportDir, volume, o.exportNrrd);
+  exporter = std::make_unique<SessionExport>(o.exportDir, volume, o.exportExtension);
   session->addUiExtension([this](const ScriptEvent& e) { return exporter->onUi(e); });
   status.device = ctx->summary().name;
   if (!o.play.empty()) play = readSessionScript(o.play);

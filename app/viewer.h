@@ -20,7 +20,7 @@ struct ViewerOptions {
   std::string screenshot;   ///< PNG of the last presented frame (UI included)
   std::string record;       ///< session script of what the user did
   std::string exportDir = "handson-export";  ///< where the Export button writes (app/session_export.h)
-  bool exportNrrd = false;  ///< the Export button writes the deformed volume as NRRD, not NIfTI
+  std::string exportExtension = ".nii.gz";  ///< the Export button's volumes: ".nii.gz", ".nrrd" or ".mha"
   std::string play;         ///< a session script fed in as live input, in real time (latency studies)
   int playRepeat = 1;       ///< times to play it
   std::string timings;      ///< latency log CSV

@@ -424,6 +424,17 @@ TEST(Replay, TheExportActionWritesTheSessionTheDeformedVolumeTheMeshAndAScreensh
   ASSERT_TRUE(after.has_value()) << again;
   EXPECT_LT((after->translation - before->translation).norm(), 0.5) << log << again;
   EXPECT_EQ(after->voxels, before->voxels);
+  // (And as MetaImage, --export-format mha.)
+  std::string third;
+  ASSERT_EQ(run("replay " + (out / "session-01.json").string() + " --fps 10 --size 96x96 --quiet --sim off --export-format mha --export-dir " +
+                    out.string(),
+                &third),
+            0)
+      << third;
+  ASSERT_TRUE(fs::exists(out / "deformed-03.mha")) << third;
+  EXPECT_EQ(handson::loadVolume((out / "deformed-03.mha").string()).dims(), def.dims());
+  EXPECT_NE(run("replay " + (out / "session-01.json").string() + " --quiet --sim off --export-format png --export-dir " + out.string(), &third), 0);
+  EXPECT_NE(third.find("nifti, nrrd or mha"), std::string::npos) << third;
   fs::remove_all(dir);
 }
 
