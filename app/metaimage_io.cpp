@@ -112,9 +112,13 @@ Header decodeHeader(const std::string& payload) {
 // give 1 to 10, MetaIO's own limit, before MetaIO sees the file - a clear message at once rather
 // than the child process's time-out.
 void checkDimensionCount(const std::string& path) {
+  // A header is text of a few kilobytes: the first MiB is looked at, no more.
   std::ifstream in(path, std::ios::binary);
-  std::string line;
-  for (int lines = 0; lines < 4096 && std::getline(in, line); ++lines) {
+  std::string head(std::size_t{1} << 20, '\0');
+  in.read(head.data(), std::streamsize(head.size()));
+  head.resize(std::size_t(std::max<std::streamsize>(0, in.gcount())));
+  std::istringstream lines(head);
+  for (std::string line; std::getline(lines, line);) {
     const std::size_t sep = line.find_first_of("=:");
     if (sep == std::string::npos) continue;
     std::string key = line.substr(0, sep);
