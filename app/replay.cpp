@@ -137,6 +137,7 @@ int runReplay(const ReplayOptions& o) {
       RenderSettings rs;
       rs.width = vp.width;
       rs.height = vp.height;
+      rs.strainOverlay = session.strainOverlay();
       const OrbitCamera& cam = session.camera();
       FrameRequest req;
       req.params = makeRenderParams(volume.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);

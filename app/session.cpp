@@ -41,6 +41,8 @@ bool Session::apply(const ScriptEvent& e) {
     }
   } else if (e.action == "reset-camera") {
     resetCamera();
+  } else if (e.action == "toggle-strain") {
+    strainOverlay_ = !strainOverlay_;
   } else {
     ok = false;
     for (const auto& f : uiExtensions_)

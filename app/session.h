@@ -28,6 +28,8 @@ class Session {
   const std::string& preset() const { return preset_; }
   /// True once after the preset changed (the renderer re-uploads the table).
   bool takePresetChanged() { return std::exchange(presetChanged_, false); }
+  /// The strain overlay (the "toggle-strain" action): tissue coloured by its strain while deforming.
+  bool strainOverlay() const { return strainOverlay_; }
 
   /// UI actions the session does not know itself (handle edits, export) go to these, in order,
   /// until one applies it (returns true).
@@ -44,6 +46,7 @@ class Session {
   GestureRecognizer gestures_;
   std::string preset_;
   bool presetChanged_ = false;
+  bool strainOverlay_ = false;
   bool recording_ = false;
   SessionScript script_;
   std::vector<std::function<bool(const ScriptEvent&)>> uiExtensions_;

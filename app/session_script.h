@@ -22,6 +22,7 @@
 //                                                               // handle-delete ID, handle-union A,B,
 //                                                               // handle-difference A,B, undo, redo,
 //                                                               // toggle-lock z-translation|z-rotation|xy-translation
+//     {"t": 0.85, "ui": "toggle-strain"},  // the strain overlay on / off (while deforming)
 //     {"t": 0.90, "ui": "export"},  // session, deformed volume, mesh, screenshot (app/session_export.h)
 //   ]
 // }

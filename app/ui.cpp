@@ -86,6 +86,28 @@ void Ui::swapchainRecreated(const vk::Swapchain& swapchain) {
   ImGui_ImplVulkan_SetMinImageCount(std::max(2u, swapchain.minImageCount()));
 }
 
+// The strain overlay's colour bar, bottom left: the raymarch's ramp (shaders/raymarch.comp,
+// strainTint) from the strain where colour starts to where it is full.
+void Ui::strainColourBar(const UiStatus& st, const std::function<void()>& remember) {
+  const float s = scale_;
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  ImGui::SetNextWindowPos(ImVec2(10 * s, display.y - 10 * s), ImGuiCond_Always, ImVec2(0.0f, 1.0f));
+  ImGui::SetNextWindowBgAlpha(0.75f);
+  ImGui::Begin("strain-bar", nullptr,
+               ImGuiWindowFlags_NoTitleBar | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_AlwaysAutoResize |
+                   ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoFocusOnAppearing);
+  ImGui::TextUnformatted(st.simulation.empty() ? "Strain (largest stretch), no simulation" : "Strain (largest stretch)");
+  const ImVec2 p = ImGui::GetCursorScreenPos(), size(220 * s, 18 * s);
+  const ImU32 from = ImGui::GetColorU32(ImVec4(1.0f, 0.85f, 0.1f, 1.0f)), to = ImGui::GetColorU32(ImVec4(0.9f, 0.05f, 0.05f, 1.0f));
+  ImGui::GetWindowDrawList()->AddRectFilledMultiColor(p, ImVec2(p.x + size.x, p.y + size.y), from, to, to, from);
+  ImGui::Dummy(size);
+  ImGui::Text("%.0f %%", 100.0 * st.strainFrom);
+  ImGui::SameLine(size.x - 30 * s);
+  ImGui::Text("%.0f %%", 100.0 * st.strainTo);
+  remember();
+  ImGui::End();
+}
+
 void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& actions) {
   ImGui_ImplVulkan_NewFrame();
   ImGui_ImplSDL2_NewFrame();
@@ -125,6 +147,10 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   if (ImGui::Button("Reset view", button)) action("reset-camera", "");
   ImGui::SameLine();
   if (ImGui::Button("Export", button)) action("export", "");
+  ImGui::SameLine();
+  if (st.strainOverlay) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.85f, 0.35f, 0.10f, 1.0f));
+  if (ImGui::Button("Strain", button)) action("toggle-strain", "");
+  if (st.strainOverlay) ImGui::PopStyleColor();
   if (st.mode == "manipulate") {
     // Axis locks for the manipulation (the finger count chooses the rest).
     ImGui::NewLine();
@@ -141,6 +167,7 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   }
   remember();
   ImGui::End();
+  if (st.strainOverlay) strainColourBar(st, remember);
 
   // Transfer-function presets and the handle list, right side.
   const ImVec2 display = ImGui::GetIO().DisplaySize;

@@ -6,6 +6,7 @@
 #include <SDL2/SDL.h>
 #include <vulkan/vulkan.h>
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,8 @@ struct UiStatus {
   std::string exported;        ///< the last export's summary (or failure)
   std::size_t liveVoxels = 0;  ///< the selection being pinched
   unsigned locks = 0;          ///< manipulation locks (GestureLock bits)
+  bool strainOverlay = false;  ///< the strain overlay is on: its colour bar shows
+  float strainFrom = 0.0f, strainTo = 0.30f;  ///< the overlay's range (RenderSettings)
 };
 
 class Ui {
@@ -63,6 +66,8 @@ class Ui {
   static constexpr float kMinTarget = 48.0f;  ///< smallest touch target, pixels at 100 %
 
  private:
+  void strainColourBar(const UiStatus& st, const std::function<void()>& remember);
+
   const vk::Context& ctx_;
   VkRenderPass renderPass_;
   VkDescriptorPool pool_ = VK_NULL_HANDLE;

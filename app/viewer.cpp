@@ -393,6 +393,9 @@ bool Viewer::Impl::step() {
         if (row.id == id) row.reaction = formatReaction(r, deform->shownRefineStep() == 0);
     status.picked = selection->picked();
     status.locks = selection->locks();
+    status.strainOverlay = session->strainOverlay();
+    status.strainFrom = RenderSettings{}.strainFrom;
+    status.strainTo = RenderSettings{}.strainTo;
     status.canUndo = selection->handles().canUndo();
     status.canRedo = selection->handles().canRedo();
     status.feedback = !selection->pinch().feedback().empty() ? selection->pinch().feedback() : selection->manipulationNote();
@@ -413,6 +416,7 @@ bool Viewer::Impl::step() {
     RenderSettings rs;
     rs.width = std::max(1, int(std::lround(vp.width * scale)));
     rs.height = std::max(1, int(std::lround(vp.height * scale)));
+    rs.strainOverlay = session->strainOverlay();
     status.renderWidth = rs.width;
     status.renderHeight = rs.height;
     const OrbitCamera& cam = session->camera();

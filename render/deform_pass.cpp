@@ -482,6 +482,7 @@ void GpuDeformer::bind(GraphExecutor& x) {
   if (h.onlyOutputs) {
     x.bindImage(h.volume, volume_);
     x.bindImage(h.mask, mask_);
+    if (h.strainVolume.valid()) x.bindImage(h.strainVolume, strainVolume_);
     return;
   }
   const Slot& s = slots_[h.slot];

@@ -88,6 +88,9 @@ class GpuDeformer {
     fg::ResourceHandle volume;  ///< R32 float, the volume's grid, left in Access::Sampled
   };
   StrainOutputs addStrainPass(fg::FrameGraph& graph);
+  /// Imports the strain volume as the last strain passes left it (a frame without new positions);
+  /// invalid before the first addStrainPass.
+  fg::ResourceHandle importStrainVolume(fg::FrameGraph& graph);
   /// The strain per fine tet and the strain volume (x fastest), read back after a frame with the pass.
   std::vector<float> readStrain() const;
   std::vector<float> readStrainVolume() const;

@@ -76,6 +76,12 @@ GpuDeformer::StrainOutputs GpuDeformer::addStrainPass(fg::FrameGraph& g) {
   return {hb.strain, hb.strainVolume};
 }
 
+fg::ResourceHandle GpuDeformer::importStrainVolume(fg::FrameGraph& g) {
+  if (!strainBuffer_) return {};
+  h_.strainVolume = g.importImage("strain-volume", strainVolume_.desc(), fg::Access::Sampled);
+  return h_.strainVolume;
+}
+
 std::vector<float> GpuDeformer::readStrain() const {
   if (!strainBuffer_) throw Error("deformation: no strain computed yet");
   std::vector<float> out(tets_);

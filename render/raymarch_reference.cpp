@@ -15,6 +15,19 @@ struct Sampler {
   const gpu::RenderParams& P;
   const std::vector<std::uint8_t>* mask;
   const std::vector<glm::vec4>* tints;
+  const std::vector<float>* strain;
+
+  // As raymarch.comp's strainTint.
+  glm::vec3 strainTint(glm::vec3 c, glm::vec3 idx) const {
+    if (!strain) return c;
+    const auto& d = v.geometry.dims;
+    const glm::ivec3 q = glm::clamp(glm::ivec3(glm::floor(idx + 0.5f)), glm::ivec3(0), glm::ivec3(d.x(), d.y(), d.z()) - 1);
+    const float e = (*strain)[std::size_t(q.x) + std::size_t(d.x()) * (std::size_t(q.y) + std::size_t(d.y()) * std::size_t(q.z))];
+    if (!(e > P.strain.x)) return c;
+    const float w = glm::clamp((e - P.strain.x) / std::max(P.strain.y - P.strain.x, 1e-6f), 0.0f, 1.0f);
+    const glm::vec3 ramp = glm::mix(glm::vec3(1.0f, 0.85f, 0.1f), glm::vec3(0.9f, 0.05f, 0.05f), w);
+    return glm::mix(c, ramp, P.strain.z * (0.25f + 0.75f * w));
+  }
 
   std::uint32_t handleAt(glm::vec3 idx) const {
     if (!mask) return 0;
@@ -155,6 +168,7 @@ struct Sampler {
         const float a = correctedAlpha(s.a);
         glm::vec3 c(s);
         if (id != 0 && tints) c = glm::mix(c, glm::vec3((*tints)[id]), (*tints)[id].a);
+        if (flags & gpu::kFlagStrainOverlay) c = strainTint(c, idx);
         if (flags & gpu::kFlagShading) {
           const glm::vec3 g = gradToWorld * gradientIndex(idx);
           const float gl = glm::length(g);
@@ -229,7 +243,7 @@ struct Sampler {
 }  // namespace
 
 std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const gpu::RenderParams& params) {
-  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints};
+  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints, scene.strain};
   const int w = params.dims.w, h = params.brickDims.w;
   std::vector<std::uint8_t> img(std::size_t(w) * h * 4);
   auto rows = [&](int y0, int y1) {
@@ -250,7 +264,7 @@ std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const g
 
 std::vector<gpu::PickResult> pickReference(const ReferenceScene& scene, const gpu::RenderParams& params,
                                            const std::vector<glm::vec2>& ndcPoints) {
-  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints};
+  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints, scene.strain};
   std::vector<gpu::PickResult> out;
   out.reserve(ndcPoints.size());
   for (const auto& p : ndcPoints) out.push_back(s.pick(p));

@@ -40,6 +40,8 @@ gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::ma
   if (s.emptySpaceSkipping) flags |= gpu::kFlagEmptySpaceSkipping;
   if (s.earlyTermination) flags |= gpu::kFlagEarlyTermination;
   if (s.shading) flags |= gpu::kFlagShading;
+  if (s.strainOverlay) flags |= gpu::kFlagStrainOverlay;
+  p.strain = glm::vec4(s.strainFrom, s.strainTo, s.strainWeight, 0.0f);
   const double diag = geometry.diagonalMm();
   const std::uint32_t maxSteps = std::uint32_t(std::ceil(diag / step)) * 2u + 64u;
   p.control = glm::uvec4(flags, pickCount, maxSteps, 0u);

@@ -22,6 +22,10 @@ struct RenderSettings {
   float pickThreshold = 0.5f;
   glm::vec4 background{0.08f, 0.09f, 0.11f, 1.0f};
   glm::vec4 light{0.35f, 0.75f, 0.25f, 24.0f};  ///< ambient, diffuse, specular, shininess
+  /// The strain overlay (while deforming): tissue coloured from strainFrom (none) to strainTo (full
+  /// colour, yellow to red, weight strainWeight); strain as sim/strain.h defines it (0.3 = 30 %).
+  bool strainOverlay = false;
+  float strainFrom = 0.0f, strainTo = 0.30f, strainWeight = 0.85f;
 };
 
 /// view: world -> eye (right-handed, camera looks down -z); proj: eye -> Vulkan clip (z in [0,1],

@@ -20,7 +20,13 @@ VolumeRenderer::VolumeRenderer(const vk::Context& ctx, std::uint32_t framesInFli
       pick_(ctx),
       brick_(ctx),
       linear_(ctx, true),
-      slots_(framesInFlight == 0 ? 1 : framesInFlight) {}
+      nearest_(ctx, false),
+      slots_(framesInFlight == 0 ? 1 : framesInFlight) {
+  // The raymarch's strain image when there is no strain to show: one zero voxel.
+  noStrain_ = vk::Image(ctx, {1, 1, 1, fg::Format::R32Sfloat}, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
+  const float zero = 0.0f;
+  vk::uploadToImage(ctx, noStrain_, &zero, sizeof zero, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+}
 
 VolumeRenderer::~VolumeRenderer() {
   try {
@@ -264,19 +270,40 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
       uploadInRegion = (lo.array() <= deformer_->regionVoxelHi().array()).all() && (hi.array() >= deformer_->regionVoxelLo().array()).all();
       g.exportResource(deformed.mask, fg::Access::Sampled);
     }
-    const bool whole = deformFirst_ || uploadInRegion;  // the deformed images must be redone over the region
+    // The strain overlay, when first shown, needs the whole region's strain: a region redo.
+    const bool wantStrain = (params.control.x & gpu::kFlagStrainOverlay) != 0;
+    const bool whole = deformFirst_ || uploadInRegion || (wantStrain && !strainShown_);  // redo the deformed images over the region
+    bool passes = false;
     if (req.deformFine) {
       deformer_->addPassesFromPositions(g, executor_.slot(), *req.deformFine, whole ? vk::Redo::Region : vk::Redo::Moved, in.volume, in.mask, deformed);
       deformFirst_ = false;
+      passes = true;
     } else if (lastDeform_ && (req.deform || whole)) {
       deformer_->addPasses(g, executor_.slot(), *lastDeform_, whole ? vk::Redo::Region : vk::Redo::Moved, in.volume, in.mask, deformed);
       deformFirst_ = false;
+      passes = true;
     }
     in.volume = deformed.volume;
     in.mask = deformed.mask;
+    if (wantStrain && passes) {
+      in.strain = deformer_->addStrainPass(g).volume;
+      strainShown_ = true;
+    } else if (wantStrain && strainShown_) {
+      in.strain = deformer_->importStrainVolume(g);
+    }
+    if (!wantStrain) strainShown_ = false;  // shown again later: redone over the region then
+  }
+  const bool ownStrain = !in.strain.valid();
+  if (ownStrain) {
+    in.strain = g.importImage("no-strain", noStrain_.desc(), fg::Access::Sampled);
+    if (params.control.x & gpu::kFlagStrainOverlay) {  // nothing to show (not deforming): no overlay
+      params.control.x &= ~gpu::kFlagStrainOverlay;
+      std::memcpy(s.params->mapped(), &params, sizeof(params));
+      s.params->flush();
+    }
   }
   auto color = g.createImage("color", {std::uint32_t(w), std::uint32_t(h), 1, fg::Format::Rgba8Unorm});
-  raymarch_.add(g, in, color, linear_);
+  raymarch_.add(g, in, color, linear_, nearest_);
 
   fg::ResourceHandle imageHost, pickIn, pickOut, pickHost;
   s.width = w;
@@ -311,6 +338,7 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   executor_.bindBuffer(in.tf, tf_);
   executor_.bindBuffer(in.occupancy, occupancyBuffer_);
   executor_.bindImage(sourceMask, mask_);
+  if (ownStrain) executor_.bindImage(in.strain, noStrain_);
   if (deformer_) deformer_->bind(executor_);
   executor_.bindBuffer(in.handles, handleTints_);
   if (maskStaging.valid()) executor_.bindBuffer(maskStaging, *s.maskStaging);

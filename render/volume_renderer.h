@@ -121,7 +121,9 @@ class VolumeRenderer {
   std::vector<glm::vec4> lut_;
   vk::PickPass pick_;
   vk::BrickPass brick_;
-  vk::Sampler linear_;
+  vk::Sampler linear_, nearest_;
+  vk::Image noStrain_;        ///< the raymarch's strain image without a strain overlay (one zero voxel)
+  bool strainShown_ = false;  ///< the deformer's strain volume is current over the whole region
   vk::Image volume_, mask_;
   vk::Buffer tf_, occupancyBuffer_, handleTints_;
   BrickGrid bricks_;

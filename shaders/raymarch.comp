@@ -6,6 +6,19 @@
 layout(local_size_x = HANDSON_RAYMARCH_GROUP_X, local_size_y = HANDSON_RAYMARCH_GROUP_Y) in;
 #include "march_common.glsl"
 layout(set = 0, binding = kBindOutput, rgba8) uniform writeonly image2D uOutput;
+layout(set = 0, binding = kBindStrain) uniform sampler3D uStrain;
+
+// The strain overlay (kFlagStrainOverlay): the strain of the nearest voxel, from P.strain.x (no
+// colour) to P.strain.y (full colour, weight P.strain.z), yellow to red. CPU reference:
+// strainTint in render/raymarch_reference.cpp.
+vec3 strainTint(vec3 c, vec3 idx) {
+  ivec3 v = clamp(ivec3(floor(idx + 0.5)), ivec3(0), P.dims.xyz - 1);
+  float e = texelFetch(uStrain, v, 0).r;
+  if (!(e > P.strain.x)) return c;
+  float w = clamp((e - P.strain.x) / max(P.strain.y - P.strain.x, 1e-6), 0.0, 1.0);
+  vec3 ramp = mix(vec3(1.0, 0.85, 0.1), vec3(0.9, 0.05, 0.05), w);
+  return mix(c, ramp, P.strain.z * (0.25 + 0.75 * w));
+}
 
 vec3 gradientIndex(vec3 idx) {
   return 0.5 * vec3(sampleVolume(idx + vec3(1, 0, 0)) - sampleVolume(idx - vec3(1, 0, 0)),
@@ -59,6 +72,7 @@ void main() {
       float a = correctedAlpha(s.a);
       vec3 c = s.rgb;
       if (id != 0u) c = mix(c, handleTint[id].rgb, handleTint[id].a);
+      if ((flags & kFlagStrainOverlay) != 0u) c = strainTint(c, idx);
       if ((flags & kFlagShading) != 0u) {
         vec3 g = gradToWorld * gradientIndex(idx);
         float gl = length(g);

@@ -55,6 +55,7 @@ HS_CONST kTfEntries = 4096;
 HS_CONST kFlagEmptySpaceSkipping = 1u;
 HS_CONST kFlagEarlyTermination = 2u;
 HS_CONST kFlagShading = 4u;
+HS_CONST kFlagStrainOverlay = 8u;  // raymarch: colour tissue by its strain (RenderParams.strain)
 
 // Bindings of the raymarch and pick passes (one push-descriptor set).
 HS_CONST kBindParams = 0;     // RenderParams (read-only storage buffer)
@@ -67,6 +68,7 @@ HS_CONST kBindMask = 6;       // sampler3D, R8_UNORM handle ids (id / 255), same
 HS_CONST kBindHandles = 7;    // storage buffer vec4[kMaxHandleIds]: rgb tint, a = tint weight (0: none)
 HS_CONST kMaxHandleIds = 256; // id 0 = no handle
 HS_CONST kMaxMovingHandles = 8;  // handles drawn at a rigid pose (RenderParams.moving, count in control.w)
+HS_CONST kBindStrain = 8;     // raymarch only: sampler3D, R32 float strain on the volume's grid (texelFetch)
 
 // A handle drawn moved rigidly (until the simulation deforms the tissue around it): for a sample at
 // voxel index x, currentToRest * x is where the handle's material was.
@@ -90,6 +92,7 @@ struct RenderParams {
   vec4 background;    // rgba composited behind the volume
   vec4 light;         // x = ambient, y = diffuse, z = specular, w = shininess
   uvec4 control;      // x = flags, y = pick count, z = max steps, w = moving handle count
+  vec4 strain;        // overlay: x = strain where the colour starts, y = where it is full, z = its weight there
   MovingHandle moving[kMaxMovingHandles];
 };
 
@@ -153,7 +156,7 @@ static_assert(sizeof(DeformParams) == 2 * 64 + 7 * 16, "DeformParams must match 
 static_assert(sizeof(DeformBox) == 64, "DeformBox must match std430");
 static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
 static_assert(sizeof(MovingHandle) == 112, "MovingHandle must match std140");
-static_assert(sizeof(RenderParams) == 3 * 64 + 7 * 16 + 8 * 112, "RenderParams must match std140");
+static_assert(sizeof(RenderParams) == 3 * 64 + 8 * 16 + 8 * 112, "RenderParams must match std140");
 static_assert(sizeof(PickResult) == 32, "PickResult must match std430");
 }  // namespace handson::gpu
 #endif

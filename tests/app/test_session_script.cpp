@@ -124,6 +124,19 @@ TEST(Session, UiActionsAndRecording) {
   EXPECT_EQ(s.gestures().mode(), InteractionMode::Manipulate);
   EXPECT_EQ(s.script().events.size(), 2u);
   EXPECT_EQ(s.script().viewport.width, 200);
+  // The strain overlay toggles and is recorded; a script carrying the action parses back.
+  ScriptEvent strain = preset;
+  strain.action = "toggle-strain";
+  strain.value.clear();
+  EXPECT_FALSE(s.strainOverlay());
+  EXPECT_TRUE(s.apply(strain));
+  EXPECT_TRUE(s.strainOverlay());
+  EXPECT_TRUE(s.apply(strain));
+  EXPECT_FALSE(s.strainOverlay());
+  EXPECT_EQ(s.script().events.size(), 4u);
+  const SessionScript back = parseSessionScript(formatSessionScript(s.script()));
+  ASSERT_EQ(back.events.size(), 4u);
+  EXPECT_EQ(back.events[3].action, "toggle-strain");
 }
 
 TEST(LatencyLog, PercentilesAndSummary) {

@@ -1,7 +1,8 @@
 // The strain passes (deform_strain.comp and deform_strain_raster.comp, GpuDeformer::addStrainPass)
 // against their CPU references, tetStrain and strainVolume (sim/strain.h), and against exact answers: homogeneous deformations of the whole fine
 // mesh (a rigid turn: 0; a 10 % stretch: 0.1 in every tet), the kidney dragged and turned by the
-// coarse model; a non-finite position refused. Lavapipe with the validation layer.
+// coarse model; a non-finite position refused; and the raymarch's strain overlay against its CPU
+// reference. Lavapipe with the validation layer.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -11,7 +12,12 @@
 
 #include "deform_fixture.h"
 #include "gpu_test_env.h"
+#include "interaction/camera.h"
 #include "render/deform_pass.h"
+#include "render/raymarch_reference.h"
+#include "render/render_params.h"
+#include "render/transfer_function.h"
+#include "render/volume_renderer.h"
 #include "render/vk_resources.h"
 #include "sim/coarsening.h"
 #include "sim/error.h"
@@ -138,4 +144,60 @@ TEST_F(StrainGpu, ANonFinitePositionIsRefused) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("not finite"), std::string::npos) << e.what();
   }
+}
+
+// The overlay in the frame: the renderer deforms (refined positions of the kidney drag), computes
+// the strain and raymarches with it in one graph; the frame equals the CPU raymarch of the GPU's
+// deformed volume, mask and strain volume, and the overlay visibly colours the stretched tissue.
+TEST_F(StrainGpu, TheRaymarchOverlayMatchesItsCpuReference) {
+  const Fixture& f = fixture();
+  VolumeRenderer renderer(test::gpuContext());
+  renderer.setVolume(f.q);
+  const auto lut = transferFunctionPreset("ct-abdomen").lookupTable(f.q);
+  renderer.setTransferFunction(lut);
+  renderer.beginDeformation(test::setupFor(f, f.data, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi));
+  const std::vector<RigidTransform> T = {
+      RigidTransform::about(f.scene.handleCentroid[0], Eigen::Vector3d(0, 0, 30 * M_PI / 180), Eigen::Vector3d(10, 0, 0))};
+  auto xc = f.model->restState();
+  f.model->solve(T, xc, 20);
+  const auto fine = f.model->reconstruct(T, xc);
+  const Eigen::Matrix4d w2i = f.q.geometry.worldToIndex();
+  std::vector<Eigen::Vector4f> idx(fine.size());
+  for (std::size_t i = 0; i < fine.size(); ++i) idx[i] = (w2i * fine[i].homogeneous()).cast<float>();
+  RenderSettings rs;
+  rs.width = rs.height = 96;
+  rs.strainTo = 0.1f;  // the drag's strains are a few per cent to tens of per cent
+  const OrbitCamera cam = OrbitCamera::framing(f.q.geometry, glm::radians(0.0), glm::radians(-90.0));
+  auto frame = [&](bool overlay) {
+    rs.strainOverlay = overlay;
+    FrameRequest req;
+    req.params = makeRenderParams(f.q.geometry, cam.view(), cam.projection(1.0), glm::vec3(cam.eye()), rs);
+    req.deformFine = &idx;
+    renderer.submit(req);
+    return std::pair{renderer.waitLast(), req.params};
+  };
+  const auto [plain, plainParams] = frame(false);
+  const auto [tinted, params] = frame(true);
+  QuantizedVolume dq = f.q;
+  dq.data = renderer.deformer()->readVolume();
+  const auto dmask = renderer.deformer()->readMask();
+  const std::vector<float> strain = renderer.deformer()->readStrainVolume();
+  ReferenceScene ref{&dq, &lut, &renderer.occupancy(), &dmask, nullptr, &strain};
+  const auto cpu = raymarchReference(ref, params);
+  std::size_t over = 0, coloured = 0;
+  for (std::size_t i = 0; i + 3 < cpu.size(); i += 4) {
+    int d = 0, c = 0;
+    for (int k = 0; k < 3; ++k) {
+      d = std::max(d, std::abs(int(cpu[i + k]) - int(tinted.rgba[i + k])));
+      c = std::max(c, std::abs(int(plain.rgba[i + k]) - int(tinted.rgba[i + k])));
+    }
+    over += d > 2;
+    coloured += c > 8;
+  }
+  // As the deformed frame's own test: filtering precision moves a few pixels by more than 2/255.
+  EXPECT_LE(double(over) / double(cpu.size() / 4), 0.01) << "pixels off the CPU reference by more than 2/255";
+  EXPECT_GT(coloured, 20u) << "the overlay colours the stretched tissue";
+  // Off again: the frame without the overlay comes back.
+  const auto [again, againParams] = frame(false);
+  EXPECT_EQ(again.rgba, plain.rgba);
 }
