@@ -338,7 +338,7 @@ std::vector<Eigen::Vector3d> DeformationController::drawnFinePositions() const {
   return x;
 }
 
-bool DeformationController::exportMesh(const std::string& path) const {
+bool DeformationController::exportMeshAndStrain(const std::string& meshPath, const std::string& strainPath) const {
   if (!model_ || !renderer_.deforming() || shownInput_ == 0) return false;
   const SimScene& sc = model_->scene;
   const auto x = drawnFinePositions();
@@ -355,20 +355,12 @@ bool DeformationController::exportMesh(const std::string& path) const {
   a.pointVectors = {{"displacement", &disp}};
   a.pointScalars = {{"dirichlet", &dir}};
   a.cellScalars = {{"youngs_modulus", &sc.youngs}, {"poisson_ratio", &sc.poisson}, {"coarse_element", &element}, {"strain", &strainD}};
-  writeVtu(path, sc.meshes.fine, a);
-  return true;
-}
-
-bool DeformationController::exportStrain(const std::string& path) const {
-  if (!model_ || !renderer_.deforming() || shownInput_ == 0) return false;
-  const SimScene& sc = model_->scene;
-  const auto x = drawnFinePositions();
-  if (x.empty()) return false;
+  writeVtu(meshPath, sc.meshes.fine, a);
   std::vector<std::int32_t> tetOf;
   Volume unused;
   rasterizeDeformed(image_, sc.meshes.fine, x, sc.lo, sc.hi, 0.0f, unused, nullptr, nullptr,
                     defaultMaxTetVoxels(sc.meshes.fine, image_.geometry().worldToIndex()), &tetOf);
-  writeVolume(strainVolume(image_.geometry(), tetOf, tetStrain(sc.meshes.fine, x)), path);
+  writeVolume(strainVolume(image_.geometry(), tetOf, strain), strainPath);
   return true;
 }
 

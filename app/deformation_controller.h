@@ -58,15 +58,13 @@ class DeformationController {
   /// type: region voxels from the GPU, the rest of the image unchanged. False when nothing is
   /// simulated yet.
   bool exportDeformed(Volume& out) const;
-  /// The fine mesh as shown, for ParaView (.vtu, written atomically): rest positions, point data
+  /// The fine mesh as shown, for ParaView (`meshPath`, .vtu): rest positions, point data
   /// displacement (mm) and dirichlet (0/1), cell data youngs_modulus, poisson_ratio, coarse_element,
-  /// strain.
-  /// False when nothing is simulated yet.
-  bool exportMesh(const std::string& path) const;
-  /// The strain as shown (sim/strain.h) on the input's grid, 0 outside the simulated region
-  /// (written by extension, atomically); false when nothing is simulated. Rasterized on the CPU
-  /// from the drawn fine positions: an export's cost, not a frame's.
-  bool exportStrain(const std::string& path) const;
+  /// strain; and the strain as shown (sim/strain.h) on the input's grid, 0 outside the simulated
+  /// region (`strainPath`, written by extension). Both atomically, from one read-back of the drawn
+  /// fine positions and one strain computation (the volume rasterized on the CPU: an export's cost,
+  /// not a frame's). False when nothing is simulated yet.
+  bool exportMeshAndStrain(const std::string& meshPath, const std::string& strainPath) const;
 
   State state() const;
   /// "" when off; else the build's stage and progress, the model's size, or the failure.

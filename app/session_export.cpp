@@ -50,8 +50,8 @@ std::string SessionExport::write(const Session& session, const HandleSet& handle
     const bool simulated = deform.exportDeformed(shown);
     const char* volumeExt = volumeExtension_.c_str();
     writeVolume(simulated ? shown : input_, path("deformed", volumeExt));
-    const bool mesh = simulated && deform.exportMesh(path("mesh", ".vtu"));
-    const bool strain = simulated && deform.exportStrain(path("strain", volumeExt));
+    const bool mesh = simulated && deform.exportMeshAndStrain(path("mesh", ".vtu"), path("strain", volumeExt));
+    const bool strain = mesh;
     const auto reactions = deform.shownReactions();
     const bool forces = simulated && !reactions.empty();
     if (forces) {

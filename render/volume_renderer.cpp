@@ -197,6 +197,41 @@ void VolumeRenderer::harvest(std::uint32_t slot, std::vector<FrameResult>& out) 
   out.push_back(std::move(r));
 }
 
+// The deformation: new coarse state (or a mask change to carry over) -> its passes, whose outputs
+// the raymarch and picking read (`in`); otherwise the deformed images as they are. With the strain
+// overlay, the strain passes after them (or the strain volume as it is).
+void VolumeRenderer::addDeformation(fg::FrameGraph& g, const FrameRequest& req, bool wantStrain, const vk::GpuDeformer::Outputs& deformed,
+                                    vk::MarchInputs& in) {
+  if (req.deform) lastDeform_ = *req.deform;
+  bool uploadInRegion = false;
+  if (req.maskUpload) {
+    const Eigen::Vector3i lo = req.maskUpload->min, hi = req.maskUpload->min + req.maskUpload->dims - Eigen::Vector3i::Ones();
+    uploadInRegion = (lo.array() <= deformer_->regionVoxelHi().array()).all() && (hi.array() >= deformer_->regionVoxelLo().array()).all();
+    g.exportResource(deformed.mask, fg::Access::Sampled);
+  }
+  // The strain overlay, when first shown, needs the whole region's strain: a region redo.
+  const bool whole = deformFirst_ || uploadInRegion || (wantStrain && !strainShown_);  // redo the deformed images over the region
+  bool passes = false;
+  if (req.deformFine) {
+    deformer_->addPassesFromPositions(g, executor_.slot(), *req.deformFine, whole ? vk::Redo::Region : vk::Redo::Moved, in.volume, in.mask, deformed);
+    deformFirst_ = false;
+    passes = true;
+  } else if (lastDeform_ && (req.deform || whole)) {
+    deformer_->addPasses(g, executor_.slot(), *lastDeform_, whole ? vk::Redo::Region : vk::Redo::Moved, in.volume, in.mask, deformed);
+    deformFirst_ = false;
+    passes = true;
+  }
+  in.volume = deformed.volume;
+  in.mask = deformed.mask;
+  if (wantStrain && passes) {
+    in.strain = deformer_->addStrainPass(g).volume;
+    strainShown_ = true;
+  } else if (wantStrain && strainShown_) {
+    in.strain = deformer_->importStrainVolume(g);
+  }
+  if (!wantStrain) strainShown_ = false;  // shown again later: redone over the region then
+}
+
 std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   if (!hasVolume_ || !hasTf_) throw Error("renderer: no volume or transfer function");
   const int w = req.params.dims.w, h = req.params.brickDims.w;
@@ -209,9 +244,7 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   const VkBufferUsageFlags hostUsage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
   ensureBuffer(s.params, sizeof(gpu::RenderParams), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);  // not uniform: see deform_pass.cpp
   gpu::RenderParams params = req.params;
-  params.control.y = std::uint32_t(req.pickPoints.size());
-  std::memcpy(s.params->mapped(), &params, sizeof(params));
-  s.params->flush();
+  params.control.y = std::uint32_t(req.pickPoints.size());  // written below, once the overlay is known
 
   fg::FrameGraph g;
   const fg::ImageDesc volDesc = volume_.desc();
@@ -258,50 +291,17 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
             vkCmdCopyBufferToImage(x.cmd(), x.buffer(maskStaging).handle(), x.image(deformedMask).handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
         });
   }
-  // The deformation: new coarse state (or a mask change to carry over) -> its passes, whose
-  // outputs the raymarch and picking read; otherwise the deformed images as they are.
+  // The deformed images (and strain) the raymarch and picking read, while deforming.
   const fg::ResourceHandle sourceVolume = in.volume, sourceMask = in.mask;
   if (req.maskUpload) g.exportResource(sourceMask, fg::Access::Sampled);  // whoever reads it, it ends the frame sampled
-  if (deformer_) {
-    if (req.deform) lastDeform_ = *req.deform;
-    bool uploadInRegion = false;
-    if (req.maskUpload) {
-      const Eigen::Vector3i lo = req.maskUpload->min, hi = req.maskUpload->min + req.maskUpload->dims - Eigen::Vector3i::Ones();
-      uploadInRegion = (lo.array() <= deformer_->regionVoxelHi().array()).all() && (hi.array() >= deformer_->regionVoxelLo().array()).all();
-      g.exportResource(deformed.mask, fg::Access::Sampled);
-    }
-    // The strain overlay, when first shown, needs the whole region's strain: a region redo.
-    const bool wantStrain = (params.control.x & gpu::kFlagStrainOverlay) != 0;
-    const bool whole = deformFirst_ || uploadInRegion || (wantStrain && !strainShown_);  // redo the deformed images over the region
-    bool passes = false;
-    if (req.deformFine) {
-      deformer_->addPassesFromPositions(g, executor_.slot(), *req.deformFine, whole ? vk::Redo::Region : vk::Redo::Moved, in.volume, in.mask, deformed);
-      deformFirst_ = false;
-      passes = true;
-    } else if (lastDeform_ && (req.deform || whole)) {
-      deformer_->addPasses(g, executor_.slot(), *lastDeform_, whole ? vk::Redo::Region : vk::Redo::Moved, in.volume, in.mask, deformed);
-      deformFirst_ = false;
-      passes = true;
-    }
-    in.volume = deformed.volume;
-    in.mask = deformed.mask;
-    if (wantStrain && passes) {
-      in.strain = deformer_->addStrainPass(g).volume;
-      strainShown_ = true;
-    } else if (wantStrain && strainShown_) {
-      in.strain = deformer_->importStrainVolume(g);
-    }
-    if (!wantStrain) strainShown_ = false;  // shown again later: redone over the region then
-  }
+  if (deformer_) addDeformation(g, req, (params.control.x & gpu::kFlagStrainOverlay) != 0, deformed, in);
   const bool ownStrain = !in.strain.valid();
   if (ownStrain) {
     in.strain = g.importImage("no-strain", noStrain_.desc(), fg::Access::Sampled);
-    if (params.control.x & gpu::kFlagStrainOverlay) {  // nothing to show (not deforming): no overlay
-      params.control.x &= ~gpu::kFlagStrainOverlay;
-      std::memcpy(s.params->mapped(), &params, sizeof(params));
-      s.params->flush();
-    }
+    params.control.x &= ~gpu::kFlagStrainOverlay;  // nothing to show (not deforming): no overlay
   }
+  std::memcpy(s.params->mapped(), &params, sizeof(params));
+  s.params->flush();
   auto color = g.createImage("color", {std::uint32_t(w), std::uint32_t(h), 1, fg::Format::Rgba8Unorm});
   raymarch_.add(g, in, color, linear_, nearest_);
 

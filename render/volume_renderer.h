@@ -114,6 +114,7 @@ class VolumeRenderer {
   void ensureBuffer(std::unique_ptr<vk::Buffer>& b, VkDeviceSize size, VkBufferUsageFlags usage);
 
   void uploadOccupancy();
+  void addDeformation(fg::FrameGraph& g, const FrameRequest& req, bool wantStrain, const vk::GpuDeformer::Outputs& deformed, vk::MarchInputs& in);
 
   const vk::Context& ctx_;
   vk::GraphExecutor executor_;
