@@ -141,6 +141,14 @@ CoarseElement coarseElementOption(const Args& args, const char* name) {
   throw UsageError(std::string(name) + " must be cell or tet");
 }
 
+void regionOption(const Args& args, const char* name, SimSettings& settings) {
+  const auto v = args.value(name);
+  if (!v) return;
+  if (*v == "box") settings.region = SimSettings::Region::Box;
+  else if (*v == "handles") settings.region = SimSettings::Region::Handles;
+  else throw UsageError(std::string(name) + " must be box or handles");
+}
+
 CoarseSolver coarseSolverOption(const Args& args, const char* name) {
   const std::string v = args.valueOr(name, "pcg");
   if (v == "pcg") return CoarseSolver::Pcg;

@@ -34,7 +34,7 @@ const char* const kBenchDeformHelp =
     "  baseline). Also: the GPU passes against their CPU references (interpolation; resampling of the\n"
     "  region) and the whole deformation frame. PATH omitted: the built-in phantom (right kidney).\n"
     "  --spacing MM           phantom voxel size (default 1.75: 219x165x137 = 4.95 M voxels)\n"
-    "  --coarse-tets N        (default 6000)   --fine-tets N (default 300000)   --padding-mm D (default 40)\n"
+    "  --coarse-tets N        (default 6000)   --fine-tets N (default 300000)   --padding-mm D (default 40)   --region box|handles\n"
     "  --coarse-element cell|tet   the coarse model's elements (default cell)\n"
     "  --frames N             drag frames (default 10)   --step-mm D (default 1)   --step-deg A (default 1)\n"
     "  --commit-voxels V      a fine node's new position is taken once it moved more than V voxels\n"
@@ -63,7 +63,7 @@ double passMs(const std::vector<vk::PassTiming>& t, std::initializer_list<const 
 
 int cmdBenchDeform(const Words& words) {
   Args args(words,
-            {"--handle", "--handle-label", "--spacing", "--coarse-tets", "--fine-tets", "--padding-mm", "--frames", "--step-mm", "--step-deg", "--device",
+            {"--handle", "--handle-label", "--spacing", "--coarse-tets", "--fine-tets", "--padding-mm", "--region", "--frames", "--step-mm", "--step-deg", "--device",
              "--out", "--commit-voxels", "--coarse-element"},
             {"--quiet", "--validation"});
   if (args.help() || args.positional().size() > 1 || (args.positional().size() == 1) != bool(args.value("--handle"))) {
@@ -77,6 +77,7 @@ int cmdBenchDeform(const Words& words) {
   s.fineTets = int(args.integer("--fine-tets", 300000, 6, 20000000));
   if (s.fineTets < s.coarseTets) throw UsageError("--fine-tets must be at least --coarse-tets");
   s.paddingMm = args.number("--padding-mm", 40.0, 0.0, 1e4);
+  regionOption(args, "--region", s);
   s.element = coarseElementOption(args, "--coarse-element");
   const int frames = int(args.integer("--frames", 10, 1, 10000));
   const double stepMm = args.number("--step-mm", 1.0, -100.0, 100.0);

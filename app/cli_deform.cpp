@@ -55,6 +55,8 @@ const char* const kDeformHelp =
     "                          default $HANDSON_CACHE_DIR, $XDG_CACHE_HOME/handson or ~/.cache/handson\n"
     "  --fine-tets N           fine elements (default 300000; m^3 per coarse tet, m rounded)\n"
     "  --padding-mm D          region of interest: the handles' box plus D mm (default 40)\n"
+    "  --region box|handles    simulate the whole padded box, or only its cells within the padding of\n"
+    "                          the handles themselves (the box's far corners held at rest)\n"
     "  --whole-volume          simulate the whole image box instead\n"
     "  --materials FILE        material table (default: assets/materials/ct-default.csv, built in)\n"
     "  --backend cpu|gpu       resampling on the CPU reference (default) or the Vulkan passes: for the\n"
@@ -169,7 +171,7 @@ void writeMesh(const std::string& path, const SimScene& sc, const std::vector<Ei
 
 int cmdDeform(const Words& words) {
   Args args(words,
-            {"--frame", "--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm",
+            {"--frame", "--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm", "--region",
              "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--fine-mesh", "--adapt-contrast", "--cache-dir", "--forces-out", "--strain-out"},
             {"--whole-volume", "--quiet", "--validation"});
   if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {
@@ -191,6 +193,7 @@ int cmdDeform(const Words& words) {
   s.fineTets = int(args.integer("--fine-tets", s.fineTets, 6, 20000000));
   if (s.fineTets < s.coarseTets) throw UsageError("--fine-tets must be at least --coarse-tets");
   s.paddingMm = args.number("--padding-mm", s.paddingMm, 0.0, 1e4);
+  regionOption(args, "--region", s);
   s.wholeVolume = args.flag("--whole-volume");
   s.element = coarseElementOption(args, "--coarse-element");
   s.coarseSolver = coarseSolverOption(args, "--coarse-solver");

@@ -66,6 +66,8 @@ const char* const kSimHelp =
     "  --sim-coarse-tets N     coarse elements of the simulation (default 6000)\n"
     "  --sim-fine-tets N       fine elements (default 300000)\n"
     "  --sim-padding-mm D      simulated region: the handles' box plus D mm (default 40)\n"
+    "  --sim-region box|handles  simulate the whole padded box, or only its cells within the padding\n"
+    "                          of the handles themselves (the box's far corners held at rest)\n"
     "  --sim-coarse-element cell|tet  coarse model elements (default cell; see handson deform --help)\n"
     "  --sim-coarse-solver pcg|assembled  the coarse solve: matrix-free PCG (default) or the assembled\n"
     "                          warped stiffness refactorized every third frame (the old one, kept to compare)\n"
@@ -78,7 +80,7 @@ const char* const kSimHelp =
     "  --sim-iterations N      coarse solver iterations per new pose (default 3)\n"
     "  --sim-idle-iterations N more while a pose is held, until converged (default 300); a solve that\n"
     "                          has not converged when they are spent is reported and the session saved\n";
-const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm", "--sim-refine-steps", "--sim-coarse-element", "--sim-coarse-solver", "--sim-fine-mesh",
+const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm", "--sim-region", "--sim-refine-steps", "--sim-coarse-element", "--sim-coarse-solver", "--sim-fine-mesh",
                                                  "--sim-adapt-contrast", "--sim-cache", "--sim-iterations", "--sim-idle-iterations"};
 
 DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
@@ -90,6 +92,7 @@ DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   d.sim.fineTets = int(args.integer("--sim-fine-tets", d.sim.fineTets, 6, 20000000));
   if (d.sim.fineTets < d.sim.coarseTets) throw UsageError("--sim-fine-tets must be at least --sim-coarse-tets");
   d.sim.paddingMm = args.number("--sim-padding-mm", d.sim.paddingMm, 0.0, 1e4);
+  regionOption(args, "--sim-region", d.sim);
   d.sim.element = coarseElementOption(args, "--sim-coarse-element");
   d.sim.coarseSolver = coarseSolverOption(args, "--sim-coarse-solver");
   fineMeshOptions(args, "--sim-fine-mesh", "--sim-adapt-contrast", d.sim);

@@ -14,6 +14,7 @@
 #include "sim/error.h"
 #include "sim/fine_interpolation.h"
 #include "sim/quantized_volume.h"
+#include "sim/region_shape.h"
 #include "sim/scene_cache.h"
 #include "sim/strain.h"
 #include "sim/tet_raster.h"
@@ -107,6 +108,7 @@ void DeformationController::startBuild(const HandleSet& handles) {
   simIds_.clear();
   simActive_.clear();
   restBoxes_.clear();
+  restOutline_.clear();
   const VolumeGeometry& g = image_.geometry();
   for (int pass = 0; pass < 2; ++pass)  // active handles first, then fixed ones
     for (const auto& h : handles.handles()) {
@@ -118,12 +120,21 @@ void DeformationController::startBuild(const HandleSet& handles) {
       simIds_.push_back(h.id);
       simActive_.push_back(pass == 0);
       Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+      std::vector<Eigen::Vector3d> centres;
+      centres.reserve(h.voxels.size());
       for (std::uint32_t v : h.voxels) {
         const Eigen::Vector3d w = g.toWorld(g.voxelOf(v).cast<double>());
         lo = lo.cwiseMin(w);
         hi = hi.cwiseMax(w);
+        centres.push_back(w);
       }
       restBoxes_.push_back({lo, hi});
+      // Its outside, thinned to 4 mm: what must stay clear of a shaped region's held cells.
+      HandlePoints outline = thinHandlePoints(centres, std::max(4.0, g.spacing.maxCoeff()));
+      std::vector<Eigen::Vector3d> surface;
+      for (std::size_t i = 0; i < outline.point.size(); ++i)
+        if (outline.surface[i]) surface.push_back(outline.point[i]);
+      restOutline_.push_back(std::move(surface));
     }
   if (simActive_.empty() || !simActive_.front()) return;  // nothing moves: nothing to simulate
   const std::uint64_t gen = generation_.load();
@@ -183,6 +194,9 @@ bool DeformationController::outgrown(const std::vector<RigidTransform>& T) const
         if (w[a] > sc.hi[a] - margin && sc.hi[a] < imageHi_[a] - 1e-6) return true;
       }
     }
+    if (!sc.regionCell.empty() && i < restOutline_.size())
+      for (const Eigen::Vector3d& p : restOutline_[i])
+        if (nearRegionBoundary(sc.meshes.coarseGrid, sc.regionCell, T[i].apply(p), margin)) return true;
   }
   return false;
 }

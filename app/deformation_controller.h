@@ -123,6 +123,7 @@ class DeformationController {
   std::vector<int> simIds_;  // handle ids in simulation order (active, then fixed)
   std::vector<bool> simActive_;
   std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> restBoxes_;  // world box of each simulated handle at rest
+  std::vector<std::vector<Eigen::Vector3d>> restOutline_;              // each simulated handle's outside at rest (4 mm points)
   std::thread builder_;
   std::shared_ptr<std::atomic<bool>> builderDone_;
   struct Retired {

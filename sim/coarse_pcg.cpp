@@ -48,6 +48,14 @@ void CoarseModel::preparePcg(CoarseSolveStats& st) {
     Eigen::Map<Eigen::MatrixXf>(&w->khf[e * std::size_t(m * m)], m, m) = elements_[e].Kh.cast<float>();
   w->elementR.assign(elements_.size(), Eigen::Matrix3d::Identity());
   w->elementQ.assign(elements_.size(), Eigen::Quaterniond::Identity());
+  // An element whose corners are all held (a shaped region's outside, sim/region_shape.h) adds
+  // nothing to a free dof's residual or product.
+  for (std::size_t e = 0; e < elements_.size(); ++e)
+    for (int c = 0; c < nc_; ++c)
+      if (dof_[std::size_t(elements_[e].node[std::size_t(c)])] >= 0) {
+        w->active.push_back(int(e));
+        break;
+      }
   // Free nodes in dof order, and the elements around each.
   const std::size_t nn = meshes_.coarse.nodes.size();
   w->freeNode.assign(std::size_t(dofCount_ / 3), -1);
@@ -79,7 +87,8 @@ void CoarseModel::preparePcg(CoarseSolveStats& st) {
 template <int N>
 void CoarseModel::pcgRotations(const std::vector<Eigen::Vector3d>& x, bool nodes) {
   PcgWorkspace& w = *pcg_;
-  for (std::size_t e = 0; e < elements_.size(); ++e) {
+  for (const int ei : w.active) {
+    const auto e = std::size_t(ei);
     const Element& el = elements_[e];
     // sum_c (x_c - centroid) dX_c^T = sum_c x_c dX_c^T, as the dX_c sum to zero.
     Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
@@ -109,7 +118,8 @@ void CoarseModel::pcgResidual(const std::vector<RigidTransform>& handles, const 
   using MatN = Eigen::Matrix<double, 3 * N, 3 * N>;
   const PcgWorkspace& w = *pcg_;
   r.setZero(dofCount_);
-  for (std::size_t e = 0; e < elements_.size(); ++e) {
+  for (const int ei : w.active) {
+    const auto e = std::size_t(ei);
     const Element& el = elements_[e];
     const Eigen::Matrix3d& R = w.elementR[e];
     VecN u;
@@ -133,7 +143,8 @@ void CoarseModel::pcgProduct(const Eigen::VectorXd& p, Eigen::VectorXd& out) con
   using MatN = Eigen::Matrix<float, 3 * N, 3 * N>;
   const PcgWorkspace& w = *pcg_;
   out.setZero(dofCount_);
-  for (std::size_t e = 0; e < elements_.size(); ++e) {
+  for (const int ei : w.active) {
+    const auto e = std::size_t(ei);
     const Element& el = elements_[e];
     const Eigen::Matrix3d& R = w.elementR[e];
     int dofs[N];

@@ -146,6 +146,12 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
       for (int v : F.tets[std::size_t(t)])
         if (local.emplace(v, int(nodes.size())).second) nodes.push_back(v);
     const int n = int(nodes.size());
+    if (std::all_of(nodes.begin(), nodes.end(), [&](int f) { return constraints_.fixed[std::size_t(f)] != 0; })) {
+      // Held whole (outside a shaped region): no energy, its fine nodes at rest.
+      el.Kh = Mat::Zero(3 * nc, 3 * nc);
+      finishElement(el);
+      continue;
+    }
     Mat K = Mat::Zero(3 * n, 3 * n);
     for (int t : tetsOf[e])
       for (int a = 0; a < 4; ++a)

@@ -19,7 +19,7 @@ namespace handson {
 namespace {
 
 constexpr char kMagic[8] = {'H', 'S', 'I', 'M', 'C', 'A', 'C', '1'};
-constexpr std::uint32_t kFormat = 1;
+constexpr std::uint32_t kFormat = 2;
 
 // Two FNV-1a 64-bit hashes with different offsets: a 128-bit key.
 struct Hasher {
@@ -81,6 +81,7 @@ std::string simulationCacheKey(const Volume& image, const std::vector<SimHandle>
   h.pod(s.fineTets);
   h.pod(s.paddingMm);
   h.pod(s.wholeVolume);
+  h.pod(s.region);
   h.pod(s.element);
   h.pod(s.fineMesh);
   h.pod(s.adaptContrast);
@@ -129,6 +130,7 @@ void saveSimulation(const std::filesystem::path& file, const SimScene& sc, const
     w.pod(std::int32_t(sc.constraints.handleCount));
     w.podVector(sc.handleCentroid);
     w.podVector(sc.handleNodeCount);
+    w.podVector(sc.regionCell);
     w.pod(std::uint64_t(sc.adapted.structurePoints));
     w.pod(std::uint64_t(sc.adapted.fallbackCells));
     w.string(sc.adapted.firstFailure);
@@ -205,6 +207,7 @@ std::unique_ptr<CoarseModel> loadSimulation(const std::filesystem::path& file, S
   sc.constraints.handleCount = r.pod<std::int32_t>();
   sc.handleCentroid = r.podVector<Eigen::Vector3d>();
   sc.handleNodeCount = r.podVector<std::size_t>();
+  sc.regionCell = r.podVector<char>();
   sc.adapted.structurePoints = r.pod<std::uint64_t>();
   sc.adapted.fallbackCells = r.pod<std::uint64_t>();
   sc.adapted.firstFailure = r.string();
@@ -212,7 +215,8 @@ std::unique_ptr<CoarseModel> loadSimulation(const std::filesystem::path& file, S
   const std::size_t nf = m.fine.nodes.size(), nt = m.fine.tets.size(), nc = m.coarse.nodes.size();
   auto bad = [] { throw Error("simulation cache corrupt (inconsistent mesh)"); };
   if (nt == 0 || nc == 0 || m.fineParent.size() != nt || m.coarseNodeInFine.size() != nc || sc.band.size() != nt || sc.youngs.size() != nt ||
-      sc.poisson.size() != nt || sc.constraints.handleOf.size() != nf || sc.constraints.fixed.size() != nf || m.coarse.tets.size() != m.coarseGrid.tetCount())
+      sc.poisson.size() != nt || sc.constraints.handleOf.size() != nf || sc.constraints.fixed.size() != nf || m.coarse.tets.size() != m.coarseGrid.tetCount() ||
+      (!sc.regionCell.empty() && sc.regionCell.size() != m.coarseGrid.cellCount()))
     bad();
   for (const auto& t : m.fine.tets)
     for (int v : t)

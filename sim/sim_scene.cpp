@@ -6,6 +6,7 @@
 
 #include "sim/adapted_mesh.h"
 #include "sim/error.h"
+#include "sim/region_shape.h"
 
 namespace handson {
 
@@ -22,6 +23,11 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
     imgHi = imgHi.cwiseMax(w);
   }
   SimScene sc;
+  // The handles as thinned points at rest and at each pose they will reach (Region::Handles).
+  HandlePoints shape;
+  const bool shaped = s.region == SimSettings::Region::Handles && !s.wholeVolume && !handles.empty();
+  if (shaped) shape.bucketMm = std::max(1.0, g.spacing.minCoeff());
+  std::vector<Eigen::Vector3d> handleWorld;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
   for (std::size_t h = 0; h < handles.size(); ++h) {
     if (handles[h].voxels.empty()) throw Error("simulation: handle " + std::to_string(h + 1) + " has no voxels");
@@ -36,6 +42,19 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
     }
     lo = lo.cwiseMin(hlo);
     hi = hi.cwiseMax(hhi);
+    if (shaped) {
+      handleWorld.clear();
+      for (std::uint32_t v : handles[h].voxels) handleWorld.push_back(g.toWorld(g.voxelOf(v).cast<double>()));
+      HandlePoints hp = thinHandlePoints(handleWorld, shape.bucketMm);
+      const std::size_t n = hp.point.size();
+      for (const RigidTransform& T : handles[h].reach)
+        for (std::size_t i = 0; i < n; ++i) {
+          hp.point.push_back(T.apply(hp.point[i]));
+          hp.surface.push_back(hp.surface[i]);
+        }
+      shape.point.insert(shape.point.end(), hp.point.begin(), hp.point.end());
+      shape.surface.insert(shape.surface.end(), hp.surface.begin(), hp.surface.end());
+    }
     for (const RigidTransform& T : handles[h].reach) {
       if (!T.R.allFinite() || !T.t.allFinite()) throw Error("simulation: a handle pose is not finite");
       for (int c = 0; c < 8; ++c) {
@@ -57,21 +76,30 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   if (((hi - lo).array() <= 0).any()) throw Error("simulation: the region of interest is empty (a flat image or handles on its edge)");
   sc.lo = lo;
   sc.hi = hi;
+  // A shaped region spends the element budget on its own cells: the box's grid is made finer until
+  // about coarseTets of its tets lie in cells near the handles (at most 8x the box's count).
+  int coarseTets = s.coarseTets;
+  if (shaped)
+    for (int pass = 0; pass < 2; ++pass) {
+      const std::vector<char> in = cellsNearPoints(coarseGridFor(lo, hi, coarseTets), shape, s.paddingMm);
+      const double share = std::max(0.125, double(std::count(in.begin(), in.end(), 1)) / double(in.size()));
+      coarseTets = int(std::clamp(std::lround(s.coarseTets / share), long(s.coarseTets), 8L * s.coarseTets));
+    }
+  const int finePer = std::max(1, s.fineTets / std::max(1, s.coarseTets));
   // Memory before meshing: per fine tet its 12x12 stiffness, a Hessian in the refinement and the
   // assembly's slots (~2.7 KB), with 50 % for the rounding of the element counts.
-  checkAllocation(0, std::size_t(1.5 * double(std::max(s.fineTets, s.coarseTets)) * 2700.0), "the simulation meshes");
+  checkAllocation(0, std::size_t(1.5 * double(std::max(double(finePer) * coarseTets, double(coarseTets))) * 2700.0), "the simulation meshes");
   reportProgress(progress, 0.0, "meshing");
   const MaterialTable table = s.materials.resolve(image);
   const Eigen::Matrix4d toIndex = g.worldToIndex();
-  const int finePer = std::max(1, s.fineTets / std::max(1, s.coarseTets));
   if (s.fineMesh == SimSettings::FineMesh::ImageAdapted) {
     if (s.element != CoarseElement::Cell) throw Error("simulation: the image-adapted fine mesh needs cell elements");
     const auto youngsAt = [&](const Eigen::Vector3d& p) {
       return table.band(table.classify(image.sampleLinear((toIndex * p.homogeneous()).head<3>()))).youngs;
     };
-    sc.meshes = buildImageAdaptedMeshes(lo, hi, s.coarseTets, finePer, youngsAt, s.adaptContrast, progress, &sc.adapted);
+    sc.meshes = buildImageAdaptedMeshes(lo, hi, coarseTets, finePer, youngsAt, s.adaptContrast, progress, &sc.adapted);
   } else {
-    sc.meshes = buildNestedMeshes(lo, hi, s.coarseTets, finePer);
+    sc.meshes = buildNestedMeshes(lo, hi, coarseTets, finePer);
   }
   const TetMesh& F = sc.meshes.fine;
   reportProgress(progress, 0.2, "materials");
@@ -107,6 +135,17 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   for (std::size_t n = 0; n < F.nodes.size(); ++n)
     for (int a = 0; a < 3; ++a)
       if (F.nodes[n][a] <= lo[a] + onFace || F.nodes[n][a] >= hi[a] - onFace) sc.constraints.fixed[n] = 1;
+  if (shaped) {
+    // Every fine node of a cell outside the region is held: the region's boundary is fixed too.
+    sc.regionCell = cellsNearPoints(sc.meshes.coarseGrid, shape, s.paddingMm);
+    // Every cell holding a handle voxel too (the thinned points stand for their buckets).
+    for (const SimHandle& h : handles)
+      for (std::uint32_t v : h.voxels)
+        if (const int t = sc.meshes.locateFine(g.toWorld(g.voxelOf(v).cast<double>())); t >= 0) sc.regionCell[std::size_t(sc.meshes.fineParent[std::size_t(t)] / 6)] = 1;
+    for (std::size_t t = 0; t < F.tets.size(); ++t)
+      if (!sc.regionCell[std::size_t(sc.meshes.fineParent[t] / 6)])
+        for (int n : F.tets[t]) sc.constraints.fixed[std::size_t(n)] = 1;
+  }
   for (std::size_t h = 0; h < handles.size(); ++h)
     for (std::uint32_t v : handles[h].voxels) {
       const int t = sc.meshes.locateFine(g.toWorld(g.voxelOf(v).cast<double>()));
@@ -118,6 +157,28 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
     if (sc.constraints.handleOf[n] >= 0 && !sc.constraints.fixed[n]) ++sc.handleNodeCount[std::size_t(sc.constraints.handleOf[n])];
   reportProgress(progress, 1.0, "scene");
   return sc;
+}
+
+std::vector<Eigen::Vector3d> sampleDeformation(const SimScene& sc, const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& points) {
+  const TetMesh& F = sc.meshes.fine;
+  if (x.size() != F.nodes.size()) throw Error("deformation sampling: wrong node count");
+  std::vector<Eigen::Vector3d> out(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d& p = points[i];
+    const int t = sc.meshes.locateFine(p);
+    if (t < 0) {
+      out[i] = p;
+      continue;
+    }
+    const auto& v = F.tets[std::size_t(t)];
+    Eigen::Matrix3d D;
+    for (int c = 0; c < 3; ++c) D.col(c) = F.nodes[std::size_t(v[std::size_t(c + 1)])] - F.nodes[std::size_t(v[0])];
+    const Eigen::Vector3d l = D.inverse() * (p - F.nodes[std::size_t(v[0])]);
+    const Eigen::Vector4d w(1.0 - l.sum(), l.x(), l.y(), l.z());
+    out[i] = p;
+    for (int c = 0; c < 4; ++c) out[i] += w[c] * (x[std::size_t(v[std::size_t(c)])] - F.nodes[std::size_t(v[std::size_t(c)])]);
+  }
+  return out;
 }
 
 DeformationError compareDeformation(const SimScene& sc, const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x,

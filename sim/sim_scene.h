@@ -1,6 +1,6 @@
 #pragma once
 // The simulated scene of an image and its handles: the region of interest (a padded box around the
-// handles, or the whole volume), the nested coarse and fine meshes over it, a material per fine tet
+// handles, the cells of that box near the handles, or the whole volume), the nested coarse and fine meshes over it, a material per fine tet
 // from the image values, and the fine nodes' Dirichlet roles (docs/simulation-model.md).
 #include <cstdint>
 #include <vector>
@@ -24,8 +24,12 @@ struct SimHandle {
 struct SimSettings {
   int coarseTets = 6000;      ///< target coarse element count over the region
   int fineTets = 300000;      ///< target fine element count (m^3 per coarse tet, m rounded)
-  double paddingMm = 40.0;    ///< margin around the handles' bounding box
+  double paddingMm = 40.0;    ///< margin around the handles (their bounding box, or their shape)
   bool wholeVolume = false;   ///< simulate the image's whole box instead
+  /// The region's shape (sim/region_shape.h): the handles' padded bounding box, all of it simulated
+  /// (Box, the baseline), or only the grid cells within the padding of the handles' own voxels
+  /// (Handles: the box's far corners held at rest).
+  enum class Region : std::uint8_t { Box, Handles } region = Region::Box;
   /// The coarse model's elements (CoarseModel; sim/coarsening.h): grid cells by default, measured
   /// more accurate than the spec's coarse tets on the same coarse nodes (README, `bench sim`).
   CoarseElement element = CoarseElement::Cell;
@@ -48,6 +52,8 @@ struct SimScene {
   FineConstraints constraints;         ///< handle nodes (last claimer wins) and the fixed outer faces
   std::vector<Eigen::Vector3d> handleCentroid;  ///< world centroid of each handle's voxels
   std::vector<std::size_t> handleNodeCount;
+  /// Region::Handles: per coarse grid cell, simulated (1) or held at rest (0); empty for a box.
+  std::vector<char> regionCell;
   AdaptedMeshStats adapted;            ///< image-adapted fine mesh only
 };
 
@@ -55,6 +61,11 @@ struct SimScene {
 /// later one. Throws handson::Error for an empty handle, a handle outside the image, or a region
 /// that is empty after clipping to the image.
 SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& settings, const ProgressFn& progress = {});
+
+/// The fine positions x of `scene` sampled at rest points (world mm): each point moves with the fine
+/// tet holding it (linear interpolation); points outside the scene's meshes stay where they are. For
+/// comparing models on different meshes.
+std::vector<Eigen::Vector3d> sampleDeformation(const SimScene& scene, const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& points);
 
 /// Error of fine node positions against a reference, over the free nodes (not Dirichlet): RMS and
 /// max of |x - x_ref| divided by the handles' RMS displacement, and the relative L2 of the

@@ -136,10 +136,9 @@ int NestedMeshes::locateFine(const Eigen::Vector3d& p) const {
   return bestMin > -1e-9 ? best : -1;
 }
 
-NestedMeshes buildNestedMeshes(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int coarseTets, int finePerCoarse) {
+KuhnGrid coarseGridFor(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int coarseTets) {
   if (!lo.allFinite() || !hi.allFinite() || ((hi - lo).array() <= 0).any()) throw Error("meshing: the region is empty");
   if (coarseTets < 6 || coarseTets > 10000000) throw Error("meshing: coarse tet count must be 6..1e7");
-  if (finePerCoarse < 1 || finePerCoarse > 100000) throw Error("meshing: fine tets per coarse tet must be 1..1e5");
   const Eigen::Vector3d size = hi - lo;
   // Cubic cells: 6 * prod(ceil(size / h)) ~ coarseTets.
   double h = std::cbrt(size.prod() * 6.0 / coarseTets);
@@ -150,9 +149,13 @@ NestedMeshes buildNestedMeshes(const Eigen::Vector3d& lo, const Eigen::Vector3d&
     if (std::abs(count - coarseTets) <= 0.15 * coarseTets) break;
     h *= std::cbrt(count / coarseTets);
   }
+  return KuhnGrid(lo, size.cwiseQuotient(cells.cast<double>()), cells);
+}
+
+NestedMeshes buildNestedMeshes(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int coarseTets, int finePerCoarse) {
+  if (finePerCoarse < 1 || finePerCoarse > 100000) throw Error("meshing: fine tets per coarse tet must be 1..1e5");
   NestedMeshes out;
-  const Eigen::Vector3d cell = size.cwiseQuotient(cells.cast<double>());
-  out.coarseGrid = KuhnGrid(lo, cell, cells);
+  out.coarseGrid = coarseGridFor(lo, hi, coarseTets);
   out.refinement = std::max(1, int(std::lround(std::cbrt(double(finePerCoarse)))));
   out.fineGrid = out.coarseGrid.refined(out.refinement);
   out.coarse = out.coarseGrid.mesh();

@@ -78,6 +78,9 @@ struct NestedMeshes {
   int locateFine(const Eigen::Vector3d& p) const;
 };
 
+/// The grid of cubic-ish cells over [lo, hi] with about `coarseTets` Kuhn tets (6 a cell).
+KuhnGrid coarseGridFor(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int coarseTets);
+
 /// A box [lo, hi] meshed with about `coarseTets` coarse tets (cubic cells) and each coarse tet split
 /// into m^3 fine tets, m = the cube root of finePerCoarse rounded (>= 1).
 NestedMeshes buildNestedMeshes(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int coarseTets, int finePerCoarse);

@@ -149,6 +149,37 @@ TEST(DeformationController, AHeldPoseIsRefinedWhileFramesGoOnAndEachStateIsNamed
   EXPECT_EQ(s.ctx->validationMessageCount(), 0u);
 }
 
+TEST(DeformationController, ARegionShapedByTheHandleIsSimulatedDrawnAndRebuiltWhenOutgrown) {
+  Scene s;
+  HandleSet handles;
+  const int id = handles.add(s.kidney);
+  RigidPose pose;
+  pose.translation = Eigen::Vector3d(6, 0, 0);
+  handles.setPose(id, pose, false);
+  DeformationOptions o = small();
+  o.sim.region = SimSettings::Region::Handles;
+  o.sim.paddingMm = 24.0;
+  DeformationController dc(s.phantom.ct, s.q, *s.renderer, o);
+  const auto t0 = Clock::now();
+  while (!(s.frame(dc, handles) && dc.shownConverged()) && Clock::now() - t0 < std::chrono::seconds(60)) {
+  }
+  ASSERT_TRUE(dc.shownConverged()) << dc.status();
+  Volume out;
+  ASSERT_TRUE(dc.exportDeformed(out));
+  std::size_t changed = 0;
+  for (std::size_t i = 0; i < out.voxelCount(); ++i) changed += out.value(i) != s.phantom.ct.value(i);
+  EXPECT_GT(changed, 100u);
+  // Moved 14 mm further, the kidney comes within half the padding of the region's edge: rebuilt there.
+  pose.translation = Eigen::Vector3d(20, 0, 0);
+  handles.setPose(id, pose, false);
+  s.frame(dc, handles);
+  EXPECT_EQ(dc.state(), DeformationController::State::Building);
+  while (!(s.frame(dc, handles) && dc.shownConverged()) && Clock::now() - t0 < std::chrono::seconds(120)) {
+  }
+  EXPECT_TRUE(dc.shownConverged()) << dc.status();
+  EXPECT_EQ(s.ctx->validationMessageCount(), 0u);
+}
+
 TEST(DeformationController, ChangesDuringABuildAndShutdownNeverBlockForLong) {
   Scene s;
   HandleSet handles;

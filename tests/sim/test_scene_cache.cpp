@@ -63,9 +63,13 @@ INSTANTIATE_TEST_SUITE_P(BothFineMeshes, SceneCacheKinds, ::testing::Values(SimS
                          [](const auto& p) { return std::string(p.param == SimSettings::FineMesh::Regular ? "regular" : "adapted"); });
 
 TEST_P(SceneCacheKinds, ALoadedSceneAndModelAnswerBitForBitLikeTheBuiltOnes) {
+  for (const auto region : {SimSettings::Region::Box, SimSettings::Region::Handles}) {
+  SCOPED_TRACE(region == SimSettings::Region::Box ? "box region" : "region shaped by the handle");
   const Inputs& in = inputs();
   SimSettings s = in.settings;
   s.fineMesh = GetParam();
+  s.region = region;
+  s.paddingMm = 20.0;
   const fs::path dir = tempDir("handson_cache_roundtrip");
   SimScene built;
   CacheOutcome first;
@@ -82,6 +86,8 @@ TEST_P(SceneCacheKinds, ALoadedSceneAndModelAnswerBitForBitLikeTheBuiltOnes) {
   EXPECT_EQ(loaded.youngs, built.youngs);
   EXPECT_EQ(loaded.constraints.handleOf, built.constraints.handleOf);
   EXPECT_EQ(loaded.constraints.fixed, built.constraints.fixed);
+  EXPECT_EQ(loaded.regionCell, built.regionCell);
+  EXPECT_EQ(built.regionCell.empty(), region == SimSettings::Region::Box);
   ASSERT_EQ(loaded.fineK.size(), built.fineK.size());
   for (std::size_t t = 0; t < built.fineK.size(); ++t) ASSERT_EQ(loaded.fineK[t], built.fineK[t]) << "tet " << t;
   EXPECT_EQ(answer(*m2, loaded), answer(*m1, built)) << "the same solve, bit for bit";
@@ -101,6 +107,7 @@ TEST_P(SceneCacheKinds, ALoadedSceneAndModelAnswerBitForBitLikeTheBuiltOnes) {
   EXPECT_EQ(d1.blocks, d2.blocks);
   EXPECT_EQ(d1.elementCorners, d2.elementCorners);
   fs::remove_all(dir);
+  }
 }
 
 TEST(SceneCache, AnyChangedInputMissesAndBadFilesAreRebuilt) {
@@ -120,6 +127,9 @@ TEST(SceneCache, AnyChangedInputMissesAndBadFilesAreRebuilt) {
   s = in.settings;
   s.element = CoarseElement::Tet;
   EXPECT_NE(simulationCacheKey(in.phantom.ct, in.handles, s), key) << "element kind";
+  s = in.settings;
+  s.region = SimSettings::Region::Handles;
+  EXPECT_NE(simulationCacheKey(in.phantom.ct, in.handles, s), key) << "region shape";
   s = in.settings;
   s.materials = MaterialTable::parse("units,hu\nname,lower,upper,youngs_kpa,poisson\nsoft,-inf,inf,6,0.45\n", "test");
   EXPECT_NE(simulationCacheKey(in.phantom.ct, in.handles, s), key) << "material table";
