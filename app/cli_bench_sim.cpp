@@ -82,6 +82,121 @@ std::vector<double> compareRefinements(const SimScene& sc, const CoarseModel& mo
               << stepSeconds[2] << " s (projected / analytic " << std::setprecision(1) << stepSeconds[2] / stepSeconds[0] << "x)\n";
   return stepSeconds;
 }
+// A 10-frame drag from rest to the motion (rotation vector rv about `centre`, translation tv), 3
+// iterations a frame, with `solver`, three times: the median frame, the mean breakdown, and how far
+// the last state lies from the converged one (of `motion`); leaves the model's state in xc.
+struct Drag {
+  double frame = 0;        // median frame (ms)
+  CoarseSolveStats mean;   // per frame, averaged over the drag: the breakdown
+  double lag = 0;          // after the drag: largest coarse node distance to the converged state / motion
+};
+Drag dragRun(CoarseModel& model, CoarseSolver solver, const Eigen::Vector3d& centre, const Eigen::Vector3d& rv, const Eigen::Vector3d& tv, double motion,
+             std::vector<Eigen::Vector3d>& xc) {
+  model.setSolver(solver);
+  model.prepareSolve();  // one-off set-up (pcg: the rest factorization), part of the preprocessing
+  Drag d;
+  std::vector<double> frameMs;
+  for (int rep = 0; rep < 3; ++rep) {
+    xc = model.restState();
+    for (int f = 1; f <= 10; ++f) {
+      const std::vector<RigidTransform> Tf{RigidTransform::about(centre, rv * (f / 10.0), tv * (f / 10.0))};
+      const auto t1 = std::chrono::steady_clock::now();
+      const CoarseSolveStats st = model.solve(Tf, xc, 3);
+      frameMs.push_back(1e3 * since(t1));
+      for (auto [sum, v] : {std::pair{&d.mean.rotationMs, st.rotationMs}, {&d.mean.productMs, st.productMs}, {&d.mean.factorMs, st.factorMs},
+                            {&d.mean.backSolveMs, st.backSolveMs}, {&d.mean.boundaryMs, st.boundaryMs}, {&d.mean.solveMs, st.solveMs}})
+        *sum += v / 30.0;
+      d.mean.pcgIterations += st.pcgIterations;
+      d.mean.factorizations += st.factorizations;
+    }
+  }
+  std::sort(frameMs.begin(), frameMs.end());
+  d.frame = frameMs[frameMs.size() / 2];
+  auto xconv = xc;
+  model.solve({RigidTransform::about(centre, rv, tv)}, xconv, 2000, 1e-10);
+  for (std::size_t v = 0; v < xc.size(); ++v) d.lag = std::max(d.lag, (xc[v] - xconv[v]).norm() / motion);
+  return d;
+}
+
+// The region shaped by the handle (--region handles: the box's cells away from the handle held, the
+// same coarse budget spent on the others, so a finer grid), on its own meshes, sampled at the box
+// scene's fine nodes and measured against the box's fine reference `fine`.
+struct ShapedRun {
+  std::size_t tets = 0;  // coarse tets of its grid (over the box)
+  double share = 0;      // of the grid's cells simulated
+  Drag drag;
+  DeformationError error;
+};
+ShapedRun measureShapedRegion(const Volume& image, const SimHandle& handle, SimSettings s, const SimScene& box, const Eigen::Vector3d& rv,
+                              const Eigen::Vector3d& tv, double motion, const std::vector<Eigen::Vector3d>& fine, const ProgressFn& progress) {
+  s.region = SimSettings::Region::Handles;
+  const SimScene shaped = buildSimScene(image, {handle}, s, progress);
+  ShapedRun r;
+  r.tets = shaped.meshes.coarse.tets.size();
+  r.share = double(std::count(shaped.regionCell.begin(), shaped.regionCell.end(), 1)) / double(shaped.regionCell.size());
+  CoarseModel model(shaped.meshes, shaped.fineK, shaped.constraints, progress, CoarseElement::Cell);
+  std::vector<Eigen::Vector3d> x;
+  r.drag = dragRun(model, CoarseSolver::Pcg, box.handleCentroid[0], rv, tv, motion, x);
+  const std::vector<RigidTransform> T{RigidTransform::about(box.handleCentroid[0], rv, tv)};
+  model.solve(T, x, 500);
+  r.error = compareDeformation(box, T, sampleDeformation(shaped, model.reconstruct(T, x), box.meshes.fine.nodes), fine);
+  return r;
+}
+
+void writeAccuracyHeader(std::ostream& acc, int refineSteps) {
+  acc << "coarse_tets,fine_tets,scene_s,coarsening_s,frame_ms,fine_solve_s,fine_over_frame,fine_iterations,coarse_iterations_to_converge,rms_coarse,max_coarse,"
+         "shaped_coarse_tets,shaped_cell_share,frame_ms_shaped,rms_shaped,max_shaped,"
+         "coarsening_s_tet,frame_ms_tet,rms_coarse_tet,max_coarse_tet,rms_plain,max_plain,frame_ms_assembled,frame_speedup,frame_lag,frame_lag_assembled,"
+         "solver_difference,rotation_ms,products_ms,factor_ms,backsolve_ms,boundary_ms,pcg_per_frame,rotation_ms_assembled,assembly_ms_assembled,"
+         "factor_ms_assembled,backsolve_ms_assembled,boundary_ms_assembled,factorizations_per_frame_assembled";
+  for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k;
+  for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k << "_warped";
+  for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k << "_projected";
+  acc << ",refine_step_s,refine_step_s_warped,refine_step_s_projected,force_fine_N,force_coarse_N,force_coarse_over_fine,torque_fine_Nmm,torque_coarse_Nmm\n";
+}
+
+// sim_tradeoff.png from sim_tradeoff.csv (gnuplot; no chart without it).
+void writeTradeoffChart(const std::filesystem::path& out) {
+  if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
+    const auto gp = out / "sim_tradeoff.gp";
+    const std::string f = (out / "sim_tradeoff.csv").string();
+    std::ofstream(gp) << "set datafile separator ','\nset terminal pngcairo size 900,560 font ',11'\nset output '" << (out / "sim_tradeoff.png").string()
+                      << "'\nset termoption noenhanced\nset title 'Speed against accuracy: error of the fine-node positions vs time'\n"
+                      << "set logscale xy\nset xlabel 'seconds (coarse: one frame; refined: frame + refinement; fine: static solve)'\n"
+                      << "set ylabel 'RMS error / handle motion (fine reference at 1e-4)'\nset grid\nset key top right\n"
+                      << "set arrow from graph 0, first 0.1 to graph 1, first 0.1 nohead dt 2 lc rgb '#cc4444'\n"
+                      << "set arrow from graph 0, first 0.02 to graph 1, first 0.02 nohead dt 3 lc rgb '#44aa44'\n"
+                      << "plot '" << f << "' using (strcol(1) eq 'coarsened-cells' ? $3 : 1/0):4 with points pt 7 ps 1.5 title 'coarsened, cell elements (default)', "
+                      << "'' using (strcol(1) eq 'coarsened-cells-assembled' ? $3 : 1/0):4 with points pt 4 ps 1.5 title 'coarsened, cells, assembled solve (baseline)', "
+                      << "'' using (strcol(1) eq 'coarsened-tets' ? $3 : 1/0):4 with points pt 6 ps 1.5 title 'coarsened, tet elements (spec)', "
+                      << "'' using (strcol(1) eq 'plain' ? $3 : 1/0):4 with points pt 5 ps 1.5 title 'plain coarse FEM', "
+                      << "'' using (strcol(1) eq 'shaped-region' ? $3 : 1/0):4 with points pt 13 ps 1.5 title 'coarsened, region shaped by the handle (vs the box reference)', "
+                      << "'' using (strcol(1) eq 'coarse-iterations' ? $3 : 1/0):4 with linespoints pt 1 dt 2 title 'coarse solve from rest: 1, 2, 3, 5, 8 iterations', "
+                      << "'' using (strcol(1) eq 'refined' ? $3 : 1/0):4 with linespoints pt 9 title 'two-level refinement, analytic matrix-free (default; 10 PCG / step)', "
+                      << "'' using (strcol(1) eq 'refined-warped' ? $3 : 1/0):4 with linespoints pt 10 dt 3 title 'two-level refinement, warped stiffness only', "
+                      << "'' using (strcol(1) eq 'refined-projected' ? $3 : 1/0):4 with linespoints pt 8 dt 4 title 'two-level refinement, projected Hessian (baseline)', "
+                      << "'' using (strcol(1) eq 'fine' ? $3 : 1/0):4 with points pt 3 ps 2 title 'fine static solve', "
+                      << "'' using (strcol(1) eq 'operating-point' ? $3 : 1/0):4 with points pt 6 ps 4 lw 2 lc rgb '#cc0000' title 'paper operating point (~6,000 / 300,000 tets)', "
+                      << "'' using (strcol(1) eq 'coarsened-cells' ? $3 : 1/0):4:2 with labels offset 1.5,0.6 notitle\n";
+    if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no chart\n";
+  }
+}
+
+// The coarse solve from rest to the final pose in one input (no warm start, the worst case) with 1,
+// 2, 3, 5 and 8 iterations: error against the time spent (solver iterations), to `trade`.
+void coarseIterationSweep(const SimScene& sc, CoarseModel& model, const std::vector<RigidTransform>& T, const std::vector<Eigen::Vector3d>& fine,
+                          std::ostream& trade) {
+  for (int k : {1, 2, 3, 5, 8}) {
+    std::vector<Eigen::Vector3d> xk = model.restState();
+    const auto t0 = std::chrono::steady_clock::now();
+    model.solve(T, xk, k, 0.0);
+    const double tk = since(t0);
+    const auto e = compareDeformation(sc, T, model.reconstruct(T, xk), fine);
+    trade << "coarse-iterations," << sc.meshes.coarse.tets.size() << "," << tk << "," << e.rmsOfMotion << "\n";
+    std::cout << "  coarse solve from rest, " << k << " iteration" << (k > 1 ? "s" : "") << " (" << std::setprecision(3) << tk * 1e3
+              << " ms): RMS " << std::setprecision(4) << e.rmsOfMotion << "\n";
+  }
+}
 }  // namespace
 
 int cmdBenchSim(const Words& words) {
@@ -107,15 +222,7 @@ int cmdBenchSim(const Words& words) {
   const SimHandle handle{std::move(loaded.handle), {}};
 
   std::ofstream acc(out / "sim_accuracy.csv"), trade(out / "sim_tradeoff.csv");
-  acc << "coarse_tets,fine_tets,scene_s,coarsening_s,frame_ms,fine_solve_s,fine_over_frame,fine_iterations,coarse_iterations_to_converge,rms_coarse,max_coarse,"
-         "shaped_coarse_tets,shaped_cell_share,frame_ms_shaped,rms_shaped,max_shaped,"
-         "coarsening_s_tet,frame_ms_tet,rms_coarse_tet,max_coarse_tet,rms_plain,max_plain,frame_ms_assembled,frame_speedup,frame_lag,frame_lag_assembled,"
-         "solver_difference,rotation_ms,products_ms,factor_ms,backsolve_ms,boundary_ms,pcg_per_frame,rotation_ms_assembled,assembly_ms_assembled,"
-         "factor_ms_assembled,backsolve_ms_assembled,boundary_ms_assembled,factorizations_per_frame_assembled";
-  for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k;
-  for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k << "_warped";
-  for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k << "_projected";
-  acc << ",refine_step_s,refine_step_s_warped,refine_step_s_projected,force_fine_N,force_coarse_N,force_coarse_over_fine,torque_fine_Nmm,torque_coarse_Nmm\n";
+  writeAccuracyHeader(acc, refineSteps);
   trade << "model,coarse_tets,seconds,rms\n";
   std::cout << std::fixed;
   const MaterialTable materials = args.value("--materials") ? MaterialTable::load(*args.value("--materials")) : MaterialTable::ctDefault();
@@ -140,11 +247,6 @@ int cmdBenchSim(const Words& words) {
     const auto fine = solveStatic(sc.meshes.fine, sc.fineK, dir, x0, so);
     const double tFine = since(t0);
     // Coarse models: preprocessing, a 10-frame drag (3 iterations a frame), then their converged answers.
-    struct Drag {
-      double frame = 0;        // median frame (ms)
-      CoarseSolveStats mean;   // per frame, averaged over the drag: the breakdown
-      double lag = 0;          // after the drag: largest coarse node distance to the converged state / motion
-    };
     struct Measured {
       std::unique_ptr<CoarseModel> model;
       std::vector<Eigen::Vector3d> xc;
@@ -155,38 +257,13 @@ int cmdBenchSim(const Words& words) {
       DeformationError error;
     };
     const double motion = std::max(1e-9, compareDeformation(sc, T, sc.meshes.fine.nodes, sc.meshes.fine.nodes).handleMotionMm);
-    // A 10-frame drag from rest, 3 iterations a frame, with `solver`, three times (frame times: the
-    // median of the 30; the breakdown: the mean); leaves the model's state in xc.
     auto drag = [&](CoarseModel& model, CoarseSolver solver, std::vector<Eigen::Vector3d>& xc) {
-      model.setSolver(solver);
-      model.prepareSolve();  // one-off set-up (pcg: the rest factorization), part of the preprocessing
-      Drag d;
-      std::vector<double> frameMs;
-      for (int rep = 0; rep < 3; ++rep) {
-        xc = model.restState();
-        for (int f = 1; f <= 10; ++f) {
-          const std::vector<RigidTransform> Tf{RigidTransform::about(sc.handleCentroid[0], rv * (f / 10.0), tv * (f / 10.0))};
-          const auto t1 = std::chrono::steady_clock::now();
-          const CoarseSolveStats st = model.solve(Tf, xc, 3);
-          frameMs.push_back(1e3 * since(t1));
-          for (auto [sum, v] : {std::pair{&d.mean.rotationMs, st.rotationMs}, {&d.mean.productMs, st.productMs}, {&d.mean.factorMs, st.factorMs},
-                                {&d.mean.backSolveMs, st.backSolveMs}, {&d.mean.boundaryMs, st.boundaryMs}, {&d.mean.solveMs, st.solveMs}})
-            *sum += v / 30.0;
-          d.mean.pcgIterations += st.pcgIterations;
-          d.mean.factorizations += st.factorizations;
-        }
-      }
-      std::sort(frameMs.begin(), frameMs.end());
-      d.frame = frameMs[frameMs.size() / 2];
-      auto xconv = xc;
-      model.solve(T, xconv, 2000, 1e-10);
-      for (std::size_t v = 0; v < xc.size(); ++v) d.lag = std::max(d.lag, (xc[v] - xconv[v]).norm() / motion);
-      return d;
+      return dragRun(model, solver, sc.handleCentroid[0], rv, tv, motion, xc);
     };
-    auto measureWith = [&](CoarseElement kind, const FineConstraints& cons) {
+    auto measure = [&](CoarseElement kind) {
       Measured m;
       auto t1 = std::chrono::steady_clock::now();
-      m.model = std::make_unique<CoarseModel>(sc.meshes, sc.fineK, cons, progress, kind);
+      m.model = std::make_unique<CoarseModel>(sc.meshes, sc.fineK, sc.constraints, progress, kind);
       m.coarsening = since(t1);
       std::vector<Eigen::Vector3d> xb;
       if (kind == CoarseElement::Cell) {
@@ -204,21 +281,9 @@ int cmdBenchSim(const Words& words) {
       m.error = compareDeformation(sc, T, m.model->reconstruct(T, m.xc), fine.x);
       return m;
     };
-    auto measure = [&](CoarseElement kind) { return measureWith(kind, sc.constraints); };
     const Measured tet = measure(CoarseElement::Tet);
     Measured cell = measure(CoarseElement::Cell);
-    // The region shaped by the handle (--region handles: the box's cells away from the handle held,
-    // the same coarse budget spent on the others, so a finer grid), on its own meshes, sampled at the
-    // box's fine nodes and measured against the box's fine reference.
-    SimSettings shapedSettings = s;
-    shapedSettings.region = SimSettings::Region::Handles;
-    const SimScene shaped = buildSimScene(image, {handle}, shapedSettings, progress);
-    const double shapedShare = double(std::count(shaped.regionCell.begin(), shaped.regionCell.end(), 1)) / double(shaped.regionCell.size());
-    CoarseModel shapedModel(shaped.meshes, shaped.fineK, shaped.constraints, progress, CoarseElement::Cell);
-    std::vector<Eigen::Vector3d> xs;
-    const Drag shapedDrag = drag(shapedModel, CoarseSolver::Pcg, xs);
-    shapedModel.solve(T, xs, 500);
-    const DeformationError es = compareDeformation(sc, T, sampleDeformation(shaped, shapedModel.reconstruct(T, xs), sc.meshes.fine.nodes), fine.x);
+    const ShapedRun shaped = measureShapedRegion(image, handle, s, sc, rv, tv, motion, fine.x, progress);
     CoarseModel& model = *cell.model;
     auto& xc = cell.xc;
     const double frame = cell.drag.frame;
@@ -227,8 +292,8 @@ int cmdBenchSim(const Words& words) {
     const auto ep = compareDeformation(sc, T, plainCoarseSolve(sc.meshes, sc.youngs, sc.poisson, sc.constraints, T), fine.x);
     acc << sc.meshes.coarse.tets.size() << "," << sc.meshes.fine.tets.size() << "," << tScene << "," << cell.coarsening << "," << frame << "," << tFine << ","
         << tFine / (frame * 1e-3) << "," << fine.iterations << "," << (cell.conv.converged ? cell.conv.iterations : -1) << "," << ec.rmsOfMotion << ","
-        << ec.maxOfMotion << "," << shaped.meshes.coarse.tets.size() << "," << shapedShare << "," << shapedDrag.frame << "," << es.rmsOfMotion << ","
-        << es.maxOfMotion << "," << tet.coarsening << "," << tet.drag.frame << "," << tet.error.rmsOfMotion << "," << tet.error.maxOfMotion << "," << ep.rmsOfMotion
+        << ec.maxOfMotion << "," << shaped.tets << "," << shaped.share << "," << shaped.drag.frame << "," << shaped.error.rmsOfMotion << ","
+        << shaped.error.maxOfMotion << "," << tet.coarsening << "," << tet.drag.frame << "," << tet.error.rmsOfMotion << "," << tet.error.maxOfMotion << "," << ep.rmsOfMotion
         << "," << ep.maxOfMotion;
     const Drag& a = cell.baseline;
     const CoarseSolveStats& b = cell.drag.mean;
@@ -241,6 +306,7 @@ int cmdBenchSim(const Words& words) {
     if (nc == 6000 && finePer == 64) trade << "operating-point," << sc.meshes.coarse.tets.size() << "," << frame * 1e-3 << "," << ec.rmsOfMotion << "\n";
     trade << "coarsened-tets," << sc.meshes.coarse.tets.size() << "," << tet.drag.frame * 1e-3 << "," << tet.error.rmsOfMotion << "\n";
     trade << "plain," << sc.meshes.coarse.tets.size() << "," << frame * 1e-3 << "," << ep.rmsOfMotion << "\n";
+    trade << "shaped-region," << shaped.tets << "," << shaped.drag.frame * 1e-3 << "," << shaped.error.rmsOfMotion << "\n";
     std::cout << std::setprecision(3) << "\ncoarse " << sc.meshes.coarse.tets.size() << " tets (" << model.elementCount() << " cells) / fine "
               << sc.meshes.fine.tets.size() << " tets: scene " << tScene << " s, coarsening " << cell.coarsening << " s (tets " << tet.coarsening
               << " s); coarse frame " << frame << " ms (tets " << tet.drag.frame << " ms), fine solve " << tFine << " s (" << fine.iterations
@@ -258,21 +324,10 @@ int cmdBenchSim(const Words& words) {
               << std::setprecision(4) << ec.rmsOfMotion << " / " << ec.maxOfMotion << ", coarsened (tets) " << tet.error.rmsOfMotion << " / "
               << tet.error.maxOfMotion << ", plain coarse FEM " << ep.rmsOfMotion << " / " << ep.maxOfMotion << " (plain / cells "
               << std::setprecision(2) << ep.rmsOfMotion / ec.rmsOfMotion << "x)\n"
-              << std::setprecision(3) << "  region shaped by the handle (--region handles): " << shaped.meshes.coarse.tets.size() << " tets over the box, "
-              << shapedShare * 100 << " % of its cells simulated; frame " << shapedDrag.frame << " ms (" << shapedDrag.frame / frame
-              << "x the box's); against the box's fine reference RMS " << std::setprecision(4) << es.rmsOfMotion << ", max " << es.maxOfMotion << "\n";
-    // Solver iterations: the coarse solve from rest to the final pose in one input (no warm start,
-    // the worst case) with 1, 2, 3, 5 and 8 iterations: error against the time spent.
-    for (int k : {1, 2, 3, 5, 8}) {
-      std::vector<Eigen::Vector3d> xk = model.restState();
-      t0 = std::chrono::steady_clock::now();
-      model.solve(T, xk, k, 0.0);
-      const double tk = since(t0);
-      const auto e = compareDeformation(sc, T, model.reconstruct(T, xk), fine.x);
-      trade << "coarse-iterations," << sc.meshes.coarse.tets.size() << "," << tk << "," << e.rmsOfMotion << "\n";
-      std::cout << "  coarse solve from rest, " << k << " iteration" << (k > 1 ? "s" : "") << " (" << std::setprecision(3) << tk * 1e3
-                << " ms): RMS " << std::setprecision(4) << e.rmsOfMotion << "\n";
-    }
+              << std::setprecision(3) << "  region shaped by the handle (--region handles): " << shaped.tets << " tets over the box, "
+              << shaped.share * 100 << " % of its cells simulated; frame " << shaped.drag.frame << " ms (" << shaped.drag.frame / frame
+              << "x the box's); against the box's fine reference RMS " << std::setprecision(4) << shaped.error.rmsOfMotion << ", max " << shaped.error.maxOfMotion << "\n";
+    coarseIterationSweep(sc, model, T, fine.x, trade);
     const std::vector<double> stepSeconds = compareRefinements(sc, model, T, xc, xcoarse, fine.x, refineSteps, frame, acc, trade);
     trade << "fine," << sc.meshes.coarse.tets.size() << "," << tFine << ",1e-4\n";
     // The handle's reaction (what the tissue does to it), coarse model against the fine reference.
@@ -287,28 +342,7 @@ int cmdBenchSim(const Words& words) {
   }
   acc.close();
   trade.close();
-  if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
-    const auto gp = out / "sim_tradeoff.gp";
-    const std::string f = (out / "sim_tradeoff.csv").string();
-    std::ofstream(gp) << "set datafile separator ','\nset terminal pngcairo size 900,560 font ',11'\nset output '" << (out / "sim_tradeoff.png").string()
-                      << "'\nset termoption noenhanced\nset title 'Speed against accuracy: error of the fine-node positions vs time'\n"
-                      << "set logscale xy\nset xlabel 'seconds (coarse: one frame; refined: frame + refinement; fine: static solve)'\n"
-                      << "set ylabel 'RMS error / handle motion (fine reference at 1e-4)'\nset grid\nset key top right\n"
-                      << "set arrow from graph 0, first 0.1 to graph 1, first 0.1 nohead dt 2 lc rgb '#cc4444'\n"
-                      << "set arrow from graph 0, first 0.02 to graph 1, first 0.02 nohead dt 3 lc rgb '#44aa44'\n"
-                      << "plot '" << f << "' using (strcol(1) eq 'coarsened-cells' ? $3 : 1/0):4 with points pt 7 ps 1.5 title 'coarsened, cell elements (default)', "
-                      << "'' using (strcol(1) eq 'coarsened-cells-assembled' ? $3 : 1/0):4 with points pt 4 ps 1.5 title 'coarsened, cells, assembled solve (baseline)', "
-                      << "'' using (strcol(1) eq 'coarsened-tets' ? $3 : 1/0):4 with points pt 6 ps 1.5 title 'coarsened, tet elements (spec)', "
-                      << "'' using (strcol(1) eq 'plain' ? $3 : 1/0):4 with points pt 5 ps 1.5 title 'plain coarse FEM', "
-                      << "'' using (strcol(1) eq 'coarse-iterations' ? $3 : 1/0):4 with linespoints pt 1 dt 2 title 'coarse solve from rest: 1, 2, 3, 5, 8 iterations', "
-                      << "'' using (strcol(1) eq 'refined' ? $3 : 1/0):4 with linespoints pt 9 title 'two-level refinement, analytic matrix-free (default; 10 PCG / step)', "
-                      << "'' using (strcol(1) eq 'refined-warped' ? $3 : 1/0):4 with linespoints pt 10 dt 3 title 'two-level refinement, warped stiffness only', "
-                      << "'' using (strcol(1) eq 'refined-projected' ? $3 : 1/0):4 with linespoints pt 8 dt 4 title 'two-level refinement, projected Hessian (baseline)', "
-                      << "'' using (strcol(1) eq 'fine' ? $3 : 1/0):4 with points pt 3 ps 2 title 'fine static solve', "
-                      << "'' using (strcol(1) eq 'operating-point' ? $3 : 1/0):4 with points pt 6 ps 4 lw 2 lc rgb '#cc0000' title 'paper operating point (~6,000 / 300,000 tets)', "
-                      << "'' using (strcol(1) eq 'coarsened-cells' ? $3 : 1/0):4:2 with labels offset 1.5,0.6 notitle\n";
-    if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no chart\n";
-  }
+  writeTradeoffChart(out);
   benchForceCurve(out);
   std::cout << "\nwrote " << (out / "sim_accuracy.csv").string() << ", " << (out / "sim_tradeoff.csv").string()
             << " and the charts sim_tradeoff.png, sim_force.png\n";

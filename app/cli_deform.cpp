@@ -1,6 +1,7 @@
 // `handson deform`: move a handle rigidly and deform the surrounding tissue, from the command line.
 #include <Eigen/Geometry>
 #include <chrono>
+#include <functional>
 #include <cmath>
 #include <iomanip>
 #include <iostream>
@@ -169,6 +170,25 @@ void writeMesh(const std::string& path, const SimScene& sc, const std::vector<Ei
 
 }  // namespace
 
+// The fine static solve through `steps` increments of the motion (transformsAt(k / steps)), each
+// starting from the last; a solve that stops unconverged is reported and the next goes on from it.
+static std::vector<Eigen::Vector3d> solveFineInIncrements(const SimScene& sc, const std::function<std::vector<RigidTransform>(double)>& transformsAt, int steps,
+                                                          const ProgressFn& progress) {
+  std::vector<char> dir;
+  std::vector<Eigen::Vector3d> x = sc.meshes.fine.nodes;
+  for (int k = 1; k <= steps; ++k) {
+    auto x0 = prescribedPositions(sc.meshes.fine, sc.constraints, transformsAt(double(k) / steps), &dir);
+    for (std::size_t i = 0; i < x0.size(); ++i)
+      if (!dir[i]) x0[i] = x[i];
+    StaticSolveOptions o;
+    o.progress = progress;
+    const auto r = solveStatic(sc.meshes.fine, sc.fineK, dir, x0, o);
+    if (!r.converged) std::cerr << "warning: the fine solve stopped after " << r.iterations << " iterations (last update " << r.lastUpdate << " mm)\n";
+    x = r.x;
+  }
+  return x;
+}
+
 int cmdDeform(const Words& words) {
   Args args(words,
             {"--frame", "--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm", "--region",
@@ -238,7 +258,10 @@ int cmdDeform(const Words& words) {
             << " tets (" << (sc.meshes.regularFine ? std::to_string(sc.meshes.refinement) + "^3 per coarse tet"
                                                    : "image-adapted: " + std::to_string(sc.adapted.structurePoints) + " points at stiffness jumps, " +
                                                          std::to_string(sc.adapted.fallbackCells) + " cells left regular")
-            << "); handle nodes " << sc.handleNodeCount[0] << "\n";
+            << "); handle nodes " << sc.handleNodeCount[0];
+  if (!sc.regionCell.empty())
+    std::cout << "; cells simulated " << std::count(sc.regionCell.begin(), sc.regionCell.end(), 1) << " of " << sc.regionCell.size() << " (shaped by the handles)";
+  std::cout << "\n";
   // Large motions are applied in increments of at most 30 degrees and 10 mm, each solve starting
   // from the previous one (continuation keeps the Newton and corotational iterations in their basin).
   const int steps = std::max({1, int(std::ceil(rotation.norm() / (M_PI / 6))), int(std::ceil(translation.norm() / 10.0))});
@@ -253,19 +276,7 @@ int cmdDeform(const Words& words) {
   t0 = std::chrono::steady_clock::now();
   double tPre = 0;
   if (model == "fine") {
-    std::vector<char> dir;
-    x = sc.meshes.fine.nodes;
-    for (int k = 1; k <= steps; ++k) {
-      const auto Tk = transformsAt(double(k) / steps);
-      auto x0 = prescribedPositions(sc.meshes.fine, sc.constraints, Tk, &dir);
-      for (std::size_t i = 0; i < x0.size(); ++i)
-        if (!dir[i]) x0[i] = x[i];
-      StaticSolveOptions o;
-      o.progress = progress;
-      const auto r = solveStatic(sc.meshes.fine, sc.fineK, dir, x0, o);
-      if (!r.converged) std::cerr << "warning: the fine solve stopped after " << r.iterations << " iterations (last update " << r.lastUpdate << " mm)\n";
-      x = r.x;
-    }
+    x = solveFineInIncrements(sc, transformsAt, steps, progress);
   } else {
     model_ = std::move(cachedModel);
     CoarseModel& m = *model_;
