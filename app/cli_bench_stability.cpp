@@ -183,24 +183,8 @@ SeedOutcome growInBall(double contrast, GrowCriterion criterion, std::uint32_t s
   o.recall = double(ballSelected) / double(std::max<std::size_t>(ball, 1));
   return o;
 }
-}  // namespace
-
-int cmdBenchStability(const Words& words) {
-  Args args(words, {"--out", "--angles", "--contrasts"}, {"--quiet", "--quick"});
-  const bool quick = args.flag("--quick");
-  if (args.help() || !args.positional().empty()) {
-    usageStream(args) << kBenchStabilityHelp;
-    return args.help() ? 0 : 2;
-  }
-  const auto angles = parseNumberList(args.valueOr("--angles", "15,30,45,60,90,120,150,180"), "--angles");
-  const auto contrasts = parseNumberList(args.valueOr("--contrasts", "1,10,100,1e3,1e4,1e5,1e6"), "--contrasts");
-  for (double a : angles)
-    if (!(a > 0 && a <= 360)) throw UsageError("--angles are degrees in (0, 360]");
-  for (double c : contrasts)
-    if (!(c >= 1 && c <= 1e9)) throw UsageError("--contrasts are factors in [1, 1e9]");
-  const std::filesystem::path out = args.valueOr("--out", "bench-out");
-  std::filesystem::create_directories(out);
-
+// The handle turned by each angle, in one step and in <= 30 degree increments: stability_rotation.csv.
+void rotationSweep(const std::filesystem::path& out, const std::vector<double>& angles) {
   std::ofstream rot(out / "stability_rotation.csv");
   rot << "angle_deg,increments,coarse_finite,coarse_converged,coarse_inverted,coarse_iterations,fine_finite,fine_converged,fine_inverted,fine_iterations\n";
   BoxScene box;
@@ -233,6 +217,10 @@ int cmdBenchStability(const Words& words) {
             << threshold(firstFail[1]) << " with continuation; fine " << threshold(firstFail[2]) << " in one step, " << threshold(firstFail[3])
             << " with continuation\n";
 
+}
+
+// A stiff slab beside a moved ball, by contrast: stability_contrast.csv.
+void contrastSweep(const std::filesystem::path& out, const std::vector<double>& contrasts) {
   std::ofstream con(out / "stability_contrast.csv");
   con << "contrast,coarse_finite,coarse_converged,fine_finite,fine_converged,fine_iterations,coarse_rms_vs_fine,fine_inverted\n";
   std::cout << "\nslab beside a ball moved 6 mm and tilted 0.3 rad, slab contrast:\n";
@@ -250,11 +238,12 @@ int cmdBenchStability(const Words& words) {
               << (o.fineConverged ? "converged" : "NOT converged") << " in " << o.fineIterations << " iterations; coarse RMS vs fine "
               << std::setprecision(4) << err << " of the motion" << std::endl;
   }
+}
+
+void dragSweep(const std::filesystem::path& out, std::mt19937& rng, int cases) {
   // The interaction's methods. Drag speed: the finger step per event, one linearized step (the
   // spec's) against the app's guard (2 px sub-steps); failure: an error over 0.5 px (the finger
   // visibly leaves the point it holds).
-  std::mt19937 rng(7);
-  const int cases = quick ? 40 : 200;
   std::ofstream drag(out / "stability_drag.csv");
   drag << "fingers,step_px,one_step_rms_px,one_step_max_px,substeps_rms_px,substeps_max_px,non_finite\n";
   std::cout << "\ngesture solve against the finger step per event (" << cases << " random rigid motions each):\n";
@@ -288,6 +277,9 @@ int cmdBenchStability(const Words& words) {
   std::cout << "first step with an error over 0.5 px: one step " << px(dragBreak[0]) << " (2 fingers), " << px(dragBreak[1])
             << " (3); sub-stepped (the app) " << px(dragGuardBreak[0]) << " / " << px(dragGuardBreak[1]) << "\n";
 
+}
+
+void layoutSweep(const std::filesystem::path& out, std::mt19937& rng, int cases) {
   // Finger layouts: two fingers closing in (0: coincident) and three fingers closing onto a line
   // (0: collinear), a 5 px motion each, the app's solve. Failure: a non-finite answer or an error over
   // 0.5 px not explained by the per-event clamp (the guard: a step reduced to the clamp is finished by
@@ -324,6 +316,9 @@ int cmdBenchStability(const Words& words) {
                 << std::endl;
     }
 
+}
+
+void seedSweep(const std::filesystem::path& out) {
   // Seed contrast: where region growing leaks (both criteria, 3 noise seeds each).
   std::ofstream seedCsv(out / "stability_seed.csv");
   seedCsv << "contrast_sigma,criterion,leak,recall,selected_radius_mm\n";
@@ -348,10 +343,10 @@ int cmdBenchStability(const Words& words) {
   }
   std::cout << "leaks (over 10 % of the selection outside the organ) up to a contrast of " << leakBelow[0] << " sigma (paper), " << leakBelow[1]
             << " sigma (smoothed); the selection never leaves the fingers' extent ball\n";
-  drag.close();
-  lay.close();
-  seedCsv.close();
+}
 
+// stability_interaction.png and stability.png from the CSVs (gnuplot; no charts without it).
+void stabilityCharts(const std::filesystem::path& out) {
   if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
     const auto gp = out / "stability_interaction.gp";
     const std::string d = (out / "stability_drag.csv").string(), l = (out / "stability_layout.csv").string(), sc = (out / "stability_seed.csv").string();
@@ -395,6 +390,34 @@ int cmdBenchStability(const Words& words) {
                       << "unset multiplot\n";
     if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no chart\n";
   }
+}
+
+}  // namespace
+
+int cmdBenchStability(const Words& words) {
+  Args args(words, {"--out", "--angles", "--contrasts"}, {"--quiet", "--quick"});
+  const bool quick = args.flag("--quick");
+  if (args.help() || !args.positional().empty()) {
+    usageStream(args) << kBenchStabilityHelp;
+    return args.help() ? 0 : 2;
+  }
+  const auto angles = parseNumberList(args.valueOr("--angles", "15,30,45,60,90,120,150,180"), "--angles");
+  const auto contrasts = parseNumberList(args.valueOr("--contrasts", "1,10,100,1e3,1e4,1e5,1e6"), "--contrasts");
+  for (double a : angles)
+    if (!(a > 0 && a <= 360)) throw UsageError("--angles are degrees in (0, 360]");
+  for (double c : contrasts)
+    if (!(c >= 1 && c <= 1e9)) throw UsageError("--contrasts are factors in [1, 1e9]");
+  const std::filesystem::path out = args.valueOr("--out", "bench-out");
+  std::filesystem::create_directories(out);
+
+  rotationSweep(out, angles);
+  contrastSweep(out, contrasts);
+  std::mt19937 rng(7);
+  const int cases = quick ? 40 : 200;
+  dragSweep(out, rng, cases);
+  layoutSweep(out, rng, cases);
+  seedSweep(out);
+  stabilityCharts(out);
   std::cout << "wrote stability_rotation.csv, stability_contrast.csv, stability.png, stability_drag.csv, stability_layout.csv, stability_seed.csv and "
                "stability_interaction.png in "
             << out.string() << "\n";
