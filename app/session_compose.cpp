@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <tuple>
 
 #include "app/scenario_retarget.h"
 #include "app/selection_eval.h"
@@ -158,99 +159,141 @@ class EventWriter {
 
 }  // namespace
 
-ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const ComposeOptions& o, const std::string& volumePath) {
-  if (!labels.geometry().sameGrid(ct.geometry()))
-    throw Error("compose: the label map's grid is not the CT's (dimensions, spacing, origin or orientation differ)");
-  if (o.organ == o.anchor) throw Error("compose: the organ and the anchor must be different labels");
-  if (o.viewport.width < 64 || o.viewport.height < 64 || o.viewport.width > 8192 || o.viewport.height > 8192)
-    throw Error("compose: the viewport must be 64 to 8192 pixels a side");
-  if (!(o.dragMm >= 0.0 && o.dragMm <= 200.0 && o.pushMm >= 0.0 && o.pushMm <= 200.0))
-    throw Error("compose: drag distances must be 0 to 200 mm");
-  const Eigen::Vector3i deep = deepestVoxel(labels, o.organ, ct);
-  if (deep.x() < 0) throw Error("compose: label " + std::to_string(o.organ) + " (organ) is not in the label map");
-  if (deepestVoxel(labels, o.anchor, ct).x() < 0) throw Error("compose: label " + std::to_string(o.anchor) + " (anchor) is not in the label map");
+namespace {
 
-  const Viewport vp = o.viewport;
-  const double aspect = double(vp.width) / double(vp.height);
-  const CpuPicker picker(ct, o.preset);
-  const Eigen::Vector3d aimW = ct.geometry().toWorld(deep.cast<double>());
-  const glm::dvec3 aim(aimW.x(), aimW.y(), aimW.z());
+// The phases of a composed session over one view (composeFullSession). Each phase writes its touches
+// to the script and runs them here too, so that the next one is placed where the app then shows the
+// handle; what a phase leaves for the next is kept in the members below.
+class Composer {
+ public:
+  Composer(const Volume& ctIn, const Volume& labelsIn, const ComposeOptions& options)
+      : ct(ctIn), labels(labelsIn), o(options), vp(o.viewport), aspect(double(vp.width) / double(vp.height)), picker(ct, o.preset), s(out.script), w(s),
+        mid(vp.center()), mask(picker.volume().data.size(), 0) {}
 
-  // The distance: the organ a fifth of the view high, the eye outside the volume.
-  OrbitCamera cam = OrbitCamera::framing(ct.geometry(), 0.0, 0.0, aspect);
-  const double halfFov = 0.5 * cam.fovY;
-  double distance = 5.0 * equivalentRadiusMm(labels, o.organ) / std::tan(halfFov);
-  const VolumeGeometry& g = ct.geometry();
-  for (int c = 0; c < 8; ++c) {
-    const Eigen::Vector3d corner((c & 1) ? g.dims.x() - 1 : 0, (c & 2) ? g.dims.y() - 1 : 0, (c & 4) ? g.dims.z() - 1 : 0);
-    const Eigen::Vector3d w = g.toWorld(corner);
-    distance = std::max(distance, 1.05 * glm::distance(aim, glm::dvec3(w.x(), w.y(), w.z())));
+  ComposedSession compose(const Eigen::Vector3i& deep, const std::string& volumePath) {
+    chooseView(deep);
+    orbitIn(volumePath);
+    selectBoth();
+    w.ui("handle-status", "2:fixed");
+    w.ui("set-mode", "manipulate");
+    prepareHandle();
+    tiltWithThree();
+    dragWithOne();
+    pushWithTwo();
+    twistAndSpread();
+    w.ui("handle-status", "2:idle");
+    finish();
+    return std::move(out);
   }
-  cam.target = aim;
-  cam.distance = distance;
-  cam.nearPlane = std::max(1e-3, 0.01 * distance);
-  cam.farPlane = distance + 2.0 * g.diagonalMm();
-  auto organ = [&](int l) { return l == o.organ; };
-  auto anchor = [&](int l) { return l == o.anchor; };
 
-  double bestScore = -1.0, bestAz = 0.0, bestEl = 0.0, bestOrgan = 0.0, bestAnchor = 0.0;
-  for (double elevation : {0.0, 25.0, -25.0})
-    for (int k = 0; k < 12; ++k) {
-      cam.azimuth = glm::radians(30.0 * k);
-      cam.elevation = glm::radians(elevation);
-      const Footprint fp = look(picker, labels, cam, vp, 4);
-      const double ro = fp.innermost(fp.innerDistance(organ)).second, ra = fp.innermost(fp.innerDistance(anchor)).second;
-      if (ro > bestOrgan || (ro == bestOrgan && ra > bestAnchor)) bestOrgan = ro, bestAnchor = ra;
-      if (ro < 16.0 || ra < 6.0 || ro + ra <= bestScore) continue;
-      bestScore = ro + ra;
-      bestAz = 30.0 * k;
-      bestEl = elevation;
-    }
-  if (bestScore < 0.0)
-    throw Error("compose: no view direction shows label " + std::to_string(o.organ) + " with 16 px and label " + std::to_string(o.anchor) +
-                " with 6 px of room for the fingers (best: " + std::to_string(int(bestOrgan)) + " and " + std::to_string(int(bestAnchor)) + " px)");
-  cam.azimuth = glm::radians(bestAz);
-  cam.elevation = glm::radians(bestEl);
-  const Footprint fp = look(picker, labels, cam, vp, 2);
-  const auto [co, ro] = fp.innermost(fp.innerDistance(organ));
-  const auto [ca, ra] = fp.innermost(fp.innerDistance(anchor));
-  if (ro < 12.0 || ra < 4.0) throw Error("compose: the chosen view leaves too little room for the fingers");
-  const double mmPerPx = cam.pixelSizeAt(fp.depthAt(co), vp.height);
-
+ private:
+  const Volume& ct;
+  const Volume& labels;
+  const ComposeOptions& o;
+  const Viewport vp;
+  const double aspect;
+  const CpuPicker picker;
   ComposedSession out;
-  out.azimuthDeg = bestAz;
-  out.elevationDeg = bestEl;
-  out.mmPerPx = mmPerPx;
-  out.organPx = co;
-  out.anchorPx = ca;
-  out.organRadiusPx = ro;
-  out.anchorRadiusPx = ra;
-  SessionScript& s = out.script;
-  s.viewport = vp;
-  s.preset = picker.preset();
-  s.mode = "navigate";
-  if (!volumePath.empty()) {
-    s.volumeSource = "file";
-    s.volumePath = volumePath;
+  SessionScript& s;
+  EventWriter w;
+  const glm::dvec2 mid;
+  std::vector<std::uint8_t> mask;  // the pinched handles (1: the organ's, 2: the anchor's) on the picker's grid
+  OrbitCamera cam;
+  double bestAz = 0.0, bestEl = 0.0, mmPerPx = 0.0;
+  Footprint fp;                    // the chosen view at rest
+  glm::dvec2 co{0.0}, ca{0.0};     // the organ's and the anchor's innermost pixels
+  double ro = 0.0, ra = 0.0;       // and their room
+  Eigen::Vector3i lo, hi;          // the organ handle's voxel box
+  std::size_t anchored = 0;        // fingers that landed on the handle in the last simulated gesture
+  RigidPose tilted, dragged, pushed, spread;  // the handle after each gesture
+  glm::dvec2 g1{0.0}, u{0.0}, h1{0.0};
+  double r1 = -1.0;
+
+  bool organ(int l) const { return l == o.organ; }
+  bool anchor(int l) const { return l == o.anchor; }
+  static bool onHandle1(int l) { return l == 1; }
+
+  // The view: the organ a fifth of the view high, the eye outside the volume, the direction (every
+  // 30 degrees of azimuth at elevations 0 and +-25) that leaves both structures most room.
+  void chooseView(const Eigen::Vector3i& deep) {
+    const Eigen::Vector3d aimW = ct.geometry().toWorld(deep.cast<double>());
+    const glm::dvec3 aim(aimW.x(), aimW.y(), aimW.z());
+    cam = OrbitCamera::framing(ct.geometry(), 0.0, 0.0, aspect);
+    const double halfFov = 0.5 * cam.fovY;
+    double distance = 5.0 * equivalentRadiusMm(labels, o.organ) / std::tan(halfFov);
+    const VolumeGeometry& g = ct.geometry();
+    for (int c = 0; c < 8; ++c) {
+      const Eigen::Vector3d corner((c & 1) ? g.dims.x() - 1 : 0, (c & 2) ? g.dims.y() - 1 : 0, (c & 4) ? g.dims.z() - 1 : 0);
+      const Eigen::Vector3d wc = g.toWorld(corner);
+      distance = std::max(distance, 1.05 * glm::distance(aim, glm::dvec3(wc.x(), wc.y(), wc.z())));
+    }
+    cam.target = aim;
+    cam.distance = distance;
+    cam.nearPlane = std::max(1e-3, 0.01 * distance);
+    cam.farPlane = distance + 2.0 * g.diagonalMm();
+    auto isOrgan = [this](int l) { return organ(l); };
+    auto isAnchor = [this](int l) { return anchor(l); };
+    double bestScore = -1.0, bestOrgan = 0.0, bestAnchor = 0.0;
+    for (double elevation : {0.0, 25.0, -25.0})
+      for (int k = 0; k < 12; ++k) {
+        cam.azimuth = glm::radians(30.0 * k);
+        cam.elevation = glm::radians(elevation);
+        const Footprint f = look(picker, labels, cam, vp, 4);
+        const double rOrgan = f.innermost(f.innerDistance(isOrgan)).second, rAnchor = f.innermost(f.innerDistance(isAnchor)).second;
+        if (rOrgan > bestOrgan || (rOrgan == bestOrgan && rAnchor > bestAnchor)) bestOrgan = rOrgan, bestAnchor = rAnchor;
+        if (rOrgan < 16.0 || rAnchor < 6.0 || rOrgan + rAnchor <= bestScore) continue;
+        bestScore = rOrgan + rAnchor;
+        bestAz = 30.0 * k;
+        bestEl = elevation;
+      }
+    if (bestScore < 0.0)
+      throw Error("compose: no view direction shows label " + std::to_string(o.organ) + " with 16 px and label " + std::to_string(o.anchor) +
+                  " with 6 px of room for the fingers (best: " + std::to_string(int(bestOrgan)) + " and " + std::to_string(int(bestAnchor)) + " px)");
+    cam.azimuth = glm::radians(bestAz);
+    cam.elevation = glm::radians(bestEl);
+    fp = look(picker, labels, cam, vp, 2);
+    std::tie(co, ro) = fp.innermost(fp.innerDistance(isOrgan));
+    std::tie(ca, ra) = fp.innermost(fp.innerDistance(isAnchor));
+    if (ro < 12.0 || ra < 4.0) throw Error("compose: the chosen view leaves too little room for the fingers");
+    mmPerPx = cam.pixelSizeAt(fp.depthAt(co), vp.height);
   }
-  // Start about 30 degrees of azimuth short of the view; a one-finger drag orbits there (pi / height
-  // radians per pixel: interaction/gesture.h). Nothing is selected yet, so any drag navigates. The
-  // drag is in whole quarter pixels (as the file stores them) and the start is set from it exactly.
-  const glm::dvec2 mid = vp.center();
-  const double halfOrbit = std::round(30.0 / 180.0 * vp.height * 2.0) / 4.0;
-  OrbitCamera start = cam;
-  start.azimuth = glm::radians(bestAz) - 2.0 * halfOrbit * kPi / vp.height;
-  s.camera = CameraState::from(start);
-  EventWriter w(s);
-  w.stroke(1, {mid - glm::dvec2(halfOrbit, 0.0)}, {mid + glm::dvec2(halfOrbit, 0.0)}, 10, 0.05);
-  w.ui("set-mode", "select");
+
+  // The script's start, and a one-finger orbit into the view.
+  void orbitIn(const std::string& volumePath) {
+    out.azimuthDeg = bestAz;
+    out.elevationDeg = bestEl;
+    out.mmPerPx = mmPerPx;
+    out.organPx = co;
+    out.anchorPx = ca;
+    out.organRadiusPx = ro;
+    out.anchorRadiusPx = ra;
+    s.viewport = vp;
+    s.preset = picker.preset();
+    s.mode = "navigate";
+    if (!volumePath.empty()) {
+      s.volumeSource = "file";
+      s.volumePath = volumePath;
+    }
+    // Start about 30 degrees of azimuth short of the view; a one-finger drag orbits there (pi / height
+    // radians per pixel: interaction/gesture.h). Nothing is selected yet, so any drag navigates. The
+    // drag is in whole quarter pixels (as the file stores them) and the start is set from it exactly.
+    const double halfOrbit = std::round(30.0 / 180.0 * vp.height * 2.0) / 4.0;
+    OrbitCamera start = cam;
+    start.azimuth = glm::radians(bestAz) - 2.0 * halfOrbit * kPi / vp.height;
+    s.camera = CameraState::from(start);
+    w.stroke(1, {mid - glm::dvec2(halfOrbit, 0.0)}, {mid + glm::dvec2(halfOrbit, 0.0)}, 10, 0.05);
+    w.ui("set-mode", "select");
+  }
 
   // Pinches: down inside the footprint (3 px margin), spread until the extent (sigma_px times the
   // fingers' distance) is 1.8 inscribed radii. Each is also run here, through the app's own
   // PinchSelection answered by the CPU picks, so that the later touches can be put on the handle it
   // makes (a grown region is often only part of the organ: the kidney's cortex and medulla differ).
-  std::vector<std::uint8_t> mask(picker.volume().data.size(), 0);
-  auto pinch = [&](std::int64_t id, glm::dvec2 c, double r, std::uint8_t handle) {
+  void selectBoth() {
+    pinch(3, co, ro, 1);  // a new handle is active
+    pinch(5, ca, ra, 2);
+  }
+  void pinch(std::int64_t id, glm::dvec2 c, double r, std::uint8_t handle) {
     const double s1 = 1.8 * r;
     const double s0 = std::clamp(0.45 * s1, 4.0, 2.0 * (r - 3.0));
     const std::vector<glm::dvec2> from{c - glm::dvec2(0.5 * s0, 0.0), c + glm::dvec2(0.5 * s0, 0.0)};
@@ -276,35 +319,31 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
       throw Error("compose: the pinch on label " + std::to_string(handle == 1 ? o.organ : o.anchor) + " selects nothing" +
                   (selection.feedback().empty() ? "" : " (" + selection.feedback() + ")"));
     for (std::uint32_t v : *voxels) mask[v] = handle;
-  };
-  pinch(3, co, ro, 1);  // a new handle is active
-  pinch(5, ca, ra, 2);
-  w.ui("handle-status", "2:fixed");
-  w.ui("set-mode", "manipulate");
+  }
 
   // From here the handle moves, and each gesture is run here too on the rigid model the app draws
   // while dragging (its own HandleManipulator, anchored by CPU picks with the handle drawn at its
   // pose), so that every later touch goes where the handle then shows — innermost, away from the
   // seam that the simulated deformation blends between the handle and its surroundings.
-  Eigen::Vector3i lo = picker.volume().geometry.dims, hi(-1, -1, -1);
-  for (std::size_t v = 0; v < mask.size(); ++v)
-    if (mask[v] == 1) {
-      const Eigen::Vector3i c = picker.volume().geometry.voxelOf(std::uint32_t(v));
-      lo = lo.cwiseMin(c);
-      hi = hi.cwiseMax(c);
-    }
-  auto drawn = [&](const RigidPose& pose) {
+  void prepareHandle() {
+    lo = picker.volume().geometry.dims;
+    hi = Eigen::Vector3i(-1, -1, -1);
+    for (std::size_t v = 0; v < mask.size(); ++v)
+      if (mask[v] == 1) {
+        const Eigen::Vector3i c = picker.volume().geometry.voxelOf(std::uint32_t(v));
+        lo = lo.cwiseMin(c);
+        hi = hi.cwiseMax(c);
+      }
+  }
+  std::vector<MovingHandlePose> drawn(const RigidPose& pose) const {
     std::vector<MovingHandlePose> m;
     if (!pose.isIdentity()) m.push_back(MovingHandlePose{1, pose.rotation, pose.translation, lo, hi});
     return m;
-  };
-  auto seen = [&](const RigidPose& pose, int step) { return look(picker, labels, cam, vp, step, &mask, drawn(pose)); };
-  auto onHandle1 = [](int l) { return l == 1; };
-  // Fingers put down at `from` and moved to `to`: the handle's new pose, and how many fingers
-  // landed on it.
-  // Fingers put down at frames[0] and moved through the later frames: the handle's new pose, and
-  // how many fingers landed on it.
-  auto simulatePath = [&](const RigidPose& pose, const std::vector<std::vector<glm::dvec2>>& frames, std::size_t& anchored) {
+  }
+  Footprint seen(const RigidPose& pose, int step) const { return look(picker, labels, cam, vp, step, &mask, drawn(pose)); }
+  // Fingers put down at frames[0] and moved through the later frames: the handle's new pose; how
+  // many fingers landed on it goes to `anchored`.
+  RigidPose simulatePath(const RigidPose& pose, const std::vector<std::vector<glm::dvec2>>& frames) {
     const std::vector<gpu::PickResult> hits = picker.pick(cam, vp, frames.front(), &mask, drawn(pose));
     std::vector<FingerAnchor> anchors;
     for (std::size_t i = 0; i < hits.size(); ++i)
@@ -320,106 +359,98 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
       if (const auto q = m.move(ndc, p, cam, aspect, 0)) p = *q;
     }
     return p;
-  };
-  auto simulate = [&](const RigidPose& pose, const std::vector<glm::dvec2>& from, const std::vector<glm::dvec2>& to, int steps, std::size_t& anchored) {
-    return simulatePath(pose, lerpFrames(from, to, steps), anchored);
-  };
-  auto distanceAt = [](const Footprint& f, const std::vector<double>& dist, glm::dvec2 q) {
+  }
+  RigidPose simulate(const RigidPose& pose, const std::vector<glm::dvec2>& from, const std::vector<glm::dvec2>& to, int steps) {
+    return simulatePath(pose, lerpFrames(from, to, steps));
+  }
+  static double distanceAt(const Footprint& f, const std::vector<double>& dist, glm::dvec2 q) {
     const int i = int(std::floor(q.x / f.step)), j = int(std::floor(q.y / f.step));
     return i < 0 || j < 0 || i >= f.nx || j >= f.ny ? 0.0 : dist[std::size_t(i) + std::size_t(f.nx) * std::size_t(j)];
-  };
+  }
 
   // Three fingers first, on the handle at rest: two hold an axis (0.86 arm above the innermost
   // pixel), the third (0.43 arm below) is drawn 0.36 arm toward them; every finger inside the
   // inscribed disc (they are at most 1.32 arms from its centre).
-  const Footprint rest = seen(RigidPose{}, 2);
-  const auto [h0, rh] = rest.innermost(rest.innerDistance(onHandle1));
-  if (rh < 8.0)
-    throw Error("compose: the selection of label " + std::to_string(o.organ) + " shows too little surface for the fingers (" +
-                std::to_string(rh) + " px of room, 8 needed)");
-  out.handleRadiusPx = rh;
-  // A tilt's outcome is not up to the fingers alone (docs/gesture-solve.md: three fingers are ill-posed when
-  // the touched surface faces the viewer: a small screen motion is a large turn either way). Of the
-  // layout turned by 0, 90, 180 and 270 degrees, only one whose result is stable is used: run again
-  // with every finger 1 px off (as picks on another driver or grid may land), it turns about an axis
-  // across the view (an out-of-plane tilt) by the same angle (within 25 % and 15 degrees of axis).
-  // Among those, the one after which most of the handle stays in sight.
-  const double arm = std::min((rh - 3.0) / 1.32, 15.0 / mmPerPx);
-  std::vector<glm::dvec2> tilt0, tilt1;
-  RigidPose tilted;
-  Footprint afterTilt;
-  glm::dvec2 g1(0.0);
-  double r1 = -1.0;
-  const glm::dvec3 fwd = cam.forward();
-  for (int k = 0; k < 4; ++k) {
-    const glm::dvec2 x(std::cos(k * kPi / 2.0), std::sin(k * kPi / 2.0)), y(-x.y, x.x);  // the layout's right and down
-    const std::vector<glm::dvec2> from{h0 + arm * (-x - 0.86 * y), h0 + arm * (x - 0.86 * y), h0 + arm * 0.43 * y};
-    std::vector<glm::dvec2> to = from;
-    to[2] -= 0.36 * arm * y;
-    bool stable = true;
-    RigidPose p;
-    Eigen::AngleAxisd nominal(0.0, Eigen::Vector3d::UnitX());
-    for (const glm::dvec2 off : {glm::dvec2(0.0), glm::dvec2(1.0, 0.0), glm::dvec2(0.0, 1.0), glm::dvec2(-1.0, -1.0)}) {
-      std::vector<glm::dvec2> a = from, b = to;
-      for (std::size_t i = 0; i < a.size(); ++i) a[i] += off, b[i] += off;
-      std::size_t anchored = 0;
-      const RigidPose q = simulate(RigidPose{}, a, b, 20, anchored);
-      const Eigen::AngleAxisd turn(q.rotation);
-      if (anchored != 3 || std::abs(turn.axis().dot(Eigen::Vector3d(fwd.x, fwd.y, fwd.z))) > 0.5 || turn.angle() < glm::radians(5.0)) {
-        stable = false;
-        break;
+  void tiltWithThree() {
+    const Footprint rest = seen(RigidPose{}, 2);
+    const auto [h0, rh] = rest.innermost(rest.innerDistance(onHandle1));
+    if (rh < 8.0)
+      throw Error("compose: the selection of label " + std::to_string(o.organ) + " shows too little surface for the fingers (" +
+                  std::to_string(rh) + " px of room, 8 needed)");
+    out.handleRadiusPx = rh;
+    // A tilt's outcome is not up to the fingers alone (docs/gesture-solve.md: three fingers are ill-posed when
+    // the touched surface faces the viewer: a small screen motion is a large turn either way). Of the
+    // layout turned by 0, 90, 180 and 270 degrees, only one whose result is stable is used: run again
+    // with every finger 1 px off (as picks on another driver or grid may land), it turns about an axis
+    // across the view (an out-of-plane tilt) by the same angle (within 25 % and 15 degrees of axis).
+    // Among those, the one after which most of the handle stays in sight.
+    const double arm = std::min((rh - 3.0) / 1.32, 15.0 / mmPerPx);
+    std::vector<glm::dvec2> tilt0, tilt1;
+    const glm::dvec3 fwd = cam.forward();
+    for (int k = 0; k < 4; ++k) {
+      const glm::dvec2 x(std::cos(k * kPi / 2.0), std::sin(k * kPi / 2.0)), y(-x.y, x.x);  // the layout's right and down
+      const std::vector<glm::dvec2> from{h0 + arm * (-x - 0.86 * y), h0 + arm * (x - 0.86 * y), h0 + arm * 0.43 * y};
+      std::vector<glm::dvec2> to = from;
+      to[2] -= 0.36 * arm * y;
+      bool stable = true;
+      RigidPose p;
+      Eigen::AngleAxisd nominal(0.0, Eigen::Vector3d::UnitX());
+      for (const glm::dvec2 off : {glm::dvec2(0.0), glm::dvec2(1.0, 0.0), glm::dvec2(0.0, 1.0), glm::dvec2(-1.0, -1.0)}) {
+        std::vector<glm::dvec2> a = from, b = to;
+        for (std::size_t i = 0; i < a.size(); ++i) a[i] += off, b[i] += off;
+        const RigidPose q = simulate(RigidPose{}, a, b, 20);
+        const Eigen::AngleAxisd turn(q.rotation);
+        if (anchored != 3 || std::abs(turn.axis().dot(Eigen::Vector3d(fwd.x, fwd.y, fwd.z))) > 0.5 || turn.angle() < glm::radians(5.0)) {
+          stable = false;
+          break;
+        }
+        if (off == glm::dvec2(0.0)) {
+          p = q;
+          nominal = turn;
+        } else if (std::abs(turn.angle() - nominal.angle()) > 0.25 * nominal.angle() ||
+                   std::abs(turn.axis().dot(nominal.axis())) < std::cos(glm::radians(15.0))) {
+          stable = false;
+          break;
+        }
       }
-      if (off == glm::dvec2(0.0)) {
-        p = q;
-        nominal = turn;
-      } else if (std::abs(turn.angle() - nominal.angle()) > 0.25 * nominal.angle() ||
-                 std::abs(turn.axis().dot(nominal.axis())) < std::cos(glm::radians(15.0))) {
-        stable = false;
-        break;
-      }
+      if (!stable) continue;
+      Footprint f = seen(p, 2);
+      const auto [c, r] = f.innermost(f.innerDistance(onHandle1));
+      if (r > r1) tilt0 = from, tilt1 = to, tilted = p, g1 = c, r1 = r;
     }
-    if (!stable) continue;
-    Footprint f = seen(p, 2);
-    const auto [c, r] = f.innermost(f.innerDistance(onHandle1));
-    if (r > r1) tilt0 = from, tilt1 = to, tilted = p, afterTilt = std::move(f), g1 = c, r1 = r;
+    if (tilt0.empty()) throw Error("compose: no three-finger tilt on the selection of label " + std::to_string(o.organ) + " turns it stably out of plane here");
+    if (r1 < 6.0) throw Error("compose: the tilted selection of label " + std::to_string(o.organ) + " leaves no room for a finger");
+    w.stroke(8, tilt0, tilt1, 20, 0.05);
   }
-  if (tilt0.empty()) throw Error("compose: no three-finger tilt on the selection of label " + std::to_string(o.organ) + " turns it stably out of plane here");
-  if (r1 < 6.0) throw Error("compose: the tilted selection of label " + std::to_string(o.organ) + " leaves no room for a finger");
-  w.stroke(8, tilt0, tilt1, 20, 0.05);
-  std::size_t anchored = 0;
 
   // One finger, from where the tilted handle shows most: of eight directions (starting away from
   // the anchor), the one after which most of it stays in sight (a kidney dragged into the liver
   // hides behind it).
-  glm::dvec2 away = co - ca;
-  away = glm::length(away) > 1e-6 ? glm::normalize(away) : glm::dvec2(0.0, 1.0);
-  const double dragPx = o.dragMm / mmPerPx, pushPx = o.pushMm / mmPerPx;
-  glm::dvec2 u = away;
-  RigidPose dragged = tilted;
-  double bestRoom = -1.0;
-  for (int k : {0, 1, -1, 2, -2, 3, -3, 4}) {
-    const double a = k * kPi / 4.0;
-    const glm::dvec2 dir(std::cos(a) * away.x - std::sin(a) * away.y, std::sin(a) * away.x + std::cos(a) * away.y);
-    const RigidPose p = simulate(tilted, {g1}, {g1 + dir * dragPx}, 10, anchored);
-    if (anchored != 1) continue;
-    const Footprint f = seen(p, 4);
-    const double room = distanceAt(f, f.innerDistance(onHandle1), g1 + dir * dragPx);
-    if (room > bestRoom) bestRoom = room, u = dir, dragged = p;
+  void dragWithOne() {
+    glm::dvec2 away = co - ca;
+    away = glm::length(away) > 1e-6 ? glm::normalize(away) : glm::dvec2(0.0, 1.0);
+    const double dragPx = o.dragMm / mmPerPx;
+    u = away;
+    dragged = tilted;
+    double bestRoom = -1.0;
+    for (int k : {0, 1, -1, 2, -2, 3, -3, 4}) {
+      const double a = k * kPi / 4.0;
+      const glm::dvec2 dir(std::cos(a) * away.x - std::sin(a) * away.y, std::sin(a) * away.x + std::cos(a) * away.y);
+      const RigidPose p = simulate(tilted, {g1}, {g1 + dir * dragPx}, 10);
+      if (anchored != 1) continue;
+      const Footprint f = seen(p, 4);
+      const double room = distanceAt(f, f.innerDistance(onHandle1), g1 + dir * dragPx);
+      if (room > bestRoom) bestRoom = room, u = dir, dragged = p;
+    }
+    if (bestRoom < 0.0) throw Error("compose: no one-finger drag of the tilted selection keeps a finger on it");
+    h1 = g1 + u * dragPx;
+    w.stroke(11, {g1}, {h1}, 10, 0.05);
   }
-  if (bestRoom < 0.0) throw Error("compose: no one-finger drag of the tilted selection keeps a finger on it");
-  const glm::dvec2 h1 = g1 + u * dragPx;
-  w.stroke(11, {g1}, {h1}, 10, 0.05);
 
-  // Two fingers, across: the pair oriented where the surface's depths differ least (two anchors at
-  // different depths dragged in parallel read partly as depth), both well on the handle.
-  const glm::dvec2 across(-u.y, u.x);
-  const Footprint afterDrag = seen(dragged, 2);
-  const std::vector<double> roomAfterDrag = afterDrag.innerDistance(onHandle1);
-  const double half = std::min({0.35 * r1, 10.0 / mmPerPx, distanceAt(afterDrag, roomAfterDrag, h1) - 3.0});
-  if (half < 2.0) throw Error("compose: after the one-finger drag the selection of label " + std::to_string(o.organ) + " has no room for two fingers");
   // Of eight orientations for two fingers `h` either side of `c`, both 3 px inside the handle, the
-  // one whose picked depths differ least.
-  auto orientPair = [&](const Footprint& f, const std::vector<double>& room, glm::dvec2 c, double h) {
+  // one whose picked depths differ least (two anchors at different depths dragged in parallel read
+  // partly as depth).
+  static glm::dvec2 orientPair(const Footprint& f, const std::vector<double>& room, glm::dvec2 c, double h) {
     glm::dvec2 best(1.0, 0.0);
     double bestDz = kInf;
     for (int k = 0; k < 8; ++k) {
@@ -429,17 +460,26 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
       if (dz < bestDz) bestDz = dz, best = d;
     }
     return best;
-  };
-  const glm::dvec2 pair = orientPair(afterDrag, roomAfterDrag, h1, half);
-  const glm::dvec2 h2 = h1 + across * pushPx;
-  const RigidPose pushed = simulate(dragged, {h1 - half * pair, h1 + half * pair}, {h2 - half * pair, h2 + half * pair}, 11, anchored);
-  if (anchored != 2) throw Error("compose: the two-finger drag's fingers do not both land on the selection");
-  w.stroke(12, {h1 - half * pair, h1 + half * pair}, {h2 - half * pair, h2 + half * pair}, 11, 0.05);
+  }
 
-  // Two fingers where the handle then shows most, twisted 20 degrees about their midpoint (a turn
-  // about the view axis); then two fingers spread by 6 % (the handle comes toward the viewer by about 6 % of its distance,
-  // some 25 mm: the pinch keeps the picked points under the fingers, so depth goes as 1 / spread).
-  auto pairAt = [&](const Footprint& f, glm::dvec2& centre, glm::dvec2& dir) {
+  // Two fingers, across the one-finger drag, both well on the handle.
+  void pushWithTwo() {
+    const double pushPx = o.pushMm / mmPerPx;
+    const glm::dvec2 across(-u.y, u.x);
+    const Footprint afterDrag = seen(dragged, 2);
+    const std::vector<double> roomAfterDrag = afterDrag.innerDistance(onHandle1);
+    const double half = std::min({0.35 * r1, 10.0 / mmPerPx, distanceAt(afterDrag, roomAfterDrag, h1) - 3.0});
+    if (half < 2.0) throw Error("compose: after the one-finger drag the selection of label " + std::to_string(o.organ) + " has no room for two fingers");
+    const glm::dvec2 pair = orientPair(afterDrag, roomAfterDrag, h1, half);
+    const glm::dvec2 h2 = h1 + across * pushPx;
+    pushed = simulate(dragged, {h1 - half * pair, h1 + half * pair}, {h2 - half * pair, h2 + half * pair}, 11);
+    if (anchored != 2) throw Error("compose: the two-finger drag's fingers do not both land on the selection");
+    w.stroke(12, {h1 - half * pair, h1 + half * pair}, {h2 - half * pair, h2 + half * pair}, 11, 0.05);
+  }
+
+  // Two fingers where the handle in `f` shows most: their centre and direction; returns their
+  // half-distance.
+  double pairAt(const Footprint& f, glm::dvec2& centre, glm::dvec2& dir) const {
     const std::vector<double> room = f.innerDistance(onHandle1);
     const auto [c, r] = f.innermost(room);
     const double h = std::min(0.35 * r, 10.0 / mmPerPx);
@@ -447,49 +487,71 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
     centre = c;
     dir = orientPair(f, room, c, h);
     return h;
-  };
-  glm::dvec2 c3, d3;
-  const double h3 = pairAt(seen(pushed, 2), c3, d3);
-  const double twist = glm::radians(20.0);
-  const std::vector<glm::dvec2> twist0{c3 - h3 * d3, c3 + h3 * d3};
-  // The fingers follow the arc (straight chords of 2 degrees each), as a hand turns.
-  std::vector<std::vector<glm::dvec2>> twistFrames{twist0};
-  for (int k = 1; k <= 10; ++k) {
-    const double a = twist * k / 10.0;
-    const glm::dvec2 dk(std::cos(a) * d3.x - std::sin(a) * d3.y, std::sin(a) * d3.x + std::cos(a) * d3.y);
-    twistFrames.push_back({glm::round((c3 - h3 * dk) * 4.0) / 4.0, glm::round((c3 + h3 * dk) * 4.0) / 4.0});
   }
-  const RigidPose twisted = simulatePath(pushed, twistFrames, anchored);
-  if (anchored != 2) throw Error("compose: the twist's fingers do not both land on the selection");
-  w.path(16, twistFrames, 0.05);
-  glm::dvec2 c4, d4;
-  const double h4 = pairAt(seen(twisted, 2), c4, d4);
-  const RigidPose spread = simulate(twisted, {c4 - h4 * d4, c4 + h4 * d4}, {c4 - 1.06 * h4 * d4, c4 + 1.06 * h4 * d4}, 10, anchored);
-  if (anchored != 2) throw Error("compose: the depth pinch's fingers do not both land on the selection");
-  w.stroke(18, {c4 - h4 * d4, c4 + h4 * d4}, {c4 - 1.06 * h4 * d4, c4 + 1.06 * h4 * d4}, 10, 0.05);
-  w.ui("handle-status", "2:idle");
 
-  // Select mode: a tap where the moved handle shows most picks it; then the handle edits, each undone.
-  const Footprint last = seen(spread, 2);
-  const auto [tap, rt] = last.innermost(last.innerDistance(onHandle1));
-  if (rt < 3.0) throw Error("compose: after the drags the selection of label " + std::to_string(o.organ) + " is out of sight");
-  w.ui("set-mode", "select");
-  w.stroke(14, {tap}, {tap}, 1, 0.04);
-  w.t += 0.3;
-  for (const auto& [a, v] : std::vector<std::pair<const char*, const char*>>{
-           {"handle-union", "1,2"}, {"undo", ""}, {"redo", ""}, {"undo", ""}, {"handle-difference", "1,2"}, {"undo", ""}})
-    w.ui(a, v);
+  // Two fingers where the handle then shows most, twisted 20 degrees about their midpoint (a turn
+  // about the view axis); then two fingers spread by 6 % (the handle comes toward the viewer by about 6 % of its distance,
+  // some 25 mm: the pinch keeps the picked points under the fingers, so depth goes as 1 / spread).
+  void twistAndSpread() {
+    glm::dvec2 c3, d3;
+    const double h3 = pairAt(seen(pushed, 2), c3, d3);
+    const double twist = glm::radians(20.0);
+    const std::vector<glm::dvec2> twist0{c3 - h3 * d3, c3 + h3 * d3};
+    // The fingers follow the arc (straight chords of 2 degrees each), as a hand turns.
+    std::vector<std::vector<glm::dvec2>> twistFrames{twist0};
+    for (int k = 1; k <= 10; ++k) {
+      const double a = twist * k / 10.0;
+      const glm::dvec2 dk(std::cos(a) * d3.x - std::sin(a) * d3.y, std::sin(a) * d3.x + std::cos(a) * d3.y);
+      twistFrames.push_back({glm::round((c3 - h3 * dk) * 4.0) / 4.0, glm::round((c3 + h3 * dk) * 4.0) / 4.0});
+    }
+    const RigidPose twisted = simulatePath(pushed, twistFrames);
+    if (anchored != 2) throw Error("compose: the twist's fingers do not both land on the selection");
+    w.path(16, twistFrames, 0.05);
+    glm::dvec2 c4, d4;
+    const double h4 = pairAt(seen(twisted, 2), c4, d4);
+    spread = simulate(twisted, {c4 - h4 * d4, c4 + h4 * d4}, {c4 - 1.06 * h4 * d4, c4 + 1.06 * h4 * d4}, 10);
+    if (anchored != 2) throw Error("compose: the depth pinch's fingers do not both land on the selection");
+    w.stroke(18, {c4 - h4 * d4, c4 + h4 * d4}, {c4 - 1.06 * h4 * d4, c4 + 1.06 * h4 * d4}, 10, 0.05);
+  }
 
-  // Navigate: a drag that starts off both structures (where the view is emptiest) orbits.
-  w.ui("set-mode", "navigate");
-  const std::vector<double> background = fp.innerDistance([](int l) { return l == kBackground; });
-  const bool someBackground = *std::max_element(background.begin(), background.end()) >= 12.0;
-  const glm::dvec2 p = fp.innermost(someBackground ? background : fp.innerDistance([&](int l) { return !organ(l) && !anchor(l); })).first;
-  const double dx = std::round(40.0 * vp.height / 512.0);
-  w.stroke(20, {p}, {p + glm::dvec2(p.x < mid.x ? dx : -dx, 0.0)}, 9, 0.05);
-  w.ui("reset-camera", "", 0.2);
-  w.ui("export");
-  return out;
+  // Select mode: a tap where the moved handle shows most picks it; then the handle edits, each
+  // undone. Navigate: a drag that starts off both structures (where the view is emptiest) orbits;
+  // the view reset, the export.
+  void finish() {
+    const Footprint last = seen(spread, 2);
+    const auto [tap, rt] = last.innermost(last.innerDistance(onHandle1));
+    if (rt < 3.0) throw Error("compose: after the drags the selection of label " + std::to_string(o.organ) + " is out of sight");
+    w.ui("set-mode", "select");
+    w.stroke(14, {tap}, {tap}, 1, 0.04);
+    w.t += 0.3;
+    for (const auto& [a, v] : std::vector<std::pair<const char*, const char*>>{
+             {"handle-union", "1,2"}, {"undo", ""}, {"redo", ""}, {"undo", ""}, {"handle-difference", "1,2"}, {"undo", ""}})
+      w.ui(a, v);
+    w.ui("set-mode", "navigate");
+    const std::vector<double> background = fp.innerDistance([](int l) { return l == kBackground; });
+    const bool someBackground = *std::max_element(background.begin(), background.end()) >= 12.0;
+    const glm::dvec2 p = fp.innermost(someBackground ? background : fp.innerDistance([this](int l) { return !organ(l) && !anchor(l); })).first;
+    const double dx = std::round(40.0 * vp.height / 512.0);
+    w.stroke(20, {p}, {p + glm::dvec2(p.x < mid.x ? dx : -dx, 0.0)}, 9, 0.05);
+    w.ui("reset-camera", "", 0.2);
+    w.ui("export");
+  }
+};
+
+}  // namespace
+
+ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const ComposeOptions& o, const std::string& volumePath) {
+  if (!labels.geometry().sameGrid(ct.geometry()))
+    throw Error("compose: the label map's grid is not the CT's (dimensions, spacing, origin or orientation differ)");
+  if (o.organ == o.anchor) throw Error("compose: the organ and the anchor must be different labels");
+  if (o.viewport.width < 64 || o.viewport.height < 64 || o.viewport.width > 8192 || o.viewport.height > 8192)
+    throw Error("compose: the viewport must be 64 to 8192 pixels a side");
+  if (!(o.dragMm >= 0.0 && o.dragMm <= 200.0 && o.pushMm >= 0.0 && o.pushMm <= 200.0))
+    throw Error("compose: drag distances must be 0 to 200 mm");
+  const Eigen::Vector3i deep = deepestVoxel(labels, o.organ, ct);
+  if (deep.x() < 0) throw Error("compose: label " + std::to_string(o.organ) + " (organ) is not in the label map");
+  if (deepestVoxel(labels, o.anchor, ct).x() < 0) throw Error("compose: label " + std::to_string(o.anchor) + " (anchor) is not in the label map");
+  return Composer(ct, labels, o).compose(deep, volumePath);
 }
 
 }  // namespace handson
