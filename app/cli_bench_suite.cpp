@@ -70,42 +70,42 @@ std::map<std::string, std::vector<double>> readTimings(const std::filesystem::pa
   }
   return cols;
 }
-}  // namespace
 
-int cmdBenchSuite(const Words& words) {
-  Args args(words, {"--out", "--data"}, {"--quick", "--smoke"});
-  if (args.help() || !args.positional().empty() || !args.value("--out")) {
-    usageStream(args) << kBenchSuiteHelp;
-    return args.help() ? 0 : 2;
-  }
-  const bool smoke = args.flag("--smoke");
-  const bool quick = smoke || args.flag("--quick");
-  if (smoke && args.flag("--quick")) throw UsageError("--quick and --smoke: choose one");
-  const std::filesystem::path out = *args.value("--out");
-  std::filesystem::create_directories(out / "scenarios");
-  std::ofstream summary(out / "summary.txt");
-  summary << std::fixed << std::setprecision(1);
-  summary << "handson benchmark suite" << (smoke ? " (--smoke: not measurements)" : quick ? " (--quick)" : "") << "\n";
-  auto since = [](std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+// The paper's scenarios (assets/gestures), as built in.
+const std::pair<const char*, const char*> kScenarios[] = {{"kidney-translate-two-fingers", kScenario_kidney_translate_two_fingers},
+                                                         {"kidney-rotate-in-plane", kScenario_kidney_rotate_in_plane},
+                                                         {"kidney-rotate-out-of-plane-three-fingers", kScenario_kidney_rotate_out_of_plane_three_fingers},
+                                                         {"vessel-translate-one-finger", kScenario_vessel_translate_one_finger}};
+
+struct Scene {
+  std::string name, volume;      // volume "": the phantom
+  std::vector<std::string> scripts;  // per scenario (paths)
+};
+
+// What the suite's parts share: where it writes, its size, its summary and its failure count.
+struct SuiteRun {
+  std::filesystem::path out;
+  std::string data;
+  bool quick = false, smoke = false;
+  std::ofstream summary;
   int failures = 0;
+};
 
-  // 1. The scenarios, on each scene: the phantom (the scripts as recorded), ircadb1.1 resampled to
-  // the paper's ~5 M voxels (--quick: 1 M) and at full size (34 M voxels; not with --quick). On real
-  // CT the scripts are re-aimed at the organ by its label (app/scenario_retarget.h): the touches stay,
-  // the camera moves.
-  const std::pair<const char*, const char*> scenarios[] = {{"kidney-translate-two-fingers", kScenario_kidney_translate_two_fingers},
-                                                           {"kidney-rotate-in-plane", kScenario_kidney_rotate_in_plane},
-                                                           {"kidney-rotate-out-of-plane-three-fingers", kScenario_kidney_rotate_out_of_plane_three_fingers},
-                                                           {"vessel-translate-one-finger", kScenario_vessel_translate_one_finger}};
-  const std::string data = args.valueOr("--data", "../shared/data");
-  struct Scene {
-    std::string name, volume;      // volume "": the phantom
-    std::vector<std::string> scripts;  // per scenario (paths)
-  };
+double since(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
+
+// 1. The scenes: the phantom (the scripts as recorded), ircadb1.1 resampled to the paper's ~5 M
+// voxels (--quick: 1 M) and at full size (34 M voxels; not with --quick). On real CT the scripts are
+// re-aimed at the organ by its label (app/scenario_retarget.h): the touches stay, the camera moves.
+std::vector<Scene> prepareScenes(SuiteRun& run) {
+  const std::filesystem::path& out = run.out;
+  const bool quick = run.quick, smoke = run.smoke;
+  std::ofstream& summary = run.summary;
+  int& failures = run.failures;
+  const std::string& data = run.data;
   std::vector<Scene> scenes;
   {
     Scene ph{"phantom", "", {}};
-    for (const auto& [name, text] : scenarios) {
+    for (const auto& [name, text] : kScenarios) {
       const auto script = out / "scenarios" / (std::string(name) + ".json");
       std::ofstream(script) << text;
       ph.scripts.push_back(script.string());
@@ -125,7 +125,7 @@ int cmdBenchSuite(const Words& words) {
       const auto smallPath = out / "scenes" / (smallName + ".nii.gz");
       writeNifti(resampleToVoxelCount(ct, voxels), smallPath.string());
       Scene small{smallName, smallPath.string(), {}}, full{"ircadb1.1-34M", (ircadb / "ct.nii.gz").string(), {}};
-      for (const auto& [name, text] : scenarios) {
+      for (const auto& [name, text] : kScenarios) {
         const SessionScript recorded = parseSessionScript(text, name);
         const bool vessel = std::string(name).rfind("vessel", 0) == 0;
         // The phantom's organs: the right kidney and the inferior vena cava; on ircadb1.1 the right
@@ -159,7 +159,55 @@ int cmdBenchSuite(const Words& words) {
   } else {
     summary << "real-CT scenes: skipped (no ircadb1.1 at " << ircadb.string() << ")\n";
   }
+  return scenes;
+}
 
+// The scenes' latency distribution and per-stage medians as charts (gnuplot; none without it).
+void writeScenarioCharts(const std::filesystem::path& out, const std::vector<Scene>& scenes, const std::map<std::string, std::vector<double>>& wide) {
+  if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
+    const auto gp = out / "latency.gp";
+    std::ofstream g(gp);
+    g << "set datafile separator ','\nset terminal pngcairo size 900,520 font ',11'\nset output '" << (out / "latency.png").string()
+      << "'\nset termoption noenhanced\nset title 'Input-to-present latency per scene (cumulative distribution over the scenarios frames with input)'\n"
+      << "set xlabel 'ms'\nset ylabel 'fraction of frames'\nset logscale x\nset grid\nset key bottom right\nset yrange [0:1.02]\nplot ";
+    for (std::size_t i = 0; i < scenes.size(); ++i)
+      g << (i ? ", " : "") << "'" << (out / "latency.csv").string() << "' index " << i << " using 3:2 with steps lw 2 title '" << scenes[i].name << "'";
+    g << "\n";
+    g.close();
+    if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no latency chart\n";
+  }
+  {
+    std::ofstream w(out / "scenario_stages_wide.csv");
+    w << "stage";
+    for (const auto& sc : scenes) w << "," << sc.name;
+    w << "\n";
+    for (const auto& [stage, v] : wide) {
+      w << stage;
+      for (double x : v) {
+        if (std::isnan(x)) w << ",?";
+        else w << "," << x;
+      }
+      w << "\n";
+    }
+  }
+  if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
+    const auto gp = out / "stages.gp";
+    std::ofstream(gp) << "set datafile separator ','\nset datafile missing '?'\nset terminal pngcairo size 1100,560 font ',10'\nset output '"
+                      << (out / "stages.png").string()
+                      << "'\nset termoption noenhanced\nset title 'Per-stage time per scene: median over the four scenarios frames (GPU passes; (cpu): CPU stages)'\n"
+                      << "set style data histogram\nset style histogram cluster gap 1\nset style fill solid 0.8\nset logscale y\nset ylabel 'ms'\n"
+                      << "set xtics rotate by -30\nset key top left\nset grid ytics\n"
+                      << "plot for [i=2:" << scenes.size() + 1 << "] '" << (out / "scenario_stages_wide.csv").string() << "' using i:xtic(1) title columnhead\n";
+    if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no stages chart\n";
+  }
+}
+
+// Each scenario replayed headless with the simulation on, on each scene: per-stage times and latency.
+void replayScenarios(SuiteRun& run, const std::vector<Scene>& scenes) {
+  const std::filesystem::path& out = run.out;
+  const bool quick = run.quick, smoke = run.smoke;
+  std::ofstream& summary = run.summary;
+  int& failures = run.failures;
   std::ofstream stages(out / "scenario_stages.csv");
   stages << "scene,scenario,stage,median_ms,p95_ms,frames\n";
   std::map<std::string, std::vector<double>> wide;  // stage -> median per scene over its scenarios' frames (the chart's table)
@@ -170,7 +218,7 @@ int cmdBenchSuite(const Words& words) {
     const Scene& scene = scenes[si];
     std::map<std::string, std::vector<double>> pooled;  // stage -> every frame's value, all scenarios
     for (std::size_t k = 0; k < scene.scripts.size(); ++k) {
-      const std::string name = scenarios[k].first;
+      const std::string name = kScenarios[k].first;
       const auto t0 = std::chrono::steady_clock::now();
       const std::string tag = scene.name + "_" + name;
       ReplayOptions o;
@@ -225,45 +273,18 @@ int cmdBenchSuite(const Words& words) {
     latency << "\n\n";  // a gnuplot data block per scene
   }
   latency.close();
-  if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
-    const auto gp = out / "latency.gp";
-    std::ofstream g(gp);
-    g << "set datafile separator ','\nset terminal pngcairo size 900,520 font ',11'\nset output '" << (out / "latency.png").string()
-      << "'\nset termoption noenhanced\nset title 'Input-to-present latency per scene (cumulative distribution over the scenarios frames with input)'\n"
-      << "set xlabel 'ms'\nset ylabel 'fraction of frames'\nset logscale x\nset grid\nset key bottom right\nset yrange [0:1.02]\nplot ";
-    for (std::size_t i = 0; i < scenes.size(); ++i)
-      g << (i ? ", " : "") << "'" << (out / "latency.csv").string() << "' index " << i << " using 3:2 with steps lw 2 title '" << scenes[i].name << "'";
-    g << "\n";
-    g.close();
-    if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no latency chart\n";
-  }
   stages.close();
-  {
-    std::ofstream w(out / "scenario_stages_wide.csv");
-    w << "stage";
-    for (const auto& sc : scenes) w << "," << sc.name;
-    w << "\n";
-    for (const auto& [stage, v] : wide) {
-      w << stage;
-      for (double x : v) {
-        if (std::isnan(x)) w << ",?";
-        else w << "," << x;
-      }
-      w << "\n";
-    }
-  }
-  if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
-    const auto gp = out / "stages.gp";
-    std::ofstream(gp) << "set datafile separator ','\nset datafile missing '?'\nset terminal pngcairo size 1100,560 font ',10'\nset output '"
-                      << (out / "stages.png").string()
-                      << "'\nset termoption noenhanced\nset title 'Per-stage time per scene: median over the four scenarios frames (GPU passes; (cpu): CPU stages)'\n"
-                      << "set style data histogram\nset style histogram cluster gap 1\nset style fill solid 0.8\nset logscale y\nset ylabel 'ms'\n"
-                      << "set xtics rotate by -30\nset key top left\nset grid ytics\n"
-                      << "plot for [i=2:" << scenes.size() + 1 << "] '" << (out / "scenario_stages_wide.csv").string() << "' using i:xtic(1) title columnhead\n";
-    if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no stages chart\n";
-  }
+  writeScenarioCharts(out, scenes, wide);
+}
 
-  // 2. The component benchmarks, each into its folder; a failure is noted and the suite goes on.
+// 2. The component benchmarks, each into its folder; a failure is noted and the suite goes on.
+void componentBenchmarks(SuiteRun& run) {
+  const std::filesystem::path& out = run.out;
+  const bool quick = run.quick, smoke = run.smoke;
+  std::ofstream& summary = run.summary;
+  int& failures = run.failures;
+  const std::string& data = run.data;
+  const std::filesystem::path ircadb = std::filesystem::path(data) / "ircadb1.1";
   auto component = [&](const std::string& name, Words w, int (*fn)(const Words&)) {
     std::filesystem::create_directories(out / name);
     const auto t0 = std::chrono::steady_clock::now();
@@ -323,10 +344,34 @@ int cmdBenchSuite(const Words& words) {
             pick({"--out", o + "stability"}, {"--angles", "30,90,180", "--contrasts", "1,1000,1000000", "--quick", "--out", o + "stability"},
                  {"--angles", "30", "--contrasts", "1000", "--quick", "--out", o + "stability"}),
             cmdBenchStability);
-  summary.close();
-  std::cout << "\nwrote " << (out / "summary.txt").string() << ", scenario_stages.csv, stages.png and the component folders in " << out.string()
-            << (failures ? " (" + std::to_string(failures) + " failed)" : "") << "\n";
-  return failures ? 1 : 0;
+}
+}  // namespace
+
+int cmdBenchSuite(const Words& words) {
+  Args args(words, {"--out", "--data"}, {"--quick", "--smoke"});
+  if (args.help() || !args.positional().empty() || !args.value("--out")) {
+    usageStream(args) << kBenchSuiteHelp;
+    return args.help() ? 0 : 2;
+  }
+  const bool smoke = args.flag("--smoke");
+  const bool quick = smoke || args.flag("--quick");
+  if (smoke && args.flag("--quick")) throw UsageError("--quick and --smoke: choose one");
+  SuiteRun run;
+  run.out = *args.value("--out");
+  run.data = args.valueOr("--data", "../shared/data");
+  run.quick = quick;
+  run.smoke = smoke;
+  std::filesystem::create_directories(run.out / "scenarios");
+  run.summary.open(run.out / "summary.txt");
+  run.summary << std::fixed << std::setprecision(1);
+  run.summary << "handson benchmark suite" << (smoke ? " (--smoke: not measurements)" : quick ? " (--quick)" : "") << "\n";
+  replayScenarios(run, prepareScenes(run));
+  componentBenchmarks(run);
+
+  run.summary.close();
+  std::cout << "\nwrote " << (run.out / "summary.txt").string() << ", scenario_stages.csv, stages.png and the component folders in " << run.out.string()
+            << (run.failures ? " (" + std::to_string(run.failures) + " failed)" : "") << "\n";
+  return run.failures ? 1 : 0;
 }
 
 }  // namespace handson::cli

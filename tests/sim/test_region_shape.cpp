@@ -31,6 +31,26 @@ double boxDistance(const KuhnGrid& g, int c, const Eigen::Vector3d& p) {
 
 bool insideCell(const KuhnGrid& g, int c, const Eigen::Vector3d& p) { return boxDistance(g, c, p) == 0.0; }
 
+// The 4 mm phantom with its right kidney as the handle, and settings of `coarseTets` (8 fine tets
+// each) padded by `paddingMm`.
+struct KidneyPhantom {
+  Phantom phantom;
+  SimHandle handle;
+  KidneyPhantom() {
+    PhantomOptions po;
+    po.spacingMm = 4.0;
+    phantom = makePhantom(po);
+    handle.voxels = voxelsLabelled(phantom.labels, label::kKidneyRight);
+  }
+  SimSettings settings(int coarseTets, double paddingMm) const {
+    SimSettings s;
+    s.coarseTets = coarseTets;
+    s.fineTets = coarseTets * 8;
+    s.paddingMm = paddingMm;
+    return s;
+  }
+};
+
 }  // namespace
 
 TEST(RegionShape, ThinnedPointsKeepOnePerBucketAndMarkTheOutside) {
@@ -77,15 +97,10 @@ TEST(RegionShape, CellsNearThePointsEqualBruteForce) {
 }
 
 TEST(RegionShape, SceneHoldsTheCellsAwayFromTheKidneyAndSpendsItsBudgetOnTheRest) {
-  PhantomOptions po;
-  po.spacingMm = 4.0;
-  const Phantom p = makePhantom(po);
-  SimHandle h;
-  h.voxels = voxelsLabelled(p.labels, label::kKidneyRight);
-  SimSettings s;
-  s.coarseTets = 3000;
-  s.fineTets = 3000 * 8;
-  s.paddingMm = 40.0;
+  const KidneyPhantom k;
+  const Phantom& p = k.phantom;
+  const SimHandle& h = k.handle;
+  SimSettings s = k.settings(3000, 40.0);
   const SimScene box = buildSimScene(p.ct, {h}, s);
   s.region = SimSettings::Region::Handles;
   const SimScene shaped = buildSimScene(p.ct, {h}, s);
@@ -122,17 +137,10 @@ TEST(RegionShape, SceneHoldsTheCellsAwayFromTheKidneyAndSpendsItsBudgetOnTheRest
 }
 
 TEST(RegionShape, TheSolveThatSkipsHeldElementsConvergesToTheAssembledAnswer) {
-  PhantomOptions po;
-  po.spacingMm = 4.0;
-  const Phantom p = makePhantom(po);
-  SimHandle h;
-  h.voxels = voxelsLabelled(p.labels, label::kKidneyRight);
-  SimSettings s;
-  s.coarseTets = 1500;
-  s.fineTets = 1500 * 8;
-  s.paddingMm = 25.0;
+  const KidneyPhantom k;
+  SimSettings s = k.settings(1500, 25.0);
   s.region = SimSettings::Region::Handles;
-  const SimScene sc = buildSimScene(p.ct, {h}, s);
+  const SimScene sc = buildSimScene(k.phantom.ct, {k.handle}, s);
   const std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], Eigen::Vector3d(0, 0, 30.0 * M_PI / 180), Eigen::Vector3d(8, 0, 3))};
   CoarseModel pcg(sc.meshes, sc.fineK, sc.constraints), assembled(sc.meshes, sc.fineK, sc.constraints);
   assembled.setSolver(CoarseSolver::Assembled);
