@@ -52,6 +52,9 @@ double median(std::vector<double> v) {
 }
 
 // GPU time of the passes whose names start with one of the prefixes (0 without timestamps).
+// The resampling passes (the interpolation is timed on its own).
+const std::initializer_list<const char*> kResamplePasses = {"deform-reset", "deform-bounds", "deform-args", "deform-clear", "deform-claim", "deform-resolve"};
+
 double passMs(const std::vector<vk::PassTiming>& t, std::initializer_list<const char*> names) {
   double ms = 0;
   for (const auto& p : t)
@@ -59,6 +62,57 @@ double passMs(const std::vector<vk::PassTiming>& t, std::initializer_list<const 
       if (p.name == n) ms += p.gpuMs;
   return ms;
 }
+
+// The last frame's region resampled on the GPU from scratch and on the CPU (the reference), and
+// the fine nodes interpolated by the CPU float reference and by CoarseModel::reconstruct: times and
+// the fraction of voxels within 1 HU.
+struct RegionCheck {
+  double cpuInterp = 0, cpuReconstruct = 0, cpuRaster = 0, gpuRegionWall = 0, gpuRegion = 0, gpuInterp = 0, withinFraction = 0;
+};
+RegionCheck checkRegionAgainstCpu(const vk::Context& ctx, vk::Image& volume, vk::Image& mask, const vk::DeformSetup& setup, const Volume& image,
+                                  const QuantizedVolume& q, const SimScene& sc, const CoarseModel& model, const FineInterpolationData& data,
+                                  const CoarseFrameState& state, const std::vector<RigidTransform>& T, const std::vector<Eigen::Vector3d>& xc) {
+  RegionCheck r;
+  const VolumeGeometry& g = q.geometry;
+  const Eigen::Matrix4f w2i = g.worldToIndex().cast<float>();
+  auto t0 = std::chrono::steady_clock::now();
+  const auto cpuPos = interpolateFineReference(data, state, w2i);
+  r.cpuInterp = since(t0);
+  t0 = std::chrono::steady_clock::now();
+  const auto world = model.reconstruct(T, xc);
+  r.cpuReconstruct = since(t0);
+  t0 = std::chrono::steady_clock::now();
+  Volume cpuOut;
+  rasterizeDeformed(image, sc.meshes.fine, world, sc.lo, sc.hi, image.valueRange().first, cpuOut, nullptr, nullptr,
+                    defaultMaxTetVoxels(sc.meshes.fine, g.worldToIndex()));
+  r.cpuRaster = since(t0);
+  vk::GpuDeformer region(ctx, volume, mask, setup, 1);
+  t0 = std::chrono::steady_clock::now();
+  const auto rr = region.runFrame(state, vk::Redo::Region);
+  r.gpuRegionWall = since(t0);
+  r.gpuRegion = passMs(rr.timings, kResamplePasses);
+  r.gpuInterp = passMs(rr.timings, {"deform-interpolate"});
+  const auto gpuVol = region.readVolume();
+  std::size_t within = 0;
+  for (std::size_t i = 0; i < gpuVol.size(); ++i) within += std::abs(q.toValue(gpuVol[i] / 65535.0f) - cpuOut.value(i)) <= 1.0f ? 1 : 0;
+  r.withinFraction = double(within) / double(gpuVol.size());
+  return r;
+}
+
+// deform_frames.png from deform_frames.csv (gnuplot; no chart without it).
+void writeDeformChart(const std::filesystem::path& out, bool haveTs) {
+  if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
+    const auto gp = out / "deform_frames.gp";
+    std::ofstream(gp) << "set datafile separator ','\nset terminal pngcairo size 900,520 font ',11'\nset output '" << (out / "deform_frames.png").string()
+                      << "'\nset termoption noenhanced\nset title 'Kidney drag: resampling only the moved box vs the whole volume'\n"
+                      << "set xlabel 'frame'\nset ylabel 'ms per frame (" << (haveTs ? "GPU passes" : "wall") << ")'\nset logscale y\nset grid\nset key top right\n"
+                      << "plot '" << (out / "deform_frames.csv").string() << "' every ::1 using 1:" << (haveTs ? 7 : 8)
+                      << " with linespoints pt 7 title 'moved box', '' every ::1 using 1:" << (haveTs ? 9 : 10)
+                      << " with linespoints pt 5 title 'whole volume', '' every ::1 using 1:6 with linespoints pt 9 title 'interpolation'\n";
+    if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no chart\n";
+  }
+}
+
 }  // namespace
 
 int cmdBenchDeform(const Words& words) {
@@ -126,7 +180,6 @@ int cmdBenchDeform(const Words& words) {
             << " tets, " << sc.meshes.fine.nodes.size() << " fine nodes; preprocessing " << tPre / 1e3 << " s; device " << ctx.properties().deviceName
             << (ctx.timestampPeriodNs() > 0 ? "" : " (no timestamps: wall times only)") << "\n";
 
-  const auto resample = {"deform-reset", "deform-bounds", "deform-args", "deform-clear", "deform-claim", "deform-resolve"};
   std::ofstream csv(out / "deform_frames.csv");
   csv << "frame,coarse_solve_ms,upload_bytes,moved_tets,box_voxels,dirty_interpolate_ms,dirty_resample_ms,dirty_frame_wall_ms,whole_resample_ms,whole_frame_wall_ms\n";
   auto xc = model.restState();
@@ -145,7 +198,7 @@ int cmdBenchDeform(const Words& words) {
     t0 = std::chrono::steady_clock::now();
     const auto b = whole.runFrame(state, vk::Redo::WholeVolume);
     const double wb = since(t0);
-    const double ra = passMs(a.timings, resample), rb = passMs(b.timings, resample), ia = passMs(a.timings, {"deform-interpolate"});
+    const double ra = passMs(a.timings, kResamplePasses), rb = passMs(b.timings, kResamplePasses), ia = passMs(a.timings, {"deform-interpolate"});
     csv << f << "," << tSolve << "," << state.bytes() << "," << a.movedTets << "," << a.boxVoxels() << "," << ia << "," << ra << "," << wa << "," << rb
         << "," << wb << "\n";
     if (f > 1) {  // frame 1 starts from rest: not a steady drag frame
@@ -171,26 +224,9 @@ int cmdBenchDeform(const Words& words) {
   const bool identical = dirty.readVolume() == whole.readVolume() && dirty.readMask() == whole.readMask();
 
   // CPU references on the last frame: interpolation and the region's rasterization.
-  const Eigen::Matrix4f w2i = g.worldToIndex().cast<float>();
-  t0 = std::chrono::steady_clock::now();
-  const auto cpuPos = interpolateFineReference(data, state, w2i);
-  const double cpuInterp = since(t0);
-  t0 = std::chrono::steady_clock::now();
-  const auto world = model.reconstruct(T, xc);
-  const double cpuReconstruct = since(t0);
-  t0 = std::chrono::steady_clock::now();
-  Volume cpuOut;
-  rasterizeDeformed(image, sc.meshes.fine, world, sc.lo, sc.hi, image.valueRange().first, cpuOut, nullptr, nullptr,
-                    defaultMaxTetVoxels(sc.meshes.fine, g.worldToIndex()));
-  const double cpuRaster = since(t0);
-  vk::GpuDeformer region(ctx, volume, mask, setup, 1);
-  t0 = std::chrono::steady_clock::now();
-  const auto rr = region.runFrame(state, vk::Redo::Region);
-  const double gpuRegionWall = since(t0);
-  const double gpuRegion = passMs(rr.timings, resample), gpuInterp = passMs(rr.timings, {"deform-interpolate"});
-  const auto gpuVol = region.readVolume();
-  std::size_t within = 0;
-  for (std::size_t i = 0; i < gpuVol.size(); ++i) within += std::abs(q.toValue(gpuVol[i] / 65535.0f) - cpuOut.value(i)) <= 1.0f ? 1 : 0;
+  const RegionCheck rc = checkRegionAgainstCpu(ctx, volume, mask, setup, image, q, sc, model, data, state, T, xc);
+  const double cpuInterp = rc.cpuInterp, cpuReconstruct = rc.cpuReconstruct, cpuRaster = rc.cpuRaster, gpuRegionWall = rc.gpuRegionWall,
+               gpuRegion = rc.gpuRegion, gpuInterp = rc.gpuInterp;
   if (ctx.validationMessageCount()) throw Error("Vulkan validation messages were reported");
 
   const double dm = median(dirtyMs), wm = median(wholeMs), dw = median(dirtyWall), ww = median(wholeWall);
@@ -203,7 +239,7 @@ int cmdBenchDeform(const Words& words) {
       << "\nmedian_whole_frame_wall_ms," << ww << "\nwhole_over_dirty_wall," << ww / dw << "\ngpu_interpolate_ms," << gpuInterp
       << "\ncpu_interpolate_reference_ms," << cpuInterp << "\ncpu_reconstruct_double_ms," << cpuReconstruct << "\ngpu_region_resample_ms," << gpuRegion
       << "\ngpu_region_frame_wall_ms," << gpuRegionWall << "\ncpu_region_resample_ms," << cpuRaster << "\nmedian_coarse_solve_ms," << median(solveMs)
-      << "\nmedian_interpolate_ms," << median(interpMs) << "\ngpu_cpu_within_1hu," << double(within) / double(gpuVol.size())
+      << "\nmedian_interpolate_ms," << median(interpMs) << "\ngpu_cpu_within_1hu," << rc.withinFraction
       << "\ndirty_equals_whole," << (identical ? 1 : 0) << "\n";
   sum.close();
   std::cout << std::setprecision(2) << "\nkidney drag, frames 2.." << frames << " (medians; " << (haveTs ? "GPU timestamps" : "wall") << "):\n"
@@ -213,19 +249,10 @@ int cmdBenchDeform(const Words& words) {
             << "x\n  interpolation of " << sc.meshes.fine.nodes.size() << " fine nodes: GPU " << gpuInterp << " ms, CPU float reference " << cpuInterp
             << " ms, CoarseModel::reconstruct " << cpuReconstruct << " ms\n  resampling the region: GPU " << gpuRegion << " ms (" << gpuRegionWall
             << " ms wall), CPU reference " << cpuRaster << " ms: " << cpuRaster / (haveTs ? gpuRegion : gpuRegionWall) << "x; within 1 HU on "
-            << std::setprecision(4) << 100.0 * double(within) / double(gpuVol.size()) << " % of voxels\n"
+            << std::setprecision(4) << 100.0 * rc.withinFraction << " % of voxels\n"
             << std::setprecision(2) << "  whole deformation frame: coarse solve " << median(solveMs) << " ms (CPU, worker thread) + " << state.bytes() / 1024.0
             << " KB upload + GPU " << dw << " ms\n";
-  if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
-    const auto gp = out / "deform_frames.gp";
-    std::ofstream(gp) << "set datafile separator ','\nset terminal pngcairo size 900,520 font ',11'\nset output '" << (out / "deform_frames.png").string()
-                      << "'\nset termoption noenhanced\nset title 'Kidney drag: resampling only the moved box vs the whole volume'\n"
-                      << "set xlabel 'frame'\nset ylabel 'ms per frame (" << (haveTs ? "GPU passes" : "wall") << ")'\nset logscale y\nset grid\nset key top right\n"
-                      << "plot '" << (out / "deform_frames.csv").string() << "' every ::1 using 1:" << (haveTs ? 7 : 8)
-                      << " with linespoints pt 7 title 'moved box', '' every ::1 using 1:" << (haveTs ? 9 : 10)
-                      << " with linespoints pt 5 title 'whole volume', '' every ::1 using 1:6 with linespoints pt 9 title 'interpolation'\n";
-    if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no chart\n";
-  }
+  writeDeformChart(out, haveTs);
   std::cout << "wrote " << (out / "deform_frames.csv").string() << ", " << (out / "deform_summary.csv").string() << " and deform_frames.png\n";
   return identical ? 0 : 1;
 }
