@@ -194,9 +194,7 @@ bool DeformationController::outgrown(const std::vector<RigidTransform>& T) const
         if (w[a] > sc.hi[a] - margin && sc.hi[a] < imageHi_[a] - 1e-6) return true;
       }
     }
-    if (!sc.regionCell.empty() && i < restOutline_.size())
-      for (const Eigen::Vector3d& p : restOutline_[i])
-        if (nearRegionBoundary(sc.meshes.coarseGrid, sc.regionCell, T[i].apply(p), margin)) return true;
+    if (i < restOutline_.size() && outlineNearRegionBoundary(sc.meshes.coarseGrid, sc.regionCell, restOutline_[i], T[i].R, T[i].t, margin)) return true;
   }
   return false;
 }

@@ -60,9 +60,14 @@ std::vector<char> cellsNearPoints(const KuhnGrid& grid, const HandlePoints& poin
   const Eigen::Vector3d r = Eigen::Vector3d::Constant(padding);
   for (std::size_t i = 0; i < points.point.size(); ++i) {
     const Eigen::Vector3d& p = points.point[i];
+    // The cell holding the point (a point on the grid's upper faces in the last cell, as locate()).
+    const Eigen::Vector3d u = (p - grid.origin()).cwiseQuotient(grid.cell());
+    if ((u.array() >= -1e-9).all() && (u.array() <= n.cast<double>().array() + 1e-9).all()) {
+      Eigen::Vector3i c;
+      for (int k = 0; k < 3; ++k) c[k] = std::clamp(int(std::floor(u[k])), 0, n[k] - 1);
+      in[index(c)] = 1;
+    }
     Eigen::Vector3i a, b;
-    cellRange(grid, p, p, a, b);
-    if ((a.array() <= b.array()).all()) in[index(a)] = 1;  // the cell holding the point
     if (!points.surface[i]) continue;
     cellRange(grid, p - r, p + r, a, b);
     for (int z = a.z(); z <= b.z(); ++z)
@@ -74,6 +79,26 @@ std::vector<char> cellsNearPoints(const KuhnGrid& grid, const HandlePoints& poin
         }
   }
   return in;
+}
+
+void markCellNeighbours(const KuhnGrid& grid, const std::vector<char>& seed, std::vector<char>& in) {
+  const Eigen::Vector3i n = grid.cells();
+  if (seed.size() != grid.cellCount() || in.size() != grid.cellCount()) throw Error("region: one flag per cell needed");
+  for (int z = 0; z < n.z(); ++z)
+    for (int y = 0; y < n.y(); ++y)
+      for (int x = 0; x < n.x(); ++x) {
+        if (!seed[std::size_t(x + n.x() * (y + n.y() * z))]) continue;
+        for (int dz = std::max(0, z - 1); dz <= std::min(n.z() - 1, z + 1); ++dz)
+          for (int dy = std::max(0, y - 1); dy <= std::min(n.y() - 1, y + 1); ++dy)
+            for (int dx = std::max(0, x - 1); dx <= std::min(n.x() - 1, x + 1); ++dx) in[std::size_t(dx + n.x() * (dy + n.y() * dz))] = 1;
+      }
+}
+
+bool outlineNearRegionBoundary(const KuhnGrid& grid, const std::vector<char>& inRegion, const std::vector<Eigen::Vector3d>& outline,
+                               const Eigen::Matrix3d& R, const Eigen::Vector3d& t, double margin) {
+  for (const Eigen::Vector3d& p : outline)
+    if (nearRegionBoundary(grid, inRegion, R * p + t, margin)) return true;
+  return false;
 }
 
 bool nearRegionBoundary(const KuhnGrid& grid, const std::vector<char>& inRegion, const Eigen::Vector3d& p, double margin) {

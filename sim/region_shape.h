@@ -26,6 +26,14 @@ HandlePoints thinHandlePoints(const std::vector<Eigen::Vector3d>& voxelCentres, 
 /// of a surface point (the distance from the nearest point of the box).
 std::vector<char> cellsNearPoints(const KuhnGrid& grid, const HandlePoints& points, double padding);
 
+/// Sets `in` for every cell of `seed` and its 26 neighbours (both per cell of `grid`).
+void markCellNeighbours(const KuhnGrid& grid, const std::vector<char>& seed, std::vector<char>& in);
+
+/// True when one of a handle's outside points (at rest, world mm) moved by T comes within `margin`
+/// of a cell outside `inRegion` (nearRegionBoundary): the region must be rebuilt around the handle.
+bool outlineNearRegionBoundary(const KuhnGrid& grid, const std::vector<char>& inRegion, const std::vector<Eigen::Vector3d>& outline,
+                               const Eigen::Matrix3d& R, const Eigen::Vector3d& t, double margin);
+
 /// True when a ball of radius `margin` about p (world mm) reaches a cell of the grid outside
 /// `inRegion`: a handle moved there has come close to the region's fixed boundary (the grid's own
 /// box is checked by the caller).

@@ -81,7 +81,7 @@ std::string simulationCacheKey(const Volume& image, const std::vector<SimHandle>
   h.pod(s.fineTets);
   h.pod(s.paddingMm);
   h.pod(s.wholeVolume);
-  h.pod(s.region);
+  h.pod(s.wholeVolume ? SimSettings::Region::Box : s.region);  // the whole volume has no shape
   h.pod(s.element);
   h.pod(s.fineMesh);
   h.pod(s.adaptContrast);

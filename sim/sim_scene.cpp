@@ -26,7 +26,7 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   // The handles as thinned points at rest and at each pose they will reach (Region::Handles).
   HandlePoints shape;
   const bool shaped = s.region == SimSettings::Region::Handles && !s.wholeVolume && !handles.empty();
-  if (shaped) shape.bucketMm = std::max(1.0, g.spacing.minCoeff());
+  if (shaped) shape.bucketMm = std::max(1.0, g.spacing.maxCoeff());  // thick slices: one bucket a slice, so the outside is found
   std::vector<Eigen::Vector3d> handleWorld;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
   for (std::size_t h = 0; h < handles.size(); ++h) {
@@ -83,7 +83,7 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
     for (int pass = 0; pass < 2; ++pass) {
       const std::vector<char> in = cellsNearPoints(coarseGridFor(lo, hi, coarseTets), shape, s.paddingMm);
       const double share = std::max(0.125, double(std::count(in.begin(), in.end(), 1)) / double(in.size()));
-      coarseTets = int(std::clamp(std::lround(s.coarseTets / share), long(s.coarseTets), 8L * s.coarseTets));
+      coarseTets = int(std::clamp(std::lround(s.coarseTets / share), long(s.coarseTets), std::max(long(s.coarseTets), std::min(8L * s.coarseTets, 10'000'000L))));
     }
   const int finePer = std::max(1, s.fineTets / std::max(1, s.coarseTets));
   // Memory before meshing: per fine tet its 12x12 stiffness, a Hessian in the refinement and the
@@ -138,10 +138,13 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   if (shaped) {
     // Every fine node of a cell outside the region is held: the region's boundary is fixed too.
     sc.regionCell = cellsNearPoints(sc.meshes.coarseGrid, shape, s.paddingMm);
-    // Every cell holding a handle voxel too (the thinned points stand for their buckets).
+    // Every cell holding a handle voxel and its 26 neighbours too (the thinned points stand for
+    // their buckets; a handle node on a held cell's face would be held at rest, whatever the padding).
+    std::vector<char> holds(sc.regionCell.size(), 0);
     for (const SimHandle& h : handles)
       for (std::uint32_t v : h.voxels)
-        if (const int t = sc.meshes.locateFine(g.toWorld(g.voxelOf(v).cast<double>())); t >= 0) sc.regionCell[std::size_t(sc.meshes.fineParent[std::size_t(t)] / 6)] = 1;
+        if (const int t = sc.meshes.locateFine(g.toWorld(g.voxelOf(v).cast<double>())); t >= 0) holds[std::size_t(sc.meshes.fineParent[std::size_t(t)] / 6)] = 1;
+    markCellNeighbours(sc.meshes.coarseGrid, holds, sc.regionCell);
     for (std::size_t t = 0; t < F.tets.size(); ++t)
       if (!sc.regionCell[std::size_t(sc.meshes.fineParent[t] / 6)])
         for (int n : F.tets[t]) sc.constraints.fixed[std::size_t(n)] = 1;

@@ -169,7 +169,8 @@ TEST(DeformationController, ARegionShapedByTheHandleIsSimulatedDrawnAndRebuiltWh
   std::size_t changed = 0;
   for (std::size_t i = 0; i < out.voxelCount(); ++i) changed += out.value(i) != s.phantom.ct.value(i);
   EXPECT_GT(changed, 100u);
-  // Moved 14 mm further, the kidney comes within half the padding of the region's edge: rebuilt there.
+  // Moved 14 mm further, the kidney comes within half the padding of the region's edge (the box's
+  // face in this small scene; the held cells' check: RegionShape.AMovedOutline...): rebuilt there.
   pose.translation = Eigen::Vector3d(20, 0, 0);
   handles.setPose(id, pose, false);
   s.frame(dc, handles);

@@ -115,17 +115,27 @@ TEST(RegionShape, SceneHoldsTheCellsAwayFromTheKidneyAndSpendsItsBudgetOnTheRest
   EXPECT_LT(share, 0.95) << "the box's far corners are held";
   // The budget: about coarseTets tets in the simulated cells (the grid's rounding: 15 %, twice).
   EXPECT_NEAR(6.0 * double(in), 3000.0, 0.35 * 3000.0);
-  // Every fine node of a held cell is held; no handle node is.
-  const TetMesh& F = shaped.meshes.fine;
-  for (std::size_t t = 0; t < F.tets.size(); ++t)
-    if (!shaped.regionCell[std::size_t(shaped.meshes.fineParent[t] / 6)])
-      for (int n : F.tets[t]) ASSERT_TRUE(shaped.constraints.fixed[std::size_t(n)]);
-  EXPECT_GT(shaped.handleNodeCount[0], 0u);
-  for (std::size_t n = 0; n < F.nodes.size(); ++n)
-    if (shaped.constraints.handleOf[n] >= 0) {
-      const int cell = shaped.meshes.coarseGrid.locate(F.nodes[n]) / 6;
-      ASSERT_TRUE(shaped.regionCell[std::size_t(cell)]) << "a handle node in a held cell";
+  // Every fine node of a held cell is held; no handle node is (off the box's own faces), whatever
+  // the padding: the cells around the handle's are simulated too.
+  auto check = [&](const SimScene& sc) {
+    const TetMesh& F = sc.meshes.fine;
+    for (std::size_t t = 0; t < F.tets.size(); ++t) {
+      if (sc.regionCell[std::size_t(sc.meshes.fineParent[t] / 6)]) continue;
+      for (int n : F.tets[t]) ASSERT_TRUE(sc.constraints.fixed[std::size_t(n)]);
     }
+    EXPECT_GT(sc.handleNodeCount[0], 0u);
+    const double onFace = 1e-9 * sc.meshes.coarseGrid.cell().maxCoeff();
+    std::size_t held = 0;
+    for (std::size_t n = 0; n < F.nodes.size(); ++n) {
+      const bool boxFace = ((F.nodes[n] - sc.lo).array() <= onFace).any() || ((sc.hi - F.nodes[n]).array() <= onFace).any();
+      held += sc.constraints.handleOf[n] >= 0 && sc.constraints.fixed[n] && !boxFace;
+    }
+    EXPECT_EQ(held, 0u) << "handle nodes held at rest inside the box";
+  };
+  check(shaped);
+  SimSettings tight = s;
+  tight.paddingMm = 0.0;
+  check(buildSimScene(p.ct, {h}, tight));
   // A padding that reaches every cell gives the box's scene.
   SimSettings wide = s;
   wide.paddingMm = 1000.0;
@@ -134,6 +144,37 @@ TEST(RegionShape, SceneHoldsTheCellsAwayFromTheKidneyAndSpendsItsBudgetOnTheRest
   const SimScene a = buildSimScene(p.ct, {h}, wide), b = buildSimScene(p.ct, {h}, wideBox);
   EXPECT_EQ(a.meshes.coarse.tets.size(), b.meshes.coarse.tets.size());
   EXPECT_EQ(a.constraints.fixed, b.constraints.fixed);
+}
+
+TEST(RegionShape, AMovedOutlineThatNearsAHeldCellAsksForANewRegion) {
+  const KidneyPhantom k;
+  SimSettings s = k.settings(3000, 40.0);
+  s.region = SimSettings::Region::Handles;
+  const SimScene sc = buildSimScene(k.phantom.ct, {k.handle}, s);
+  const KuhnGrid& g = sc.meshes.coarseGrid;
+  // The kidney's outside at 4 mm, as the app keeps it.
+  std::vector<Eigen::Vector3d> centres;
+  const VolumeGeometry& geo = k.phantom.ct.geometry();
+  for (std::uint32_t v : k.handle.voxels) centres.push_back(geo.toWorld(geo.voxelOf(v).cast<double>()));
+  const HandlePoints thin = thinHandlePoints(centres, 4.0);
+  std::vector<Eigen::Vector3d> outline;
+  for (std::size_t i = 0; i < thin.point.size(); ++i)
+    if (thin.surface[i]) outline.push_back(thin.point[i]);
+  const double margin = 0.5 * s.paddingMm;
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  EXPECT_FALSE(outlineNearRegionBoundary(g, sc.regionCell, outline, I, Eigen::Vector3d::Zero(), margin)) << "at rest: the padding is all there";
+  // Moved so that its outside point nearest a held cell reaches that cell's centre: a rebuild.
+  double best = 1e300;
+  Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+  for (std::size_t c = 0; c < g.cellCount(); ++c) {
+    if (sc.regionCell[c]) continue;
+    const Eigen::Vector3d centre = g.nodePosition(g.cellNodes(int(c))[0]) + 0.5 * g.cell();
+    for (const auto& p : outline)
+      if ((centre - p).norm() < best) best = (centre - p).norm(), shift = centre - p;
+  }
+  ASSERT_LT(best, 1e300) << "the scene has held cells";
+  EXPECT_TRUE(outlineNearRegionBoundary(g, sc.regionCell, outline, I, shift, margin));
+  EXPECT_FALSE(outlineNearRegionBoundary(g, {}, outline, I, shift, margin)) << "a box region: the caller checks its faces";
 }
 
 TEST(RegionShape, TheSolveThatSkipsHeldElementsConvergesToTheAssembledAnswer) {

@@ -3,6 +3,8 @@
 // corrupt file is rebuilt, never trusted.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <filesystem>
 #include <fstream>
 #include <unistd.h>
@@ -69,7 +71,11 @@ TEST_P(SceneCacheKinds, ALoadedSceneAndModelAnswerBitForBitLikeTheBuiltOnes) {
   SimSettings s = in.settings;
   s.fineMesh = GetParam();
   s.region = region;
-  s.paddingMm = 20.0;
+  if (region == SimSettings::Region::Handles) {  // with held cells: the box's far corners
+    s.coarseTets = 1500;
+    s.fineTets = 1500 * 8;
+    s.paddingMm = 30.0;
+  }
   const fs::path dir = tempDir("handson_cache_roundtrip");
   SimScene built;
   CacheOutcome first;
@@ -88,6 +94,9 @@ TEST_P(SceneCacheKinds, ALoadedSceneAndModelAnswerBitForBitLikeTheBuiltOnes) {
   EXPECT_EQ(loaded.constraints.fixed, built.constraints.fixed);
   EXPECT_EQ(loaded.regionCell, built.regionCell);
   EXPECT_EQ(built.regionCell.empty(), region == SimSettings::Region::Box);
+  if (region == SimSettings::Region::Handles) {
+    EXPECT_NE(std::count(built.regionCell.begin(), built.regionCell.end(), 0), 0) << "held cells";
+  }
   ASSERT_EQ(loaded.fineK.size(), built.fineK.size());
   for (std::size_t t = 0; t < built.fineK.size(); ++t) ASSERT_EQ(loaded.fineK[t], built.fineK[t]) << "tet " << t;
   EXPECT_EQ(answer(*m2, loaded), answer(*m1, built)) << "the same solve, bit for bit";
