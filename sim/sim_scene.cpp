@@ -10,6 +10,21 @@
 
 namespace handson {
 
+namespace {
+// Region::Handles: the cells within `padding` of the handles' points, and every cell holding a
+// handle voxel with its 26 neighbours (the thinned points stand for their buckets; a handle node on
+// a held cell's face would be held at rest, whatever the padding), are simulated; every fine node of
+// another cell is held, so the region's boundary is fixed too.
+void holdCellsAwayFromHandles(SimScene& sc, const HandlePoints& shape, const std::vector<char>& holdsHandle, double padding) {
+  sc.regionCell = cellsNearPoints(sc.meshes.coarseGrid, shape, padding);
+  markCellNeighbours(sc.meshes.coarseGrid, holdsHandle, sc.regionCell);
+  const TetMesh& F = sc.meshes.fine;
+  for (std::size_t t = 0; t < F.tets.size(); ++t)
+    if (!sc.regionCell[std::size_t(sc.meshes.fineParent[t] / 6)])
+      for (int n : F.tets[t]) sc.constraints.fixed[std::size_t(n)] = 1;
+}
+}  // namespace
+
 SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& s, const ProgressFn& progress) {
   if (image.empty()) throw Error("simulation: empty image");
   const VolumeGeometry& g = image.geometry();
@@ -33,18 +48,18 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
     if (handles[h].voxels.empty()) throw Error("simulation: handle " + std::to_string(h + 1) + " has no voxels");
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     Eigen::Vector3d hlo = Eigen::Vector3d::Constant(1e300), hhi = -hlo;
+    handleWorld.clear();
     for (std::uint32_t v : handles[h].voxels) {
       if (v >= nvox) throw Error("simulation: handle " + std::to_string(h + 1) + " has a voxel outside the image");
       const Eigen::Vector3d w = g.toWorld(g.voxelOf(v).cast<double>());
       hlo = hlo.cwiseMin(w);
       hhi = hhi.cwiseMax(w);
       sum += w;
+      if (shaped) handleWorld.push_back(w);
     }
     lo = lo.cwiseMin(hlo);
     hi = hi.cwiseMax(hhi);
     if (shaped) {
-      handleWorld.clear();
-      for (std::uint32_t v : handles[h].voxels) handleWorld.push_back(g.toWorld(g.voxelOf(v).cast<double>()));
       HandlePoints hp = thinHandlePoints(handleWorld, shape.bucketMm);
       const std::size_t n = hp.point.size();
       for (const RigidTransform& T : handles[h].reach)
@@ -135,26 +150,16 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   for (std::size_t n = 0; n < F.nodes.size(); ++n)
     for (int a = 0; a < 3; ++a)
       if (F.nodes[n][a] <= lo[a] + onFace || F.nodes[n][a] >= hi[a] - onFace) sc.constraints.fixed[n] = 1;
-  if (shaped) {
-    // Every fine node of a cell outside the region is held: the region's boundary is fixed too.
-    sc.regionCell = cellsNearPoints(sc.meshes.coarseGrid, shape, s.paddingMm);
-    // Every cell holding a handle voxel and its 26 neighbours too (the thinned points stand for
-    // their buckets; a handle node on a held cell's face would be held at rest, whatever the padding).
-    std::vector<char> holds(sc.regionCell.size(), 0);
-    for (const SimHandle& h : handles)
-      for (std::uint32_t v : h.voxels)
-        if (const int t = sc.meshes.locateFine(g.toWorld(g.voxelOf(v).cast<double>())); t >= 0) holds[std::size_t(sc.meshes.fineParent[std::size_t(t)] / 6)] = 1;
-    markCellNeighbours(sc.meshes.coarseGrid, holds, sc.regionCell);
-    for (std::size_t t = 0; t < F.tets.size(); ++t)
-      if (!sc.regionCell[std::size_t(sc.meshes.fineParent[t] / 6)])
-        for (int n : F.tets[t]) sc.constraints.fixed[std::size_t(n)] = 1;
-  }
+  // Handle nodes: those of the fine tets holding a handle voxel's centre; the cells holding them.
+  std::vector<char> holdsHandle(shaped ? sc.meshes.coarseGrid.cellCount() : 0, 0);
   for (std::size_t h = 0; h < handles.size(); ++h)
     for (std::uint32_t v : handles[h].voxels) {
       const int t = sc.meshes.locateFine(g.toWorld(g.voxelOf(v).cast<double>()));
       if (t < 0) continue;  // outside the region (whole-volume runs include every voxel centre)
       for (int n : F.tets[std::size_t(t)]) sc.constraints.handleOf[std::size_t(n)] = int(h);
+      if (shaped) holdsHandle[std::size_t(sc.meshes.fineParent[std::size_t(t)] / 6)] = 1;
     }
+  if (shaped) holdCellsAwayFromHandles(sc, shape, holdsHandle, s.paddingMm);
   sc.handleNodeCount.assign(handles.size(), 0);
   for (std::size_t n = 0; n < F.nodes.size(); ++n)
     if (sc.constraints.handleOf[n] >= 0 && !sc.constraints.fixed[n]) ++sc.handleNodeCount[std::size_t(sc.constraints.handleOf[n])];
