@@ -38,12 +38,15 @@ const char* const kBenchSimHelp =
     "  motion for the coarsened model with both element kinds (grid cells, the default, and the spec's\n"
     "  coarse tets, on the same coarse nodes), a plain coarse FEM and the two-level refinement (cells);\n"
     "  the region shaped by the handle (--region handles: its own finer grid, the same budget) against the\n"
-    "  box's fine reference, frame and error;\n"
+    "  box's fine reference, frame and error; graded cells (the cells near the handle halved, a named\n"
+    "  option of the coarse model) on the same meshes, frame and error;\n"
     "  and the coarse solve's error after 1, 2, 3, 5 and 8 iterations from rest (solver iterations).\n"
     "  --coarse-list N,N,..   coarse tet counts (default 1500,3000,6000)\n"
     "  --fine-per-coarse N    fine tets per coarse tet (default 64: m = 4)\n"
     "  --spacing MM           phantom voxel size (default 2)\n"
     "  --refine-steps N       two-level steps measured (default 4, 10 PCG iterations each)\n"
+    "  --graded-split CELLS   graded cells: halve the cells within CELLS cell sizes of the handle (default 1;\n"
+    "                         -1 skips them)\n"
     "  --translate-mm X,Y,Z, --rotate-deg AX,AY,AZ   another motion\n"
     "  --materials CSV        material table (default: the CT defaults, assets/materials/ct-default.csv)\n"
     "  --out DIR              sim_accuracy.csv, sim_tradeoff.csv, sim_tradeoff.png and sim_force.csv/png\n"
@@ -126,6 +129,14 @@ struct ShapedRun {
   double share = 0;      // of the grid's cells simulated
   Drag drag;
   DeformationError error;
+  /// Its line of the console report; `boxFrame`: the box's frame (ms).
+  std::string summary(double boxFrame) const {
+    std::ostringstream o;
+    o << std::fixed << std::setprecision(3) << "  region shaped by the handle (--region handles): " << tets << " tets over the box, " << share * 100
+      << " % of its cells simulated; frame " << drag.frame << " ms (" << drag.frame / boxFrame << "x the box's); against the box's fine reference RMS "
+      << std::setprecision(4) << error.rmsOfMotion << ", max " << error.maxOfMotion << "\n";
+    return o.str();
+  }
 };
 ShapedRun measureShapedRegion(const Volume& image, const SimHandle& handle, SimSettings s, const SimScene& box, const Eigen::Vector3d& rv,
                               const Eigen::Vector3d& tv, double motion, const std::vector<Eigen::Vector3d>& fine, const ProgressFn& progress) {
@@ -143,9 +154,50 @@ ShapedRun measureShapedRegion(const Volume& image, const SimHandle& handle, SimS
   return r;
 }
 
+// Graded cells (CoarseGrading: cells within `split` cell sizes of the handle halved, hanging nodes
+// tied to the whole cells) on the same scene and meshes: the drag, the converged answer's error.
+struct GradedRun {
+  double split = -1;
+  std::size_t elements = 0, hanging = 0;
+  Drag drag;
+  CoarseSolveStats conv;
+  DeformationError error;
+  std::string summary;  ///< its line of the console report (empty when skipped)
+  /// Its sim_accuracy.csv fields, each followed by a comma.
+  std::string csv() const {
+    std::ostringstream o;
+    o << split << "," << elements << "," << hanging << "," << drag.frame << "," << drag.lag << "," << (conv.converged ? conv.iterations : -1) << ","
+      << error.rmsOfMotion << "," << error.maxOfMotion << ",";
+    return o.str();
+  }
+};
+GradedRun measureGraded(const SimScene& sc, double split, const Eigen::Vector3d& rv, const Eigen::Vector3d& tv, double motion,
+                        const std::vector<Eigen::Vector3d>& fine, double frame, const ProgressFn& progress, std::ostream& trade) {
+  GradedRun g;
+  g.split = split;
+  if (split < 0) return g;
+  CoarseModel model(sc.meshes, sc.fineK, sc.constraints, progress, CoarseElement::Cell, CoarseGrading{split});
+  g.elements = model.elementCount();
+  g.hanging = model.hangingNodeCount();
+  std::vector<Eigen::Vector3d> x;
+  g.drag = dragRun(model, CoarseSolver::Pcg, sc.handleCentroid[0], rv, tv, motion, x);
+  const std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], rv, tv)};
+  g.conv = model.solve(T, x, 5000);
+  g.error = compareDeformation(sc, T, model.reconstruct(T, x), fine);
+  trade << "graded-cells," << sc.meshes.coarse.tets.size() << "," << g.drag.frame * 1e-3 << "," << g.error.rmsOfMotion << "\n";
+  std::ostringstream o;
+  o << std::fixed << std::setprecision(3) << "  graded cells (--graded-split " << split << "): " << g.elements << " cells (" << g.hanging
+            << " hanging nodes), frame " << g.drag.frame << " ms (" << g.drag.frame / frame << "x the uniform grid's), after the drag "
+            << std::setprecision(4) << g.drag.lag << " of the motion from converged (" << g.conv.iterations << " iterations"
+            << (g.conv.converged ? "" : ", NOT converged") << "); RMS " << g.error.rmsOfMotion << ", max " << g.error.maxOfMotion << "\n";
+  g.summary = o.str();
+  return g;
+}
+
 void writeAccuracyHeader(std::ostream& acc, int refineSteps) {
   acc << "coarse_tets,fine_tets,scene_s,coarsening_s,frame_ms,fine_solve_s,fine_over_frame,fine_iterations,coarse_iterations_to_converge,rms_coarse,max_coarse,"
          "shaped_coarse_tets,shaped_cell_share,frame_ms_shaped,rms_shaped,max_shaped,"
+         "graded_split_cells,graded_elements,graded_hanging_nodes,frame_ms_graded,frame_lag_graded,graded_iterations_to_converge,rms_graded,max_graded,"
          "coarsening_s_tet,frame_ms_tet,rms_coarse_tet,max_coarse_tet,rms_plain,max_plain,frame_ms_assembled,frame_speedup,frame_lag,frame_lag_assembled,"
          "solver_difference,rotation_ms,products_ms,factor_ms,backsolve_ms,boundary_ms,pcg_per_frame,rotation_ms_assembled,assembly_ms_assembled,"
          "factor_ms_assembled,backsolve_ms_assembled,boundary_ms_assembled,factorizations_per_frame_assembled";
@@ -171,6 +223,7 @@ void writeTradeoffChart(const std::filesystem::path& out) {
                       << "'' using (strcol(1) eq 'coarsened-tets' ? $3 : 1/0):4 with points pt 6 ps 1.5 title 'coarsened, tet elements (spec)', "
                       << "'' using (strcol(1) eq 'plain' ? $3 : 1/0):4 with points pt 5 ps 1.5 title 'plain coarse FEM', "
                       << "'' using (strcol(1) eq 'shaped-region' ? $3 : 1/0):4 with points pt 13 ps 1.5 title 'coarsened, region shaped by the handle (vs the box reference)', "
+                      << "'' using (strcol(1) eq 'graded-cells' ? $3 : 1/0):4 with points pt 11 ps 1.5 title 'coarsened, graded cells (halved near the handle)', "
                       << "'' using (strcol(1) eq 'coarse-iterations' ? $3 : 1/0):4 with linespoints pt 1 dt 2 title 'coarse solve from rest: 1, 2, 3, 5, 8 iterations', "
                       << "'' using (strcol(1) eq 'refined' ? $3 : 1/0):4 with linespoints pt 9 title 'two-level refinement, analytic matrix-free (default; 10 PCG / step)', "
                       << "'' using (strcol(1) eq 'refined-warped' ? $3 : 1/0):4 with linespoints pt 10 dt 3 title 'two-level refinement, warped stiffness only', "
@@ -200,7 +253,7 @@ void coarseIterationSweep(const SimScene& sc, CoarseModel& model, const std::vec
 }  // namespace
 
 int cmdBenchSim(const Words& words) {
-  Args args(words, {"--handle", "--handle-label", "--coarse-list", "--fine-per-coarse", "--spacing", "--refine-steps", "--translate-mm", "--rotate-deg", "--materials", "--out"},
+  Args args(words, {"--handle", "--handle-label", "--coarse-list", "--fine-per-coarse", "--spacing", "--refine-steps", "--graded-split", "--translate-mm", "--rotate-deg", "--materials", "--out"},
             {"--quiet"});
   if (args.help() || args.positional().size() > 1 || (args.positional().size() == 1) != bool(args.value("--handle"))) {
     usageStream(args) << kBenchSimHelp;
@@ -211,6 +264,7 @@ int cmdBenchSim(const Words& words) {
   const std::vector<int> coarseList = integerListOption(args, "--coarse-list", "1500,3000,6000", 6, 1000000);
   const int finePer = int(args.integer("--fine-per-coarse", 64, 1, 4096));
   const int refineSteps = int(args.integer("--refine-steps", 4, 0, 100));
+  const double gradedSplit = args.number("--graded-split", 1.0, -1.0, 10.0);
   const auto tr = parseNumberList(args.valueOr("--translate-mm", "10,0,0"), "--translate-mm");
   const auto ro = parseNumberList(args.valueOr("--rotate-deg", "0,0,30"), "--rotate-deg");
   if (tr.size() != 3 || ro.size() != 3) throw UsageError("--translate-mm and --rotate-deg take three numbers");
@@ -284,6 +338,7 @@ int cmdBenchSim(const Words& words) {
     const Measured tet = measure(CoarseElement::Tet);
     Measured cell = measure(CoarseElement::Cell);
     const ShapedRun shaped = measureShapedRegion(image, handle, s, sc, rv, tv, motion, fine.x, progress);
+    const GradedRun graded = measureGraded(sc, gradedSplit, rv, tv, motion, fine.x, cell.drag.frame, progress, trade);
     CoarseModel& model = *cell.model;
     auto& xc = cell.xc;
     const double frame = cell.drag.frame;
@@ -293,7 +348,7 @@ int cmdBenchSim(const Words& words) {
     acc << sc.meshes.coarse.tets.size() << "," << sc.meshes.fine.tets.size() << "," << tScene << "," << cell.coarsening << "," << frame << "," << tFine << ","
         << tFine / (frame * 1e-3) << "," << fine.iterations << "," << (cell.conv.converged ? cell.conv.iterations : -1) << "," << ec.rmsOfMotion << ","
         << ec.maxOfMotion << "," << shaped.tets << "," << shaped.share << "," << shaped.drag.frame << "," << shaped.error.rmsOfMotion << ","
-        << shaped.error.maxOfMotion << "," << tet.coarsening << "," << tet.drag.frame << "," << tet.error.rmsOfMotion << "," << tet.error.maxOfMotion << "," << ep.rmsOfMotion
+        << shaped.error.maxOfMotion << "," << graded.csv() << tet.coarsening << "," << tet.drag.frame << "," << tet.error.rmsOfMotion << "," << tet.error.maxOfMotion << "," << ep.rmsOfMotion
         << "," << ep.maxOfMotion;
     const Drag& a = cell.baseline;
     const CoarseSolveStats& b = cell.drag.mean;
@@ -324,9 +379,7 @@ int cmdBenchSim(const Words& words) {
               << std::setprecision(4) << ec.rmsOfMotion << " / " << ec.maxOfMotion << ", coarsened (tets) " << tet.error.rmsOfMotion << " / "
               << tet.error.maxOfMotion << ", plain coarse FEM " << ep.rmsOfMotion << " / " << ep.maxOfMotion << " (plain / cells "
               << std::setprecision(2) << ep.rmsOfMotion / ec.rmsOfMotion << "x)\n"
-              << std::setprecision(3) << "  region shaped by the handle (--region handles): " << shaped.tets << " tets over the box, "
-              << shaped.share * 100 << " % of its cells simulated; frame " << shaped.drag.frame << " ms (" << shaped.drag.frame / frame
-              << "x the box's); against the box's fine reference RMS " << std::setprecision(4) << shaped.error.rmsOfMotion << ", max " << shaped.error.maxOfMotion << "\n";
+              << shaped.summary(frame) << graded.summary;
     coarseIterationSweep(sc, model, T, fine.x, trade);
     const std::vector<double> stepSeconds = compareRefinements(sc, model, T, xc, xcoarse, fine.x, refineSteps, frame, acc, trade);
     trade << "fine," << sc.meshes.coarse.tets.size() << "," << tFine << ",1e-4\n";

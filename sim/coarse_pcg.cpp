@@ -15,6 +15,9 @@
 //     normalized sum of the node's element quaternions). If every R_e were one R, A(R) = Rn A_0 Rn^T exactly;
 //     with rotations varying smoothly over the mesh M stays close to A(R), and nothing is ever
 //     refactorized while the tissue turns.
+// Graded cells: a hanging corner (x_h = sum_m w_m x_m) gathers its masters' free dofs and scatters
+// its force to them with the same weights (P^T f with P the constraint's prolongation), and x is
+// re-expanded after every update.
 // Shapes: x, positions of all coarse nodes (3-vectors); r, d, p, z, q: free dofs (3 a free node);
 // K_h: 3n x 3n (n = 4 tet, 8 cell), column-major: the element's own (double) for residuals, a packed
 // single-precision copy for the products.
@@ -50,14 +53,19 @@ void CoarseModel::preparePcg(CoarseSolveStats& st) {
   w->elementQ.assign(elements_.size(), Eigen::Quaterniond::Identity());
   // An element whose corners are all held (a shaped region's outside, sim/region_shape.h) adds
   // nothing to a free dof's residual or product.
+  // Graded: an element with a hanging corner takes the slower gather and scatter through masters.
+  w->hangs.assign(elements_.size(), 0);
   for (std::size_t e = 0; e < elements_.size(); ++e)
     for (int c = 0; c < nc_; ++c)
-      if (dof_[std::size_t(elements_[e].node[std::size_t(c)])] >= 0) {
+      if (coarseRole_[std::size_t(elements_[e].node[std::size_t(c)])] == -3) w->hangs[e] = 1;
+  for (std::size_t e = 0; e < elements_.size(); ++e)
+    for (int c = 0; c < nc_; ++c)
+      if (dof_[std::size_t(elements_[e].node[std::size_t(c)])] >= 0 || w->hangs[e]) {
         w->active.push_back(int(e));
         break;
       }
   // Free nodes in dof order, and the elements around each.
-  const std::size_t nn = meshes_.coarse.nodes.size();
+  const std::size_t nn = nodes_.size();
   w->freeNode.assign(std::size_t(dofCount_ / 3), -1);
   for (std::size_t v = 0; v < nn; ++v)
     if (dof_[v] >= 0) w->freeNode[std::size_t(dof_[v] / 3)] = int(v);
@@ -74,9 +82,13 @@ void CoarseModel::preparePcg(CoarseSolveStats& st) {
   w->nodeR.assign(w->freeNode.size(), Eigen::Matrix3d::Identity());
   // A_0 = sum_e K_h over the free dofs, factorized once.
   const auto t0 = std::chrono::steady_clock::now();
-  assembler_->zero();
-  for (std::size_t e = 0; e < elements_.size(); ++e) assembler_->add(int(e), elements_[e].Kh);
-  w->rest.compute(assembler_->matrix());
+  if (graded_) {
+    w->rest.compute(restStiffness());
+  } else {
+    assembler_->zero();
+    for (std::size_t e = 0; e < elements_.size(); ++e) assembler_->add(int(e), elements_[e].Kh);
+    w->rest.compute(assembler_->matrix());
+  }
   if (w->rest.info() != Eigen::Success) throw Error("coarse solve: the rest stiffness is not positive definite");
   st.factorMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   ++st.factorizations;
@@ -130,8 +142,13 @@ void CoarseModel::pcgResidual(const std::vector<RigidTransform>& handles, const 
       y += handleTerm(el, R, handles);
       boundaryMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - b0).count();
     }
-    for (int c = 0; c < N; ++c)
-      if (const int d = dof_[std::size_t(el.node[std::size_t(c)])]; d >= 0) r.template segment<3>(d).noalias() -= R * y.template segment<3>(3 * c);
+    for (int c = 0; c < N; ++c) {
+      const auto v = std::size_t(el.node[std::size_t(c)]);
+      if (const int d = dof_[v]; d >= 0) r.template segment<3>(d).noalias() -= R * y.template segment<3>(3 * c);
+      else if (w.hangs[e])
+        for (const auto& [m, wt] : hang_[v])
+          if (const int dm = dof_[std::size_t(m)]; dm >= 0) r.template segment<3>(dm).noalias() -= wt * (R * y.template segment<3>(3 * c));
+    }
   }
 }
 
@@ -149,14 +166,30 @@ void CoarseModel::pcgProduct(const Eigen::VectorXd& p, Eigen::VectorXd& out) con
     const Eigen::Matrix3d& R = w.elementR[e];
     int dofs[N];
     VecN u;
+    const bool hangs = w.hangs[e] != 0;
     for (int c = 0; c < N; ++c) {
       dofs[c] = dof_[std::size_t(el.node[std::size_t(c)])];
-      if (dofs[c] >= 0) u.template segment<3>(3 * c) = (R.transpose() * p.segment<3>(dofs[c])).template cast<float>();
-      else u.template segment<3>(3 * c).setZero();
+      if (dofs[c] >= 0) {
+        u.template segment<3>(3 * c) = (R.transpose() * p.segment<3>(dofs[c])).template cast<float>();
+      } else if (hangs) {
+        Eigen::Vector3d pv = Eigen::Vector3d::Zero();
+        for (const auto& [m, wt] : hang_[std::size_t(el.node[std::size_t(c)])])
+          if (const int dm = dof_[std::size_t(m)]; dm >= 0) pv += wt * p.segment<3>(dm);
+        u.template segment<3>(3 * c) = (R.transpose() * pv).template cast<float>();
+      } else {
+        u.template segment<3>(3 * c).setZero();
+      }
     }
     const VecN y = Eigen::Map<const MatN>(&w.khf[e * std::size_t(9 * N * N)]) * u;
-    for (int c = 0; c < N; ++c)
-      if (dofs[c] >= 0) out.template segment<3>(dofs[c]).noalias() += R * y.template segment<3>(3 * c).template cast<double>();
+    for (int c = 0; c < N; ++c) {
+      if (dofs[c] >= 0) {
+        out.template segment<3>(dofs[c]).noalias() += R * y.template segment<3>(3 * c).template cast<double>();
+      } else if (hangs) {
+        const Eigen::Vector3d f = R * y.template segment<3>(3 * c).template cast<double>();
+        for (const auto& [m, wt] : hang_[std::size_t(el.node[std::size_t(c)])])
+          if (const int dm = dof_[std::size_t(m)]; dm >= 0) out.template segment<3>(dm).noalias() += wt * f;
+      }
+    }
   }
 }
 
@@ -236,6 +269,7 @@ CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handle
       update = std::max(update, step.norm());
     }
     if (!std::isfinite(update)) throw Error("coarse solve: diverged (non-finite positions)");
+    expandHanging(x);
     st.iterations = it + 1;
     st.lastUpdate = update;
     // The same damping as the assembled solve: an update that does not shrink halves the next steps.

@@ -12,6 +12,7 @@ struct CoarseModel::PcgWorkspace {
   bool ready = false;
   std::vector<float> khf;                        ///< per element, K_h in single precision (3n x 3n, column-major), back to back: the CG products
   std::vector<Eigen::Matrix3d> elementR;         ///< R_e at the current iterate
+  std::vector<char> hangs;                       ///< per element: a corner is a hanging node (graded)
   std::vector<int> active;                       ///< the elements with a free corner: the only ones a frame visits
   std::vector<Eigen::Quaterniond> elementQ;      ///< R_e as the polar iteration's warm start
   std::vector<int> freeNode;                     ///< coarse node of free node i (dof 3i)

@@ -74,13 +74,15 @@ void CoarseModel::setPcgIterations(int n) {
 }
 
 int CoarseModel::elementOfFineTet(std::size_t t) const {
+  if (graded_) return leafOfFineTet_[t];
   const int p = meshes_.fineParent[t];
   return kind_ == CoarseElement::Tet ? p : p / 6;
 }
 
 CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& fineK, const FineConstraints& cons, const ProgressFn& progress,
-                         CoarseElement kind)
-    : meshes_(meshes), constraints_(cons), kind_(kind), nc_(kind == CoarseElement::Tet ? 4 : 8) {
+                         CoarseElement kind, const CoarseGrading& grading)
+    : meshes_(meshes), constraints_(cons), nodes_(meshes.coarse.nodes), nodeFine_(meshes.coarseNodeInFine), kind_(kind),
+      nc_(kind == CoarseElement::Tet ? 4 : 8) {
   const TetMesh& C = meshes.coarse;
   const TetMesh& F = meshes.fine;
   if (fineK.size() != F.tets.size() || cons.handleOf.size() != F.nodes.size() || cons.fixed.size() != F.nodes.size() ||
@@ -95,20 +97,25 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
     if (constraints_.fixed[i]) constraints_.handleOf[i] = -1;
   const auto& handleOf = constraints_.handleOf;
 
-  const std::size_t elementCount = kind_ == CoarseElement::Tet ? C.tets.size() : meshes.coarseGrid.cellCount();
-  std::vector<std::vector<int>> tetsOf(elementCount);
-  for (std::size_t t = 0; t < F.tets.size(); ++t) {
-    if (meshes.fineParent[t] < 0 || std::size_t(meshes.fineParent[t]) >= C.tets.size()) throw Error("coarsening: a fine tet lies outside the coarse mesh");
-    tetsOf[std::size_t(elementOfFineTet(t))].push_back(int(t));
+  std::vector<std::vector<int>> tetsOf;
+  if (grading.graded()) {
+    buildGradedLeaves(grading, tetsOf);
+  } else {
+    tetsOf.resize(kind_ == CoarseElement::Tet ? C.tets.size() : meshes.coarseGrid.cellCount());
+    for (std::size_t t = 0; t < F.tets.size(); ++t) {
+      if (meshes.fineParent[t] < 0 || std::size_t(meshes.fineParent[t]) >= C.tets.size()) throw Error("coarsening: a fine tet lies outside the coarse mesh");
+      tetsOf[std::size_t(elementOfFineTet(t))].push_back(int(t));
+    }
   }
   buildConforming(fineK, tetsOf, progress);
   // Coarse Dirichlet roles and the free dofs' system.
-  coarseRole_.assign(C.nodes.size(), -1);
-  dof_.assign(C.nodes.size(), -1);
-  for (std::size_t v = 0; v < C.nodes.size(); ++v) {
-    const int f = meshes.coarseNodeInFine[v];
+  coarseRole_.assign(nodes_.size(), -1);
+  dof_.assign(nodes_.size(), -1);
+  for (std::size_t v = 0; v < nodes_.size(); ++v) {
+    const int f = nodeFine_[v];
     if (constraints_.fixed[std::size_t(f)]) coarseRole_[v] = -2;
     else if (handleOf[std::size_t(f)] >= 0) coarseRole_[v] = handleOf[std::size_t(f)];
+    else if (graded_ && !hang_[v].empty()) coarseRole_[v] = -3;
     else dof_[v] = (dofCount_ += 3) - 3;
   }
   buildAssembler();
@@ -122,7 +129,10 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
   const auto& handleOf = constraints_.handleOf;
   const int nc = nc_;
   const std::size_t elementCount = tetsOf.size();
+  // A fine node takes its position from one record; coarse nodes are their own (graded: a hanging
+  // node also lies on a whole cell's face, and is condensed there as a face node, not recorded).
   std::vector<char> boundaryDone(F.nodes.size(), 0);
+  for (const int f : nodeFine_) boundaryDone[std::size_t(f)] = 1;
   elements_.resize(elementCount);
   std::unordered_map<int, int> local;
   for (std::size_t e = 0; e < elementCount; ++e) {
@@ -130,6 +140,8 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
     Element& el = elements_[e];
     if (kind_ == CoarseElement::Tet)
       for (int c = 0; c < 4; ++c) el.node[std::size_t(c)] = C.tets[e][std::size_t(c)];
+    else if (graded_)
+      el.node = leaves_[e].node;
     else
       el.node = meshes_.coarseGrid.cellNodes(int(e));
     std::array<Eigen::Vector3d, 4> Xt;
@@ -138,7 +150,7 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
     local.clear();
     std::vector<int> nodes;
     for (int c = 0; c < nc; ++c) {
-      const int f = meshes_.coarseNodeInFine[std::size_t(el.node[std::size_t(c)])];
+      const int f = nodeFine_[std::size_t(el.node[std::size_t(c)])];
       local.emplace(f, int(nodes.size()));
       nodes.push_back(f);
     }
@@ -162,7 +174,7 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
     // Classify the non-corner nodes: weights of the corners for the nodes on the element's faces.
     std::vector<int> Dn, Bn, In;
     std::vector<Eigen::Matrix<double, 8, 1>> Bw;
-    const double scale = (C.nodes[std::size_t(el.node[1])] - C.nodes[std::size_t(el.node[0])]).norm();
+    const double scale = (nodes_[std::size_t(el.node[1])] - nodes_[std::size_t(el.node[0])]).norm();
     for (int l = nc; l < n; ++l) {
       const int f = nodes[std::size_t(l)];
       if (handleOf[std::size_t(f)] >= 0) {
@@ -176,7 +188,7 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
         onBoundary = lam.minCoeff() < 1e-9 * std::max(1.0, scale);
         w.head<4>() = lam.cwiseMax(0.0) / lam.cwiseMax(0.0).sum();
       } else {
-        w = meshes_.coarseGrid.cellWeights(int(e), F.nodes[std::size_t(f)], &onBoundary);
+        w = elementWeights(int(e), F.nodes[std::size_t(f)], &onBoundary);
       }
       if (onBoundary) {
         Bn.push_back(l);
@@ -259,19 +271,19 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
 }
 
 void CoarseModel::finishElement(Element& el) const {
-  const TetMesh& C = meshes_.coarse;
+  const auto& C = nodes_;
   const int nc = nc_;
   el.Kh = 0.5 * (el.Kh + el.Kh.transpose()).eval();
   VecE Xc(3 * nc);
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   for (int c = 0; c < nc; ++c) {
-    Xc.segment<3>(3 * c) = C.nodes[std::size_t(el.node[std::size_t(c)])];
-    centroid += C.nodes[std::size_t(el.node[std::size_t(c)])] / double(nc);
+    Xc.segment<3>(3 * c) = C[std::size_t(el.node[std::size_t(c)])];
+    centroid += C[std::size_t(el.node[std::size_t(c)])] / double(nc);
   }
   el.KhX = el.Kh * Xc;
   Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
   for (int c = 0; c < nc; ++c) {
-    el.dX[std::size_t(c)] = C.nodes[std::size_t(el.node[std::size_t(c)])] - centroid;
+    el.dX[std::size_t(c)] = C[std::size_t(el.node[std::size_t(c)])] - centroid;
     M += el.dX[std::size_t(c)] * el.dX[std::size_t(c)].transpose();
   }
   el.fitInv = M.inverse();
@@ -309,6 +321,7 @@ void CoarseModel::buildAssembler() {
 }
 
 void CoarseModel::save(std::ostream& os) const {
+  if (graded_) throw Error("coarsening: graded cells are not cached");
   bin::Writer w{os};
   w.pod(std::uint32_t(kind_));
   w.podVector(constraints_.handleOf);
@@ -440,14 +453,13 @@ std::vector<Eigen::Matrix3d> CoarseModel::elementRotations(const std::vector<Eig
 }
 
 FineInterpolationData CoarseModel::interpolationData() const {
-  const TetMesh& C = meshes_.coarse;
   const TetMesh& F = meshes_.fine;
   FineInterpolationData d;
   d.handleCount = std::uint32_t(constraints_.handleCount);
   d.node.assign(F.nodes.size(), {FineInterpolationData::Rest, 0, 0, 0});
   d.rest.reserve(F.nodes.size());
   for (const auto& X : F.nodes) d.rest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
-  for (const auto& X : C.nodes) d.coarseRest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
+  for (const auto& X : nodes_) d.coarseRest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
   d.cornersPerElement = std::uint32_t(nc_);
   for (const auto& el : elements_)
     for (int h = 0; h < 2; ++h) {
@@ -458,8 +470,7 @@ FineInterpolationData CoarseModel::interpolationData() const {
   // Same precedence as reconstruct(): handle, then corner, boundary, interior records overwrite.
   for (std::size_t f = 0; f < F.nodes.size(); ++f)
     if (constraints_.handleOf[f] >= 0) d.node[f] = {FineInterpolationData::Handle, std::uint32_t(constraints_.handleOf[f]), 0, 0};
-  for (std::size_t v = 0; v < C.nodes.size(); ++v)
-    d.node[std::size_t(meshes_.coarseNodeInFine[v])] = {FineInterpolationData::Corner, std::uint32_t(v), 0, 0};
+  for (std::size_t v = 0; v < nodes_.size(); ++v) d.node[std::size_t(nodeFine_[v])] = {FineInterpolationData::Corner, std::uint32_t(v), 0, 0};
   auto push3 = [&](const Eigen::Matrix3d& m) {
     for (int c = 0; c < 3; ++c) d.blocks.emplace_back(float(m(0, c)), float(m(1, c)), float(m(2, c)), 0.0f);
   };
@@ -504,20 +515,21 @@ CoarseModel::VecE CoarseModel::handleTerm(const Element& el, const Eigen::Matrix
 }
 
 double CoarseModel::pinDirichlet(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, double tolerance) const {
-  const TetMesh& C = meshes_.coarse;
+  const auto& C = nodes_;
   if (int(handles.size()) < constraints_.handleCount) throw Error("coarse solve: a transform per handle expected");
-  if (x.size() != C.nodes.size()) x = C.nodes;
+  if (x.size() != C.size()) x = C;
   for (const auto& T : handles)
     if (!T.R.allFinite() || !T.t.allFinite()) throw Error("coarse solve: a handle transform is not finite");
   // Dirichlet coarse nodes take their positions; the motion scale sets the tolerance.
   double motion = 0.0;
-  for (std::size_t v = 0; v < C.nodes.size(); ++v) {
-    if (coarseRole_[v] == -2) x[v] = C.nodes[v];
-    else if (coarseRole_[v] >= 0) x[v] = handles[std::size_t(coarseRole_[v])].apply(C.nodes[v]);
+  for (std::size_t v = 0; v < C.size(); ++v) {
+    if (coarseRole_[v] == -2) x[v] = C[v];
+    else if (coarseRole_[v] >= 0) x[v] = handles[std::size_t(coarseRole_[v])].apply(C[v]);
   }
+  expandHanging(x);
   // The motion scale: the handles' coarse nodes' displacements and their translations.
-  for (std::size_t v = 0; v < C.nodes.size(); ++v)
-    if (coarseRole_[v] >= 0) motion = std::max(motion, (x[v] - C.nodes[v]).norm());
+  for (std::size_t v = 0; v < C.size(); ++v)
+    if (coarseRole_[v] >= 0) motion = std::max(motion, (x[v] - C[v]).norm());
   for (const auto& T : handles) motion = std::max(motion, T.t.norm());
   return tolerance * std::max(motion, 1e-3);  // a micron at least: zero motion converges too
 }
@@ -535,6 +547,7 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, 
 }
 
 CoarseSolveStats CoarseModel::solveAssembled(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tol) {
+  if (graded_) throw Error("coarse solve: the assembled solver takes the uniform grid only (use pcg with graded cells)");
   const TetMesh& C = meshes_.coarse;
   using Clock = std::chrono::steady_clock;
   auto ms = [](Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); };
@@ -625,17 +638,19 @@ CoarseSolveStats CoarseModel::solveAssembled(const std::vector<RigidTransform>& 
   return st;
 }
 
-CoarseModel::CoarseModel(const NestedMeshes& meshes, CoarseElement kind) : meshes_(meshes), kind_(kind), nc_(kind == CoarseElement::Tet ? 4 : 8) {}
+CoarseModel::CoarseModel(const NestedMeshes& meshes, CoarseElement kind)
+    : meshes_(meshes), nodes_(meshes.coarse.nodes), nodeFine_(meshes.coarseNodeInFine), kind_(kind), nc_(kind == CoarseElement::Tet ? 4 : 8) {}
 
 std::vector<Eigen::Vector3d> CoarseModel::reconstruct(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const {
-  const TetMesh& C = meshes_.coarse;
+  const auto& C = nodes_;
   const TetMesh& F = meshes_.fine;
+  if (x.size() != C.size()) throw Error("coarse reconstruction: one position per coarse node expected");
   std::vector<Eigen::Vector3d> out = F.nodes;
   for (std::size_t f = 0; f < F.nodes.size(); ++f) {
     const int h = constraints_.handleOf[f];
     if (h >= 0) out[f] = handles[std::size_t(h)].apply(F.nodes[f]);
   }
-  for (std::size_t v = 0; v < C.nodes.size(); ++v) out[std::size_t(meshes_.coarseNodeInFine[v])] = x[v];
+  for (std::size_t v = 0; v < C.size(); ++v) out[std::size_t(nodeFine_[v])] = x[v];
   for (const auto& b : boundary_) {
     const Element& el = elements_[std::size_t(b.element)];
     Eigen::Vector3d p = Eigen::Vector3d::Zero();
@@ -649,7 +664,7 @@ std::vector<Eigen::Vector3d> CoarseModel::reconstruct(const std::vector<RigidTra
     const Element& el = elements_[std::size_t(in.element)];
     for (int c = 0; c < nc_; ++c) {
       const auto v = std::size_t(el.node[std::size_t(c)]);
-      local.segment<3>(3 * c) = Rc.transpose() * x[v] - C.nodes[v];
+      local.segment<3>(3 * c) = Rc.transpose() * x[v] - C[v];
     }
     Eigen::Vector3d p = F.nodes[std::size_t(in.fine)] + in.H * local;
     for (const auto& g : in.g) {
@@ -662,13 +677,15 @@ std::vector<Eigen::Vector3d> CoarseModel::reconstruct(const std::vector<RigidTra
 }
 
 Eigen::VectorXd CoarseModel::restrictToCoarse(const std::vector<Eigen::Vector3d>& r, const std::vector<Eigen::Matrix3d>& R) const {
-  const TetMesh& C = meshes_.coarse;
   Eigen::VectorXd out = Eigen::VectorXd::Zero(dofCount_);
+  // A hanging node's share goes to its masters.
   auto add = [&](int coarseNode, const Eigen::Vector3d& v) {
-    const int d = dof_[std::size_t(coarseNode)];
-    if (d >= 0) out.segment<3>(d) += v;
+    if (const int d = dof_[std::size_t(coarseNode)]; d >= 0) out.segment<3>(d) += v;
+    else if (graded_)
+      for (const auto& [m, w] : hang_[std::size_t(coarseNode)])
+        if (const int dm = dof_[std::size_t(m)]; dm >= 0) out.segment<3>(dm) += w * v;
   };
-  for (std::size_t v = 0; v < C.nodes.size(); ++v) add(int(v), r[std::size_t(meshes_.coarseNodeInFine[v])]);
+  for (std::size_t v = 0; v < nodes_.size(); ++v) add(int(v), r[std::size_t(nodeFine_[v])]);
   for (const auto& b : boundary_) {
     if (constraints_.fixed[std::size_t(b.fine)]) continue;
     for (int c = 0; c < nc_; ++c) add(elementCorner(b.element, c), b.N[c] * r[std::size_t(b.fine)]);
@@ -682,12 +699,15 @@ Eigen::VectorXd CoarseModel::restrictToCoarse(const std::vector<Eigen::Vector3d>
 }
 
 void CoarseModel::prolongAdd(const Eigen::VectorXd& cv, const std::vector<Eigen::Matrix3d>& R, std::vector<Eigen::Vector3d>& out) const {
-  const TetMesh& C = meshes_.coarse;
   auto val = [&](int coarseNode) -> Eigen::Vector3d {
-    const int d = dof_[std::size_t(coarseNode)];
-    return d >= 0 ? Eigen::Vector3d(cv.segment<3>(d)) : Eigen::Vector3d::Zero();
+    if (const int d = dof_[std::size_t(coarseNode)]; d >= 0) return cv.segment<3>(d);
+    Eigen::Vector3d v = Eigen::Vector3d::Zero();
+    if (graded_)
+      for (const auto& [m, w] : hang_[std::size_t(coarseNode)])
+        if (const int dm = dof_[std::size_t(m)]; dm >= 0) v += w * cv.segment<3>(dm);
+    return v;
   };
-  for (std::size_t v = 0; v < C.nodes.size(); ++v) out[std::size_t(meshes_.coarseNodeInFine[v])] += val(int(v));
+  for (std::size_t v = 0; v < nodes_.size(); ++v) out[std::size_t(nodeFine_[v])] += val(int(v));
   for (const auto& b : boundary_) {
     if (constraints_.fixed[std::size_t(b.fine)]) continue;
     for (int c = 0; c < nc_; ++c) out[std::size_t(b.fine)] += b.N[c] * val(elementCorner(b.element, c));

@@ -81,11 +81,23 @@ const char* coarseElementName(CoarseElement e);
 enum class CoarseSolver { Assembled, Pcg };
 const char* coarseSolverName(CoarseSolver s);
 
+/// Where the cell elements are smaller than the coarse grid's cells (docs/simulation-model.md,
+/// "Graded cells"). Every coarse cell with a handle node within `splitWithinCells` cell sizes of
+/// its box splits into 8 half-size cells (a leaf of m/2 fine cells, m = NestedMeshes::refinement,
+/// which must be even), each a cell element with its own rotation. A half-size cell's corner on a
+/// face or edge of a whole cell is a hanging node: it follows the whole cell's Kuhn face
+/// interpolation, x_h = sum_q w_q x_q (the two ends of an edge or of the face's Kuhn diagonal), so
+/// the model stays conforming. A negative distance (the default) keeps the uniform grid.
+struct CoarseGrading {
+  double splitWithinCells = -1.0;
+  bool graded() const { return !(splitWithinCells < 0.0); }  // NaN counts, to be refused
+};
+
 class CoarseModel {
  public:
   /// Precomputes the condensed elements. `fineK`: rest stiffness per fine tet.
   CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& fineK, const FineConstraints& constraints, const ProgressFn& progress = {},
-              CoarseElement element = CoarseElement::Cell);
+              CoarseElement element = CoarseElement::Cell, const CoarseGrading& grading = {});
 
   /// The precomputed model, for the on-disk cache (sim/scene_cache.h).
   void save(std::ostream& os) const;
@@ -115,8 +127,13 @@ class CoarseModel {
   /// The element each fine tet belongs to.
   int elementOfFineTet(std::size_t t) const;
 
-  /// Coarse node positions at rest.
-  std::vector<Eigen::Vector3d> restState() const { return meshes_.coarse.nodes; }
+  /// Coarse node positions at rest: the coarse mesh's nodes, then (graded) the half-size cells'
+  /// other corners. A state x holds one position per coarse node, hanging ones included.
+  std::vector<Eigen::Vector3d> restState() const { return nodes_; }
+  /// Built with a CoarseGrading that split cells (half-size cells near the handles).
+  bool graded() const { return graded_; }
+  /// Graded: the hanging coarse nodes (coarseRole() -3).
+  std::size_t hangingNodeCount() const { return hangingNodes_.size(); }
   /// Quasi-static corotational iterations from `x` (warm start), at most `maxIterations`, stopping
   /// when the largest update is below tolerance x the largest handle displacement.
   CoarseSolveStats solve(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tolerance = 1e-6);
@@ -147,13 +164,23 @@ class CoarseModel {
   /// A_c^-1 b with the coarse matrix of the last solve() iteration (Pcg: its preconditioner,
   /// Rn A_0^-1 Rn^T at the last solve's rotations).
   Eigen::VectorXd coarseSolve(const Eigen::VectorXd& b) const;
-  /// Coarse nodes held by Dirichlet conditions: -2 fixed at rest, k >= 0 moved by handle k, -1 free.
+  /// Coarse nodes held by Dirichlet conditions: -2 fixed at rest, k >= 0 moved by handle k, -1 free,
+  /// -3 hanging (graded: follows the whole cell it lies on).
   const std::vector<int>& coarseRole() const { return coarseRole_; }
   std::size_t freeCoarseDofs() const { return std::size_t(dofCount_); }
 
  private:
   CoarseModel(const NestedMeshes& meshes, CoarseElement kind);
   void buildAssembler();
+  /// Graded: the leaves (half-size cells near the handles, whole cells elsewhere), their corner
+  /// nodes (nodes_ grows) and the hanging nodes' weights (sim/coarse_grading.cpp).
+  void buildGradedLeaves(const CoarseGrading& grading, std::vector<std::vector<int>>& tetsOf);
+  /// The Kuhn interpolation weights of element e's corners at p (its cell's, or its leaf's).
+  Eigen::Matrix<double, 8, 1> elementWeights(int e, const Eigen::Vector3d& p, bool* onBoundary) const;
+  /// Hanging nodes take their masters' weighted positions.
+  void expandHanging(std::vector<Eigen::Vector3d>& x) const;
+  /// The rest stiffness sum_e K_h over the free dofs, hanging corners through their masters.
+  SparseMatrix restStiffness();
   /// The per-element condensation of Tet and Cell elements (linear faces).
   void buildConforming(const std::vector<Mat12>& fineK, const std::vector<std::vector<int>>& tetsOf, const ProgressFn& progress);
   /// Sets the Dirichlet coarse nodes of x and returns the convergence threshold (mm).
@@ -215,6 +242,18 @@ class CoarseModel {
 
   const NestedMeshes& meshes_;
   FineConstraints constraints_;
+  std::vector<Eigen::Vector3d> nodes_;  ///< coarse node rest positions (the coarse mesh's, then graded extras)
+  std::vector<int> nodeFine_;           ///< fine node of each coarse node
+  bool graded_ = false;
+  struct Leaf {
+    Eigen::Vector3i lo;  ///< fine grid node of its lowest corner
+    int size;            ///< fine cells per edge
+    std::array<int, 8> node;  ///< coarse corner nodes, in KuhnGrid::cellNodes order
+  };
+  std::vector<Leaf> leaves_;                                   ///< graded: element e's cube
+  std::vector<int> leafOfFineTet_;                             ///< graded: the element of each fine tet
+  std::vector<std::vector<std::pair<int, double>>> hang_;      ///< per coarse node: masters and weights (hanging only)
+  std::vector<int> hangingNodes_;
   CoarseElement kind_;
   int nc_ = 4;
   std::vector<Element> elements_;

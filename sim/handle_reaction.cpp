@@ -84,8 +84,7 @@ std::vector<HandleReaction> fineHandleReactions(const TetMesh& F, const std::vec
 }
 
 std::vector<HandleReaction> CoarseModel::handleReactions(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const {
-  const TetMesh& C = meshes_.coarse;
-  if (int(handles.size()) < constraints_.handleCount || x.size() != C.nodes.size()) throw Error("handle reactions: inconsistent sizes");
+  if (int(handles.size()) < constraints_.handleCount || x.size() != nodes_.size()) throw Error("handle reactions: inconsistent sizes");
   std::vector<HandleReaction> r(std::size_t(constraints_.handleCount));
   const int nc = nc_;
   for (std::size_t e = 0; e < elements_.size(); ++e) {
@@ -97,7 +96,7 @@ std::vector<HandleReaction> CoarseModel::handleReactions(const std::vector<Rigid
     VecE d(3 * nc);
     for (int c = 0; c < nc; ++c) {
       const auto v = std::size_t(el.node[std::size_t(c)]);
-      d.segment<3>(3 * c) = Rc.transpose() * x[v] - C.nodes[v];
+      d.segment<3>(3 * c) = Rc.transpose() * x[v] - nodes_[v];
     }
     const std::size_t h = el.handles.size();
     Eigen::VectorXd p(12 * Eigen::Index(h));
