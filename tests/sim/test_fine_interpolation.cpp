@@ -40,9 +40,10 @@ class FineInterpolationKinds : public ::testing::TestWithParam<CoarseElement> {}
 INSTANTIATE_TEST_SUITE_P(BothElementKinds, FineInterpolationKinds, ::testing::Values(CoarseElement::Cell, CoarseElement::Tet),
                          [](const auto& p) { return std::string(coarseElementName(p.param)); });
 
-TEST_P(FineInterpolationKinds, PackedFloatReferenceEqualsTheModelsReconstruction) {
-  const Scene s = kidneyScene();
-  CoarseModel model(s.scene.meshes, s.scene.fineK, s.scene.constraints, {}, GetParam());
+namespace {
+
+// The packed float reference (what the GPU pass computes) against the model's own reconstruction.
+void expectPackedEqualsReconstruction(const Scene& s, CoarseModel& model, std::size_t maxFrameBytes) {
   const std::vector<RigidTransform> T = {
       RigidTransform::about(s.scene.handleCentroid[0], Eigen::Vector3d(0.1, 0.2, 30.0 * M_PI / 180), Eigen::Vector3d(10, -4, 3))};
   auto xc = model.restState();
@@ -57,7 +58,7 @@ TEST_P(FineInterpolationKinds, PackedFloatReferenceEqualsTheModelsReconstruction
   EXPECT_EQ(kinds[FineInterpolationData::Rest], 0);
   for (int k = 1; k < 5; ++k) EXPECT_GT(kinds[std::size_t(k)], 0) << "kind " << k;
   const CoarseFrameState st = packFrameState(xc, model.elementRotations(xc), T);
-  EXPECT_LT(st.bytes(), 16u * 1024u) << "a frame's upload is kilobytes";
+  EXPECT_LT(st.bytes(), maxFrameBytes) << "a frame's upload is kilobytes";
   const auto got = interpolateFineReference(d, st, Eigen::Matrix4f::Identity());
   double worst = 0;
   for (std::size_t f = 0; f < expect.size(); ++f) worst = std::max(worst, (got[f].head<3>().cast<double>() - expect[f]).norm());
@@ -66,6 +67,22 @@ TEST_P(FineInterpolationKinds, PackedFloatReferenceEqualsTheModelsReconstruction
   EXPECT_LT(worst, 2e-3) << "mm";
   std::printf("packed reconstruction: %zu fine nodes, %.1f MB static, %zu bytes a frame, worst %.2e mm\n", d.node.size(), d.staticBytes() / 1e6,
               st.bytes(), worst);
+}
+
+}  // namespace
+
+TEST_P(FineInterpolationKinds, PackedFloatReferenceEqualsTheModelsReconstruction) {
+  const Scene s = kidneyScene();
+  CoarseModel model(s.scene.meshes, s.scene.fineK, s.scene.constraints, {}, GetParam());
+  expectPackedEqualsReconstruction(s, model, 16u * 1024u);
+}
+
+TEST(FineInterpolation, GradedCellsPackLikeTheirReconstruction) {
+  // Hanging nodes are coarse nodes like any other (their positions in the state), never face records.
+  const Scene s = kidneyScene();
+  CoarseModel model(s.scene.meshes, s.scene.fineK, s.scene.constraints, {}, CoarseElement::Cell, CoarseGrading{0.0});
+  ASSERT_GT(model.hangingNodeCount(), 0u);
+  expectPackedEqualsReconstruction(s, model, 64u * 1024u);
 }
 
 TEST(FineInterpolation, RestStateGivesRestPositionsInIndexSpace) {
