@@ -135,6 +135,25 @@ struct GalerkinBox {
   }
 };
 
+// The minimiser of the fine energy 1/2 u^T K u over u = Tm q + uD: (Tm^T K Tm) q = -Tm^T K uD, by a
+// sparse Cholesky (LDL^T) of the reduced matrix. Returns u; empty if the factorization fails.
+Eigen::VectorXd galerkinMinimiser(const GalerkinBox& box, const Eigen::SparseMatrix<double>& Tm, const Eigen::VectorXd& uD) {
+  const TetMesh& F = box.nm.fine;
+  const int nd = 3 * int(F.nodes.size());
+  std::vector<Eigen::Triplet<double>> trip;
+  for (std::size_t t = 0; t < F.tets.size(); ++t)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b)
+        for (int r = 0; r < 3; ++r)
+          for (int cc = 0; cc < 3; ++cc) trip.emplace_back(3 * F.tets[t][std::size_t(a)] + r, 3 * F.tets[t][std::size_t(b)] + cc, box.K[t](3 * a + r, 3 * b + cc));
+  Eigen::SparseMatrix<double> Kf(nd, nd);
+  Kf.setFromTriplets(trip.begin(), trip.end());
+  const Eigen::SparseMatrix<double> A = Eigen::SparseMatrix<double>(Tm.transpose()) * (Kf * Tm);
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A);
+  if (ldlt.info() != Eigen::Success) return {};
+  return Tm * ldlt.solve(-(Tm.transpose() * (Kf * uD))) + uD;
+}
+
 class CoarseningKinds : public ::testing::TestWithParam<CoarseElement> {};
 INSTANTIATE_TEST_SUITE_P(BothElementKinds, CoarseningKinds, ::testing::Values(CoarseElement::Cell, CoarseElement::Tet),
                          [](const auto& p) { return std::string(coarseElementName(p.param)); });
@@ -186,14 +205,6 @@ TEST_P(CoarseningKinds, InTheLinearRegimeItIsTheGalerkinProjectionOntoItsSubspac
     else qIndex[n] = (nq += 3) - 3;
   }
   const int nd = 3 * int(nf);
-  std::vector<Eigen::Triplet<double>> trip;
-  for (std::size_t t = 0; t < F.tets.size(); ++t)
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b)
-        for (int r = 0; r < 3; ++r)
-          for (int cc = 0; cc < 3; ++cc) trip.emplace_back(3 * F.tets[t][std::size_t(a)] + r, 3 * F.tets[t][std::size_t(b)] + cc, K[t](3 * a + r, 3 * b + cc));
-  Eigen::SparseMatrix<double> Kf(nd, nd);
-  Kf.setFromTriplets(trip.begin(), trip.end());
   // The subspace map u = Tm q + uD (sparse: a node follows itself or the corners of its face).
   std::vector<Eigen::Triplet<double>> tt;
   Eigen::VectorXd uD = Eigen::VectorXd::Zero(nd);
@@ -213,12 +224,8 @@ TEST_P(CoarseningKinds, InTheLinearRegimeItIsTheGalerkinProjectionOntoItsSubspac
   }
   Eigen::SparseMatrix<double> Tm(nd, nq);
   Tm.setFromTriplets(tt.begin(), tt.end());
-  // The minimiser: (Tm^T K Tm) q = -Tm^T K uD, by a sparse Cholesky (LDL^T) of the reduced matrix.
-  const Eigen::SparseMatrix<double> A = Eigen::SparseMatrix<double>(Tm.transpose()) * (Kf * Tm);
-  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A);
-  ASSERT_EQ(ldlt.info(), Eigen::Success);
-  const Eigen::VectorXd q = ldlt.solve(-(Tm.transpose() * (Kf * uD)));
-  const Eigen::VectorXd ub = Tm * q + uD;
+  const Eigen::VectorXd ub = galerkinMinimiser(box, Tm, uD);
+  ASSERT_EQ(ub.size(), nd);
   double err = 0, scale = 0;
   for (std::size_t n = 0; n < nf; ++n) {
     err = std::max(err, (xm[n] - F.nodes[n] - ub.segment<3>(3 * Eigen::Index(n))).norm());
@@ -376,19 +383,10 @@ TEST(Coarsening, GradedCellsAreTheGalerkinProjectionOntoTheirConformingSubspace)
     else
       for (const auto& [k, w] : follows[n]) addTo(int(n), k, w);
   }
-  std::vector<Eigen::Triplet<double>> trip;
-  for (std::size_t t = 0; t < F.tets.size(); ++t)
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b)
-        for (int r = 0; r < 3; ++r)
-          for (int cc = 0; cc < 3; ++cc) trip.emplace_back(3 * F.tets[t][std::size_t(a)] + r, 3 * F.tets[t][std::size_t(b)] + cc, box.K[t](3 * a + r, 3 * b + cc));
-  Eigen::SparseMatrix<double> Kf(nd, nd), Tm(nd, nq);
-  Kf.setFromTriplets(trip.begin(), trip.end());
+  Eigen::SparseMatrix<double> Tm(nd, nq);
   Tm.setFromTriplets(tt.begin(), tt.end());
-  const Eigen::SparseMatrix<double> A = Eigen::SparseMatrix<double>(Tm.transpose()) * (Kf * Tm);
-  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A);
-  ASSERT_EQ(ldlt.info(), Eigen::Success);
-  const Eigen::VectorXd ub = Tm * ldlt.solve(-(Tm.transpose() * (Kf * uD))) + uD;
+  const Eigen::VectorXd ub = galerkinMinimiser(box, Tm, uD);
+  ASSERT_EQ(ub.size(), nd);
   double err = 0, scale = 0;
   for (std::size_t n = 0; n < nf; ++n) {
     err = std::max(err, (xm[n] - F.nodes[n] - ub.segment<3>(3 * Eigen::Index(n))).norm());
