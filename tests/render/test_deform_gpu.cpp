@@ -267,6 +267,86 @@ TEST_F(DeformGpu, InconsistentInputIsRefused) {
   EXPECT_THROW(gpu.runFrame(st, vk::Redo::Region), Error);
 }
 
+// A refined state (fine positions from the two-level steps) is uploaded and drawn like any other:
+// equal to a fresh whole-region redo of the same positions, and to the CPU reference. Returns the
+// frame of the coarse state `st` drawn after it.
+FrameResult expectRefinedStateDrawnLikeAWholeRegionRedo(VolumeRenderer& renderer, const Fixture& f, const Motion& m, const gpu::RenderParams& p,
+                                                        const CoarseFrameState& st) {
+  FineRefiner refiner(*f.model, f.scene.fineK);
+  auto xc = m.xc;
+  auto fine = f.model->reconstruct(m.T, xc);
+  refiner.step(xc, fine, 10);
+  const Eigen::Matrix4d w2i = f.q.geometry.worldToIndex();
+  std::vector<Eigen::Vector4f> idx(fine.size());
+  for (std::size_t i = 0; i < fine.size(); ++i) idx[i] = (w2i * fine[i].homogeneous()).cast<float>();
+  FrameRequest req;
+  req.params = p;
+  req.deformFine = &idx;
+  renderer.submit(req);
+  renderer.waitLast();
+  const auto shown = renderer.deformer()->readVolume();
+  FineInterpolationData restData;
+  restData.node.assign(fine.size(), {FineInterpolationData::Rest, 0, 0, 0});
+  for (const auto& X : f.scene.meshes.fine.nodes) restData.rest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
+  restData.coarseRest = {Eigen::Vector4f(0, 0, 0, 1)};
+  restData.elementCorners = {{0, 0, 0, 0}, {0, 0, 0, 0}};
+  const Images im = upload(f.q, f.mask);
+  vk::GpuDeformer fresh(test::gpuContext(), im.volume, im.mask, setupFor(f, restData, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi));
+  fresh.runFrame(idx);
+  EXPECT_EQ(shown, fresh.readVolume()) << "the moved box of the refined state equals a whole-region redo";
+  Volume out;
+  rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, fine, f.scene.lo, f.scene.hi, f.backgroundHu, out);
+  std::size_t within = 0;
+  for (std::size_t i = 0; i < shown.size(); ++i) within += std::abs(f.q.toValue(shown[i] / 65535.0f) - out.value(i)) <= 1.0f ? 1 : 0;
+  EXPECT_GE(double(within) / double(shown.size()), 0.999);
+  // Back to the coarse state for the frames below (nodes within the commit threshold, 1e-3
+  // voxel, of their refined place stay there: this frame, not the first coarse one, is what later
+  // frames show).
+  req = FrameRequest{};
+  req.params = p;
+  req.deform = &st;
+  renderer.submit(req);
+  return renderer.waitLast();
+}
+
+// A mask edit while deforming (a live selection elsewhere, a handle inside the region) shows at
+// once: outside the region copied, inside it carried through the deformation. Both edits undone.
+void expectMaskEditsShowWhileDeforming(VolumeRenderer& renderer, const Fixture& f, const gpu::RenderParams& p) {
+  FrameRequest req;
+  const Eigen::Vector3i rlo = renderer.deformer()->regionVoxelLo(), rhi = renderer.deformer()->regionVoxelHi();
+  MaskUpload outside, inside;
+  outside.min = Eigen::Vector3i(0, 0, 0);
+  outside.dims = Eigen::Vector3i(3, 3, 3);
+  ASSERT_TRUE((outside.min + outside.dims).x() <= rlo.x() || (outside.min + outside.dims).y() <= rlo.y() || (outside.min + outside.dims).z() <= rlo.z());
+  outside.ids.assign(27, 7);
+  inside.min = (rlo + rhi) / 2;
+  inside.dims = Eigen::Vector3i(2, 2, 2);
+  inside.ids.assign(8, 9);
+  auto uploadBoth = [&] {
+    for (const MaskUpload* up2 : {&outside, &inside}) {
+      req = FrameRequest{};
+      req.params = p;
+      req.maskUpload = up2;
+      renderer.submit(req);
+      renderer.waitLast();
+    }
+  };
+  uploadBoth();
+  const auto m2 = renderer.deformer()->readMask();
+  std::size_t sevens = 0, nines = 0;
+  for (auto v : m2) sevens += v == 7, nines += v == 9;
+  EXPECT_EQ(sevens, 27u);
+  EXPECT_GT(nines, 0u);
+  // Undo both edits (the frames below compare with the images before them).
+  outside.ids.assign(27, 0);
+  inside.ids.assign(8, 0);
+  for (std::size_t i = 0; i < 8; ++i) {
+    const Eigen::Vector3i v = inside.min + Eigen::Vector3i(int(i & 1), int((i >> 1) & 1), int((i >> 2) & 1));
+    inside.ids[i] = f.mask[std::size_t(v.x()) + std::size_t(f.q.geometry.dims.x()) * (std::size_t(v.y()) + std::size_t(f.q.geometry.dims.y()) * std::size_t(v.z()))];
+  }
+  uploadBoth();
+}
+
 TEST_F(DeformGpu, FrameGraphDeformsThenRaymarchesAndPicksTheDeformedVolume) {
   // interpolation -> resampling (volume + mask) -> raymarch -> picking in one frame graph: the
   // frame equals the CPU raymarch of the GPU's deformed volume and mask, and a pick through the
@@ -334,82 +414,9 @@ TEST_F(DeformGpu, FrameGraphDeformsThenRaymarchesAndPicksTheDeformedVolume) {
   EXPECT_LE(double(over) / double(cpu.size() / 4), 0.01) << "pixels off the CPU reference by more than 2/255";
   EXPECT_GT(changed, 20u) << "the kidney moved on screen";
 
-  // A refined state (fine positions from the two-level steps) is uploaded and drawn like any other:
-  // equal to a fresh whole-region redo of the same positions, and to the CPU reference.
-  FrameResult coarseAgain;
-  {
-    FineRefiner refiner(*f.model, f.scene.fineK);
-    auto xc = m.xc;
-    auto fine = f.model->reconstruct(m.T, xc);
-    refiner.step(xc, fine, 10);
-    const Eigen::Matrix4d w2i = f.q.geometry.worldToIndex();
-    std::vector<Eigen::Vector4f> idx(fine.size());
-    for (std::size_t i = 0; i < fine.size(); ++i) idx[i] = (w2i * fine[i].homogeneous()).cast<float>();
-    req = FrameRequest{};
-    req.params = p;
-    req.deformFine = &idx;
-    renderer.submit(req);
-    renderer.waitLast();
-    const auto shown = renderer.deformer()->readVolume();
-    FineInterpolationData restData;
-    restData.node.assign(fine.size(), {FineInterpolationData::Rest, 0, 0, 0});
-    for (const auto& X : f.scene.meshes.fine.nodes) restData.rest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
-    restData.coarseRest = {Eigen::Vector4f(0, 0, 0, 1)};
-    restData.elementCorners = {{0, 0, 0, 0}, {0, 0, 0, 0}};
-    const Images im = upload(f.q, f.mask);
-    vk::GpuDeformer fresh(test::gpuContext(), im.volume, im.mask, setupFor(f, restData, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi));
-    fresh.runFrame(idx);
-    EXPECT_EQ(shown, fresh.readVolume()) << "the moved box of the refined state equals a whole-region redo";
-    Volume out;
-    rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, fine, f.scene.lo, f.scene.hi, f.backgroundHu, out);
-    std::size_t within = 0;
-    for (std::size_t i = 0; i < shown.size(); ++i) within += std::abs(f.q.toValue(shown[i] / 65535.0f) - out.value(i)) <= 1.0f ? 1 : 0;
-    EXPECT_GE(double(within) / double(shown.size()), 0.999);
-    // Back to the coarse state for the frames below (nodes within the commit threshold, 1e-3
-    // voxel, of their refined place stay there: this frame, not `after`, is what later frames show).
-    req = FrameRequest{};
-    req.params = p;
-    req.deform = &st;
-    renderer.submit(req);
-    coarseAgain = renderer.waitLast();
-  }
-
-  // A mask edit while deforming (a live selection elsewhere, a handle inside the region) shows at
-  // once: outside the region copied, inside it carried through the deformation.
-  {
-    const Eigen::Vector3i rlo = renderer.deformer()->regionVoxelLo(), rhi = renderer.deformer()->regionVoxelHi();
-    MaskUpload outside, inside;
-    outside.min = Eigen::Vector3i(0, 0, 0);
-    outside.dims = Eigen::Vector3i(3, 3, 3);
-    ASSERT_TRUE((outside.min + outside.dims).x() <= rlo.x() || (outside.min + outside.dims).y() <= rlo.y() || (outside.min + outside.dims).z() <= rlo.z());
-    outside.ids.assign(27, 7);
-    inside.min = (rlo + rhi) / 2;
-    inside.dims = Eigen::Vector3i(2, 2, 2);
-    inside.ids.assign(8, 9);
-    auto uploadBoth = [&] {
-      for (const MaskUpload* up2 : {&outside, &inside}) {
-        req = FrameRequest{};
-        req.params = p;
-        req.maskUpload = up2;
-        renderer.submit(req);
-        renderer.waitLast();
-      }
-    };
-    uploadBoth();
-    const auto m2 = renderer.deformer()->readMask();
-    std::size_t sevens = 0, nines = 0;
-    for (auto v : m2) sevens += v == 7, nines += v == 9;
-    EXPECT_EQ(sevens, 27u);
-    EXPECT_GT(nines, 0u);
-    // Undo both edits (the frames below compare with the images before them).
-    outside.ids.assign(27, 0);
-    inside.ids.assign(8, 0);
-    for (std::size_t i = 0; i < 8; ++i) {
-      const Eigen::Vector3i v = inside.min + Eigen::Vector3i(int(i & 1), int((i >> 1) & 1), int((i >> 2) & 1));
-      inside.ids[i] = f.mask[std::size_t(v.x()) + std::size_t(f.q.geometry.dims.x()) * (std::size_t(v.y()) + std::size_t(f.q.geometry.dims.y()) * std::size_t(v.z()))];
-    }
-    uploadBoth();
-  }
+  const FrameResult coarseAgain = expectRefinedStateDrawnLikeAWholeRegionRedo(renderer, f, m, p, st);
+  expectMaskEditsShowWhileDeforming(renderer, f, p);
+  if (HasFatalFailure()) return;
 
   // A frame without new state shows the same deformed volume; ending the deformation restores the input.
   req = FrameRequest{};
