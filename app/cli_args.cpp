@@ -141,6 +141,16 @@ CoarseElement coarseElementOption(const Args& args, const char* name) {
   throw UsageError(std::string(name) + " must be cell or tet");
 }
 
+void coarseModelOptions(const Args& args, const std::string& prefix, SimSettings& settings) {
+  settings.element = coarseElementOption(args, (prefix + "coarse-element").c_str());
+  settings.coarseSolver = coarseSolverOption(args, (prefix + "coarse-solver").c_str());
+  settings.grading.splitWithinCells = args.number(prefix + "graded-split", settings.grading.splitWithinCells, -1.0, 10.0);
+  if (settings.grading.graded() && settings.element != CoarseElement::Cell)
+    throw UsageError(prefix + "graded-split needs cell elements (" + prefix + "coarse-element cell)");
+  if (settings.grading.graded() && settings.coarseSolver != CoarseSolver::Pcg)
+    throw UsageError(prefix + "graded-split needs the pcg coarse solver");
+}
+
 void regionOption(const Args& args, const char* name, SimSettings& settings) {
   const auto v = args.value(name);
   if (!v) return;

@@ -71,6 +71,8 @@ const char* const kSimHelp =
     "  --sim-coarse-element cell|tet  coarse model elements (default cell; see handson deform --help)\n"
     "  --sim-coarse-solver pcg|assembled  the coarse solve: matrix-free PCG (default) or the assembled\n"
     "                          warped stiffness refactorized every third frame (the old one, kept to compare)\n"
+    "  --sim-graded-split CELLS  graded cells: halve the coarse cells within CELLS cell sizes of a\n"
+    "                          handle (off by default; see handson deform --help)\n"
     "  --sim-fine-mesh regular|adapted  fine mesh (default regular; see handson deform --help)\n"
     "  --sim-cache DIR|off     preprocessing cache (scene + coarse model; a second open of the same\n"
     "                          volume, handles and settings skips it): default $HANDSON_CACHE_DIR,\n"
@@ -80,7 +82,7 @@ const char* const kSimHelp =
     "  --sim-iterations N      coarse solver iterations per new pose (default 3)\n"
     "  --sim-idle-iterations N more while a pose is held, until converged (default 300); a solve that\n"
     "                          has not converged when they are spent is reported and the session saved\n";
-const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm", "--sim-region", "--sim-refine-steps", "--sim-coarse-element", "--sim-coarse-solver", "--sim-fine-mesh",
+const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm", "--sim-region", "--sim-refine-steps", "--sim-coarse-element", "--sim-coarse-solver", "--sim-graded-split", "--sim-fine-mesh",
                                                  "--sim-adapt-contrast", "--sim-cache", "--sim-iterations", "--sim-idle-iterations"};
 
 DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
@@ -93,8 +95,7 @@ DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   if (d.sim.fineTets < d.sim.coarseTets) throw UsageError("--sim-fine-tets must be at least --sim-coarse-tets");
   d.sim.paddingMm = args.number("--sim-padding-mm", d.sim.paddingMm, 0.0, 1e4);
   regionOption(args, "--sim-region", d.sim);
-  d.sim.element = coarseElementOption(args, "--sim-coarse-element");
-  d.sim.coarseSolver = coarseSolverOption(args, "--sim-coarse-solver");
+  coarseModelOptions(args, "--sim-", d.sim);
   fineMeshOptions(args, "--sim-fine-mesh", "--sim-adapt-contrast", d.sim);
   d.refineSteps = int(args.integer("--sim-refine-steps", defaultRefineSteps, 0, 100));
   d.coarseIterations = int(args.integer("--sim-iterations", d.coarseIterations, 1, 1000));

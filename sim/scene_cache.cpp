@@ -260,11 +260,15 @@ std::unique_ptr<CoarseModel> buildOrLoadSimulation(const Volume& image, const st
   o = CacheOutcome{};
   auto build = [&] {
     scene = buildSimScene(image, handles, settings, progress);
-    auto m = std::make_unique<CoarseModel>(scene.meshes, scene.fineK, scene.constraints, progress, settings.element);
+    auto m = std::make_unique<CoarseModel>(scene.meshes, scene.fineK, scene.constraints, progress, settings.element, settings.grading);
     m->setSolver(settings.coarseSolver);  // how it iterates: not part of the cached data
     return m;
   };
   if (cacheDir.empty()) return build();
+  if (settings.grading.graded()) {
+    o.note = "graded cells are not cached: built afresh";
+    return build();
+  }
   const std::filesystem::path file = cacheDir / (simulationCacheKey(image, handles, settings) + ".hsim");
   std::error_code ec;
   if (std::filesystem::exists(file, ec)) {

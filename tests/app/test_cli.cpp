@@ -284,7 +284,9 @@ TEST_F(Cli, DeformOnTheGpuAgreesWithTheCpuReference) {
   const std::string common = "deform " + p("ct.nii.gz") + " --handle " + p("labels.nii.gz") +
                              " --handle-label 4 --coarse-tets 300 --fine-tets 19200 --quiet --translate-mm 10,0,0 --rotate-deg 0,0,30 ";
   // coarse: the interpolation pass from the coarse state; refined: fine positions uploaded.
-  for (const char* extra : {"--model coarse", "--model coarse --refine-steps 2"}) {
+  // Graded cells (hanging nodes in the state, through the same pass and the refinement's transfers).
+  for (const char* extra : {"--model coarse", "--model coarse --refine-steps 2", "--model coarse --graded-split 0",
+                            "--model coarse --graded-split 0 --refine-steps 2"}) {
     CliRun r = runHandson(common + extra + " -o " + p("cpu.nii.gz"));
     ASSERT_EQ(r.status, 0) << r.output;
     r = runHandson(common + extra + " --backend gpu --validation -o " + p("gpu.nii.gz"));
@@ -315,6 +317,10 @@ TEST_F(Cli, SimulationOptionsAreCheckedBeforeAnyWork) {
       {"bench deform --commit-voxels -1", 2},
       {"bench deform --coarse-element hex", 2},
       {"replay --sim-fine-mesh fancy", 2},
+      {"replay --sim-graded-split 11", 2},
+      {"replay --sim-graded-split 0 --sim-coarse-element tet", 2},
+      {"replay --sim-graded-split 1 --sim-coarse-solver assembled", 2},
+      {"deform /nonexistent.nii.gz --handle x.nii.gz --translate-mm 1,0,0 -o y.nii.gz --graded-split nan", 2},
       {"replay --sim-fine-mesh adapted --sim-coarse-element tet", 2},
       {"replay --sim-fine-mesh adapted --sim-adapt-contrast 1", 2},
       {"bench mesh --regular-list 0", 2},
