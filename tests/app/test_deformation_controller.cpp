@@ -61,6 +61,17 @@ struct Scene {
   }
 };
 
+// The kidney as the one handle, moved 8 mm and turned 0.3 rad about z.
+HandleSet kidneyMovedAndTurned(const Scene& s) {
+  HandleSet handles;
+  const int id = handles.add(s.kidney);
+  RigidPose pose;
+  pose.translation = Eigen::Vector3d(8, 0, 0);
+  pose.rotation = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  handles.setPose(id, pose, false);
+  return handles;
+}
+
 DeformationOptions small() {
   DeformationOptions o;
   o.sim.coarseTets = 300;
@@ -121,12 +132,7 @@ TEST(DeformationController, ShowsTheSimulationWithoutWaitingAndFollowsTheHandles
 
 TEST(DeformationController, AHeldPoseIsRefinedWhileFramesGoOnAndEachStateIsNamed) {
   Scene s;
-  HandleSet handles;
-  const int id = handles.add(s.kidney);
-  RigidPose pose;
-  pose.translation = Eigen::Vector3d(8, 0, 0);
-  pose.rotation = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  handles.setPose(id, pose, false);
+  const HandleSet handles = kidneyMovedAndTurned(s);
   DeformationOptions o = small();
   o.refineSteps = 2;
   DeformationController dc(s.phantom.ct, s.q, *s.renderer, o);
@@ -185,12 +191,7 @@ TEST(DeformationController, GradedCellsAreSimulatedRefinedAndDrawn) {
   // Graded cells (--sim-graded-split) through the app's path: the worker's solve and refinement, the
   // GPU interpolation of a state that holds hanging nodes, the export.
   Scene s;
-  HandleSet handles;
-  const int id = handles.add(s.kidney);
-  RigidPose pose;
-  pose.translation = Eigen::Vector3d(8, 0, 0);
-  pose.rotation = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  handles.setPose(id, pose, false);
+  const HandleSet handles = kidneyMovedAndTurned(s);
   DeformationOptions o = small();
   o.sim.fineTets = 300 * 64;  // 4 fine cells per coarse cell: half-size cells need an even count
   o.sim.grading.splitWithinCells = 0.0;

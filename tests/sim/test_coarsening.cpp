@@ -154,6 +154,17 @@ Eigen::VectorXd galerkinMinimiser(const GalerkinBox& box, const Eigen::SparseMat
   return Tm * ldlt.solve(-(Tm.transpose() * (Kf * uD))) + uD;
 }
 
+// The largest difference between a model's fine positions xm and the displacements ub, and the largest
+// of ub (mm).
+std::pair<double, double> largestDifference(const std::vector<Eigen::Vector3d>& xm, const TetMesh& F, const Eigen::VectorXd& ub) {
+  double err = 0, scale = 0;
+  for (std::size_t n = 0; n < F.nodes.size(); ++n) {
+    err = std::max(err, (xm[n] - F.nodes[n] - ub.segment<3>(3 * Eigen::Index(n))).norm());
+    scale = std::max(scale, ub.segment<3>(3 * Eigen::Index(n)).norm());
+  }
+  return {err, scale};
+}
+
 class CoarseningKinds : public ::testing::TestWithParam<CoarseElement> {};
 INSTANTIATE_TEST_SUITE_P(BothElementKinds, CoarseningKinds, ::testing::Values(CoarseElement::Cell, CoarseElement::Tet),
                          [](const auto& p) { return std::string(coarseElementName(p.param)); });
@@ -226,11 +237,7 @@ TEST_P(CoarseningKinds, InTheLinearRegimeItIsTheGalerkinProjectionOntoItsSubspac
   Tm.setFromTriplets(tt.begin(), tt.end());
   const Eigen::VectorXd ub = galerkinMinimiser(box, Tm, uD);
   ASSERT_EQ(ub.size(), nd);
-  double err = 0, scale = 0;
-  for (std::size_t n = 0; n < nf; ++n) {
-    err = std::max(err, (xm[n] - F.nodes[n] - ub.segment<3>(3 * Eigen::Index(n))).norm());
-    scale = std::max(scale, ub.segment<3>(3 * Eigen::Index(n)).norm());
-  }
+  const auto [err, scale] = largestDifference(xm, F, ub);
   double ec = 0, eb = 0, ei = 0;
   for (std::size_t n = 0; n < nf; ++n) {
     const double e = (xm[n] - F.nodes[n] - ub.segment<3>(3 * Eigen::Index(n))).norm();
@@ -283,13 +290,11 @@ TEST(Coarsening, GradedCellsAreTheGalerkinProjectionOntoTheirConformingSubspace)
   // LARGEST leaf it lies on (so on a face between a whole and a half-size cell it follows the whole
   // cell - equal to the half-size cell's interpolation only if the model conforms); the rest is free.
   const GalerkinBox box;
+  CoarseModel model(box.nm, box.K, box.c, {}, CoarseElement::Cell, CoarseGrading{0.0});
   const NestedMeshes& nm = box.nm;
   const TetMesh& F = nm.fine;
   const auto& c = box.c;
   const auto& T = box.T;
-  CoarseGrading grading;
-  grading.splitWithinCells = 0.0;
-  CoarseModel model(nm, box.K, c, {}, CoarseElement::Cell, grading);
   ASSERT_TRUE(model.graded());
   EXPECT_GT(model.hangingNodeCount(), 0u) << "the scene must have whole cells beside split ones";
   auto xc = model.restState();
@@ -387,11 +392,7 @@ TEST(Coarsening, GradedCellsAreTheGalerkinProjectionOntoTheirConformingSubspace)
   Tm.setFromTriplets(tt.begin(), tt.end());
   const Eigen::VectorXd ub = galerkinMinimiser(box, Tm, uD);
   ASSERT_EQ(ub.size(), nd);
-  double err = 0, scale = 0;
-  for (std::size_t n = 0; n < nf; ++n) {
-    err = std::max(err, (xm[n] - F.nodes[n] - ub.segment<3>(3 * Eigen::Index(n))).norm());
-    scale = std::max(scale, ub.segment<3>(3 * Eigen::Index(n)).norm());
-  }
+  const auto [err, scale] = largestDifference(xm, F, ub);
   EXPECT_GT(scale, 0.5 * box.d);
   // As for the uniform cells: the corotational model's second-order terms (motion / element size,
   // 1e-4 mm / 5 mm) and roundoff.
