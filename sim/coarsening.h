@@ -233,6 +233,24 @@ class CoarseModel {
     Eigen::Matrix<double, 8, 1> N;  ///< weights of the element's corners (first n)
   };
   Eigen::Matrix3d elementRotation(int e, const std::vector<Eigen::Vector3d>& x) const;
+  /// An element's condensed load in the frame R (sim/handle_reaction.cpp): corner displacements d
+  /// (3n), handle motion parameters p (12h), corner forces K_h d + sum_a [A_a B_a] p_a (3n), and per
+  /// handle the gradient g_a against its 12 motion parameters, and the element's energy there.
+  struct ElementLoad {
+    VecE d, corner;
+    Eigen::VectorXd p;
+    std::vector<Eigen::Matrix<double, 12, 1>> g;
+    double energy = 0.0;
+  };
+  ElementLoad elementLoad(const Element& el, const Eigen::Matrix3d& R, const std::vector<Eigen::Vector3d>& x, const std::vector<RigidTransform>& handles) const;
+  Eigen::Vector3d elementMoment(const Element& el, const Eigen::Matrix3d& R, const ElementLoad& L, const std::vector<RigidTransform>& handles) const;
+  /// d elementMoment / d w for the frame turned by w (R exp([w]x)).
+  Eigen::Matrix3d momentJacobian(const Element& el, const Eigen::Matrix3d& R, const ElementLoad& L, const std::vector<RigidTransform>& handles) const;
+  /// The rotation at which the element's condensed energy is stationary (its forces moment-free),
+  /// from R0 by Levenberg-Marquardt steps, and the element's load L there (sim/handle_reaction.cpp).
+  Eigen::Matrix3d stationaryRotation(const Element& el, const Eigen::Matrix3d& R0, const std::vector<Eigen::Vector3d>& x, const std::vector<RigidTransform>& handles,
+                                     ElementLoad& L) const;
+
   /// Symmetrizes el.Kh and derives KhX, the corners' offsets and fitInv.
   void finishElement(Element& el) const;
   /// Adds the blocks of one handle node at rest position X (blk: 3n x 3, K_hd's columns of the node).

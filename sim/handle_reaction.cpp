@@ -11,6 +11,8 @@
 //   T_O = sum_D x_D x f_D = -R_k sum_c e_c x (R_k^T R_e g_k[3c..3c+2]) - t_k x R_e g_k[9..11]
 // (x_D = R_k X_D + t_k; moments about the world origin), and the handle's coarse corners receive
 // their rows of -R_e (K_h d + h_e) with moments x_c x f_c. No fine work: a pass over the elements.
+// R_e is not the solve's corner-fit rotation but the element's moment-free frame, where E_e is
+// stationary (stationaryRotation; docs/simulation-model.md, "Reaction force and torque").
 #include "sim/handle_reaction.h"
 
 #include <Eigen/Geometry>
@@ -24,6 +26,13 @@ namespace handson {
 namespace {
 
 constexpr double kNewtonPerPaMm2 = 1e-6;
+
+// [v]x: the matrix with [v]x u = v x u.
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return S;
+}
 
 // Moments about the world origin moved to each handle's current centroid, and the units applied.
 std::vector<HandleReaction> aboutCentroids(std::vector<HandleReaction> r, const std::vector<Eigen::Vector3d>& restCentroid,
@@ -41,7 +50,7 @@ std::vector<HandleReaction> aboutCentroids(std::vector<HandleReaction> r, const 
 
 std::string formatReaction(const HandleReaction& r, bool coarse) {
   char buf[96];
-  if (coarse) std::snprintf(buf, sizeof buf, "tissue force ~%.2g N (coarse model)", r.forceN.norm());
+  if (coarse) std::snprintf(buf, sizeof buf, "tissue force ~%.2g N, torque ~%.2g N mm (coarse model)", r.forceN.norm(), r.torqueNmm.norm());
   else std::snprintf(buf, sizeof buf, "tissue force %.3g N, torque %.3g N mm", r.forceN.norm(), r.torqueNmm.norm());
   return buf;
 }
@@ -83,6 +92,143 @@ std::vector<HandleReaction> fineHandleReactions(const TetMesh& F, const std::vec
   return aboutCentroids(std::move(r), handleRestCentroids(F, cons), handles);
 }
 
+CoarseModel::ElementLoad CoarseModel::elementLoad(const Element& el, const Eigen::Matrix3d& R, const std::vector<Eigen::Vector3d>& x,
+                                                  const std::vector<RigidTransform>& handles) const {
+  ElementLoad L;
+  const int nc = nc_;
+  L.d.resize(3 * nc);
+  for (int c = 0; c < nc; ++c) {
+    const auto v = std::size_t(el.node[std::size_t(c)]);
+    L.d.segment<3>(3 * c) = R.transpose() * x[v] - nodes_[v];
+  }
+  const std::size_t h = el.handles.size();
+  L.p.resize(12 * Eigen::Index(h));
+  for (std::size_t a = 0; a < h; ++a) {
+    const RigidTransform& T = handles[std::size_t(el.handles[a].handle)];
+    const Eigen::Matrix3d M = R.transpose() * T.R - Eigen::Matrix3d::Identity();
+    L.p.segment<9>(12 * Eigen::Index(a)) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(M.data());
+    L.p.segment<3>(12 * Eigen::Index(a) + 9) = R.transpose() * T.t;
+  }
+  const VecE Kd = el.Kh * L.d;
+  L.corner = Kd;
+  for (std::size_t a = 0; a < h; ++a)
+    L.corner.noalias() += el.handles[a].A * L.p.segment<9>(12 * Eigen::Index(a)) + el.handles[a].B * L.p.segment<3>(12 * Eigen::Index(a) + 9);
+  L.g.resize(h);
+  double pQp = 0.0;
+  for (std::size_t a = 0; a < h; ++a) {
+    const HandleBlock& b = el.handles[a];
+    L.g[a].head<9>() = b.A.transpose() * L.d;
+    L.g[a].tail<3>() = b.B.transpose() * L.d;
+    const Eigen::Matrix<double, 12, 1> Qp = el.Q.middleRows(12 * Eigen::Index(a), 12) * L.p;
+    L.g[a] += Qp;
+    pQp += L.p.segment<12>(12 * Eigen::Index(a)).dot(Qp);
+  }
+  // E = 1/2 d.K_h d + d.(sum_a [A_a B_a] p_a) + 1/2 p.Q p, and d.corner = d.K_h d + d.(...).
+  L.energy = L.d.dot(L.corner) - 0.5 * L.d.dot(Kd) + 0.5 * pQp;
+  return L;
+}
+
+Eigen::Vector3d CoarseModel::elementMoment(const Element& el, const Eigen::Matrix3d& R, const ElementLoad& L, const std::vector<RigidTransform>& handles) const {
+  // m = sum over the element's nodes of y_n x w_n in its frame (y_n = R^T x_n, w_n = dE/dy_n): the
+  // corners' y_c = d_c + X_c; a handle's nodes y_D = M X_D + b (M = R^T R_k, b = R^T t_k) sum to
+  // sum_c M e_c x g[3c..3c+2] + b x g[9..11].
+  Eigen::Vector3d m = Eigen::Vector3d::Zero();
+  for (int c = 0; c < nc_; ++c)
+    m += (L.d.segment<3>(3 * c) + nodes_[std::size_t(el.node[std::size_t(c)])]).cross(L.corner.segment<3>(3 * c));
+  for (std::size_t a = 0; a < el.handles.size(); ++a) {
+    const RigidTransform& T = handles[std::size_t(el.handles[a].handle)];
+    const Eigen::Matrix3d M = R.transpose() * T.R;
+    for (int c = 0; c < 3; ++c) m += M.col(c).cross(L.g[a].segment<3>(3 * c));
+    m += (R.transpose() * T.t).cross(L.g[a].tail<3>());
+  }
+  return m;
+}
+
+Eigen::Matrix3d CoarseModel::momentJacobian(const Element& el, const Eigen::Matrix3d& R, const ElementLoad& L, const std::vector<RigidTransform>& handles) const {
+  // Turning the frame by w (R -> R exp([w]x)) turns every element-frame vector v the moment pairs
+  // (the corners' y_c, a handle's M e_c and b) by -w: dv = [v]x dw. The energy is quadratic in
+  // q = (d, p), E = 1/2 q^T H q with H = [K_h, [A B]; [A B]^T, Q], and its gradient is H q = (the
+  // corner forces, g). With G (3n + 12h x 3) stacking the blocks [v]x:
+  //   J = dm/dw = -sum_k [grad_k]x [v_k]x - G^T H G.
+  const int nc = nc_, h = int(el.handles.size());
+  Eigen::Matrix<double, Eigen::Dynamic, 3> G(3 * nc + 12 * h, 3);
+  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+  auto term = [&](int row, const Eigen::Vector3d& v, const Eigen::Vector3d& grad) {
+    G.middleRows<3>(row) = skew(v);
+    J -= skew(grad) * skew(v);
+  };
+  for (int c = 0; c < nc; ++c) term(3 * c, L.d.segment<3>(3 * c) + nodes_[std::size_t(el.node[std::size_t(c)])], L.corner.segment<3>(3 * c));
+  for (int a = 0; a < h; ++a) {
+    const RigidTransform& T = handles[std::size_t(el.handles[std::size_t(a)].handle)];
+    const Eigen::Matrix3d M = R.transpose() * T.R;
+    for (int c = 0; c < 3; ++c) term(3 * nc + 12 * a + 3 * c, M.col(c), L.g[std::size_t(a)].segment<3>(3 * c));
+    term(3 * nc + 12 * a + 9, R.transpose() * T.t, L.g[std::size_t(a)].tail<3>());
+  }
+  const auto Gd = G.topRows(3 * nc);
+  Eigen::Matrix<double, Eigen::Dynamic, 3> HG(3 * nc + 12 * h, 3);
+  HG.topRows(3 * nc).noalias() = el.Kh.lazyProduct(Gd);  // small: no GEMM packing
+  for (int a = 0; a < h; ++a) {
+    const HandleBlock& b = el.handles[std::size_t(a)];
+    HG.topRows(3 * nc).noalias() += b.A.lazyProduct(G.middleRows<9>(3 * nc + 12 * a)) + b.B.lazyProduct(G.middleRows<3>(3 * nc + 12 * a + 9));
+    HG.middleRows<9>(3 * nc + 12 * a).noalias() = b.A.transpose().lazyProduct(Gd);
+    HG.middleRows<3>(3 * nc + 12 * a + 9).noalias() = b.B.transpose().lazyProduct(Gd);
+  }
+  if (h > 0) HG.bottomRows(12 * h).noalias() += el.Q.lazyProduct(G.bottomRows(12 * h));
+  return J - G.transpose().lazyProduct(HG);
+}
+
+Eigen::Matrix3d CoarseModel::stationaryRotation(const Element& el, const Eigen::Matrix3d& R0, const std::vector<Eigen::Vector3d>& x,
+                                                const std::vector<RigidTransform>& handles, ElementLoad& L) const {
+  // E(R exp([w]x)) has gradient -m(R) against w at w = 0: the frame is sought where m = 0, by
+  // Levenberg-Marquardt on |m|^2 from R0 with the exact Jacobian (momentJacobian): a step
+  // (J^T J + lambda I) w = -J^T m is kept only if it shrinks |m| (lambda eases after a kept step,
+  // grows after a refused one), so the search cannot cycle, and steps are at most 0.1 rad, so it
+  // stays with the stationary frame nearest R0. Not a minimization of E: a linear-strain energy
+  // is not rotation invariant, and a stretched element's energy falls as its frame turns (the
+  // rotation's own linear strain is a compression), so its moment-free frame is a saddle of E, as
+  // the polar rotation is for a stretched fine tet. Converged when |m| is 1e-7 of the sum of its
+  // terms' magnitudes; otherwise, after 20 evaluations, the frame of least |m| found (a few
+  // elements at a handle: its |m| 1e-4..1e-3 of that sum, against the fit frame's 1e-1).
+  auto turn = [](const Eigen::Matrix3d& R, const Eigen::Vector3d& w) {
+    const double a = w.norm();
+    return a > 0 ? Eigen::Matrix3d(R * Eigen::AngleAxisd(a, w / a).toRotationMatrix()) : R;
+  };
+  auto scale = [&](const ElementLoad& load, const Eigen::Matrix3d& R) {
+    double s = 0.0;
+    for (int c = 0; c < nc_; ++c) s += (load.d.segment<3>(3 * c) + nodes_[std::size_t(el.node[std::size_t(c)])]).norm() * load.corner.segment<3>(3 * c).norm();
+    for (std::size_t a = 0; a < el.handles.size(); ++a) {
+      for (int c = 0; c < 3; ++c) s += load.g[a].segment<3>(3 * c).norm();
+      s += (R.transpose() * handles[std::size_t(el.handles[a].handle)].t).norm() * load.g[a].tail<3>().norm();
+    }
+    return s;
+  };
+  Eigen::Matrix3d R = R0;
+  L = elementLoad(el, R, x, handles);
+  Eigen::Vector3d m = elementMoment(el, R, L, handles);
+  Eigen::Matrix3d J = momentJacobian(el, R, L, handles);
+  double lambda = 0.0;
+  for (int evaluation = 0; evaluation < 20; ++evaluation) {
+    if (m.norm() <= 1e-7 * scale(L, R)) return R;
+    const Eigen::Matrix3d JtJ = J.transpose() * J;
+    Eigen::Vector3d w = -(JtJ + lambda * Eigen::Matrix3d::Identity()).ldlt().solve(J.transpose() * m);
+    if (!w.allFinite() || w.norm() == 0.0) break;
+    if (w.norm() > 0.1) w *= 0.1 / w.norm();
+    const Eigen::Matrix3d Rn = turn(R, w);
+    ElementLoad Ln = elementLoad(el, Rn, x, handles);
+    const Eigen::Vector3d mn = elementMoment(el, Rn, Ln, handles);
+    if (mn.norm() < m.norm()) {
+      R = Rn;
+      L = std::move(Ln);
+      m = mn;
+      J = momentJacobian(el, R, L, handles);
+      lambda /= 3.0;
+    } else {
+      lambda = std::max(4.0 * lambda, 1e-6 * JtJ.trace());
+    }
+  }
+  return R;  // the frame of least |m| found (L is its load)
+}
+
 std::vector<HandleReaction> CoarseModel::handleReactions(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const {
   if (int(handles.size()) < constraints_.handleCount || x.size() != nodes_.size()) throw Error("handle reactions: inconsistent sizes");
   std::vector<HandleReaction> r(std::size_t(constraints_.handleCount));
@@ -92,48 +238,34 @@ std::vector<HandleReaction> CoarseModel::handleReactions(const std::vector<Rigid
     bool handleCorner = false;
     for (int c = 0; c < nc; ++c) handleCorner = handleCorner || coarseRole_[std::size_t(el.node[std::size_t(c)])] >= 0;
     if (el.handles.empty() && !handleCorner) continue;
-    const Eigen::Matrix3d Rc = elementRotation(int(e), x);  // only the elements at a handle: not all
-    VecE d(3 * nc);
+    // Each element at a handle in the frame where its energy is stationary; one whose corners and
+    // other handle nodes all belong to one handle moves rigidly with it (its interior condensed to
+    // follow), and its corner fit is that frame already.
+    bool rigid = coarseRole_[std::size_t(el.node[0])] >= 0;
+    for (int c = 0; c < nc; ++c) rigid = rigid && coarseRole_[std::size_t(el.node[std::size_t(c)])] == coarseRole_[std::size_t(el.node[0])];
+    for (const auto& b : el.handles) rigid = rigid && b.handle == coarseRole_[std::size_t(el.node[0])];
+    ElementLoad L;
+    const Eigen::Matrix3d Rfit = elementRotation(int(e), x);
+    const Eigen::Matrix3d Rc = rigid ? Rfit : stationaryRotation(el, Rfit, x, handles, L);
+    if (rigid) L = elementLoad(el, Rc, x, handles);
+    // The handles' coarse corners: their rows of the element force.
     for (int c = 0; c < nc; ++c) {
       const auto v = std::size_t(el.node[std::size_t(c)]);
-      d.segment<3>(3 * c) = Rc.transpose() * x[v] - nodes_[v];
-    }
-    const std::size_t h = el.handles.size();
-    Eigen::VectorXd p(12 * Eigen::Index(h));
-    for (std::size_t a = 0; a < h; ++a) {
-      const RigidTransform& T = handles[std::size_t(el.handles[a].handle)];
-      const Eigen::Matrix3d M = Rc.transpose() * T.R - Eigen::Matrix3d::Identity();
-      p.segment<9>(12 * Eigen::Index(a)) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(M.data());
-      p.segment<3>(12 * Eigen::Index(a) + 9) = Rc.transpose() * T.t;
-    }
-    // The handles' coarse corners: their rows of the element force.
-    if (handleCorner) {
-      VecE local = el.Kh * d;
-      for (std::size_t a = 0; a < h; ++a)
-        local.noalias() += el.handles[a].A * p.segment<9>(12 * Eigen::Index(a)) + el.handles[a].B * p.segment<3>(12 * Eigen::Index(a) + 9);
-      for (int c = 0; c < nc; ++c) {
-        const auto v = std::size_t(el.node[std::size_t(c)]);
-        const int k = coarseRole_[v];
-        if (k < 0) continue;
-        const Eigen::Vector3d f = -(Rc * local.segment<3>(3 * c));
-        r[std::size_t(k)].forceN += f;
-        r[std::size_t(k)].torqueNmm += x[v].cross(f);
-      }
+      const int k = coarseRole_[v];
+      if (k < 0) continue;
+      const Eigen::Vector3d f = -(Rc * L.corner.segment<3>(3 * c));
+      r[std::size_t(k)].forceN += f;
+      r[std::size_t(k)].torqueNmm += x[v].cross(f);
     }
     // The handles' other nodes, through the condensed blocks.
-    for (std::size_t a = 0; a < h; ++a) {
-      const HandleBlock& b = el.handles[a];
-      Eigen::Matrix<double, 12, 1> g;
-      g.head<9>() = b.A.transpose() * d;
-      g.tail<3>() = b.B.transpose() * d;
-      g.noalias() += el.Q.middleRows(12 * Eigen::Index(a), 12) * p;
-      const RigidTransform& T = handles[std::size_t(b.handle)];
+    for (std::size_t a = 0; a < el.handles.size(); ++a) {
+      const RigidTransform& T = handles[std::size_t(el.handles[a].handle)];
       const Eigen::Matrix3d Rp = T.R.transpose() * Rc;
-      const Eigen::Vector3d gt = Rc * g.tail<3>();
+      const Eigen::Vector3d gt = Rc * L.g[a].tail<3>();
       Eigen::Vector3d m = Eigen::Vector3d::Zero();
-      for (int c = 0; c < 3; ++c) m += Eigen::Vector3d::Unit(c).cross(Rp * g.segment<3>(3 * c));
-      r[std::size_t(b.handle)].forceN -= gt;
-      r[std::size_t(b.handle)].torqueNmm -= T.R * m + T.t.cross(gt);
+      for (int c = 0; c < 3; ++c) m += Eigen::Vector3d::Unit(c).cross(Rp * L.g[a].segment<3>(3 * c));
+      r[std::size_t(el.handles[a].handle)].forceN -= gt;
+      r[std::size_t(el.handles[a].handle)].torqueNmm -= T.R * m + T.t.cross(gt);
     }
   }
   return aboutCentroids(std::move(r), handleRestCentroid_, handles);
