@@ -28,21 +28,30 @@ namespace handson {
 namespace {
 using Clock = std::chrono::steady_clock;
 double seconds(Clock::time_point t, Clock::time_point t0) { return std::chrono::duration<double>(t - t0).count(); }
-}  // namespace
 
-SessionScript builtInDemoScript() { return parseSessionScript(kOrbitAndZoomScript, "built-in orbit-and-zoom script"); }
-
-int runReplay(const ReplayOptions& o) {
+// Options refused before the replay's work, not after it.
+void checkReplayOptions(const ReplayOptions& o) {
   if (!(o.fps > 0.0 && o.fps <= 1000.0)) throw Error("--fps must be in (0, 1000]");
-  if (!o.exportPath.empty()) {  // refused before the replay's work, not after it
+  if (!o.exportPath.empty()) {
     const std::filesystem::path dir = std::filesystem::absolute(o.exportPath).parent_path();
     std::error_code ec;
     if (!std::filesystem::is_directory(dir, ec)) throw Error("--export: the directory '" + dir.string() + "' does not exist");
   }
-  SessionScript script = o.scriptData ? *o.scriptData : o.script.empty() ? builtInDemoScript() : readSessionScript(o.script);
-  const ProgressFn progress = o.quiet ? ProgressFn{} : consoleProgress();
+}
 
-  // The volume: --volume, else the script's (a relative path is tried as given, then beside the script).
+// --export: the deformed volume (the input where nothing was simulated, with a note).
+void writeDeformedVolume(const DeformationController& deform, const Volume& volume, const std::string& path) {
+  Volume deformed;
+  if (!deform.exportDeformed(deformed)) {
+    std::cerr << "note: no simulated deformation to export (no moved active handle, or --sim off): writing the input unchanged\n";
+    deformed = volume;
+  }
+  writeNifti(deformed, path);
+  std::cout << "wrote " << path << "\n";
+}
+
+// The volume: --volume, else the script's (a relative path is tried as given, then beside the script).
+Volume loadReplayVolume(const ReplayOptions& o, const SessionScript& script, const ProgressFn& progress) {
   Volume volume;
   std::string source = o.volume;
   if (source.empty() && script.volumeSource == "file") {
@@ -59,6 +68,55 @@ int runReplay(const ReplayOptions& o) {
     volume = loadVolume(source, &rep, progress);
     for (const auto& w : rep.warnings) std::cerr << "warning: " << w << "\n";
   }
+  return volume;
+}
+
+// --print-handles: each handle's state, pose and how far its centre moved.
+void printHandlePoses(const SelectionController& selection, const Volume& volume) {
+  for (const auto& h : selection.handles().handles()) {
+    const Eigen::AngleAxisd aa(h.pose.rotation);
+    std::cout << "handle " << h.id << " " << handleStatusName(h.status) << " " << h.voxels.size() << " voxels"
+              << (std::find(selection.picked().begin(), selection.picked().end(), h.id) != selection.picked().end() ? " picked" : "")
+              << " translation " << h.pose.translation.x() << "," << h.pose.translation.y() << "," << h.pose.translation.z() << " rotation_deg "
+              << aa.angle() * 180.0 / M_PI << " axis " << aa.axis().x() << "," << aa.axis().y() << "," << aa.axis().z();
+    // How far the handle's centre moved (the pose's translation also holds the rotation's lever).
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    const Eigen::Vector3i d = volume.dims();
+    for (std::uint32_t v : h.voxels)
+      c += volume.geometry().toWorld(Eigen::Vector3d(double(v % std::uint32_t(d.x())), double(v / std::uint32_t(d.x()) % std::uint32_t(d.y())),
+                                                     double(v / (std::uint32_t(d.x()) * std::uint32_t(d.y())))));
+    if (!h.voxels.empty()) c /= double(h.voxels.size());
+    std::cout << " centre_moved_mm " << (h.pose.apply(c) - c).norm() << "\n";
+  }
+}
+
+// False (with a message) where the camera or a handle's pose holds a non-finite number.
+bool stateIsFinite(const Session& session, const SelectionController& selection) {
+  bool finite = true;
+  const OrbitCamera& c = session.camera();
+  if (!std::isfinite(c.distance) || !std::isfinite(c.azimuth) || !std::isfinite(c.elevation) || !std::isfinite(c.roll) ||
+      !std::isfinite(c.fovY) || !std::isfinite(c.target.x) || !std::isfinite(c.target.y) || !std::isfinite(c.target.z)) {
+    std::cerr << "error: the camera holds a non-finite number: " << describeCamera(c) << "\n";
+    finite = false;
+  }
+  for (const auto& h : selection.handles().handles())
+    if (!h.pose.rotation.allFinite() || !h.pose.translation.allFinite()) {
+      std::cerr << "error: handle " << h.id << "'s pose holds a non-finite number\n";
+      finite = false;
+    }
+  return finite;
+}
+
+}  // namespace
+
+SessionScript builtInDemoScript() { return parseSessionScript(kOrbitAndZoomScript, "built-in orbit-and-zoom script"); }
+
+int runReplay(const ReplayOptions& o) {
+  checkReplayOptions(o);
+  SessionScript script = o.scriptData ? *o.scriptData : o.script.empty() ? builtInDemoScript() : readSessionScript(o.script);
+  const ProgressFn progress = o.quiet ? ProgressFn{} : consoleProgress();
+
+  Volume volume = loadReplayVolume(o, script, progress);
 
   // Output size; touches recorded in the script's viewport are scaled to it.
   Viewport vp = script.viewport;
@@ -76,13 +134,7 @@ int runReplay(const ReplayOptions& o) {
 
   Session session(volume.geometry(), vp, script.preset.empty() ? defaultPresetFor(volume) : script.preset);
   if (script.camera) script.camera->applyTo(session.camera());
-  {
-    ScriptEvent mode;
-    mode.isTouch = false;
-    mode.action = "set-mode";
-    mode.value = script.mode;
-    session.apply(mode);
-  }
+  session.apply(ScriptEvent{0.0, false, {}, "set-mode", script.mode});
   renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
   SelectionController selection(q, session, renderer);
   DeformationController deform(volume, q, renderer, o.sim);
@@ -182,15 +234,7 @@ int runReplay(const ReplayOptions& o) {
       reportProgress(progress, double(k + 1) / frames, "replaying");
     }
     if (!o.timings.empty()) log.writeCsv(o.timings);
-    if (!o.exportPath.empty()) {  // every frame was waited for above
-      Volume deformed;
-      if (!deform.exportDeformed(deformed)) {
-        std::cerr << "note: no simulated deformation to export (no moved active handle, or --sim off): writing the input unchanged\n";
-        deformed = volume;
-      }
-      writeNifti(deformed, o.exportPath);
-      std::cout << "wrote " << o.exportPath << "\n";
-    }
+    if (!o.exportPath.empty()) writeDeformedVolume(deform, volume, o.exportPath);  // every frame was waited for above
   } catch (const std::bad_alloc&) {
     throw Error("out of memory during the replay; " + rescue());
   } catch (const std::exception& e) {
@@ -203,38 +247,9 @@ int runReplay(const ReplayOptions& o) {
   }
   if (!o.framesOut.empty()) std::cout << "wrote " << frames << " frames to " << o.framesOut << "\n";
   if (o.printCamera) std::cout << describeCamera(session.camera()) << "\n";
-  if (o.printHandles)
-    for (const auto& h : selection.handles().handles()) {
-      const Eigen::AngleAxisd aa(h.pose.rotation);
-      std::cout << "handle " << h.id << " " << handleStatusName(h.status) << " " << h.voxels.size() << " voxels"
-                << (std::find(selection.picked().begin(), selection.picked().end(), h.id) != selection.picked().end() ? " picked" : "")
-                << " translation " << h.pose.translation.x() << "," << h.pose.translation.y() << "," << h.pose.translation.z() << " rotation_deg "
-                << aa.angle() * 180.0 / M_PI << " axis " << aa.axis().x() << "," << aa.axis().y() << "," << aa.axis().z();
-      // How far the handle's centre moved (the pose's translation also holds the rotation's lever).
-      Eigen::Vector3d c = Eigen::Vector3d::Zero();
-      const Eigen::Vector3i d = volume.dims();
-      for (std::uint32_t v : h.voxels)
-        c += volume.geometry().toWorld(Eigen::Vector3d(double(v % std::uint32_t(d.x())), double(v / std::uint32_t(d.x()) % std::uint32_t(d.y())),
-                                                       double(v / (std::uint32_t(d.x()) * std::uint32_t(d.y())))));
-      if (!h.voxels.empty()) c /= double(h.voxels.size());
-      std::cout << " centre_moved_mm " << (h.pose.apply(c) - c).norm() << "\n";
-    }
+  if (o.printHandles) printHandlePoses(selection, volume);
   // Whatever came in, no state may hold a non-finite number.
-  bool finite = true;
-  {
-    const OrbitCamera& c = session.camera();
-    if (!std::isfinite(c.distance) || !std::isfinite(c.azimuth) || !std::isfinite(c.elevation) || !std::isfinite(c.roll) ||
-        !std::isfinite(c.fovY) || !std::isfinite(c.target.x) || !std::isfinite(c.target.y) || !std::isfinite(c.target.z)) {
-      std::cerr << "error: the camera holds a non-finite number: " << describeCamera(c) << "\n";
-      finite = false;
-    }
-    for (const auto& h : selection.handles().handles())
-      if (!h.pose.rotation.allFinite() || !h.pose.translation.allFinite()) {
-        std::cerr << "error: handle " << h.id << "'s pose holds a non-finite number\n";
-        finite = false;
-      }
-  }
-  if (!finite) return 1;
+  if (!stateIsFinite(session, selection)) return 1;
   if (ctx.validationMessageCount() > 0) {
     std::cerr << "error: " << ctx.validationMessageCount() << " Vulkan validation message(s)\n";
     return 1;

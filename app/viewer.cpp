@@ -186,6 +186,10 @@ struct Viewer::Impl {
   explicit Impl(const ViewerOptions& opts);
   bool step();
   int finish();
+  /// The window's events and the played script's due events, as touches and UI actions.
+  void pollInput(const Viewport& vp, std::vector<TouchEvent>& touches, std::vector<ScriptEvent>& actions);
+  /// The panel's status from the session, the controllers and the simulation's failures.
+  void updateStatus();
   std::string rescue() const {
     if (!session || !selection) return "nothing to save yet";
     return saveRecovery(*session, selection->handles(), selection->picked(), volume.dims(), o.exportDir);
@@ -282,6 +286,90 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
   t0 = Clock::now();
 }
 
+void Viewer::Impl::pollInput(const Viewport& vp, std::vector<TouchEvent>& touches, std::vector<ScriptEvent>& actions) {
+  SDL_Event e;
+  while (SDL_PollEvent(&e)) {
+    const double t = seconds(Clock::now(), t0);
+    ui->processEvent(e);
+    if (e.type == SDL_QUIT) running = false;
+    if (e.type == SDL_WINDOWEVENT) {
+      if (e.window.event == SDL_WINDOWEVENT_SIZE_CHANGED) resized = true;
+      if (e.window.event == SDL_WINDOWEVENT_MINIMIZED) minimized = true;
+    }
+    if (e.type == SDL_KEYDOWN && !ui->wantsKeyboard()) {
+      const SDL_Keycode k = e.key.keysym.sym;
+      ScriptEvent key{t, false, {}, "", ""};
+      if (k == SDLK_ESCAPE) running = false;
+      if (k == SDLK_r) key.action = "reset-camera";
+      if (k == SDLK_1 || k == SDLK_2 || k == SDLK_3) {
+        key.action = "set-mode";
+        key.value = k == SDLK_1 ? "navigate" : k == SDLK_2 ? "select" : "manipulate";
+      }
+      if (!key.action.empty()) actions.push_back(key);
+    }
+    input->translate(e, t, vp, [this](double x, double y) { return ui->covers(x, y); }, touches);
+  }
+  // A played script's events arrive as a user's would: at their time since the first frame,
+  // scaled from the script's viewport to the window's.
+  if (play) {
+    const double now = seconds(Clock::now(), t0);
+    const glm::dvec2 k(double(vp.width) / play->viewport.width, double(vp.height) / play->viewport.height);
+    while (playNext < play->events.size() && playStart + play->events[playNext].t <= now) {
+      ScriptEvent pe = play->events[playNext++];
+      pe.t += playStart;
+      if (pe.isTouch) {
+        pe.touch.px *= k;
+        pe.touch.time = pe.t;
+        touches.push_back(pe.touch);
+      } else {
+        actions.push_back(pe);
+      }
+    }
+    if (playNext >= play->events.size() && now > playStart + play->duration() + 0.5) {
+      if (++playRound < o.playRepeat) {
+        playNext = 0;  // play it again from here, from the default view
+        playStart = now;
+        ScriptEvent reset;
+        reset.t = now;
+        reset.isTouch = false;
+        reset.action = "reset-camera";
+        actions.push_back(reset);
+      } else if (o.frames <= 0) {
+        running = false;
+      }
+    }
+  }
+}
+
+void Viewer::Impl::updateStatus() {
+  status.mode = modeName(session->gestures().mode());
+  status.preset = session->preset();
+  status.fingers = int(session->gestures().input().fingers().size());
+  status.handles.clear();
+  for (const auto& h : selection->handles().handles()) status.handles.push_back({h.id, handleStatusName(h.status), h.voxels.size(), {}});
+  for (const auto& [id, r] : deform->shownReactions())
+    for (auto& row : status.handles)
+      if (row.id == id) row.reaction = formatReaction(r, deform->shownRefineStep() == 0);
+  status.picked = selection->picked();
+  status.locks = selection->locks();
+  status.strainOverlay = session->strainOverlay();
+  status.strainFrom = RenderSettings{}.strainFrom;
+  status.strainTo = RenderSettings{}.strainTo;
+  status.canUndo = selection->handles().canUndo();
+  status.canRedo = selection->handles().canRedo();
+  status.feedback = !selection->pinch().feedback().empty() ? selection->pinch().feedback() : selection->manipulationNote();
+  status.simulation = deform->status();
+  if (const std::uint64_t failures = deform->failures(); failures != failuresSeen) {
+    // The simulation refused a pose, stopped without converging or failed to build: the session
+    // goes on (the last good state shows), and what was done so far is saved.
+    failuresSeen = failures;
+    rescueNote = rescue();
+    if (!o.quiet) std::cerr << "warning: " << deform->status() << "\n  " << rescueNote << "\n";
+  }
+  if (!rescueNote.empty()) status.simulation += "; " + rescueNote;
+  status.liveVoxels = selection->liveVoxelCount();
+}
+
 bool Viewer::Impl::step() {
   if (!running || (o.frames > 0 && int(frameNo) >= o.frames)) return false;
   if (frameNo == 0) playStart = seconds(Clock::now(), t0);
@@ -319,61 +407,10 @@ bool Viewer::Impl::step() {
       resized = true;
       return true;
     }
-    SDL_Event e;
     std::vector<TouchEvent> touches;
     std::vector<ScriptEvent> actions;
     const Viewport vp{int(swapchain->extent().width), int(swapchain->extent().height)};
-    while (SDL_PollEvent(&e)) {
-      const double t = seconds(Clock::now(), t0);
-      ui->processEvent(e);
-      if (e.type == SDL_QUIT) running = false;
-      if (e.type == SDL_WINDOWEVENT) {
-        if (e.window.event == SDL_WINDOWEVENT_SIZE_CHANGED) resized = true;
-        if (e.window.event == SDL_WINDOWEVENT_MINIMIZED) minimized = true;
-      }
-      if (e.type == SDL_KEYDOWN && !ui->wantsKeyboard()) {
-        const SDL_Keycode k = e.key.keysym.sym;
-        ScriptEvent key{t, false, {}, "", ""};
-        if (k == SDLK_ESCAPE) running = false;
-        if (k == SDLK_r) key.action = "reset-camera";
-        if (k == SDLK_1 || k == SDLK_2 || k == SDLK_3) {
-          key.action = "set-mode";
-          key.value = k == SDLK_1 ? "navigate" : k == SDLK_2 ? "select" : "manipulate";
-        }
-        if (!key.action.empty()) actions.push_back(key);
-      }
-      input->translate(e, t, vp, [this](double x, double y) { return ui->covers(x, y); }, touches);
-    }
-    // A played script's events arrive as a user's would: at their time since the first frame,
-    // scaled from the script's viewport to the window's.
-    if (play) {
-      const double now = seconds(Clock::now(), t0);
-      const glm::dvec2 k(double(vp.width) / play->viewport.width, double(vp.height) / play->viewport.height);
-      while (playNext < play->events.size() && playStart + play->events[playNext].t <= now) {
-        ScriptEvent pe = play->events[playNext++];
-        pe.t += playStart;
-        if (pe.isTouch) {
-          pe.touch.px *= k;
-          pe.touch.time = pe.t;
-          touches.push_back(pe.touch);
-        } else {
-          actions.push_back(pe);
-        }
-      }
-      if (playNext >= play->events.size() && now > playStart + play->duration() + 0.5) {
-        if (++playRound < o.playRepeat) {
-          playNext = 0;  // play it again from here, from the default view
-          playStart = now;
-          ScriptEvent reset;
-          reset.t = now;
-          reset.isTouch = false;
-          reset.action = "reset-camera";
-          actions.push_back(reset);
-        } else if (o.frames <= 0) {
-          running = false;
-        }
-      }
-    }
+    pollInput(vp, touches, actions);
     for (const auto& t : touches) {
       ScriptEvent se;
       se.t = t.time;
@@ -383,32 +420,7 @@ bool Viewer::Impl::step() {
       ft.inputLast = std::max(ft.inputLast, t.time);
       ++ft.inputCount;
     }
-    status.mode = modeName(session->gestures().mode());
-    status.preset = session->preset();
-    status.fingers = int(session->gestures().input().fingers().size());
-    status.handles.clear();
-    for (const auto& h : selection->handles().handles()) status.handles.push_back({h.id, handleStatusName(h.status), h.voxels.size(), {}});
-    for (const auto& [id, r] : deform->shownReactions())
-      for (auto& row : status.handles)
-        if (row.id == id) row.reaction = formatReaction(r, deform->shownRefineStep() == 0);
-    status.picked = selection->picked();
-    status.locks = selection->locks();
-    status.strainOverlay = session->strainOverlay();
-    status.strainFrom = RenderSettings{}.strainFrom;
-    status.strainTo = RenderSettings{}.strainTo;
-    status.canUndo = selection->handles().canUndo();
-    status.canRedo = selection->handles().canRedo();
-    status.feedback = !selection->pinch().feedback().empty() ? selection->pinch().feedback() : selection->manipulationNote();
-    status.simulation = deform->status();
-    if (const std::uint64_t failures = deform->failures(); failures != failuresSeen) {
-      // The simulation refused a pose, stopped without converging or failed to build: the session
-      // goes on (the last good state shows), and what was done so far is saved.
-      failuresSeen = failures;
-      rescueNote = rescue();
-      if (!o.quiet) std::cerr << "warning: " << deform->status() << "\n  " << rescueNote << "\n";
-    }
-    if (!rescueNote.empty()) status.simulation += "; " + rescueNote;
-    status.liveVoxels = selection->liveVoxelCount();
+    updateStatus();
     ui->build(status, seconds(Clock::now(), t0), actions);
     for (const auto& a : actions) session->apply(a);
     if (session->takePresetChanged()) renderer->setTransferFunction(transferFunctionPreset(session->preset()).lookupTable(q));
