@@ -11,6 +11,7 @@
 
 #include "app/console.h"
 #include "app/demo_script.h"
+#include "app/frame_driver.h"
 #include "app/headless_scene.h"
 #include "app/latency_log.h"
 #include "app/nifti_io.h"
@@ -138,6 +139,7 @@ int runReplay(const ReplayOptions& o) {
   renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
   SelectionController selection(q, session, renderer);
   DeformationController deform(volume, q, renderer, o.sim);
+  FrameDriver driver(volume, q, session, renderer, selection, deform);
   // Everything applied is recorded: an "export" action writes the session so far as a script.
   {
     SessionScript header = script;
@@ -163,7 +165,6 @@ int runReplay(const ReplayOptions& o) {
   // A failure under the session (a Vulkan allocation, a lost device, running out of memory) ends
   // the replay with the session so far saved beside the exports.
   auto rescue = [&] { return saveRecovery(session, selection.handles(), selection.picked(), volume.dims(), o.exportDir); };
-  std::uint64_t failuresSeen = 0;
   try {
     const auto t0 = Clock::now();
     for (int k = 0; k < frames; ++k) {
@@ -185,45 +186,31 @@ int runReplay(const ReplayOptions& o) {
         ft.inputLast = now;
         ++ft.inputCount;
       }
-      if (session.takePresetChanged()) renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
-      RenderSettings rs;
-      rs.width = vp.width;
-      rs.height = vp.height;
-      rs.strainOverlay = session.strainOverlay();
-      const OrbitCamera& cam = session.camera();
-      FrameRequest req;
-      req.params = makeRenderParams(volume.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);
+      driver.refreshTransferFunction();
+      FrameRequest req = driver.request(vp, vp.width, vp.height);
       req.readbackImage = !o.framesOut.empty() || exporter.pending();
-      selection.setRigidPreview(!deform.prepareFrameSettled(req, selection.handles()));
+      driver.attachSimulation(req, true);
       if (const std::string st = deform.status(); !o.quiet && st != simStatus) {
         simStatus = st;
         if (!st.empty()) std::cerr << st << "\n";
       }
-      if (const std::uint64_t failures = deform.failures(); failures != failuresSeen) {
-        // The simulation refused a pose, stopped without converging or failed to build: the
-        // session goes on (the last good state shows), and what was done so far is saved.
-        failuresSeen = failures;
-        std::cerr << "warning: " << deform.status() << "\n  " << rescue() << "\n";
-      }
-      selection.prepareFrame(req, vp);
-      auto cpuStages = selection.takeStageTimes();
-      for (auto& stage : deform.takeStageTimes()) cpuStages.push_back(std::move(stage));
+      // The simulation refused a pose, stopped without converging or failed to build: the
+      // session goes on (the last good state shows), and what was done so far is saved.
+      if (driver.newFailure()) std::cerr << "warning: " << deform.status() << "\n  " << rescue() << "\n";
+      driver.attachSelection(req, vp, ft);
       ft.cpuEnd = seconds(Clock::now(), t0);
-      selection.submitted(renderer.submit(req));
+      driver.submit(req);
       ft.submit = seconds(Clock::now(), t0);
       const auto w0 = Clock::now();
       const FrameResult r = renderer.waitLast();
-      for (const auto& older : renderer.takeCompleted()) selection.onFrameResult(older);
-      selection.onFrameResult(r);
+      for (const auto& older : renderer.takeCompleted()) driver.completed(older);
+      driver.completed(r);
       if (exporter.pending()) std::cout << exporter.write(session, selection.handles(), selection.picked(), deform, r) << "\n";
       ft.present = seconds(Clock::now(), t0);
       ft.waitMs = seconds(Clock::now(), w0) * 1e3;
       ft.frame = r.frame;
       for (const auto& p : r.timings) ft.gpuMs.emplace_back(p.name, p.gpuMs);
-      ft.cpuMs = std::move(cpuStages);
-      ft.simState = deform.modelState();
-      ft.simStateS = deform.shownInput() > 0 ? deform.shownSeconds() : -1.0;
-      ft.reactions = deform.shownReactions();
+      driver.recordSimulation(ft);
       if (!o.framesOut.empty()) {
         char name[32];
         std::snprintf(name, sizeof(name), "frame_%05d.png", k);

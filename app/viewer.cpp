@@ -13,6 +13,7 @@
 #include <optional>
 
 #include "app/console.h"
+#include "app/frame_driver.h"
 #include "app/headless_scene.h"
 #include "app/latency_log.h"
 #include "app/png_io.h"
@@ -165,13 +166,13 @@ struct Viewer::Impl {
   std::unique_ptr<PresentExtension> present;
   std::unique_ptr<SelectionController> selection;
   std::unique_ptr<DeformationController> deform;
+  std::unique_ptr<FrameDriver> driver;
   std::unique_ptr<SessionExport> exporter;
   std::uint64_t exportFrame = 0;  // the frame whose image the pending export waits for
   double scale = 1.0;
   LatencyLog log;
   Clock::time_point t0 = Clock::now();
   std::uint64_t frameNo = 0;
-  std::uint64_t failuresSeen = 0;  // the simulation's failures already saved for
   std::string rescueNote;          // where the session was saved after the last one
   bool running = true, resized = false, minimized = false;
   std::unique_ptr<vk::Buffer> shot;
@@ -279,6 +280,7 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
   present = std::make_unique<PresentExtension>(*swapchain, *ui);
   selection = std::make_unique<SelectionController>(q, *session, *renderer);
   deform = std::make_unique<DeformationController>(volume, q, *renderer, o.sim);
+  driver = std::make_unique<FrameDriver>(volume, q, *session, *renderer, *selection, *deform);
   exporter = std::make_unique<SessionExport>(o.exportDir, volume, o.exportExtension);
   session->addUiExtension([this](const ScriptEvent& e) { return exporter->onUi(e); });
   status.device = ctx->summary().name;
@@ -359,10 +361,9 @@ void Viewer::Impl::updateStatus() {
   status.canRedo = selection->handles().canRedo();
   status.feedback = !selection->pinch().feedback().empty() ? selection->pinch().feedback() : selection->manipulationNote();
   status.simulation = deform->status();
-  if (const std::uint64_t failures = deform->failures(); failures != failuresSeen) {
+  if (driver->newFailure()) {
     // The simulation refused a pose, stopped without converging or failed to build: the session
     // goes on (the last good state shows), and what was done so far is saved.
-    failuresSeen = failures;
     rescueNote = rescue();
     if (!o.quiet) std::cerr << "warning: " << deform->status() << "\n  " << rescueNote << "\n";
   }
@@ -423,26 +424,16 @@ bool Viewer::Impl::step() {
     updateStatus();
     ui->build(status, seconds(Clock::now(), t0), actions);
     for (const auto& a : actions) session->apply(a);
-    if (session->takePresetChanged()) renderer->setTransferFunction(transferFunctionPreset(session->preset()).lookupTable(q));
+    driver->refreshTransferFunction();
 
-    RenderSettings rs;
-    rs.width = std::max(1, int(std::lround(vp.width * scale)));
-    rs.height = std::max(1, int(std::lround(vp.height * scale)));
-    rs.strainOverlay = session->strainOverlay();
-    status.renderWidth = rs.width;
-    status.renderHeight = rs.height;
-    const OrbitCamera& cam = session->camera();
-    FrameRequest req;
-    req.params = makeRenderParams(volume.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);
+    status.renderWidth = std::max(1, int(std::lround(vp.width * scale)));
+    status.renderHeight = std::max(1, int(std::lround(vp.height * scale)));
+    FrameRequest req = driver->request(vp, status.renderWidth, status.renderHeight);
     req.readbackImage = exporter->pending() && exportFrame == 0;  // the export's image (without the UI)
     req.extension = present.get();
-    selection->setRigidPreview(!deform->prepareFrame(req, selection->handles()));  // never waits for the solve
-    selection->prepareFrame(req, vp);
-    ft.cpuMs = selection->takeStageTimes();
-    for (auto& stage : deform->takeStageTimes()) ft.cpuMs.push_back(std::move(stage));
-    ft.simState = deform->modelState();
-    ft.simStateS = deform->shownInput() > 0 ? deform->shownSeconds() : -1.0;
-    ft.reactions = deform->shownReactions();
+    driver->attachSimulation(req, false);  // never waits for the solve
+    driver->attachSelection(req, vp, ft);
+    driver->recordSimulation(ft);
     const bool lastFrame = o.frames > 0 && int(frameNo) + 1 == o.frames;
     if (lastFrame && !o.screenshot.empty())
       shot = std::make_unique<vk::Buffer>(*ctx, VkDeviceSize(vp.width) * vp.height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
@@ -450,9 +441,8 @@ bool Viewer::Impl::step() {
     present->prepare(*frame, (lastFrame && shot) ? shot.get() : nullptr);
     ft.cpuEnd = seconds(Clock::now(), t0);
     const auto s0 = Clock::now();
-    ft.frame = renderer->submit(req);  // waits only for the frame two submissions back
+    ft.frame = driver->submit(req);  // waits only for the frame two submissions back
     if (req.readbackImage) exportFrame = ft.frame;
-    selection->submitted(ft.frame);
     ft.submit = seconds(Clock::now(), t0);
     wait += seconds(Clock::now(), s0);
     const auto p0 = Clock::now();
@@ -461,7 +451,7 @@ bool Viewer::Impl::step() {
     wait += seconds(Clock::now(), p0);
     ft.waitMs = wait * 1e3;
     for (const auto& r : renderer->takeCompleted()) {
-      selection->onFrameResult(r);
+      driver->completed(r);
       if (exportFrame != 0 && r.frame == exportFrame) {
         renderer->waitLast();  // the frames after it are done too: the volume and mesh are read at rest
         status.exported = exporter->write(*session, selection->handles(), selection->picked(), *deform, r);
