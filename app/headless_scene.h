@@ -20,9 +20,6 @@ inline const std::vector<std::string> kRenderValueOptions = {"--frame", "--size"
 inline const std::vector<std::string> kRenderFlagOptions = {"--validation", "--no-skip", "--no-early-termination", "--no-shading", "--quiet"};
 extern const char* const kRenderOptionsHelp;
 
-/// The default scene's camera: a three-quarter view from the front and above.
-constexpr double kDefaultAzimuthDeg = 25.0, kDefaultElevationDeg = 15.0;
-
 struct HeadlessScene {
   Volume volume;
   std::string source;  ///< path, or "built-in phantom"

@@ -4,7 +4,6 @@
 #include <iomanip>
 #include <sstream>
 
-#include "app/headless_scene.h"
 #include "render/transfer_function.h"
 
 namespace handson {

@@ -9,6 +9,9 @@
 
 namespace handson {
 
+/// The default scene's camera: a three-quarter view from the front and above.
+constexpr double kDefaultAzimuthDeg = 25.0, kDefaultElevationDeg = 15.0;
+
 struct OrbitCamera {
   glm::dvec3 target{0.0};
   double distance = 500.0;   ///< mm
