@@ -13,28 +13,14 @@
 
 #include "app/nifti_io.h"
 #include "app/png_io.h"
+#include "tests/app/run_handson.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct CliRun {
-  int status = -1;
-  std::string output;
-};
-
-// Runs the handson executable with a shell command line; stderr is merged into output.
-CliRun runHandson(const std::string& args, int timeoutSeconds = 120) {
-  CliRun r;
-  const std::string cmd = "timeout " + std::to_string(timeoutSeconds) + " " + HANDSON_EXE + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  while (fgets(buf.data(), int(buf.size()), p)) r.output += buf.data();
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-  return r;
-}
+using CliRun = handson::test::HandsonRun;
+using handson::test::runHandson;
 
 class Cli : public ::testing::Test {
  protected:

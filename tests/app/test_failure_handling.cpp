@@ -18,28 +18,15 @@
 #include "app/session_recovery.h"
 #include "app/session_script.h"
 #include "sim/error.h"
+#include "tests/app/run_handson.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct RunResult {
-  int status = -1;  ///< exit status; -1: killed by a signal (a crash)
-  std::string out;
-  bool has(const std::string& s) const { return out.find(s) != std::string::npos; }
-};
+using RunResult = handson::test::HandsonRun;
 
-RunResult run(const std::string& env, const std::string& args) {
-  const std::string cmd = "env " + env + " timeout 300 " + HANDSON_EXE + " " + args + " 2>&1";
-  RunResult r;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  while (fgets(buf, sizeof(buf), p)) r.out += buf;
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+RunResult run(const std::string& env, const std::string& args) { return handson::test::runHandson(args, 300, env); }
 
 std::string slurp(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -97,18 +84,18 @@ TEST_F(FailureHandling, EveryVulkanAllocationThatFailsGivesAClearMessageAndKeeps
   // run's. N = 1..12 (the setup) then every 13th to the last allocation; HANDSON_FULL_FAULT_SWEEP=1
   // tries every N (94 allocations on lavapipe, the figures in the README).
   const RunResult clean = run("", replay(dir_ / "clean"));
-  ASSERT_EQ(clean.status, 0) << clean.out;
+  ASSERT_EQ(clean.status, 0) << clean.output;
   const auto handleLine = [](const std::string& out) {
     const auto at = out.find("handle 1 ");
     return at == std::string::npos ? std::string() : out.substr(at, out.find('\n', at) - at);
   };
-  ASSERT_FALSE(handleLine(clean.out).empty()) << clean.out;
+  ASSERT_FALSE(handleLine(clean.output).empty()) << clean.output;
   const bool full = std::getenv("HANDSON_FULL_FAULT_SWEEP") != nullptr;
   int fatal = 0, reported = 0, recovered = 0, n = 1;
   for (; n <= 400; n += (full || n < 12) ? 1 : 13) {
     const fs::path out = dir_ / ("out" + std::to_string(n));
     const RunResult r = run("HANDSON_FAULT=alloc:" + std::to_string(n), replay(out));
-    const std::string context = "alloc:" + std::to_string(n) + "\n" + r.out;
+    const std::string context = "alloc:" + std::to_string(n) + "\n" + r.output;
     if (!r.has("injected fault")) {  // past the last allocation: a clean run
       EXPECT_EQ(r.status, 0) << context;
       break;
@@ -129,7 +116,7 @@ TEST_F(FailureHandling, EveryVulkanAllocationThatFailsGivesAClearMessageAndKeeps
       ++reported;
     } else {
       ++recovered;
-      EXPECT_EQ(handleLine(r.out), handleLine(clean.out)) << context;
+      EXPECT_EQ(handleLine(r.output), handleLine(clean.output)) << context;
       EXPECT_TRUE(r.has("exported to")) << context;
     }
     expectNoPartialFiles(out, context);
@@ -147,7 +134,7 @@ TEST_F(FailureHandling, ALostDeviceEndsTheReplayWithTheSessionSaved) {
   for (int n : {1, 4, 12, 22}) {
     const fs::path out = dir_ / ("out" + std::to_string(n));
     const RunResult r = run("HANDSON_FAULT=device-lost:" + std::to_string(n), replay(out));
-    const std::string context = "device-lost:" + std::to_string(n) + "\n" + r.out;
+    const std::string context = "device-lost:" + std::to_string(n) + "\n" + r.output;
     ASSERT_EQ(r.status, 1) << context;
     EXPECT_TRUE(r.has("VK_ERROR_DEVICE_LOST") && r.has("the GPU device was lost")) << context;
     if (n > 4) {
@@ -164,43 +151,43 @@ TEST_F(FailureHandling, ASolveThatDoesNotConvergeIsReportedAndTheSessionGoesOnSa
   // One coarse iteration a pose and none while it is held: the drag's solves stop unconverged.
   const fs::path out = dir_ / "out";
   const RunResult r = run("", replay(out, "--sim-iterations 1 --sim-idle-iterations 0"));
-  ASSERT_EQ(r.status, 0) << r.out;
-  EXPECT_TRUE(r.has("did not converge (1 iteration,")) << r.out;
-  EXPECT_TRUE(r.has("showing the last state it reached")) << r.out;
-  EXPECT_TRUE(r.has("the session so far is saved")) << r.out;
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(r.has("did not converge (1 iteration,")) << r.output;
+  EXPECT_TRUE(r.has("showing the last state it reached")) << r.output;
+  EXPECT_TRUE(r.has("the session so far is saved")) << r.output;
   const handson::SavedHandles saved = handson::readHandles((out / "recovery-handles.json").string());
   ASSERT_EQ(saved.handles.size(), 1u);
   EXPECT_TRUE(saved.handles[0].pose.translation.allFinite());
   // The session went on to its export.
-  EXPECT_TRUE(fs::exists(out / "session-01.json")) << r.out;
-  expectNoPartialFiles(out, r.out);
+  EXPECT_TRUE(fs::exists(out / "session-01.json")) << r.output;
+  expectNoPartialFiles(out, r.output);
   // With the default budget the same drag converges: no such report.
   const RunResult clean = run("", replay(dir_ / "clean"));
-  ASSERT_EQ(clean.status, 0) << clean.out;
-  EXPECT_FALSE(clean.has("did not converge")) << clean.out;
+  ASSERT_EQ(clean.status, 0) << clean.output;
+  EXPECT_FALSE(clean.has("did not converge")) << clean.output;
   EXPECT_FALSE(fs::exists(dir_ / "clean" / "recovery-session.json"));
 }
 
 TEST_F(FailureHandling, AVolumeLargerThanTheMemoryAllowedIsRefusedBeforeItIsLoaded) {
   const fs::path ct = dir_ / "phantom.nii.gz";
   RunResult r = run("", "phantom -o " + ct.string() + " --spacing 3");
-  ASSERT_EQ(r.status, 0) << r.out;
+  ASSERT_EQ(r.status, 0) << r.output;
   // Host memory: a cap below the volume's size.
   r = run("HANDSON_MEMORY_LIMIT_MB=1", "replay --volume " + ct.string() + " --size 48x48 --fps 2 --quiet");
-  ASSERT_EQ(r.status, 1) << r.out;
-  EXPECT_TRUE(r.has("more than the 1 MiB this process may use (HANDSON_MEMORY_LIMIT_MB)")) << r.out;
-  EXPECT_TRUE(r.has("handson resample --voxels")) << r.out;
+  ASSERT_EQ(r.status, 1) << r.output;
+  EXPECT_TRUE(r.has("more than the 1 MiB this process may use (HANDSON_MEMORY_LIMIT_MB)")) << r.output;
+  EXPECT_TRUE(r.has("handson resample --voxels")) << r.output;
   // GPU memory: a device too small for the textures (a cap standing in for a small GPU).
   r = run("HANDSON_GPU_MEMORY_LIMIT_MB=1", "replay --volume " + ct.string() + " --size 48x48 --fps 2 --quiet");
-  ASSERT_EQ(r.status, 1) << r.out;
-  EXPECT_TRUE(r.has("MiB of GPU memory to render and deform, more than the 1 MiB of")) << r.out;
+  ASSERT_EQ(r.status, 1) << r.output;
+  EXPECT_TRUE(r.has("MiB of GPU memory to render and deform, more than the 1 MiB of")) << r.output;
   // Within both, it runs.
   r = run("HANDSON_MEMORY_LIMIT_MB=4000 HANDSON_GPU_MEMORY_LIMIT_MB=4000", "replay --volume " + ct.string() + " --size 48x48 --fps 2 --quiet");
-  EXPECT_EQ(r.status, 0) << r.out;
+  EXPECT_EQ(r.status, 0) << r.output;
 }
 
 TEST_F(FailureHandling, AMalformedFaultSpecificationIsRefused) {
   const RunResult r = run("HANDSON_FAULT=alloc:zero", "replay --size 32x32 --fps 1 --quiet");
-  EXPECT_EQ(r.status, 1) << r.out;
-  EXPECT_TRUE(r.has("is not alloc:N or device-lost:N")) << r.out;
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_TRUE(r.has("is not alloc:N or device-lost:N")) << r.output;
 }

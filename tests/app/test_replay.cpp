@@ -20,21 +20,16 @@
 #include "app/png_io.h"
 #include "app/session_recovery.h"
 #include "sim/phantom.h"
+#include "tests/app/run_handson.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
 int run(const std::string& args, std::string* output = nullptr) {
-  const std::string cmd = std::string("timeout 300 ") + HANDSON_EXE + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return -1;
-  char buf[4096];
-  std::string out;
-  while (fgets(buf, sizeof(buf), p)) out += buf;
-  const int st = pclose(p);
-  if (output) *output = out;
-  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  const handson::test::HandsonRun r = handson::test::runHandson(args, 300);
+  if (output) *output = r.output;
+  return r.status;
 }
 
 std::string slurp(const fs::path& p) {

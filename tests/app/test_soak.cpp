@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "app/soak.h"
+#include "tests/app/run_handson.h"
 
 namespace fs = std::filesystem;
 
@@ -51,16 +52,11 @@ TEST(Soak, MemoryAndVulkanAllocationsStayFlatOverManyCycles) {
 #else
   const std::string tolerance = "";
 #endif
-  const std::string cmd = std::string("timeout 600 ") + HANDSON_EXE + " soak --frames 480 --size 48x48 --sample-every 20 --quiet " +
-                          "--sim-coarse-tets 300 --sim-fine-tets 19200 --sim-cache off --out " + out.string() + tolerance + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  ASSERT_NE(p, nullptr);
-  std::string log;
-  char buf[4096];
-  while (fgets(buf, sizeof(buf), p)) log += buf;
-  const int st = pclose(p);
-  ASSERT_TRUE(WIFEXITED(st)) << log;
-  EXPECT_EQ(WEXITSTATUS(st), 0) << log;
+  const handson::test::HandsonRun run = handson::test::runHandson("soak --frames 480 --size 48x48 --sample-every 20 --quiet --sim-coarse-tets 300 --sim-fine-tets 19200 "
+                                                 "--sim-cache off --out " + out.string() + tolerance, 600);
+  const std::string& log = run.output;
+  ASSERT_EQ(run.signal, 0) << log;
+  EXPECT_EQ(run.status, 0) << log;
   EXPECT_NE(log.find("validation messages: 0"), std::string::npos) << log;
   // The kidney was selected once, moved and put back (undo) every cycle: one handle, at rest.
   EXPECT_NE(log.find("handle 1 active"), std::string::npos) << log;
