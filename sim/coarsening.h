@@ -235,12 +235,11 @@ class CoarseModel {
   Eigen::Matrix3d elementRotation(int e, const std::vector<Eigen::Vector3d>& x) const;
   /// An element's condensed load in the frame R (sim/handle_reaction.cpp): corner displacements d
   /// (3n), handle motion parameters p (12h), corner forces K_h d + sum_a [A_a B_a] p_a (3n), and per
-  /// handle the gradient g_a against its 12 motion parameters, and the element's energy there.
+  /// handle the gradient g_a against its 12 motion parameters.
   struct ElementLoad {
     VecE d, corner;
     Eigen::VectorXd p;
     std::vector<Eigen::Matrix<double, 12, 1>> g;
-    double energy = 0.0;
   };
   ElementLoad elementLoad(const Element& el, const Eigen::Matrix3d& R, const std::vector<Eigen::Vector3d>& x, const std::vector<RigidTransform>& handles) const;
   Eigen::Vector3d elementMoment(const Element& el, const Eigen::Matrix3d& R, const ElementLoad& L, const std::vector<RigidTransform>& handles) const;

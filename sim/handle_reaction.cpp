@@ -27,13 +27,6 @@ namespace {
 
 constexpr double kNewtonPerPaMm2 = 1e-6;
 
-// [v]x: the matrix with [v]x u = v x u.
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d S;
-  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return S;
-}
-
 // Moments about the world origin moved to each handle's current centroid, and the units applied.
 std::vector<HandleReaction> aboutCentroids(std::vector<HandleReaction> r, const std::vector<Eigen::Vector3d>& restCentroid,
                                            const std::vector<RigidTransform>& handles) {
@@ -109,22 +102,14 @@ CoarseModel::ElementLoad CoarseModel::elementLoad(const Element& el, const Eigen
     L.p.segment<9>(12 * Eigen::Index(a)) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(M.data());
     L.p.segment<3>(12 * Eigen::Index(a) + 9) = R.transpose() * T.t;
   }
-  const VecE Kd = el.Kh * L.d;
-  L.corner = Kd;
-  for (std::size_t a = 0; a < h; ++a)
-    L.corner.noalias() += el.handles[a].A * L.p.segment<9>(12 * Eigen::Index(a)) + el.handles[a].B * L.p.segment<3>(12 * Eigen::Index(a) + 9);
+  L.corner = el.Kh * L.d + handleTerm(el, R, handles);
   L.g.resize(h);
-  double pQp = 0.0;
   for (std::size_t a = 0; a < h; ++a) {
     const HandleBlock& b = el.handles[a];
     L.g[a].head<9>() = b.A.transpose() * L.d;
     L.g[a].tail<3>() = b.B.transpose() * L.d;
-    const Eigen::Matrix<double, 12, 1> Qp = el.Q.middleRows(12 * Eigen::Index(a), 12) * L.p;
-    L.g[a] += Qp;
-    pQp += L.p.segment<12>(12 * Eigen::Index(a)).dot(Qp);
+    L.g[a] += el.Q.middleRows(12 * Eigen::Index(a), 12) * L.p;
   }
-  // E = 1/2 d.K_h d + d.(sum_a [A_a B_a] p_a) + 1/2 p.Q p, and d.corner = d.K_h d + d.(...).
-  L.energy = L.d.dot(L.corner) - 0.5 * L.d.dot(Kd) + 0.5 * pQp;
   return L;
 }
 
@@ -154,8 +139,8 @@ Eigen::Matrix3d CoarseModel::momentJacobian(const Element& el, const Eigen::Matr
   Eigen::Matrix<double, Eigen::Dynamic, 3> G(3 * nc + 12 * h, 3);
   Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
   auto term = [&](int row, const Eigen::Vector3d& v, const Eigen::Vector3d& grad) {
-    G.middleRows<3>(row) = skew(v);
-    J -= skew(grad) * skew(v);
+    G.middleRows<3>(row) = crossMatrix(v);
+    J -= crossMatrix(grad) * crossMatrix(v);
   };
   for (int c = 0; c < nc; ++c) term(3 * c, L.d.segment<3>(3 * c) + nodes_[std::size_t(el.node[std::size_t(c)])], L.corner.segment<3>(3 * c));
   for (int a = 0; a < h; ++a) {
