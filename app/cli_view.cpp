@@ -45,6 +45,8 @@ const char* const kViewHelp =
     "  --timings LOG.csv       per-frame latency log (input, CPU, GPU passes, submit, present)\n"
     "  --play SCRIPT.json      feed a session script in as live input, in real time; exits after it\n"
     "  --play-repeat N         play it N times in a row, resetting the view in between (default 1)\n"
+    "  --labels LABELS         organ labels (0 = background; another grid of the same space is resampled):\n"
+    "                          in select mode a tap on an organ makes its labelled component a handle\n"
     "  --device NAME, --validation, --quiet, --print-camera\n";
 
 const char* const kReplayHelp =
@@ -59,6 +61,7 @@ const char* const kReplayHelp =
     "  --export OUT.nii.gz the deformed volume at the end, on the input's grid\n"
     "  --export-dir DIR    where the script's export actions write (default handson-export)\n"
     "  --export-format F   nifti (default), nrrd or mha for the exported volumes\n"
+    "  --labels LABELS     organ labels: taps in select mode and label-handle actions make organs handles\n"
     "  --device NAME, --validation, --quiet, --print-camera, --print-handles\n";
 
 const char* const kSimHelp =
@@ -115,7 +118,7 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 int cmdView(const Words& words) {
   Args args(words,
             with({"--frame", "--size", "--present-mode", "--render-scale", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
-                  "--frames-in-flight", "--play-repeat", "--export-dir", "--export-format"},
+                  "--frames-in-flight", "--play-repeat", "--export-dir", "--export-format", "--labels"},
                  kSimOptions),
             {"--validation", "--quiet", "--print-camera"});
   if (args.help() || args.positional().size() > 1) {
@@ -146,13 +149,14 @@ int cmdView(const Words& words) {
   o.validation = args.flag("--validation");
   o.quiet = args.flag("--quiet");
   o.printCamera = args.flag("--print-camera");
+  o.labels = args.valueOr("--labels", "");
   o.sim = simOptions(args, 2);
   if (!displayAvailable()) throw Error("no display available (DISPLAY and WAYLAND_DISPLAY are unset): use 'handson replay' to run headless");
   return runViewer(o);
 }
 
 int cmdReplay(const Words& words) {
-  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--size", "--device", "--export", "--export-dir", "--export-format"}, kSimOptions),
+  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--size", "--device", "--export", "--export-dir", "--export-format", "--labels"}, kSimOptions),
             {"--validation", "--quiet", "--print-camera", "--print-handles"});
   if (args.help() || args.positional().size() > 1) {
     usageStream(args) << kReplayHelp << kSimHelp << "  (replay waits each frame for the simulation to settle: frames do not depend on timing)\n";
@@ -170,6 +174,7 @@ int cmdReplay(const Words& words) {
   o.quiet = args.flag("--quiet");
   o.printCamera = args.flag("--print-camera");
   o.printHandles = args.flag("--print-handles");
+  o.labels = args.valueOr("--labels", "");
   o.exportPath = args.valueOr("--export", "");
   o.exportDir = args.valueOr("--export-dir", o.exportDir);
   o.exportExtension = exportVolumeExtension(args);

@@ -13,6 +13,7 @@ FrameRequest FrameDriver::request(const Viewport& vp, int width, int height) con
   rs.width = width;
   rs.height = height;
   rs.strainOverlay = session_.strainOverlay();
+  rs.labelTint = session_.labelTint();
   const OrbitCamera& cam = session_.camera();
   FrameRequest req;
   req.params = makeRenderParams(volume_.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);

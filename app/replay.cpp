@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 
 #include "app/console.h"
 #include "app/demo_script.h"
@@ -118,6 +119,7 @@ int runReplay(const ReplayOptions& o) {
   const ProgressFn progress = o.quiet ? ProgressFn{} : consoleProgress();
 
   Volume volume = loadReplayVolume(o, script, progress);
+  const std::optional<LabelMap> labels = o.labels.empty() ? std::nullopt : std::optional<LabelMap>(loadLabelMap(o.labels, volume.geometry()));
 
   // Output size; touches recorded in the script's viewport are scaled to it.
   Viewport vp = script.viewport;
@@ -138,6 +140,11 @@ int runReplay(const ReplayOptions& o) {
   session.apply(ScriptEvent{0.0, false, {}, "set-mode", script.mode});
   renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
   SelectionController selection(q, session, renderer);
+  if (labels) {
+    selection.setLabels(&*labels);
+    renderer.setLabels(labels->labels);
+    session.setLabelTint(true);
+  }
   DeformationController deform(volume, q, renderer, o.sim);
   FrameDriver driver(volume, q, session, renderer, selection, deform);
   // Everything applied is recorded: an "export" action writes the session so far as a script.

@@ -17,6 +17,7 @@ struct ReplayOptions {
   std::string script;      ///< path; empty: the built-in orbit-and-zoom demo
   std::optional<SessionScript> scriptData;  ///< a script in memory instead (e.g. app/gesture_stress.h: may hold NaN)
   std::string volume;      ///< overrides the script's volume
+  std::string labels;      ///< organ labels for taps and label-handle actions (empty: none)
   std::string framesOut;   ///< directory for frame_NNNNN.png (created); empty: no PNGs
   std::string timings;     ///< timing log CSV
   double fps = 30.0;       ///< frames per second of script time

@@ -131,6 +131,30 @@ void SelectionController::syncTints() {
   tintsDirty_ = false;
 }
 
+bool SelectionController::labelHandle(const std::string& value) {
+  labelNote_.clear();
+  if (!labels_) {
+    labelNote_ = "No label map is loaded (--labels)";
+    return false;
+  }
+  Eigen::Vector3i v;
+  char c1 = 0, c2 = 0;
+  std::istringstream in(value);
+  if (!(in >> v.x() >> c1 >> v.y() >> c2 >> v.z()) || c1 != ',' || c2 != ',' || !labels_->geometry.contains(v)) {
+    labelNote_ = "label-handle needs a voxel I,J,K inside the volume";
+    return false;
+  }
+  if (labels_->at(v) == 0) {
+    labelNote_ = "No labelled organ there";
+    return false;
+  }
+  if (handles_.add(labelComponent(*labels_, v)) == 0) {
+    labelNote_ = "No handle left for that organ";
+    return false;
+  }
+  return true;
+}
+
 bool SelectionController::applyUi(const ScriptEvent& e) {
   auto ids = [&](int& a, int& b) {
     char comma = 0;
@@ -160,6 +184,8 @@ bool SelectionController::applyUi(const ScriptEvent& e) {
   } else if (e.action == "handle-union" || e.action == "handle-difference") {
     int a = 0, b = 0;
     ok = ids(a, b) && (e.action == "handle-union" ? handles_.unite(a, b) : handles_.subtract(a, b));
+  } else if (e.action == "label-handle") {
+    ok = labelHandle(e.value);
   } else if (e.action == "toggle-lock") {
     unsigned lock = 0;
     if (!parseGestureLock(e.value, lock)) return false;
@@ -266,6 +292,20 @@ void SelectionController::onFrameResult(const FrameResult& r) {
         picked_.push_back(id);
         if (picked_.size() > 2) picked_.erase(picked_.begin());
         tintsDirty_ = true;
+      } else if (labels_) {
+        // A tap on an organ that is no handle yet: the organ behind the picked surface (the first
+        // 2 voxels or 4 mm of the ray) becomes a handle. Applied here, not recorded as an action:
+        // the tap's touches are, and replay picks the same point.
+        const glm::dvec3 hit(r.picks[tapOffset_].world);
+        const glm::dvec3 dir = hit - session_.camera().eye();
+        const double depth = std::max(4.0, 2.0 * labels_->geometry.spacing.maxCoeff());
+        if (const auto v = labelledVoxelBehind(*labels_, {hit.x, hit.y, hit.z}, {dir.x, dir.y, dir.z}, depth)) {
+          std::ostringstream text;
+          text << v->x() << "," << v->y() << "," << v->z();
+          applyUi(uiEvent(0.0, "label-handle", text.str()));
+        } else {
+          labelNote_ = "No labelled organ there";
+        }
       }
     }
   }

@@ -5,13 +5,16 @@
 // box is uploaded inside the next frame; handle edits come in as UI actions (recorded and replayed
 // like touches):
 //   handle-status "ID:active|fixed|idle", handle-delete "ID", handle-union "A,B" (A := A ∪ B),
-//   handle-difference "A,B" (A := A \ B), undo, redo, toggle-lock "z-translation|z-rotation|xy-translation".
+//   handle-difference "A,B" (A := A \ B), undo, redo, toggle-lock "z-translation|z-rotation|xy-translation",
+//   label-handle "I,J,K" (with a label map: the labelled organ at voxel I,J,K becomes a handle - what
+//   a tap on an organ that is no handle yet does in select mode).
 #include <optional>
 #include <vector>
 
 #include "app/session.h"
 #include "app/stage_times.h"
 #include "interaction/handles.h"
+#include "interaction/label_map.h"
 #include "interaction/selection.h"
 #include "render/render_params.h"
 #include "render/volume_renderer.h"
@@ -32,6 +35,12 @@ class SelectionController {
   /// Handle edits; false for actions that are not the controller's or that were refused.
   bool applyUi(const ScriptEvent& e);
 
+  /// Organ labels on the volume's grid (owned by the caller, kept alive while this controller is):
+  /// taps and "label-handle" actions then make labelled organs handles. nullptr: none.
+  void setLabels(const LabelMap* labels) { labels_ = labels; }
+  /// Why the last label-handle action was refused ("" if it was not).
+  const std::string& labelNote() const { return labelNote_; }
+
   const HandleSet& handles() const { return handles_; }
   /// Handles picked by tapping them (most recent last, at most two): union and difference act on them.
   const std::vector<int>& picked() const { return picked_; }
@@ -50,6 +59,7 @@ class SelectionController {
 
  private:
   void repaint(const std::vector<std::uint32_t>& voxels);
+  bool labelHandle(const std::string& voxel);
   void refreshLive();
   void syncTints();
 
@@ -95,6 +105,8 @@ class SelectionController {
   double tapTime_ = 0.0;
   bool tapSpoiled_ = false;
   std::vector<int> picked_;
+  const LabelMap* labels_ = nullptr;
+  std::string labelNote_;
   StageTimes stages_;
 };
 

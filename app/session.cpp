@@ -42,6 +42,8 @@ bool Session::apply(const ScriptEvent& e) {
     resetCamera();
   } else if (e.action == "toggle-strain") {
     strainOverlay_ = !strainOverlay_;
+  } else if (e.action == "toggle-labels") {
+    labelTint_ = !labelTint_;
   } else {
     ok = false;
     for (const auto& f : uiExtensions_)

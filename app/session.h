@@ -30,6 +30,10 @@ class Session {
   bool takePresetChanged() { return std::exchange(presetChanged_, false); }
   /// The strain overlay (the "toggle-strain" action): tissue coloured by its strain while deforming.
   bool strainOverlay() const { return strainOverlay_; }
+  /// The label tint (the "toggle-labels" action): tissue coloured by its organ label, where the
+  /// renderer has labels (on from the start when a label map is loaded: setLabelTint).
+  bool labelTint() const { return labelTint_; }
+  void setLabelTint(bool on) { labelTint_ = on; }
 
   /// UI actions the session does not know itself (handle edits, export) go to these, in order,
   /// until one applies it (returns true).
@@ -47,6 +51,7 @@ class Session {
   std::string preset_;
   bool presetChanged_ = false;
   bool strainOverlay_ = false;
+  bool labelTint_ = false;
   bool recording_ = false;
   SessionScript script_;
   std::vector<std::function<bool(const ScriptEvent&)>> uiExtensions_;

@@ -151,6 +151,12 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   if (st.strainOverlay) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.85f, 0.35f, 0.10f, 1.0f));
   if (ImGui::Button("Strain", button)) action("toggle-strain", "");
   if (st.strainOverlay) ImGui::PopStyleColor();
+  if (st.hasLabels) {
+    ImGui::SameLine();
+    if (st.labelTint) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.25f, 0.60f, 0.35f, 1.0f));
+    if (ImGui::Button("Labels", button)) action("toggle-labels", "");
+    if (st.labelTint) ImGui::PopStyleColor();
+  }
   if (st.mode == "manipulate") {
     // Axis locks for the manipulation (the finger count chooses the rest).
     ImGui::NewLine();

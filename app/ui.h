@@ -38,6 +38,8 @@ struct UiStatus {
   std::size_t liveVoxels = 0;  ///< the selection being pinched
   unsigned locks = 0;          ///< manipulation locks (GestureLock bits)
   bool strainOverlay = false;  ///< the strain overlay is on: its colour bar shows
+  bool hasLabels = false;      ///< a label map is loaded: the Labels button shows
+  bool labelTint = false;      ///< ... and its tint is on
   float strainFrom = 0.0f, strainTo = 0.30f;  ///< the overlay's range (RenderSettings)
 };
 

@@ -165,6 +165,7 @@ struct Viewer::Impl {
   std::unique_ptr<Session> session;
   std::unique_ptr<PresentExtension> present;
   std::unique_ptr<SelectionController> selection;
+  std::unique_ptr<LabelMap> labels;  // --labels: organ labels on the volume's grid
   std::unique_ptr<DeformationController> deform;
   std::unique_ptr<FrameDriver> driver;
   std::unique_ptr<SessionExport> exporter;
@@ -253,6 +254,7 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
     volume = loadVolume(o.path, &rep, progress, LoadOptions{o.frame});
     for (const auto& warning : rep.warnings) std::cerr << "warning: " << warning << "\n";
   }
+  if (!o.labels.empty()) labels = std::make_unique<LabelMap>(loadLabelMap(o.labels, volume.geometry()));
   q = quantizeVolume(volume);
   renderer = std::make_unique<VolumeRenderer>(*ctx, std::uint32_t(o.framesInFlight));
   renderer->setVolume(q, progress);
@@ -279,6 +281,11 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
               << o.framesInFlight << " frame(s) in flight, raymarch at " << scale * 100 << " %\n";
   present = std::make_unique<PresentExtension>(*swapchain, *ui);
   selection = std::make_unique<SelectionController>(q, *session, *renderer);
+  selection->setLabels(labels.get());
+  if (labels) {
+    renderer->setLabels(labels->labels);
+    session->setLabelTint(true);
+  }
   deform = std::make_unique<DeformationController>(volume, q, *renderer, o.sim);
   driver = std::make_unique<FrameDriver>(volume, q, *session, *renderer, *selection, *deform);
   exporter = std::make_unique<SessionExport>(o.exportDir, volume, o.exportExtension);
@@ -355,11 +362,15 @@ void Viewer::Impl::updateStatus() {
   status.picked = selection->picked();
   status.locks = selection->locks();
   status.strainOverlay = session->strainOverlay();
+  status.hasLabels = labels != nullptr;
+  status.labelTint = session->labelTint();
   status.strainFrom = RenderSettings{}.strainFrom;
   status.strainTo = RenderSettings{}.strainTo;
   status.canUndo = selection->handles().canUndo();
   status.canRedo = selection->handles().canRedo();
-  status.feedback = !selection->pinch().feedback().empty() ? selection->pinch().feedback() : selection->manipulationNote();
+  status.feedback = !selection->pinch().feedback().empty() ? selection->pinch().feedback()
+                    : !selection->labelNote().empty()     ? selection->labelNote()
+                                                          : selection->manipulationNote();
   status.simulation = deform->status();
   if (driver->newFailure()) {
     // The simulation refused a pose, stopped without converging or failed to build: the session

@@ -25,6 +25,7 @@ struct ViewerOptions {
   int playRepeat = 1;       ///< times to play it
   std::string timings;      ///< latency log CSV
   std::string preset;       ///< empty: by the volume's values
+  std::string labels;       ///< organ labels for taps in select mode (empty: none)
   std::string device;
   bool validation = false;
   int framesInFlight = 2;   ///< 1 lowers latency, 2 keeps the GPU busy while the CPU records

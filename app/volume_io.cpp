@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <system_error>
 
 #include "app/dicom_io.h"
@@ -47,6 +48,17 @@ bool isMetaImageHeader(const unsigned char* b, std::size_t n) {
 }
 
 }  // namespace
+
+LabelMap loadLabelMap(const std::string& path, const VolumeGeometry& grid) {
+  try {
+    LabelMap m = labelsOnGrid(loadVolume(path), grid);
+    if (!m.note.empty()) std::cerr << "warning: " << path << ": " << m.note << "\n";
+    return m;
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    throw Error(what.find(path) == std::string::npos ? "labels '" + path + "': " + what : what);
+  }
+}
 
 std::string sniffVolumeFormat(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

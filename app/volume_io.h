@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "interaction/label_map.h"
 #include "sim/progress.h"
 #include "sim/volume.h"
 
@@ -31,6 +32,10 @@ Volume loadVolume(const std::string& path, LoadReport* report = nullptr, const P
 /// Writes the volume as NRRD when the path ends in ".nrrd" (any case), else as NIfTI (gzipped when
 /// it ends in ".gz"). Throws handson::Error.
 void writeVolume(const Volume& volume, const std::string& path);
+
+/// A label map file (any format loadVolume reads) on `grid` (interaction/label_map.h); when it had
+/// to be resampled, a warning saying so goes to stderr. Throws handson::Error, naming the path.
+LabelMap loadLabelMap(const std::string& path, const VolumeGeometry& grid);
 
 /// What a file holds, from its first bytes: "dicom", "nifti" (or gzip, read as NIfTI), "nrrd",
 /// "metaimage", or "" when it is none of them (or cannot be read).

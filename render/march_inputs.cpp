@@ -26,7 +26,10 @@ std::vector<VkDescriptorSetLayoutBinding> marchBindings(VkDescriptorType outputT
       {gpu::kBindHandles, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
   };
   if (pickInput) b.push_back({gpu::kBindPickInput, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
-  else b.push_back({gpu::kBindStrain, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
+  else {
+    b.push_back({gpu::kBindStrain, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
+    b.push_back({gpu::kBindLabels, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
+  }
   return b;
 }
 }  // namespace

@@ -10,13 +10,14 @@ namespace handson::vk {
 RaymarchPass::RaymarchPass(const Context& ctx) : ctx_(ctx), pipeline_(ctx, shaders::raymarch(), marchBindingsFor(false), 0) {}
 
 void RaymarchPass::add(fg::FrameGraph& graph, const MarchInputs& in, fg::ResourceHandle output, const Sampler& sampler, const Sampler& nearest) {
-  if (!in.strain.valid()) throw Error("raymarch: no strain image (bind a zero one when there is none)");
+  if (!in.strain.valid() || !in.labels.valid()) throw Error("raymarch: no strain or label image (bind a zero one when there is none)");
   const fg::ImageDesc desc = graph.resource(output).image;
   graph.addPass(
       "raymarch",
       [&](fg::PassBuilder& b) {
         declareMarchInputs(b, in);
         b.read(in.strain, fg::Access::Sampled);
+        b.read(in.labels, fg::Access::Sampled);
         b.write(output, fg::Access::StorageWrite);
       },
       [this, in, output, desc, &sampler, &nearest](fg::Executor& e) {
@@ -25,6 +26,7 @@ void RaymarchPass::add(fg::FrameGraph& graph, const MarchInputs& in, fg::Resourc
         marchDescriptors(x, in, sampler)
             .storageImage(gpu::kBindOutput, x.image(output).view())
             .sampledImage(gpu::kBindStrain, x.image(in.strain).view(), nearest.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
+            .sampledImage(gpu::kBindLabels, x.image(in.labels).view(), nearest.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
             .push(ctx_, x.cmd(), pipeline_);
         vkCmdDispatch(x.cmd(), (desc.width + gpu::kRaymarchGroupX - 1) / gpu::kRaymarchGroupX,
                       (desc.height + gpu::kRaymarchGroupY - 1) / gpu::kRaymarchGroupY, 1);

@@ -16,6 +16,19 @@ struct Sampler {
   const std::vector<std::uint8_t>* mask;
   const std::vector<glm::vec4>* tints;
   const std::vector<float>* strain;
+  const std::vector<std::uint16_t>* labels;
+
+  // As raymarch.comp's labelTint.
+  glm::vec3 labelTint(glm::vec3 c, glm::vec3 idx) const {
+    static constexpr float kPalette[3 * gpu::kLabelPaletteSize] = {HANDSON_LABEL_PALETTE};
+    if (!labels) return c;
+    const auto& d = v.geometry.dims;
+    const glm::ivec3 q = glm::clamp(glm::ivec3(glm::floor(idx + 0.5f)), glm::ivec3(0), glm::ivec3(d.x(), d.y(), d.z()) - 1);
+    const std::uint32_t l = (*labels)[std::size_t(q.x) + std::size_t(d.x()) * (std::size_t(q.y) + std::size_t(d.y()) * std::size_t(q.z))];
+    if (l == 0) return c;
+    const std::uint32_t k = 3 * (l % gpu::kLabelPaletteSize);
+    return glm::mix(c, glm::vec3(kPalette[k], kPalette[k + 1], kPalette[k + 2]), float(HANDSON_LABEL_TINT_WEIGHT));
+  }
 
   // As raymarch.comp's strainTint.
   glm::vec3 strainTint(glm::vec3 c, glm::vec3 idx) const {
@@ -167,6 +180,7 @@ struct Sampler {
         if (s.a <= 0.0f) continue;
         const float a = correctedAlpha(s.a);
         glm::vec3 c(s);
+        if ((flags & gpu::kFlagLabelTint) && !isMoving(id)) c = labelTint(c, idx);
         if (id != 0 && tints) c = glm::mix(c, glm::vec3((*tints)[id]), (*tints)[id].a);
         if (flags & gpu::kFlagStrainOverlay) c = strainTint(c, idx);
         if (flags & gpu::kFlagShading) {
@@ -243,7 +257,7 @@ struct Sampler {
 }  // namespace
 
 std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const gpu::RenderParams& params) {
-  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints, scene.strain};
+  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints, scene.strain, scene.labels};
   const int w = params.dims.w, h = params.brickDims.w;
   std::vector<std::uint8_t> img(std::size_t(w) * h * 4);
   auto rows = [&](int y0, int y1) {
@@ -264,7 +278,7 @@ std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const g
 
 std::vector<gpu::PickResult> pickReference(const ReferenceScene& scene, const gpu::RenderParams& params,
                                            const std::vector<glm::vec2>& ndcPoints) {
-  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints, scene.strain};
+  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints, scene.strain, scene.labels};
   std::vector<gpu::PickResult> out;
   out.reserve(ndcPoints.size());
   for (const auto& p : ndcPoints) out.push_back(s.pick(p));

@@ -19,6 +19,7 @@ struct ReferenceScene {
   const std::vector<std::uint8_t>* mask = nullptr;         ///< handle ids on the volume grid (null: none)
   const std::vector<glm::vec4>* handleTints = nullptr;     ///< gpu::kMaxHandleIds entries
   const std::vector<float>* strain = nullptr;              ///< strain on the volume grid (the overlay; null: none)
+  const std::vector<std::uint16_t>* labels = nullptr;      ///< organ labels on the volume grid (the label tint; null: none)
 };
 
 /// RGBA8 image (width = params.dims.w, height = params.brickDims.w), row 0 at the top.

@@ -41,6 +41,7 @@ gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::ma
   if (s.earlyTermination) flags |= gpu::kFlagEarlyTermination;
   if (s.shading) flags |= gpu::kFlagShading;
   if (s.strainOverlay) flags |= gpu::kFlagStrainOverlay;
+  if (s.labelTint) flags |= gpu::kFlagLabelTint;
   p.strain = glm::vec4(s.strainFrom, s.strainTo, s.strainWeight, 0.0f);
   const double diag = geometry.diagonalMm();
   const std::uint32_t maxSteps = std::uint32_t(std::ceil(diag / step)) * 2u + 64u;

@@ -25,6 +25,8 @@ struct RenderSettings {
   /// The strain overlay (while deforming): tissue coloured from strainFrom (none) to strainTo (full
   /// colour, yellow to red, weight strainWeight); strain as sim/strain.h defines it (0.3 = 30 %).
   bool strainOverlay = false;
+  /// Tissue tinted by its organ label (VolumeRenderer::setLabels; the palette in shaders/shared.h).
+  bool labelTint = false;
   float strainFrom = 0.0f, strainTo = 0.30f, strainWeight = 0.85f;
 };
 

@@ -26,6 +26,23 @@ VolumeRenderer::VolumeRenderer(const vk::Context& ctx, std::uint32_t framesInFli
   noStrain_ = vk::Image(ctx, {1, 1, 1, fg::Format::R32Sfloat}, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
   const float zero = 0.0f;
   vk::uploadToImage(ctx, noStrain_, &zero, sizeof zero, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  setLabels({});
+}
+
+void VolumeRenderer::setLabels(const std::vector<std::uint16_t>& labels) {
+  if (labels.empty()) {
+    labels_ = vk::Image(ctx_, {1, 1, 1, fg::Format::R16Unorm}, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
+    const std::uint16_t zero = 0;
+    vk::uploadToImage(ctx_, labels_, &zero, sizeof zero, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+    hasLabels_ = false;
+    return;
+  }
+  if (!hasVolume_) throw Error("renderer: labels before a volume");
+  const fg::ImageDesc d = volume_.desc();
+  if (labels.size() != std::size_t(d.width) * d.height * d.depth) throw Error("renderer: the labels are not on the volume's grid");
+  labels_ = vk::Image(ctx_, {d.width, d.height, d.depth, fg::Format::R16Unorm}, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
+  vk::uploadToImage(ctx_, labels_, labels.data(), labels.size() * sizeof(std::uint16_t), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  hasLabels_ = true;
 }
 
 VolumeRenderer::~VolumeRenderer() {
@@ -91,6 +108,7 @@ void VolumeRenderer::setVolume(const QuantizedVolume& volume, const ProgressFn& 
   readback.invalidate();
   bricks_.ranges.resize(bricks_.count() * 2);
   std::memcpy(bricks_.ranges.data(), readback.mapped(), rangeBytes);
+  if (hasLabels_) setLabels({});  // they were on the old volume's grid
   mask_ = vk::Image(ctx_, {desc.width, desc.height, desc.depth, fg::Format::R8Unorm},
                     VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, true);
   hasVolume_ = true;
@@ -295,6 +313,8 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   const fg::ResourceHandle sourceVolume = in.volume, sourceMask = in.mask;
   if (req.maskUpload) g.exportResource(sourceMask, fg::Access::Sampled);  // whoever reads it, it ends the frame sampled
   if (deformer_) addDeformation(g, req, (params.control.x & gpu::kFlagStrainOverlay) != 0, deformed, in);
+  in.labels = g.importImage("labels", labels_.desc(), fg::Access::Sampled);
+  if (!hasLabels_ || !(in.volume == sourceVolume)) params.control.x &= ~gpu::kFlagLabelTint;  // none, or deformed anatomy shown
   const bool ownStrain = !in.strain.valid();
   if (ownStrain) {
     in.strain = g.importImage("no-strain", noStrain_.desc(), fg::Access::Sampled);
@@ -339,6 +359,7 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   executor_.bindBuffer(in.occupancy, occupancyBuffer_);
   executor_.bindImage(sourceMask, mask_);
   if (ownStrain) executor_.bindImage(in.strain, noStrain_);
+  executor_.bindImage(in.labels, labels_);
   if (deformer_) deformer_->bind(executor_);
   executor_.bindBuffer(in.handles, handleTints_);
   if (maskStaging.valid()) executor_.bindBuffer(maskStaging, *s.maskStaging);

@@ -72,6 +72,11 @@ class VolumeRenderer {
   void setTransferFunction(const std::vector<glm::vec4>& lut);
   /// Tint per handle id (gpu::kMaxHandleIds entries: rgb, weight; id 0 unused).
   void setHandleTints(const std::vector<glm::vec4>& tints);
+  /// Organ labels on the volume's grid for the label tint (gpu::kFlagLabelTint; uploaded now,
+  /// synchronously); empty: none (the tint is then off). The tint shows the rest anatomy, so it is
+  /// off while the deformed volume is shown. Throws handson::Error on a size that is not the volume's.
+  void setLabels(const std::vector<std::uint16_t>& labels);
+  bool hasLabels() const { return hasLabels_; }
   /// Clears the handle-id mask (synchronously; for a new volume or a reset).
   void clearMask();
   const vk::Image& volumeImage() const { return volume_; }
@@ -126,6 +131,8 @@ class VolumeRenderer {
   vk::Image noStrain_;        ///< the raymarch's strain image without a strain overlay (one zero voxel)
   bool strainShown_ = false;  ///< the deformer's strain volume is current over the whole region
   vk::Image volume_, mask_;
+  vk::Image labels_;          ///< organ labels (R16 unorm), or one zero voxel when there are none
+  bool hasLabels_ = false;
   vk::Buffer tf_, occupancyBuffer_, handleTints_;
   BrickGrid bricks_;
   std::vector<std::uint32_t> occupancy_, uploadedOccupancy_;

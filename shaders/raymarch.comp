@@ -7,6 +7,18 @@ layout(local_size_x = HANDSON_RAYMARCH_GROUP_X, local_size_y = HANDSON_RAYMARCH_
 #include "march_common.glsl"
 layout(set = 0, binding = kBindOutput, rgba8) uniform writeonly image2D uOutput;
 layout(set = 0, binding = kBindStrain) uniform sampler3D uStrain;
+layout(set = 0, binding = kBindLabels) uniform sampler3D uLabels;
+
+// The label tint (kFlagLabelTint): the nearest voxel's organ label in a fixed palette (label % 12),
+// background (0) untouched. CPU reference: labelTint in render/raymarch_reference.cpp.
+const float kLabelPalette[3 * kLabelPaletteSize] = float[](HANDSON_LABEL_PALETTE);
+vec3 labelTint(vec3 c, vec3 idx) {
+  ivec3 v = clamp(ivec3(floor(idx + 0.5)), ivec3(0), P.dims.xyz - 1);
+  uint l = uint(round(texelFetch(uLabels, v, 0).r * 65535.0));
+  if (l == 0u) return c;
+  uint k = 3u * (l % kLabelPaletteSize);
+  return mix(c, vec3(kLabelPalette[k], kLabelPalette[k + 1u], kLabelPalette[k + 2u]), HANDSON_LABEL_TINT_WEIGHT);
+}
 
 // The strain overlay (kFlagStrainOverlay): the strain of the nearest voxel, from P.strain.x (no
 // colour) to P.strain.y (full colour, weight P.strain.z), yellow to red. CPU reference:
@@ -71,6 +83,7 @@ void main() {
       if (s.a <= 0.0) continue;
       float a = correctedAlpha(s.a);
       vec3 c = s.rgb;
+      if ((flags & kFlagLabelTint) != 0u && !isMoving(id)) c = labelTint(c, idx);
       if (id != 0u) c = mix(c, handleTint[id].rgb, handleTint[id].a);
       if ((flags & kFlagStrainOverlay) != 0u) c = strainTint(c, idx);
       if ((flags & kFlagShading) != 0u) {

@@ -56,6 +56,7 @@ HS_CONST kFlagEmptySpaceSkipping = 1u;
 HS_CONST kFlagEarlyTermination = 2u;
 HS_CONST kFlagShading = 4u;
 HS_CONST kFlagStrainOverlay = 8u;  // raymarch: colour tissue by its strain (RenderParams.strain)
+HS_CONST kFlagLabelTint = 16u;     // raymarch: colour tissue by its organ label (kBindLabels, kLabelPalette)
 
 // Bindings of the raymarch and pick passes (one push-descriptor set).
 HS_CONST kBindParams = 0;     // RenderParams (read-only storage buffer)
@@ -69,6 +70,13 @@ HS_CONST kBindHandles = 7;    // storage buffer vec4[kMaxHandleIds]: rgb tint, a
 HS_CONST kMaxHandleIds = 256; // id 0 = no handle
 HS_CONST kMaxMovingHandles = 8;  // handles drawn at a rigid pose (RenderParams.moving, count in control.w)
 HS_CONST kBindStrain = 8;     // raymarch only: sampler3D, R32 float strain on the volume's grid (texelFetch)
+HS_CONST kBindLabels = 9;     // raymarch only: sampler3D, R16_UNORM organ labels (label / 65535) on the volume's grid
+HS_CONST kLabelPaletteSize = 12;  // label l is drawn in colour l % 12 (shaders/raymarch.comp, labelTint)
+// The label palette's rgb triples (GLSL and C++ alike: float[](HANDSON_LABEL_PALETTE)) and weight.
+#define HANDSON_LABEL_PALETTE                                                                                      \
+  0.90, 0.30, 0.25, 0.25, 0.65, 0.95, 0.35, 0.85, 0.35, 0.95, 0.80, 0.20, 0.75, 0.40, 0.90, 0.20, 0.85, 0.80, \
+      0.95, 0.55, 0.15, 0.95, 0.45, 0.70, 0.55, 0.75, 0.25, 0.40, 0.45, 0.95, 0.70, 0.55, 0.35, 0.85, 0.85, 0.85
+#define HANDSON_LABEL_TINT_WEIGHT 0.45
 
 // A handle drawn moved rigidly (until the simulation deforms the tissue around it): for a sample at
 // voxel index x, currentToRest * x is where the handle's material was.

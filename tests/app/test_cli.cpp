@@ -141,6 +141,50 @@ TEST_F(Cli, SelectWritesAMaskOnTheInputGridWithCpuAndGpuAgreeing) {
   EXPECT_GE(double(inKidney) / double(selected), 0.9);
 }
 
+TEST_F(Cli, SelectWithLabelsWritesTheLabelledOrganUnderTheSeedExactly) {
+  ASSERT_EQ(runHandson("phantom -o " + p("ct.nii.gz") + " --labels-out " + p("labels.nii.gz") + " --spacing 6").status, 0);
+  ASSERT_EQ(runHandson("phantom -o " + p("ct8.nii.gz") + " --labels-out " + p("labels8.nii.gz") + " --spacing 8").status, 0);
+  CliRun r = runHandson("select " + p("ct.nii.gz") + " --labels " + p("labels.nii.gz") + " --seed-mm 78,-55,-14 --quiet -o " + p("kidney.nii.gz"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("label 4's connected component"), std::string::npos) << r.output;
+  const handson::Volume labels = handson::readNifti(p("labels.nii.gz"));
+  const handson::Volume mask = handson::readNifti(p("kidney.nii.gz"));
+  ASSERT_TRUE(mask.geometry().sameGrid(labels.geometry()));
+  for (std::size_t i = 0; i < mask.voxelCount(); ++i) ASSERT_EQ(mask.value(i) > 0, labels.value(i) == 4.0f) << i;
+  // Labels on another grid of the same space: resampled by nearest neighbour, with a warning; the
+  // kidney then matches its own 6 mm labels to within the 8 mm grid's staircase.
+  r = runHandson("select " + p("ct.nii.gz") + " --labels " + p("labels8.nii.gz") + " --seed-mm 78,-55,-14 --quiet -o " + p("kidney8.nii.gz"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("warning:"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("nearest neighbour"), std::string::npos) << r.output;
+  const handson::Volume mask8 = handson::readNifti(p("kidney8.nii.gz"));
+  std::size_t both = 0, a = 0, b = 0;
+  for (std::size_t i = 0; i < mask8.voxelCount(); ++i) {
+    a += mask8.value(i) > 0;
+    b += labels.value(i) == 4.0f;
+    both += mask8.value(i) > 0 && labels.value(i) == 4.0f;
+  }
+  EXPECT_GT(2.0 * double(both) / double(a + b), 0.8);
+  // Refused, with a clear message: a seed on background, a label map that is no label map, one
+  // elsewhere in space, growth options beside --labels.
+  r = runHandson("select " + p("ct.nii.gz") + " --labels " + p("labels.nii.gz") + " --seed-voxel 0,0,0 -o " + p("x.nii.gz"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("background"), std::string::npos) << r.output;
+  r = runHandson("select " + p("ct.nii.gz") + " --labels " + p("ct.nii.gz") + " --seed-voxel 5,5,5 -o " + p("x.nii.gz"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("whole numbers"), std::string::npos) << r.output;
+  handson::Volume far = handson::readNifti(p("labels8.nii.gz"));
+  far.geometry().origin += Eigen::Vector3d(1000, 0, 0);
+  handson::writeNifti(far, p("far.nii.gz"));
+  r = runHandson("select " + p("ct.nii.gz") + " --labels " + p("far.nii.gz") + " --seed-voxel 5,5,5 -o " + p("x.nii.gz"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("does not overlap"), std::string::npos) << r.output;
+  r = runHandson("select " + p("ct.nii.gz") + " --labels " + p("labels.nii.gz") + " --seed-voxel 5,5,5 --extent-mm 20 -o " + p("x.nii.gz"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("--extent-mm"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(p("x.nii.gz")));
+}
+
 TEST_F(Cli, GestureSolveReadsJsonAndRecoversAMotion) {
   // Two fingers at depth 400 mm move by a known twist and translation; LM recovers them.
   std::ofstream(p("case.json")) << R"({"projection": [[2.1, 0, 0], [0, 3.17, 0]],

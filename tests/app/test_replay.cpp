@@ -114,6 +114,60 @@ TEST(Replay, PinchInSelectModeMakesAHandleAndHandleEditsReplay) {
   fs::remove_all(dir);
 }
 
+TEST(Replay, WithALabelMapATapOnAnOrganMakesTheWholeLabelledOrganAHandle) {
+  // The kidney pinch script's camera and tap point, on a 6 mm phantom with its label map: the tap
+  // (select mode, no handle there) selects exactly the right kidney's labelled voxels; a
+  // label-handle action on the liver's centre voxel adds the liver; one on background and one
+  // outside the volume are refused, and without --labels a label-handle action is refused too.
+  const fs::path dir = fs::temp_directory_path() / ("handson_labeltap_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  std::string out;
+  ASSERT_EQ(run("phantom -o " + (dir / "ct.nii.gz").string() + " --labels-out " + (dir / "labels.nii.gz").string() + " --spacing 6", &out), 0) << out;
+  const handson::Volume labels = handson::readNifti((dir / "labels.nii.gz").string());
+  std::size_t kidney = 0, liver = 0;
+  for (std::size_t i = 0; i < labels.voxelCount(); ++i) {
+    kidney += labels.value(i) == handson::label::kKidneyRight;
+    liver += labels.value(i) == handson::label::kLiver;
+  }
+  const Eigen::Vector3i l = labels.geometry().toIndex(handson::PhantomGeometry{}.liverCenter).array().round().cast<int>();
+  ASSERT_EQ(labels.value(l.x(), l.y(), l.z()), handson::label::kLiver);
+  std::ofstream(dir / "tap.json") << R"({"format": "handson-session", "version": 1, "volume": {"source": "phantom"},
+    "viewport": [512, 512], "preset": "ct-abdomen", "mode": "select",
+    "camera": {"target": [0, 0, 0], "distance": 910, "azimuth_deg": 90, "elevation_deg": 0, "roll_deg": 0, "fov_deg": 35},
+    "events": [
+      {"t": 0.0, "touch": "down", "id": 3, "x": 202, "y": 262},
+      {"t": 0.1, "touch": "up", "id": 3, "x": 203, "y": 262},
+      {"t": 0.4, "ui": "label-handle", "value": "0,0,0"},
+      {"t": 0.5, "ui": "label-handle", "value": "-1,0,0"},
+      {"t": 0.6, "ui": "label-handle", "value": ")" + std::to_string(l.x()) + "," + std::to_string(l.y()) + "," + std::to_string(l.z()) + R"("}]})";
+  const std::string common = "replay " + (dir / "tap.json").string() + " --volume " + (dir / "ct.nii.gz").string() +
+                             " --fps 10 --size 128x128 --validation --print-handles --sim off ";
+  ASSERT_EQ(run(common + "--labels " + (dir / "labels.nii.gz").string(), &out), 0) << out;
+  EXPECT_NE(out.find("handle 1 active " + std::to_string(kidney) + " voxels"), std::string::npos) << "kidney " << kidney << "\n" << out;
+  EXPECT_NE(out.find("handle 2 active " + std::to_string(liver) + " voxels"), std::string::npos) << "liver " << liver << "\n" << out;
+  EXPECT_EQ(out.find("handle 3"), std::string::npos) << out;
+  EXPECT_NE(out.find("2 refused"), std::string::npos) << out;
+  ASSERT_EQ(run(common, &out), 0) << out;
+  EXPECT_EQ(out.find("handle 1"), std::string::npos) << out;
+  EXPECT_NE(out.find("3 refused"), std::string::npos) << out;
+  // The labels are drawn as a tint from the start, and "toggle-labels" turns it off: the frame after
+  // it is the frame of a replay without labels, bit for bit; the frame before it is not.
+  std::ofstream(dir / "toggle.json") << R"({"format": "handson-session", "version": 1, "volume": {"source": "phantom"},
+    "viewport": [512, 512], "preset": "ct-abdomen", "mode": "navigate",
+    "camera": {"target": [0, 0, 0], "distance": 910, "azimuth_deg": 90, "elevation_deg": 0, "roll_deg": 0, "fov_deg": 35},
+    "events": [{"t": 0.15, "ui": "toggle-labels"}]})";
+  const std::string toggle = "replay " + (dir / "toggle.json").string() + " --volume " + (dir / "ct.nii.gz").string() +
+                             " --fps 10 --size 96x96 --quiet --validation --sim off --frames-out ";
+  ASSERT_EQ(run(toggle + (dir / "with").string() + " --labels " + (dir / "labels.nii.gz").string(), &out), 0) << out;
+  ASSERT_EQ(run(toggle + (dir / "without").string(), &out), 0) << out;
+  EXPECT_NE(slurp(dir / "with" / "frame_00000.png"), slurp(dir / "without" / "frame_00000.png"));
+  EXPECT_EQ(slurp(dir / "with" / "frame_00002.png"), slurp(dir / "without" / "frame_00002.png"));
+  // A label map that is no label map, or lies elsewhere, is refused before anything runs.
+  ASSERT_EQ(run(common + "--labels " + (dir / "ct.nii.gz").string(), &out), 1) << out;
+  EXPECT_NE(out.find("whole numbers"), std::string::npos) << out;
+  fs::remove_all(dir);
+}
+
 TEST(Replay, InNavigateModeADragThatStartsOnAnActiveHandleMovesItAndElsewhereOrbits) {
   // The kidney script with the handle left active and the drags made in navigate mode: the first
   // drag lands on the kidney and moves it (the camera stays); the last one, moved off the body,

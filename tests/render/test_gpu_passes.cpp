@@ -11,6 +11,7 @@
 #include "render/render_params.h"
 #include "render/transfer_function.h"
 #include "render/volume_renderer.h"
+#include "sim/error.h"
 #include "sim/phantom.h"
 
 using namespace handson;
@@ -245,6 +246,44 @@ TEST_F(GpuPasses, FramesInFlightDoNotStallAndArriveInOrder) {
   EXPECT_EQ(last.picks.size(), 1u);
   EXPECT_GT(last.picks[0].world.w, 0.5f);  // the centre ray hits the phantom
   EXPECT_FALSE(last.timings.empty());
+}
+
+TEST_F(GpuPasses, LabelTintMatchesCpuAndIsOffWithoutLabels) {
+  Scene& s = scene();
+  useTf(s, transferFunctionPreset("ct-abdomen"));
+  s.renderer->clearMask();
+  s.renderer->setHandleTints(std::vector<glm::vec4>(gpu::kMaxHandleIds, glm::vec4(0.0f)));
+  std::vector<std::uint16_t> labels(s.phantom.labels.voxelCount());
+  for (std::size_t i = 0; i < labels.size(); ++i) labels[i] = std::uint16_t(s.phantom.labels.value(i));
+  labels[0] = 40000;  // a label beyond 8 bits goes through the 16-bit image
+  s.renderer->setLabels(labels);
+  EXPECT_TRUE(s.renderer->hasLabels());
+  RenderSettings rs;
+  rs.width = rs.height = 96;
+  rs.labelTint = true;
+  const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), glm::radians(60.0), glm::radians(10.0));
+  const gpu::RenderParams p = paramsFor(s, cam, rs);
+  const FrameResult tinted = renderGpu(s, p);
+  ReferenceScene ref{&s.q, &s.lut, &s.renderer->occupancy()};
+  ref.labels = &labels;
+  const ImageDiff d = compare(tinted.rgba, raymarchReference(ref, p));
+  EXPECT_LE(d.meanDiff, 0.5);  // tolerances as in RaymarchMatchesCpuReference
+  EXPECT_LE(d.fractionOver2, 0.01);
+  EXPECT_LE(d.maxDiff, 24);
+  // The tint shows: against the untinted reference a good share of the pixels change.
+  ref.labels = nullptr;
+  const auto plain = raymarchReference(ref, p);
+  std::size_t changed = 0;
+  for (std::size_t i = 0; i < plain.size(); i += 4) changed += std::abs(int(plain[i]) - int(tinted.rgba[i])) + std::abs(int(plain[i + 2]) - int(tinted.rgba[i + 2])) > 20;
+  EXPECT_GT(changed, plain.size() / 4 / 20);
+  // Without labels the flag draws nothing: the untinted frame.
+  s.renderer->setLabels({});
+  EXPECT_FALSE(s.renderer->hasLabels());
+  const FrameResult off = renderGpu(s, p);
+  const ImageDiff o = compare(off.rgba, plain);
+  EXPECT_LE(o.meanDiff, 0.5);
+  EXPECT_LE(o.fractionOver2, 0.01);
+  EXPECT_THROW(s.renderer->setLabels(std::vector<std::uint16_t>(7, 1)), Error);
 }
 
 TEST_F(GpuPasses, HandleTintMatchesCpuAndPicksReportTheHandleId) {
