@@ -12,6 +12,7 @@
 
 #include "app/console.h"
 #include "app/demo_script.h"
+#include "app/scenario_full_session.h"
 #include "app/frame_driver.h"
 #include "app/headless_scene.h"
 #include "app/latency_log.h"
@@ -112,6 +113,7 @@ bool stateIsFinite(const Session& session, const SelectionController& selection)
 }  // namespace
 
 SessionScript builtInDemoScript() { return parseSessionScript(kOrbitAndZoomScript, "built-in orbit-and-zoom script"); }
+SessionScript builtInFullSessionScript() { return parseSessionScript(kScenario_full_session, "built-in full-session script"); }
 
 int runReplay(const ReplayOptions& o) {
   checkReplayOptions(o);

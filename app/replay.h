@@ -38,6 +38,10 @@ struct ReplayOptions {
 
 /// The built-in demo script (assets/gestures/orbit-and-zoom.json, embedded at build time).
 SessionScript builtInDemoScript();
+/// The whole touch workflow on the phantom (assets/gestures/full-session.json, embedded): the right
+/// kidney and the vena cava pinch-selected, the kidney tilted and dragged with the tissue deforming
+/// around it, handle edits, an orbit, an export. The headless main job replays it.
+SessionScript builtInFullSessionScript();
 
 /// 0 on success; 1 when a validation message appeared or a handle's pose or the camera ended up
 /// holding a non-finite number (named on stderr). Throws Error for bad options or input.

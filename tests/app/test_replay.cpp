@@ -67,6 +67,36 @@ TEST(Replay, SameScriptGivesBitIdenticalFramesAndATimingLog) {
   fs::remove_all(dir);
 }
 
+TEST(Replay, WithoutADisplayTheMainJobPlaysTheFullSessionIntoFramesAContactSheetAndAnExport) {
+  // `handson` with no command and no display (make run on a headless machine): the built-in full
+  // session (the kidney pinched, tilted and dragged, the tissue deforming) replayed into frames, a
+  // contact sheet of them, the timing log and the export action's files. A small model and frame
+  // size keep the test quick; the defaults are measured in the README.
+  const fs::path dir = fs::temp_directory_path() / ("handson_mainjob_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  const handson::test::HandsonRun r = handson::test::runHandson(
+      "--frames-out " + dir.string() + " --size 96x96 --validation --sim-coarse-tets 300 --sim-fine-tets 19200", 300, "-u DISPLAY -u WAYLAND_DISPLAY");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("full session"), std::string::npos) << r.output;
+  std::size_t frames = 0;
+  for (const auto& e : fs::directory_iterator(dir)) frames += e.path().filename().string().rfind("frame_", 0) == 0;
+  EXPECT_EQ(frames, 27u) << "6.4 s at 4 frames a second, and the frame after the last event";
+  int w = 0, h = 0;
+  const auto sheet = handson::readPng((dir / "contact-sheet.png").string(), w, h);
+  EXPECT_GT(w, 4 * 40);  // four tiles a row of at least 40 px (the phantom's part of a 96 px frame)
+  EXPECT_GT(h, 3 * 40);
+  EXPECT_TRUE(fs::exists(dir / "timings.csv"));
+  for (const char* f : {"session-01.json", "deformed-01.nii.gz", "mesh-01.vtu", "screenshot-01.png"}) EXPECT_TRUE(fs::exists(dir / "export" / f)) << f;
+  // The tissue moved: the exported volume is not the phantom.
+  const handson::Volume deformed = handson::readNifti((dir / "export" / "deformed-01.nii.gz").string());
+  const handson::Volume original = handson::makePhantom().ct;
+  ASSERT_EQ(deformed.voxelCount(), original.voxelCount());
+  std::size_t changed = 0;
+  for (std::size_t i = 0; i < original.voxelCount(); ++i) changed += std::abs(deformed.value(i) - original.value(i)) > 20.0f;
+  EXPECT_GT(changed, 1000u);
+  fs::remove_all(dir);
+}
+
 TEST(Replay, ScriptOnAnotherVolumeAndBadInput) {
   const fs::path dir = fs::temp_directory_path() / ("handson_replay2_" + std::to_string(getpid()));
   fs::create_directories(dir);
