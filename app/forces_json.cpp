@@ -4,7 +4,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "app/atomic_file.h"
+#include "sim/atomic_file.h"
 #include "sim/error.h"
 
 namespace handson {

@@ -7,7 +7,7 @@
 #include <set>
 #include <sstream>
 
-#include "app/atomic_file.h"
+#include "sim/atomic_file.h"
 #include "sim/error.h"
 
 namespace handson {

@@ -20,7 +20,7 @@
 #include <sstream>
 #include <vector>
 
-#include "app/atomic_file.h"
+#include "sim/atomic_file.h"
 #include "app/isolated_call.h"
 #include "app/volume_import.h"
 #include "sim/binary_io.h"

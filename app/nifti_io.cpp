@@ -30,6 +30,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "sim/atomic_file.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -801,78 +802,37 @@ Volume readNiftiImpl(const std::string& givenPath, const NiftiReadOptions& optio
   throw Error("Cannot write NIfTI file '" + path + "': " + what);
 }
 
-mode_t currentUmask() {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind("Umask:", 0) == 0) {
-      try {
-        return static_cast<mode_t>(std::stoul(line.substr(6), nullptr, 8));
-      } catch (...) {
-        break;
-      }
-    }
-  }
-  return 022;
-}
-
+// The file itself is sim/atomic_file's; this adds the gzip stream (on a dup of its descriptor).
 class AtomicOutput {
  public:
-  AtomicOutput(const std::string& path, bool gzip) : path_(path) {
-    std::string templ = path + ".tmp-XXXXXX";
-    std::vector<char> name(templ.begin(), templ.end());
-    name.push_back('\0');
-    fd_ = mkstemp(name.data());
-    if (fd_ < 0) {
-      const int err = errno;
-      std::string dir = std::filesystem::path(path).parent_path().string();
-      if (dir.empty()) dir = ".";
-      writeFail(path, "cannot create a file in '" + dir + "': " + errnoText(err));
+  AtomicOutput(const std::string& path, bool gzip) : file_(path, "NIfTI file") {
+    if (!gzip) return;
+    const int gzfd = dup(file_.fd());
+    if (gzfd < 0) file_.fail(errnoText(errno));
+    gz_ = gzdopen(gzfd, "wb6");
+    if (!gz_) {
+      close(gzfd);
+      file_.fail("cannot start gzip compression");
     }
-    tmp_ = name.data();
-    fchmod(fd_, 0666 & ~currentUmask());  // mkstemp creates 0600; give the file normal permissions
-    if (gzip) {
-      const int gzfd = dup(fd_);
-      if (gzfd < 0) {
-        const int err = errno;
-        discard();
-        writeFail(path_, errnoText(err));
-      }
-      gz_ = gzdopen(gzfd, "wb6");
-      if (!gz_) {
-        close(gzfd);
-        discard();
-        writeFail(path_, "cannot start gzip compression");
-      }
-      gzbuffer(gz_, 1u << 17);
-    }
+    gzbuffer(gz_, 1u << 17);
   }
-  ~AtomicOutput() { discard(); }
+  ~AtomicOutput() {
+    if (gz_) gzclose(gz_);
+  }
   AtomicOutput(const AtomicOutput&) = delete;
   AtomicOutput& operator=(const AtomicOutput&) = delete;
 
   void write(const void* data, std::size_t n) {
+    if (!gz_) return file_.write(data, n);
     const auto* p = static_cast<const unsigned char*>(data);
-    std::size_t done = 0;
-    while (done < n) {
-      const std::size_t want = std::min(n - done, kChunk);
-      if (gz_) {
-        const int r = gzwrite(gz_, p + done, static_cast<unsigned>(want));
-        if (r <= 0) {
-          int errnum = Z_OK;
-          const char* msg = gzerror(gz_, &errnum);
-          writeFail(path_, errnum == Z_ERRNO ? errnoText(errno) : std::string(msg ? msg : "gzip error"));
-        }
-        done += static_cast<std::size_t>(r);
-      } else {
-        const ssize_t r = ::write(fd_, p + done, want);
-        if (r < 0) {
-          if (errno == EINTR) continue;
-          writeFail(path_, errnoText(errno));
-        }
-        if (r == 0) writeFail(path_, "the disk accepted no more data");
-        done += static_cast<std::size_t>(r);
+    for (std::size_t done = 0; done < n;) {
+      const int r = gzwrite(gz_, p + done, static_cast<unsigned>(std::min(n - done, kChunk)));
+      if (r <= 0) {
+        int errnum = Z_OK;
+        const char* msg = gzerror(gz_, &errnum);
+        file_.fail(errnum == Z_ERRNO ? errnoText(errno) : std::string(msg ? msg : "gzip error"));
       }
+      done += static_cast<std::size_t>(r);
     }
   }
 
@@ -880,32 +840,14 @@ class AtomicOutput {
     if (gz_) {
       const int r = gzclose(gz_);
       gz_ = nullptr;
-      if (r != Z_OK) writeFail(path_, r == Z_ERRNO ? errnoText(errno) : "gzip compression failed");
+      if (r != Z_OK) file_.fail(r == Z_ERRNO ? errnoText(errno) : "gzip compression failed");
     }
-    if (fsync(fd_) != 0 && errno != EINVAL && errno != EROFS) writeFail(path_, errnoText(errno));
-    const int r = close(fd_);
-    fd_ = -1;
-    if (r != 0) writeFail(path_, errnoText(errno));
-    if (std::rename(tmp_.c_str(), path_.c_str()) != 0) writeFail(path_, errnoText(errno));
-    committed_ = true;
+    file_.commit();
   }
 
  private:
-  // Closes everything and, unless committed, removes the temporary file.
-  void discard() {
-    if (gz_) gzclose(gz_);
-    gz_ = nullptr;
-    if (fd_ >= 0) close(fd_);
-    fd_ = -1;
-    if (!committed_ && !tmp_.empty()) unlink(tmp_.c_str());
-    tmp_.clear();
-  }
-
-  std::string path_;
-  std::string tmp_;
-  int fd_ = -1;
+  AtomicFile file_;
   gzFile gz_ = nullptr;
-  bool committed_ = false;
 };
 
 bool endsWithGz(const std::string& path) {

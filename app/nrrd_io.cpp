@@ -12,7 +12,7 @@
 #include <memory>
 #include <vector>
 
-#include "app/atomic_file.h"
+#include "sim/atomic_file.h"
 #include "app/volume_import.h"
 #include "sim/error.h"
 

@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <memory>
 
-#include "app/atomic_file.h"
+#include "sim/atomic_file.h"
 #include "sim/error.h"
 
 namespace handson {

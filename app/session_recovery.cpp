@@ -10,7 +10,7 @@
 #include <set>
 #include <sstream>
 
-#include "app/atomic_file.h"
+#include "sim/atomic_file.h"
 #include "app/session.h"
 #include "sim/error.h"
 

@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "app/atomic_file.h"
+#include "sim/atomic_file.h"
 #include "interaction/gesture.h"
 #include "sim/error.h"
 

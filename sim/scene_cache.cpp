@@ -9,6 +9,7 @@
 #include <sstream>
 #include <unistd.h>
 
+#include "sim/atomic_file.h"
 #include "sim/binary_io.h"
 #include "sim/source_hash.h"
 #include "sim/error.h"
@@ -99,8 +100,6 @@ std::string simulationCacheKey(const Volume& image, const std::vector<SimHandle>
 }
 
 void saveSimulation(const std::filesystem::path& file, const SimScene& sc, const CoarseModel& model) {
-  static std::atomic<unsigned> counter{0};
-  const std::filesystem::path tmp = file.string() + ".tmp" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
   std::ostringstream os(std::ios::binary);  // the payload, then its checksum: corruption is detected
   {
     bin::Writer w{os};
@@ -140,26 +139,11 @@ void saveSimulation(const std::filesystem::path& file, const SimScene& sc, const
   const std::string payload = std::move(os).str();
   Hasher h;
   h.bytes(payload.data(), payload.size());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("cannot write the simulation cache '" + tmp.string() + "'");
-    out.write(payload.data(), std::streamsize(payload.size()));
-    out.write(reinterpret_cast<const char*>(&h.a), sizeof h.a);
-    out.write(reinterpret_cast<const char*>(&h.b), sizeof h.b);
-    out.flush();
-    if (!out) {
-      out.close();
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      throw Error("writing the simulation cache '" + file.string() + "' failed (disk full?)");
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, file, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw Error("cannot place the simulation cache '" + file.string() + "'");
-  }
+  AtomicFile out(file.string(), "the simulation cache");
+  out.write(payload.data(), payload.size());
+  out.write(&h.a, sizeof h.a);
+  out.write(&h.b, sizeof h.b);
+  out.commit();
 }
 
 std::unique_ptr<CoarseModel> loadSimulation(const std::filesystem::path& file, SimScene& sc) {
