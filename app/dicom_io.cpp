@@ -29,11 +29,9 @@
 
 #include <csignal>
 #include <cerrno>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include "app/fd_io.h"
-#include "app/isolated_call.h"
+#include "sim/child_process.h"
 #include "sim/binary_io.h"
 #include "sim/error.h"
 
@@ -1218,12 +1216,6 @@ namespace {
 
 enum class FrameKind : std::uint8_t { Progress = 1, Failure = 2, Result = 3 };
 
-bool writeFrame(int fd, FrameKind kind, const std::string& payload) {
-  const std::uint8_t k = std::uint8_t(kind);
-  const std::uint64_t n = payload.size();
-  return writeAll(fd, &k, 1) && writeAll(fd, &n, sizeof n) && writeAll(fd, payload.data(), payload.size());
-}
-
 void writeSeriesInfo(bin::Writer& w, const DicomSeriesInfo& s) {
   w.string(s.seriesInstanceUid);
   w.string(s.description);
@@ -1292,136 +1284,67 @@ DecodedResult decodeResult(const std::string& payload) {
   return out;
 }
 
-[[noreturn]] void runChild(int fd, const std::string& directory, const std::string& seriesOf) {
-  int code = 0;
+int runChild(ChildWriter& out, const std::string& directory, const std::string& seriesOf) {
   try {
     DicomReadReport report;
-    const Volume volume = readDicomSeriesInProcess(directory, &report, [fd](double fraction, const std::string& stage) {
+    const Volume volume = readDicomSeriesInProcess(directory, &report, [&out](double fraction, const std::string& stage) {
       std::ostringstream os(std::ios::binary);
       bin::Writer w{os};
       w.pod(fraction);
       w.string(stage);
-      writeFrame(fd, FrameKind::Progress, os.str());
+      out.frame(std::uint8_t(FrameKind::Progress), os.str());
     }, seriesOf);
-    if (!writeFrame(fd, FrameKind::Result, encodeResult(report, volume)) ||
-        !writeAll(fd, volume.bytes(), volume.byteSize()))
-      code = 3;
+    if (!out.frame(std::uint8_t(FrameKind::Result), encodeResult(report, volume)) || !out.raw(volume.bytes(), volume.byteSize())) return 3;
   } catch (const std::exception& e) {
     const bool ours = dynamic_cast<const Error*>(&e) != nullptr;
-    writeFrame(fd, FrameKind::Failure, ours ? std::string(e.what()) : std::string("DICOM reader failed: ") + e.what());
+    out.frame(std::uint8_t(FrameKind::Failure), ours ? std::string(e.what()) : std::string("DICOM reader failed: ") + e.what());
   } catch (...) {
-    writeFrame(fd, FrameKind::Failure, "DICOM reader failed with an unknown exception");
+    out.frame(std::uint8_t(FrameKind::Failure), "DICOM reader failed with an unknown exception");
   }
-  ::close(fd);
-  std::_Exit(code);  // no atexit handlers, no destructors of the parent's static objects
+  return 0;
 }
-
-/// Kills and reaps the child unless it was reaped already (an exception from the progress
-/// callback, a corrupt frame).
-class ChildGuard {
- public:
-  explicit ChildGuard(pid_t pid) : pid_(pid) {}
-  ~ChildGuard() {
-    if (pid_ > 0) {
-      ::kill(pid_, SIGKILL);
-      int status = 0;
-      while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
-      }
-    }
-  }
-  ChildGuard(const ChildGuard&) = delete;
-  ChildGuard& operator=(const ChildGuard&) = delete;
-  int reap() {
-    int status = 0;
-    pid_t r;
-    while ((r = ::waitpid(pid_, &status, 0)) < 0 && errno == EINTR) {
-    }
-    pid_ = -1;
-    return r < 0 ? -1 : status;
-  }
-
- private:
-  pid_t pid_;
-};
-
-class FdGuard {
- public:
-  explicit FdGuard(int fd) : fd_(fd) {}
-  ~FdGuard() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  FdGuard(const FdGuard&) = delete;
-  FdGuard& operator=(const FdGuard&) = delete;
-  int get() const { return fd_; }
-
- private:
-  int fd_;
-};
 
 }  // namespace
 
 Volume readDicomSeries(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress, const std::string& seriesOf) {
-  int fds[2];
-  if (::pipe(fds) != 0)
-    throw Error("cannot read DICOM series in '" + directory + "': no pipe for the reader process (" +
-                std::strerror(errno) + ")");
-  FdGuard readEnd(fds[0]);
-  std::fflush(nullptr);  // nothing buffered twice
-  const pid_t pid = ::fork();
-  if (pid < 0) {
-    const int err = errno;
-    ::close(fds[1]);
-    throw Error("cannot read DICOM series in '" + directory + "': cannot start the reader process (" +
-                std::strerror(err) + ")");
-  }
-  if (pid == 0) {
-    ::close(fds[0]);
-    runChild(fds[1], directory, seriesOf);
-  }
-  ::close(fds[1]);
-  ChildGuard child(pid);
-
   std::optional<std::string> failure;
   std::optional<DecodedResult> result;
   Volume volume;
   bool volumeComplete = false;
-  while (true) {
-    std::uint8_t kind = 0;
-    std::uint64_t length = 0;
-    if (!readAll(readEnd.get(), &kind, 1)) break;
-    if (!readAll(readEnd.get(), &length, sizeof length) || length > (std::uint64_t{1} << 24)) break;
-    std::string payload(length, '\0');
-    if (!readAll(readEnd.get(), payload.data(), payload.size())) break;
-    if (kind == std::uint8_t(FrameKind::Progress)) {
-      std::istringstream is(payload, std::ios::binary);
-      bin::Reader r{is, payload.size()};
-      const double fraction = r.pod<double>();
-      reportProgress(progress, fraction, r.string());
-    } else if (kind == std::uint8_t(FrameKind::Failure)) {
-      failure = payload;
-    } else if (kind == std::uint8_t(FrameKind::Result)) {
-      result = decodeResult(payload);
-      volume = Volume(result->geometry, result->type);  // checks the allocation first
-      volumeComplete = readAll(readEnd.get(), volume.bytes(), volume.byteSize());
-      break;
-    } else {
-      break;
-    }
-  }
-  const int status = child.reap();
-  if (status != -1 && WIFSIGNALED(status)) {
+  const ChildEnd end = runInChild([&](ChildWriter& w) { return runChild(w, directory, seriesOf); },
+                                  [&](ChildReader& r) {
+                                    std::uint8_t kind = 0;
+                                    std::string payload;
+                                    while (r.frame(kind, payload)) {
+                                      if (kind == std::uint8_t(FrameKind::Progress)) {
+                                        std::istringstream is(payload, std::ios::binary);
+                                        bin::Reader br{is, payload.size()};
+                                        const double fraction = br.pod<double>();
+                                        reportProgress(progress, fraction, br.string());
+                                      } else if (kind == std::uint8_t(FrameKind::Failure)) {
+                                        failure = payload;
+                                      } else if (kind == std::uint8_t(FrameKind::Result)) {
+                                        result = decodeResult(payload);
+                                        volume = Volume(result->geometry, result->type);  // checks the allocation first
+                                        volumeComplete = r.raw(volume.bytes(), volume.byteSize());
+                                        return;
+                                      } else {
+                                        return;
+                                      }
+                                    }
+                                  },
+                                  0.0, "cannot read DICOM series in '" + directory + "'");
+  if (end.signal) {
     throw DicomParserAborted("cannot read DICOM series in '" + directory +
-                                 "': GDCM, the DICOM library, stopped on a malformed file (" +
-                                 signalName(WTERMSIG(status)) +
+                                 "': GDCM, the DICOM library, stopped on a malformed file (" + signalName(end.signal) +
                                  "); the series cannot be read: check its files with a DICOM validator or export "
                                  "them again",
-                             WTERMSIG(status));
+                             end.signal);
   }
   if (failure) throw Error(*failure);
-  if (!result || !volumeComplete || status == -1 || WEXITSTATUS(status) != 0)
-    throw DicomParserAborted("cannot read DICOM series in '" + directory +
-                                 "': the reader process ended without a result (exit status " +
-                                 std::to_string(status == -1 ? -1 : WEXITSTATUS(status)) + ")",
+  if (!result || !volumeComplete || end.exitCode != 0)
+    throw DicomParserAborted("cannot read DICOM series in '" + directory + "': the reader process ended without a result (exit status " +
+                                 std::to_string(end.exitCode) + ")",
                              0);
   if (reportOut) *reportOut = std::move(result->report);
   return volume;

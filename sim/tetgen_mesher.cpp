@@ -2,7 +2,8 @@
 
 #include <Eigen/Dense>
 #include <sys/types.h>
-#include <sys/wait.h>
+#include "sim/child_process.h"
+#include "sim/error.h"
 #include <unistd.h>
 
 #include <cerrno>
@@ -56,64 +57,43 @@ TetgenResult tetrahedralizeSurface(const std::vector<Eigen::Vector3d>& points, c
   // error would crash this process. So TetGen runs in a forked child that sends its tets back
   // through a pipe; a child that crashes or fails is a status here. (A fork per call costs about a
   // millisecond; each child also has its own copy of TetGen's global state, so threads may call this.)
-  int fds[2];
-  if (pipe(fds) != 0) {
-    r.message = std::string("TetGen not run: no pipe (") + std::strerror(errno) + ")";
+  std::string bytes;
+  ChildEnd end;
+  try {
+    end = runInChild(
+        [&](ChildWriter& w) {
+          int status = 1;
+          std::vector<std::int32_t> msg;
+          try {
+            char switches[] = "pYQJ";  // PLC, boundary unsplit, quiet, keep every input point (indices stable)
+            tetrahedralize(switches, &in, &out);
+            bool same = out.numberofpoints == in.numberofpoints && out.numberofcorners == 4;
+            for (int i = 0; same && i < 3 * in.numberofpoints; ++i) same = out.pointlist[i] == in.pointlist[i];
+            if (!same) status = 2;
+            else {
+              status = 0;
+              msg.assign(out.tetrahedronlist, out.tetrahedronlist + 4 * std::size_t(out.numberoftetrahedra));
+            }
+          } catch (...) {
+            status = 1;
+          }
+          const std::int32_t head[2] = {status, std::int32_t(msg.size())};
+          std::string frame(reinterpret_cast<const char*>(head), sizeof head);
+          frame.append(reinterpret_cast<const char*>(msg.data()), msg.size() * sizeof(std::int32_t));
+          return w.frame(0, frame) ? 0 : 3;
+        },
+        [&](ChildReader& reader) {
+          std::uint8_t kind = 0;
+          if (!reader.frame(kind, bytes)) bytes.clear();
+        },
+        0.0, "TetGen not run");
+  } catch (const Error& e) {  // no pipe, no child process
+    r.message = e.what();
     return r;
-  }
-  const pid_t child = fork();
-  if (child < 0) {
-    close(fds[0]);
-    close(fds[1]);
-    r.message = std::string("TetGen not run: fork failed (") + std::strerror(errno) + ")";
-    return r;
-  }
-  if (child == 0) {
-    close(fds[0]);
-    int status = 1;
-    std::vector<std::int32_t> msg;
-    try {
-      char switches[] = "pYQJ";  // PLC, boundary unsplit, quiet, keep every input point (indices stable)
-      tetrahedralize(switches, &in, &out);
-      bool same = out.numberofpoints == in.numberofpoints && out.numberofcorners == 4;
-      for (int i = 0; same && i < 3 * in.numberofpoints; ++i) same = out.pointlist[i] == in.pointlist[i];
-      if (!same) status = 2;
-      else {
-        status = 0;
-        msg.assign(out.tetrahedronlist, out.tetrahedronlist + 4 * std::size_t(out.numberoftetrahedra));
-      }
-    } catch (...) {
-      status = 1;
-    }
-    const std::int32_t head[2] = {status, std::int32_t(msg.size())};
-    auto send = [&](const void* p, std::size_t n) {
-      const char* c = static_cast<const char*>(p);
-      while (n > 0) {
-        const ssize_t w = write(fds[1], c, n);
-        if (w <= 0) _exit(3);
-        c += w;
-        n -= std::size_t(w);
-      }
-    };
-    send(head, sizeof head);
-    if (!msg.empty()) send(msg.data(), msg.size() * sizeof(std::int32_t));
-    _exit(0);
-  }
-  close(fds[1]);
-  std::vector<char> bytes;
-  char buf[65536];
-  for (;;) {
-    const ssize_t n = read(fds[0], buf, sizeof buf);
-    if (n > 0) bytes.insert(bytes.end(), buf, buf + n);
-    else if (n == 0 || errno != EINTR) break;
-  }
-  close(fds[0]);
-  int wstatus = 0;
-  while (waitpid(child, &wstatus, 0) < 0 && errno == EINTR) {
   }
   std::int32_t head[2] = {-1, 0};
   if (bytes.size() >= sizeof head) std::memcpy(head, bytes.data(), sizeof head);
-  if (!WIFEXITED(wstatus) || bytes.size() < sizeof head) {
+  if (end.exitCode != 0 || bytes.size() < sizeof head) {
     r.message = "TetGen failed (it stopped in its error path)";
     return r;
   }
