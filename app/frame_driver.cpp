@@ -14,6 +14,13 @@ FrameRequest FrameDriver::request(const Viewport& vp, int width, int height) con
   rs.height = height;
   rs.strainOverlay = session_.strainOverlay();
   rs.labelTint = session_.labelTint();
+  const Session::Clip& clip = session_.clip();
+  rs.clipBox = clip.box;
+  rs.clipMin = clip.lo;
+  rs.clipMax = clip.hi;
+  rs.clipPlane = clip.plane;
+  rs.clipNormal = clip.normal;
+  rs.clipOffset = clip.offset;
   const OrbitCamera& cam = session_.camera();
   FrameRequest req;
   req.params = makeRenderParams(volume_.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);

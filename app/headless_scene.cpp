@@ -19,12 +19,37 @@ const char* const kRenderOptionsHelp =
     "  --camera AZ,EL[,DIST[,ROLL]]  orbit camera in degrees around the volume centre; DIST in mm\n"
     "                           (0 or omitted: fit the volume); azimuth 0 = anterior view\n"
     "  --step F                 ray step as a fraction of the smallest voxel spacing (default 0.5)\n"
+    "  --clip-box X0,Y0,Z0,X1,Y1,Z1   draw and pick only inside this box (RAS mm)\n"
+    "  --clip-plane NX,NY,NZ,D  draw and pick only where NX*x + NY*y + NZ*z >= D (RAS mm)\n"
     "  --voxels N               resample the volume to about N voxels first\n"
     "  --device NAME            Vulkan device: gpu, cpu, an index or a name substring\n"
     "                           (default: discrete > integrated > CPU; env HANDSON_DEVICE)\n"
     "  --validation             enable the Khronos validation layer (env HANDSON_VALIDATION=1)\n"
     "  --no-skip, --no-early-termination, --no-shading   switch off empty-space skipping,\n"
     "                           early ray termination, gradient shading\n";
+
+void parseClipOptions(const cli::Args& args, RenderSettings& rs) {
+  if (auto b = args.value("--clip-box")) {
+    const auto v = cli::parseNumberList(*b, "--clip-box");
+    if (v.size() != 6) throw cli::UsageError("--clip-box takes six numbers X0,Y0,Z0,X1,Y1,Z1 (RAS mm)");
+    for (double x : v)
+      if (!std::isfinite(x)) throw cli::UsageError("--clip-box takes finite numbers");
+    if (!(v[0] < v[3] && v[1] < v[4] && v[2] < v[5])) throw cli::UsageError("--clip-box: each low corner coordinate must be below the high one");
+    rs.clipBox = true;
+    rs.clipMin = glm::vec3(float(v[0]), float(v[1]), float(v[2]));
+    rs.clipMax = glm::vec3(float(v[3]), float(v[4]), float(v[5]));
+  }
+  if (auto p = args.value("--clip-plane")) {
+    const auto v = cli::parseNumberList(*p, "--clip-plane");
+    if (v.size() != 4) throw cli::UsageError("--clip-plane takes four numbers NX,NY,NZ,D (keeps n.x >= D, RAS mm)");
+    for (double x : v)
+      if (!std::isfinite(x)) throw cli::UsageError("--clip-plane takes finite numbers");
+    if (std::hypot(v[0], v[1], v[2]) < 1e-9) throw cli::UsageError("--clip-plane: the normal NX,NY,NZ must not be zero");
+    rs.clipPlane = true;
+    rs.clipNormal = glm::vec3(float(v[0]), float(v[1]), float(v[2]));
+    rs.clipOffset = float(v[3]);
+  }
+}
 
 std::string defaultPresetFor(const Volume& v) {
   const auto [lo, hi] = v.valueRange();
@@ -60,6 +85,7 @@ HeadlessScene openHeadlessScene(const std::string& path, const cli::Args& args) 
   s.settings.emptySpaceSkipping = !args.flag("--no-skip");
   s.settings.earlyTermination = !args.flag("--no-early-termination");
   s.settings.shading = !args.flag("--no-shading");
+  parseClipOptions(args, s.settings);
 
   if (auto tfPath = args.value("--tf")) {
     s.tf = loadTransferFunction(*tfPath);

@@ -16,7 +16,8 @@
 namespace handson {
 
 /// Options every rendering command accepts.
-inline const std::vector<std::string> kRenderValueOptions = {"--frame", "--size", "--preset", "--tf", "--camera", "--device", "--step", "--voxels"};
+inline const std::vector<std::string> kRenderValueOptions = {"--frame", "--size", "--preset", "--tf", "--camera", "--device", "--step", "--voxels",
+                                                             "--clip-box", "--clip-plane"};
 inline const std::vector<std::string> kRenderFlagOptions = {"--validation", "--no-skip", "--no-early-termination", "--no-shading", "--quiet"};
 extern const char* const kRenderOptionsHelp;
 
@@ -33,6 +34,9 @@ struct HeadlessScene {
 
   gpu::RenderParams params(std::uint32_t pickCount = 0) const;
 };
+
+/// --clip-box and --clip-plane into the settings. Throws cli::UsageError on a malformed value.
+void parseClipOptions(const cli::Args& args, RenderSettings& rs);
 
 /// path empty: the built-in phantom. Reads --size, --preset, --tf, --camera, --device, --step,
 /// --voxels (resample first), --validation, --no-skip, --no-early-termination, --no-shading.

@@ -1,6 +1,10 @@
 #include "session.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <string>
+#include <vector>
 #include <iomanip>
 #include <sstream>
 
@@ -23,6 +27,45 @@ void Session::resetCamera() {
 
 void Session::setViewport(const Viewport& v) { gestures_.setViewport(v); }
 
+namespace {
+
+/// Comma-separated finite numbers, exactly n of them.
+bool numbers(const std::string& text, std::size_t n, std::vector<float>& out) {
+  out.clear();
+  std::istringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    char* end = nullptr;
+    const float v = std::strtof(item.c_str(), &end);
+    if (item.empty() || end == item.c_str() || *end != '\0' || !std::isfinite(v)) return false;
+    out.push_back(v);
+  }
+  return out.size() == n;
+}
+
+/// The clip actions; false (state unchanged) for a malformed value.
+bool applyClip(const std::string& action, const std::string& value, Session::Clip& clip) {
+  std::vector<float> v;
+  if (action == "clear-clip") {
+    clip = {};
+    return true;
+  }
+  if (action == "set-clip-box") {
+    if (!numbers(value, 6, v) || !(v[0] < v[3] && v[1] < v[4] && v[2] < v[5])) return false;
+    clip.box = true;
+    clip.lo = {v[0], v[1], v[2]};
+    clip.hi = {v[3], v[4], v[5]};
+    return true;
+  }
+  if (!numbers(value, 4, v) || !(glm::length(glm::vec3(v[0], v[1], v[2])) > 1e-6f)) return false;
+  clip.plane = true;
+  clip.normal = {v[0], v[1], v[2]};
+  clip.offset = v[3];
+  return true;
+}
+
+}  // namespace
+
 bool Session::apply(const ScriptEvent& e) {
   bool ok = true;
   if (e.isTouch) {
@@ -44,6 +87,8 @@ bool Session::apply(const ScriptEvent& e) {
     strainOverlay_ = !strainOverlay_;
   } else if (e.action == "toggle-labels") {
     labelTint_ = !labelTint_;
+  } else if (e.action == "set-clip-box" || e.action == "set-clip-plane" || e.action == "clear-clip") {
+    ok = applyClip(e.action, e.value, clip_);
   } else {
     ok = false;
     for (const auto& f : uiExtensions_)

@@ -33,6 +33,16 @@ class Session {
   /// The label tint (the "toggle-labels" action): tissue coloured by its organ label, where the
   /// renderer has labels (on from the start when a label map is loaded: setLabelTint).
   bool labelTint() const { return labelTint_; }
+  /// Clipping (world RAS mm), set by the "set-clip-box" ("X0,Y0,Z0,X1,Y1,Z1"), "set-clip-plane"
+  /// ("NX,NY,NZ,D": keeps n.x >= D) and "clear-clip" actions: drawn and respected by picking.
+  struct Clip {
+    bool box = false;
+    glm::vec3 lo{0.0f}, hi{0.0f};
+    bool plane = false;
+    glm::vec3 normal{0.0f, 0.0f, 1.0f};
+    float offset = 0.0f;
+  };
+  const Clip& clip() const { return clip_; }
   void setLabelTint(bool on) { labelTint_ = on; }
 
   /// UI actions the session does not know itself (handle edits, export) go to these, in order,
@@ -52,6 +62,7 @@ class Session {
   bool presetChanged_ = false;
   bool strainOverlay_ = false;
   bool labelTint_ = false;
+  Clip clip_;
   bool recording_ = false;
   SessionScript script_;
   std::vector<std::function<bool(const ScriptEvent&)>> uiExtensions_;

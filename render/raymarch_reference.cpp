@@ -113,7 +113,25 @@ struct Sampler {
     const glm::vec3 tmin = glm::min(ta, tb), tmax = glm::max(ta, tb);
     t0 = std::max(std::max(std::max(tmin.x, tmin.y), tmin.z), 0.0f);
     t1 = std::min(std::min(tmax.x, tmax.y), tmax.z);
+    clipRay(originW, dirW, t0, t1);
     return t1 > t0;
+  }
+  // As march_common.glsl's clipRay.
+  void clipRay(glm::vec3 originW, glm::vec3 dirW, float& t0, float& t1) const {
+    const std::uint32_t flags = P.control.x;
+    if (flags & gpu::kFlagClipBox) {
+      const glm::vec3 inv = 1.0f / dirW;
+      const glm::vec3 ca = (glm::vec3(P.clipMin) - originW) * inv, cb = (glm::vec3(P.clipMax) - originW) * inv;
+      const glm::vec3 cmin = glm::min(ca, cb), cmax = glm::max(ca, cb);
+      t0 = std::max(t0, std::max(std::max(cmin.x, cmin.y), cmin.z));
+      t1 = std::min(t1, std::min(std::min(cmax.x, cmax.y), cmax.z));
+    }
+    if (flags & gpu::kFlagClipPlane) {
+      const float nd = glm::dot(glm::vec3(P.clipPlane), dirW), no = glm::dot(glm::vec3(P.clipPlane), originW);
+      if (nd > 1e-12f) t0 = std::max(t0, (P.clipPlane.w - no) / nd);
+      else if (nd < -1e-12f) t1 = std::min(t1, (P.clipPlane.w - no) / nd);
+      else if (no < P.clipPlane.w) t1 = t0;
+    }
   }
   bool brickOccupied(glm::vec3 idx, glm::ivec3& brick) const {
     brick = glm::clamp(glm::ivec3(glm::floor((idx + 0.5f) / float(gpu::kBrickSize))), glm::ivec3(0), glm::ivec3(P.brickDims) - 1);

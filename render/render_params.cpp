@@ -42,6 +42,16 @@ gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::ma
   if (s.shading) flags |= gpu::kFlagShading;
   if (s.strainOverlay) flags |= gpu::kFlagStrainOverlay;
   if (s.labelTint) flags |= gpu::kFlagLabelTint;
+  if (s.clipBox) {
+    flags |= gpu::kFlagClipBox;
+    p.clipMin = glm::vec4(glm::min(s.clipMin, s.clipMax), 0.0f);
+    p.clipMax = glm::vec4(glm::max(s.clipMin, s.clipMax), 0.0f);
+  }
+  const float nlen = glm::length(s.clipNormal);
+  if (s.clipPlane && nlen > 0.0f && std::isfinite(nlen)) {
+    flags |= gpu::kFlagClipPlane;
+    p.clipPlane = glm::vec4(s.clipNormal / nlen, s.clipOffset / nlen);
+  }
   p.strain = glm::vec4(s.strainFrom, s.strainTo, s.strainWeight, 0.0f);
   const double diag = geometry.diagonalMm();
   const std::uint32_t maxSteps = std::uint32_t(std::ceil(diag / step)) * 2u + 64u;

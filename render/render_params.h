@@ -27,6 +27,13 @@ struct RenderSettings {
   bool strainOverlay = false;
   /// Tissue tinted by its organ label (VolumeRenderer::setLabels; the palette in shaders/shared.h).
   bool labelTint = false;
+  /// Clipping (world RAS mm): only what lies inside the box and on the kept side of the plane is
+  /// drawn or picked. The plane keeps n.x >= d (n need not be unit length).
+  bool clipBox = false;
+  glm::vec3 clipMin{0.0f}, clipMax{0.0f};
+  bool clipPlane = false;
+  glm::vec3 clipNormal{0.0f, 0.0f, 1.0f};
+  float clipOffset = 0.0f;
   float strainFrom = 0.0f, strainTo = 0.30f, strainWeight = 0.85f;
 };
 

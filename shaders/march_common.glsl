@@ -56,6 +56,26 @@ vec4 transfer(float v) {
   return mix(tf[i0], tf[i1], x - float(i0));
 }
 
+// Clipping (kFlagClipBox, kFlagClipPlane): the ray's [t0, t1] narrowed to the world box and to the
+// half-space n.x >= D, so the first sample and the first visible point lie behind the cut, for the
+// raymarch and picking alike. CPU reference: clipRay in render/raymarch_reference.cpp.
+void clipRay(vec3 originW, vec3 dirW, inout float t0, inout float t1) {
+  uint flags = P.control.x;
+  if ((flags & kFlagClipBox) != 0u) {
+    vec3 inv = 1.0 / dirW;
+    vec3 ca = (P.clipMin.xyz - originW) * inv, cb = (P.clipMax.xyz - originW) * inv;
+    vec3 cmin = min(ca, cb), cmax = max(ca, cb);
+    t0 = max(t0, max(max(cmin.x, cmin.y), cmin.z));
+    t1 = min(t1, min(min(cmax.x, cmax.y), cmax.z));
+  }
+  if ((flags & kFlagClipPlane) != 0u) {
+    float nd = dot(P.clipPlane.xyz, dirW), no = dot(P.clipPlane.xyz, originW);
+    if (nd > 1e-12) t0 = max(t0, (P.clipPlane.w - no) / nd);
+    else if (nd < -1e-12) t1 = min(t1, (P.clipPlane.w - no) / nd);
+    else if (no < P.clipPlane.w) t1 = t0;  // parallel to the plane, on the cut side
+  }
+}
+
 // Ray through a point in NDC (x right, y down, both in [-1, 1]); returns false if it misses the
 // volume box. Box in index space: [-0.5, dims - 0.5]. t is the distance along the world ray (mm).
 bool setupRay(vec2 ndc, out vec3 originW, out vec3 dirW, out float t0, out float t1) {
@@ -71,6 +91,7 @@ bool setupRay(vec2 ndc, out vec3 originW, out vec3 dirW, out float t0, out float
   vec3 tmin = min(ta, tb), tmax = max(ta, tb);
   t0 = max(max(max(tmin.x, tmin.y), tmin.z), 0.0);
   t1 = min(min(tmax.x, tmax.y), tmax.z);
+  clipRay(originW, dirW, t0, t1);
   return t1 > t0;
 }
 

@@ -57,6 +57,8 @@ HS_CONST kFlagEarlyTermination = 2u;
 HS_CONST kFlagShading = 4u;
 HS_CONST kFlagStrainOverlay = 8u;  // raymarch: colour tissue by its strain (RenderParams.strain)
 HS_CONST kFlagLabelTint = 16u;     // raymarch: colour tissue by its organ label (kBindLabels, kLabelPalette)
+HS_CONST kFlagClipBox = 32u;       // raymarch and pick: only inside RenderParams.clipMin..clipMax (world box)
+HS_CONST kFlagClipPlane = 64u;     // raymarch and pick: only where dot(clipPlane.xyz, x) >= clipPlane.w
 
 // Bindings of the raymarch and pick passes (one push-descriptor set).
 HS_CONST kBindParams = 0;     // RenderParams (read-only storage buffer)
@@ -101,6 +103,9 @@ struct RenderParams {
   vec4 light;         // x = ambient, y = diffuse, z = specular, w = shininess
   uvec4 control;      // x = flags, y = pick count, z = max steps, w = moving handle count
   vec4 strain;        // overlay: x = strain where the colour starts, y = where it is full, z = its weight there
+  vec4 clipMin;       // xyz: the clip box's low corner (world mm; kFlagClipBox)
+  vec4 clipMax;       // xyz: its high corner
+  vec4 clipPlane;     // xyz unit normal n, w = D: what is kept is n.x >= D (world mm; kFlagClipPlane)
   MovingHandle moving[kMaxMovingHandles];
 };
 
@@ -164,7 +169,7 @@ static_assert(sizeof(DeformParams) == 2 * 64 + 7 * 16, "DeformParams must match 
 static_assert(sizeof(DeformBox) == 64, "DeformBox must match std430");
 static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
 static_assert(sizeof(MovingHandle) == 112, "MovingHandle must match std140");
-static_assert(sizeof(RenderParams) == 3 * 64 + 8 * 16 + 8 * 112, "RenderParams must match std140");
+static_assert(sizeof(RenderParams) == 3 * 64 + 11 * 16 + 8 * 112, "RenderParams must match std140");
 static_assert(sizeof(PickResult) == 32, "PickResult must match std430");
 }  // namespace handson::gpu
 #endif

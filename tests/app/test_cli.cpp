@@ -141,6 +141,25 @@ TEST_F(Cli, SelectWritesAMaskOnTheInputGridWithCpuAndGpuAgreeing) {
   EXPECT_GE(double(inKidney) / double(selected), 0.9);
 }
 
+TEST_F(Cli, RenderClipsAndRefusesMalformedClipValues) {
+  const std::string common = "render --size 48x48 --validation --quiet --camera 90,0 -o ";
+  ASSERT_EQ(runHandson(common + p("plain.png")).status, 0);
+  CliRun r = runHandson(common + p("plane.png") + " --clip-plane -1,0,0,-60");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = runHandson(common + p("box.png") + " --clip-box -40,-120,-200,40,-30,200");
+  ASSERT_EQ(r.status, 0) << r.output;
+  int w = 0, h = 0;
+  const auto a = handson::readPng(p("plain.png"), w, h), b = handson::readPng(p("plane.png"), w, h), c = handson::readPng(p("box.png"), w, h);
+  EXPECT_NE(a, b);
+  EXPECT_NE(a, c);
+  for (const char* bad : {"--clip-box 1,2,3", "--clip-box 10,0,0,0,1,1", "--clip-box 0,0,0,1,1,nan", "--clip-plane 0,0,0,5", "--clip-plane 1,0,0"}) {
+    r = runHandson(common + p("bad.png") + " " + bad);
+    EXPECT_EQ(r.status, 2) << bad << "\n" << r.output;
+    EXPECT_NE(r.output.find("--clip"), std::string::npos) << bad << "\n" << r.output;
+  }
+  EXPECT_FALSE(fs::exists(p("bad.png")));
+}
+
 TEST_F(Cli, SelectWithLabelsWritesTheLabelledOrganUnderTheSeedExactly) {
   ASSERT_EQ(runHandson("phantom -o " + p("ct.nii.gz") + " --labels-out " + p("labels.nii.gz") + " --spacing 6").status, 0);
   ASSERT_EQ(runHandson("phantom -o " + p("ct8.nii.gz") + " --labels-out " + p("labels8.nii.gz") + " --spacing 8").status, 0);

@@ -198,6 +198,31 @@ TEST(Replay, WithALabelMapATapOnAnOrganMakesTheWholeLabelledOrganAHandle) {
   fs::remove_all(dir);
 }
 
+TEST(Replay, ClipActionsCutTheViewAndClearClipRestoresItBitForBit) {
+  // set-clip-plane, then set-clip-box (both at once), then clear-clip: the frames between differ
+  // from the unclipped view, the last equals it; a malformed clip value is refused.
+  const fs::path dir = fs::temp_directory_path() / ("handson_clip_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ofstream(dir / "clip.json") << R"({"format": "handson-session", "version": 1, "volume": {"source": "phantom"},
+    "viewport": [512, 512], "preset": "ct-abdomen", "mode": "navigate",
+    "camera": {"target": [0, 0, 0], "distance": 910, "azimuth_deg": 90, "elevation_deg": 0, "roll_deg": 0, "fov_deg": 35},
+    "events": [{"t": 0.05, "ui": "set-clip-plane", "value": "-1,0,0,-60"},
+               {"t": 0.15, "ui": "set-clip-box", "value": "-200,-200,-40,200,200,40"},
+               {"t": 0.2, "ui": "set-clip-box", "value": "5,0,0,1,1,1"},
+               {"t": 0.25, "ui": "clear-clip"}]})";
+  std::string out;
+  ASSERT_EQ(run("replay " + (dir / "clip.json").string() + " --fps 10 --size 96x96 --validation --sim off --frames-out " + (dir / "f").string(), &out), 0) << out;
+  EXPECT_NE(out.find("1 refused"), std::string::npos) << out;
+  const std::string f0 = slurp(dir / "f" / "frame_00000.png"), f1 = slurp(dir / "f" / "frame_00001.png");
+  const std::string f2 = slurp(dir / "f" / "frame_00002.png"), f3 = slurp(dir / "f" / "frame_00003.png");
+  EXPECT_NE(f0, f1);
+  EXPECT_NE(f1, f2);
+  EXPECT_NE(f0, f2);
+  EXPECT_EQ(f0, f3);
+  fs::remove_all(dir);
+}
+
 TEST(Replay, InNavigateModeADragThatStartsOnAnActiveHandleMovesItAndElsewhereOrbits) {
   // The kidney script with the handle left active and the drags made in navigate mode: the first
   // drag lands on the kidney and moves it (the camera stays); the last one, moved off the body,

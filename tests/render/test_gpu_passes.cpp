@@ -168,6 +168,54 @@ TEST_F(GpuPasses, PickMatchesCpuReference) {
   EXPECT_EQ(r.picks.back().world.w, 0.0f);
 }
 
+TEST_F(GpuPasses, ClippingMatchesCpuAndPicksLandBehindTheCut) {
+  // From the patient's right (+x): a plane keeping x <= 60 mm cuts the right kidney (centre x = 78)
+  // and the body wall away; then a box around the spine. Drawn as the CPU reference draws it, and
+  // every pick lands on the kept side, on the first visible point behind the cut.
+  Scene& s = scene();
+  useTf(s, transferFunctionPreset("ct-abdomen"));
+  s.renderer->clearMask();
+  const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), glm::radians(90.0), glm::radians(5.0));
+  std::vector<glm::vec2> pts;
+  for (int y = 4; y < 64; y += 6)
+    for (int x = 4; x < 64; x += 6) pts.push_back(pixelToNdc(float(x), float(y), 64, 64));
+  RenderSettings plain;
+  plain.width = plain.height = 64;
+  const auto unclipped = raymarchReference({&s.q, &s.lut, &s.renderer->occupancy()}, paramsFor(s, cam, plain));
+  RenderSettings byPlane = plain;
+  byPlane.clipPlane = true;
+  byPlane.clipNormal = glm::vec3(-2.0f, 0.0f, 0.0f);  // not unit: -2x >= -120, i.e. x <= 60
+  byPlane.clipOffset = -120.0f;
+  RenderSettings byBox = plain;
+  byBox.clipBox = true;
+  byBox.clipMin = glm::vec3(-40.0f, -120.0f, -200.0f);
+  byBox.clipMax = glm::vec3(40.0f, -30.0f, 200.0f);
+  for (const RenderSettings& rs : {byPlane, byBox}) {
+    const gpu::RenderParams p = paramsFor(s, cam, rs, std::uint32_t(pts.size()));
+    const FrameResult r = renderGpu(s, p, pts);
+    const ReferenceScene ref{&s.q, &s.lut, &s.renderer->occupancy()};
+    const ImageDiff d = compare(r.rgba, raymarchReference(ref, p));
+    EXPECT_LE(d.meanDiff, 0.5);  // tolerances as in RaymarchMatchesCpuReference
+    EXPECT_LE(d.fractionOver2, 0.01);
+    EXPECT_GT(compare(r.rgba, unclipped).meanDiff, 2.0) << "the cut shows";
+    const auto cpu = pickReference(ref, p, pts);
+    const float step = p.march.x;
+    int hits = 0, agree = 0;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      const bool hg = r.picks[i].world.w > 0.5f;
+      if (hg != (cpu[i].world.w > 0.5f)) continue;
+      if (!hg || glm::distance(glm::vec3(r.picks[i].world), glm::vec3(cpu[i].world)) <= 1.01f * step) ++agree;
+      if (!hg) continue;
+      ++hits;
+      const glm::vec3 w(r.picks[i].world);
+      if (rs.clipPlane) EXPECT_LE(w.x, 60.0f + step) << "a pick in clipped space";
+      if (rs.clipBox) EXPECT_TRUE(glm::all(glm::greaterThanEqual(w, rs.clipMin - step)) && glm::all(glm::lessThanEqual(w, rs.clipMax + step)));
+    }
+    EXPECT_GE(hits, 5) << "the kept anatomy covers a few of the 100 points (the default framing leaves a margin)";
+    EXPECT_GE(agree, int(pts.size()) - 2);
+  }
+}
+
 TEST_F(GpuPasses, PickLandsOnAnalyticSurfacesWithinOneVoxel) {
   Scene& s = scene();
   const double voxel = s.phantom.ct.geometry().spacing.x();
