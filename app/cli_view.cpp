@@ -236,6 +236,7 @@ int cmdCompose(const Words& words) {
   std::cout << "view azimuth " << c.azimuthDeg << " deg, elevation " << c.elevationDeg << " deg, " << c.mmPerPx << " mm per px at the organ; organ at ("
             << c.organPx.x << ", " << c.organPx.y << ") px with " << c.organRadiusPx << " px of room, anchor at (" << c.anchorPx.x << ", "
             << c.anchorPx.y << ") px with " << c.anchorRadiusPx << " px; " << c.handleRadiusPx << " px of room on the organ's selection\n"
+            << (c.clipPlane.empty() ? "" : "exposed by the " + c.script.preset + " -> " + c.preset + " presets and the clip plane " + c.clipPlane + "\n")
             << c.script.events.size() << " events, " << c.script.duration() << " s\nwrote " << *args.value("-o") << "\n";
   return 0;
 }

@@ -2,10 +2,14 @@
 
 #include "render/transfer_function.h"
 
+#include <utility>
+
 namespace handson {
 
 void FrameDriver::refreshTransferFunction() {
-  if (session_.takePresetChanged()) renderer_.setTransferFunction(transferFunctionPreset(session_.preset()).lookupTable(q_));
+  if (!session_.takePresetChanged()) return;
+  const WindowLevel& w = session_.window();
+  renderer_.setTransferFunction(transferFunctionPreset(session_.preset()).windowed(w.scale, w.shift, w.opacity).lookupTable(q_));
 }
 
 FrameRequest FrameDriver::request(const Viewport& vp, int width, int height) const {
@@ -14,13 +18,7 @@ FrameRequest FrameDriver::request(const Viewport& vp, int width, int height) con
   rs.height = height;
   rs.strainOverlay = session_.strainOverlay();
   rs.labelTint = session_.labelTint();
-  const Session::Clip& clip = session_.clip();
-  rs.clipBox = clip.box;
-  rs.clipMin = clip.lo;
-  rs.clipMax = clip.hi;
-  rs.clipPlane = clip.plane;
-  rs.clipNormal = clip.normal;
-  rs.clipOffset = clip.offset;
+  rs.clip = session_.clip();
   const OrbitCamera& cam = session_.camera();
   FrameRequest req;
   req.params = makeRenderParams(volume_.geometry(), cam.view(), cam.projection(double(vp.width) / vp.height), glm::vec3(cam.eye()), rs);
@@ -34,6 +32,13 @@ void FrameDriver::attachSimulation(FrameRequest& request, bool settled) {
 
 void FrameDriver::attachSelection(FrameRequest& request, const Viewport& vp, FrameTiming& ft) {
   selection_.prepareFrame(request, vp);
+  if (const auto px = session_.takeClipPickRequest()) {
+    // A clip plane goes through the point under the finger: picked in this frame.
+    clipPickOffset_ = request.pickPoints.size();
+    const glm::dvec2 ndc = vp.toNdc(*px);
+    request.pickPoints.emplace_back(float(ndc.x), float(ndc.y));
+    clipPickInRequest_ = true;
+  }
   ft.cpuMs = selection_.takeStageTimes();
   for (auto& stage : deform_.takeStageTimes()) ft.cpuMs.push_back(std::move(stage));
 }
@@ -54,7 +59,16 @@ bool FrameDriver::newFailure() {
 std::uint64_t FrameDriver::submit(const FrameRequest& request) {
   const std::uint64_t frame = renderer_.submit(request);
   selection_.submitted(frame);
+  if (std::exchange(clipPickInRequest_, false)) clipPickFrame_ = frame;
   return frame;
+}
+
+void FrameDriver::completed(const FrameResult& result) {
+  selection_.onFrameResult(result);
+  if (!clipPickFrame_ || result.frame != *clipPickFrame_) return;
+  clipPickFrame_.reset();
+  const bool hit = clipPickOffset_ < result.picks.size() && result.picks[clipPickOffset_].world.w > 0.5f;
+  session_.clipPicked(hit ? std::optional<glm::dvec3>(glm::dvec3(result.picks[clipPickOffset_].world)) : std::nullopt);
 }
 
 }  // namespace handson

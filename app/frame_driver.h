@@ -6,6 +6,7 @@
 // in where events come from (the window's input and a played script, or a script on a clock), where
 // frames go (a swapchain, or PNG files and a wait) and what they report.
 #include <cstdint>
+#include <optional>
 
 #include "app/deformation_controller.h"
 #include "app/latency_log.h"
@@ -32,7 +33,8 @@ class FrameDriver {
   /// waits for the solve), or the one of the current pose (`settled`: waits for it); handles not yet
   /// simulated are previewed rigidly.
   void attachSimulation(FrameRequest& request, bool settled);
-  /// The selection's passes; the frame's CPU stage times (selection, then simulation) into ft.
+  /// The selection's passes (and the pick that places a clip plane); the frame's CPU stage times
+  /// (selection, then simulation) into ft.
   void attachSelection(FrameRequest& request, const Viewport& vp, FrameTiming& ft);
   /// What the frame shows of the simulation (state, its age, the reactions) into ft.
   void recordSimulation(FrameTiming& ft) const;
@@ -41,8 +43,8 @@ class FrameDriver {
   bool newFailure();
   /// Submits the frame (waiting only for the frame two submissions back); its number.
   std::uint64_t submit(const FrameRequest& request);
-  /// A finished frame's results (picks, grown regions) to the selection.
-  void completed(const FrameResult& result) { selection_.onFrameResult(result); }
+  /// A finished frame's results (picks, grown regions) to the selection and the session's clip.
+  void completed(const FrameResult& result);
 
  private:
   const Volume& volume_;
@@ -52,6 +54,9 @@ class FrameDriver {
   SelectionController& selection_;
   DeformationController& deform_;
   std::uint64_t failuresSeen_ = 0;
+  std::size_t clipPickOffset_ = 0;
+  bool clipPickInRequest_ = false;
+  std::optional<std::uint64_t> clipPickFrame_;
 };
 
 }  // namespace handson

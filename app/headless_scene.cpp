@@ -14,7 +14,7 @@ namespace handson {
 const char* const kRenderOptionsHelp =
     "  --frame N                the volume of a 4D NIfTI image to load (default 0)\n"
     "  --size WxH               output size in pixels (default 512x512)\n"
-    "  --preset NAME            transfer function: ct-abdomen, ct-bone, mri (default: by value range)\n"
+    "  --preset NAME            transfer function: ct-abdomen, ct-soft-tissue, ct-bone, mri (default: by value range)\n"
     "  --tf FILE                transfer function file: lines 'value r g b a' (opacity per mm)\n"
     "  --camera AZ,EL[,DIST[,ROLL]]  orbit camera in degrees around the volume centre; DIST in mm\n"
     "                           (0 or omitted: fit the volume); azimuth 0 = anterior view\n"
@@ -29,26 +29,10 @@ const char* const kRenderOptionsHelp =
     "                           early ray termination, gradient shading\n";
 
 void parseClipOptions(const cli::Args& args, RenderSettings& rs) {
-  if (auto b = args.value("--clip-box")) {
-    const auto v = cli::parseNumberList(*b, "--clip-box");
-    if (v.size() != 6) throw cli::UsageError("--clip-box takes six numbers X0,Y0,Z0,X1,Y1,Z1 (RAS mm)");
-    for (double x : v)
-      if (!std::isfinite(x)) throw cli::UsageError("--clip-box takes finite numbers");
-    if (!(v[0] < v[3] && v[1] < v[4] && v[2] < v[5])) throw cli::UsageError("--clip-box: each low corner coordinate must be below the high one");
-    rs.clipBox = true;
-    rs.clipMin = glm::vec3(float(v[0]), float(v[1]), float(v[2]));
-    rs.clipMax = glm::vec3(float(v[3]), float(v[4]), float(v[5]));
-  }
-  if (auto p = args.value("--clip-plane")) {
-    const auto v = cli::parseNumberList(*p, "--clip-plane");
-    if (v.size() != 4) throw cli::UsageError("--clip-plane takes four numbers NX,NY,NZ,D (keeps n.x >= D, RAS mm)");
-    for (double x : v)
-      if (!std::isfinite(x)) throw cli::UsageError("--clip-plane takes finite numbers");
-    if (std::hypot(v[0], v[1], v[2]) < 1e-9) throw cli::UsageError("--clip-plane: the normal NX,NY,NZ must not be zero");
-    rs.clipPlane = true;
-    rs.clipNormal = glm::vec3(float(v[0]), float(v[1]), float(v[2]));
-    rs.clipOffset = float(v[3]);
-  }
+  if (auto b = args.value("--clip-box"))
+    if (const std::string why = parseClipBox(*b, rs.clip); !why.empty()) throw cli::UsageError("--clip-box: " + why);
+  if (auto p = args.value("--clip-plane"))
+    if (const std::string why = parseClipPlane(*p, rs.clip); !why.empty()) throw cli::UsageError("--clip-plane: " + why);
 }
 
 std::string defaultPresetFor(const Volume& v) {

@@ -243,7 +243,14 @@ int runReplay(const ReplayOptions& o) {
   }
   if (!o.framesOut.empty()) std::cout << "wrote " << frames << " frames to " << o.framesOut << "\n";
   if (o.printCamera) std::cout << describeCamera(session.camera()) << "\n";
-  if (o.printHandles) printHandlePoses(selection, volume);
+  if (o.printHandles) {
+    printHandlePoses(selection, volume);
+    const ClipRegion& clip = session.clip();
+    if (clip.box) std::cout << "clip box " << formatClipBox(clip) << "\n";
+    if (clip.plane) std::cout << "clip plane " << formatClipPlane(clip) << "\n";
+    const WindowLevel& w = session.window();
+    if (!w.identity()) std::cout << "window " << session.preset() << " scale " << w.scale << " shift " << w.shift << " opacity " << w.opacity << "\n";
+  }
   // Whatever came in, no state may hold a non-finite number.
   if (!stateIsFinite(session, selection)) return 1;
   if (ctx.validationMessageCount() > 0) {

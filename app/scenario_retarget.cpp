@@ -74,6 +74,7 @@ std::vector<gpu::PickResult> CpuPicker::pick(const OrbitCamera& cam, const Viewp
   RenderSettings rs;
   rs.width = vp.width;
   rs.height = vp.height;
+  rs.clip = clip_;
   const double aspect = double(vp.width) / double(vp.height);
   gpu::RenderParams params = makeRenderParams(ct_.geometry(), cam.view(), cam.projection(aspect), glm::vec3(cam.eye()), rs, std::uint32_t(ndc.size()));
   if (!moving.empty()) setMovingHandles(params, ct_.geometry(), moving);

@@ -31,6 +31,9 @@ class CpuPicker {
   std::vector<gpu::PickResult> pick(const OrbitCamera& cam, const Viewport& viewport, const std::vector<glm::dvec2>& pixels,
                                     const std::vector<std::uint8_t>* handleMask = nullptr,
                                     const std::vector<MovingHandlePose>& moving = {}) const;
+  /// Picks from here on respect this clip region (as the app's picks respect the session's clip).
+  void setClip(const ClipRegion& clip) { clip_ = clip; }
+  const ClipRegion& clip() const { return clip_; }
   /// The label map's value at a pick (labels on the CT's grid); -1 for a miss, NaN or a voxel outside.
   int labelAt(const gpu::PickResult& hit, const Volume& labels) const;
   const std::string& preset() const { return preset_; }
@@ -42,6 +45,7 @@ class CpuPicker {
   QuantizedVolume q_;
   std::vector<glm::vec4> lut_;
   std::vector<std::uint32_t> occupancy_;
+  ClipRegion clip_;
 };
 
 struct RetargetedScript {

@@ -15,6 +15,8 @@ namespace handson {
 Session::Session(const VolumeGeometry& geometry, const Viewport& viewport, std::string preset)
     : geometry_(geometry), gestures_(camera_), preset_(std::move(preset)) {
   gestures_.setViewport(viewport);
+  gestures_.setHandler(InteractionMode::Clip, [this](const TouchEvent& e, const TouchInput& in) { onClipTouch(e, in); });
+  gestures_.setHandler(InteractionMode::Window, [this](const TouchEvent& e, const TouchInput& in) { onWindowTouch(e, in); });
   resetCamera();
 }
 
@@ -29,38 +31,23 @@ void Session::setViewport(const Viewport& v) { gestures_.setViewport(v); }
 
 namespace {
 
-/// Comma-separated finite numbers, exactly n of them.
-bool numbers(const std::string& text, std::size_t n, std::vector<float>& out) {
-  out.clear();
-  std::istringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    char* end = nullptr;
-    const float v = std::strtof(item.c_str(), &end);
-    if (item.empty() || end == item.c_str() || *end != '\0' || !std::isfinite(v)) return false;
-    out.push_back(v);
-  }
-  return out.size() == n;
-}
-
 /// The clip actions; false (state unchanged) for a malformed value.
-bool applyClip(const std::string& action, const std::string& value, Session::Clip& clip) {
-  std::vector<float> v;
+bool applyClip(const std::string& action, const std::string& value, ClipRegion& clip) {
   if (action == "clear-clip") {
     clip = {};
     return true;
   }
-  if (action == "set-clip-box") {
-    if (!numbers(value, 6, v) || !(v[0] < v[3] && v[1] < v[4] && v[2] < v[5])) return false;
-    clip.box = true;
-    clip.lo = {v[0], v[1], v[2]};
-    clip.hi = {v[3], v[4], v[5]};
-    return true;
-  }
-  if (!numbers(value, 4, v) || !(glm::length(glm::vec3(v[0], v[1], v[2])) > 1e-6f)) return false;
-  clip.plane = true;
-  clip.normal = {v[0], v[1], v[2]};
-  clip.offset = v[3];
+  return (action == "set-clip-box" ? parseClipBox(value, clip) : parseClipPlane(value, clip)).empty();
+}
+
+/// "SCALE,SHIFT,OPACITY" (finite, scale and opacity > 0); false (unchanged) otherwise.
+bool parseWindow(const std::string& value, WindowLevel& w) {
+  std::istringstream in(value);
+  WindowLevel v;
+  char c1 = 0, c2 = 0;
+  if (!(in >> v.scale >> c1 >> v.shift >> c2 >> v.opacity) || c1 != ',' || c2 != ',' || !(in >> std::ws).eof()) return false;
+  if (!std::isfinite(v.scale) || !std::isfinite(v.shift) || !std::isfinite(v.opacity) || !(v.scale > 0.0) || !(v.opacity > 0.0)) return false;
+  w = v;
   return true;
 }
 
@@ -79,6 +66,14 @@ bool Session::apply(const ScriptEvent& e) {
     ok = std::find(names.begin(), names.end(), e.value) != names.end();
     if (ok && e.value != preset_) {
       preset_ = e.value;
+      window_ = {};
+      presetChanged_ = true;
+    }
+  } else if (e.action == "set-window" || e.action == "reset-window") {
+    WindowLevel w;
+    ok = e.action == "reset-window" || parseWindow(e.value, w);
+    if (ok && !(w == window_)) {
+      window_ = w;
       presetChanged_ = true;
     }
   } else if (e.action == "reset-camera") {

@@ -1,14 +1,18 @@
 #pragma once
 // What a running session is, for the window and for headless replay alike: the camera, the gesture
-// recognizer, the interaction mode and the transfer-function preset, changed only through
-// apply(ScriptEvent). Both the live app and `handson replay` drive it with the same events, so a
+// recognizer, the interaction mode, the transfer-function preset and its window, and the clipping,
+// changed only through apply(ScriptEvent) (touches included: the Clip and Window modes' gestures are
+// the session's own, app/session_view_gestures.cpp). Both the live app and `handson replay` drive it with the same events, so a
 // recorded session replays to the same camera and the same frames.
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "app/session_script.h"
 #include "interaction/gesture.h"
+#include "interaction/view_adjust.h"
+#include "render/render_params.h"
 #include "sim/volume.h"
 
 namespace handson {
@@ -26,7 +30,10 @@ class Session {
   const OrbitCamera& camera() const { return camera_; }
   GestureRecognizer& gestures() { return gestures_; }
   const std::string& preset() const { return preset_; }
-  /// True once after the preset changed (the renderer re-uploads the table).
+  /// The preset's window, level and opacity (the "set-window" action "SCALE,SHIFT,OPACITY",
+  /// "reset-window", and the Window mode's drags; a new preset starts from the identity).
+  const WindowLevel& window() const { return window_; }
+  /// True once after the preset or its window changed (the renderer re-uploads the table).
   bool takePresetChanged() { return std::exchange(presetChanged_, false); }
   /// The strain overlay (the "toggle-strain" action): tissue coloured by its strain while deforming.
   bool strainOverlay() const { return strainOverlay_; }
@@ -34,15 +41,15 @@ class Session {
   /// renderer has labels (on from the start when a label map is loaded: setLabelTint).
   bool labelTint() const { return labelTint_; }
   /// Clipping (world RAS mm), set by the "set-clip-box" ("X0,Y0,Z0,X1,Y1,Z1"), "set-clip-plane"
-  /// ("NX,NY,NZ,D": keeps n.x >= D) and "clear-clip" actions: drawn and respected by picking.
-  struct Clip {
-    bool box = false;
-    glm::vec3 lo{0.0f}, hi{0.0f};
-    bool plane = false;
-    glm::vec3 normal{0.0f, 0.0f, 1.0f};
-    float offset = 0.0f;
-  };
+  /// ("NX,NY,NZ,D": keeps n.x >= D) and "clear-clip" actions and by the Clip mode's drags: drawn
+  /// and respected by picking.
+  using Clip = ClipRegion;
   const Clip& clip() const { return clip_; }
+  /// A Clip-mode drag that places a plane needs the point under its finger: the pixel to pick in
+  /// the next frame (once: the request is then taken), and the pick's result (nullopt: nothing
+  /// visible there, the plane goes through the camera's target).
+  std::optional<glm::dvec2> takeClipPickRequest();
+  void clipPicked(const std::optional<glm::dvec3>& world);
   void setLabelTint(bool on) { labelTint_ = on; }
 
   /// UI actions the session does not know itself (handle edits, export) go to these, in order,
@@ -63,6 +70,23 @@ class Session {
   bool strainOverlay_ = false;
   bool labelTint_ = false;
   Clip clip_;
+  WindowLevel window_;
+  /// A Clip or Window mode drag in progress (app/session_view_gestures.cpp).
+  struct ViewDrag {
+    enum class Kind { None, Face, Plane, Window } kind = Kind::None;
+    std::int64_t finger = 0;
+    glm::dvec2 startPx{0.0}, deltaPx{0.0};
+    BoxFace face;
+    glm::dvec3 lo{0.0}, hi{0.0};           ///< the box at the drag's start
+    std::optional<ClipPlaneDrag> plane;     ///< the plane at the drag's start (after the pick)
+    bool pickWanted = false, pickPending = false;
+    WindowLevel window;                     ///< the window at the drag's (or finger count's) start
+    double spread0 = 0.0;
+    std::size_t fingers = 0;
+  } drag_;
+  void onClipTouch(const TouchEvent& e, const TouchInput& input);
+  void onWindowTouch(const TouchEvent& e, const TouchInput& input);
+  void applyPlaneDrag();
   bool recording_ = false;
   SessionScript script_;
   std::vector<std::function<bool(const ScriptEvent&)>> uiExtensions_;

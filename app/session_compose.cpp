@@ -13,6 +13,8 @@
 
 #include "interaction/manipulation.h"
 #include "interaction/selection.h"
+#include "interaction/view_adjust.h"
+#include "app/headless_scene.h"
 #include "sim/distance_transform.h"
 #include "sim/error.h"
 
@@ -161,18 +163,36 @@ class EventWriter {
 
 namespace {
 
+// A view a session can be composed in: its direction, its cut (none unless clipping) and its room.
+struct ComposeView {
+  double azimuthDeg = 0.0, elevationDeg = 0.0;
+  ClipRegion cut;
+  double score = 0.0;  // the organ's + the anchor's inscribed radius (px, every 4th pixel picked)
+};
+constexpr std::size_t kComposeViewsTried = 6;
+
 // The phases of a composed session over one view (composeFullSession). Each phase writes its touches
 // to the script and runs them here too, so that the next one is placed where the app then shows the
 // handle; what a phase leaves for the next is kept in the members below.
 class Composer {
  public:
-  Composer(const Volume& ctIn, const Volume& labelsIn, const ComposeOptions& options)
-      : ct(ctIn), labels(labelsIn), o(options), vp(o.viewport), aspect(double(vp.width) / double(vp.height)), picker(ct, o.preset), s(out.script), w(s),
-        mid(vp.center()), mask(picker.volume().data.size(), 0) {}
+  // clip: the view may cut in front of the organ (a view-oriented clip plane), under `preset`
+  // (the session starts with the volume's own preset and switches to it before clipping).
+  Composer(const Volume& ctIn, const Volume& labelsIn, const ComposeOptions& options, const std::string& preset, bool clip)
+      : ct(ctIn), labels(labelsIn), o(options), vp(o.viewport), aspect(double(vp.width) / double(vp.height)), picker(ct, preset), s(out.script), w(s),
+        mid(vp.center()), mask(picker.volume().data.size(), 0), clipping(clip), startPreset(o.preset.empty() ? defaultPresetFor(ct) : o.preset) {
+    if (clipping) {
+      organPts = worldPoints(o.organ);
+      anchorPts = worldPoints(o.anchor);
+      organRadiusMm = equivalentRadiusMm(labels, o.organ);
+    }
+  }
 
-  ComposedSession compose(const Eigen::Vector3i& deep, const std::string& volumePath) {
-    chooseView(deep);
+  ComposedSession compose(const Eigen::Vector3i& deep, const ComposeView& view, const std::string& volumePath) {
+    useView(deep, view);
     orbitIn(volumePath);
+    if (clipping) exposeByClipping();
+    w.ui("set-mode", "select");
     selectBoth();
     w.ui("handle-status", "2:fixed");
     w.ui("set-mode", "manipulate");
@@ -192,7 +212,7 @@ class Composer {
   const ComposeOptions& o;
   const Viewport vp;
   const double aspect;
-  const CpuPicker picker;
+  CpuPicker picker;
   ComposedSession out;
   SessionScript& s;
   EventWriter w;
@@ -200,11 +220,18 @@ class Composer {
   std::vector<std::uint8_t> mask;  // the pinched handles (1: the organ's, 2: the anchor's) on the picker's grid
   OrbitCamera cam;
   double bestAz = 0.0, bestEl = 0.0, mmPerPx = 0.0;
+  double minDistance = 0.0;        // the eye stays outside the volume (from the aim)
+  static constexpr double kWantedRoomPx = 28.0;  // the organ's inscribed radius the view aims for
   Footprint fp;                    // the chosen view at rest
   glm::dvec2 co{0.0}, ca{0.0};     // the organ's and the anchor's innermost pixels
   double ro = 0.0, ra = 0.0;       // and their room
   Eigen::Vector3i lo, hi;          // the organ handle's voxel box
   std::size_t anchored = 0;        // fingers that landed on the handle in the last simulated gesture
+  const bool clipping;             // the view cuts in front of the organ (exposeByClipping)
+  const std::string startPreset;   // the script's: the volume's own (or the one asked for)
+  std::vector<Eigen::Vector3d> organPts, anchorPts;  // their voxels' centres (world), when clipping
+  ClipRegion plane;                // the chosen view's clip plane (when clipping)
+  double organRadiusMm = 0.0;
   RigidPose tilted, dragged, pushed, spread;  // the handle after each gesture
   glm::dvec2 g1{0.0}, u{0.0}, h1{0.0};
   double r1 = -1.0;
@@ -215,47 +242,183 @@ class Composer {
 
   // The view: the organ a fifth of the view high, the eye outside the volume, the direction (every
   // 30 degrees of azimuth at elevations 0 and +-25) that leaves both structures most room.
-  void chooseView(const Eigen::Vector3i& deep) {
+  // The camera around the organ's deepest voxel, at a distance that shows the organ about a fifth of
+  // the view high, never inside the volume.
+  void frameCamera(const Eigen::Vector3i& deep) {
     const Eigen::Vector3d aimW = ct.geometry().toWorld(deep.cast<double>());
     const glm::dvec3 aim(aimW.x(), aimW.y(), aimW.z());
     cam = OrbitCamera::framing(ct.geometry(), 0.0, 0.0, aspect);
     const double halfFov = 0.5 * cam.fovY;
-    double distance = 5.0 * equivalentRadiusMm(labels, o.organ) / std::tan(halfFov);
     const VolumeGeometry& g = ct.geometry();
+    minDistance = 0.0;
     for (int c = 0; c < 8; ++c) {
       const Eigen::Vector3d corner((c & 1) ? g.dims.x() - 1 : 0, (c & 2) ? g.dims.y() - 1 : 0, (c & 4) ? g.dims.z() - 1 : 0);
       const Eigen::Vector3d wc = g.toWorld(corner);
-      distance = std::max(distance, 1.05 * glm::distance(aim, glm::dvec3(wc.x(), wc.y(), wc.z())));
+      minDistance = std::max(minDistance, 1.05 * glm::distance(aim, glm::dvec3(wc.x(), wc.y(), wc.z())));
     }
     cam.target = aim;
-    cam.distance = distance;
-    cam.nearPlane = std::max(1e-3, 0.01 * distance);
-    cam.farPlane = distance + 2.0 * g.diagonalMm();
+    cam.distance = std::max(5.0 * equivalentRadiusMm(labels, o.organ) / std::tan(halfFov), minDistance);
+    cam.nearPlane = std::max(1e-3, 0.01 * cam.distance);
+    cam.farPlane = cam.distance + 2.0 * g.diagonalMm();
+  }
+
+ public:
+  // The views (every 30 degrees of azimuth at elevations 0 and +-25, each with the candidate cuts)
+  // that show the organ with 16 px and the anchor with 6 px of room, roomiest first (ties: in that
+  // order). Throws when there is none.
+  std::vector<ComposeView> rankViews(const Eigen::Vector3i& deep) {
+    frameCamera(deep);
     auto isOrgan = [this](int l) { return organ(l); };
     auto isAnchor = [this](int l) { return anchor(l); };
-    double bestScore = -1.0, bestOrgan = 0.0, bestAnchor = 0.0;
+    std::vector<ComposeView> views;
+    double bestOrgan = 0.0, bestAnchor = 0.0;
     for (double elevation : {0.0, 25.0, -25.0})
       for (int k = 0; k < 12; ++k) {
         cam.azimuth = glm::radians(30.0 * k);
         cam.elevation = glm::radians(elevation);
-        const Footprint f = look(picker, labels, cam, vp, 4);
-        const double rOrgan = f.innermost(f.innerDistance(isOrgan)).second, rAnchor = f.innermost(f.innerDistance(isAnchor)).second;
-        if (rOrgan > bestOrgan || (rOrgan == bestOrgan && rAnchor > bestAnchor)) bestOrgan = rOrgan, bestAnchor = rAnchor;
-        if (rOrgan < 16.0 || rAnchor < 6.0 || rOrgan + rAnchor <= bestScore) continue;
-        bestScore = rOrgan + rAnchor;
-        bestAz = 30.0 * k;
-        bestEl = elevation;
+        for (const ClipRegion& cut : candidateCuts()) {
+          picker.setClip(cut);
+          const Footprint f = look(picker, labels, cam, vp, 4);
+          const double rOrgan = f.innermost(f.innerDistance(isOrgan)).second, rAnchor = f.innermost(f.innerDistance(isAnchor)).second;
+          if (rOrgan > bestOrgan || (rOrgan == bestOrgan && rAnchor > bestAnchor)) bestOrgan = rOrgan, bestAnchor = rAnchor;
+          if (rOrgan >= 16.0 && rAnchor >= 6.0) views.push_back({30.0 * k, elevation, cut, rOrgan + rAnchor});
+        }
       }
-    if (bestScore < 0.0)
+    if (views.empty())
       throw Error("compose: no view direction shows label " + std::to_string(o.organ) + " with 16 px and label " + std::to_string(o.anchor) +
-                  " with 6 px of room for the fingers (best: " + std::to_string(int(bestOrgan)) + " and " + std::to_string(int(bestAnchor)) + " px)");
+                  " with 6 px of room for the fingers (best: " + std::to_string(int(bestOrgan)) + " and " + std::to_string(int(bestAnchor)) + " px" +
+                  (clipping ? ", with the " + picker.preset() + " preset and a clip plane in front of either" : "") + ")");
+    std::stable_sort(views.begin(), views.end(), [](const ComposeView& a, const ComposeView& b) { return a.score > b.score; });
+    return views;
+  }
+
+ private:
+  // The chosen view, picked every 2nd pixel: the organ's and the anchor's innermost pixels and room.
+  void useView(const Eigen::Vector3i& deep, const ComposeView& view) {
+    frameCamera(deep);
+    auto isOrgan = [this](int l) { return organ(l); };
+    auto isAnchor = [this](int l) { return anchor(l); };
+    bestAz = view.azimuthDeg;
+    bestEl = view.elevationDeg;
+    plane = view.cut;
     cam.azimuth = glm::radians(bestAz);
     cam.elevation = glm::radians(bestEl);
+    picker.setClip(plane);
     fp = look(picker, labels, cam, vp, 2);
     std::tie(co, ro) = fp.innermost(fp.innerDistance(isOrgan));
     std::tie(ca, ra) = fp.innermost(fp.innerDistance(isAnchor));
+    if (ro < kWantedRoomPx && ro > 0.0) {
+      // An organ narrower than its ball (a kidney, a vessel) leaves the fingers little room at a
+      // fifth of the view: come closer, as far as the eye stays outside the volume.
+      const double closer = std::max(ro / kWantedRoomPx, minDistance / cam.distance);
+      if (closer < 0.95) {
+        cam.distance *= closer;
+        cam.nearPlane = std::max(1e-3, 0.01 * cam.distance);
+        fp = look(picker, labels, cam, vp, 2);
+        std::tie(co, ro) = fp.innermost(fp.innerDistance(isOrgan));
+        std::tie(ca, ra) = fp.innermost(fp.innerDistance(isAnchor));
+      }
+    }
     if (ro < 12.0 || ra < 4.0) throw Error("compose: the chosen view leaves too little room for the fingers");
     mmPerPx = cam.pixelSizeAt(fp.depthAt(co), vp.height);
+  }
+
+  // The voxel centres (world) of a label.
+  std::vector<Eigen::Vector3d> worldPoints(int label) const {
+    std::vector<Eigen::Vector3d> pts;
+    const VolumeGeometry& g = labels.geometry();
+    for (std::size_t v = 0; v < labels.voxelCount(); ++v)
+      if (labels.value(v) == float(label)) pts.push_back(g.toWorld(g.voxelOf(v).cast<double>()));
+    return pts;
+  }
+  // How far along n the nearest of the points lies.
+  static double frontOf(const std::vector<Eigen::Vector3d>& pts, const glm::dvec3& n) {
+    double d = kInf;
+    for (const auto& p : pts) d = std::min(d, n.x * p.x() + n.y * p.y() + n.z * p.z());
+    return d;
+  }
+  // The cuts tried in the current view: none; when clipping, a view-oriented plane in front of the
+  // organ's nearest voxel, or of the nearer of the organ and the anchor, by 1.5 voxels or by half
+  // the organ's radius (room for it to turn toward the viewer without being cut).
+  std::vector<ClipRegion> candidateCuts() const {
+    if (!clipping) return {ClipRegion{}};
+    const glm::dvec3 n = cam.forward();
+    const double organFront = frontOf(organPts, n), bothFront = std::min(organFront, frontOf(anchorPts, n));
+    std::vector<ClipRegion> cuts;
+    for (double margin : {1.5 * ct.geometry().spacing.maxCoeff(), 0.5 * organRadiusMm})
+      for (double d : {organFront, bothFront}) {
+        ClipRegion c;
+        c.plane = true;
+        c.normal = glm::vec3(n);
+        c.offset = float(d - margin);
+        if (std::none_of(cuts.begin(), cuts.end(), [&](const ClipRegion& k) { return k.offset == c.offset; })) cuts.push_back(c);
+      }
+    return cuts;
+  }
+
+  // In the chosen view: the clipping preset, then Clip mode and one-finger drags that place the
+  // view's plane through the point under the finger and push it to the chosen cut (the app's own
+  // gesture, interaction/view_adjust.h). The finger starts off every face handle of the volume's
+  // box; the drag is split into strokes of at most 0.8 viewport heights (a later drag in the same
+  // view moves the plane it left). The cut the app then shows is the one the strokes make, to the
+  // quarter pixel the script stores; the picks from here on use it.
+  void exposeByClipping() {
+    if (picker.preset() != startPreset) w.ui("set-preset", picker.preset());
+    w.ui("set-mode", "clip");
+    glm::dvec3 boxLo, boxHi;
+    volumeWorldBox(ct.geometry(), boxLo, boxHi);
+    const glm::dvec3 n = cam.forward();
+    const double pixMm = cam.pixelSizeAt(cam.distance, vp.height);
+    picker.setClip(ClipRegion{});
+    // The plane the touch-down at px places: through the picked point (the target on a miss).
+    auto placed = [&](glm::dvec2 px) {
+      const gpu::PickResult hit = picker.pick(cam, vp, {px}).front();
+      return glm::dot(n, hit.world.w > 0.5f ? glm::dvec3(hit.world) : cam.target);
+    };
+    // Room for a stroke from px in the direction of `need` (pixels up when positive).
+    auto room = [&](glm::dvec2 px, double need) { return need > 0.0 ? px.y - 4.0 : vp.height - 4.0 - px.y; };
+    // The start: off every face handle, from the bottom rows up, the first whose first stroke fits
+    // (or the roomiest); all strokes start there.
+    std::optional<glm::dvec2> p0;
+    double made = 0.0, bestRoom = -1.0;
+    for (int j = vp.height - 8; j >= 8; j -= 8) {
+      std::optional<glm::dvec2> px;  // the row's pixel nearest the middle off the handles
+      for (int di = 0; di <= vp.width / 2 - 8 && !px; di += 8)
+        for (int sgn : {1, -1})
+          if (!px && !boxFaceNear(boxLo, boxHi, cam, vp, glm::dvec2(mid.x + sgn * di, j), 1.5 * faceGrabRadiusPx(vp)))
+            px = glm::round(glm::dvec2(mid.x + sgn * di, j) * 4.0) / 4.0;
+      if (!px) continue;
+      const double base = placed(*px), need = (double(plane.offset) - base) / pixMm;
+      if (room(*px, need) > bestRoom) p0 = px, made = base, bestRoom = room(*px, need);
+      if (bestRoom >= std::abs(need)) break;
+    }
+    if (!p0 || bestRoom < 8.0) throw Error("compose: no place for a clip-plane drag off the clip box's face handles");
+    for (int stroke = 0;; ++stroke) {
+      const double need = (double(plane.offset) - made) / pixMm;
+      if (std::abs(need) < 0.25 && stroke > 0) break;
+      if (stroke == 32) throw Error("compose: the clip plane needs more than 32 strokes to reach the organ");
+      const double l = std::clamp(need, -room(*p0, need), room(*p0, need));
+      const glm::dvec2 b = glm::round((*p0 - glm::dvec2(0.0, l)) * 4.0) / 4.0;
+      w.stroke(30, {*p0}, {b}, std::max(2, int(std::abs(l) / 12.0)), 0.03);
+      made += planeDragMm(cam, vp, b - *p0);
+      if (std::abs(l) < room(*p0, need)) break;
+    }
+    plane.offset = float(made);
+    picker.setClip(plane);
+    fp = look(picker, labels, cam, vp, 2);
+    const auto isOrgan = [this](int l) { return organ(l); };
+    const auto isAnchor = [this](int l) { return anchor(l); };
+    std::tie(co, ro) = fp.innermost(fp.innerDistance(isOrgan));
+    std::tie(ca, ra) = fp.innermost(fp.innerDistance(isAnchor));
+    if (ro < 12.0 || ra < 4.0) throw Error("compose: the clipped view leaves too little room for the fingers");
+    mmPerPx = cam.pixelSizeAt(fp.depthAt(co), vp.height);
+    out.clipPlane = formatClipPlane(plane);
+    out.preset = picker.preset();
+    out.organPx = co;
+    out.anchorPx = ca;
+    out.organRadiusPx = ro;
+    out.anchorRadiusPx = ra;
+    out.mmPerPx = mmPerPx;
   }
 
   // The script's start, and a one-finger orbit into the view.
@@ -268,7 +431,8 @@ class Composer {
     out.organRadiusPx = ro;
     out.anchorRadiusPx = ra;
     s.viewport = vp;
-    s.preset = picker.preset();
+    s.preset = startPreset;
+    out.preset = picker.preset();
     s.mode = "navigate";
     if (!volumePath.empty()) {
       s.volumeSource = "file";
@@ -282,7 +446,6 @@ class Composer {
     start.azimuth = glm::radians(bestAz) - 2.0 * halfOrbit * kPi / vp.height;
     s.camera = CameraState::from(start);
     w.stroke(1, {mid - glm::dvec2(halfOrbit, 0.0)}, {mid + glm::dvec2(halfOrbit, 0.0)}, 10, 0.05);
-    w.ui("set-mode", "select");
   }
 
   // Pinches: down inside the footprint (3 px margin), spread until the extent (sigma_px times the
@@ -551,7 +714,30 @@ ComposedSession composeFullSession(const Volume& ct, const Volume& labels, const
   const Eigen::Vector3i deep = deepestVoxel(labels, o.organ, ct);
   if (deep.x() < 0) throw Error("compose: label " + std::to_string(o.organ) + " (organ) is not in the label map");
   if (deepestVoxel(labels, o.anchor, ct).x() < 0) throw Error("compose: label " + std::to_string(o.anchor) + " (anchor) is not in the label map");
-  return Composer(ct, labels, o).compose(deep, volumePath);
+  const std::string preset = o.preset.empty() ? defaultPresetFor(ct) : o.preset;
+  // The roomiest views in turn, until one takes the whole session (a later phase can find no room
+  // on a view that shows the organ: a tilt that is not stable, a drag behind a neighbour).
+  auto attempt = [&](const std::string& p, bool clip) {
+    const std::vector<ComposeView> views = Composer(ct, labels, o, p, clip).rankViews(deep);
+    std::string firstFailure;
+    for (std::size_t r = 0; r < std::min(views.size(), kComposeViewsTried); ++r) {
+      try {
+        return Composer(ct, labels, o, p, clip).compose(deep, views[r], volumePath);
+      } catch (const Error& e) {
+        if (firstFailure.empty()) firstFailure = e.what();
+      }
+    }
+    throw Error(firstFailure + " (and on the next " + std::to_string(std::min(views.size(), kComposeViewsTried) - 1) + " roomiest views)");
+  };
+  try {
+    return attempt(preset, false);
+  } catch (const Error& unclipped) {
+    if (std::string(unclipped.what()).find("no view direction shows") == std::string::npos) throw;
+    // No view shows the organ as it is: cut in front of it, under the soft-tissue preset on a CT
+    // whose preset was not chosen (the organs of a non-contrast CT show there).
+    const std::string clipPreset = o.preset.empty() && preset == "ct-abdomen" ? "ct-soft-tissue" : preset;
+    return attempt(clipPreset, true);
+  }
 }
 
 }  // namespace handson

@@ -7,6 +7,11 @@
 //  1. The view: for directions every 30 degrees in azimuth at elevation 0 and +-25 (ties: the first),
 //     the camera looks at the organ's deepest voxel from a distance that shows the organ about a fifth
 //     of the viewport high (never from inside the volume); the CT's own transfer-function preset.
+//     When no direction shows the organ (and the anchor) with room for the fingers, the view cuts in
+//     front of it instead: the "ct-soft-tissue" preset on a CT whose preset was not chosen, and per
+//     direction a view-oriented clip plane 1.5 voxels in front of the organ's nearest voxel (or of
+//     the nearer of organ and anchor); the script then switches to that preset and, in Clip mode,
+//     drags the plane there with one finger (the app's own gesture, interaction/view_adjust.h).
 //     Every 4th pixel is depth-picked; a label's footprint is the pixels whose pick lands on it, and
 //     its inscribed radius (Euclidean distance transform) says how much room the fingers have there.
 //     The direction with the largest organ + anchor radii wins, both at least 16 and 6 px.
@@ -52,6 +57,8 @@ struct ComposedSession {
   glm::dvec2 organPx{0.0}, anchorPx{0.0};       ///< innermost footprint pixels
   double organRadiusPx = 0.0, anchorRadiusPx = 0.0;
   double handleRadiusPx = 0.0;                  ///< room on the organ's handle (its selection)
+  std::string clipPlane;                        ///< the cut that exposes the organ ("NX,NY,NZ,D"; "" : none)
+  std::string preset;                           ///< the preset the organ is handled under
 };
 
 /// Exact Euclidean distance (in cells) from each cell of an nx x ny mask to the nearest cell outside

@@ -135,15 +135,18 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   ImGui::SetNextWindowPos(ImVec2(10 * s, 10 * s));
   ImGui::SetNextWindowBgAlpha(0.75f);
   ImGui::Begin("modes", nullptr, panel);
-  for (const char* m : {"navigate", "select", "manipulate"}) {
+  // Five modes on the first row (narrower buttons, still touch-sized), the view's actions below.
+  const ImVec2 modeButton(std::max(kMinTarget, 118.0f) * s, button.y);
+  for (const char* m : {"navigate", "select", "manipulate", "clip", "window"}) {
     const bool active = st.mode == m;
     if (active) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
     char label[32];
     std::snprintf(label, sizeof(label), "%c%s", m[0] - 32, m + 1);
-    if (ImGui::Button(label, button) && !active) action("set-mode", m);
+    if (ImGui::Button(label, modeButton) && !active) action("set-mode", m);
     if (active) ImGui::PopStyleColor();
     ImGui::SameLine();
   }
+  ImGui::NewLine();
   if (ImGui::Button("Reset view", button)) action("reset-camera", "");
   ImGui::SameLine();
   if (ImGui::Button("Export", button)) action("export", "");
@@ -156,6 +159,17 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
     if (st.labelTint) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.25f, 0.60f, 0.35f, 1.0f));
     if (ImGui::Button("Labels", button)) action("toggle-labels", "");
     if (st.labelTint) ImGui::PopStyleColor();
+  }
+  if (st.mode == "clip") {
+    ImGui::NewLine();
+    ImGui::TextUnformatted("Drag a box face's edge to move it; drag elsewhere to cut through the point under the finger (up: deeper)");
+    if (st.clipped && ImGui::Button("Clear clip", button)) action("clear-clip", "");
+  }
+  if (st.mode == "window") {
+    ImGui::NewLine();
+    ImGui::Text("Drag up/down: level, left/right: window, spread two fingers: opacity  (window x%.2f, level %+.0f, opacity x%.2f)",
+                st.window.scale, st.window.shift, st.window.opacity);
+    if (!st.window.identity() && ImGui::Button("Reset window", button)) action("reset-window", "");
   }
   if (st.mode == "manipulate") {
     // Axis locks for the manipulation (the finger count chooses the rest).

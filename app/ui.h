@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "app/session_script.h"
+#include "interaction/view_adjust.h"
 
 namespace handson {
 namespace vk {
@@ -40,6 +41,8 @@ struct UiStatus {
   bool strainOverlay = false;  ///< the strain overlay is on: its colour bar shows
   bool hasLabels = false;      ///< a label map is loaded: the Labels button shows
   bool labelTint = false;      ///< ... and its tint is on
+  bool clipped = false;        ///< a clip box or plane is on (Clip mode shows "Clear clip")
+  WindowLevel window;          ///< the preset's window (Window mode shows it and "Reset window")
   float strainFrom = 0.0f, strainTo = 0.30f;  ///< the overlay's range (RenderSettings)
 };
 

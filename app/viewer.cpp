@@ -310,9 +310,10 @@ void Viewer::Impl::pollInput(const Viewport& vp, std::vector<TouchEvent>& touche
       ScriptEvent key{t, false, {}, "", ""};
       if (k == SDLK_ESCAPE) running = false;
       if (k == SDLK_r) key.action = "reset-camera";
-      if (k == SDLK_1 || k == SDLK_2 || k == SDLK_3) {
+      if (k >= SDLK_1 && k <= SDLK_5) {
+        static const char* const kModes[] = {"navigate", "select", "manipulate", "clip", "window"};
         key.action = "set-mode";
-        key.value = k == SDLK_1 ? "navigate" : k == SDLK_2 ? "select" : "manipulate";
+        key.value = kModes[k - SDLK_1];
       }
       if (!key.action.empty()) actions.push_back(key);
     }
@@ -364,6 +365,8 @@ void Viewer::Impl::updateStatus() {
   status.strainOverlay = session->strainOverlay();
   status.hasLabels = labels != nullptr;
   status.labelTint = session->labelTint();
+  status.clipped = session->clip().box || session->clip().plane;
+  status.window = session->window();
   status.strainFrom = RenderSettings{}.strainFrom;
   status.strainTo = RenderSettings{}.strainTo;
   status.canUndo = selection->handles().canUndo();

@@ -10,12 +10,14 @@ const char* modeName(InteractionMode m) {
     case InteractionMode::Navigate: return "navigate";
     case InteractionMode::Select: return "select";
     case InteractionMode::Manipulate: return "manipulate";
+    case InteractionMode::Clip: return "clip";
+    case InteractionMode::Window: return "window";
   }
   return "?";
 }
 
 bool parseMode(const std::string& s, InteractionMode& out) {
-  for (auto m : {InteractionMode::Navigate, InteractionMode::Select, InteractionMode::Manipulate})
+  for (auto m : {InteractionMode::Navigate, InteractionMode::Select, InteractionMode::Manipulate, InteractionMode::Clip, InteractionMode::Window})
     if (s == modeName(m)) {
       out = m;
       return true;
@@ -41,6 +43,8 @@ void GestureRecognizer::setMode(InteractionMode m) {
 void GestureRecognizer::setHandler(InteractionMode m, Handler h) {
   if (m == InteractionMode::Select) selectHandler_ = std::move(h);
   if (m == InteractionMode::Manipulate) manipulateHandler_ = std::move(h);
+  if (m == InteractionMode::Clip) clipHandler_ = std::move(h);
+  if (m == InteractionMode::Window) windowHandler_ = std::move(h);
 }
 
 void GestureRecognizer::cancel() {
@@ -80,6 +84,12 @@ bool GestureRecognizer::handle(const TouchEvent& e) {
       break;
     case InteractionMode::Manipulate:
       if (manipulateHandler_) manipulateHandler_(e, input_);
+      break;
+    case InteractionMode::Clip:
+      if (clipHandler_) clipHandler_(e, input_);
+      break;
+    case InteractionMode::Window:
+      if (windowHandler_) windowHandler_(e, input_);
       break;
   }
   return true;

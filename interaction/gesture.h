@@ -1,7 +1,8 @@
 #pragma once
-// The gesture recognizer: a state machine with three modes. In Navigate mode fingers drive the
-// camera; Select and Manipulate forward the fingers to handlers that the selection and
-// manipulation features plug in.
+// The gesture recognizer: a state machine with five modes. In Navigate mode fingers drive the
+// camera; Select, Manipulate, Clip and Window forward the fingers to handlers that the selection,
+// manipulation, clipping and transfer-function features plug in (interaction/view_adjust.h says
+// what fingers mean in the last two).
 //
 // Navigate:
 //  - one finger orbits: a drag across the viewport's height turns the view by 180 degrees, the
@@ -20,14 +21,14 @@
 
 namespace handson {
 
-enum class InteractionMode : std::uint8_t { Navigate, Select, Manipulate };
+enum class InteractionMode : std::uint8_t { Navigate, Select, Manipulate, Clip, Window };
 const char* modeName(InteractionMode m);
-/// Parses "navigate", "select", "manipulate"; false on anything else.
+/// Parses "navigate", "select", "manipulate", "clip", "window"; false on anything else.
 bool parseMode(const std::string& s, InteractionMode& out);
 
 class GestureRecognizer {
  public:
-  /// Called in Select / Manipulate mode after each accepted event, with the current fingers.
+  /// Called in Select / Manipulate / Clip / Window mode after each accepted event, with the current fingers.
   using Handler = std::function<void(const TouchEvent&, const TouchInput&)>;
 
   explicit GestureRecognizer(OrbitCamera& camera) : camera_(camera) {}
@@ -60,7 +61,7 @@ class GestureRecognizer {
   OrbitCamera& camera_;
   TouchInput input_;
   InteractionMode mode_ = InteractionMode::Navigate;
-  Handler selectHandler_, manipulateHandler_;
+  Handler selectHandler_, manipulateHandler_, clipHandler_, windowHandler_;
   GrabProbe grabProbe_;
   bool grabbing_ = false;
   // Anchor: the camera and finger positions when the finger count last changed.

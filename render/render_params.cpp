@@ -2,6 +2,9 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstdlib>
+#include <iomanip>
+#include <sstream>
 
 #include "sim/error.h"
 #include "volume_texture.h"
@@ -16,6 +19,57 @@ glm::mat4 toGlm(const Eigen::Matrix4d& m) {
   return out;
 }
 }  // namespace
+
+namespace {
+
+/// Comma-separated finite numbers, exactly n of them (double, then float: both must be finite).
+bool clipNumbers(const std::string& text, std::size_t n, std::vector<float>& out) {
+  out.clear();
+  std::istringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    char* end = nullptr;
+    const double v = std::strtod(item.c_str(), &end);
+    if (item.empty() || end == item.c_str() || *end != '\0' || !std::isfinite(v) || !std::isfinite(float(v))) return false;
+    out.push_back(float(v));
+  }
+  return out.size() == n && !text.empty() && text.back() != ',';
+}
+
+}  // namespace
+
+std::string parseClipBox(const std::string& text, ClipRegion& clip) {
+  std::vector<float> v;
+  if (!clipNumbers(text, 6, v)) return "a clip box takes six finite numbers X0,Y0,Z0,X1,Y1,Z1 (RAS mm)";
+  if (!(v[0] < v[3] && v[1] < v[4] && v[2] < v[5])) return "a clip box's low corner must be below its high corner on every axis";
+  clip.box = true;
+  clip.lo = {v[0], v[1], v[2]};
+  clip.hi = {v[3], v[4], v[5]};
+  return "";
+}
+
+std::string parseClipPlane(const std::string& text, ClipRegion& clip) {
+  std::vector<float> v;
+  if (!clipNumbers(text, 4, v)) return "a clip plane takes four finite numbers NX,NY,NZ,D (keeps n.x >= D, RAS mm)";
+  const glm::vec3 n(v[0], v[1], v[2]);
+  if (!(glm::length(n) > 1e-6f) || !std::isfinite(glm::length(n))) return "a clip plane's normal NX,NY,NZ must not be zero";
+  clip.plane = true;
+  clip.normal = n;
+  clip.offset = v[3];
+  return "";
+}
+
+std::string formatClipBox(const ClipRegion& c) {
+  std::ostringstream s;
+  s << std::setprecision(9) << c.lo.x << "," << c.lo.y << "," << c.lo.z << "," << c.hi.x << "," << c.hi.y << "," << c.hi.z;
+  return s.str();
+}
+
+std::string formatClipPlane(const ClipRegion& c) {
+  std::ostringstream s;
+  s << std::setprecision(9) << c.normal.x << "," << c.normal.y << "," << c.normal.z << "," << c.offset;
+  return s.str();
+}
 
 gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::mat4& view, const glm::mat4& proj,
                                    const glm::vec3& eye, const RenderSettings& s, std::uint32_t pickCount) {
@@ -42,15 +96,15 @@ gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::ma
   if (s.shading) flags |= gpu::kFlagShading;
   if (s.strainOverlay) flags |= gpu::kFlagStrainOverlay;
   if (s.labelTint) flags |= gpu::kFlagLabelTint;
-  if (s.clipBox) {
+  if (s.clip.box) {
     flags |= gpu::kFlagClipBox;
-    p.clipMin = glm::vec4(glm::min(s.clipMin, s.clipMax), 0.0f);
-    p.clipMax = glm::vec4(glm::max(s.clipMin, s.clipMax), 0.0f);
+    p.clipMin = glm::vec4(glm::min(s.clip.lo, s.clip.hi), 0.0f);
+    p.clipMax = glm::vec4(glm::max(s.clip.lo, s.clip.hi), 0.0f);
   }
-  const float nlen = glm::length(s.clipNormal);
-  if (s.clipPlane && nlen > 0.0f && std::isfinite(nlen)) {
+  const float nlen = glm::length(s.clip.normal);
+  if (s.clip.plane && nlen > 0.0f && std::isfinite(nlen)) {
     flags |= gpu::kFlagClipPlane;
-    p.clipPlane = glm::vec4(s.clipNormal / nlen, s.clipOffset / nlen);
+    p.clipPlane = glm::vec4(s.clip.normal / nlen, s.clip.offset / nlen);
   }
   p.strain = glm::vec4(s.strainFrom, s.strainTo, s.strainWeight, 0.0f);
   const double diag = geometry.diagonalMm();

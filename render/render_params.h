@@ -3,12 +3,33 @@
 // camera. Plain data: shared by the Vulkan passes and their CPU references.
 #include <glm/glm.hpp>
 
+#include <string>
 #include <vector>
 
 #include "shaders/shared.h"
 #include "sim/volume.h"
 
 namespace handson {
+
+/// Clipping (world RAS mm): only what lies inside the box and on the kept side of the plane is drawn
+/// or picked. The plane keeps n.x >= offset (n need not be unit length). The CLI (--clip-box,
+/// --clip-plane), the session's actions and the clip gestures all go through the parsers below.
+struct ClipRegion {
+  bool box = false;
+  glm::vec3 lo{0.0f}, hi{0.0f};
+  bool plane = false;
+  glm::vec3 normal{0.0f, 0.0f, 1.0f};
+  float offset = 0.0f;
+  bool operator==(const ClipRegion&) const = default;
+};
+/// "X0,Y0,Z0,X1,Y1,Z1" (finite, each low coordinate below the high one): sets the box and returns
+/// "", else returns why not and leaves `clip` unchanged.
+std::string parseClipBox(const std::string& text, ClipRegion& clip);
+/// "NX,NY,NZ,D" (finite, a non-zero normal): sets the plane and returns "", else returns why not.
+std::string parseClipPlane(const std::string& text, ClipRegion& clip);
+/// The text parseClipBox / parseClipPlane read back (round trip exact to float precision).
+std::string formatClipBox(const ClipRegion& clip);
+std::string formatClipPlane(const ClipRegion& clip);
 
 struct RenderSettings {
   int width = 512, height = 512;
@@ -27,13 +48,7 @@ struct RenderSettings {
   bool strainOverlay = false;
   /// Tissue tinted by its organ label (VolumeRenderer::setLabels; the palette in shaders/shared.h).
   bool labelTint = false;
-  /// Clipping (world RAS mm): only what lies inside the box and on the kept side of the plane is
-  /// drawn or picked. The plane keeps n.x >= d (n need not be unit length).
-  bool clipBox = false;
-  glm::vec3 clipMin{0.0f}, clipMax{0.0f};
-  bool clipPlane = false;
-  glm::vec3 clipNormal{0.0f, 0.0f, 1.0f};
-  float clipOffset = 0.0f;
+  ClipRegion clip;
   float strainFrom = 0.0f, strainTo = 0.30f, strainWeight = 0.85f;
 };
 

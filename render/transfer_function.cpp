@@ -40,6 +40,43 @@ std::vector<glm::vec4> TransferFunction::lookupTable(const QuantizedVolume& volu
   return lut;
 }
 
+float TransferFunction::visibleFrom() const {
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (points[i].rgba.a > 0.0f) return points[i == 0 ? 0 : i - 1].value;
+  return points.empty() ? 0.0f : points.front().value;
+}
+
+float TransferFunction::width() const {
+  if (points.empty()) return 1.0f;
+  const float span = points.back().value - points.front().value;
+  const float floor = std::max(0.01f * span, 1e-6f);
+  float maxAlpha = 0.0f;
+  for (const auto& p : points) maxAlpha = std::max(maxAlpha, p.rgba.a);
+  const float from = visibleFrom();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (points[i].rgba.a < 0.5f * maxAlpha || maxAlpha <= 0.0f) continue;
+    // Between points i-1 and i the opacity crosses half its largest value.
+    float at = points[i].value;
+    if (i > 0 && points[i].rgba.a > points[i - 1].rgba.a) {
+      const float t = (0.5f * maxAlpha - points[i - 1].rgba.a) / (points[i].rgba.a - points[i - 1].rgba.a);
+      at = points[i - 1].value + std::clamp(t, 0.0f, 1.0f) * (points[i].value - points[i - 1].value);
+    }
+    return std::max(at - from, floor);
+  }
+  return std::max(span, floor);
+}
+
+TransferFunction TransferFunction::windowed(double scale, double shift, double opacity) const {
+  TransferFunction tf = *this;
+  if (!(scale > 0.0) || !std::isfinite(scale) || !std::isfinite(shift) || !(opacity >= 0.0) || !std::isfinite(opacity)) return tf;
+  const double a = visibleFrom();
+  for (auto& p : tf.points) {
+    p.value = float(a + (double(p.value) - a) * scale + shift);
+    p.rgba.a = float(std::min(1.0, double(p.rgba.a) * opacity));
+  }
+  return tf;
+}
+
 TransferFunction transferFunctionPreset(const std::string& name) {
   TransferFunction tf;
   tf.name = name;
@@ -58,6 +95,21 @@ TransferFunction transferFunctionPreset(const std::string& name) {
                  {300, {1.0f, 0.55f, 0.45f, 0.4f}},
                  {500, {1.0f, 0.95f, 0.88f, 0.8f}},
                  {3071, {1.0f, 1.0f, 1.0f, 0.95f}}};
+  } else if (name == "ct-soft-tissue") {
+    // Without contrast, kidneys (~30 HU), spleen (~45), muscle (~50) and liver (~60) lie within a
+    // few tens of HU: fat (-100) is clear, soft tissue from 0 to 90 HU is a visible translucent
+    // solid coloured from pale (water-like) to deep red (liver), blood clots and calcium faint,
+    // bone a thin white so that it does not hide the organs. Clip away the body wall to see inside.
+    tf.points = {{-1024, {0, 0, 0, 0}},
+                 {-30, {0, 0, 0, 0}},
+                 {0, {0.95f, 0.80f, 0.70f, 0.0f}},
+                 {20, {0.92f, 0.62f, 0.52f, 0.04f}},
+                 {40, {0.85f, 0.42f, 0.35f, 0.08f}},
+                 {65, {0.70f, 0.25f, 0.22f, 0.10f}},
+                 {95, {0.80f, 0.50f, 0.40f, 0.03f}},
+                 {200, {0.95f, 0.90f, 0.80f, 0.02f}},
+                 {400, {1.0f, 0.97f, 0.92f, 0.12f}},
+                 {3071, {1, 1, 1, 0.25f}}};
   } else if (name == "ct-bone") {
     tf.points = {{-1024, {0, 0, 0, 0}}, {150, {0, 0, 0, 0}}, {250, {0.9f, 0.8f, 0.65f, 0.3f}}, {700, {1, 0.97f, 0.9f, 0.9f}},
                  {3071, {1, 1, 1, 1}}};
@@ -76,7 +128,7 @@ TransferFunction transferFunctionPreset(const std::string& name) {
   return tf;
 }
 
-std::vector<std::string> transferFunctionPresetNames() { return {"ct-abdomen", "ct-bone", "mri"}; }
+std::vector<std::string> transferFunctionPresetNames() { return {"ct-abdomen", "ct-soft-tissue", "ct-bone", "mri"}; }
 
 TransferFunction thresholdTransferFunction(float threshold) {
   TransferFunction tf;

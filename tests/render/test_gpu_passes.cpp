@@ -183,13 +183,13 @@ TEST_F(GpuPasses, ClippingMatchesCpuAndPicksLandBehindTheCut) {
   plain.width = plain.height = 64;
   const auto unclipped = raymarchReference({&s.q, &s.lut, &s.renderer->occupancy()}, paramsFor(s, cam, plain));
   RenderSettings byPlane = plain;
-  byPlane.clipPlane = true;
-  byPlane.clipNormal = glm::vec3(-2.0f, 0.0f, 0.0f);  // not unit: -2x >= -120, i.e. x <= 60
-  byPlane.clipOffset = -120.0f;
+  byPlane.clip.plane = true;
+  byPlane.clip.normal = glm::vec3(-2.0f, 0.0f, 0.0f);  // not unit: -2x >= -120, i.e. x <= 60
+  byPlane.clip.offset = -120.0f;
   RenderSettings byBox = plain;
-  byBox.clipBox = true;
-  byBox.clipMin = glm::vec3(-40.0f, -120.0f, -200.0f);
-  byBox.clipMax = glm::vec3(40.0f, -30.0f, 200.0f);
+  byBox.clip.box = true;
+  byBox.clip.lo = glm::vec3(-40.0f, -120.0f, -200.0f);
+  byBox.clip.hi = glm::vec3(40.0f, -30.0f, 200.0f);
   for (const RenderSettings& rs : {byPlane, byBox}) {
     const gpu::RenderParams p = paramsFor(s, cam, rs, std::uint32_t(pts.size()));
     const FrameResult r = renderGpu(s, p, pts);
@@ -208,8 +208,12 @@ TEST_F(GpuPasses, ClippingMatchesCpuAndPicksLandBehindTheCut) {
       if (!hg) continue;
       ++hits;
       const glm::vec3 w(r.picks[i].world);
-      if (rs.clipPlane) EXPECT_LE(w.x, 60.0f + step) << "a pick in clipped space";
-      if (rs.clipBox) EXPECT_TRUE(glm::all(glm::greaterThanEqual(w, rs.clipMin - step)) && glm::all(glm::lessThanEqual(w, rs.clipMax + step)));
+      if (rs.clip.plane) {
+        EXPECT_LE(w.x, 60.0f + step) << "a pick in clipped space";
+      }
+      if (rs.clip.box) {
+        EXPECT_TRUE(glm::all(glm::greaterThanEqual(w, rs.clip.lo - step)) && glm::all(glm::lessThanEqual(w, rs.clip.hi + step)));
+      }
     }
     EXPECT_GE(hits, 5) << "the kept anatomy covers a few of the 100 points (the default framing leaves a margin)";
     EXPECT_GE(agree, int(pts.size()) - 2);

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -119,4 +120,63 @@ TEST(RenderParams, RejectsBadSizesAndEncodesTheCamera) {
   EXPECT_EQ(p.control.y, 5u);
   EXPECT_EQ(p.cameraPos, glm::vec4(1, 2, 3, 1));
   EXPECT_FLOAT_EQ(p.march.x, 0.5f);
+}
+
+TEST(TransferFunction, WindowingMovesAndScalesThePointsAboutWhereTheyBecomeVisible) {
+  const TransferFunction tf = transferFunctionPreset("ct-abdomen");
+  EXPECT_FLOAT_EQ(tf.visibleFrom(), -120.0f);  // the last clear point before fat shows
+  // Half the largest opacity (0.95) is reached between 300 HU (0.4) and 500 HU (0.8).
+  EXPECT_NEAR(tf.width(), 300.0f + 200.0f * (0.475f - 0.4f) / 0.4f + 120.0f, 1e-3f);
+  const TransferFunction same = tf.windowed(1.0, 0.0, 1.0);
+  for (float v = -1100.0f; v < 3200.0f; v += 7.3f) EXPECT_EQ(same.evaluate(v), tf.evaluate(v));
+  // Exact: the windowed function at a + (v - a) s + shift is the preset at v, opacity scaled.
+  const double s = 1.7, shift = -85.0, opacity = 2.5;
+  const TransferFunction w = tf.windowed(s, shift, opacity);
+  const float a = tf.visibleFrom();
+  for (float v = -1000.0f; v < 3000.0f; v += 11.1f) {
+    const glm::vec4 want = tf.evaluate(v), got = w.evaluate(float(a + (v - a) * s + shift));
+    EXPECT_NEAR(got.r, want.r, 1e-4f) << v;
+    EXPECT_NEAR(got.a, std::min(1.0f, want.a * float(opacity)), 1e-4f) << v;
+  }
+  // Bad adjustments leave it as it was.
+  EXPECT_EQ(tf.windowed(0.0, 0.0, 1.0).points.front().value, tf.points.front().value);
+  EXPECT_EQ(tf.windowed(1.0, std::nan(""), 1.0).points[3].value, tf.points[3].value);
+  // Relative presets window in their own units (fractions of the percentile range).
+  const TransferFunction mri = transferFunctionPreset("mri");
+  EXPECT_FLOAT_EQ(mri.visibleFrom(), 0.12f);
+  EXPECT_GT(mri.width(), 0.1f);
+  EXPECT_LT(mri.width(), 1.0f);
+}
+
+TEST(TransferFunction, TheSoftTissuePresetShowsUnenhancedOrgansAndClearsFat) {
+  // Unenhanced kidney ~30 HU, spleen ~45, liver ~60: visible in ct-soft-tissue (a 10 mm organ
+  // reaches >= 30 % opacity), nearly clear in ct-abdomen (built for contrast); fat stays clear and
+  // bone does not hide what lies behind it (a 5 mm cortex keeps its opacity below 60 %).
+  const TransferFunction soft = transferFunctionPreset("ct-soft-tissue"), abdomen = transferFunctionPreset("ct-abdomen");
+  auto through = [](const TransferFunction& tf, float hu, float mm) { return 1.0f - std::pow(1.0f - tf.evaluate(hu).a, mm); };
+  for (float organ : {30.0f, 45.0f, 60.0f}) {
+    EXPECT_GE(through(soft, organ, 10.0f), 0.30f) << organ;
+    EXPECT_GE(through(soft, organ, 10.0f), 5.0f * through(abdomen, organ, 10.0f)) << organ;
+  }
+  EXPECT_EQ(soft.evaluate(-100.0f).a, 0.0f);
+  EXPECT_LT(through(soft, 1000.0f, 5.0f), 0.6f);
+  // Organs of different density get different colours (liver darker and redder than kidney).
+  EXPECT_LT(soft.evaluate(60.0f).g, soft.evaluate(30.0f).g - 0.1f);
+}
+
+TEST(RenderParams, ClipTextParsesRoundTripsAndRefusesMalformedValues) {
+  ClipRegion c;
+  EXPECT_EQ(parseClipBox("-40.5,-120,-200,40,-30,200.25", c), "");
+  EXPECT_TRUE(c.box);
+  EXPECT_EQ(c.lo, glm::vec3(-40.5f, -120.0f, -200.0f));
+  EXPECT_EQ(parseClipPlane("0.1,-2,0.3,-17.125", c), "");
+  ClipRegion back;
+  EXPECT_EQ(parseClipBox(formatClipBox(c), back), "");
+  EXPECT_EQ(parseClipPlane(formatClipPlane(c), back), "");
+  EXPECT_EQ(back, c);
+  const ClipRegion before = c;
+  for (const char* bad : {"", "1,2,3", "1,2,3,4,5,6,7", "10,0,0,0,1,1", "0,0,0,1,1,nan", "0,0,0,1,1,1e39", "0,0,0,1,1,x", "0,0,0,1,1,1,"})
+    EXPECT_NE(parseClipBox(bad, c), "") << bad;
+  for (const char* bad : {"0,0,0,5", "1,0,0", "1,0,0,inf", "1,,0,2"}) EXPECT_NE(parseClipPlane(bad, c), "") << bad;
+  EXPECT_EQ(c, before);  // refused values change nothing
 }
