@@ -44,12 +44,12 @@ SessionScript randomGestureStream(const GestureStreamOptions& o) {
       s.events.push_back(touchEvent(t, phase, id, px, pressure));
     };
     auto randomUi = [&]() {
-      const char* modes[] = {"navigate", "select", "select", "manipulate", "manipulate"};
+      const char* modes[] = {"navigate", "select", "select", "manipulate", "manipulate", "clip", "window"};
       const char* statuses[] = {"active", "fixed", "idle"};
       const char* locks[] = {"z-translation", "z-rotation", "xy-translation"};
       const int a = 1 + pick(4), b = 1 + pick(4);
       switch (pick(9)) {
-        case 0: ui("set-mode", modes[pick(5)]); break;
+        case 0: ui("set-mode", modes[pick(7)]); break;
         case 1: ui("handle-status", std::to_string(a) + ":" + statuses[pick(3)]); break;
         case 2: ui("handle-union", std::to_string(a) + "," + std::to_string(b)); break;
         case 3: ui("handle-difference", std::to_string(a) + "," + std::to_string(b)); break;

@@ -93,13 +93,22 @@ void printHandlePoses(const SelectionController& selection, const Volume& volume
   }
 }
 
-// False (with a message) where the camera or a handle's pose holds a non-finite number.
+// False (with a message) where the camera, the clip region, the window or a handle's pose holds a
+// non-finite number.
 bool stateIsFinite(const Session& session, const SelectionController& selection) {
   bool finite = true;
   const OrbitCamera& c = session.camera();
   if (!std::isfinite(c.distance) || !std::isfinite(c.azimuth) || !std::isfinite(c.elevation) || !std::isfinite(c.roll) ||
       !std::isfinite(c.fovY) || !std::isfinite(c.target.x) || !std::isfinite(c.target.y) || !std::isfinite(c.target.z)) {
     std::cerr << "error: the camera holds a non-finite number: " << describeCamera(c) << "\n";
+    finite = false;
+  }
+  const ClipRegion& clip = session.clip();
+  const WindowLevel& w = session.window();
+  auto finite3 = [](const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
+  if (!finite3(clip.lo) || !finite3(clip.hi) || !finite3(clip.normal) || !std::isfinite(clip.offset) || !std::isfinite(w.scale) ||
+      !std::isfinite(w.shift) || !std::isfinite(w.opacity)) {
+    std::cerr << "error: the clip region or the window holds a non-finite number\n";
     finite = false;
   }
   for (const auto& h : selection.handles().handles())
@@ -138,6 +147,10 @@ int runReplay(const ReplayOptions& o) {
   renderer.setVolume(q, progress);
 
   Session session(volume.geometry(), vp, script.preset.empty() ? defaultPresetFor(volume) : script.preset);
+  if (script.freeArea) {
+    session.setFreeArea(*script.freeArea);  // reset-camera frames where the recording app did
+    if (!script.camera) session.resetCamera();
+  }
   if (script.camera) script.camera->applyTo(session.camera());
   session.apply(ScriptEvent{0.0, false, {}, "set-mode", script.mode});
   renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));

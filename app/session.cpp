@@ -22,9 +22,16 @@ Session::Session(const VolumeGeometry& geometry, const Viewport& viewport, std::
 
 void Session::resetCamera() {
   const Viewport& vp = gestures_.viewport();
-  camera_ = OrbitCamera::framing(geometry_, glm::radians(kDefaultAzimuthDeg), glm::radians(kDefaultElevationDeg),
-                                 double(vp.width) / double(vp.height));
+  const double az = glm::radians(kDefaultAzimuthDeg), el = glm::radians(kDefaultElevationDeg);
+  camera_ = freeArea_.whole() ? OrbitCamera::framing(geometry_, az, el, double(vp.width) / double(vp.height))
+                              : OrbitCamera::framingIn(geometry_, az, el, vp.width, vp.height, freeArea_);
   gestures_.cancel();
+  if (recording_ && script_.events.empty()) script_.camera = CameraState::from(camera_);
+}
+
+void Session::setFreeArea(const ScreenArea& area) {
+  freeArea_ = area.valid() ? area : ScreenArea{};
+  if (recording_) script_.freeArea = freeArea_.whole() ? std::nullopt : std::optional<ScreenArea>(freeArea_);
 }
 
 void Session::setViewport(const Viewport& v) { gestures_.setViewport(v); }
@@ -103,6 +110,7 @@ void Session::startRecording(const SessionScript& header) {
   script_.preset = preset_;
   script_.mode = modeName(gestures_.mode());
   script_.camera = CameraState::from(camera_);
+  script_.freeArea = freeArea_.whole() ? std::nullopt : std::optional<ScreenArea>(freeArea_);
   recording_ = true;
 }
 

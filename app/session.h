@@ -24,6 +24,12 @@ class Session {
   /// Applies a touch or UI event. Returns false if it was refused (bad touch, unknown preset).
   bool apply(const ScriptEvent& e);
   void setViewport(const Viewport& v);
+  /// The view's default framing (and reset-camera): the volume centred in the given part of the
+  /// viewport, filling it (OrbitCamera::framingIn); the whole viewport (the default) keeps the
+  /// classic framing of the volume's bounding sphere. Recorded in the script's header.
+  void setFreeArea(const ScreenArea& area);
+  const ScreenArea& freeArea() const { return freeArea_; }
+  /// The default framing; before any event is recorded, it also becomes the recording's start.
   void resetCamera();
 
   OrbitCamera& camera() { return camera_; }
@@ -71,6 +77,7 @@ class Session {
   bool labelTint_ = false;
   Clip clip_;
   WindowLevel window_;
+  ScreenArea freeArea_;
   /// A Clip or Window mode drag in progress (app/session_view_gestures.cpp).
   struct ViewDrag {
     enum class Kind { None, Face, Plane, Window } kind = Kind::None;

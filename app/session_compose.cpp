@@ -240,8 +240,6 @@ class Composer {
   bool anchor(int l) const { return l == o.anchor; }
   static bool onHandle1(int l) { return l == 1; }
 
-  // The view: the organ a fifth of the view high, the eye outside the volume, the direction (every
-  // 30 degrees of azimuth at elevations 0 and +-25) that leaves both structures most room.
   // The camera around the organ's deepest voxel, at a distance that shows the organ about a fifth of
   // the view high, never inside the volume.
   void frameCamera(const Eigen::Vector3i& deep) {
@@ -359,9 +357,10 @@ class Composer {
   // In the chosen view: the clipping preset, then Clip mode and one-finger drags that place the
   // view's plane through the point under the finger and push it to the chosen cut (the app's own
   // gesture, interaction/view_adjust.h). The finger starts off every face handle of the volume's
-  // box; the drag is split into strokes of at most 0.8 viewport heights (a later drag in the same
-  // view moves the plane it left). The cut the app then shows is the one the strokes make, to the
-  // quarter pixel the script stores; the picks from here on use it.
+  // box (by 1.5 grab radii), in the lowest row whose first stroke fits in the view; a longer drag is
+  // split into strokes from the same start (a later drag in the same view moves the plane it left).
+  // The cut the app then shows is the one the strokes make, to the quarter pixel the script stores;
+  // the picks from here on use it.
   void exposeByClipping() {
     if (picker.preset() != startPreset) w.ui("set-preset", picker.preset());
     w.ui("set-mode", "clip");

@@ -14,7 +14,10 @@
 //     drags the plane there with one finger (the app's own gesture, interaction/view_adjust.h).
 //     Every 4th pixel is depth-picked; a label's footprint is the pixels whose pick lands on it, and
 //     its inscribed radius (Euclidean distance transform) says how much room the fingers have there.
-//     The direction with the largest organ + anchor radii wins, both at least 16 and 6 px.
+//     The directions with both at least 16 and 6 px are tried roomiest first (largest organ + anchor
+//     radii), up to six, until one takes the whole session (a later phase can find no room on a
+//     view that shows the organ: an unstable tilt, a drag behind a neighbour). An organ whose
+//     inscribed radius is under 28 px there is approached until it is (the eye outside the volume).
 //  2. The chosen view is picked again every 2nd pixel; the organ's and the anchor's touches go to
 //     their footprints' innermost pixels, sized by the inscribed radii (all touch-downs at least
 //     3 px inside the footprint).

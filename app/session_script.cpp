@@ -110,6 +110,13 @@ SessionScript parseSessionScript(const std::string& text, const std::string& nam
     if (auto f = it->find("fov_deg"); f != it->end()) c.fovDeg = p.number(*f, "camera.fov_deg", 1.0, 170.0);
     s.camera = c;
   }
+  if (auto it = doc.find("free_area"); it != doc.end() && !it->is_null()) {
+    if (!it->is_array() || it->size() != 4) p.fail("\"free_area\" must be [x0, y0, x1, y1]");
+    ScreenArea a{p.number((*it)[0], "free_area x0", 0.0, 1.0), p.number((*it)[1], "free_area y0", 0.0, 1.0),
+                 p.number((*it)[2], "free_area x1", 0.0, 1.0), p.number((*it)[3], "free_area y1", 0.0, 1.0)};
+    if (!a.valid()) p.fail("\"free_area\" must be a rectangle of at least 5 % of the viewport each way");
+    s.freeArea = a;
+  }
   const json& events = p.field(doc, "events", "top level");
   if (!events.is_array()) p.fail("\"events\" must be an array");
   if (events.size() > kMaxEvents) p.fail("too many events");
@@ -180,6 +187,7 @@ std::string formatSessionScript(const SessionScript& s) {
     doc["camera"] = {{"target", {c.target.x, c.target.y, c.target.z}}, {"distance", c.distance}, {"azimuth_deg", c.azimuthDeg},
                      {"elevation_deg", c.elevationDeg}, {"roll_deg", c.rollDeg}, {"fov_deg", c.fovDeg}};
   }
+  if (s.freeArea) doc["free_area"] = {s.freeArea->x0, s.freeArea->y0, s.freeArea->x1, s.freeArea->y1};
   json events = json::array();
   for (const auto& e : s.events) {
     json j;

@@ -11,6 +11,8 @@
 //   "mode": "navigate",                      // interaction mode at the start (optional)
 //   "camera": {"target": [x, y, z], "distance": mm, "azimuth_deg": a, "elevation_deg": e,
 //              "roll_deg": r, "fov_deg": f}, // optional: default framing of the volume
+//   "free_area": [x0, y0, x1, y1],           // optional: the part of the viewport the app's panels
+//                                            // left free (fractions), where reset-camera frames
 //   "events": [                              // sorted by "t" (seconds from the start)
 //     {"t": 0.00, "touch": "down", "id": 0, "x": 256, "y": 256, "pressure": 1},
 //     {"t": 0.05, "touch": "move", "id": 0, "x": 262, "y": 255},
@@ -54,6 +56,7 @@ struct CameraState {
   glm::dvec3 target{0.0};
   double distance = 500.0, azimuthDeg = 0.0, elevationDeg = 0.0, rollDeg = 0.0, fovDeg = 35.0;
   static CameraState from(const OrbitCamera& c);
+  bool operator==(const CameraState&) const = default;
   /// Applies onto a camera that already has sensible near/far planes for the volume.
   void applyTo(OrbitCamera& c) const;
 };
@@ -66,6 +69,7 @@ struct SessionScript {
   std::string preset;  ///< empty: the volume's default
   std::string mode = "navigate";
   std::optional<CameraState> camera;
+  std::optional<ScreenArea> freeArea;
   std::vector<ScriptEvent> events;
 
   double duration() const { return events.empty() ? 0.0 : events.back().t; }

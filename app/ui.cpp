@@ -82,6 +82,15 @@ bool Ui::covers(double x, double y) const {
   return false;
 }
 
+std::vector<std::array<double, 4>> Ui::panelRects() const {
+  std::vector<std::array<double, 4>> rects;
+  std::vector<Rect> all = panels_;
+  if (overlay_.x1 > overlay_.x0) all.push_back(overlay_);
+  for (const Rect& r : all)
+    rects.push_back({double(r.x0) * pixelsPerPoint_, double(r.y0) * pixelsPerPoint_, double(r.x1) * pixelsPerPoint_, double(r.y1) * pixelsPerPoint_});
+  return rects;
+}
+
 void Ui::swapchainRecreated(const vk::Swapchain& swapchain) {
   ImGui_ImplVulkan_SetMinImageCount(std::max(2u, swapchain.minImageCount()));
 }
@@ -106,6 +115,41 @@ void Ui::strainColourBar(const UiStatus& st, const std::function<void()>& rememb
   ImGui::Text("%.0f %%", 100.0 * st.strainTo);
   remember();
   ImGui::End();
+}
+
+// The current mode's own controls under the mode bar: Clip's and Window's hints and reset buttons,
+// Manipulate's axis locks.
+void Ui::modeOptions(const UiStatus& st, const std::function<void(const char*, const std::string&)>& action, float buttonWidth, float buttonHeight) {
+  const ImVec2 button(buttonWidth, buttonHeight);
+  if (st.mode == "clip") {
+    ImGui::NewLine();
+    ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 3.0f * button.x);
+    ImGui::TextUnformatted("Drag from a box face's middle to move it; drag elsewhere to cut through the point under the finger (up: deeper)");
+    ImGui::PopTextWrapPos();
+    if (st.clipped && ImGui::Button("Clear clip", button)) action("clear-clip", "");
+  }
+  if (st.mode == "window") {
+    ImGui::NewLine();
+    ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 3.0f * button.x);
+    ImGui::TextWrapped("Drag up/down: level, left/right: window, spread two fingers: opacity (window x%.2f, level %+.0f, opacity x%.2f)",
+                       st.window.scale, st.window.shift, st.window.opacity);
+    ImGui::PopTextWrapPos();
+    if (!st.window.identity() && ImGui::Button("Reset window", button)) action("reset-window", "");
+  }
+  if (st.mode == "manipulate") {
+    // Axis locks for the manipulation (the finger count chooses the rest).
+    ImGui::NewLine();
+    const std::pair<unsigned, const char*> locks[] = {{1u, "z-translation"}, {2u, "z-rotation"}, {4u, "xy-translation"}};
+    for (const auto& [bit, name] : locks) {
+      const bool on = (st.locks & bit) != 0;
+      if (on) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.85f, 0.45f, 0.20f, 1.0f));
+      const std::string label = std::string("Lock ") + name;
+      if (ImGui::Button(label.c_str(), ImVec2(button.x * 1.4f, button.y))) action("toggle-lock", name);
+      if (on) ImGui::PopStyleColor();
+      ImGui::SameLine();
+    }
+    ImGui::NewLine();
+  }
 }
 
 void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& actions) {
@@ -136,13 +180,16 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   ImGui::SetNextWindowBgAlpha(0.75f);
   ImGui::Begin("modes", nullptr, panel);
   // Five modes on the first row (narrower buttons, still touch-sized), the view's actions below.
-  const ImVec2 modeButton(std::max(kMinTarget, 118.0f) * s, button.y);
+  // Mode buttons as wide as their labels (at least a touch target), so that the bar fits small windows.
+  auto modeButton = [&](const char* label) {
+    return ImVec2(std::max(kMinTarget * s, ImGui::CalcTextSize(label).x + 24.0f * s), button.y);
+  };
   for (const char* m : {"navigate", "select", "manipulate", "clip", "window"}) {
     const bool active = st.mode == m;
     if (active) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
     char label[32];
     std::snprintf(label, sizeof(label), "%c%s", m[0] - 32, m + 1);
-    if (ImGui::Button(label, modeButton) && !active) action("set-mode", m);
+    if (ImGui::Button(label, modeButton(label)) && !active) action("set-mode", m);
     if (active) ImGui::PopStyleColor();
     ImGui::SameLine();
   }
@@ -160,45 +207,25 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
     if (ImGui::Button("Labels", button)) action("toggle-labels", "");
     if (st.labelTint) ImGui::PopStyleColor();
   }
-  if (st.mode == "clip") {
-    ImGui::NewLine();
-    ImGui::TextUnformatted("Drag a box face's edge to move it; drag elsewhere to cut through the point under the finger (up: deeper)");
-    if (st.clipped && ImGui::Button("Clear clip", button)) action("clear-clip", "");
-  }
-  if (st.mode == "window") {
-    ImGui::NewLine();
-    ImGui::Text("Drag up/down: level, left/right: window, spread two fingers: opacity  (window x%.2f, level %+.0f, opacity x%.2f)",
-                st.window.scale, st.window.shift, st.window.opacity);
-    if (!st.window.identity() && ImGui::Button("Reset window", button)) action("reset-window", "");
-  }
-  if (st.mode == "manipulate") {
-    // Axis locks for the manipulation (the finger count chooses the rest).
-    ImGui::NewLine();
-    const std::pair<unsigned, const char*> locks[] = {{1u, "z-translation"}, {2u, "z-rotation"}, {4u, "xy-translation"}};
-    for (const auto& [bit, name] : locks) {
-      const bool on = (st.locks & bit) != 0;
-      if (on) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.85f, 0.45f, 0.20f, 1.0f));
-      const std::string label = std::string("Lock ") + name;
-      if (ImGui::Button(label.c_str(), ImVec2(button.x * 1.4f, button.y))) action("toggle-lock", name);
-      if (on) ImGui::PopStyleColor();
-      ImGui::SameLine();
-    }
-    ImGui::NewLine();
-  }
+  modeOptions(st, action, button.x, button.y);
   remember();
+  const float barBottom = ImGui::GetWindowPos().y + ImGui::GetWindowSize().y;
   ImGui::End();
   if (st.strainOverlay) strainColourBar(st, remember);
 
-  // Transfer-function presets and the handle list, right side.
+  // Transfer-function presets and the handle list, right side: centred, but never over the mode bar.
   const ImVec2 display = ImGui::GetIO().DisplaySize;
-  ImGui::SetNextWindowPos(ImVec2(display.x - 10 * s, 0.5f * display.y), ImGuiCond_Always, ImVec2(1.0f, 0.5f));
+  const float panelHeight = panelHeight_ > 0.0f ? panelHeight_ : 0.6f * display.y;
+  ImGui::SetNextWindowPos(ImVec2(display.x - 10 * s, std::max(0.5f * (display.y - panelHeight), barBottom + 10 * s)), ImGuiCond_Always, ImVec2(1.0f, 0.0f));
   ImGui::SetNextWindowBgAlpha(0.75f);
   ImGui::Begin("presets", nullptr, panel);
+  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 1.3f * button.x);  // hints wrap at the buttons' width
   ImGui::TextUnformatted("Transfer function");
   for (const auto& p : transferFunctionPresetNames()) {
     const bool active = st.preset == p;
     if (active) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
-    if (ImGui::Button(p.c_str(), button) && !active) action("set-preset", p);
+    if (ImGui::Button(p.c_str(), ImVec2(std::max(button.x, ImGui::CalcTextSize(p.c_str()).x + 24.0f * s), button.y)) && !active)
+      action("set-preset", p);
     if (active) ImGui::PopStyleColor();
   }
   ImGui::Separator();
@@ -240,6 +267,8 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   ImGui::BeginDisabled(!st.canRedo);
   if (ImGui::Button("Redo", small)) action("redo", "");
   ImGui::EndDisabled();
+  ImGui::PopTextWrapPos();
+  panelHeight_ = ImGui::GetWindowSize().y;
   remember();
   ImGui::End();
 
@@ -250,6 +279,8 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   ImGui::Text("%.1f fps   CPU %.1f ms   raymarch %.1f ms", st.fps, st.cpuFrameMs, st.gpuRaymarchMs);
   if (st.latencyMs >= 0) ImGui::Text("input to present %.1f ms", st.latencyMs);
   ImGui::Text("%s   %dx%d   fingers %d", st.device.c_str(), st.renderWidth, st.renderHeight, st.fingers);
+  overlay_ = Rect{ImGui::GetWindowPos().x, ImGui::GetWindowPos().y, ImGui::GetWindowPos().x + ImGui::GetWindowSize().x,
+                  ImGui::GetWindowPos().y + ImGui::GetWindowSize().y};
   ImGui::End();
   ImGui::Render();
 }

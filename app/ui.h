@@ -6,6 +6,7 @@
 #include <SDL2/SDL.h>
 #include <vulkan/vulkan.h>
 
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
@@ -62,25 +63,33 @@ class Ui {
   /// wantsPointer(), this is exact for the first event of a touch.
   bool covers(double x, double y) const;
   bool wantsKeyboard() const;
+  /// The panels (and the frame-time overlay, which takes no touches) as last drawn, in drawable
+  /// pixels (x0, y0, x1, y1).
+  std::vector<std::array<double, 4>> panelRects() const;
   /// Builds this frame's widgets; UI actions are appended to `actions` stamped with `time`.
   void build(const UiStatus& status, double time, std::vector<ScriptEvent>& actions);
   /// Records the UI into the swapchain framebuffer (inside its own render pass).
   void record(VkCommandBuffer cmd, VkFramebuffer framebuffer, VkExtent2D extent);
   void swapchainRecreated(const vk::Swapchain& swapchain);
 
+  /// The display scale (HiDPI factor) the UI is drawn at.
+  float scale() const { return scale_; }
   static constexpr float kMinTarget = 48.0f;  ///< smallest touch target, pixels at 100 %
 
  private:
   void strainColourBar(const UiStatus& st, const std::function<void()>& remember);
+  void modeOptions(const UiStatus& st, const std::function<void(const char*, const std::string&)>& action, float buttonWidth, float buttonHeight);
 
   const vk::Context& ctx_;
   VkRenderPass renderPass_;
   VkDescriptorPool pool_ = VK_NULL_HANDLE;
   float scale_;
   float pixelsPerPoint_ = 1.0f;
+  float panelHeight_ = 0.0f;  ///< the right panel's height as last drawn (it is centred by it)
   struct Rect {
     float x0, y0, x1, y1;
   };
+  Rect overlay_{0, 0, 0, 0};  ///< the frame-time overlay (not a touch target)
   std::vector<Rect> panels_;  // in ImGui points, from the last build()
 };
 

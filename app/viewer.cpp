@@ -192,6 +192,7 @@ struct Viewer::Impl {
   void pollInput(const Viewport& vp, std::vector<TouchEvent>& touches, std::vector<ScriptEvent>& actions);
   /// The panel's status from the session, the controllers and the simulation's failures.
   void updateStatus();
+  void frameInFreeArea(const Viewport& vp);
   std::string rescue() const {
     if (!session || !selection) return "nothing to save yet";
     return saveRecovery(*session, selection->handles(), selection->picked(), volume.dims(), o.exportDir);
@@ -214,6 +215,8 @@ bool Viewer::step() {
 int Viewer::finish() { return impl_->finish(); }
 Session& Viewer::session() { return *impl_->session; }
 std::uint64_t Viewer::frames() const { return impl_->frameNo; }
+std::vector<std::array<double, 4>> Viewer::uiPanels() const { return impl_->ui->panelRects(); }
+Viewport Viewer::drawableSize() const { return {std::max(impl_->dw, 1), std::max(impl_->dh, 1)}; }
 SDL_Window* Viewer::window() const { return impl_->window.w; }
 
 int runViewer(const ViewerOptions& o) {
@@ -385,6 +388,17 @@ void Viewer::Impl::updateStatus() {
   status.liveVoxels = selection->liveVoxelCount();
 }
 
+// The first frame's view: the volume framed in the part of the window the panels leave free (they
+// are measured once the UI is laid out), recorded as the session's start and its reset-camera framing.
+void Viewer::Impl::frameInFreeArea(const Viewport& vp) {
+  const VolumeGeometry& g = volume.geometry();
+  const OrbitCamera probe = OrbitCamera::framing(g, glm::radians(kDefaultAzimuthDeg), glm::radians(kDefaultElevationDeg), double(vp.width) / vp.height);
+  const auto box = projectedVolumeBox(probe, g, vp.width, vp.height);
+  const double aspect = box ? ((*box)[2] - (*box)[0]) / std::max((*box)[3] - (*box)[1], 1.0) : 1.0;
+  session->setFreeArea(largestFreeArea(vp.width, vp.height, ui->panelRects(), aspect, 12.0 * ui->scale()));
+  session->resetCamera();
+}
+
 bool Viewer::Impl::step() {
   if (!running || (o.frames > 0 && int(frameNo) >= o.frames)) return false;
   if (frameNo == 0) playStart = seconds(Clock::now(), t0);
@@ -437,6 +451,13 @@ bool Viewer::Impl::step() {
     }
     updateStatus();
     ui->build(status, seconds(Clock::now(), t0), actions);
+    if (frameNo == 0 && !play) {
+      // ImGui sizes an auto-resized panel from its content at the end of a frame: lay the UI out
+      // once more (that pass's actions dropped) so that the panels are measured at their size.
+      std::vector<ScriptEvent> layoutPass;
+      ui->build(status, seconds(Clock::now(), t0), layoutPass);
+      frameInFreeArea(vp);
+    }
     for (const auto& a : actions) session->apply(a);
     driver->refreshTransferFunction();
 

@@ -2,10 +2,12 @@
 // The interactive viewer: an SDL2 window with a Vulkan swapchain presenting the frame graph's
 // output, native multi-touch and the mouse fallback, the touch UI, recording and the latency log.
 #include <cstdint>
+#include <array>
 #include <memory>
 #include <string>
 
 #include "app/deformation_controller.h"
+#include "interaction/touch.h"
 
 struct SDL_Window;
 
@@ -53,6 +55,9 @@ class Viewer {
   Session& session();
   std::uint64_t frames() const;
   SDL_Window* window() const;
+  /// The UI's panels as last drawn (drawable pixels x0, y0, x1, y1) and the drawable size.
+  std::vector<std::array<double, 4>> uiPanels() const;
+  Viewport drawableSize() const;
 
  private:
   struct Impl;

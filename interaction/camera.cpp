@@ -1,5 +1,9 @@
 #include "camera.h"
 
+#include <array>
+#include <limits>
+#include <optional>
+
 #include <algorithm>
 #include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
@@ -76,6 +80,105 @@ OrbitCamera OrbitCamera::framing(const VolumeGeometry& geometry, double azimuth,
   c.minDistance = 0.05 * radius;
   c.maxDistance = 20.0 * radius + c.distance;
   return c;
+}
+
+namespace {
+
+/// The 8 corners of a volume's box (voxel edges included), world mm.
+std::array<glm::dvec3, 8> boxCorners(const VolumeGeometry& geometry) {
+  std::array<glm::dvec3, 8> corners;
+  for (int k = 0; k < 8; ++k) {
+    const Eigen::Vector3d idx((k & 1) ? geometry.dims.x() - 0.5 : -0.5, (k & 2) ? geometry.dims.y() - 0.5 : -0.5,
+                              (k & 4) ? geometry.dims.z() - 0.5 : -0.5);
+    const Eigen::Vector3d p = geometry.toWorld(idx);
+    corners[std::size_t(k)] = {p.x(), p.y(), p.z()};
+  }
+  return corners;
+}
+
+/// The pixel bounding box (lo, hi) of the corners seen by c in a w x h view; false when a corner
+/// lies behind the near plane.
+bool projectedBox(const OrbitCamera& c, const std::array<glm::dvec3, 8>& corners, int w, int h, glm::dvec2& lo, glm::dvec2& hi) {
+  const glm::dmat4 pv = glm::dmat4(c.projection(double(w) / double(h))) * glm::dmat4(c.view());
+  lo = glm::dvec2(std::numeric_limits<double>::infinity());
+  hi = -lo;
+  for (const glm::dvec3& p : corners) {
+    const glm::dvec4 q = pv * glm::dvec4(p, 1.0);
+    if (!(q.w > c.nearPlane)) return false;
+    const glm::dvec2 px((q.x / q.w + 1.0) * 0.5 * w, (q.y / q.w + 1.0) * 0.5 * h);
+    lo = glm::min(lo, px);
+    hi = glm::max(hi, px);
+  }
+  return true;
+}
+
+}  // namespace
+
+std::optional<std::array<double, 4>> projectedVolumeBox(const OrbitCamera& camera, const VolumeGeometry& geometry, int width, int height) {
+  glm::dvec2 lo, hi;
+  if (!projectedBox(camera, boxCorners(geometry), std::max(width, 1), std::max(height, 1), lo, hi)) return std::nullopt;
+  return std::array<double, 4>{lo.x, lo.y, hi.x, hi.y};
+}
+
+OrbitCamera OrbitCamera::framingIn(const VolumeGeometry& geometry, double azimuth, double elevation, int width, int height,
+                                   const ScreenArea& area, double fill) {
+  const int w = std::max(width, 1), h = std::max(height, 1);
+  OrbitCamera c = framing(geometry, azimuth, elevation, double(w) / double(h));
+  if (!area.valid() || !(fill > 0.0 && fill <= 1.0)) return c;
+  const std::array<glm::dvec3, 8> corners = boxCorners(geometry);
+  const glm::dvec2 want((area.x1 - area.x0) * w * fill, (area.y1 - area.y0) * h * fill);
+  const glm::dvec2 centre(0.5 * (area.x0 + area.x1) * w, 0.5 * (area.y0 + area.y1) * h);
+  for (int round = 0; round < 60; ++round) {
+    glm::dvec2 lo, hi;
+    if (!projectedBox(c, corners, w, h, lo, hi)) {
+      c.distance *= 1.5;  // a corner behind the eye: back off and try again
+    } else {
+      const double k = std::max((hi.x - lo.x) / want.x, (hi.y - lo.y) / want.y);
+      const glm::dvec2 off = centre - 0.5 * (lo + hi);  // where the box's centre must move on screen
+      const double pix = c.pixelSizeAt(c.distance, h);
+      // Content moves right when the target moves left, down when the target moves up.
+      c.target += -c.right() * (off.x * pix) + c.up() * (off.y * pix);
+      c.distance *= std::clamp(k, 0.5, 2.0);
+      if (std::abs(k - 1.0) < 1e-4 && glm::length(off) < 1e-4 * h) break;
+    }
+    c.nearPlane = std::max(1e-3, 0.01 * c.distance);
+    c.farPlane = c.distance + 2.0 * geometry.diagonalMm();
+  }
+  c.maxDistance = std::max(c.maxDistance, 2.0 * c.distance);
+  return c;
+}
+
+ScreenArea largestFreeArea(int width, int height, const std::vector<std::array<double, 4>>& obstacles, double aspect, double marginPx) {
+  const double w = std::max(width, 1), h = std::max(height, 1);
+  if (!(aspect > 0.0) || !std::isfinite(aspect)) aspect = 1.0;
+  // Candidate sides: the view's edges and each obstacle's edges pushed out by the margin.
+  std::vector<double> xs{marginPx, w - marginPx}, ys{marginPx, h - marginPx};
+  for (const auto& o : obstacles) {
+    xs.push_back(o[0] - marginPx);
+    xs.push_back(o[2] + marginPx);
+    ys.push_back(o[1] - marginPx);
+    ys.push_back(o[3] + marginPx);
+  }
+  ScreenArea best;
+  double bestSize = 0.0;  // the width of the biggest box of that aspect inside
+  for (double x0 : xs)
+    for (double x1 : xs)
+      for (double y0 : ys)
+        for (double y1 : ys) {
+          if (!(x0 >= 0.0 && x1 <= w && y0 >= 0.0 && y1 <= h && x1 > x0 && y1 > y0)) continue;
+          const double size = std::min(x1 - x0, (y1 - y0) * aspect);
+          if (size <= bestSize) continue;
+          bool clear = true;
+          for (const auto& o : obstacles)
+            if (x0 < o[2] + marginPx && x1 > o[0] - marginPx && y0 < o[3] + marginPx && y1 > o[1] - marginPx) {
+              clear = false;
+              break;
+            }
+          if (!clear) continue;
+          bestSize = size;
+          best = ScreenArea{x0 / w, y0 / h, x1 / w, y1 / h};
+        }
+  return best.valid() ? best : ScreenArea{};
 }
 
 }  // namespace handson

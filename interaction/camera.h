@@ -5,9 +5,34 @@
 // the image about the viewing axis. Projection follows Vulkan: clip z in [0, 1], NDC y down.
 #include <glm/glm.hpp>
 
+#include <array>
+#include <optional>
+#include <vector>
+
 #include "sim/volume.h"
 
 namespace handson {
+
+/// A rectangle of the viewport as fractions of its width and height (x right, y down, 0..1): the
+/// part of the window the UI's panels leave free.
+struct ScreenArea {
+  double x0 = 0.0, y0 = 0.0, x1 = 1.0, y1 = 1.0;
+  bool whole() const { return x0 <= 0.0 && y0 <= 0.0 && x1 >= 1.0 && y1 >= 1.0; }
+  bool valid() const { return x0 >= 0.0 && y0 >= 0.0 && x1 <= 1.0 && y1 <= 1.0 && x1 - x0 > 0.05 && y1 - y0 > 0.05; }
+  bool operator==(const ScreenArea&) const = default;
+};
+
+/// The pixel bounding box (x0, y0, x1, y1) of a volume's box (its 8 corners, voxel edges included)
+/// as a camera sees it in a width x height view; nullopt when a corner lies behind the near plane.
+struct OrbitCamera;
+std::optional<std::array<double, 4>> projectedVolumeBox(const OrbitCamera& camera, const VolumeGeometry& geometry, int width, int height);
+
+/// The largest rectangle of a width x height view that meets none of the obstacles (pixel rectangles
+/// x0, y0, x1, y1: the UI's panels) and holds the biggest box of the given aspect (width / height),
+/// less a margin of `marginPx` from every obstacle and edge; as fractions of the view. Exhaustive
+/// over the rectangles whose sides lie on the obstacles' and the view's edges (exact for
+/// axis-aligned obstacles). The whole view when nothing fits.
+ScreenArea largestFreeArea(int width, int height, const std::vector<std::array<double, 4>>& obstacles, double aspect, double marginPx = 8.0);
 
 /// The default scene's camera: a three-quarter view from the front and above.
 constexpr double kDefaultAzimuthDeg = 25.0, kDefaultElevationDeg = 15.0;
@@ -41,6 +66,13 @@ struct OrbitCamera {
 
   /// Frames a volume: target at its centre, distance so that its bounding sphere fits the view.
   static OrbitCamera framing(const VolumeGeometry& geometry, double azimuth = 0.0, double elevation = 0.0, double aspect = 1.0);
+  /// Frames a volume in part of a width x height view: the same direction, the target and distance
+  /// chosen so that the projection of the volume's box (its 8 corners, voxel edges included) is
+  /// centred in `area` and fills `fill` of it in its tighter dimension. Perspective makes this a
+  /// fixed point: the distance is scaled by the box's size over the wanted size and the target moved
+  /// by the box centre's offset until both change by less than 1e-4 (at most 60 rounds).
+  static OrbitCamera framingIn(const VolumeGeometry& geometry, double azimuth, double elevation, int width, int height,
+                               const ScreenArea& area, double fill = 0.92);
 
   double minDistance = 1.0, maxDistance = 1e5;
 };

@@ -32,6 +32,14 @@ int run(const std::string& args, std::string* output = nullptr) {
   return r.status;
 }
 
+// An empty scratch folder for one test (named by the test and the process).
+fs::path freshDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("handson_" + name + "_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
 std::string slurp(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), {}};
@@ -201,9 +209,7 @@ TEST(Replay, WithALabelMapATapOnAnOrganMakesTheWholeLabelledOrganAHandle) {
 TEST(Replay, ClipActionsCutTheViewAndClearClipRestoresItBitForBit) {
   // set-clip-plane, then set-clip-box (both at once), then clear-clip: the frames between differ
   // from the unclipped view, the last equals it; a malformed clip value is refused.
-  const fs::path dir = fs::temp_directory_path() / ("handson_clip_" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = freshDir("clip");
   std::ofstream(dir / "clip.json") << R"({"format": "handson-session", "version": 1, "volume": {"source": "phantom"},
     "viewport": [512, 512], "preset": "ct-abdomen", "mode": "navigate",
     "camera": {"target": [0, 0, 0], "distance": 910, "azimuth_deg": 90, "elevation_deg": 0, "roll_deg": 0, "fov_deg": 35},
@@ -233,9 +239,7 @@ TEST(Replay, InClipModeADragCutsThroughThePointUnderTheFingerOrMovesABoxFaceAndI
   // down: z_max = 120 - 50 * 0.8622. Window mode: a 128 px upward drag raises the level by a quarter
   // of ct-abdomen's width (457.5 HU: render/transfer_function.h); reset-window gives the clipped
   // frame back bit for bit. The whole replay is deterministic (run twice: the same frames).
-  const fs::path dir = fs::temp_directory_path() / ("handson_cliptouch_" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = freshDir("cliptouch");
   std::ofstream(dir / "touch.json") << R"({"format": "handson-session", "version": 1, "volume": {"source": "phantom"},
     "viewport": [512, 512], "preset": "ct-abdomen", "mode": "navigate",
     "camera": {"target": [0, 0, 0], "distance": 700, "azimuth_deg": 90, "elevation_deg": 0, "roll_deg": 0, "fov_deg": 35},
@@ -296,6 +300,31 @@ TEST(Replay, InClipModeADragCutsThroughThePointUnderTheFingerOrMovesABoxFaceAndI
   EXPECT_DOUBLE_EQ(scale, 1.0);
   EXPECT_NEAR(shift, 457.5 / 4.0, 0.01);
   EXPECT_DOUBLE_EQ(opacity, 1.0);
+  fs::remove_all(dir);
+}
+
+TEST(Replay, ResetCameraFramesTheVolumeInTheRecordedFreeArea) {
+  // A window session records the part of the view its panels left free; reset-camera in the replay
+  // frames there as the app did (OrbitCamera::framingIn), not in the whole view.
+  const fs::path dir = freshDir("freearea");
+  std::ofstream(dir / "free.json") << R"({"format": "handson-session", "version": 1, "volume": {"source": "phantom"},
+    "viewport": [640, 400], "free_area": [0.02, 0.3, 0.6, 0.97],
+    "camera": {"target": [0, 0, 0], "distance": 910, "azimuth_deg": 90, "elevation_deg": 0, "roll_deg": 0, "fov_deg": 35},
+    "events": [{"t": 0.1, "ui": "reset-camera"}]})";
+  std::string out;
+  ASSERT_EQ(run("replay " + (dir / "free.json").string() + " --fps 10 --size 32x20 --sim off --print-camera --quiet", &out), 0) << out;
+  double az = 0, el = 0, roll = 0, dist = 0, x = 0, y = 0, z = 0;
+  ASSERT_EQ(std::sscanf(out.c_str() + out.find("camera azimuth_deg"), "camera azimuth_deg=%lf elevation_deg=%lf roll_deg=%lf distance=%lf target=%lf,%lf,%lf",
+                        &az, &el, &roll, &dist, &x, &y, &z),
+            7)
+      << out;
+  const handson::OrbitCamera want = handson::OrbitCamera::framingIn(handson::makePhantom().ct.geometry(), glm::radians(handson::kDefaultAzimuthDeg),
+                                                                    glm::radians(handson::kDefaultElevationDeg), 640, 400, {0.02, 0.3, 0.6, 0.97});
+  EXPECT_NEAR(dist, want.distance, 1e-3 * want.distance);
+  EXPECT_NEAR(x, want.target.x, 0.05);
+  EXPECT_NEAR(y, want.target.y, 0.05);
+  EXPECT_NEAR(z, want.target.z, 0.05);
+  EXPECT_NEAR(az, handson::kDefaultAzimuthDeg, 1e-6);
   fs::remove_all(dir);
 }
 

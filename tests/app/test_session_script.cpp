@@ -41,6 +41,12 @@ TEST(SessionScript, ParsesFormatsAndRoundTrips) {
   EXPECT_FALSE(s.events[2].isTouch);
   EXPECT_EQ(s.events[2].value, "select");
   EXPECT_DOUBLE_EQ(s.duration(), 0.3);
+  EXPECT_FALSE(s.freeArea.has_value());
+  SessionScript withArea = s;
+  withArea.freeArea = ScreenArea{0.01, 0.2, 0.66, 0.9};
+  const SessionScript areaBack = parseSessionScript(formatSessionScript(withArea));
+  ASSERT_TRUE(areaBack.freeArea.has_value());
+  EXPECT_EQ(*areaBack.freeArea, *withArea.freeArea);
   const SessionScript again = parseSessionScript(formatSessionScript(s));
   EXPECT_EQ(formatSessionScript(again), formatSessionScript(s));
   ASSERT_EQ(again.events.size(), s.events.size());
@@ -58,6 +64,8 @@ TEST(SessionScript, RejectsBadScriptsWithClearMessages) {
       {R"({"format": "other", "version": 1})", "not a handson session"},
       {R"({"format": "handson-session", "version": 99, "viewport": [1, 1], "events": []})", "version 99"},
       {R"({"format": "handson-session", "version": 1, "events": []})", "viewport"},
+      {R"({"format": "handson-session", "version": 1, "viewport": [9, 9], "free_area": [0.5, 0.1, 0.52, 0.9], "events": []})", "free_area"},
+      {R"({"format": "handson-session", "version": 1, "viewport": [9, 9], "free_area": [0, 0, 1.5, 1], "events": []})", "free_area"},
       {R"({"format": "handson-session", "version": 1, "viewport": [0, 10], "events": []})", "viewport width"},
       {R"({"format": "handson-session", "version": 1, "viewport": [10, 10], "events": [{"t": 1, "touch": "down", "id": 1, "x": 0, "y": 0}, {"t": 0.5, "touch": "up", "id": 1, "x": 0, "y": 0}]})",
        "must not decrease"},

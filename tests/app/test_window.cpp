@@ -17,6 +17,8 @@
 #include "app/session_script.h"
 #include "sim/error.h"
 #include "app/viewer.h"
+#include "interaction/camera.h"
+#include "sim/phantom.h"
 
 using namespace handson;
 namespace fs = std::filesystem;
@@ -126,6 +128,62 @@ TEST_F(Window, ScreenshotOfTheWindowIsNotEmpty) {
   EXPECT_GT(red, 500u);
   EXPECT_GT(blue, 500u);
   fs::remove(shot);
+}
+
+TEST_F(Window, TheDefaultViewFramesTheVolumeInTheAreaThePanelsLeaveFree) {
+  // At two window sizes: the volume's box on screen (its 8 corners projected by the session's camera)
+  // meets no panel (the frame-time overlay included) and lies inside the window, filling the free
+  // area, and the screenshot agrees: every pixel of the phantom's colour outside the panels lies
+  // inside that box (2 px of rasterization slack).
+  for (const auto& [w, h] : {std::pair{1200, 760}, std::pair{800, 600}}) {
+    SCOPED_TRACE(std::to_string(w) + "x" + std::to_string(h));
+    const fs::path shot = fs::temp_directory_path() / ("handson_frame_" + std::to_string(getpid()) + ".png");
+    ViewerOptions o = smallWindow();
+    o.width = w;
+    o.height = h;
+    o.frames = 4;
+    o.screenshot = shot.string();
+    Viewer v(o);
+    while (v.step()) {
+    }
+    const Viewport vp = v.drawableSize();
+    const auto panels = v.uiPanels();
+    const VolumeGeometry g = makePhantom().ct.geometry();
+    const auto box = projectedVolumeBox(v.session().camera(), g, vp.width, vp.height);
+    ASSERT_TRUE(box.has_value());
+    const auto& b = *box;
+    EXPECT_GE(b[0], 0.0);
+    EXPECT_GE(b[1], 0.0);
+    EXPECT_LE(b[2], vp.width);
+    EXPECT_LE(b[3], vp.height);
+    ASSERT_GE(panels.size(), 3u);
+    for (const auto& p : panels) EXPECT_FALSE(b[0] < p[2] && b[2] > p[0] && b[1] < p[3] && b[3] > p[1]) << p[0] << "," << p[1] << "," << p[2] << "," << p[3];
+    // It fills the free area (92 % in its tighter dimension: OrbitCamera::framingIn), which the
+    // session records for replays.
+    const ScreenArea f = v.session().freeArea();
+    ASSERT_FALSE(f.whole());
+    const double fill = std::max((b[2] - b[0]) / ((f.x1 - f.x0) * vp.width), (b[3] - b[1]) / ((f.y1 - f.y0) * vp.height));
+    EXPECT_NEAR(fill, 0.92, 0.01);
+    EXPECT_EQ(f, v.session().script().freeArea.value_or(ScreenArea{}));
+    EXPECT_EQ(v.finish(), 0);
+    int sw = 0, sh = 0;
+    const auto px = readPng(shot.string(), sw, sh);
+    ASSERT_EQ(sw, vp.width);
+    std::size_t inside = 0, outside = 0;
+    for (int y = 0; y < sh; ++y)
+      for (int x = 0; x < sw; ++x) {
+        const std::size_t i = 4 * (std::size_t(y) * std::size_t(sw) + std::size_t(x));
+        if (!(px[i] > 100 && px[i] > px[i + 2] + 30)) continue;  // the phantom's reds
+        bool onPanel = false;
+        for (const auto& p : panels) onPanel |= x >= p[0] && x <= p[2] && y >= p[1] && y <= p[3];
+        if (onPanel) continue;
+        const bool in = x >= b[0] - 2 && x <= b[2] + 2 && y >= b[1] - 2 && y <= b[3] + 2;
+        (in ? inside : outside) += 1;
+      }
+    EXPECT_GT(inside, 2000u);
+    EXPECT_EQ(outside, 0u);
+    fs::remove(shot);
+  }
 }
 
 TEST_F(Window, XdotoolMouseDragArrivesAsOneFingerAndOrbits) {

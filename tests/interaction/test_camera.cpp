@@ -76,3 +76,55 @@ TEST(OrbitCamera, FramingFitsTheVolume) {
   EXPECT_LT(c.nearPlane, c.distance - 0.5 * g.diagonalMm());
   EXPECT_GT(c.farPlane, c.distance + 0.5 * g.diagonalMm());
 }
+
+TEST(OrbitCamera, FramingInPartOfTheViewCentresTheBoxThereAndFillsIt) {
+  // An oblique, anisotropic grid: the projected box's centre lands on the area's centre and its
+  // tighter dimension fills 92 % of it (the fixed point's stated tolerance: 1e-4 relative).
+  VolumeGeometry g;
+  g.dims = {100, 80, 60};
+  g.spacing = {1, 1.5, 2};
+  g.origin = {-50, -40, -60};
+  g.direction = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const ScreenArea area{0.02, 0.2, 0.65, 0.85};
+  const int w = 1200, h = 760;
+  const OrbitCamera c = OrbitCamera::framingIn(g, 0.4, 0.25, w, h, area);
+  EXPECT_NEAR(c.azimuth, 0.4, 1e-12);
+  EXPECT_NEAR(c.elevation, 0.25, 1e-12);
+  const auto b = projectedVolumeBox(c, g, w, h);
+  ASSERT_TRUE(b.has_value());
+  EXPECT_NEAR(0.5 * ((*b)[0] + (*b)[2]), 0.5 * (area.x0 + area.x1) * w, 0.2);
+  EXPECT_NEAR(0.5 * ((*b)[1] + (*b)[3]), 0.5 * (area.y0 + area.y1) * h, 0.2);
+  const double fill = std::max(((*b)[2] - (*b)[0]) / ((area.x1 - area.x0) * w), ((*b)[3] - (*b)[1]) / ((area.y1 - area.y0) * h));
+  EXPECT_NEAR(fill, 0.92, 1e-3);
+  // The whole view, or a degenerate area, is the classic framing.
+  EXPECT_EQ(OrbitCamera::framingIn(g, 0.4, 0.25, w, h, ScreenArea{0.5, 0.5, 0.5, 0.9}).distance, OrbitCamera::framing(g, 0.4, 0.25, double(w) / h).distance);
+}
+
+TEST(OrbitCamera, TheLargestFreeAreaAvoidsEveryPanelAndBeatsABruteForceSearch) {
+  // A top bar, a right panel and a bottom-left overlay in a 1000 x 600 view.
+  const std::vector<std::array<double, 4>> panels{{10, 10, 600, 150}, {780, 160, 990, 470}, {10, 520, 400, 590}};
+  const int w = 1000, h = 600;
+  for (double aspect : {0.5, 1.0, 1.6}) {
+    const ScreenArea a = largestFreeArea(w, h, panels, aspect, 8.0);
+    ASSERT_TRUE(a.valid()) << aspect;
+    const double x0 = a.x0 * w, y0 = a.y0 * h, x1 = a.x1 * w, y1 = a.y1 * h;
+    for (const auto& p : panels) EXPECT_FALSE(x0 < p[2] + 8 - 1e-9 && x1 > p[0] - 8 + 1e-9 && y0 < p[3] + 8 - 1e-9 && y1 > p[1] - 8 + 1e-9);
+    // Independent: every rectangle on a 10 px grid that clears the panels by 8 px holds no bigger box.
+    const double found = std::min(x1 - x0, (y1 - y0) * aspect);
+    double grid = 0.0;
+    for (int gx0 = 10; gx0 < w; gx0 += 10)
+      for (int gx1 = gx0 + 10; gx1 <= w - 10; gx1 += 10)
+        for (int gy0 = 10; gy0 < h; gy0 += 10)
+          for (int gy1 = gy0 + 10; gy1 <= h - 10; gy1 += 10) {
+            const double size = std::min(double(gx1 - gx0), (gy1 - gy0) * aspect);
+            if (size <= grid) continue;
+            bool clear = true;
+            for (const auto& p : panels) clear &= !(gx0 < p[2] + 8 && gx1 > p[0] - 8 && gy0 < p[3] + 8 && gy1 > p[1] - 8);
+            if (clear) grid = size;
+          }
+    EXPECT_GE(found, grid - 1e-9) << aspect;
+    EXPECT_LE(found, grid + 10.0 * std::max(1.0, aspect)) << aspect;
+  }
+  // Nothing fits: the whole view.
+  EXPECT_TRUE(largestFreeArea(w, h, {{0, 0, 1000, 600}}, 1.0).whole());
+}
