@@ -440,6 +440,16 @@ bool Viewer::Impl::step() {
     std::vector<ScriptEvent> actions;
     const Viewport vp{int(swapchain->extent().width), int(swapchain->extent().height)};
     pollInput(vp, touches, actions);
+    if (frameNo == 0 && !play) {
+      // Before any touch is applied (a finger already down would be cancelled by the reframing):
+      // lay the UI out twice (ImGui sizes an auto-resized panel from its content at the end of a
+      // frame; these passes' actions are dropped) so that the panels are measured at their size,
+      // and frame the view where they leave room.
+      updateStatus();
+      std::vector<ScriptEvent> layoutPass;
+      for (int pass = 0; pass < 2; ++pass) ui->build(status, seconds(Clock::now(), t0), layoutPass);
+      frameInFreeArea(vp);
+    }
     for (const auto& t : touches) {
       ScriptEvent se;
       se.t = t.time;
@@ -451,13 +461,6 @@ bool Viewer::Impl::step() {
     }
     updateStatus();
     ui->build(status, seconds(Clock::now(), t0), actions);
-    if (frameNo == 0 && !play) {
-      // ImGui sizes an auto-resized panel from its content at the end of a frame: lay the UI out
-      // once more (that pass's actions dropped) so that the panels are measured at their size.
-      std::vector<ScriptEvent> layoutPass;
-      ui->build(status, seconds(Clock::now(), t0), layoutPass);
-      frameInFreeArea(vp);
-    }
     for (const auto& a : actions) session->apply(a);
     driver->refreshTransferFunction();
 
