@@ -88,7 +88,7 @@ class Session {
     std::optional<ClipPlaneDrag> plane;     ///< the plane at the drag's start (after the pick)
     bool pickWanted = false, pickPending = false;
     WindowLevel window;                     ///< the window at the drag's (or finger count's) start
-    double spread0 = 0.0;
+    double spread0 = 0.0, width = 1.0;
     std::size_t fingers = 0;
   } drag_;
   void onClipTouch(const TouchEvent& e, const TouchInput& input);

@@ -11,12 +11,6 @@
 
 namespace handson {
 
-namespace {
-
-const Finger* findFinger(const TouchInput& input, std::int64_t id) { return input.find(id); }
-
-}  // namespace
-
 void Session::onClipTouch(const TouchEvent& e, const TouchInput& input) {
   const Viewport& vp = gestures_.viewport();
   if (e.phase == TouchPhase::Down && input.fingers().size() == 1) {
@@ -46,7 +40,7 @@ void Session::onClipTouch(const TouchEvent& e, const TouchInput& input) {
     return;
   }
   if (drag_.kind == ViewDrag::Kind::None || drag_.kind == ViewDrag::Kind::Window) return;
-  if (e.phase == TouchPhase::Move && e.id == drag_.finger && findFinger(input, e.id)) {
+  if (e.phase == TouchPhase::Move && e.id == drag_.finger && input.find(e.id)) {
     drag_.deltaPx = e.px - drag_.startPx;
     if (drag_.kind == ViewDrag::Kind::Face) {
       glm::dvec3 lo = drag_.lo, hi = drag_.hi;
@@ -104,12 +98,12 @@ void Session::onWindowTouch(const TouchEvent& e, const TouchInput& input) {
     drag_.startPx = centroid();
     drag_.window = window_;
     drag_.spread0 = spread();
+    drag_.width = transferFunctionPreset(preset_).width();  // the level's rate, once a drag
     return;
   }
   if (e.phase != TouchPhase::Move) return;
   const double ratio = drag_.spread0 > 4.0 && spread() > 4.0 ? spread() / drag_.spread0 : 1.0;  // fingers too close: no spread
-  const double width = transferFunctionPreset(preset_).width();
-  const WindowLevel w = windowLevelDrag(drag_.window, centroid() - drag_.startPx, ratio, gestures_.viewport(), width);
+  const WindowLevel w = windowLevelDrag(drag_.window, centroid() - drag_.startPx, ratio, gestures_.viewport(), drag_.width);
   if (!(w == window_)) {
     window_ = w;
     presetChanged_ = true;

@@ -82,10 +82,7 @@ OrbitCamera OrbitCamera::framing(const VolumeGeometry& geometry, double azimuth,
   return c;
 }
 
-namespace {
-
-/// The 8 corners of a volume's box (voxel edges included), world mm.
-std::array<glm::dvec3, 8> boxCorners(const VolumeGeometry& geometry) {
+std::array<glm::dvec3, 8> volumeBoxCorners(const VolumeGeometry& geometry) {
   std::array<glm::dvec3, 8> corners;
   for (int k = 0; k < 8; ++k) {
     const Eigen::Vector3d idx((k & 1) ? geometry.dims.x() - 0.5 : -0.5, (k & 2) ? geometry.dims.y() - 0.5 : -0.5,
@@ -95,6 +92,8 @@ std::array<glm::dvec3, 8> boxCorners(const VolumeGeometry& geometry) {
   }
   return corners;
 }
+
+namespace {
 
 /// The pixel bounding box (lo, hi) of the corners seen by c in a w x h view; false when a corner
 /// lies behind the near plane.
@@ -116,7 +115,7 @@ bool projectedBox(const OrbitCamera& c, const std::array<glm::dvec3, 8>& corners
 
 std::optional<std::array<double, 4>> projectedVolumeBox(const OrbitCamera& camera, const VolumeGeometry& geometry, int width, int height) {
   glm::dvec2 lo, hi;
-  if (!projectedBox(camera, boxCorners(geometry), std::max(width, 1), std::max(height, 1), lo, hi)) return std::nullopt;
+  if (!projectedBox(camera, volumeBoxCorners(geometry), std::max(width, 1), std::max(height, 1), lo, hi)) return std::nullopt;
   return std::array<double, 4>{lo.x, lo.y, hi.x, hi.y};
 }
 
@@ -125,7 +124,7 @@ OrbitCamera OrbitCamera::framingIn(const VolumeGeometry& geometry, double azimut
   const int w = std::max(width, 1), h = std::max(height, 1);
   OrbitCamera c = framing(geometry, azimuth, elevation, double(w) / double(h));
   if (!area.valid() || !(fill > 0.0 && fill <= 1.0)) return c;
-  const std::array<glm::dvec3, 8> corners = boxCorners(geometry);
+  const std::array<glm::dvec3, 8> corners = volumeBoxCorners(geometry);
   const glm::dvec2 want((area.x1 - area.x0) * w * fill, (area.y1 - area.y0) * h * fill);
   const glm::dvec2 centre(0.5 * (area.x0 + area.x1) * w, 0.5 * (area.y0 + area.y1) * h);
   for (int round = 0; round < 60; ++round) {

@@ -22,6 +22,9 @@ struct ScreenArea {
   bool operator==(const ScreenArea&) const = default;
 };
 
+/// The 8 corners of a volume's box (voxel edges included; an oblique grid's are not axis-aligned), world mm.
+std::array<glm::dvec3, 8> volumeBoxCorners(const VolumeGeometry& geometry);
+
 /// The pixel bounding box (x0, y0, x1, y1) of a volume's box (its 8 corners, voxel edges included)
 /// as a camera sees it in a width x height view; nullopt when a corner lies behind the near plane.
 struct OrbitCamera;

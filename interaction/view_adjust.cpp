@@ -9,11 +9,9 @@ namespace handson {
 void volumeWorldBox(const VolumeGeometry& g, glm::dvec3& lo, glm::dvec3& hi) {
   lo = glm::dvec3(std::numeric_limits<double>::infinity());
   hi = -lo;
-  for (int c = 0; c < 8; ++c) {
-    const Eigen::Vector3d idx((c & 1) ? g.dims.x() - 0.5 : -0.5, (c & 2) ? g.dims.y() - 0.5 : -0.5, (c & 4) ? g.dims.z() - 0.5 : -0.5);
-    const Eigen::Vector3d w = g.toWorld(idx);
-    lo = glm::min(lo, glm::dvec3(w.x(), w.y(), w.z()));
-    hi = glm::max(hi, glm::dvec3(w.x(), w.y(), w.z()));
+  for (const glm::dvec3& c : volumeBoxCorners(g)) {
+    lo = glm::min(lo, c);
+    hi = glm::max(hi, c);
   }
 }
 
