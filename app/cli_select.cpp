@@ -33,8 +33,11 @@ const char* const kSelectHelp =
     "  --extent-mm D          selection extent (radius about the seed)\n"
     "  --frame N              the volume of a 4D NIfTI image to load (default 0)\n"
     "  --hmax H               homogeneity threshold in seed standard deviations (default 1.1)\n"
-    "  --criterion NAME       smoothed (default: 3x3x3 means, a ball in mm, statistics refined from the\n"
-    "                         region) or paper (the paper's rule: raw values, breadth-first passes)\n"
+    "  --criterion NAME       core (default: 3x3x3 means, a ball in mm, statistics refined from the region,\n"
+    "                         growth passing only through the organ's core so thin bridges to a neighbour\n"
+    "                         are cut; a seed in a structure too thin for a core grows smoothed), smoothed\n"
+    "                         (the same without the core) or paper (the paper's rule: raw values,\n"
+    "                         breadth-first passes)\n"
     "  --backend cpu|gpu      CPU reference (default) or the Vulkan compute pass\n"
     "  --labels LABELS        a label map (any volume format; 0 = background): select the seed's organ\n"
     "                         instead of growing. On another grid of the same space it is resampled by\n"
@@ -112,7 +115,7 @@ int cmdSelect(const Words& words) {
   if (!(extent > 0.0) || !std::isfinite(extent)) throw UsageError("--extent-mm must be a number > 0");
   GrowParams p;
   p.hMax = args.number("--hmax", 1.1, 1e-3, 1e3);
-  if (!parseGrowCriterion(args.valueOr("--criterion", "smoothed"), p.criterion)) throw UsageError("--criterion must be smoothed or paper");
+  if (!parseGrowCriterion(args.valueOr("--criterion", "core"), p.criterion)) throw UsageError("--criterion must be core, smoothed or paper");
   const std::string backend = args.valueOr("--backend", "cpu");
   if (backend != "cpu" && backend != "gpu") throw UsageError("--backend must be cpu or gpu");
   const bool quiet = args.flag("--quiet");
@@ -171,7 +174,8 @@ int cmdSelect(const Words& words) {
   writeMask(g, mask, *args.value("-o"));
   const double voxelMm3 = g.spacing.prod();
   std::cout << std::fixed << std::setprecision(1) << "selected " << count << " voxels (" << count * voxelMm3 / 1000.0 << " ml) from seed ("
-            << seed.x() << ", " << seed.y() << ", " << seed.z() << "), criterion " << growCriterionName(p.criterion) << ", " << backend
+            << seed.x() << ", " << seed.y() << ", " << seed.z() << "), criterion " << growCriterionName(grower.setup().criterion)
+            << (grower.setup().criterion != p.criterion ? " (the seed's structure is too thin for a core)" : "") << ", " << backend
             << " in " << ms << " ms";
   if (backend == "gpu") std::cout << " (" << gpuRounds << " rounds)";
   std::cout << "\nwrote " << *args.value("-o") << "\n";

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "sim/distance_transform.h"
 #include "sim/error.h"
@@ -103,6 +104,54 @@ std::vector<SelectionAccuracy> evaluateSelection(const std::string& dataset, con
     }
   }
   return rows;
+}
+
+const SweepPoint& OrganSweep::best() const {
+  return *std::max_element(points.begin(), points.end(), [](const SweepPoint& a, const SweepPoint& b) { return a.dice < b.dice; });
+}
+
+std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume& ct, const Volume& labels, const std::vector<OrganLabel>& organs,
+                                       const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria) {
+  if (ct.dims() != labels.dims()) throw Error("selection accuracy: the label map is not on the CT's grid");
+  if (!std::is_sorted(fractions.begin(), fractions.end())) throw Error("selection accuracy: the extent fractions must increase");
+  const QuantizedVolume q = quantizeVolume(ct);
+  const auto& g = ct.geometry();
+  std::vector<OrganSweep> out;
+  for (const auto& organ : organs) {
+    const Eigen::Vector3i seed = deepestVoxel(labels, organ.label, ct);
+    if (seed.x() < 0) continue;
+    // The organ's radius from the seed: 95th percentile of its voxels' distances.
+    std::vector<double> dist;
+    for (std::size_t v = 0; v < labels.voxelCount(); ++v)
+      if (labels.value(v) == float(organ.label))
+        dist.push_back((g.voxelOf(v) - seed).cast<double>().cwiseProduct(g.spacing).norm());
+    const std::size_t at95 = std::min(dist.size() - 1, std::size_t(std::ceil(0.95 * double(dist.size()))) - 1);
+    std::nth_element(dist.begin(), dist.begin() + std::ptrdiff_t(at95), dist.end());
+    const double radius = std::max(dist[at95], g.spacing.minCoeff());
+    for (GrowCriterion c : criteria) {
+      GrowParams p;
+      p.criterion = c;
+      RegionGrower grower(q, seed, p);
+      OrganSweep s{dataset, organ.name, c, seed, radius, dist.size(), {}};
+      for (double f : fractions) {
+        const double extent = f * radius;
+        const auto t0 = std::chrono::steady_clock::now();
+        grower.growTo(extent);
+        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        const std::uint32_t bound = grower.bound(extent);
+        std::size_t selected = 0, hit = 0;
+        for (std::size_t v : grower.touched())
+          if (grower.keys()[v] <= bound) {
+            ++selected;
+            hit += labels.value(v) == float(organ.label);
+          }
+        const double dice = 2.0 * double(hit) / double(selected + dist.size());
+        s.points.push_back({f, extent, selected, dice, selected ? double(hit) / double(selected) : 0.0, double(hit) / double(dist.size()), ms});
+      }
+      out.push_back(std::move(s));
+    }
+  }
+  return out;
 }
 
 }  // namespace handson

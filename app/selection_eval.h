@@ -2,6 +2,7 @@
 // Accuracy of region growing against organ labels: seeds at the voxel farthest from each organ's
 // boundary, several extents, both criteria; precision = selected voxels inside the organ / selected
 // voxels; recall = selected organ voxels inside the extent's ball / organ voxels inside that ball.
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,26 @@ struct SelectionAccuracy {
 std::vector<SelectionAccuracy> evaluateSelection(const std::string& dataset, const Volume& ct, const Volume& labels,
                                                  const std::vector<OrganLabel>& organs, const std::vector<double>& extentsMm,
                                                  const std::vector<GrowCriterion>& criteria, double hMax = 1.1);
+
+/// Whole-organ accuracy of one criterion as the extent sweeps, as a user spreads the fingers: the
+/// extents are fractions of the organ's radius, the 95th percentile of its voxels' distances (mm)
+/// from the seed. Dice = 2|S n O| / (|S| + |O|) against the whole labelled organ O.
+struct SweepPoint {
+  double fraction, extentMm;
+  std::size_t selected;
+  double dice, precision, recall, milliseconds;
+};
+struct OrganSweep {
+  std::string dataset, organ;
+  GrowCriterion criterion;
+  Eigen::Vector3i seed;
+  double radiusMm;
+  std::size_t organVoxels;
+  std::vector<SweepPoint> points;  // in the order of the fractions
+  const SweepPoint& best() const;
+};
+std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume& ct, const Volume& labels, const std::vector<OrganLabel>& organs,
+                                       const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria);
 
 /// The voxel of `label` farthest (in mm) from any voxel of another label, among those whose 3x3x3
 /// mean CT value lies within the organ's interquartile range (label maps include tissue that is

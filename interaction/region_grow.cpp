@@ -11,6 +11,9 @@
 namespace handson {
 
 namespace {
+// Cached answers per voxel, as in the GPU pass: within the tolerance, within the core tolerance, core.
+constexpr std::uint8_t kKnown = 1, kHomogeneous = 2, kTight = 4, kCoreKnown = 8, kCore = 16;
+
 std::uint32_t floatKey(float f) {
   std::uint32_t b;
   std::memcpy(&b, &f, 4);
@@ -59,6 +62,7 @@ RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i&
   if (!g.contains(seed)) throw Error("region growing: the seed voxel lies outside the volume");
   if (!(params.hMax > 0.0) || !std::isfinite(params.hMax)) throw Error("region growing: h_max must be a positive number");
   if (!(params.sigmaFloor >= 0.0) || !std::isfinite(params.sigmaFloor)) throw Error("region growing: the sigma floor must be >= 0");
+  if (!(params.coreFraction > 0.0 && params.coreFraction <= 1.0)) throw Error("region growing: the core fraction must lie in (0, 1]");
   setup_.seed = seed;
   setup_.criterion = params.criterion;
   setup_.spacing = g.spacing.cast<float>();
@@ -76,65 +80,130 @@ RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i&
   const double mean = sum / 27.0;
   const double sigma = std::max(std::sqrt(std::max(0.0, sum2 / 27.0 - mean * mean)), params.sigmaFloor * 65535.0);
   const double tol = params.hMax * sigma;
+  seedLinear_ = std::size_t(seed.x()) + std::size_t(g.dims.x()) * (std::size_t(seed.y()) + std::size_t(g.dims.y()) * std::size_t(seed.z()));
   if (params.criterion == GrowCriterion::Paper) {
-    setup_.seedValue = float(vol_.data[vol_.geometry.voxelCount() ? std::size_t(seed.x()) + std::size_t(g.dims.x()) * (std::size_t(seed.y()) + std::size_t(g.dims.y()) * std::size_t(seed.z())) : 0]);
+    setup_.seedValue = float(vol_.data[seedLinear_]);
     setup_.tolerance = float(tol);
-  } else {
-    setup_.seedValue = float(sum);      // 3x3x3 sum: the mean times 27, exact in float
-    setup_.tolerance = float(27.0 * tol);
+    restart();
+    return;
   }
-  restart();
-  if (params.criterion == GrowCriterion::Smoothed) {
-    if (params.refinements < 0 || params.refinements > 10 || !(params.probeRadiusMm > 0.0) || !(params.hRegion > 0.0))
-      throw Error("region growing: invalid refinement parameters");
-    for (int r = 0; r < params.refinements; ++r) {
-      growTo(params.probeRadiusMm);
-      // Statistics of the raw values of the region (integer sums: exact).
-      std::uint64_t n = 0, s1 = 0, s2 = 0;
-      const std::uint32_t probe = bound(params.probeRadiusMm);
-      for (std::size_t v : touched_)
-        if (keys_[v] <= probe) {
-          const std::uint64_t u = vol_.data[v];
-          ++n;
-          s1 += u;
-          s2 += u * u;
-        }
-      if (n < 27) break;  // too small a region to say more than the seed did
-      const double m = double(s1) / double(n);
-      const double sd = std::sqrt(std::max(0.0, double(s2) / double(n) - m * m));
-      setup_.seedValue = float(27.0 * m);
-      setup_.tolerance = float(27.0 * std::max(params.hRegion * sd, tol));
+  if (params.refinements < 0 || params.refinements > 10 || !(params.probeRadiusMm > 0.0) || !(params.hRegion > 0.0) ||
+      !(params.thinShare >= 0.0 && params.thinShare <= 1.0))
+    throw Error("region growing: invalid refinement parameters");
+  refine(sum, tol);
+  if (setup_.criterion == GrowCriterion::Core) {
+    // A structure too thin for a core near the seed (a vessel, a cortex a few voxels thick) grows
+    // under the smoothed criterion instead; setup() tells which one runs.
+    growTo(params.probeRadiusMm);
+    const std::size_t core = count(params.probeRadiusMm);
+    setup_.criterion = GrowCriterion::Smoothed;
+    setTolerance(setup_.tolerance);
+    restart();
+    growTo(params.probeRadiusMm);
+    if (double(core) >= params.thinShare * double(count(params.probeRadiusMm))) {
+      setup_.criterion = GrowCriterion::Core;
+      setTolerance(setup_.tolerance);
       restart();
+    } else {
+      refine(sum, tol);  // the statistics again, from the region the smoothed criterion grows
     }
   }
 }
 
+void RegionGrower::refine(double seedSum, double seedTolerance) {
+  setup_.seedValue = float(seedSum);  // 3x3x3 sum: the mean times 27, exact in float
+  setTolerance(27.0 * seedTolerance);
+  restart();
+  for (int r = 0; r < params_.refinements; ++r) {
+    growTo(params_.probeRadiusMm);
+    // Statistics of the raw values of the region (integer sums: exact).
+    std::uint64_t n = 0, s1 = 0, s2 = 0;
+    const std::uint32_t probe = bound(params_.probeRadiusMm);
+    for (std::size_t v : touched_)
+      if (keys_[v] <= probe) {
+        const std::uint64_t u = vol_.data[v];
+        ++n;
+        s1 += u;
+        s2 += u * u;
+      }
+    if (n < 27) break;  // too small a region to say more than the seed did
+    const double m = double(s1) / double(n);
+    const double sd = std::sqrt(std::max(0.0, double(s2) / double(n) - m * m));
+    setup_.seedValue = float(27.0 * m);
+    setTolerance(27.0 * std::max(params_.hRegion * sd, seedTolerance));
+    restart();
+  }
+}
+
+void RegionGrower::setTolerance(double tolerance) {
+  setup_.tolerance = float(tolerance);
+  setup_.coreTolerance = setup_.criterion == GrowCriterion::Core ? float(params_.coreFraction * tolerance) : setup_.tolerance;
+  for (std::size_t v : classified_) class_[v] = 0;  // the tests' answers change with the statistics
+  classified_.clear();
+}
+
+bool RegionGrower::homogeneous(std::size_t v, int i, int j, int k) {
+  std::uint8_t& c = class_[v];
+  if (!(c & kKnown)) {
+    if (c == 0) classified_.push_back(v);
+    const float deviation = std::abs(value(i, j, k) - setup_.seedValue);
+    c |= std::uint8_t(kKnown | (deviation < setup_.tolerance ? kHomogeneous : 0) | (deviation < setup_.coreTolerance ? kTight : 0));
+  }
+  return c & kHomogeneous;
+}
+
+bool RegionGrower::passesOn(std::size_t v) { return passesOn(v, vol_.geometry.voxelOf(v)); }
+
+bool RegionGrower::passesOn(std::size_t v, const Eigen::Vector3i& x) {
+  if (setup_.criterion != GrowCriterion::Core || v == seedLinear_) return true;
+  if (!(class_[v] & kCoreKnown)) {
+    const auto& d = vol_.geometry.dims;
+    bool core = homogeneous(v, x.x(), x.y(), x.z()) && (class_[v] & kTight);
+    // The six neighbours, clamped to the volume as the 3x3x3 means are (the GPU pass does the same).
+    for (int n = 0; n < 6 && core; ++n) {
+      Eigen::Vector3i q = x;
+      q[n / 2] = std::clamp(q[n / 2] + ((n & 1) ? 1 : -1), 0, d[n / 2] - 1);
+      core = homogeneous(std::size_t(q.x()) + std::size_t(d.x()) * (std::size_t(q.y()) + std::size_t(d.y()) * std::size_t(q.z())), q.x(), q.y(), q.z());
+    }
+    if (class_[v] == 0) classified_.push_back(v);
+    class_[v] |= std::uint8_t(kCoreKnown | (core ? kCore : 0));
+  }
+  return class_[v] & kCore;
+}
+
 void RegionGrower::restart() {
   if (keys_.size() != vol_.geometry.voxelCount()) keys_.assign(vol_.geometry.voxelCount(), kUnreached);
+  if (class_.size() != vol_.geometry.voxelCount()) class_.assign(vol_.geometry.voxelCount(), 0);
   for (std::size_t v : touched_) keys_[v] = kUnreached;  // only what the last growth reached
   touched_.clear();
-  front_ = {};
+  front_.clear();
   grown_ = -1.0;
-  const auto& g = vol_.geometry;
-  const std::size_t s = std::size_t(setup_.seed.x()) +
-                        std::size_t(g.dims.x()) * (std::size_t(setup_.seed.y()) + std::size_t(g.dims.y()) * std::size_t(setup_.seed.z()));
-  keys_[s] = 0;  // the seed is always selected (key 0 in both criteria: step 0, distance 0)
+  const std::size_t s = seedLinear_;
+  keys_[s] = 0;  // the seed is always selected (key 0 in every criterion: step 0, distance 0)
   touched_.push_back(s);
-  front_.push({0, s});
+  front_.push(0, s);
 }
 
 float RegionGrower::value(int i, int j, int k) const {
   const auto& d = vol_.geometry.dims;
-  auto at = [&](int x, int y, int z) {
-    return float(vol_.data[std::size_t(x) + std::size_t(d.x()) * (std::size_t(y) + std::size_t(d.y()) * std::size_t(z))]);
-  };
-  if (setup_.criterion == GrowCriterion::Paper) return at(i, j, k);
-  float sum = 0.0f;  // integers below 2^24: exact in any order
-  for (int dz = -1; dz <= 1; ++dz)
+  const std::size_t sy = std::size_t(d.x()), sz = std::size_t(d.x()) * std::size_t(d.y());
+  if (setup_.criterion == GrowCriterion::Paper) return float(vol_.data[std::size_t(i) + sy * std::size_t(j) + sz * std::size_t(k)]);
+  std::uint32_t sum = 0;  // 27 values below 2^16: exact, and exact in float too (below 2^24)
+  if (i > 0 && j > 0 && k > 0 && i < d.x() - 1 && j < d.y() - 1 && k < d.z() - 1) {
+    const std::uint16_t* p = vol_.data.data() + (std::size_t(i - 1) + sy * std::size_t(j - 1) + sz * std::size_t(k - 1));
+    for (int dz = 0; dz < 3; ++dz, p += sz)
+      for (int dy = 0; dy < 3; ++dy) {
+        const std::uint16_t* row = p + sy * std::size_t(dy);
+        sum += std::uint32_t(row[0]) + row[1] + row[2];
+      }
+    return float(sum);
+  }
+  for (int dz = -1; dz <= 1; ++dz)  // at the volume's faces: edges clamped
     for (int dy = -1; dy <= 1; ++dy)
       for (int dx = -1; dx <= 1; ++dx)
-        sum += at(std::clamp(i + dx, 0, d.x() - 1), std::clamp(j + dy, 0, d.y() - 1), std::clamp(k + dz, 0, d.z() - 1));
-  return sum;
+        sum += vol_.data[std::size_t(std::clamp(i + dx, 0, d.x() - 1)) + sy * std::size_t(std::clamp(j + dy, 0, d.y() - 1)) +
+                         sz * std::size_t(std::clamp(k + dz, 0, d.z() - 1))];
+  return float(sum);
 }
 
 bool RegionGrower::accepts(std::size_t linear) const {
@@ -157,6 +226,7 @@ void RegionGrower::growTo(double extentMm) {
     front_.pop();
     if (key != keys_[v]) continue;  // superseded
     const Eigen::Vector3i vox = vol_.geometry.voxelOf(v);
+    if (!passesOn(v, vox)) continue;  // joins, but passes nothing on
     const int i = vox.x(), j = vox.y(), k = vox.z();
     const int ni[6] = {i - 1, i + 1, i, i, i, i}, nj[6] = {j, j, j - 1, j + 1, j, j}, nk[6] = {k, k, k, k, k - 1, k + 1};
     for (int n = 0; n < 6; ++n) {
@@ -169,7 +239,7 @@ void RegionGrower::growTo(double extentMm) {
         nkey = std::max(key, floatKey(growDistance2(Eigen::Vector3i(ni[n], nj[n], nk[n]), setup_.seed, setup_.spacing)));
       }
       if (nkey >= keys_[u]) continue;
-      if (std::abs(value(ni[n], nj[n], nk[n]) - setup_.seedValue) >= setup_.tolerance) continue;
+      if (!homogeneous(u, ni[n], nj[n], nk[n])) continue;
       push(u, nkey);
     }
   }
@@ -179,7 +249,7 @@ void RegionGrower::growTo(double extentMm) {
 void RegionGrower::push(std::size_t v, std::uint32_t key) {
   if (keys_[v] == kUnreached) touched_.push_back(v);
   keys_[v] = key;
-  front_.push({key, v});
+  front_.push(key, v);
 }
 
 std::vector<std::uint8_t> RegionGrower::mask(double extentMm) const {

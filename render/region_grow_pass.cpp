@@ -41,10 +41,6 @@ GpuRegionGrower::GpuRegionGrower(const Context& ctx, const Image& volume, const 
     : ctx_(ctx),
       volume_(volume),
       sampler_(sampler),
-      relax_(ctx, shaders::regionGrow(),
-             {{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}, storage(1), storage(2), storage(3),
-              storage(4), storage(5)},
-             sizeof(gpu::GrowPush)),
       compact_(ctx, shaders::regionCompact(), {storage(0), storage(1), storage(2)}, sizeof(CompactPush)) {}
 
 void GpuRegionGrower::begin(const GrowSetup& setup, const Eigen::Vector3i& boxMin, const Eigen::Vector3i& boxDims) {
@@ -57,6 +53,14 @@ void GpuRegionGrower::begin(const GrowSetup& setup, const Eigen::Vector3i& boxMi
   const std::uint64_t voxels = std::uint64_t(boxDims.x()) * boxDims.y() * boxDims.z();
   if (voxels * 4 > ctx_.properties().limits.maxStorageBufferRange)
     throw Error("region growing: the box is larger than this device's storage buffers allow");
+  if (!relax_.pipeline() || relaxCriterion_ != setup.criterion) {
+    static_assert(int(GrowCriterion::Paper) == 0 && int(GrowCriterion::Smoothed) == 1 && int(GrowCriterion::Core) == 2, "region_grow.comp's codes");
+    relax_ = ComputePipeline(ctx_, shaders::regionGrow(),
+                             {{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}, storage(1), storage(2),
+                              storage(3), storage(4), storage(5)},
+                             sizeof(gpu::GrowPush), {std::uint32_t(setup.criterion)});
+    relaxCriterion_ = setup.criterion;
+  }
   setup_ = setup;
   boxMin_ = boxMin;
   boxDims_ = boxDims;
@@ -104,11 +108,11 @@ void GpuRegionGrower::begin(const GrowSetup& setup, const Eigen::Vector3i& boxMi
 void GpuRegionGrower::record(VkCommandBuffer cmd, int rounds, bool dense, bool resume) {
   gpu::GrowPush push{};
   push.boxMin = glm::ivec4(boxMin_.x(), boxMin_.y(), boxMin_.z(), 0);
-  push.boxDims = glm::ivec4(boxDims_.x(), boxDims_.y(), boxDims_.z(), setup_.criterion == GrowCriterion::Paper ? 0 : 1);
+  push.boxDims = glm::ivec4(boxDims_.x(), boxDims_.y(), boxDims_.z(), int(setup_.criterion));
   push.brickDims = glm::ivec4(bricks_.x(), bricks_.y(), bricks_.z(), 0);
   push.seed = glm::ivec4(setup_.seed.x(), setup_.seed.y(), setup_.seed.z(), int(bound_));
   push.spacing = glm::vec4(setup_.spacing.x(), setup_.spacing.y(), setup_.spacing.z(), setup_.seedValue);
-  push.tolerance = glm::vec4(setup_.tolerance, 0, 0, 0);
+  push.tolerance = glm::vec4(setup_.tolerance, setup_.coreTolerance, 0, 0);
   auto compact = [&](const Buffer& into, bool fromReached) {
     vkCmdFillBuffer(cmd, into.handle(), 0, 4, 0);
     fullBarrier(cmd);

@@ -41,7 +41,8 @@ class GpuRegionGrower {
   const Context& ctx_;
   const Image& volume_;
   const Sampler& sampler_;
-  ComputePipeline relax_, compact_;
+  ComputePipeline relax_, compact_;  // relax_: built in begin() for the setup's criterion (a specialization constant)
+  GrowCriterion relaxCriterion_ = GrowCriterion::Paper;
   GrowSetup setup_{};
   Eigen::Vector3i boxMin_{0, 0, 0}, boxDims_{0, 0, 0}, bricks_{0, 0, 0};
   std::uint32_t brickCount_ = 0, bound_ = 0;

@@ -269,7 +269,8 @@ Sampler& Sampler::operator=(Sampler&& o) noexcept {
 // ------------------------------------------------------------------------------------- ComputePipeline
 
 ComputePipeline::ComputePipeline(const Context& ctx, std::span<const std::uint32_t> spirv,
-                                 const std::vector<VkDescriptorSetLayoutBinding>& bindings, std::uint32_t pushConstantBytes)
+                                 const std::vector<VkDescriptorSetLayoutBinding>& bindings, std::uint32_t pushConstantBytes,
+                                 const std::vector<std::uint32_t>& specialization)
     : device_(ctx.device()) {
   if (pushConstantBytes > ctx.properties().limits.maxPushConstantsSize)
     throw Error("Vulkan: push constants exceed the device limit");
@@ -296,6 +297,10 @@ ComputePipeline::ComputePipeline(const Context& ctx, std::span<const std::uint32
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
     ci.stage.module = module;
     ci.stage.pName = "main";
+    std::vector<VkSpecializationMapEntry> entries;
+    for (std::uint32_t i = 0; i < specialization.size(); ++i) entries.push_back({i, i * 4, 4});
+    const VkSpecializationInfo si{std::uint32_t(entries.size()), entries.data(), specialization.size() * 4, specialization.data()};
+    if (!specialization.empty()) ci.stage.pSpecializationInfo = &si;
     ci.layout = layout_;
     check(vkCreateComputePipelines(device_, VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline_), "vkCreateComputePipelines");
   } catch (...) {

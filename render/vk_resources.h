@@ -104,8 +104,10 @@ class Sampler {
 class ComputePipeline {
  public:
   ComputePipeline() = default;
+  /// `specialization[i]` is the value of the shader's `constant_id = i` (32-bit constants).
   ComputePipeline(const Context& ctx, std::span<const std::uint32_t> spirv,
-                  const std::vector<VkDescriptorSetLayoutBinding>& bindings, std::uint32_t pushConstantBytes);
+                  const std::vector<VkDescriptorSetLayoutBinding>& bindings, std::uint32_t pushConstantBytes,
+                  const std::vector<std::uint32_t>& specialization = {});
   ~ComputePipeline();
   ComputePipeline(ComputePipeline&& o) noexcept { *this = std::move(o); }
   ComputePipeline& operator=(ComputePipeline&& o) noexcept;

@@ -1,8 +1,9 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // Region growing, one workgroup per active 8^3 brick of the box around the seed: keys relax to
-// key(v) = f(min over 6-neighbours) for homogeneous voxels (paper: steps + 1; smoothed: max of the
-// neighbour's key and v's own squared distance), bounded by the extent's key. The brick iterates
+// key(v) = f(min over 6-neighbours) for homogeneous voxels (paper: steps + 1; smoothed and core:
+// max of the neighbour's key and v's own squared distance), bounded by the extent's key. Under the
+// core criterion only core neighbours (and the seed, key 0) pass their key on. The brick iterates
 // locally in shared memory until it settles, then publishes its keys with atomicMin and flags the
 // neighbouring bricks its faces changed. The fixed point is the CPU reference's
 // (interaction/region_grow.cpp): the same keys, so the same voxel set.
@@ -10,15 +11,21 @@
 layout(local_size_x = HANDSON_GROW_BRICK, local_size_y = HANDSON_GROW_BRICK, local_size_z = HANDSON_GROW_BRICK) in;
 layout(set = 0, binding = 0) uniform sampler3D uVolume;
 layout(std430, set = 0, binding = 1) buffer Keys { uint keys[]; };
-layout(std430, set = 0, binding = 2) buffer Accept { uint accept[]; };  // 0 unknown, 1 homogeneous, 2 not
+layout(std430, set = 0, binding = 2) buffer Accept { uint accept[]; };  // the tests' answers: kKnown... bits, 0 = none yet
 layout(std430, set = 0, binding = 3) readonly buffer List { uint list[]; };
 layout(std430, set = 0, binding = 4) buffer Flags { uint flags[]; };      // next-active bricks
 layout(std430, set = 0, binding = 5) buffer Reached { uint reached[]; };  // bricks holding reached voxels
 layout(push_constant) uniform Push { GrowPush pc; };
+// The criterion (0 paper, 1 smoothed, 2 core) as a specialization constant: each pipeline carries
+// only its own criterion's code (the core's extra tests cost the others nothing).
+layout(constant_id = 0) const uint kCriterion = 1u;
 
 const int B = HANDSON_GROW_BRICK;
 const int H = HANDSON_GROW_BRICK + 2;  // with a one-voxel halo
 shared uint sk[H * H * H];
+shared uint sc[H * H * H];  // the Accept bits of reached voxels (core criterion only)
+const uint kKnown = 1u, kHomogeneous = 2u, kTight = 4u, kCoreKnown = 8u, kCore = 16u;
+const ivec3 kOff[6] = ivec3[6](ivec3(-1, 0, 0), ivec3(1, 0, 0), ivec3(0, -1, 0), ivec3(0, 1, 0), ivec3(0, 0, -1), ivec3(0, 0, 1));
 shared uint anyChanged;
 
 uint volumeAt(ivec3 p) {
@@ -28,7 +35,7 @@ uint volumeAt(ivec3 p) {
 
 // The value compared with the seed's: the voxel's own (paper) or its 3x3x3 sum (smoothed).
 float homogeneityValue(ivec3 p) {
-  if (pc.boxDims.w == 0) return float(volumeAt(p));
+  if (kCriterion == 0u) return float(volumeAt(p));
   uint sum = 0u;
   for (int z = -1; z <= 1; ++z)
     for (int y = -1; y <= 1; ++y)
@@ -37,6 +44,40 @@ float homogeneityValue(ivec3 p) {
 }
 
 uint boxIndex(ivec3 v) { return uint(v.x + pc.boxDims.x * (v.y + pc.boxDims.y * v.z)); }
+// The tests on one voxel (volume coordinates): kKnown | kHomogeneous (within the tolerance) |
+// kTight (within the core tolerance), computed once and kept in Accept where it lies in the box.
+uint testsAt(ivec3 w) {
+  ivec3 v = w - pc.boxMin.xyz;
+  bool inBox = all(greaterThanEqual(v, ivec3(0))) && all(lessThan(v, pc.boxDims.xyz));
+  if (inBox) {
+    uint a = accept[boxIndex(v)];
+    if ((a & kKnown) != 0u) return a;
+  }
+  float deviation = abs(homogeneityValue(w) - pc.spacing.w);
+  uint a = kKnown | (deviation < pc.tolerance.x ? kHomogeneous : 0u) | (deviation < pc.tolerance.y ? kTight : 0u);
+  if (inBox) atomicOr(accept[boxIndex(v)], a);
+  return a;
+}
+
+// The Accept bits of a box voxel; under the core criterion also whether it is core (homogeneous,
+// tight, and all six neighbours, clamped to the volume, homogeneous). Every workgroup computes the
+// same answers, and bits only ever accumulate (atomicOr), so racing writers agree.
+uint classOf(ivec3 v) {
+  uint gi = boxIndex(v);
+  uint a = accept[gi];
+  if ((a & (kCriterion == 2u ? kCoreKnown : kKnown)) != 0u) return a;
+  ivec3 w = pc.boxMin.xyz + v;
+  a = testsAt(w);
+  if (kCriterion == 2u) {
+    bool core = (a & (kHomogeneous | kTight)) == (kHomogeneous | kTight);
+    ivec3 top = textureSize(uVolume, 0) - 1;
+    for (int n = 0; n < 6 && core; ++n) core = (testsAt(clamp(w + kOff[n], ivec3(0), top)) & kHomogeneous) != 0u;
+    a |= core ? kCoreKnown | kCore : kCoreKnown;
+    atomicOr(accept[gi], a);
+  }
+  return a;
+}
+
 int haloIndex(ivec3 h) { return h.x + H * (h.y + H * h.z); }
 uint brickIndex(ivec3 b) { return uint(b.x + pc.brickDims.x * (b.y + pc.brickDims.y * b.z)); }
 
@@ -53,6 +94,10 @@ void main() {
     ivec3 g = b * B + h - 1;
     bool ok = all(greaterThanEqual(g, ivec3(0))) && all(lessThan(g, pc.boxDims.xyz));
     sk[i] = ok ? keys[boxIndex(g)] : kGrowUnreached;
+    // A reached voxel's class, stored by the workgroup that reached it. Not yet visible in this
+    // dispatch, it reads as "not core"; that workgroup flags this brick, which runs again next
+    // round and sees it: the fixed point is the same.
+    sc[i] = kCriterion == 2u && ok ? accept[boxIndex(g)] : 0u;
   }
 
   ivec3 world = pc.boxMin.xyz + v;
@@ -69,29 +114,24 @@ void main() {
     uint myKey = inBox ? sk[c] : kGrowUnreached;
     uint best = kGrowUnreached;
     if (inBox) {
-      const ivec3 off[6] = ivec3[6](ivec3(-1, 0, 0), ivec3(1, 0, 0), ivec3(0, -1, 0), ivec3(0, 1, 0), ivec3(0, 0, -1), ivec3(0, 0, 1));
       for (int n = 0; n < 6; ++n) {
-        uint kn = sk[haloIndex(lv + 1 + off[n])];
+        int hn = haloIndex(lv + 1 + kOff[n]);
+        uint kn = sk[hn];
         if (kn == kGrowUnreached) continue;
-        uint cand = pc.boxDims.w == 0 ? kn + 1u : max(kn, myDist);
+        if (kCriterion == 2u && kn != 0u && (sc[hn] & kCore) == 0u) continue;  // joined, passes nothing on
+        uint cand = kCriterion == 0u ? kn + 1u : max(kn, myDist);
         best = min(best, cand);
       }
     }
     bool changed = false;
     if (best < myKey && best <= bound) {
-      if (acc == 0u) {
-        uint gi = boxIndex(v);
-        acc = accept[gi];
-        if (acc == 0u) {
-          acc = abs(homogeneityValue(world) - pc.spacing.w) < pc.tolerance.x ? 1u : 2u;
-          accept[gi] = acc;
-        }
-      }
-      changed = acc == 1u;
+      if (acc == 0u) acc = classOf(v);
+      changed = (acc & kHomogeneous) != 0u;
     }
     barrier();  // every thread has read sk
     if (changed) {
       sk[c] = best;
+      sc[c] = acc;
       anyChanged = 1u;
       everChanged = true;
     }

@@ -125,11 +125,11 @@ HS_CONST kGrowMaxLocalIterations = 24;
 
 struct GrowPush {
   ivec4 boxMin;     // xyz: first voxel of the box in the volume
-  ivec4 boxDims;    // xyz: box size in voxels, w: criterion (0 paper, 1 smoothed)
+  ivec4 boxDims;    // xyz: box size in voxels, w: criterion (0 paper, 1 smoothed, 2 core)
   ivec4 brickDims;  // xyz: bricks over the box
   ivec4 seed;       // xyz: seed voxel in the volume, w: key bound
   vec4 spacing;     // xyz mm, w: seed value (u16 units, or 3x3x3 sum)
-  vec4 tolerance;   // x: accept |value - seed value| < x
+  vec4 tolerance;   // x: accept |value - seed value| < x; y: core tolerance (core criterion)
 };
 
 // Deformation (shaders/deform_*.comp; CPU references sim/fine_interpolation.h, sim/tet_raster.h).

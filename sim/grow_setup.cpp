@@ -6,11 +6,19 @@
 
 namespace handson {
 
-const char* growCriterionName(GrowCriterion c) { return c == GrowCriterion::Paper ? "paper" : "smoothed"; }
+const char* growCriterionName(GrowCriterion c) {
+  switch (c) {
+    case GrowCriterion::Paper: return "paper";
+    case GrowCriterion::Smoothed: return "smoothed";
+    case GrowCriterion::Core: return "core";
+  }
+  return "?";
+}
 
 bool parseGrowCriterion(const std::string& s, GrowCriterion& out) {
   if (s == "paper") out = GrowCriterion::Paper;
   else if (s == "smoothed") out = GrowCriterion::Smoothed;
+  else if (s == "core") out = GrowCriterion::Core;
   else return false;
   return true;
 }

@@ -9,7 +9,9 @@
 
 namespace handson {
 
-enum class GrowCriterion : std::uint8_t { Paper, Smoothed };
+/// Paper: the paper's rule; Smoothed: 3x3x3 means in a ball (the earlier default); Core (default):
+/// Smoothed, but growth passes only through the organ's core (see interaction/region_grow.h).
+enum class GrowCriterion : std::uint8_t { Paper, Smoothed, Core };
 const char* growCriterionName(GrowCriterion c);
 bool parseGrowCriterion(const std::string& s, GrowCriterion& out);
 
@@ -22,6 +24,7 @@ struct GrowSetup {
   GrowCriterion criterion = GrowCriterion::Smoothed;
   float seedValue = 0;   ///< u16 units: the seed's own value (paper) or its 3x3x3 sum (smoothed)
   float tolerance = 0;   ///< accept |value - seedValue| < tolerance (same units)
+  float coreTolerance = 0;  ///< Core: a voxel passes growth on only if |value - seedValue| < this too
   Eigen::Vector3f spacing{1, 1, 1};
 };
 

@@ -1,6 +1,7 @@
 // Region growing against the organ labels of ../shared/data: the thresholds issue #4 sets.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include "app/nifti_io.h"
@@ -47,3 +48,50 @@ TEST(SelectionAccuracy, Ircadb) {
 }
 
 TEST(SelectionAccuracy, TotalsegSmallKidneys) { check({"totalseg-small", {{2, "kidney_right"}, {3, "kidney_left"}}}); }
+
+namespace {
+
+// Whole-organ Dice as the extent sweeps (0.5-1.2x each organ's radius): the core criterion
+// against the smoothed one it refines, on every labelled organ of the file. Thresholds are what
+// was measured (bench selection, docs/region-growing.md) less a margin for rounding: a regression
+// guard, the issue's targets stated in the README.
+void checkSweep(const char* dir, const std::vector<OrganLabel>& organs, double medianGain) {
+  const std::string path = std::string(HANDSON_SHARED_DATA_DIR) + "/" + dir;
+  if (!std::filesystem::exists(path + "/ct.nii.gz")) GTEST_SKIP() << "no " << path;
+  const Volume ct = readNifti(path + "/ct.nii.gz");
+  const Volume labels = readNifti(path + "/labels.nii.gz");
+  const auto sweeps = sweepSelection(dir, ct, labels, organs, {0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.2}, {GrowCriterion::Smoothed, GrowCriterion::Core});
+  ASSERT_EQ(sweeps.size(), 2 * organs.size());
+  std::vector<double> gain;
+  for (const auto& core : sweeps) {
+    if (core.criterion != GrowCriterion::Core) continue;
+    for (const auto& smoothed : sweeps)
+      if (smoothed.criterion == GrowCriterion::Smoothed && smoothed.organ == core.organ) {
+        // Never much worse than smoothed, at its best or at the largest extent (the artery, thin
+        // branches that lose their core, is 0.05 below: measured 0.62 against 0.66 / 0.67).
+        EXPECT_GE(core.best().dice, smoothed.best().dice - 0.06) << core.organ;
+        EXPECT_GE(core.points.back().dice, smoothed.points.back().dice - 0.06) << core.organ;
+        gain.push_back(core.best().dice - smoothed.best().dice);
+      }
+    for (const auto& p : core.points) {
+      EXPECT_GE(p.dice, 0.0);
+      EXPECT_LE(p.dice, 1.0);
+    }
+  }
+  std::sort(gain.begin(), gain.end());
+  EXPECT_GE(gain[gain.size() / 2], medianGain) << "median gain in best Dice over the smoothed criterion";
+}
+
+}  // namespace
+
+TEST(SelectionAccuracy, CoreCriterionSelectsMoreOfTheWholeOrganOnIrcadb) {
+#if defined(HANDSON_TEST_SANITIZED)
+  GTEST_SKIP() << "34 M voxels: too slow under the sanitizers";
+#endif
+  checkSweep("ircadb1.1", {{3, "kidney_left"}, {4, "kidney_right"}, {9, "artery"}, {10, "portal_vein"}, {8, "liver"}, {11, "venous_system"}, {7, "spleen"}},
+             0.04);
+}
+
+TEST(SelectionAccuracy, CoreCriterionSelectsMoreOfTheWholeOrganOnTotalsegSmall) {
+  checkSweep("totalseg-small", {{2, "kidney_right"}, {3, "kidney_left"}, {5, "liver"}, {1, "spleen"}}, 0.0);
+}

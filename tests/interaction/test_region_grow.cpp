@@ -57,7 +57,11 @@ TEST(RegionGrow, PaperCriterionIsBreadthFirstPassesInAHomogeneousRegion) {
 
 TEST(RegionGrow, SmoothedCriterionIsABallInMillimetres) {
   const QuantizedVolume q = blockVolume();
-  RegionGrower g(q, {4, 8, 6});
+  for (GrowCriterion c : {GrowCriterion::Smoothed, GrowCriterion::Core}) {
+  GrowParams p;
+  p.criterion = c;
+  RegionGrower g(q, {4, 8, 6}, p);
+  EXPECT_EQ(g.setup().criterion, c);
   g.growTo(4.0);
   for (int k = 0; k < 12; ++k)
     for (int j = 0; j < 16; ++j)
@@ -65,8 +69,9 @@ TEST(RegionGrow, SmoothedCriterionIsABallInMillimetres) {
         const double d2 = (i - 4) * (i - 4) + (j - 8) * (j - 8) + 4.0 * (k - 6) * (k - 6);
         // 3x3x3 means next to the border between halves are mixed: not homogeneous.
         const bool expected = d2 <= 16.0 && i <= 8;
-        EXPECT_EQ(g.keys()[std::size_t(i + 20 * (j + 16 * k))] <= g.bound(4.0), expected) << i << "," << j << "," << k;
+        EXPECT_EQ(g.keys()[std::size_t(i + 20 * (j + 16 * k))] <= g.bound(4.0), expected) << growCriterionName(c) << " " << i << "," << j << "," << k;
       }
+  }
 }
 
 TEST(RegionGrow, MinimaxKeysMatchABruteForceSearch) {
@@ -78,6 +83,7 @@ TEST(RegionGrow, MinimaxKeysMatchABruteForceSearch) {
   const QuantizedVolume q = quantizeVolume(ph.ct);
   const Eigen::Vector3i seed = ph.ct.geometry().toIndex(ph.geometry.liverCenter).array().round().cast<int>();
   GrowParams p;
+  p.criterion = GrowCriterion::Smoothed;
   p.refinements = 0;
   RegionGrower g(q, seed, p);
   g.growTo(60.0);
@@ -117,10 +123,170 @@ TEST(RegionGrow, BadInputIsRefused) {
   EXPECT_THROW(RegionGrower(q, {1, 1, 1}, p), Error);
   p.hMax = -1;
   EXPECT_THROW(RegionGrower(q, {1, 1, 1}, p), Error);
+  p = {};
+  p.coreFraction = 0.0;
+  EXPECT_THROW(RegionGrower(q, {1, 1, 1}, p), Error);
+  p.coreFraction = std::nan("");
+  EXPECT_THROW(RegionGrower(q, {1, 1, 1}, p), Error);
+  p = {};
+  p.thinShare = 1.5;
+  EXPECT_THROW(RegionGrower(q, {1, 1, 1}, p), Error);
   RegionGrower g(q, {1, 1, 1});
   EXPECT_THROW(g.growTo(std::nan("")), Error);
   EXPECT_THROW(g.growTo(-2.0), Error);
   GrowCriterion c;
   EXPECT_TRUE(parseGrowCriterion("paper", c));
+  EXPECT_TRUE(parseGrowCriterion("core", c));
+  EXPECT_EQ(c, GrowCriterion::Core);
   EXPECT_FALSE(parseGrowCriterion("magic", c));
+}
+
+namespace {
+
+// Two 14^3 boxes of equal intensity (1 mm voxels, 1000 on 0), joined along x by a bridge of
+// width x width voxels. Smoothed values of voxels less than one voxel from the boundary are mixed,
+// so the smoothed criterion accepts voxels with a one-voxel margin, the core criterion's core needs
+// a two-voxel margin: it cuts bridges up to four voxels wide (exact, noise-free).
+QuantizedVolume twoOrgans(int width) {
+  VolumeGeometry g;
+  g.dims = {40, 20, 20};
+  Volume v(g, ScalarType::Int16);
+  auto organ = [&](int i, int j, int k) {
+    const bool box = j >= 3 && j <= 16 && k >= 3 && k <= 16 && ((i >= 2 && i <= 15) || (i >= 22 && i <= 35));
+    const int lo = 10 - width / 2;
+    const bool bridge = i > 15 && i < 22 && j >= lo && j < lo + width && k >= lo && k < lo + width;
+    return box || bridge;
+  };
+  for (int k = 0; k < 20; ++k)
+    for (int j = 0; j < 20; ++j)
+      for (int i = 0; i < 40; ++i) v.setValue(i, j, k, organ(i, j, k) ? 1000.f : 0.f);
+  return quantizeVolume(v);
+}
+
+bool reachesTheOtherOrgan(const QuantizedVolume& q, GrowCriterion c) {
+  GrowParams p;
+  p.criterion = c;
+  RegionGrower g(q, {8, 10, 10}, p);
+  g.growTo(60.0);
+  return g.keys()[std::size_t(28 + 40 * (10 + 20 * 10))] != kUnreached;
+}
+
+}  // namespace
+
+TEST(RegionGrow, TheCoreCriterionDoesNotMergeOrgansJoinedByABridge) {
+  for (int width : {1, 2, 3, 4}) EXPECT_FALSE(reachesTheOtherOrgan(twoOrgans(width), GrowCriterion::Core)) << "width " << width;
+  // What it is measured against: the paper's criterion crosses any bridge, the smoothed one any
+  // three voxels wide, and a five-voxel bridge has a core of its own (the stated limit, exact).
+  EXPECT_TRUE(reachesTheOtherOrgan(twoOrgans(1), GrowCriterion::Paper));
+  EXPECT_FALSE(reachesTheOtherOrgan(twoOrgans(2), GrowCriterion::Smoothed));
+  EXPECT_TRUE(reachesTheOtherOrgan(twoOrgans(3), GrowCriterion::Smoothed));
+  EXPECT_TRUE(reachesTheOtherOrgan(twoOrgans(4), GrowCriterion::Smoothed));
+  EXPECT_TRUE(reachesTheOtherOrgan(twoOrgans(5), GrowCriterion::Core));
+}
+
+TEST(RegionGrow, AnOrganLargerThanTheExtentIsCutAtTheExtent) {
+  // The ball of 4 mm about the box's centre lies at least two voxels inside it: the selection is
+  // exactly the ball; at 30 mm it is exactly the organ's accepted voxels and nothing else.
+  const QuantizedVolume q = twoOrgans(1);
+  RegionGrower g(q, {8, 10, 10});
+  ASSERT_EQ(g.setup().criterion, GrowCriterion::Core);
+  g.growTo(30.0);
+  for (int k = 0; k < 20; ++k)
+    for (int j = 0; j < 20; ++j)
+      for (int i = 0; i < 40; ++i) {
+        const std::size_t v = std::size_t(i + 40 * (j + 20 * k));
+        const int d2 = (i - 8) * (i - 8) + (j - 10) * (j - 10) + (k - 10) * (k - 10);
+        EXPECT_EQ(g.keys()[v] <= g.bound(4.0), d2 <= 16) << i << "," << j << "," << k;
+        // The first box's voxels whose 3x3x3 neighbourhood is all organ, less its twelve edge lines
+        // (they touch no core voxel: both neighbours inward lie on a face layer).
+        const int mi = std::min(i - 2, 15 - i), mj = std::min(j - 3, 16 - j), mk = std::min(k - 3, 16 - k);
+        const bool accepted = mi >= 1 && mj >= 1 && mk >= 1;
+        const int onFaceLayer = (mi == 1) + (mj == 1) + (mk == 1);
+        EXPECT_EQ(g.keys()[v] <= g.bound(30.0), accepted && onFaceLayer < 2) << i << "," << j << "," << k;
+      }
+}
+
+TEST(RegionGrow, CoreKeysMatchABruteForceSearch) {
+  // On the 3 mm phantom with noise: a flood fill within each ball that steps only out of core
+  // voxels (the seed always), the core decided here from the 3x3x3 sums, independently.
+  PhantomOptions o;
+  o.spacingMm = 3.0;
+  const Phantom ph = makePhantom(o);
+  const QuantizedVolume q = quantizeVolume(ph.ct);
+  const Eigen::Vector3i seed = ph.ct.geometry().toIndex(ph.geometry.liverCenter).array().round().cast<int>();
+  RegionGrower g(q, seed);
+  ASSERT_EQ(g.setup().criterion, GrowCriterion::Core);
+  GrowParams sp;
+  sp.criterion = GrowCriterion::Smoothed;
+  RegionGrower smoothed(q, seed, sp);
+  const auto& d = q.geometry.dims;
+  const auto lin = [&](const Eigen::Vector3i& v) { return std::size_t(v.x()) + std::size_t(d.x()) * (std::size_t(v.y()) + std::size_t(d.y()) * std::size_t(v.z())); };
+  const auto sum27 = [&](Eigen::Vector3i v) {
+    double s = 0;
+    for (int z = -1; z <= 1; ++z)
+      for (int y = -1; y <= 1; ++y)
+        for (int x = -1; x <= 1; ++x) s += q.data[lin((v + Eigen::Vector3i(x, y, z)).cwiseMax(0).cwiseMin(d - Eigen::Vector3i::Ones()))];
+    return s;
+  };
+  const GrowSetup& st = g.setup();
+  const auto homogeneous = [&](const Eigen::Vector3i& v) { return std::abs(sum27(v) - st.seedValue) < st.tolerance; };
+  const auto core = [&](const Eigen::Vector3i& v) {
+    if (v == seed) return true;
+    if (!(std::abs(sum27(v) - st.seedValue) < st.coreTolerance) || !homogeneous(v)) return false;
+    for (int a = 0; a < 3; ++a)
+      for (int s : {-1, 1}) {
+        Eigen::Vector3i u = v;
+        u[a] = std::clamp(u[a] + s, 0, d[a] - 1);
+        if (!homogeneous(u)) return false;
+      }
+    return true;
+  };
+  std::size_t differs = 0;
+  for (double r : {10.0, 20.0, 35.0, 60.0}) {
+    g.growTo(r);
+    smoothed.growTo(r);
+    std::vector<char> seen(q.data.size(), 0);
+    std::queue<Eigen::Vector3i> queue;
+    queue.push(seed);
+    seen[lin(seed)] = 1;
+    std::size_t n = 0;
+    while (!queue.empty()) {
+      const Eigen::Vector3i v = queue.front();
+      queue.pop();
+      ++n;
+      if (!core(v)) continue;
+      for (int a = 0; a < 3; ++a)
+        for (int s : {-1, 1}) {
+          Eigen::Vector3i u = v;
+          u[a] += s;
+          if (!q.geometry.contains(u) || seen[lin(u)]) continue;
+          if (growDistance2(u, seed, q.geometry.spacing.cast<float>()) > float(r) * float(r) || !homogeneous(u)) continue;
+          seen[lin(u)] = 1;
+          queue.push(u);
+        }
+    }
+    EXPECT_EQ(g.count(r), n) << "radius " << r;
+    differs += smoothed.count(r) != n;
+  }
+  EXPECT_GT(differs, 0u) << "the core criterion selects what the smoothed one does: the test would not see it";
+}
+
+TEST(RegionGrow, ASeedInAStructureTooThinForACoreGrowsSmoothed) {
+  // A rod four voxels across: its accepted voxels are a 2x2 line with no core, so the smoothed
+  // criterion runs and selects them all within the ball.
+  VolumeGeometry geo;
+  geo.dims = {40, 9, 9};
+  Volume v(geo, ScalarType::Int16);
+  for (int k = 0; k < 9; ++k)
+    for (int j = 0; j < 9; ++j)
+      for (int i = 0; i < 40; ++i) v.setValue(i, j, k, (j >= 2 && j <= 5 && k >= 2 && k <= 5) ? 1000.f : 0.f);
+  const QuantizedVolume q = quantizeVolume(v);
+  RegionGrower g(q, {20, 4, 4});
+  EXPECT_EQ(g.setup().criterion, GrowCriterion::Smoothed);
+  g.growTo(8.0);
+  std::size_t expect = 0;
+  for (int k = 3; k <= 4; ++k)
+    for (int j = 3; j <= 4; ++j)
+      for (int i = 1; i < 39; ++i) expect += (i - 20) * (i - 20) + (j - 4) * (j - 4) + (k - 4) * (k - 4) <= 64;
+  EXPECT_EQ(g.count(8.0), expect);
 }

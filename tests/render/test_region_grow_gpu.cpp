@@ -76,7 +76,7 @@ TEST_F(RegionGrowGpu, SameVoxelSetAsCpuOnThePhantom) {
   const QuantizedVolume q = quantizeVolume(ph.ct);
   const Eigen::Vector3i kidney = ph.ct.geometry().toIndex(ph.geometry.kidneyRightCenter).array().round().cast<int>();
   const Eigen::Vector3i liver = ph.ct.geometry().toIndex(ph.geometry.liverCenter).array().round().cast<int>();
-  for (GrowCriterion c : {GrowCriterion::Paper, GrowCriterion::Smoothed}) {
+  for (GrowCriterion c : {GrowCriterion::Paper, GrowCriterion::Smoothed, GrowCriterion::Core}) {
     EXPECT_GT(compareOn(q, kidney, c, {6, 15, 30, 20}, false), 50u);
     EXPECT_GT(compareOn(q, liver, c, {12, 40}, true), 500u);
   }
@@ -88,7 +88,7 @@ TEST_F(RegionGrowGpu, SameVoxelSetAsCpuOnRealCt) {
   const Volume ct = readNifti(path);
   const QuantizedVolume q = quantizeVolume(ct);
   // Seeds inside the right kidney and the liver of this scan (voxel indices from its labels).
-  for (GrowCriterion c : {GrowCriterion::Paper, GrowCriterion::Smoothed}) {
+  for (GrowCriterion c : {GrowCriterion::Paper, GrowCriterion::Smoothed, GrowCriterion::Core}) {
     EXPECT_GT(compareOn(q, {79, 35, 12}, c, {10, 20, 40}, false), 20u);
     EXPECT_GT(compareOn(q, {86, 47, 29}, c, {20, 10}, false), 20u);
   }
