@@ -23,6 +23,35 @@ QuantizedVolume blockVolume() {
   return quantizeVolume(v);
 }
 
+// Voxels a 6-neighbour flood fill reaches from the seed within the ball of radius r (mm, the
+// shader's float distance): it steps into voxels `enters` accepts, out of voxels `leaves` accepts.
+template <class Enters, class Leaves>
+std::size_t floodFill(const QuantizedVolume& q, const Eigen::Vector3i& seed, double r, Enters enters, Leaves leaves) {
+  const auto& d = q.geometry.dims;
+  const auto lin = [&](const Eigen::Vector3i& v) { return std::size_t(v.x()) + std::size_t(d.x()) * (std::size_t(v.y()) + std::size_t(d.y()) * std::size_t(v.z())); };
+  std::vector<char> seen(q.data.size(), 0);
+  std::queue<Eigen::Vector3i> queue;
+  queue.push(seed);
+  seen[lin(seed)] = 1;
+  std::size_t n = 0;
+  while (!queue.empty()) {
+    const Eigen::Vector3i v = queue.front();
+    queue.pop();
+    ++n;
+    if (!leaves(v)) continue;
+    for (int a = 0; a < 3; ++a)
+      for (int s : {-1, 1}) {
+        Eigen::Vector3i u = v;
+        u[a] += s;
+        if (!q.geometry.contains(u) || seen[lin(u)]) continue;
+        if (growDistance2(u, seed, q.geometry.spacing.cast<float>()) > float(r) * float(r) || !enters(u)) continue;
+        seen[lin(u)] = 1;
+        queue.push(u);
+      }
+  }
+  return n;
+}
+
 }  // namespace
 
 TEST(RegionGrow, PaperCriterionIsBreadthFirstPassesInAHomogeneousRegion) {
@@ -87,29 +116,11 @@ TEST(RegionGrow, MinimaxKeysMatchABruteForceSearch) {
   p.refinements = 0;
   RegionGrower g(q, seed, p);
   g.growTo(60.0);
+  const auto& d = q.geometry.dims;
+  const auto accepted = [&](const Eigen::Vector3i& u) { return g.accepts(std::size_t(u.x()) + std::size_t(d.x()) * (std::size_t(u.y()) + std::size_t(d.y()) * std::size_t(u.z()))); };
   for (double r : {12.0, 24.0, 37.0, 60.0}) {
     // Flood fill within the ball of radius r through accepted voxels.
-    const auto& d = q.geometry.dims;
-    std::vector<char> seen(q.data.size(), 0);
-    std::queue<Eigen::Vector3i> queue;
-    const auto lin = [&](const Eigen::Vector3i& v) { return std::size_t(v.x()) + std::size_t(d.x()) * (std::size_t(v.y()) + std::size_t(d.y()) * std::size_t(v.z())); };
-    queue.push(seed);
-    seen[lin(seed)] = 1;
-    std::size_t n = 0;
-    while (!queue.empty()) {
-      const Eigen::Vector3i v = queue.front();
-      queue.pop();
-      ++n;
-      for (int a = 0; a < 3; ++a)
-        for (int s : {-1, 1}) {
-          Eigen::Vector3i u = v;
-          u[a] += s;
-          if (!q.geometry.contains(u) || seen[lin(u)]) continue;
-          if (growDistance2(u, seed, q.geometry.spacing.cast<float>()) > float(r) * float(r) || !g.accepts(lin(u))) continue;
-          seen[lin(u)] = 1;
-          queue.push(u);
-        }
-    }
+    const std::size_t n = floodFill(q, seed, r, accepted, [](const Eigen::Vector3i&) { return true; });
     EXPECT_EQ(g.count(r), n) << "radius " << r;
   }
 }
@@ -245,26 +256,7 @@ TEST(RegionGrow, CoreKeysMatchABruteForceSearch) {
   for (double r : {10.0, 20.0, 35.0, 60.0}) {
     g.growTo(r);
     smoothed.growTo(r);
-    std::vector<char> seen(q.data.size(), 0);
-    std::queue<Eigen::Vector3i> queue;
-    queue.push(seed);
-    seen[lin(seed)] = 1;
-    std::size_t n = 0;
-    while (!queue.empty()) {
-      const Eigen::Vector3i v = queue.front();
-      queue.pop();
-      ++n;
-      if (!core(v)) continue;
-      for (int a = 0; a < 3; ++a)
-        for (int s : {-1, 1}) {
-          Eigen::Vector3i u = v;
-          u[a] += s;
-          if (!q.geometry.contains(u) || seen[lin(u)]) continue;
-          if (growDistance2(u, seed, q.geometry.spacing.cast<float>()) > float(r) * float(r) || !homogeneous(u)) continue;
-          seen[lin(u)] = 1;
-          queue.push(u);
-        }
-    }
+    const std::size_t n = floodFill(q, seed, r, homogeneous, core);
     EXPECT_EQ(g.count(r), n) << "radius " << r;
     differs += smoothed.count(r) != n;
   }
