@@ -42,7 +42,7 @@ void writeChart(const std::filesystem::path& chartCsv, const std::filesystem::pa
   const std::string f = chartCsv.string();
   std::ofstream(script) << "set datafile separator ','\n"
                         << "set terminal pngcairo size 1200,560 font ',11'\nset output '" << png.string() << "'\n"
-                        << "set multiplot layout 1,2 title 'Region growing at 20 mm, seeds at the deepest typical voxel of each organ: paper criterion vs smoothed (default)'\n"
+                        << "set multiplot layout 1,2 title 'Region growing at 20 mm, seeds at the deepest typical voxel of each organ: paper criterion vs smoothed'\n"
                         << "set style data histograms\nset style histogram clustered gap 1\nset style fill solid 0.85 border -1\n"
                         << "set termoption noenhanced\nset yrange [0:1.1]\nset grid ytics\nset xtics rotate by -40 font ',10'\nset key top right\nset bmargin 9\n"
                         << "set title 'Precision'\n"
@@ -66,9 +66,12 @@ void writeDice(const std::vector<OrganSweep>& sweeps, const std::vector<GrowCrit
       if (w.dataset == o.first && w.organ == o.second && w.criterion == c) return &w;
     return nullptr;
   };
-  if (organs.empty() || sweeps.front().points.empty()) return;
-  const double last = sweeps.front().points.back().fraction;
   std::ofstream md(out / "selection_dice.md"), csv(out / "selection_dice.csv");
+  if (organs.empty()) {
+    md << "No labelled organ was found: nothing swept.\n";
+    return;
+  }
+  const double last = sweeps.front().points.back().fraction;
   md << std::fixed << std::setprecision(2) << "Whole-organ Dice, extent swept " << sweeps.front().points.front().fraction << "-" << last
      << "x the organ's radius (95th percentile of its voxels' distances from the seed); best (at which fraction) and at " << last << "x\n\n"
      << "| dataset | organ | radius |";
@@ -166,7 +169,7 @@ GrowTiming timeGrowth(vk::Context& ctx, const QuantizedVolume& q, GrowCriterion 
   const Eigen::Vector3i r = (Eigen::Vector3d::Constant(50.0).array() / q.geometry.spacing.array()).ceil().cast<int>();
   const Eigen::Vector3i lo = (seed - r).cwiseMax(Eigen::Vector3i::Zero()), hi = (seed + r).cwiseMin(d - Eigen::Vector3i::Ones());
   std::vector<double> cpuMs, sparseMs, denseMs;
-  GrowTiming out{criterion};
+  GrowTiming out{setup.setup().criterion};  // the one that runs (a thin structure falls back to smoothed)
   for (int i = 0; i < repeat; ++i) {
     RegionGrower cpu(q, seed, p);
     cpu.growTo(e1);

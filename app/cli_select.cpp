@@ -152,7 +152,7 @@ int cmdSelect(const Words& words) {
     vk::uploadToImage(ctx, volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
     vk::Sampler sampler(ctx, false);
     vk::GpuRegionGrower gpu(ctx, volume, sampler);
-    const Eigen::Vector3i r = (Eigen::Vector3d::Constant(extent).array() / g.spacing.array()).ceil().cast<int>() + 1;
+    const Eigen::Vector3i r = growReach(grower.setup().criterion, extent, g.spacing) + Eigen::Vector3i::Ones();
     const Eigen::Vector3i boxLo = (seed - r).cwiseMax(Eigen::Vector3i::Zero());
     const Eigen::Vector3i boxHi = (seed + r).cwiseMin(g.dims - Eigen::Vector3i::Ones());
     const Eigen::Vector3i box = boxHi - boxLo + Eigen::Vector3i::Ones();

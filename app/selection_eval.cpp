@@ -79,9 +79,10 @@ std::vector<SelectionAccuracy> evaluateSelection(const std::string& dataset, con
         const std::uint32_t bound = grower.bound(extent);
         const auto& keys = grower.keys();
         std::size_t selected = 0, selectedInOrgan = 0, organInBall = 0, selectedOrganInBall = 0;
-        // Only voxels within the ball can be selected (smoothed) or within extent steps (paper,
-        // a diamond inside the ball): scan the ball's bounding box.
-        const Eigen::Vector3i r = (Eigen::Vector3d::Constant(extent).array() / g.spacing.array()).ceil().cast<int>();
+        // Only voxels within the ball (smoothed, core) or within extent / smallest spacing steps
+        // (paper: a diamond that reaches past the ball along coarser axes) can be selected: scan
+        // the box they can reach, which holds the ball.
+        const Eigen::Vector3i r = growReach(grower.setup().criterion, extent, g.spacing);
         const Eigen::Vector3i lo = (seed - r).cwiseMax(Eigen::Vector3i::Zero());
         const Eigen::Vector3i hi = (seed + r).cwiseMin(g.dims - Eigen::Vector3i::Ones());
         for (int k = lo.z(); k <= hi.z(); ++k)
@@ -113,7 +114,8 @@ const SweepPoint& OrganSweep::best() const {
 std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume& ct, const Volume& labels, const std::vector<OrganLabel>& organs,
                                        const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria) {
   if (ct.dims() != labels.dims()) throw Error("selection accuracy: the label map is not on the CT's grid");
-  if (!std::is_sorted(fractions.begin(), fractions.end())) throw Error("selection accuracy: the extent fractions must increase");
+  if (fractions.empty() || !std::is_sorted(fractions.begin(), fractions.end()))
+    throw Error("selection accuracy: the extent fractions must be a non-empty increasing list");
   const QuantizedVolume q = quantizeVolume(ct);
   const auto& g = ct.geometry();
   std::vector<OrganSweep> out;

@@ -1,6 +1,6 @@
 #pragma once
 // Accuracy of region growing against organ labels: seeds at the voxel farthest from each organ's
-// boundary, several extents, both criteria; precision = selected voxels inside the organ / selected
+// boundary, several extents, any criteria; precision = selected voxels inside the organ / selected
 // voxels; recall = selected organ voxels inside the extent's ball / organ voxels inside that ball.
 #include <cstddef>
 #include <string>

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cassert>
 #include <cstddef>
 #include <cstdint>
 #include <utility>
@@ -33,10 +34,12 @@ class RadixQueue {
   }
   /// The entry with the smallest key (the queue must not be empty).
   const Entry& top() {
+    assert(size_ > 0);
     settle();
     return buckets_[0].back();
   }
   void pop() {
+    assert(size_ > 0);
     settle();
     buckets_[0].pop_back();
     --size_;

@@ -97,12 +97,12 @@ RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i&
     growTo(params.probeRadiusMm);
     const std::size_t core = count(params.probeRadiusMm);
     setup_.criterion = GrowCriterion::Smoothed;
-    setTolerance(setup_.tolerance);
+    setTolerance(tolerance_);
     restart();
     growTo(params.probeRadiusMm);
     if (double(core) >= params.thinShare * double(count(params.probeRadiusMm))) {
       setup_.criterion = GrowCriterion::Core;
-      setTolerance(setup_.tolerance);
+      setTolerance(tolerance_);
       restart();
     } else {
       refine(sum, tol);  // the statistics again, from the region the smoothed criterion grows
@@ -136,6 +136,7 @@ void RegionGrower::refine(double seedSum, double seedTolerance) {
 }
 
 void RegionGrower::setTolerance(double tolerance) {
+  tolerance_ = tolerance;
   setup_.tolerance = float(tolerance);
   setup_.coreTolerance = setup_.criterion == GrowCriterion::Core ? float(params_.coreFraction * tolerance) : setup_.tolerance;
   for (std::size_t v : classified_) class_[v] = 0;  // the tests' answers change with the statistics

@@ -19,8 +19,9 @@
 //    six neighbours are homogeneous too and whose own value lies within the tighter core tolerance
 //    (GrowParams::coreFraction of the tolerance). Other homogeneous voxels join the selection when
 //    a core neighbour reaches them but pass nothing on. This is growth on the homogeneous set eroded
-//    by one voxel, dilated back by one voxel within it: bridges up to two voxels thick between
-//    organs of similar intensity, and paths along an organ's blurred rim, no longer join them.
+//    by one voxel, dilated back by one voxel within it: bridges between organs of similar intensity
+//    (up to four voxels wide in a noise-free image: two of them are homogeneous 3x3x3 means), and
+//    paths along an organ's blurred rim, no longer join them.
 //    key(v) = max(|v - seed|^2, min over core 6-neighbours n of key(n)) for homogeneous v; the seed
 //    has key 0 and always passes on.
 // In all, shrinking is a threshold on stored keys and growing resumes where the last call stopped.
@@ -102,6 +103,7 @@ class RegionGrower {
   std::vector<std::size_t> touched_;  // voxels with a key (to reset and count without a full scan)
   double grown_ = -1.0;
   std::size_t seedLinear_ = 0;
+  double tolerance_ = 0.0;  // the tolerance before rounding to float (the core tolerance derives from it)
   // Per-voxel cache of the tests (kKnown, kHomogeneous, kCoreKnown, kCore bits) and the voxels it
   // holds, reset when the statistics change.
   std::vector<std::uint8_t> class_;

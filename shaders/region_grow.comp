@@ -33,7 +33,7 @@ uint volumeAt(ivec3 p) {
   return uint(round(texelFetch(uVolume, p, 0).r * 65535.0));
 }
 
-// The value compared with the seed's: the voxel's own (paper) or its 3x3x3 sum (smoothed).
+// The value compared with the seed's: the voxel's own (paper) or its 3x3x3 sum (smoothed, core).
 float homogeneityValue(ivec3 p) {
   if (kCriterion == 0u) return float(volumeAt(p));
   uint sum = 0u;
@@ -97,7 +97,7 @@ void main() {
     // A reached voxel's class, stored by the workgroup that reached it. Not yet visible in this
     // dispatch, it reads as "not core"; that workgroup flags this brick, which runs again next
     // round and sees it: the fixed point is the same.
-    sc[i] = kCriterion == 2u && ok ? accept[boxIndex(g)] : 0u;
+    if (kCriterion == 2u) sc[i] = ok ? accept[boxIndex(g)] : 0u;
   }
 
   ivec3 world = pc.boxMin.xyz + v;
@@ -131,7 +131,7 @@ void main() {
     barrier();  // every thread has read sk
     if (changed) {
       sk[c] = best;
-      sc[c] = acc;
+      if (kCriterion == 2u) sc[c] = acc;
       anyChanged = 1u;
       everChanged = true;
     }

@@ -32,6 +32,11 @@ std::uint32_t growKeyBound(GrowCriterion c, double extentMm, const Eigen::Vector
   return bits;
 }
 
+Eigen::Vector3i growReach(GrowCriterion c, double extentMm, const Eigen::Vector3d& spacing) {
+  if (c == GrowCriterion::Paper) return Eigen::Vector3i::Constant(int(growKeyBound(c, extentMm, spacing)));
+  return (Eigen::Vector3d::Constant(std::max(0.0, extentMm)).array() / spacing.array()).ceil().cast<int>();
+}
+
 float growDistance2(const Eigen::Vector3i& v, const Eigen::Vector3i& s, const Eigen::Vector3f& sp) {
   // The same operations, in the same order, as region_grow.comp (whose result is `precise`).
   const float dx = float(v.x() - s.x()) * sp.x();

@@ -31,6 +31,9 @@ struct GrowSetup {
 /// Key bound for an extent in mm: steps (paper) or the bits of the float d^2 (smoothed), which
 /// order like the floats for non-negative values.
 std::uint32_t growKeyBound(GrowCriterion c, double extentMm, const Eigen::Vector3d& spacing);
+/// How far from the seed (voxels, per axis) a selection of this extent can reach: the ball's
+/// radius (smoothed, core), or the steps along any axis (paper: extent / the smallest spacing).
+Eigen::Vector3i growReach(GrowCriterion c, double extentMm, const Eigen::Vector3d& spacing);
 /// Squared distance from the seed in mm^2, computed in float exactly as the shader does.
 float growDistance2(const Eigen::Vector3i& voxel, const Eigen::Vector3i& seed, const Eigen::Vector3f& spacing);
 

@@ -30,11 +30,12 @@ std::size_t compareOn(const QuantizedVolume& q, const Eigen::Vector3i& seed, Gro
   GrowParams p;
   p.criterion = c;
   RegionGrower cpu(q, seed, p);
+  EXPECT_EQ(cpu.setup().criterion, c) << "the seed lies in a structure too thin for a core: pick another";
   vk::GpuRegionGrower gpu(ctx, volume, sampler);
   // Box: the ball of the largest extent (plus a voxel), clipped to the volume.
   double maxExtent = 0;
   for (double e : extents) maxExtent = std::max(maxExtent, e);
-  const Eigen::Vector3i r = (Eigen::Vector3d::Constant(maxExtent).array() / q.geometry.spacing.array()).ceil().cast<int>() + 1;
+  const Eigen::Vector3i r = growReach(c, maxExtent, q.geometry.spacing) + Eigen::Vector3i::Ones();
   const Eigen::Vector3i lo = (seed - r).cwiseMax(Eigen::Vector3i::Zero());
   const Eigen::Vector3i hi = (seed + r).cwiseMin(d - Eigen::Vector3i::Ones());
   gpu.begin(cpu.setup(), lo, hi - lo + Eigen::Vector3i::Ones());
