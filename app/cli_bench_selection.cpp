@@ -155,18 +155,15 @@ struct GrowTiming {
 
 // A live update: the selection of a liver seed of ircadb1.1 grown from 20 to 25 mm, on the CPU
 // reference and the GPU pass (sparse bricks, and optionally the dense dispatch over the box).
-GrowTiming timeGrowth(vk::Context& ctx, const QuantizedVolume& q, GrowCriterion criterion, int repeat, bool dense) {
+GrowTiming timeGrowth(vk::Context& ctx, const QuantizedVolume& q, const vk::Image& volume, const vk::Sampler& sampler, GrowCriterion criterion,
+                      int repeat, bool dense) {
   const Eigen::Vector3i seed(216, 150, 96);
   const double e1 = 20.0, e2 = 25.0;
   GrowParams p;
   p.criterion = criterion;
   RegionGrower setup(q, seed, p);
   const auto& d = q.geometry.dims;
-  vk::Image volume(ctx, {std::uint32_t(d.x()), std::uint32_t(d.y()), std::uint32_t(d.z()), fg::Format::R16Unorm},
-                   VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
-  vk::uploadToImage(ctx, volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  vk::Sampler sampler(ctx, false);
-  const Eigen::Vector3i r = (Eigen::Vector3d::Constant(50.0).array() / q.geometry.spacing.array()).ceil().cast<int>();
+  const Eigen::Vector3i r = growReach(setup.setup().criterion, 50.0, q.geometry.spacing);  // a box beyond the 25 mm ball
   const Eigen::Vector3i lo = (seed - r).cwiseMax(Eigen::Vector3i::Zero()), hi = (seed + r).cwiseMin(d - Eigen::Vector3i::Ones());
   std::vector<double> cpuMs, sparseMs, denseMs;
   GrowTiming out{setup.setup().criterion};  // the one that runs (a thin structure falls back to smoothed)
@@ -303,8 +300,13 @@ int cmdBenchSelection(const Words& words) {
   std::ofstream tcsv(out / "selection_timing.csv");
   tcsv << "criterion,method,update_ms\n";
   std::cout << "\ngrow update 20 -> 25 mm of a liver selection of ircadb1.1 on " << ctx.summary().name << " (median of " << repeat << ")\n";
-  const GrowTiming base = timeGrowth(ctx, q, GrowCriterion::Smoothed, repeat, false);
-  const GrowTiming now = timeGrowth(ctx, q, GrowParams{}.criterion, repeat, true);
+  const auto& d = q.geometry.dims;  // the volume uploaded once for both criteria
+  vk::Image volume(ctx, {std::uint32_t(d.x()), std::uint32_t(d.y()), std::uint32_t(d.z()), fg::Format::R16Unorm},
+                   VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
+  vk::uploadToImage(ctx, volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  vk::Sampler sampler(ctx, false);
+  const GrowTiming base = timeGrowth(ctx, q, volume, sampler, GrowCriterion::Smoothed, repeat, false);
+  const GrowTiming now = timeGrowth(ctx, q, volume, sampler, GrowParams{}.criterion, repeat, true);
   for (const GrowTiming* t : {&base, &now}) {
     tcsv << growCriterionName(t->criterion) << ",cpu," << t->cpuMs << "\n" << growCriterionName(t->criterion) << ",gpu_sparse," << t->sparseMs << "\n";
     if (t->denseMs > 0) tcsv << growCriterionName(t->criterion) << ",gpu_dense," << t->denseMs << "\n";
