@@ -2,18 +2,22 @@
 #   make run    install what is missing, build, run the main job
 #   make test   install what is missing, build, run the test suite
 # Other targets: deps, build, bench, asan-test (the suite under ASan+UBSan, clang), fuzz (FUZZ_SECONDS
-# per fuzzer, default 60), clean.
+# per fuzzer, default 60), core-test (sim/ and interaction/ alone: no Vulkan, SDL2 or GDCM needed),
+# clean. WERROR=ON makes every compiler warning an error (CI sets it).
 
 PACKAGES := build-essential cmake ninja-build pkg-config \
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslc \
   libsdl2-dev libeigen3-dev libtet1.5-dev libglm-dev libgtest-dev libgmock-dev libbenchmark-dev \
   libsuitesparse-dev libteem-dev libinsighttoolkit5-dev libopenblas0-pthread libgdcm-dev libpng-dev zlib1g-dev libimgui-dev libstb-dev nlohmann-json3-dev gnuplot-nox xvfb xauth xdotool
+# What sim/ and interaction/ alone need (make core-test).
+CORE_PACKAGES := build-essential cmake ninja-build libeigen3-dev libtet1.5-dev libglm-dev libgtest-dev libsuitesparse-dev
 FUZZ_PACKAGES := clang libclang-rt-14-dev
 FUZZ_SECONDS ?= 60
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 JOBS ?= 2
+WERROR ?= OFF
 
-.PHONY: deps fuzz-deps build run test bench asan-test fuzz clean external-data
+.PHONY: deps fuzz-deps build run test bench asan-test fuzz core-test clean external-data
 
 deps:
 	@missing=$$(for p in $(PACKAGES); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q 'install ok installed' || echo $$p; done); \
@@ -23,7 +27,7 @@ deps:
 	fi
 
 build: deps
-	cmake --preset release
+	cmake --preset release -DHANDSON_WERROR=$(WERROR)
 	cmake --build --preset release -j $(JOBS)
 
 run: build
@@ -62,7 +66,7 @@ fuzz-deps: deps
 LSAN := LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp
 
 asan-test: fuzz-deps external-data
-	cmake --preset asan
+	cmake --preset asan -DHANDSON_WERROR=$(WERROR)
 	cmake --build --preset asan -j $(JOBS)
 	$(LSAN) ctest --preset asan
 
@@ -71,7 +75,7 @@ asan-test: fuzz-deps external-data
 # five at once (each its own process; logs in build-asan/findings/<kind>.log, printed at the end);
 # a finding stops that fuzzer with the crashing input written to build-asan/findings/ and fails the target.
 fuzz: fuzz-deps
-	cmake --preset asan
+	cmake --preset asan -DHANDSON_WERROR=$(WERROR)
 	cmake --build --preset fuzz
 	mkdir -p build-asan/findings
 	set -e; for t in nifti nrrd metaimage dicom script; do \
@@ -88,5 +92,14 @@ fuzz: fuzz-deps
 	if [ $$status != 0 ]; then for t in nifti nrrd metaimage dicom script; do echo "== fuzz_$$t (last lines)"; tail -40 build-asan/findings/$$t.log; done; fi; \
 	exit $$status
 
+# sim/ and interaction/ with their tests, on a machine that has none of Vulkan, SDL2, GDCM or glslc
+# (build-core; installs only CORE_PACKAGES).
+core-test:
+	@missing=$$(for p in $(CORE_PACKAGES); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q 'install ok installed' || echo $$p; done); \
+	if [ -n "$$missing" ]; then $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; fi
+	cmake -S . -B build-core -G Ninja -DCMAKE_BUILD_TYPE=Release -DHANDSON_CORE_ONLY=ON -DHANDSON_WERROR=$(WERROR)
+	cmake --build build-core -j $(JOBS)
+	ctest --test-dir build-core -j $(JOBS) --output-on-failure
+
 clean:
-	rm -rf build build-debug build-asan
+	rm -rf build build-debug build-asan build-core

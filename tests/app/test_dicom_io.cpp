@@ -655,13 +655,16 @@ TEST(DicomIo, HeaderSignednessWinsOverTheCodestream) {
   TempDir plain, flipped;
   const std::string tag("\x28\x00\x03\x01US\x02\x00", 8);
   for (std::size_t k = 0; k < j2k.size(); ++k) {
-    plain.link(j2k[k], "s" + std::to_string(k));
+    // Appended, not "s" + to_string(k): GCC 12 warns (-Wstringop-overflow) on the inlined insert.
+    std::string name = "s";
+    name += std::to_string(k);
+    plain.link(j2k[k], name);
     std::string bytes = readBytes(j2k[k]);
     const std::size_t at = bytes.find(tag);
     ASSERT_NE(at, std::string::npos);
     ASSERT_EQ(bytes[at + 8], 0);  // unsigned in the original
     bytes[at + 8] = 1;
-    writeBytes(flipped.file("s" + std::to_string(k)), bytes);
+    writeBytes(flipped.file(name), bytes);
   }
   // Rescale of the series (the same on every slice here): from the original's text.
   const std::string first = readBytes(j2k.front());
