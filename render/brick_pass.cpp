@@ -18,8 +18,8 @@ static_assert(sizeof(BrickPush) == 32, "push constant layout of brick_minmax.com
 BrickPass::BrickPass(const Context& ctx)
     : ctx_(ctx),
       pipeline_(ctx, shaders::brickMinMax(),
-                {{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
-                 {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}},
+                {{gpu::kBindBrickMinmaxVolume, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+                 {gpu::kBindBrickMinmaxOut, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}},
                 sizeof(BrickPush)) {}
 
 void BrickPass::add(fg::FrameGraph& graph, fg::ResourceHandle volume, fg::ResourceHandle ranges, const Image& volumeImage,
@@ -39,8 +39,8 @@ void BrickPass::add(fg::FrameGraph& graph, fg::ResourceHandle volume, fg::Resour
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_.pipeline());
         DescriptorWriter()
-            .sampledImage(0, x.image(volume).view(), sampler.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-            .buffer(1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(ranges).handle())
+            .sampledImage(gpu::kBindBrickMinmaxVolume, x.image(volume).view(), sampler.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
+            .buffer(gpu::kBindBrickMinmaxOut, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(ranges).handle())
             .push(ctx_, x.cmd(), pipeline_);
         vkCmdPushConstants(x.cmd(), pipeline_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(BrickPush), &push);
         vkCmdDispatch(x.cmd(), (count + gpu::kBrickGroupX - 1) / gpu::kBrickGroupX, 1, 1);

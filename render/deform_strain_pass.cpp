@@ -41,11 +41,11 @@ GpuDeformer::StrainOutputs GpuDeformer::addStrainPass(fg::FrameGraph& g) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, strain_.pipeline());
         DescriptorWriter()
-            .buffer(0, ssbo, x.buffer(hb.params).handle())
-            .buffer(1, ssbo, x.buffer(hb.tets).handle())
-            .buffer(2, ssbo, x.buffer(hb.rest).handle())
-            .buffer(3, ssbo, x.buffer(hb.posNew).handle())
-            .buffer(4, ssbo, x.buffer(hb.strain).handle())
+            .buffer(gpu::kBindDeformStrainParams, ssbo, x.buffer(hb.params).handle())
+            .buffer(gpu::kBindDeformStrainTets, ssbo, x.buffer(hb.tets).handle())
+            .buffer(gpu::kBindDeformStrainRest, ssbo, x.buffer(hb.rest).handle())
+            .buffer(gpu::kBindDeformStrainPos, ssbo, x.buffer(hb.posNew).handle())
+            .buffer(gpu::kBindDeformStrainOut, ssbo, x.buffer(hb.strain).handle())
             .push(ctx_, x.cmd(), strain_);
         vkCmdDispatch(x.cmd(), groups, 1, 1);
       });
@@ -64,11 +64,11 @@ GpuDeformer::StrainOutputs GpuDeformer::addStrainPass(fg::FrameGraph& g) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, strainRaster_.pipeline());
         DescriptorWriter()
-            .buffer(0, ssbo, x.buffer(hb.params).handle())
-            .buffer(1, ssbo, x.buffer(hb.box).handle())
-            .buffer(2, ssbo, x.buffer(hb.owner).handle())
-            .buffer(3, ssbo, x.buffer(hb.strain).handle())
-            .storageImage(4, x.image(hb.strainVolume).view())
+            .buffer(gpu::kBindDeformStrainRasterParams, ssbo, x.buffer(hb.params).handle())
+            .buffer(gpu::kBindDeformStrainRasterBox, ssbo, x.buffer(hb.box).handle())
+            .buffer(gpu::kBindDeformStrainRasterOwner, ssbo, x.buffer(hb.owner).handle())
+            .buffer(gpu::kBindDeformStrainRasterStrain, ssbo, x.buffer(hb.strain).handle())
+            .storageImage(gpu::kBindDeformStrainRasterOut, x.image(hb.strainVolume).view())
             .push(ctx_, x.cmd(), strainRaster_);
         vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
       });

@@ -41,7 +41,9 @@ GpuRegionGrower::GpuRegionGrower(const Context& ctx, const Image& volume, const 
     : ctx_(ctx),
       volume_(volume),
       sampler_(sampler),
-      compact_(ctx, shaders::regionCompact(), {storage(0), storage(1), storage(2)}, sizeof(CompactPush)) {}
+      compact_(ctx, shaders::regionCompact(),
+               {storage(gpu::kBindRegionCompactFlags), storage(gpu::kBindRegionCompactList), storage(gpu::kBindRegionCompactReached)},
+               sizeof(CompactPush)) {}
 
 void GpuRegionGrower::begin(const GrowSetup& setup, const Eigen::Vector3i& boxMin, const Eigen::Vector3i& boxDims) {
   const fg::ImageDesc vd = volume_.desc();
@@ -55,10 +57,15 @@ void GpuRegionGrower::begin(const GrowSetup& setup, const Eigen::Vector3i& boxMi
     throw Error("region growing: the box is larger than this device's storage buffers allow");
   if (!relax_.pipeline() || relaxCriterion_ != setup.criterion) {
     static_assert(int(GrowCriterion::Paper) == 0 && int(GrowCriterion::Smoothed) == 1 && int(GrowCriterion::Core) == 2, "region_grow.comp's codes");
-    relax_ = ComputePipeline(ctx_, shaders::regionGrow(),
-                             {{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}, storage(1), storage(2),
-                              storage(3), storage(4), storage(5)},
-                             sizeof(gpu::GrowPush), {std::uint32_t(setup.criterion)});
+    relax_ =
+        ComputePipeline(ctx_, shaders::regionGrow(),
+                        {{gpu::kBindRegionGrowVolume, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+                         storage(gpu::kBindRegionGrowKeys),
+                         storage(gpu::kBindRegionGrowAccept),
+                         storage(gpu::kBindRegionGrowList),
+                         storage(gpu::kBindRegionGrowFlags),
+                         storage(gpu::kBindRegionGrowReached)},
+                        sizeof(gpu::GrowPush), {std::uint32_t(setup.criterion)});
     relaxCriterion_ = setup.criterion;
   }
   setup_ = setup;
@@ -118,9 +125,9 @@ void GpuRegionGrower::record(VkCommandBuffer cmd, int rounds, bool dense, bool r
     fullBarrier(cmd);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, compact_.pipeline());
     DescriptorWriter()
-        .buffer(0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, flags_.handle())
-        .buffer(1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, into.handle())
-        .buffer(2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, reached_.handle())
+        .buffer(gpu::kBindRegionCompactFlags, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, flags_.handle())
+        .buffer(gpu::kBindRegionCompactList, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, into.handle())
+        .buffer(gpu::kBindRegionCompactReached, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, reached_.handle())
         .push(ctx_, cmd, compact_);
     const CompactPush cp{brickCount_, fromReached ? 1u : 0u};
     vkCmdPushConstants(cmd, compact_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(cp), &cp);
@@ -132,12 +139,12 @@ void GpuRegionGrower::record(VkCommandBuffer cmd, int rounds, bool dense, bool r
     const Buffer& list = dense ? denseList_ : listA_;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, relax_.pipeline());
     DescriptorWriter()
-        .sampledImage(0, volume_.view(), sampler_.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-        .buffer(1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, keys_.handle())
-        .buffer(2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accept_.handle())
-        .buffer(3, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, list.handle())
-        .buffer(4, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, flags_.handle())
-        .buffer(5, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, reached_.handle())
+        .sampledImage(gpu::kBindRegionGrowVolume, volume_.view(), sampler_.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
+        .buffer(gpu::kBindRegionGrowKeys, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, keys_.handle())
+        .buffer(gpu::kBindRegionGrowAccept, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accept_.handle())
+        .buffer(gpu::kBindRegionGrowList, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, list.handle())
+        .buffer(gpu::kBindRegionGrowFlags, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, flags_.handle())
+        .buffer(gpu::kBindRegionGrowReached, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, reached_.handle())
         .push(ctx_, cmd, relax_);
     vkCmdPushConstants(cmd, relax_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
     vkCmdDispatchIndirect(cmd, list.handle(), 0);

@@ -260,7 +260,7 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   Slot& s = slots_[executor_.slot()];
 
   const VkBufferUsageFlags hostUsage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-  ensureBuffer(s.params, sizeof(gpu::RenderParams), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);  // not uniform: see deform_pass.cpp
+  ensureBuffer(s.params, sizeof(gpu::RenderParams), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);  // not uniform: see deform_descriptors.h
   gpu::RenderParams params = req.params;
   params.control.y = std::uint32_t(req.pickPoints.size());  // written below, once the overlay is known
 

@@ -5,8 +5,8 @@
 // One invocation per brick. CPU reference: render/brick_grid.cpp.
 #include "shared.h"
 layout(local_size_x = HANDSON_BRICK_GROUP_X) in;
-layout(set = 0, binding = 0) uniform sampler3D uVolume;
-layout(std430, set = 0, binding = 1) writeonly buffer Out { uvec2 range[]; };
+layout(set = 0, binding = kBindBrickMinmaxVolume) uniform sampler3D uVolume;
+layout(std430, set = 0, binding = kBindBrickMinmaxOut) writeonly buffer Out { uvec2 range[]; };
 layout(push_constant) uniform Push { ivec4 dims; ivec4 brickDims; } pc;
 
 void main() {

@@ -4,9 +4,9 @@
 // indirect dispatch of deform_clear.comp.
 #include "shared.h"
 layout(local_size_x = 1) in;
-layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
-layout(std430, set = 0, binding = 1) buffer Box { DeformBox box; };
-layout(std430, set = 0, binding = 2) writeonly buffer Args { uvec4 args; };
+layout(std430, set = 0, binding = kBindDeformArgsParams) readonly buffer Params { DeformParams P; };
+layout(std430, set = 0, binding = kBindDeformArgsBox) buffer Box { DeformBox box; };
+layout(std430, set = 0, binding = kBindDeformArgsArgs) writeonly buffer Args { uvec4 args; };
 layout(push_constant) uniform Push { uint wholeVolume; } pc;
 
 void main() {

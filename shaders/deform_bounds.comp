@@ -6,11 +6,11 @@
 // per fine tet.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_GROUP_X) in;
-layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
-layout(std430, set = 0, binding = 1) readonly buffer Tets { uvec4 tet[]; };
-layout(std430, set = 0, binding = 2) readonly buffer PosNew { vec4 posNew[]; };
-layout(std430, set = 0, binding = 3) readonly buffer PosOld { vec4 posOld[]; };  // before this frame's commits
-layout(std430, set = 0, binding = 4) buffer Box { DeformBox box; };
+layout(std430, set = 0, binding = kBindDeformBoundsParams) readonly buffer Params { DeformParams P; };
+layout(std430, set = 0, binding = kBindDeformBoundsTets) readonly buffer Tets { uvec4 tet[]; };
+layout(std430, set = 0, binding = kBindDeformBoundsPosNew) readonly buffer PosNew { vec4 posNew[]; };
+layout(std430, set = 0, binding = kBindDeformBoundsPosOld) readonly buffer PosOld { vec4 posOld[]; };  // before this frame's commits
+layout(std430, set = 0, binding = kBindDeformBoundsBox) buffer Box { DeformBox box; };
 
 void main() {
   uint t = gl_GlobalInvocationID.x;

@@ -7,14 +7,14 @@
 // voxel from its owner through the affine map stored here. CPU reference: rasterizeDeformed in sim/tet_raster.cpp.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_GROUP_X) in;
-layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
-layout(std430, set = 0, binding = 1) readonly buffer Tets { uvec4 tet[]; };
-layout(std430, set = 0, binding = 2) readonly buffer Pos { vec4 pos[]; };
-layout(std430, set = 0, binding = 3) buffer Box { DeformBox box; };
-layout(std430, set = 0, binding = 4) buffer Owner { uint owner[]; };
-layout(std430, set = 0, binding = 5) readonly buffer RestIdx { vec4 restIdx[]; };
+layout(std430, set = 0, binding = kBindDeformClaimParams) readonly buffer Params { DeformParams P; };
+layout(std430, set = 0, binding = kBindDeformClaimTets) readonly buffer Tets { uvec4 tet[]; };
+layout(std430, set = 0, binding = kBindDeformClaimPos) readonly buffer Pos { vec4 pos[]; };
+layout(std430, set = 0, binding = kBindDeformClaimBox) buffer Box { DeformBox box; };
+layout(std430, set = 0, binding = kBindDeformClaimOwner) buffer Owner { uint owner[]; };
+layout(std430, set = 0, binding = kBindDeformClaimRestIdx) readonly buffer RestIdx { vec4 restIdx[]; };
 // Per tet: the affine map from deformed to rest voxel index (rows of [M | b]), for the resolve.
-layout(std430, set = 0, binding = 6) writeonly buffer Affine { vec4 affine[]; };
+layout(std430, set = 0, binding = kBindDeformClaimAffine) writeonly buffer Affine { vec4 affine[]; };
 
 void main() {
   uint t = gl_GlobalInvocationID.x;

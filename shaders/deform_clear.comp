@@ -4,13 +4,13 @@
 // the source; no owner. Dispatched indirectly over the box (deform_args.comp).
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_CLEAR_GROUP, local_size_y = HANDSON_DEFORM_CLEAR_GROUP, local_size_z = HANDSON_DEFORM_CLEAR_GROUP) in;
-layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
-layout(std430, set = 0, binding = 1) readonly buffer Box { DeformBox box; };
-layout(set = 0, binding = 2) uniform sampler3D uSource;
-layout(set = 0, binding = 3) uniform sampler3D uSourceMask;
-layout(set = 0, binding = 4, r16) uniform writeonly image3D uOut;
-layout(set = 0, binding = 5, r8) uniform writeonly image3D uOutMask;
-layout(std430, set = 0, binding = 6) writeonly buffer Owner { uint owner[]; };
+layout(std430, set = 0, binding = kBindDeformClearParams) readonly buffer Params { DeformParams P; };
+layout(std430, set = 0, binding = kBindDeformClearBox) readonly buffer Box { DeformBox box; };
+layout(set = 0, binding = kBindDeformClearSource) uniform sampler3D uSource;
+layout(set = 0, binding = kBindDeformClearSourceMask) uniform sampler3D uSourceMask;
+layout(set = 0, binding = kBindDeformClearOut, r16) uniform writeonly image3D uOut;
+layout(set = 0, binding = kBindDeformClearOutMask, r8) uniform writeonly image3D uOutMask;
+layout(std430, set = 0, binding = kBindDeformClearOwner) writeonly buffer Owner { uint owner[]; };
 
 void main() {
   ivec3 v = box.lo.xyz + ivec3(gl_GlobalInvocationID);

@@ -8,17 +8,17 @@
 // simulation and slow drifts still accumulate into a commit. prev[] keeps the position it had.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_GROUP_X) in;
-layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
-layout(std430, set = 0, binding = 1) readonly buffer Nodes { uvec4 node[]; };
-layout(std430, set = 0, binding = 2) readonly buffer Rest { vec4 rest[]; };
-layout(std430, set = 0, binding = 3) readonly buffer Blocks { vec4 blk[]; };
-layout(std430, set = 0, binding = 4) readonly buffer Elements { uvec4 corners[]; };  // two per element
-layout(std430, set = 0, binding = 5) readonly buffer CoarseRest { vec4 crest[]; };
-layout(std430, set = 0, binding = 6) readonly buffer CoarsePos { vec4 cpos[]; };
-layout(std430, set = 0, binding = 7) readonly buffer Rotations { vec4 rot[]; };
-layout(std430, set = 0, binding = 8) readonly buffer Handles { mat4 handle[]; };
-layout(std430, set = 0, binding = 9) buffer Out { vec4 pos[]; };
-layout(std430, set = 0, binding = 10) writeonly buffer Prev { vec4 prev[]; };
+layout(std430, set = 0, binding = kBindDeformInterpolateParams) readonly buffer Params { DeformParams P; };
+layout(std430, set = 0, binding = kBindDeformInterpolateNodes) readonly buffer Nodes { uvec4 node[]; };
+layout(std430, set = 0, binding = kBindDeformInterpolateRest) readonly buffer Rest { vec4 rest[]; };
+layout(std430, set = 0, binding = kBindDeformInterpolateBlocks) readonly buffer Blocks { vec4 blk[]; };
+layout(std430, set = 0, binding = kBindDeformInterpolateElements) readonly buffer Elements { uvec4 corners[]; };  // two per element
+layout(std430, set = 0, binding = kBindDeformInterpolateCoarseRest) readonly buffer CoarseRest { vec4 crest[]; };
+layout(std430, set = 0, binding = kBindDeformInterpolateCoarsePos) readonly buffer CoarsePos { vec4 cpos[]; };
+layout(std430, set = 0, binding = kBindDeformInterpolateRotations) readonly buffer Rotations { vec4 rot[]; };
+layout(std430, set = 0, binding = kBindDeformInterpolateHandles) readonly buffer Handles { mat4 handle[]; };
+layout(std430, set = 0, binding = kBindDeformInterpolateOut) buffer Out { vec4 pos[]; };
+layout(std430, set = 0, binding = kBindDeformInterpolatePrev) writeonly buffer Prev { vec4 prev[]; };
 layout(push_constant) uniform Push { float commit; } pc;  // voxels; negative: commit every node
 
 mat3 quatToMat3(vec4 q) {

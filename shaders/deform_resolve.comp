@@ -10,14 +10,14 @@
 // sim/tet_raster.cpp.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_CLEAR_GROUP, local_size_y = HANDSON_DEFORM_CLEAR_GROUP, local_size_z = HANDSON_DEFORM_CLEAR_GROUP) in;
-layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
-layout(std430, set = 0, binding = 1) readonly buffer Affine { vec4 affine[]; };
-layout(std430, set = 0, binding = 2) buffer Box { DeformBox box; };
-layout(std430, set = 0, binding = 3) readonly buffer Owner { uint owner[]; };
-layout(set = 0, binding = 4) uniform sampler3D uSource;
-layout(set = 0, binding = 5) uniform sampler3D uSourceMask;
-layout(set = 0, binding = 6, r16) uniform writeonly image3D uOut;
-layout(set = 0, binding = 7, r8) uniform writeonly image3D uOutMask;
+layout(std430, set = 0, binding = kBindDeformResolveParams) readonly buffer Params { DeformParams P; };
+layout(std430, set = 0, binding = kBindDeformResolveAffine) readonly buffer Affine { vec4 affine[]; };
+layout(std430, set = 0, binding = kBindDeformResolveBox) buffer Box { DeformBox box; };
+layout(std430, set = 0, binding = kBindDeformResolveOwner) readonly buffer Owner { uint owner[]; };
+layout(set = 0, binding = kBindDeformResolveSource) uniform sampler3D uSource;
+layout(set = 0, binding = kBindDeformResolveSourceMask) uniform sampler3D uSourceMask;
+layout(set = 0, binding = kBindDeformResolveOut, r16) uniform writeonly image3D uOut;
+layout(set = 0, binding = kBindDeformResolveOutMask, r8) uniform writeonly image3D uOutMask;
 
 // Trilinear interpolation from eight texel fetches with float weights (hardware filtering may use
 // 8-bit weights), clamped at the edges like Volume::sampleLinear.

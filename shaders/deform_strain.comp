@@ -10,11 +10,11 @@
 // position gives NaN there and here.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_GROUP_X) in;
-layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
-layout(std430, set = 0, binding = 1) readonly buffer Tets { uvec4 tet[]; };
-layout(std430, set = 0, binding = 2) readonly buffer Rest { vec4 rest[]; };  // world mm
-layout(std430, set = 0, binding = 3) readonly buffer Pos { vec4 pos[]; };    // voxel index space
-layout(std430, set = 0, binding = 4) writeonly buffer Out { float strain[]; };
+layout(std430, set = 0, binding = kBindDeformStrainParams) readonly buffer Params { DeformParams P; };
+layout(std430, set = 0, binding = kBindDeformStrainTets) readonly buffer Tets { uvec4 tet[]; };
+layout(std430, set = 0, binding = kBindDeformStrainRest) readonly buffer Rest { vec4 rest[]; };  // world mm
+layout(std430, set = 0, binding = kBindDeformStrainPos) readonly buffer Pos { vec4 pos[]; };    // voxel index space
+layout(std430, set = 0, binding = kBindDeformStrainOut) writeonly buffer Out { float strain[]; };
 
 // Largest eigenvalue of a symmetric 3 x 3 matrix.
 float largestEigenvalue(mat3 C) {

@@ -7,11 +7,11 @@
 // sim/strain.cpp on rasterizeDeformed's tet map.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_CLEAR_GROUP, local_size_y = HANDSON_DEFORM_CLEAR_GROUP, local_size_z = HANDSON_DEFORM_CLEAR_GROUP) in;
-layout(std430, set = 0, binding = 0) readonly buffer Params { DeformParams P; };
-layout(std430, set = 0, binding = 1) readonly buffer Box { DeformBox box; };
-layout(std430, set = 0, binding = 2) readonly buffer Owner { uint owner[]; };
-layout(std430, set = 0, binding = 3) readonly buffer Strain { float strain[]; };
-layout(set = 0, binding = 4, r32f) uniform writeonly image3D uOut;
+layout(std430, set = 0, binding = kBindDeformStrainRasterParams) readonly buffer Params { DeformParams P; };
+layout(std430, set = 0, binding = kBindDeformStrainRasterBox) readonly buffer Box { DeformBox box; };
+layout(std430, set = 0, binding = kBindDeformStrainRasterOwner) readonly buffer Owner { uint owner[]; };
+layout(std430, set = 0, binding = kBindDeformStrainRasterStrain) readonly buffer Strain { float strain[]; };
+layout(set = 0, binding = kBindDeformStrainRasterOut, r32f) uniform writeonly image3D uOut;
 
 void main() {
   ivec3 v = box.lo.xyz + ivec3(gl_GlobalInvocationID);

@@ -5,9 +5,9 @@
 // bricks holding reached voxels are listed instead (resuming growth after the extent grew).
 #include "shared.h"
 layout(local_size_x = HANDSON_COMPACT_GROUP_X) in;
-layout(std430, set = 0, binding = 0) buffer Flags { uint flags[]; };
-layout(std430, set = 0, binding = 1) buffer List { uint list[]; };
-layout(std430, set = 0, binding = 2) readonly buffer Reached { uint reached[]; };
+layout(std430, set = 0, binding = kBindRegionCompactFlags) buffer Flags { uint flags[]; };
+layout(std430, set = 0, binding = kBindRegionCompactList) buffer List { uint list[]; };
+layout(std430, set = 0, binding = kBindRegionCompactReached) readonly buffer Reached { uint reached[]; };
 layout(push_constant) uniform Push { uint count; uint fromReached; } pc;
 
 void main() {

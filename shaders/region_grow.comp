@@ -9,12 +9,12 @@
 // (interaction/region_grow.cpp): the same keys, so the same voxel set.
 #include "shared.h"
 layout(local_size_x = HANDSON_GROW_BRICK, local_size_y = HANDSON_GROW_BRICK, local_size_z = HANDSON_GROW_BRICK) in;
-layout(set = 0, binding = 0) uniform sampler3D uVolume;
-layout(std430, set = 0, binding = 1) buffer Keys { uint keys[]; };
-layout(std430, set = 0, binding = 2) buffer Accept { uint accept[]; };  // the tests' answers: kKnown... bits, 0 = none yet
-layout(std430, set = 0, binding = 3) readonly buffer List { uint list[]; };
-layout(std430, set = 0, binding = 4) buffer Flags { uint flags[]; };      // next-active bricks
-layout(std430, set = 0, binding = 5) buffer Reached { uint reached[]; };  // bricks holding reached voxels
+layout(set = 0, binding = kBindRegionGrowVolume) uniform sampler3D uVolume;
+layout(std430, set = 0, binding = kBindRegionGrowKeys) buffer Keys { uint keys[]; };
+layout(std430, set = 0, binding = kBindRegionGrowAccept) buffer Accept { uint accept[]; };  // the tests' answers: kKnown... bits, 0 = none yet
+layout(std430, set = 0, binding = kBindRegionGrowList) readonly buffer List { uint list[]; };
+layout(std430, set = 0, binding = kBindRegionGrowFlags) buffer Flags { uint flags[]; };      // next-active bricks
+layout(std430, set = 0, binding = kBindRegionGrowReached) buffer Reached { uint reached[]; };  // bricks holding reached voxels
 layout(push_constant) uniform Push { GrowPush pc; };
 // The criterion (0 paper, 1 smoothed, 2 core) as a specialization constant: each pipeline carries
 // only its own criterion's code (the core's extra tests cost the others nothing).

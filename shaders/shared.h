@@ -40,6 +40,10 @@ HS_CONST kBrickGroupX = HANDSON_BRICK_GROUP_X;
 // Empty-space skipping: bricks of kBrickSize^3 voxels, each with the min/max normalized value over
 // the brick plus a one-voxel apron (every voxel a trilinear sample inside the brick can touch).
 HS_CONST kBrickSize = 8;
+// Bindings of brick_minmax.comp (one push-descriptor set).
+// brick_minmax.comp
+HS_CONST kBindBrickMinmaxVolume = 0;
+HS_CONST kBindBrickMinmaxOut = 1;
 
 // Transfer-function lookup table: kTfEntries RGBA entries spanning the volume's value window.
 HS_CONST kTfEntries = 4096;
@@ -122,6 +126,18 @@ struct PickResult {
 HS_CONST kGrowUnreached = 0xffffffffu;
 HS_CONST kGrowListHeader = 4;  // active-brick lists start with {groups x, 1, 1, 0} (indirect dispatch)
 HS_CONST kGrowMaxLocalIterations = 24;
+// Bindings (one push-descriptor set each).
+// region_grow.comp
+HS_CONST kBindRegionGrowVolume = 0;
+HS_CONST kBindRegionGrowKeys = 1;
+HS_CONST kBindRegionGrowAccept = 2;
+HS_CONST kBindRegionGrowList = 3;
+HS_CONST kBindRegionGrowFlags = 4;
+HS_CONST kBindRegionGrowReached = 5;
+// region_compact.comp
+HS_CONST kBindRegionCompactFlags = 0;
+HS_CONST kBindRegionCompactList = 1;
+HS_CONST kBindRegionCompactReached = 2;
 
 struct GrowPush {
   ivec4 boxMin;     // xyz: first voxel of the box in the volume
@@ -140,6 +156,66 @@ HS_CONST kFineCorner = 2u;
 HS_CONST kFineBoundary = 3u;
 HS_CONST kFineInterior = 4u;
 HS_CONST kDeformNoOwner = 0xffffffffu;
+// Bindings (one push-descriptor set each).
+// deform_interpolate.comp
+HS_CONST kBindDeformInterpolateParams = 0;
+HS_CONST kBindDeformInterpolateNodes = 1;
+HS_CONST kBindDeformInterpolateRest = 2;
+HS_CONST kBindDeformInterpolateBlocks = 3;
+HS_CONST kBindDeformInterpolateElements = 4;
+HS_CONST kBindDeformInterpolateCoarseRest = 5;
+HS_CONST kBindDeformInterpolateCoarsePos = 6;
+HS_CONST kBindDeformInterpolateRotations = 7;
+HS_CONST kBindDeformInterpolateHandles = 8;
+HS_CONST kBindDeformInterpolateOut = 9;
+HS_CONST kBindDeformInterpolatePrev = 10;
+// deform_bounds.comp
+HS_CONST kBindDeformBoundsParams = 0;
+HS_CONST kBindDeformBoundsTets = 1;
+HS_CONST kBindDeformBoundsPosNew = 2;
+HS_CONST kBindDeformBoundsPosOld = 3;
+HS_CONST kBindDeformBoundsBox = 4;
+// deform_args.comp
+HS_CONST kBindDeformArgsParams = 0;
+HS_CONST kBindDeformArgsBox = 1;
+HS_CONST kBindDeformArgsArgs = 2;
+// deform_clear.comp
+HS_CONST kBindDeformClearParams = 0;
+HS_CONST kBindDeformClearBox = 1;
+HS_CONST kBindDeformClearSource = 2;
+HS_CONST kBindDeformClearSourceMask = 3;
+HS_CONST kBindDeformClearOut = 4;
+HS_CONST kBindDeformClearOutMask = 5;
+HS_CONST kBindDeformClearOwner = 6;
+// deform_claim.comp
+HS_CONST kBindDeformClaimParams = 0;
+HS_CONST kBindDeformClaimTets = 1;
+HS_CONST kBindDeformClaimPos = 2;
+HS_CONST kBindDeformClaimBox = 3;
+HS_CONST kBindDeformClaimOwner = 4;
+HS_CONST kBindDeformClaimRestIdx = 5;
+HS_CONST kBindDeformClaimAffine = 6;
+// deform_resolve.comp
+HS_CONST kBindDeformResolveParams = 0;
+HS_CONST kBindDeformResolveAffine = 1;
+HS_CONST kBindDeformResolveBox = 2;
+HS_CONST kBindDeformResolveOwner = 3;
+HS_CONST kBindDeformResolveSource = 4;
+HS_CONST kBindDeformResolveSourceMask = 5;
+HS_CONST kBindDeformResolveOut = 6;
+HS_CONST kBindDeformResolveOutMask = 7;
+// deform_strain.comp
+HS_CONST kBindDeformStrainParams = 0;
+HS_CONST kBindDeformStrainTets = 1;
+HS_CONST kBindDeformStrainRest = 2;
+HS_CONST kBindDeformStrainPos = 3;
+HS_CONST kBindDeformStrainOut = 4;
+// deform_strain_raster.comp
+HS_CONST kBindDeformStrainRasterParams = 0;
+HS_CONST kBindDeformStrainRasterBox = 1;
+HS_CONST kBindDeformStrainRasterOwner = 2;
+HS_CONST kBindDeformStrainRasterStrain = 3;
+HS_CONST kBindDeformStrainRasterOut = 4;
 
 // Static per deformation setup (read-only storage buffer).
 struct DeformParams {

@@ -1,0 +1,108 @@
+#include "deform_setup.h"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <string>
+
+#include "sim/error.h"
+#include "sim/tet_raster.h"
+#include "vk_context.h"
+
+namespace handson::vk {
+
+namespace {
+
+glm::mat4 toGlm(const Eigen::Matrix4d& m) {
+  glm::mat4 g;
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) g[c][r] = float(m(r, c));
+  return g;
+}
+
+}  // namespace
+
+ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc& sd, const fg::ImageDesc& md, const DeformSetup& setup) {
+  ValidatedDeformSetup out;
+  if (!setup.interpolation || !setup.fineTets) throw Error("deformation: no mesh data");
+  const FineInterpolationData& d = *setup.interpolation;
+  if (!ctx.storageExtendedFormats())
+    throw Error("deformation: this Vulkan device cannot write 16-bit storage images (shaderStorageImageExtendedFormats)");
+  {
+    VkPhysicalDeviceSubgroupProperties sub{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
+    VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
+    p2.pNext = &sub;
+    vkGetPhysicalDeviceProperties2(ctx.physicalDevice(), &p2);
+    if (!(sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) || !(sub.supportedOperations & VK_SUBGROUP_FEATURE_ARITHMETIC_BIT))
+      throw Error("deformation: this Vulkan device lacks subgroup arithmetic in compute shaders");
+  }
+  if (sd.format != fg::Format::R16Unorm || md.format != fg::Format::R8Unorm || sd.width != md.width || sd.height != md.height || sd.depth != md.depth)
+    throw Error("deformation: the source volume (R16) and mask (R8) must share one grid");
+  const std::size_t nodes = d.node.size();
+  const std::size_t tetCount = setup.fineTets->size();
+  const std::size_t coarseNodes = d.coarseRest.size();
+  if (d.cornersPerElement != 4 && d.cornersPerElement != 8) throw Error("deformation: coarse elements have 4 or 8 corners");
+  if (d.elementCorners.size() % 2 != 0) throw Error("deformation: two corner records per coarse element expected");
+  const std::size_t coarseElements = d.elementCount();
+  const std::size_t handles = d.handleCount;
+  if (nodes == 0 || tetCount == 0 || d.rest.size() != nodes || coarseNodes == 0 || coarseElements == 0)
+    throw Error("deformation: empty or inconsistent mesh data");
+  if (nodes > std::size_t(INT_MAX) || tetCount > std::size_t(INT_MAX)) throw Error("deformation: the fine mesh is too large");
+  out.tets.resize(tetCount);
+  for (std::size_t t = 0; t < tetCount; ++t)
+    for (int c = 0; c < 4; ++c) {
+      const int v = (*setup.fineTets)[t][std::size_t(c)];
+      if (v < 0 || std::size_t(v) >= nodes) throw Error("deformation: a fine tet refers to a missing node");
+      out.tets[t][std::size_t(c)] = std::uint32_t(v);
+    }
+  static_assert(kRasterTolerance == 1e-5 && kRasterBoxMargin == 1e-4, "shaders/deform_claim.comp uses these numbers");
+  for (const auto& n : d.node) {
+    const std::size_t hc = 3 * std::size_t(d.cornersPerElement);  // H blocks before the handle blocks
+    if (n[0] == FineInterpolationData::Interior && std::size_t(n[2]) + d.interiorBlocks(n[3]) <= d.blocks.size())
+      for (std::uint32_t k = 0; k < n[3]; ++k) {
+        const float hidx = d.blocks[std::size_t(n[2]) + hc + 13 * k].x();
+        if (!(hidx >= 0.0f && hidx < float(handles) && hidx == std::floor(hidx))) throw Error("deformation: a handle block refers to a missing handle");
+      }
+    const bool ok = n[0] == FineInterpolationData::Rest || (n[0] == FineInterpolationData::Handle && n[1] < handles) ||
+                    (n[0] == FineInterpolationData::Corner && n[1] < coarseNodes) ||
+                    (n[0] == FineInterpolationData::Boundary && n[1] < coarseElements && std::size_t(n[2]) + d.cornersPerElement / 4 <= d.blocks.size()) ||
+                    (n[0] == FineInterpolationData::Interior && n[1] < coarseElements && std::size_t(n[2]) + d.interiorBlocks(n[3]) <= d.blocks.size());
+    if (!ok) throw Error("deformation: a fine node's reconstruction record is out of range");
+  }
+  for (const auto& t : d.elementCorners)
+    for (auto v : t)
+      if (v >= coarseNodes) throw Error("deformation: a coarse element refers to a missing node");
+
+  const std::uint64_t maxGroups = ctx.properties().limits.maxComputeWorkGroupCount[0];
+  if ((nodes + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups || (tetCount + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups)
+    throw Error("deformation: the fine mesh (" + std::to_string(tetCount) + " tets) needs more workgroups than this device dispatches at once (" +
+                std::to_string(maxGroups * HANDSON_DEFORM_GROUP_X) + " invocations)");
+  const Eigen::Vector3i dims(int(sd.width), int(sd.height), int(sd.depth));
+  Eigen::Vector3i rlo, rhi;
+  regionVoxelBox(setup.worldToIndex, dims, setup.regionLo, setup.regionHi, rlo, rhi);
+  if ((rlo.array() > rhi.array()).any()) throw Error("deformation: the region lies outside the volume");
+  const Eigen::Vector3i od = rhi - rlo + Eigen::Vector3i::Ones();
+  out.ownerBytes = std::uint64_t(od.x()) * std::uint64_t(od.y()) * std::uint64_t(od.z()) * 4;
+  if (out.ownerBytes > ctx.properties().limits.maxStorageBufferRange)
+    throw Error("deformation: the region is larger than this device's storage buffers allow");
+
+  out.params.worldToIndex = toGlm(setup.worldToIndex);
+  out.params.indexToWorld = toGlm(setup.worldToIndex.inverse());
+  out.params.regionLo = glm::vec4(float(setup.regionLo.x()), float(setup.regionLo.y()), float(setup.regionLo.z()), setup.background);
+  out.params.regionHi = glm::vec4(float(setup.regionHi.x()), float(setup.regionHi.y()), float(setup.regionHi.z()), 0.0f);
+  out.params.regionVoxLo = glm::ivec4(rlo.x(), rlo.y(), rlo.z(), int(nodes));
+  out.params.regionVoxHi = glm::ivec4(rhi.x(), rhi.y(), rhi.z(), int(tetCount));
+  out.params.dims = glm::ivec4(dims.x(), dims.y(), dims.z(), int(handles));
+  out.params.ownerDims = glm::ivec4(od.x(), od.y(), od.z(), int(coarseElements));
+  {
+    TetMesh rest;  // the rest mesh in world space, for the default cap
+    rest.nodes.reserve(nodes);
+    for (const auto& X : d.rest) rest.nodes.emplace_back(double(X.x()), double(X.y()), double(X.z()));
+    rest.tets = *setup.fineTets;
+    const std::uint64_t cap = setup.maxTetVoxels ? setup.maxTetVoxels : defaultMaxTetVoxels(rest, setup.worldToIndex);
+    out.params.limits = glm::uvec4(std::uint32_t(std::min<std::uint64_t>(cap, UINT32_MAX)), d.cornersPerElement, 0, 0);
+  }
+  return out;
+}
+
+}  // namespace handson::vk
