@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "compute_passes.h"
 #include "shaders/shared.h"
 #include "shaders/spirv.h"
 #include "sim/error.h"
@@ -21,19 +22,8 @@ VkDescriptorSetLayoutBinding storage(std::uint32_t b) {
   return {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
 }
 
-// A full compute -> compute/indirect/transfer dependency (the loop's steps depend on each other).
-void fullBarrier(VkCommandBuffer cmd) {
-  memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
-                VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
-                VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT |
-                    VK_ACCESS_2_TRANSFER_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT);
-}
-
-// Copies made visible to the host.
-void hostReadBarrier(VkCommandBuffer cmd) {
-  memoryBarrier(cmd, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
-}
+constexpr const char* kBufferNames[] = {"grow-keys",     "grow-accept",   "grow-brick-flags", "grow-brick-reached",
+                                        "grow-active-a", "grow-active-b", "grow-dense-list"};
 
 }  // namespace
 
@@ -75,44 +65,120 @@ void GpuRegionGrower::begin(const GrowSetup& setup, const Eigen::Vector3i& boxMi
   bricks_ = (boxDims.array() + (B - 1)) / B;
   brickCount_ = std::uint32_t(bricks_.x() * bricks_.y() * bricks_.z());
   const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
-  keys_ = Buffer(ctx_, voxels * 4, usage, Buffer::Memory::Device);
-  accept_ = Buffer(ctx_, voxels * 4, usage, Buffer::Memory::Device);
-  flags_ = Buffer(ctx_, brickCount_ * 4, usage, Buffer::Memory::Device);
-  reached_ = Buffer(ctx_, brickCount_ * 4, usage, Buffer::Memory::Device);
   const VkDeviceSize listBytes = (gpu::kGrowListHeader + brickCount_) * 4;
-  listA_ = Buffer(ctx_, listBytes, usage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, Buffer::Memory::Device);
-  listB_ = Buffer(ctx_, listBytes, usage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, Buffer::Memory::Device);
+  buffers_[kKeys] = Buffer(ctx_, voxels * 4, usage, Buffer::Memory::Device);
+  buffers_[kAccept] = Buffer(ctx_, voxels * 4, usage, Buffer::Memory::Device);
+  buffers_[kFlags] = Buffer(ctx_, brickCount_ * 4, usage, Buffer::Memory::Device);
+  buffers_[kReached] = Buffer(ctx_, brickCount_ * 4, usage, Buffer::Memory::Device);
+  for (int l : {kListA, kListB, kDense})
+    buffers_[l] = Buffer(ctx_, listBytes, usage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, Buffer::Memory::Device);
   std::vector<std::uint32_t> dense(gpu::kGrowListHeader + brickCount_);
   dense[0] = brickCount_;
   dense[1] = dense[2] = 1;
   for (std::uint32_t i = 0; i < brickCount_; ++i) dense[gpu::kGrowListHeader + i] = i;
-  denseList_ = Buffer(ctx_, listBytes, usage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, Buffer::Memory::Device);
-  uploadToBuffer(ctx_, denseList_, dense.data(), listBytes);
-  readback_ = Buffer(ctx_, 16, VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::HostVisible);
+  uploadToBuffer(ctx_, buffers_[kDense], dense.data(), listBytes);  // a fixed list, like a mesh upload
+  for (auto& a : state_) a = fg::Access::None;                      // fresh buffers
+  state_[kDense] = fg::Access::TransferDst;
+  if (!activeHost_.handle()) activeHost_ = Buffer(ctx_, 16, VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::HostVisible);
   const Eigen::Vector3i s = setup.seed - boxMin;
-  const std::uint32_t seedIndex = std::uint32_t(s.x() + boxDims.x() * (s.y() + boxDims.y() * s.z()));
+  seedIndex_ = std::uint32_t(s.x() + boxDims.x() * (s.y() + boxDims.y() * s.z()));
   const Eigen::Vector3i sb = s / B;
-  const std::uint32_t seedBrick = std::uint32_t(sb.x() + bricks_.x() * (sb.y() + bricks_.y() * sb.z()));
-  const std::uint32_t header[4] = {1, 1, 1, 0};
-  ctx_.submitAndWait([&](VkCommandBuffer cmd) {
-    vkCmdFillBuffer(cmd, keys_.handle(), 0, VK_WHOLE_SIZE, gpu::kGrowUnreached);
-    vkCmdFillBuffer(cmd, accept_.handle(), 0, VK_WHOLE_SIZE, 0);
-    vkCmdFillBuffer(cmd, flags_.handle(), 0, VK_WHOLE_SIZE, 0);
-    vkCmdFillBuffer(cmd, reached_.handle(), 0, VK_WHOLE_SIZE, 0);
-    vkCmdFillBuffer(cmd, listB_.handle(), 0, VK_WHOLE_SIZE, 0);
-    fullBarrier(cmd);
-    const std::uint32_t zero = 0;
-    vkCmdUpdateBuffer(cmd, keys_.handle(), VkDeviceSize(seedIndex) * 4, 4, &zero);
-    vkCmdUpdateBuffer(cmd, listA_.handle(), 0, sizeof(header), header);
-    vkCmdUpdateBuffer(cmd, listA_.handle(), gpu::kGrowListHeader * 4, 4, &seedBrick);
-    const std::uint32_t one[3] = {0, 1, 1};
-    vkCmdUpdateBuffer(cmd, listB_.handle(), 0, 12, one);
-  });
+  seedBrick_ = std::uint32_t(sb.x() + bricks_.x() * (sb.y() + bricks_.y() * sb.z()));
+  current_ = 0;
   bound_ = 0;
-  resumeNeeded_ = false;
+  active_ = 1;
+  startPending_ = true;
+  resumePending_ = grown_ = false;
 }
 
-void GpuRegionGrower::record(VkCommandBuffer cmd, int rounds, bool dense, bool resume) {
+void GpuRegionGrower::setBound(std::uint32_t bound) {
+  if (brickCount_ == 0) throw Error("region growing: begin() first");
+  if (bound > bound_ && grown_) {
+    // The extent grew: every brick with reached voxels takes part again (bricks whose front had
+    // stopped at the old bound are not in the active list).
+    resumePending_ = true;
+    active_ = 1;
+  }
+  bound_ = std::max(bound_, bound);
+}
+
+void GpuRegionGrower::addStartPasses(fg::FrameGraph& g, const Bound& h) {
+  using fg::Access;
+  g.addPass(
+      "grow-clear",
+      [&](fg::PassBuilder& b) {
+        for (auto r : {h.keys, h.accept, h.flags, h.reached, h.lists[1 - current_]}) b.write(r, Access::TransferDst);
+        b.sideEffect();
+      },
+      [h, next = h.lists[1 - current_]](fg::Executor& e) {
+        GraphExecutor& x = vulkanExecutor(e);
+        vkCmdFillBuffer(x.cmd(), x.buffer(h.keys).handle(), 0, VK_WHOLE_SIZE, gpu::kGrowUnreached);
+        for (auto r : {h.accept, h.flags, h.reached, next}) vkCmdFillBuffer(x.cmd(), x.buffer(r).handle(), 0, VK_WHOLE_SIZE, 0);
+      });
+  g.addPass(
+      "grow-seed",
+      [&](fg::PassBuilder& b) {
+        for (auto r : {h.keys, h.lists[0], h.lists[1]}) b.write(r, Access::TransferDst);
+        b.sideEffect();
+      },
+      [h, cur = h.lists[current_], next = h.lists[1 - current_], seedIndex = seedIndex_, seedBrick = seedBrick_](fg::Executor& e) {
+        GraphExecutor& x = vulkanExecutor(e);
+        const std::uint32_t zero = 0, header[4] = {1, 1, 1, 0}, emptyHeader[3] = {0, 1, 1};
+        vkCmdUpdateBuffer(x.cmd(), x.buffer(h.keys).handle(), VkDeviceSize(seedIndex) * 4, 4, &zero);
+        vkCmdUpdateBuffer(x.cmd(), x.buffer(cur).handle(), 0, sizeof(header), header);
+        vkCmdUpdateBuffer(x.cmd(), x.buffer(cur).handle(), gpu::kGrowListHeader * 4, 4, &seedBrick);
+        vkCmdUpdateBuffer(x.cmd(), x.buffer(next).handle(), 0, sizeof(emptyHeader), emptyHeader);
+      });
+}
+
+void GpuRegionGrower::addCompactPasses(fg::FrameGraph& g, fg::ResourceHandle flags, fg::ResourceHandle into, fg::ResourceHandle reached,
+                                       bool fromReached) {
+  using fg::Access;
+  g.addPass(
+      "grow-list-reset",
+      [&](fg::PassBuilder& b) {
+        b.write(into, Access::TransferDst);
+        b.sideEffect();
+      },
+      [into](fg::Executor& e) {
+        GraphExecutor& x = vulkanExecutor(e);
+        vkCmdFillBuffer(x.cmd(), x.buffer(into).handle(), 0, 4, 0);
+      });
+  g.addPass(
+      fromReached ? "grow-resume" : "grow-compact",
+      [&](fg::PassBuilder& b) {
+        b.write(flags, Access::StorageReadWrite);
+        b.write(into, Access::StorageReadWrite);
+        b.read(reached, Access::StorageRead);
+        b.sideEffect();
+      },
+      [this, flags, into, reached, fromReached](fg::Executor& e) {
+        GraphExecutor& x = vulkanExecutor(e);
+        vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, compact_.pipeline());
+        DescriptorWriter()
+            .buffer(gpu::kBindRegionCompactFlags, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(flags).handle())
+            .buffer(gpu::kBindRegionCompactList, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(into).handle())
+            .buffer(gpu::kBindRegionCompactReached, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(reached).handle())
+            .push(ctx_, x.cmd(), compact_);
+        const CompactPush cp{brickCount_, fromReached ? 1u : 0u};
+        vkCmdPushConstants(x.cmd(), compact_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(cp), &cp);
+        vkCmdDispatch(x.cmd(), (brickCount_ + HANDSON_COMPACT_GROUP_X - 1) / HANDSON_COMPACT_GROUP_X, 1, 1);
+      });
+}
+
+GpuRegionGrower::Bound GpuRegionGrower::addRounds(fg::FrameGraph& g, int rounds, bool dense, fg::ResourceHandle volume) {
+  using fg::Access;
+  if (brickCount_ == 0) throw Error("region growing: begin() first");
+  Bound h;
+  fg::ResourceHandle* slot[kBufferCount] = {&h.keys, &h.accept, &h.flags, &h.reached, &h.lists[0], &h.lists[1], &h.dense};
+  for (int i = 0; i < kBufferCount; ++i) *slot[i] = g.importBuffer(kBufferNames[i], {buffers_[i].size()}, state_[i]);
+  volumeImported_ = !volume.valid();
+  h.volume = volume.valid() ? volume : g.importImage("grow-volume", volume_.desc(), Access::Sampled);
+  if (startPending_) addStartPasses(g, h);
+  startPending_ = false;
+  if (resumePending_) addCompactPasses(g, h.flags, h.lists[current_], h.reached, true);
+  resumePending_ = false;
+
   gpu::GrowPush push{};
   push.boxMin = glm::ivec4(boxMin_.x(), boxMin_.y(), boxMin_.z(), 0);
   push.boxDims = glm::ivec4(boxDims_.x(), boxDims_.y(), boxDims_.z(), int(setup_.criterion));
@@ -120,66 +186,84 @@ void GpuRegionGrower::record(VkCommandBuffer cmd, int rounds, bool dense, bool r
   push.seed = glm::ivec4(setup_.seed.x(), setup_.seed.y(), setup_.seed.z(), int(bound_));
   push.spacing = glm::vec4(setup_.spacing.x(), setup_.spacing.y(), setup_.spacing.z(), setup_.seedValue);
   push.tolerance = glm::vec4(setup_.tolerance, setup_.coreTolerance, 0, 0);
-  auto compact = [&](const Buffer& into, bool fromReached) {
-    vkCmdFillBuffer(cmd, into.handle(), 0, 4, 0);
-    fullBarrier(cmd);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, compact_.pipeline());
-    DescriptorWriter()
-        .buffer(gpu::kBindRegionCompactFlags, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, flags_.handle())
-        .buffer(gpu::kBindRegionCompactList, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, into.handle())
-        .buffer(gpu::kBindRegionCompactReached, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, reached_.handle())
-        .push(ctx_, cmd, compact_);
-    const CompactPush cp{brickCount_, fromReached ? 1u : 0u};
-    vkCmdPushConstants(cmd, compact_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(cp), &cp);
-    vkCmdDispatch(cmd, (brickCount_ + HANDSON_COMPACT_GROUP_X - 1) / HANDSON_COMPACT_GROUP_X, 1, 1);
-    fullBarrier(cmd);
-  };
-  if (resume) compact(listA_, true);  // the extent grew: every brick with reached voxels takes part again
+  if (rounds > 0) grown_ = true;
   for (int r = 0; r < rounds; ++r) {
-    const Buffer& list = dense ? denseList_ : listA_;
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, relax_.pipeline());
-    DescriptorWriter()
-        .sampledImage(gpu::kBindRegionGrowVolume, volume_.view(), sampler_.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-        .buffer(gpu::kBindRegionGrowKeys, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, keys_.handle())
-        .buffer(gpu::kBindRegionGrowAccept, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, accept_.handle())
-        .buffer(gpu::kBindRegionGrowList, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, list.handle())
-        .buffer(gpu::kBindRegionGrowFlags, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, flags_.handle())
-        .buffer(gpu::kBindRegionGrowReached, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, reached_.handle())
-        .push(ctx_, cmd, relax_);
-    vkCmdPushConstants(cmd, relax_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-    vkCmdDispatchIndirect(cmd, list.handle(), 0);
-    fullBarrier(cmd);
-    compact(listB_, false);
-    std::swap(listA_, listB_);  // dense: the compacted list only tells when to stop
+    const fg::ResourceHandle list = dense ? h.dense : h.lists[current_];
+    g.addPass(
+        "grow-relax",
+        [&](fg::PassBuilder& b) {
+          b.read(h.volume, Access::Sampled);
+          b.read(list, Access::IndirectRead);
+          b.read(list, Access::StorageRead);
+          for (auto w : {h.keys, h.accept, h.flags, h.reached}) b.write(w, Access::StorageReadWrite);
+          b.sideEffect();
+        },
+        [this, h, list, push](fg::Executor& e) {
+          GraphExecutor& x = vulkanExecutor(e);
+          vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, relax_.pipeline());
+          DescriptorWriter()
+              .sampledImage(gpu::kBindRegionGrowVolume, x.image(h.volume).view(), sampler_.handle(),
+                            VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
+              .buffer(gpu::kBindRegionGrowKeys, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(h.keys).handle())
+              .buffer(gpu::kBindRegionGrowAccept, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(h.accept).handle())
+              .buffer(gpu::kBindRegionGrowList, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(list).handle())
+              .buffer(gpu::kBindRegionGrowFlags, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(h.flags).handle())
+              .buffer(gpu::kBindRegionGrowReached, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(h.reached).handle())
+              .push(ctx_, x.cmd(), relax_);
+          vkCmdPushConstants(x.cmd(), relax_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+          vkCmdDispatchIndirect(x.cmd(), x.buffer(list).handle(), 0);
+        });
+    current_ = 1 - current_;  // dense: the compacted list only tells when to stop
+    addCompactPasses(g, h.flags, h.lists[current_], h.reached, false);
   }
   // Active count for the host: the header of the list the next round would use.
-  VkBufferCopy c{0, 0, 4};
-  vkCmdCopyBuffer(cmd, listA_.handle(), readback_.handle(), 1, &c);
-  hostReadBarrier(cmd);
+  h.activeHost = g.importBuffer("grow-active-host", {activeHost_.size()}, Access::None);
+  addReadbackPass(g, "grow-active-readback", h.lists[current_], h.activeHost);
+  handles_ = h;
+  return h;
+}
+
+void GpuRegionGrower::bind(GraphExecutor& x) const {
+  const Bound& h = handles_;
+  const fg::ResourceHandle imported[kBufferCount] = {h.keys, h.accept, h.flags, h.reached, h.lists[0], h.lists[1], h.dense};
+  for (int i = 0; i < kBufferCount; ++i) x.bindBuffer(imported[i], buffers_[i]);
+  x.bindBuffer(h.activeHost, activeHost_);
+  if (volumeImported_) x.bindImage(h.volume, volume_);
+}
+
+void GpuRegionGrower::frameDone(const fg::FrameGraph& g) {
+  const Bound& h = handles_;
+  const fg::ResourceHandle imported[kBufferCount] = {h.keys, h.accept, h.flags, h.reached, h.lists[0], h.lists[1], h.dense};
+  for (int i = 0; i < kBufferCount; ++i) state_[i] = g.stateAfterFrame(imported[i]);
+  activeHost_.invalidate();
+  std::memcpy(&active_, activeHost_.mapped(), 4);
 }
 
 int GpuRegionGrower::growTo(std::uint32_t bound, bool dense, int roundsPerSubmit) {
-  if (brickCount_ == 0) throw Error("region growing: begin() first");
-  bool resume = bound > bound_ && resumeNeeded_;
-  bound_ = std::max(bound_, bound);
+  setBound(bound);
+  if (!ownExecutor_) ownExecutor_ = std::make_unique<GraphExecutor>(ctx_, 1, 4 * std::uint32_t(roundsPerSubmit) + 8);
+  GraphExecutor& x = *ownExecutor_;
   int rounds = 0;
-  bricksDispatched_ = 0;
-  for (int guard = 0; guard < 100000; ++guard) {
-    ctx_.submitAndWait([&](VkCommandBuffer cmd) { record(cmd, roundsPerSubmit, dense, resume); });
-    resume = false;
+  for (int guard = 0; guard < 100000 && active_ != 0; ++guard) {
+    x.beginFrame();
+    fg::FrameGraph g;
+    addRounds(g, roundsPerSubmit, dense);
+    g.compile();
+    x.setGraph(&g);
+    bind(x);
+    g.execute(x);
+    x.setGraph(nullptr);
+    x.submit();
+    x.waitLastFrame();
+    frameDone(g);
     rounds += roundsPerSubmit;
-    readback_.invalidate();
-    std::uint32_t active = 0;
-    std::memcpy(&active, readback_.mapped(), 4);
-    if (active == 0) break;
   }
-  resumeNeeded_ = true;
   return rounds;
 }
 
 std::vector<std::uint32_t> GpuRegionGrower::readKeys() const {
-  std::vector<std::uint32_t> out(keys_.size() / 4);
-  downloadFromBuffer(ctx_, keys_, out.data(), keys_.size());
+  std::vector<std::uint32_t> out(buffers_[kKeys].size() / 4);
+  downloadFromBuffer(ctx_, buffers_[kKeys], out.data(), buffers_[kKeys].size());
   return out;
 }
 

@@ -2,14 +2,18 @@
 // GPU region growing over a box around the seed (shaders/region_grow.comp): keys per voxel of the
 // box, lazily cached homogeneity, and GPU-built lists of active bricks consumed by indirect
 // dispatch, so only the bricks on the moving front are worked on ("sparse"). "Dense" dispatches
-// every brick of the box each round instead (the baseline). The CPU reference is
+// every brick of the box each round instead (the baseline). Each round is passes of the frame graph
+// (which places the barriers), so a frame can carry a few rounds of a live selection. The CPU reference is
 // interaction/region_grow.h; both give the same keys up to the bound, hence the same voxel set.
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
+#include "frame_graph.h"
 #include "sim/grow_setup.h"
+#include "vk_graph_executor.h"
 #include "vk_resources.h"
 
 namespace handson::vk {
@@ -20,23 +24,44 @@ class GpuRegionGrower {
  public:
   GpuRegionGrower(const Context& ctx, const Image& volume, const Sampler& sampler);
 
-  /// Starts a selection: the box (volume voxels [boxMin, boxMin + boxDims)) must contain the seed;
-  /// keys are cleared, the seed gets key 0 and its brick is active.
+  /// Starts a selection: the box (volume voxels [boxMin, boxMin + boxDims)) must contain the seed.
+  /// Allocates the box's buffers (no frame using the last ones may still be in flight); the next
+  /// frame's first passes clear the keys and give the seed key 0 and its brick the active list.
   void begin(const GrowSetup& setup, const Eigen::Vector3i& boxMin, const Eigen::Vector3i& boxDims);
-  /// Grows until no brick is active (the keys up to `bound` are final). Records rounds of
-  /// `roundsPerSubmit` relax + compact steps per submission and checks the active count between
-  /// submissions. Returns the rounds run. Shrinking needs no GPU work (a threshold on keys).
+  /// Grows toward `bound` from the next round on (a larger bound than the last one grown to wakes
+  /// every brick holding reached voxels). Shrinking needs no GPU work (a threshold on keys).
+  void setBound(std::uint32_t bound);
+
+  /// The growth's buffers as imported into one frame graph.
+  struct Bound {
+    fg::ResourceHandle volume, keys, accept, flags, reached, lists[2], dense, activeHost;
+  };
+  /// Adds `rounds` rounds (relax over the active bricks, or every brick when `dense`; then the
+  /// compaction of the next active list) to `g`, after the start's clears if begin() came since the
+  /// last frame, and a readback of the active count. `volume`: the volume image if the frame already
+  /// imports it. Call bind() on the frame's executor, and frameDone() once the frame has run.
+  Bound addRounds(fg::FrameGraph& g, int rounds, bool dense, fg::ResourceHandle volume = {});
+  /// Binds the buffers (and the volume, where addRounds imported it) of the last addRounds.
+  void bind(GraphExecutor& executor) const;
+  /// After the frame's fence: keeps each buffer's last access for the next frame's barriers and
+  /// reads the active count back.
+  void frameDone(const fg::FrameGraph& g);
+  /// Bricks active for the next round, as of the last frame done (0: the keys up to the bound are final).
+  std::uint32_t activeBricks() const { return active_; }
+
+  /// Grows until no brick is active (the keys up to `bound` are final): frames of `roundsPerSubmit`
+  /// rounds on an executor of its own, each waited for. Returns the rounds run.
   int growTo(std::uint32_t bound, bool dense = false, int roundsPerSubmit = 8);
 
   /// Keys of the box (x-fastest), kUnreached where not reached.
   std::vector<std::uint32_t> readKeys() const;
   const Eigen::Vector3i& boxMin() const { return boxMin_; }
   const Eigen::Vector3i& boxDims() const { return boxDims_; }
-  /// Bricks dispatched in the last growTo (sum over rounds).
-  std::uint64_t bricksDispatched() const { return bricksDispatched_; }
 
  private:
-  void record(VkCommandBuffer cmd, int rounds, bool dense, bool resume);
+  enum BufferIndex { kKeys, kAccept, kFlags, kReached, kListA, kListB, kDense, kBufferCount };
+  void addStartPasses(fg::FrameGraph& g, const Bound& h);
+  void addCompactPasses(fg::FrameGraph& g, fg::ResourceHandle flags, fg::ResourceHandle into, fg::ResourceHandle reached, bool fromReached);
 
   const Context& ctx_;
   const Image& volume_;
@@ -45,10 +70,14 @@ class GpuRegionGrower {
   GrowCriterion relaxCriterion_ = GrowCriterion::Paper;
   GrowSetup setup_{};
   Eigen::Vector3i boxMin_{0, 0, 0}, boxDims_{0, 0, 0}, bricks_{0, 0, 0};
-  std::uint32_t brickCount_ = 0, bound_ = 0;
-  Buffer keys_, accept_, flags_, reached_, listA_, listB_, denseList_, readback_;
-  bool resumeNeeded_ = false;
-  std::uint64_t bricksDispatched_ = 0;
+  std::uint32_t brickCount_ = 0, bound_ = 0, seedIndex_ = 0, seedBrick_ = 0, active_ = 0;
+  Buffer buffers_[kBufferCount];  // lists: kListA + current_ is the one the next round consumes
+  Buffer activeHost_;
+  fg::Access state_[kBufferCount] = {};
+  int current_ = 0;
+  bool startPending_ = false, resumePending_ = false, grown_ = false, volumeImported_ = false;  // grown_: rounds ran since begin()
+  Bound handles_{};                                                                             // of the last addRounds
+  std::unique_ptr<GraphExecutor> ownExecutor_;
 };
 
 }  // namespace handson::vk

@@ -6,8 +6,11 @@
 #include "app/nifti_io.h"
 #include "gpu_test_env.h"
 #include "interaction/region_grow.h"
+#include "render/frame_graph.h"
 #include "render/region_grow_pass.h"
+#include "render/vk_graph_executor.h"
 #include "render/vk_resources.h"
+#include "shaders/shared.h"
 #include "sim/phantom.h"
 #include "sim/quantized_volume.h"
 
@@ -93,4 +96,69 @@ TEST_F(RegionGrowGpu, SameVoxelSetAsCpuOnRealCt) {
     EXPECT_GT(compareOn(q, {79, 35, 12}, c, {10, 20, 40}, false), 20u);
     EXPECT_GT(compareOn(q, {86, 47, 29}, c, {20, 10}, false), 20u);
   }
+}
+
+// A live selection: one round per frame, each frame its own graph that imports the volume itself
+// (as the app's frame does), and the extent raised while the front is still moving. The keys up
+// to the final bound must be the CPU reference's, and the growth must stop by itself.
+TEST_F(RegionGrowGpu, RoundsSpreadOverFramesWithTheExtentRaisedMidGrowthGiveTheCpuSet) {
+  PhantomOptions o;
+  o.spacingMm = 3.0;
+  const Phantom ph = makePhantom(o);
+  const QuantizedVolume q = quantizeVolume(ph.ct);
+  const Eigen::Vector3i seed = ph.ct.geometry().toIndex(ph.geometry.liverCenter).array().round().cast<int>();
+  auto& ctx = test::gpuContext();
+  const auto& d = q.geometry.dims;
+  const fg::ImageDesc desc{std::uint32_t(d.x()), std::uint32_t(d.y()), std::uint32_t(d.z()), fg::Format::R16Unorm};
+  vk::Image volume(ctx, desc, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
+  vk::uploadToImage(ctx, volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  vk::Sampler sampler(ctx, false);
+  RegionGrower cpu(q, seed, GrowParams{});
+  ASSERT_EQ(cpu.setup().criterion, GrowCriterion::Core);
+  const double e1 = 15, e2 = 40;
+  const Eigen::Vector3i r = growReach(GrowCriterion::Core, e2, q.geometry.spacing) + Eigen::Vector3i::Ones();
+  const Eigen::Vector3i lo = (seed - r).cwiseMax(Eigen::Vector3i::Zero());
+  const Eigen::Vector3i hi = (seed + r).cwiseMin(d - Eigen::Vector3i::Ones());
+  vk::GpuRegionGrower gpu(ctx, volume, sampler);
+  gpu.begin(cpu.setup(), lo, hi - lo + Eigen::Vector3i::Ones());
+  gpu.setBound(cpu.bound(e1));
+  vk::GraphExecutor x(ctx, 1);
+  int frames = 0;
+  for (; frames < 2000 && gpu.activeBricks() != 0; ++frames) {
+    if (frames == 3) gpu.setBound(cpu.bound(e2));  // the fingers spread while the front moves
+    x.beginFrame();
+    fg::FrameGraph g;
+    const fg::ResourceHandle v = g.importImage("volume", desc, fg::Access::Sampled);
+    gpu.addRounds(g, 1, false, v);
+    g.compile();
+    x.setGraph(&g);
+    x.bindImage(v, volume);
+    gpu.bind(x);
+    g.execute(x);
+    x.setGraph(nullptr);
+    x.submit();
+    x.waitLastFrame();
+    gpu.frameDone(g);
+  }
+  EXPECT_EQ(gpu.activeBricks(), 0u) << "the growth did not stop in " << frames << " frames";
+  EXPECT_GT(frames, 3) << "the extent was raised after the growth had stopped: not a mid-growth change";
+  cpu.growTo(e2);
+  const std::uint32_t bound = cpu.bound(e2);
+  const auto gk = gpu.readKeys();
+  const Eigen::Vector3i bd = gpu.boxDims();
+  std::size_t differ = 0, selected = 0;
+  for (int k = 0; k < bd.z(); ++k)
+    for (int j = 0; j < bd.y(); ++j)
+      for (int i = 0; i < bd.x(); ++i) {
+        const std::size_t v =
+            std::size_t(lo.x() + i) + std::size_t(d.x()) * (std::size_t(lo.y() + j) + std::size_t(d.y()) * std::size_t(lo.z() + k));
+        const std::uint32_t a = cpu.keys()[v] <= bound ? cpu.keys()[v] : handson::gpu::kGrowUnreached;
+        const std::uint32_t gkv = gk[std::size_t(i) + std::size_t(bd.x()) * (std::size_t(j) + std::size_t(bd.y()) * std::size_t(k))];
+        const std::uint32_t b = gkv <= bound ? gkv : handson::gpu::kGrowUnreached;
+        differ += a != b;
+        selected += b <= bound;
+      }
+  EXPECT_EQ(differ, 0u) << "voxels whose key up to the bound differs from the CPU reference's";
+  EXPECT_EQ(selected, cpu.count(e2)) << "the selection lies inside the box";
+  EXPECT_GT(selected, 500u);
 }
