@@ -38,7 +38,7 @@ test: build external-data
 
 # Other projects' test files (nibabel's NIfTI, pydicom's DICOM, ITK's MetaImage), from Debian's packages, unpacked
 # into build/external-data without installing them (their Python dependencies are not needed);
-# tests/app/test_external_files.cpp compares our readers with the values nibabel and pydicom give,
+# tests/app/io/test_external_files.cpp compares our readers with the values nibabel and pydicom give,
 # and with ITK's example images' raw data.
 # Without network the download is skipped and those tests say so.
 EXTERNAL_DATA := build/external-data

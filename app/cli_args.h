@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "app/volume_io.h"
+#include "app/io/volume_io.h"
 
 namespace handson {
 enum class CoarseElement;

@@ -13,7 +13,7 @@
 #include "app/cli.h"
 #include "app/cli_args.h"
 #include "app/console.h"
-#include "app/volume_io.h"
+#include "app/io/volume_io.h"
 #include "render/deform_pass.h"
 #include "render/vk_context.h"
 #include "sim/coarsening.h"

@@ -14,7 +14,7 @@
 #include "app/cli.h"
 #include "app/cli_args.h"
 #include "app/console.h"
-#include "app/volume_io.h"
+#include "app/io/volume_io.h"
 #include "sim/coarsening.h"
 #include "sim/error.h"
 #include "sim/sim_scene.h"

@@ -12,7 +12,7 @@
 
 #include "app/cli.h"
 #include "app/cli_args.h"
-#include "app/nifti_io.h"
+#include "app/io/nifti_io.h"
 #include "app/selection_eval.h"
 #include "render/region_grow_pass.h"
 #include "render/vk_context.h"

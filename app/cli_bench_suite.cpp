@@ -18,7 +18,7 @@
 
 #include "app/cli.h"
 #include "app/cli_args.h"
-#include "app/nifti_io.h"
+#include "app/io/nifti_io.h"
 #include "app/replay.h"
 #include "app/scenario_retarget.h"
 #include "app/scenario_kidney_rotate_in_plane.h"

@@ -6,7 +6,7 @@
 #include "app/cli.h"
 #include "app/cli_args.h"
 #include "app/headless_scene.h"
-#include "app/png_io.h"
+#include "app/io/png_io.h"
 #include "sim/error.h"
 
 namespace handson::cli {

@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <cstdlib>
 
-#include "app/png_io.h"
+#include "app/io/png_io.h"
 #include "sim/error.h"
 
 namespace handson {

@@ -1,7 +1,7 @@
 #include "deformation_controller.h"
 
-#include "app/volume_io.h"
-#include "app/vtu_io.h"
+#include "app/io/volume_io.h"
+#include "app/io/vtu_io.h"
 
 #include <Eigen/Geometry>
 

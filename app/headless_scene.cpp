@@ -4,7 +4,7 @@
 #include <iostream>
 
 #include "app/console.h"
-#include "app/volume_io.h"
+#include "app/io/volume_io.h"
 #include "sim/error.h"
 #include "sim/phantom.h"
 #include "sim/resample.h"

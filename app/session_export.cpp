@@ -4,9 +4,9 @@
 #include <cstdio>
 #include <sstream>
 
-#include "app/volume_io.h"
-#include "app/forces_json.h"
-#include "app/png_io.h"
+#include "app/io/volume_io.h"
+#include "app/io/forces_json.h"
+#include "app/io/png_io.h"
 #include "app/session_recovery.h"
 #include "app/session_script.h"
 

@@ -6,7 +6,7 @@
 //   deformed-NN.nii.gz  the volume as shown (the simulated deformation on the input's grid and
 //                       value type; the input unchanged when nothing is simulated)
 //   mesh-NN.vtu         the simulated fine mesh with its displacements (only when simulated)
-//   forces-NN.json      each simulated handle's reaction force and torque (app/forces_json.h)
+//   forces-NN.json      each simulated handle's reaction force and torque (app/io/forces_json.h)
 //   strain-NN.nii.gz    the strain as shown on the input's grid (sim/strain.h)
 //   screenshot-NN.png   the rendered image of the frame after the request (no UI overlay)
 // (deformed and strain are .nrrd or .mha instead when the export is made with that extension.)

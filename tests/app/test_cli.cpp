@@ -11,8 +11,8 @@
 #include <fstream>
 #include <string>
 
-#include "app/nifti_io.h"
-#include "app/png_io.h"
+#include "app/io/nifti_io.h"
+#include "app/io/png_io.h"
 #include "tests/app/run_handson.h"
 
 namespace fs = std::filesystem;

@@ -5,7 +5,7 @@
 #include <unistd.h>
 
 #include "app/contact_sheet.h"
-#include "app/png_io.h"
+#include "app/io/png_io.h"
 #include "sim/error.h"
 
 namespace fs = std::filesystem;

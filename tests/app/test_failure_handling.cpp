@@ -14,7 +14,7 @@
 #include <iterator>
 #include <string>
 
-#include "app/nifti_io.h"
+#include "app/io/nifti_io.h"
 #include "app/session_recovery.h"
 #include "app/session_script.h"
 #include "sim/error.h"

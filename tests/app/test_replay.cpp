@@ -15,9 +15,9 @@
 #include <iterator>
 #include <vector>
 
-#include "app/nifti_io.h"
-#include "app/volume_io.h"
-#include "app/png_io.h"
+#include "app/io/nifti_io.h"
+#include "app/io/volume_io.h"
+#include "app/io/png_io.h"
 #include "app/session_recovery.h"
 #include "sim/phantom.h"
 #include "tests/app/run_handson.h"

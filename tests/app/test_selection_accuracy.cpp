@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "app/nifti_io.h"
+#include "app/io/nifti_io.h"
 #include "app/selection_eval.h"
 
 using namespace handson;

@@ -11,7 +11,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "app/png_io.h"
+#include "app/io/png_io.h"
 #include "app/session.h"
 #include "app/session_recovery.h"
 #include "app/session_script.h"

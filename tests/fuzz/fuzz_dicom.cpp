@@ -1,4 +1,4 @@
-// The DICOM series reader (app/dicom_io.h, through GDCM) on arbitrary bytes: the input is split at
+// The DICOM series reader (app/io/dicom_io.h, through GDCM) on arbitrary bytes: the input is split at
 // "\n--slice--\n" into up to eight files of one directory (so that series assembly — ordering,
 // gaps, duplicates, mismatched slices — is reached, not only single-file parsing). A refusal is a
 // handson::Error; anything else is a finding.
@@ -7,7 +7,7 @@
 #include <cstring>
 #include <string_view>
 
-#include "app/dicom_io.h"
+#include "app/io/dicom_io.h"
 #include "fuzz_input_file.h"
 #include "sim/error.h"
 

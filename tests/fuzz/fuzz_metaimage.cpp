@@ -1,11 +1,11 @@
-// The MetaImage reader (app/metaimage_io.h: MetaIO's header parser, our data reader) on arbitrary
+// The MetaImage reader (app/io/metaimage_io.h: MetaIO's header parser, our data reader) on arbitrary
 // bytes: one-file images with raw or compressed data, their first volume and their second (a fourth
 // axis or channels). A refusal is a handson::Error; anything else is a finding. The volume read is
 // checked against its own geometry.
 #include <cstdint>
 #include <cstdlib>
 
-#include "app/metaimage_io.h"
+#include "app/io/metaimage_io.h"
 #include "fuzz_input_file.h"
 #include "sim/error.h"
 

@@ -1,4 +1,4 @@
-// The NIfTI reader (app/nifti_io.h) on arbitrary bytes: plain or gzip-compressed (told apart by
+// The NIfTI reader (app/io/nifti_io.h) on arbitrary bytes: plain or gzip-compressed (told apart by
 // the reader from the magic bytes), NIfTI-1 or -2. A refusal is a handson::Error; anything else is
 // a finding. The volume read is checked for consistency with its own header. Each input is read as a
 // single file (its first volume and its second, for 4D headers) and as both halves of a two-file
@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "app/nifti_io.h"
+#include "app/io/nifti_io.h"
 #include "fuzz_input_file.h"
 #include "sim/error.h"
 

@@ -1,11 +1,11 @@
-// The NRRD reader (app/nrrd_io.h, Teem's nrrd library underneath) on arbitrary bytes: attached
+// The NRRD reader (app/io/nrrd_io.h, Teem's nrrd library underneath) on arbitrary bytes: attached
 // headers with every encoding Teem knows, its first volume and its second (list or time axes). A
 // refusal is a handson::Error; anything else is a finding. The volume read is checked against its
 // own geometry.
 #include <cstdint>
 #include <cstdlib>
 
-#include "app/nrrd_io.h"
+#include "app/io/nrrd_io.h"
 #include "fuzz_input_file.h"
 #include "sim/error.h"
 

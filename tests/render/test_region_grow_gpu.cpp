@@ -3,7 +3,7 @@
 
 #include <filesystem>
 
-#include "app/nifti_io.h"
+#include "app/io/nifti_io.h"
 #include "gpu_test_env.h"
 #include "interaction/region_grow.h"
 #include "render/frame_graph.h"

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "sim/atomic_file.h"
-#include "app/volume_import.h"
+#include "app/io/volume_import.h"
 #include "sim/error.h"
 
 namespace handson {

@@ -1,4 +1,4 @@
-#include "app/forces_json.h"
+#include "app/io/forces_json.h"
 
 #include <cstdio>
 #include <fstream>

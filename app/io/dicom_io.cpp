@@ -1,4 +1,4 @@
-#include "app/dicom_io.h"
+#include "app/io/dicom_io.h"
 
 #include <gdcmDataSet.h>
 #include <gdcmDirectory.h>

@@ -3,7 +3,7 @@
 // zlib and gzip data, 4D and multi-channel images, 2D, every number type, a label map used as a
 // mask, our writer's round trip, and broken files - among them the two MetaIO itself reports as read
 // (a truncated data block, a compressed block that does not inflate).
-#include "app/metaimage_io.h"
+#include "app/io/metaimage_io.h"
 
 #include <gtest/gtest.h>
 #include <zlib.h>
@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "app/volume_io.h"
+#include "app/io/volume_io.h"
 #include "file_test_fixture.h"
 #include "sim/error.h"
 

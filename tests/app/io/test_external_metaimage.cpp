@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "app/volume_io.h"
+#include "app/io/volume_io.h"
 #include "sim/error.h"
 
 namespace handson {

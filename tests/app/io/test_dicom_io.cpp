@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "app/dicom_io.h"
-#include "app/volume_io.h"
+#include "app/io/dicom_io.h"
+#include "app/io/volume_io.h"
 #include "sim/error.h"
 
 #ifndef HANDSON_SHARED_DATA_DIR

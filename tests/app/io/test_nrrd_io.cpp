@@ -1,7 +1,7 @@
 // Tests for app/nrrd_io (NRRD through Teem): hand-written headers (independent of Teem's writer) in
 // LPS, RAS and no space, raw and gzip encodings, a detached header, a 4D list axis, 2D, and broken
 // files; and the same volume as a NIfTI file written by our writer.
-#include "app/nrrd_io.h"
+#include "app/io/nrrd_io.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "app/nifti_io.h"
-#include "app/volume_io.h"
+#include "app/io/nifti_io.h"
+#include "app/io/volume_io.h"
 #include "file_test_fixture.h"
 #include "sim/error.h"
 

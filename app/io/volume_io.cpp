@@ -9,11 +9,11 @@
 #include <iostream>
 #include <system_error>
 
-#include "app/dicom_io.h"
-#include "app/metaimage_io.h"
-#include "app/nifti_io.h"
-#include "app/nrrd_io.h"
-#include "app/volume_import.h"
+#include "app/io/dicom_io.h"
+#include "app/io/metaimage_io.h"
+#include "app/io/nifti_io.h"
+#include "app/io/nrrd_io.h"
+#include "app/io/volume_import.h"
 #include "sim/error.h"
 #include "sim/phantom.h"
 

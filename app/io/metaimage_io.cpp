@@ -21,8 +21,8 @@
 #include <vector>
 
 #include "sim/atomic_file.h"
-#include "app/isolated_call.h"
-#include "app/volume_import.h"
+#include "app/io/isolated_call.h"
+#include "app/io/volume_import.h"
 #include "sim/binary_io.h"
 #include "sim/error.h"
 

@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <string>
 
-#include "app/volume_io.h"
+#include "app/io/volume_io.h"
 #include "sim/error.h"
 
 namespace handson {

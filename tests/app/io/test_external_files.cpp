@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "app/volume_io.h"
+#include "app/io/volume_io.h"
 #include "sim/error.h"
 
 namespace handson {

@@ -1,6 +1,6 @@
 // Tests for app/isolated_call: a child's result, its handson::Error and other exceptions, and the
 // failures that must not reach the caller's process - an abort, a crash, a hang past the time-out.
-#include "app/isolated_call.h"
+#include "app/io/isolated_call.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
