@@ -10,7 +10,7 @@ PACKAGES := build-essential cmake ninja-build pkg-config \
   libsdl2-dev libeigen3-dev libtet1.5-dev libglm-dev libgtest-dev libgmock-dev libbenchmark-dev \
   libsuitesparse-dev libteem-dev libinsighttoolkit5-dev libopenblas0-pthread libgdcm-dev libpng-dev zlib1g-dev libimgui-dev libstb-dev nlohmann-json3-dev gnuplot-nox xvfb xauth xdotool
 # What sim/ and interaction/ alone need (make core-test).
-CORE_PACKAGES := build-essential cmake ninja-build libeigen3-dev libtet1.5-dev libglm-dev libgtest-dev libsuitesparse-dev
+CORE_PACKAGES := build-essential cmake ninja-build libeigen3-dev libtet1.5-dev libglm-dev libgtest-dev libsuitesparse-dev libopenblas0-pthread
 FUZZ_PACKAGES := clang libclang-rt-14-dev
 FUZZ_SECONDS ?= 60
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)

@@ -1,6 +1,8 @@
 // The fine node positions of a frame: interpolated from the coarse state on the GPU
 // (deform_interpolate.comp), or uploaded from refined positions the CPU computed.
+#include <algorithm>
 #include <cstring>
+#include <memory>
 
 #include "deform_descriptors.h"
 #include "deform_pass.h"

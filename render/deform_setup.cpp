@@ -1,5 +1,7 @@
 #include "deform_setup.h"
 
+#include <Eigen/LU>
+
 #include <algorithm>
 #include <climits>
 #include <cmath>

@@ -250,7 +250,8 @@ void FrameGraph::compile() {
         for (auto& e : cp.barriers)
           if (e.resource == b.resource) {
             e.src |= b.src;
-            e.dst = u.access;  // the later use of the same pass decides the final access
+            e.dstAlso |= accessBit(e.dst);  // every use of the pass waits for the barrier
+            e.dst = u.access;               // the later use of the same pass decides the layout and state
             e.newLayout = b.newLayout;
             merged = true;
           }

@@ -84,9 +84,10 @@ constexpr AccessMask accessBit(Access a) { return a == Access::None ? 0u : (1u <
 struct Barrier {
   ResourceHandle resource;
   AccessMask src = 0;  ///< previous accesses to wait for (0: none, e.g. a first use)
-  Access dst = Access::None;
+  Access dst = Access::None;  ///< the pass's last access (the layout's and the state's)
   Layout oldLayout = Layout::Undefined;
   Layout newLayout = Layout::Undefined;
+  AccessMask dstAlso = 0;  ///< the pass's other accesses after the barrier (a buffer read as indirect arguments and as storage)
 };
 
 struct PassInfo {

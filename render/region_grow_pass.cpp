@@ -93,12 +93,11 @@ void GpuRegionGrower::begin(const GrowSetup& setup, const Eigen::Vector3i& boxMi
 
 void GpuRegionGrower::setBound(std::uint32_t bound) {
   if (brickCount_ == 0) throw Error("region growing: begin() first");
-  if (bound > bound_ && grown_) {
-    // The extent grew: every brick with reached voxels takes part again (bricks whose front had
-    // stopped at the old bound are not in the active list).
-    resumePending_ = true;
-    active_ = 1;
-  }
+  // The extent grew: the active bricks go on under the new bound, and once none is left every
+  // brick with reached voxels takes part again (bricks whose front had stopped at the old bound
+  // are in no list). Not at once: a brick flagged by a neighbour but not yet run holds no reached
+  // voxel, and relisting from the reached bricks would drop it.
+  if (bound > bound_ && grown_) resumePending_ = true;
   bound_ = std::max(bound_, bound);
 }
 
@@ -176,8 +175,10 @@ GpuRegionGrower::Bound GpuRegionGrower::addRounds(fg::FrameGraph& g, int rounds,
   h.volume = volume.valid() ? volume : g.importImage("grow-volume", volume_.desc(), Access::Sampled);
   if (startPending_) addStartPasses(g, h);
   startPending_ = false;
-  if (resumePending_) addCompactPasses(g, h.flags, h.lists[current_], h.reached, true);
-  resumePending_ = false;
+  if (resumePending_ && active_ == 0) {  // active_: the list the next round consumes, as of the last frame done
+    addCompactPasses(g, h.flags, h.lists[current_], h.reached, true);
+    resumePending_ = false;
+  }
 
   gpu::GrowPush push{};
   push.boxMin = glm::ivec4(boxMin_.x(), boxMin_.y(), boxMin_.z(), 0);
@@ -244,7 +245,7 @@ int GpuRegionGrower::growTo(std::uint32_t bound, bool dense, int roundsPerSubmit
   if (!ownExecutor_) ownExecutor_ = std::make_unique<GraphExecutor>(ctx_, 1, 4 * std::uint32_t(roundsPerSubmit) + 8);
   GraphExecutor& x = *ownExecutor_;
   int rounds = 0;
-  for (int guard = 0; guard < 100000 && active_ != 0; ++guard) {
+  for (int guard = 0; guard < 100000 && growing(); ++guard) {
     x.beginFrame();
     fg::FrameGraph g;
     addRounds(g, roundsPerSubmit, dense);

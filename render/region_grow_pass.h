@@ -28,8 +28,9 @@ class GpuRegionGrower {
   /// Allocates the box's buffers (no frame using the last ones may still be in flight); the next
   /// frame's first passes clear the keys and give the seed key 0 and its brick the active list.
   void begin(const GrowSetup& setup, const Eigen::Vector3i& boxMin, const Eigen::Vector3i& boxDims);
-  /// Grows toward `bound` from the next round on (a larger bound than the last one grown to wakes
-  /// every brick holding reached voxels). Shrinking needs no GPU work (a threshold on keys).
+  /// Grows toward `bound` from the next round on (a bound larger than the last one grown to also
+  /// wakes every brick holding reached voxels, once the active ones are done). Shrinking needs no
+  /// GPU work (a threshold on keys).
   void setBound(std::uint32_t bound);
 
   /// The growth's buffers as imported into one frame graph.
@@ -39,15 +40,19 @@ class GpuRegionGrower {
   /// Adds `rounds` rounds (relax over the active bricks, or every brick when `dense`; then the
   /// compaction of the next active list) to `g`, after the start's clears if begin() came since the
   /// last frame, and a readback of the active count. `volume`: the volume image if the frame already
-  /// imports it. Call bind() on the frame's executor, and frameDone() once the frame has run.
+  /// imports it. Call bind() on the frame's executor, and frameDone() once the frame has run and
+  /// before the next addRounds: one frame of growth in flight at a time (the active count and the
+  /// buffers' states are carried from one frame to the next).
   Bound addRounds(fg::FrameGraph& g, int rounds, bool dense, fg::ResourceHandle volume = {});
   /// Binds the buffers (and the volume, where addRounds imported it) of the last addRounds.
   void bind(GraphExecutor& executor) const;
   /// After the frame's fence: keeps each buffer's last access for the next frame's barriers and
   /// reads the active count back.
   void frameDone(const fg::FrameGraph& g);
-  /// Bricks active for the next round, as of the last frame done (0: the keys up to the bound are final).
+  /// Bricks active for the next round, as of the last frame done.
   std::uint32_t activeBricks() const { return active_; }
+  /// False once the keys up to the bound are final (no active brick, no resume pending).
+  bool growing() const { return active_ != 0 || resumePending_; }
 
   /// Grows until no brick is active (the keys up to `bound` are final): frames of `roundsPerSubmit`
   /// rounds on an executor of its own, each waited for. Returns the rounds run.

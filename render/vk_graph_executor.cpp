@@ -211,7 +211,7 @@ void GraphExecutor::recordBarriers(const std::vector<fg::Barrier>& list) {
   for (const auto& b : list) {
     const fg::ResourceInfo& info = graph_->resource(b.resource);
     const VkAccess src = toVkMask(b.src);
-    const VkAccess dst = toVk(b.dst);
+    const VkAccess dst = toVkMask(b.dstAlso | fg::accessBit(b.dst));
     if (info.kind == fg::ResourceKind::Image) {
       VkImageMemoryBarrier2 m{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
       m.srcStageMask = src.stage;

@@ -41,7 +41,6 @@ HS_CONST kBrickGroupX = HANDSON_BRICK_GROUP_X;
 // the brick plus a one-voxel apron (every voxel a trilinear sample inside the brick can touch).
 HS_CONST kBrickSize = 8;
 // Bindings of brick_minmax.comp (one push-descriptor set).
-// brick_minmax.comp
 HS_CONST kBindBrickMinmaxVolume = 0;
 HS_CONST kBindBrickMinmaxOut = 1;
 

@@ -194,3 +194,33 @@ TEST(FrameGraph, MisuseIsReported) {
     EXPECT_THROW(g.execute(ex), handson::Error);  // not compiled
   }
 }
+
+// A pass that reads one buffer two ways (region growing's active list: indirect dispatch arguments
+// and a storage buffer) gets one barrier that waits for the writer on behalf of both reads.
+TEST(FrameGraph, ABufferReadTwoWaysInOnePassIsMadeVisibleToBoth) {
+  FrameGraph g;
+  auto list = g.createBuffer("active-list", {256});
+  auto out = g.createBuffer("keys", {1024});
+  g.addPass(
+      "compact", [&](PassBuilder& p) { p.write(list, Access::StorageWrite); }, nullptr);
+  g.addPass(
+      "relax",
+      [&](PassBuilder& p) {
+        p.read(list, Access::IndirectRead);
+        p.read(list, Access::StorageRead);
+        p.write(out, Access::StorageWrite);
+      },
+      nullptr);
+  g.exportResource(out, Access::TransferSrc);
+  g.compile();
+  const auto& cp = g.compiled();
+  ASSERT_EQ(cp.size(), 2u);
+  int onList = 0;
+  for (const auto& b : cp[1].barriers) {
+    if (!(b.resource == list)) continue;
+    ++onList;
+    EXPECT_EQ(b.src, accessBit(Access::StorageWrite));
+    EXPECT_EQ((b.dstAlso | accessBit(b.dst)), accessBit(Access::IndirectRead) | accessBit(Access::StorageRead));
+  }
+  EXPECT_EQ(onList, 1);
+}

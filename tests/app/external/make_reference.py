@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Reference values for tests/app/test_external_files.cpp, computed by the established readers
+"""Reference values for tests/app/io/test_external_files.cpp, computed by the established readers
 (nibabel for NIfTI, pydicom for DICOM) on the test files Debian ships with them (python3-nibabel,
 python3-pydicom). Run with those packages installed:  /usr/bin/python3 make_reference.py > reference.json
 Per file: the image size, the RAS+ affine of voxel indices to world millimetres, and the sum, sum of
