@@ -226,16 +226,16 @@ GpuRegionGrower::Bound GpuRegionGrower::addRounds(fg::FrameGraph& g, int rounds,
 
 void GpuRegionGrower::bind(GraphExecutor& x) const {
   const Bound& h = handles_;
-  const fg::ResourceHandle imported[kBufferCount] = {h.keys, h.accept, h.flags, h.reached, h.lists[0], h.lists[1], h.dense};
-  for (int i = 0; i < kBufferCount; ++i) x.bindBuffer(imported[i], buffers_[i]);
+  const auto imported = bufferHandles(h);
+  for (int i = 0; i < kBufferCount; ++i) x.bindBuffer(imported[std::size_t(i)], buffers_[i]);
   x.bindBuffer(h.activeHost, activeHost_);
   if (volumeImported_) x.bindImage(h.volume, volume_);
 }
 
 void GpuRegionGrower::frameDone(const fg::FrameGraph& g) {
   const Bound& h = handles_;
-  const fg::ResourceHandle imported[kBufferCount] = {h.keys, h.accept, h.flags, h.reached, h.lists[0], h.lists[1], h.dense};
-  for (int i = 0; i < kBufferCount; ++i) state_[i] = g.stateAfterFrame(imported[i]);
+  const auto imported = bufferHandles(h);
+  for (int i = 0; i < kBufferCount; ++i) state_[i] = g.stateAfterFrame(imported[std::size_t(i)]);
   activeHost_.invalidate();
   std::memcpy(&active_, activeHost_.mapped(), 4);
 }

@@ -7,6 +7,7 @@
 // interaction/region_grow.h; both give the same keys up to the bound, hence the same voxel set.
 #include <Eigen/Core>
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -65,6 +66,10 @@ class GpuRegionGrower {
 
  private:
   enum BufferIndex { kKeys, kAccept, kFlags, kReached, kListA, kListB, kDense, kBufferCount };
+  /// The imported buffers in BufferIndex order.
+  static std::array<fg::ResourceHandle, kBufferCount> bufferHandles(const Bound& h) {
+    return {h.keys, h.accept, h.flags, h.reached, h.lists[0], h.lists[1], h.dense};
+  }
   void addStartPasses(fg::FrameGraph& g, const Bound& h);
   void addCompactPasses(fg::FrameGraph& g, fg::ResourceHandle flags, fg::ResourceHandle into, fg::ResourceHandle reached, bool fromReached);
 
