@@ -146,12 +146,12 @@ RigidIncrement solveLinearized(const GestureProblem& p, const LinearizedOptions&
     why << "step clamped to " << scale * 100.0 << " % (per-event limits: translation " << maxT << ", rotation " << o.maxRotation << " rad)";
     out.reason = why.str();
   }
-  out.rotation = rodrigues(r);
-  out.translation = c - out.rotation * c + t;
+  out.motion.R = rodrigues(r);
+  out.motion.t = c - out.motion.R * c + t;
   out.rmsBefore = gestureRms(p, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero());
-  out.rmsAfter = gestureRms(p, out.rotation, out.translation);
+  out.rmsAfter = gestureRms(p, out.motion.R, out.motion.t);
   out.iterations = 1;
-  if (!out.rotation.allFinite() || !out.translation.allFinite() || !std::isfinite(out.rmsAfter))
+  if (!out.motion.R.allFinite() || !out.motion.t.allFinite() || !std::isfinite(out.rmsAfter))
     return refused("the increment is not finite or moves a point behind the camera");
   return out;
 }
@@ -181,8 +181,8 @@ RigidIncrement solveLinearizedSubsteps(const GestureProblem& p, double maxSubste
       out.reason = "stopped after " + std::to_string(k - 1) + " of " + std::to_string(steps) + " sub-steps: " + s.reason;
       break;
     }
-    R = s.rotation * R;
-    t = s.rotation * t + s.translation;
+    R = s.motion.R * R;
+    t = s.motion.R * t + s.motion.t;
     if (s.clamped) {
       out.clamped = true;
       out.reason = s.reason;
@@ -200,8 +200,8 @@ RigidIncrement solveLinearizedSubsteps(const GestureProblem& p, double maxSubste
     }
     const RigidIncrement s = solveLinearized(sub, o);
     if (!s.ok || s.clamped) break;
-    const Eigen::Matrix3d R2 = s.rotation * R;
-    const Eigen::Vector3d t2 = s.rotation * t + s.translation;
+    const Eigen::Matrix3d R2 = s.motion.R * R;
+    const Eigen::Vector3d t2 = s.motion.R * t + s.motion.t;
     const double rms2 = gestureRms(p, R2, t2);
     if (!(rms2 < rms)) break;
     R = R2;
@@ -209,8 +209,8 @@ RigidIncrement solveLinearizedSubsteps(const GestureProblem& p, double maxSubste
     rms = rms2;
     ++out.iterations;
   }
-  out.rotation = R;
-  out.translation = t;
+  out.motion.R = R;
+  out.motion.t = t;
   out.rmsBefore = gestureRms(p, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero());
   out.rmsAfter = rms;
   return out;
@@ -281,12 +281,12 @@ RigidIncrement solveLevenbergMarquardt(const GestureProblem& p, int maxIteration
     }
     if (!improved) break;
   }
-  out.rotation = R;
-  out.translation = c - R * c + t;
+  out.motion.R = R;
+  out.motion.t = c - R * c + t;
   out.rmsBefore = gestureRms(p, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero());
-  out.rmsAfter = gestureRms(p, out.rotation, out.translation);
+  out.rmsAfter = gestureRms(p, out.motion.R, out.motion.t);
   out.iterations = std::min(it, maxIterations);
-  if (!out.rotation.allFinite() || !out.translation.allFinite()) return refused("the solve did not produce a finite result");
+  if (!out.motion.R.allFinite() || !out.motion.t.allFinite()) return refused("the solve did not produce a finite result");
   return out;
 }
 

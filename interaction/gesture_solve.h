@@ -20,6 +20,8 @@
 #include <string>
 #include <vector>
 
+#include "sim/rigid_transform.h"
+
 namespace handson {
 
 enum GestureLock : unsigned { kLockNone = 0, kLockZTranslation = 1, kLockZRotation = 2, kLockXYTranslation = 4 };
@@ -34,8 +36,7 @@ struct GestureProblem {
 };
 
 struct RigidIncrement {
-  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d translation = Eigen::Vector3d::Zero();  ///< new points = rotation * q + translation
+  RigidTransform motion;  ///< new points = motion.apply(q), view space
   bool ok = true;         ///< false: refused (identity returned), see reason
   bool clamped = false;   ///< the step was reduced by the per-event clamp
   std::string reason;     ///< why it was refused or reduced

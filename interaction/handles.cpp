@@ -95,8 +95,8 @@ bool HandleSet::subtract(int a, int b) {
   return true;
 }
 
-bool HandleSet::setPose(int id, const RigidPose& pose, bool undoable) {
-  if (!find(id) || !pose.rotation.allFinite() || !pose.translation.allFinite()) return false;
+bool HandleSet::setPose(int id, const RigidTransform& pose, bool undoable) {
+  if (!find(id) || !pose.R.allFinite() || !pose.t.allFinite()) return false;
   if (undoable) snapshot();
   get(id)->pose = pose;
   return true;

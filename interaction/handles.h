@@ -22,7 +22,7 @@ struct Handle {
   int id = 0;                        ///< 1..254 (0: none; 255: the live selection)
   HandleStatus status = HandleStatus::Active;
   std::vector<std::uint32_t> voxels;  ///< sorted linear indices (rest position)
-  RigidPose pose;                     ///< cumulative rigid transform from the manipulation (R_m, t_m)
+  RigidTransform pose;                     ///< cumulative rigid transform from the manipulation (R_m, t_m)
 };
 
 class HandleSet {
@@ -40,7 +40,7 @@ class HandleSet {
   /// a := a \ b (b unchanged). False if either is missing, a == b, or nothing would remain of a.
   bool subtract(int a, int b);
   /// Sets a handle's pose; `undoable` makes it an undo step (once per gesture, not per event).
-  bool setPose(int id, const RigidPose& pose, bool undoable);
+  bool setPose(int id, const RigidTransform& pose, bool undoable);
   bool undo();
   bool redo();
   bool canUndo() const { return !undo_.empty(); }

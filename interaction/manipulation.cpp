@@ -5,15 +5,15 @@
 
 namespace handson {
 
-void HandleManipulator::anchor(const std::vector<FingerAnchor>& fingers, const RigidPose& pose) {
+void HandleManipulator::anchor(const std::vector<FingerAnchor>& fingers, const RigidTransform& pose) {
   anchors_.clear();
   for (const auto& f : fingers)
     if (f.world.allFinite()) anchors_.emplace_back(f.finger, pose.toRest(f.world));
 }
 
-std::optional<RigidPose> HandleManipulator::move(const std::vector<std::pair<std::int64_t, glm::dvec2>>& fingers, const RigidPose& pose,
+std::optional<RigidTransform> HandleManipulator::move(const std::vector<std::pair<std::int64_t, glm::dvec2>>& fingers, const RigidTransform& pose,
                                                  const OrbitCamera& camera, double aspect, unsigned locks, std::string* why) const {
-  auto fail = [&](const std::string& reason) -> std::optional<RigidPose> {
+  auto fail = [&](const std::string& reason) -> std::optional<RigidTransform> {
     if (why) *why = reason;
     return std::nullopt;
   };
@@ -36,12 +36,12 @@ std::optional<RigidPose> HandleManipulator::move(const std::vector<std::pair<std
   const RigidIncrement inc = solveLinearizedSubsteps(p);
   if (!inc.ok) return fail(inc.reason);
   // Back to world: x' = B R B^T x + (eye - B R B^T eye + B t).
-  const Eigen::Matrix3d Rw = B * inc.rotation * B.transpose();
-  const Eigen::Vector3d tw = eye - Rw * eye + B * inc.translation;
-  RigidPose next;
-  next.rotation = Rw * pose.rotation;
-  next.translation = Rw * pose.translation + tw;
-  if (!next.rotation.allFinite() || !next.translation.allFinite()) return fail("the increment is not finite");
+  const Eigen::Matrix3d Rw = B * inc.motion.R * B.transpose();
+  const Eigen::Vector3d tw = eye - Rw * eye + B * inc.motion.t;
+  RigidTransform next;
+  next.R = Rw * pose.R;
+  next.t = Rw * pose.t + tw;
+  if (!next.R.allFinite() || !next.t.allFinite()) return fail("the increment is not finite");
   if (why) *why = inc.reason;
   return next;
 }

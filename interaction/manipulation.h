@@ -17,14 +17,6 @@
 
 namespace handson {
 
-struct RigidPose {
-  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
-  Eigen::Vector3d apply(const Eigen::Vector3d& rest) const { return rotation * rest + translation; }
-  Eigen::Vector3d toRest(const Eigen::Vector3d& world) const { return rotation.transpose() * (world - translation); }
-  bool isIdentity() const { return (rotation - Eigen::Matrix3d::Identity()).norm() < 1e-12 && translation.norm() < 1e-12; }
-};
-
 struct FingerAnchor {
   std::int64_t finger = 0;
   Eigen::Vector3d world{0, 0, 0};  ///< the picked point on the handle at touch-down (current pose)
@@ -33,14 +25,14 @@ struct FingerAnchor {
 class HandleManipulator {
  public:
   /// Anchors on the fingers now touching the handle; the points are stored in the handle's rest frame.
-  void anchor(const std::vector<FingerAnchor>& fingers, const RigidPose& pose);
+  void anchor(const std::vector<FingerAnchor>& fingers, const RigidTransform& pose);
   void release() { anchors_.clear(); }
   bool active() const { return !anchors_.empty(); }
   std::size_t fingerCount() const { return anchors_.size(); }
 
   /// Fingers' current positions (NDC, x right, y down) by id; returns the handle's new pose, or
   /// nullopt with a reason if the increment was refused (the pose then stays).
-  std::optional<RigidPose> move(const std::vector<std::pair<std::int64_t, glm::dvec2>>& fingersNdc, const RigidPose& pose,
+  std::optional<RigidTransform> move(const std::vector<std::pair<std::int64_t, glm::dvec2>>& fingersNdc, const RigidTransform& pose,
                                 const OrbitCamera& camera, double aspect, unsigned locks, std::string* why = nullptr) const;
 
  private:

@@ -118,17 +118,17 @@ void setMovingHandles(gpu::RenderParams& params, const VolumeGeometry& geometry,
   const Eigen::Matrix4d i2w = geometry.indexToWorld(), w2i = geometry.worldToIndex();
   for (const auto& h : handles) {
     if (n >= gpu::kMaxMovingHandles) break;
-    if ((h.rotation - Eigen::Matrix3d::Identity()).norm() < 1e-12 && h.translation.norm() < 1e-12) continue;
+    if (h.pose.isIdentity()) continue;
     Eigen::Matrix4d inv = Eigen::Matrix4d::Identity();  // world now -> world at rest
-    inv.block<3, 3>(0, 0) = h.rotation.transpose();
-    inv.block<3, 1>(0, 3) = -h.rotation.transpose() * h.translation;
+    inv.block<3, 3>(0, 0) = h.pose.R.transpose();
+    inv.block<3, 1>(0, 3) = -h.pose.R.transpose() * h.pose.t;
     params.moving[n].currentToRest = toGlm(w2i * inv * i2w);
     params.moving[n].id = glm::uvec4(h.id, 0, 0, 0);
     // Where the handle is now: its rest bounds' corners moved, with a voxel and a half of margin
     // (trilinear support and rounding); empty-space skipping keeps those bricks.
     Eigen::Matrix4d fwd = Eigen::Matrix4d::Identity();
-    fwd.block<3, 3>(0, 0) = h.rotation;
-    fwd.block<3, 1>(0, 3) = h.translation;
+    fwd.block<3, 3>(0, 0) = h.pose.R;
+    fwd.block<3, 1>(0, 3) = h.pose.t;
     const Eigen::Matrix4d restToCurrent = w2i * fwd * i2w;
     Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e30), hi = Eigen::Vector3d::Constant(-1e30);
     const bool bounded = (h.restMin.array() <= h.restMax.array()).all();

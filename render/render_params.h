@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "shaders/shared.h"
+#include "sim/rigid_transform.h"
 #include "sim/volume.h"
 
 namespace handson {
@@ -60,8 +61,7 @@ gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::ma
 /// A handle drawn at a rigid pose: world_now = rotation * world_rest + translation.
 struct MovingHandlePose {
   std::uint32_t id = 0;
-  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  RigidTransform pose;  ///< world_now = pose.apply(world_rest)
   Eigen::Vector3i restMin{0, 0, 0}, restMax{-1, -1, -1};  ///< the handle's voxel bounds at rest (index)
 };
 

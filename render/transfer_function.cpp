@@ -130,6 +130,11 @@ TransferFunction transferFunctionPreset(const std::string& name) {
 
 std::vector<std::string> transferFunctionPresetNames() { return {"ct-abdomen", "ct-soft-tissue", "ct-bone", "mri"}; }
 
+std::string defaultPresetFor(const Volume& v) {
+  const auto [lo, hi] = v.valueRange();
+  return (lo <= -900.0f && hi >= 0.0f) ? "ct-abdomen" : "mri";
+}
+
 TransferFunction thresholdTransferFunction(float threshold) {
   TransferFunction tf;
   tf.name = "threshold";

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/volume.h"
 #include "volume_texture.h"
 
 namespace handson {
@@ -41,6 +42,9 @@ struct TransferFunction {
 /// Names: "ct-abdomen", "ct-soft-tissue", "ct-bone", "mri". Throws handson::Error on an unknown name, listing them.
 TransferFunction transferFunctionPreset(const std::string& name);
 std::vector<std::string> transferFunctionPresetNames();
+/// The preset a volume opens with: "ct-abdomen" when its values look like Hounsfield units (air near
+/// -1000 present and a signed range), else "mri".
+std::string defaultPresetFor(const Volume& v);
 /// Reads a text file: optional "relative" line, then lines "value r g b a" ('#' comments).
 TransferFunction loadTransferFunction(const std::string& path);
 /// Opaque white above `threshold` (a step), transparent below: for picking tests and iso-surfaces.

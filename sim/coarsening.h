@@ -27,6 +27,7 @@
 #include "sim/fem.h"
 #include "sim/fine_interpolation.h"
 #include "sim/progress.h"
+#include "sim/rigid_transform.h"
 #include "sim/sparse_direct.h"
 #include <Eigen/SparseCholesky>
 #include "sim/static_solver.h"
@@ -35,15 +36,6 @@
 namespace handson {
 
 struct HandleReaction;  // sim/handle_reaction.h
-
-/// x = R X + t, world millimetres.
-struct RigidTransform {
-  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d t = Eigen::Vector3d::Zero();
-  Eigen::Vector3d apply(const Eigen::Vector3d& X) const { return R * X + t; }
-  /// Rotation by a rotation vector (radians, axis * angle) about `pivot`, then a translation.
-  static RigidTransform about(const Eigen::Vector3d& pivot, const Eigen::Vector3d& rotationVector, const Eigen::Vector3d& translation);
-};
 
 /// Dirichlet roles of the fine nodes.
 struct FineConstraints {

@@ -1,10 +1,10 @@
-// The session-script parser (app/session_script.h) on arbitrary text. A refusal is a
+// The session-script parser (app/session/session_script.h) on arbitrary text. A refusal is a
 // handson::Error; anything else is a finding. A script that parses must format and parse again to
 // the same events.
 #include <cstdlib>
 #include <string>
 
-#include "app/session_script.h"
+#include "app/session/session_script.h"
 #include "sim/error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -58,7 +58,7 @@ Eigen::Matrix3d motionFor(int fingers, std::mt19937& rng, double angle, Eigen::V
 double maxPixelGap(const GestureProblem& p, const RigidIncrement& a, const RigidIncrement& b) {
   double m = 0;
   for (const auto& q : p.points)
-    m = std::max(m, (proj(p.projection, a.rotation * q + a.translation) - proj(p.projection, b.rotation * q + b.translation)).norm() * kPxPerNdc);
+    m = std::max(m, (proj(p.projection, a.motion.R * q + a.motion.t) - proj(p.projection, b.motion.R * q + b.motion.t)).norm() * kPxPerNdc);
   return m;
 }
 
@@ -78,8 +78,8 @@ TEST(GestureSolve, RecoversKnownSmallMotionsFor1235Fingers) {
       const RigidIncrement lm = solveLevenbergMarquardt(p);
       ASSERT_TRUE(lm.ok) << lm.reason;
       EXPECT_LT(lm.rmsAfter * kPxPerNdc, 1e-6) << fingers << " fingers";
-      EXPECT_LT((lm.rotation - R).norm(), 1e-6) << fingers << " fingers";
-      EXPECT_LT((lm.translation - tTrue).norm(), 1e-4) << fingers << " fingers";
+      EXPECT_LT((lm.motion.R - R).norm(), 1e-6) << fingers << " fingers";
+      EXPECT_LT((lm.motion.t - tTrue).norm(), 1e-4) << fingers << " fingers";
       // One linearized step leaves a second-order error: tiny for a motion this small.
       const RigidIncrement lin = solveLinearized(p);
       ASSERT_TRUE(lin.ok) << lin.reason;
@@ -104,13 +104,13 @@ TEST(GestureSolve, FingerCountAndLocksConstrainTheMotion) {
       for (const RigidIncrement& s : {solveLinearized(p), solveLevenbergMarquardt(p)}) {
         ASSERT_TRUE(s.ok) << s.reason;
         if (fingers == 1) {
-          EXPECT_LT((s.rotation - Eigen::Matrix3d::Identity()).norm(), 1e-12);  // never rotates
-          EXPECT_EQ(s.translation.z(), 0.0);                                     // never moves in depth
+          EXPECT_LT((s.motion.R - Eigen::Matrix3d::Identity()).norm(), 1e-12);  // never rotates
+          EXPECT_EQ(s.motion.t.z(), 0.0);                                     // never moves in depth
         } else {
           // Rotation about the view axis only.
-          EXPECT_NEAR(s.rotation(2, 2), 1.0, 1e-12);
-          EXPECT_NEAR(s.rotation(0, 2), 0.0, 1e-12);
-          EXPECT_NEAR(s.rotation(2, 0), 0.0, 1e-12);
+          EXPECT_NEAR(s.motion.R(2, 2), 1.0, 1e-12);
+          EXPECT_NEAR(s.motion.R(0, 2), 0.0, 1e-12);
+          EXPECT_NEAR(s.motion.R(2, 0), 0.0, 1e-12);
         }
       }
     }
@@ -122,12 +122,12 @@ TEST(GestureSolve, FingerCountAndLocksConstrainTheMotion) {
     ASSERT_TRUE(s.ok);
     // Pure rotation about the centroid: the centroid stays put.
     const Eigen::Vector3d c = centroid(p);
-    EXPECT_LT((s.rotation * c + s.translation - c).norm(), 1e-9);
+    EXPECT_LT((s.motion.R * c + s.motion.t - c).norm(), 1e-9);
     p.locks = kLockZRotation;
     p.points.resize(2);
     p.targets.resize(2);
     const RigidIncrement z = solveLinearized(p);
-    EXPECT_LT((z.rotation - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+    EXPECT_LT((z.motion.R - Eigen::Matrix3d::Identity()).norm(), 1e-12);
   }
 }
 
@@ -192,13 +192,13 @@ TEST(GestureSolve, DegenerateInputNeverYieldsNaN) {
   p.points = {{0, 0, 400}, {0, 0, 400}};  // coincident fingers
   p.targets = {{0.01, 0}, {0.01, 0}};
   for (const RigidIncrement& s : {solveLinearized(p), solveLevenbergMarquardt(p)}) {
-    EXPECT_TRUE(s.rotation.allFinite() && s.translation.allFinite());
+    EXPECT_TRUE(s.motion.R.allFinite() && s.motion.t.allFinite());
     EXPECT_LT(s.rmsAfter, s.rmsBefore + 1e-12);
   }
   p.points = {{-10, 0, 400}, {0, 0, 400}, {10, 0, 400}};  // collinear
   p.targets = {{-0.07, 0.01}, {0.0, 0.01}, {0.07, 0.012}};
   for (const RigidIncrement& s : {solveLinearized(p), solveLevenbergMarquardt(p)})
-    EXPECT_TRUE(s.ok && s.rotation.allFinite() && s.translation.allFinite());
+    EXPECT_TRUE(s.ok && s.motion.R.allFinite() && s.motion.t.allFinite());
   p.points[1].z() = 0.0;  // at the camera
   EXPECT_NE(solveLinearized(p).reason.find("behind the camera"), std::string::npos);
   p.points[1].z() = -5.0;
@@ -219,7 +219,7 @@ TEST(GestureSolve, DegenerateInputNeverYieldsNaN) {
   const RigidIncrement s = solveLinearized(big);
   EXPECT_TRUE(s.ok);
   EXPECT_TRUE(s.clamped);
-  EXPECT_TRUE(s.rotation.allFinite() && s.translation.allFinite());
+  EXPECT_TRUE(s.motion.R.allFinite() && s.motion.t.allFinite());
   unsigned lock;
   EXPECT_TRUE(parseGestureLock("z-rotation", lock));
   EXPECT_EQ(lock, unsigned(kLockZRotation));

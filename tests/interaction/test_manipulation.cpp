@@ -31,9 +31,9 @@ TEST(HandleManipulator, PointsFollowTheFingersAndPosesCompose) {
   const OrbitCamera cam = camera();
   const double aspect = 1.4;
   // A handle already moved once; its rest-frame points.
-  RigidPose pose;
-  pose.rotation = Eigen::AngleAxisd(0.2, Eigen::Vector3d(0, 0, 1)).toRotationMatrix();
-  pose.translation = Eigen::Vector3d(3, -2, 1);
+  RigidTransform pose;
+  pose.R = Eigen::AngleAxisd(0.2, Eigen::Vector3d(0, 0, 1)).toRotationMatrix();
+  pose.t = Eigen::Vector3d(3, -2, 1);
   const std::vector<Eigen::Vector3d> rest = {{0, 0, 0}, {40, 0, 10}, {0, 35, -10}};
   for (std::size_t n : {1u, 2u, 3u}) {
     HandleManipulator m;
@@ -49,12 +49,12 @@ TEST(HandleManipulator, PointsFollowTheFingersAndPosesCompose) {
     ASSERT_TRUE(next.has_value()) << why;
     for (std::size_t i = 0; i < n; ++i)
       EXPECT_LT(glm::length(ndc(cam, aspect, next->apply(rest[i])) - fingers[i].second), 2e-4) << n << " fingers";  // 0.05 px at 500 px
-    EXPECT_LT((next->rotation * next->rotation.transpose() - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+    EXPECT_LT((next->R * next->R.transpose() - Eigen::Matrix3d::Identity()).norm(), 1e-12);
     if (n == 1) {
       // One finger: a translation parallel to the screen, no rotation, no depth change.
-      EXPECT_LT((next->rotation - pose.rotation).norm(), 1e-12);
+      EXPECT_LT((next->R - pose.R).norm(), 1e-12);
       const glm::dvec3 f = cam.forward();
-      EXPECT_NEAR((next->translation - pose.translation).dot(Eigen::Vector3d(f.x, f.y, f.z)), 0.0, 1e-9);
+      EXPECT_NEAR((next->t - pose.t).dot(Eigen::Vector3d(f.x, f.y, f.z)), 0.0, 1e-9);
     }
   }
 }
@@ -63,11 +63,11 @@ TEST(HandleManipulator, RefusesWithoutAnchorsOrWithAMissingFinger) {
   const OrbitCamera cam = camera();
   HandleManipulator m;
   std::string why;
-  EXPECT_FALSE(m.move({{0, {0, 0}}}, RigidPose{}, cam, 1.0, kLockNone, &why));
+  EXPECT_FALSE(m.move({{0, {0, 0}}}, RigidTransform{}, cam, 1.0, kLockNone, &why));
   EXPECT_NE(why.find("anchored"), std::string::npos);
-  m.anchor({{7, Eigen::Vector3d(0, 0, 0)}}, RigidPose{});
-  EXPECT_FALSE(m.move({{8, {0, 0}}}, RigidPose{}, cam, 1.0, kLockNone, &why));
-  EXPECT_FALSE(m.move({{7, {std::nan(""), 0}}}, RigidPose{}, cam, 1.0, kLockNone, &why));
+  m.anchor({{7, Eigen::Vector3d(0, 0, 0)}}, RigidTransform{});
+  EXPECT_FALSE(m.move({{8, {0, 0}}}, RigidTransform{}, cam, 1.0, kLockNone, &why));
+  EXPECT_FALSE(m.move({{7, {std::nan(""), 0}}}, RigidTransform{}, cam, 1.0, kLockNone, &why));
   m.release();
   EXPECT_FALSE(m.active());
 }

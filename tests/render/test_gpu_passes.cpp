@@ -386,7 +386,7 @@ TEST_F(GpuPasses, HandleTintMatchesCpuAndPicksReportTheHandleId) {
   useTf(s, transferFunctionPreset("ct-abdomen"));
   MovingHandlePose moved;
   moved.id = 1;
-  moved.translation = Eigen::Vector3d(0, 30, 0);
+  moved.pose.t = Eigen::Vector3d(0, 30, 0);
   moved.restMin = s.phantom.ct.dims();
   for (std::size_t i = 0; i < up.ids.size(); ++i)
     if (up.ids[i]) {
@@ -411,7 +411,7 @@ TEST_F(GpuPasses, HandleTintMatchesCpuAndPicksReportTheHandleId) {
   // brick is empty by the transfer function.
   {
     MovingHandlePose far = moved;
-    far.translation = Eigen::Vector3d(90, 0, 0);  // toward the camera, partly past the skin
+    far.pose.t = Eigen::Vector3d(90, 0, 0);  // toward the camera, partly past the skin
     RenderSettings plain = rs;
     plain.emptySpaceSkipping = false;
     plain.earlyTermination = false;

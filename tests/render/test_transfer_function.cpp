@@ -180,3 +180,21 @@ TEST(RenderParams, ClipTextParsesRoundTripsAndRefusesMalformedValues) {
   for (const char* bad : {"0,0,0,5", "1,0,0", "1,0,0,inf", "1,,0,2"}) EXPECT_NE(parseClipPlane(bad, c), "") << bad;
   EXPECT_EQ(c, before);  // refused values change nothing
 }
+
+TEST(TransferFunction, DefaultPresetIsCtForHounsfieldValuesElseMri) {
+  VolumeGeometry g;
+  g.dims = {4, 1, 1};
+  Volume v(g, ScalarType::Int16);
+  const auto fill = [&](float a, float b, float c, float d) {
+    const float x[4] = {a, b, c, d};
+    for (int i = 0; i < 4; ++i) v.setValue(i, 0, 0, x[i]);
+  };
+  fill(-1000, -50, 40, 1200);  // air, fat, soft tissue, bone
+  EXPECT_EQ(defaultPresetFor(v), "ct-abdomen");
+  fill(-899, -50, 40, 1200);  // no air: not recognised as CT
+  EXPECT_EQ(defaultPresetFor(v), "mri");
+  fill(0, 120, 800, 2400);  // MRI intensities: unsigned
+  EXPECT_EQ(defaultPresetFor(v), "mri");
+  fill(-1024, -1000, -990, -950);  // air only, no signed range above 0
+  EXPECT_EQ(defaultPresetFor(v), "mri");
+}

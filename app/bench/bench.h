@@ -1,0 +1,17 @@
+#pragma once
+// `handson bench`: the raymarch benchmark (bench.cpp), which dispatches its subcommands, each in its
+// own file. Exit status and errors as for every command (app/cli/commands.h).
+#include "app/cli/args.h"
+
+namespace handson::cli {
+
+int cmdBench(const Words& args);
+int cmdBenchSelection(const Words& args);
+int cmdBenchGesture(const Words& args);
+int cmdBenchSim(const Words& args);
+int cmdBenchDeform(const Words& args);
+int cmdBenchMesh(const Words& args);
+int cmdBenchStability(const Words& args);
+int cmdBenchSuite(const Words& args);
+
+}  // namespace handson::cli

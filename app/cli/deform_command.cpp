@@ -1,0 +1,345 @@
+// `handson deform`: move a handle rigidly and deform the surrounding tissue, from the command line.
+#include <Eigen/Geometry>
+#include <chrono>
+#include <functional>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <optional>
+
+#include "app/cli/args.h"
+#include "app/cli/commands.h"
+#include "app/io/forces_json.h"
+#include "app/io/nifti_io.h"
+#include "app/io/volume_io.h"
+#include "app/io/vtu_io.h"
+#include "app/session/console.h"
+#include "render/deform_pass.h"
+#include "render/vk_context.h"
+#include "sim/coarsening.h"
+#include "sim/error.h"
+#include "sim/handle_reaction.h"
+#include "sim/quantized_volume.h"
+#include "sim/scene_cache.h"
+#include "sim/sim_scene.h"
+#include "sim/static_solver.h"
+#include "sim/strain.h"
+#include "sim/tet_raster.h"
+#include "sim/two_level.h"
+
+namespace handson::cli {
+
+namespace {
+const char* const kDeformHelp =
+    "usage: handson deform PATH --handle MASK.nii.gz --translate-mm X,Y,Z -o DEFORMED.nii.gz [options]\n"
+    "  Moves the handle (the mask's non-zero voxels) rigidly and deforms the tissue around it; writes the\n"
+    "  deformed image on the input's grid (tetrahedral rasterization of the deformed fine mesh); an -o\n"
+    "  ending in .nrrd writes NRRD (LPS space, as 3D Slicer writes it), anything else NIfTI.\n"
+    "  --handle-label N        only the mask's voxels equal to N (a label map as the mask)\n"
+    "  --frame N               the volume of a 4D NIfTI image to load (default 0)\n"
+    "  --fixed MASK.nii.gz     voxels held in place (a fixed handle; wins where the masks overlap)\n"
+    "  --fixed-label N         only the fixed mask's voxels equal to N\n"
+    "  --rotate-deg AX,AY,AZ   rotation vector in RAS+ degrees about the handle's centroid (default 0)\n"
+    "  --model coarse|fine     the interactive coarsened model (default) or the fine reference (static\n"
+    "                          corotational FEM, projected Newton to 1e-6 of the handle's motion)\n"
+    "  --refine-steps N        coarse model: two-level refinement steps toward the fine answer (default 0)\n"
+    "  --coarse-tets N         coarse tets over the region (default 6000; 6 per grid cell)\n"
+    "  --coarse-element cell|tet  the coarse model's elements: grid cells (default; 8 corners, the\n"
+    "                          cell's diagonal faces condensed) or the coarse tets (the spec's)\n"
+    "  --coarse-solver pcg|assembled  the coarse solve: matrix-free PCG (default) or the assembled\n"
+    "                          warped stiffness (the old one, kept to compare); the same answer\n"
+    "  --graded-split CELLS    graded cells (a named option, off by default): the coarse cells within\n"
+    "                          CELLS cell sizes of a handle halved, their hanging corners tied to the\n"
+    "                          whole cells; more accurate, several times the frame, pcg only, not cached\n"
+    "  --fine-mesh regular|adapted  the regular refinement (default) or image-adapted: TetGen meshes\n"
+    "                          each cell with extra points at stiffness jumps (cell elements only)\n"
+    "  --adapt-contrast F      a Young's modulus jump of F or more adds points (default 10)\n"
+    "  --cache-dir DIR|off     preprocessing cache for the coarse model (scene + condensed elements):\n"
+    "                          default $HANDSON_CACHE_DIR, $XDG_CACHE_HOME/handson or ~/.cache/handson\n"
+    "  --fine-tets N           fine elements (default 300000; m^3 per coarse tet, m rounded)\n"
+    "  --padding-mm D          region of interest: the handles' box plus D mm (default 40)\n"
+    "  --region box|handles    simulate the whole padded box, or only its cells within the padding of\n"
+    "                          the handles themselves (the box's far corners held at rest)\n"
+    "  --whole-volume          simulate the whole image box instead\n"
+    "  --materials FILE        material table (default: assets/materials/ct-default.csv, built in)\n"
+    "  --backend cpu|gpu       resampling on the CPU reference (default) or the Vulkan passes: for the\n"
+    "                          coarse model the GPU interpolates the fine nodes from the coarse state;\n"
+    "                          fine and refined positions are uploaded\n"
+    "  --device NAME           Vulkan device for --backend gpu (default: automatic; see handson render)\n"
+    "  --validation            Khronos validation layer on (any message is an error)\n"
+    "  --strain-out S.nii.gz   the tissue's strain on the input's grid: per voxel, the largest principal\n"
+    "                          stretch - 1 of the deformed fine tet covering it (0 outside the region)\n"
+    "  --forces-out F.json     each handle's reaction: the force (N) and torque (N mm, about its current\n"
+    "                          centroid) the tissue exerts on it, RAS; from the model that was solved (the\n"
+    "                          coarse model's own is approximate, far off where bone shares its cells with\n"
+    "                          the handle; --refine-steps 2 gives the fine model's within about 5 %)\n"
+    "  --mesh-out MESH.vtu     the fine mesh for ParaView: rest positions, point data displacement and\n"
+    "                          dirichlet, cell data youngs_modulus, poisson_ratio, coarse_element (the\n"
+    "                          coarse model's element: grid cell or coarse tet), strain\n"
+    "  --quiet                 no progress output\n";
+
+double seconds(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
+
+struct GpuResample {
+  Volume image;
+  std::size_t regionVoxels = 0, covered = 0;
+};
+
+// The GPU passes: the image quantized to 16 bits as the renderer holds it; the coarse state goes
+// through the interpolation pass when `fromCoarseState`, else the fine positions are uploaded.
+// Region voxels take the GPU's values; the rest of the image is copied from the input unchanged.
+GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const SimScene& sc, const CoarseModel* model, const std::vector<RigidTransform>& T,
+                          const std::vector<Eigen::Vector3d>& xc, const std::vector<Eigen::Vector3d>& x, bool fromCoarseState) {
+  const QuantizedVolume q = quantizeVolume(image);
+  const VolumeGeometry& g = q.geometry;
+  const fg::ImageDesc desc{std::uint32_t(g.dims.x()), std::uint32_t(g.dims.y()), std::uint32_t(g.dims.z()), fg::Format::R16Unorm};
+  const VkImageUsageFlags usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  vk::Image volume(ctx, desc, usage, true), mask(ctx, {desc.width, desc.height, desc.depth, fg::Format::R8Unorm}, usage, true);
+  vk::uploadToImage(ctx, volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  const std::vector<std::uint8_t> zeros(q.data.size(), 0);
+  vk::uploadToImage(ctx, mask, zeros.data(), zeros.size(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  FineInterpolationData data;
+  if (fromCoarseState) data = model->interpolationData();
+  else {
+    // Positions come from elsewhere: records that keep every node where it is told.
+    data.node.assign(sc.meshes.fine.nodes.size(), {FineInterpolationData::Rest, 0, 0, 0});
+    for (const auto& X : sc.meshes.fine.nodes) data.rest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
+    data.coarseRest = {Eigen::Vector4f(0, 0, 0, 1)};
+    data.elementCorners = {{0, 0, 0, 0}, {0, 0, 0, 0}};
+  }
+  vk::DeformSetup setup;
+  setup.interpolation = &data;
+  setup.fineTets = &sc.meshes.fine.tets;
+  setup.regionLo = sc.lo;
+  setup.regionHi = sc.hi;
+  setup.background = q.toNormalized(image.valueRange().first);  // as on the CPU path
+  setup.worldToIndex = g.worldToIndex();
+  setup.commitVoxels = 0.0;
+  vk::GpuDeformer gpu(ctx, volume, mask, setup, 1);
+  vk::DeformFrameStats st;
+  if (fromCoarseState) {
+    st = gpu.runFrame(packFrameState(xc, model->elementRotations(xc), T), vk::Redo::Region);
+  } else {
+    std::vector<Eigen::Vector4f> idx(x.size());
+    const Eigen::Matrix4d w2i = g.worldToIndex();
+    for (std::size_t i = 0; i < x.size(); ++i) idx[i] = (w2i * x[i].homogeneous()).cast<float>();
+    st = gpu.runFrame(idx);
+  }
+  GpuResample r{image, 0, st.coveredVoxels};
+  r.regionVoxels = takeRegionFromQuantized(r.image, q, gpu.readVolume(), sc.lo, sc.hi);
+  return r;
+}
+
+// resampleOnGpu on a device of its own; any validation message is an error.
+GpuResample resampleOnNewDevice(const vk::ContextOptions& co, const Volume& image, const SimScene& sc, const CoarseModel* model,
+                                const std::vector<RigidTransform>& T, const std::vector<Eigen::Vector3d>& xc, const std::vector<Eigen::Vector3d>& x,
+                                bool interpolate) {
+  const vk::Context ctx(co);
+  GpuResample r = resampleOnGpu(ctx, image, sc, model, T, xc, x, interpolate);
+  if (ctx.validationMessageCount()) throw Error("Vulkan validation messages were reported");
+  return r;
+}
+
+// The strain on the input's grid. `tetOf`: which tet covers each voxel, from the CPU resampling;
+// empty after the GPU one (then rasterized here with the CPU reference).
+void writeStrain(const std::string& path, const Volume& image, const SimScene& sc, const std::vector<Eigen::Vector3d>& x, const std::vector<float>& strain,
+                 std::vector<std::int32_t>& tetOf) {
+  if (tetOf.empty()) {
+    Volume unused;
+    rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, unused, nullptr, nullptr,
+                      defaultMaxTetVoxels(sc.meshes.fine, image.geometry().worldToIndex()), &tetOf);
+  }
+  writeVolume(strainVolume(image.geometry(), tetOf, strain), path);
+}
+
+// The fine mesh for ParaView: displacement and Dirichlet roles per node; material, coarse element
+// and strain per tet.
+void writeMesh(const std::string& path, const SimScene& sc, const std::vector<Eigen::Vector3d>& x, const std::vector<float>& strain, CoarseElement element) {
+  std::vector<Eigen::Vector3d> disp(x.size());
+  std::vector<double> dir(x.size()), coarseEl(sc.meshes.fine.tets.size()), strainD(strain.begin(), strain.end());
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    disp[i] = x[i] - sc.meshes.fine.nodes[i];
+    dir[i] = (sc.constraints.fixed[i] || sc.constraints.handleOf[i] >= 0) ? 1.0 : 0.0;
+  }
+  // The coarse model's element of each fine tet (a grid cell or a coarse tet, --coarse-element).
+  for (std::size_t t = 0; t < coarseEl.size(); ++t) coarseEl[t] = element == CoarseElement::Cell ? sc.meshes.fineParent[t] / 6 : sc.meshes.fineParent[t];
+  VtuArrays a;
+  a.pointVectors = {{"displacement", &disp}};
+  a.pointScalars = {{"dirichlet", &dir}};
+  a.cellScalars = {{"youngs_modulus", &sc.youngs}, {"poisson_ratio", &sc.poisson}, {"coarse_element", &coarseEl}, {"strain", &strainD}};
+  writeVtu(path, sc.meshes.fine, a);
+}
+
+}  // namespace
+
+// The fine static solve through `steps` increments of the motion (transformsAt(k / steps)), each
+// starting from the last; a solve that stops unconverged is reported and the next goes on from it.
+static std::vector<Eigen::Vector3d> solveFineInIncrements(const SimScene& sc, const std::function<std::vector<RigidTransform>(double)>& transformsAt, int steps,
+                                                          const ProgressFn& progress) {
+  std::vector<char> dir;
+  std::vector<Eigen::Vector3d> x = sc.meshes.fine.nodes;
+  for (int k = 1; k <= steps; ++k) {
+    auto x0 = prescribedPositions(sc.meshes.fine, sc.constraints, transformsAt(double(k) / steps), &dir);
+    for (std::size_t i = 0; i < x0.size(); ++i)
+      if (!dir[i]) x0[i] = x[i];
+    StaticSolveOptions o;
+    o.progress = progress;
+    const auto r = solveStatic(sc.meshes.fine, sc.fineK, dir, x0, o);
+    if (!r.converged) std::cerr << "warning: the fine solve stopped after " << r.iterations << " iterations (last update " << r.lastUpdate << " mm)\n";
+    x = r.x;
+  }
+  return x;
+}
+
+int cmdDeform(const Words& words) {
+  Args args(words,
+            {"--frame", "--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm", "--region",
+             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--graded-split", "--fine-mesh", "--adapt-contrast", "--cache-dir", "--forces-out", "--strain-out"},
+            {"--whole-volume", "--quiet", "--validation"});
+  if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {
+    usageStream(args) << kDeformHelp;
+    return args.help() ? 0 : 2;
+  }
+  const auto tr = parseNumberList(*args.value("--translate-mm"), "--translate-mm");
+  const auto rot = parseNumberList(args.valueOr("--rotate-deg", "0,0,0"), "--rotate-deg");
+  if (tr.size() != 3 || rot.size() != 3) throw UsageError("--translate-mm and --rotate-deg take three numbers");
+  const Eigen::Vector3d translation(tr[0], tr[1], tr[2]);
+  const Eigen::Vector3d rotation = Eigen::Vector3d(rot[0], rot[1], rot[2]) * (M_PI / 180.0);
+  if (translation.norm() > 1000.0 || rotation.norm() > 4 * M_PI) throw UsageError("--translate-mm beyond 1 m or --rotate-deg beyond 720 degrees");
+  const std::string model = args.valueOr("--model", "coarse");
+  if (model != "coarse" && model != "fine") throw UsageError("--model must be coarse or fine");
+  const std::string backend = args.valueOr("--backend", "cpu");
+  if (backend != "cpu" && backend != "gpu") throw UsageError("--backend must be cpu or gpu");
+  SimSettings s;
+  s.coarseTets = int(args.integer("--coarse-tets", s.coarseTets, 6, 2000000));
+  s.fineTets = int(args.integer("--fine-tets", s.fineTets, 6, 20000000));
+  if (s.fineTets < s.coarseTets) throw UsageError("--fine-tets must be at least --coarse-tets");
+  s.paddingMm = args.number("--padding-mm", s.paddingMm, 0.0, 1e4);
+  regionOption(args, "--region", s);
+  s.wholeVolume = args.flag("--whole-volume");
+  coarseModelOptions(args, "--", s);
+  fineMeshOptions(args, "--fine-mesh", "--adapt-contrast", s);
+  if (auto m = args.value("--materials")) s.materials = MaterialTable::load(*m);
+  const int refineSteps = int(args.integer("--refine-steps", 0, 0, 1000));
+  const std::string cacheArg = args.valueOr("--cache-dir", defaultSimulationCacheDir().string());
+  const std::filesystem::path cacheDir = cacheArg == "off" ? std::filesystem::path() : std::filesystem::path(cacheArg);
+  const bool quiet = args.flag("--quiet");
+  const ProgressFn progress = quiet ? ProgressFn{} : consoleProgress();
+
+  const Volume image = loadVolume(args.positional()[0], nullptr, progress, loadOptions(args));
+  auto labelOf = [&](const char* opt) { return args.value(opt) ? std::optional<long>(args.integer(opt, 0, 1, 65535)) : std::nullopt; };
+  std::vector<SimHandle> handles{{maskVoxels(*args.value("--handle"), image, "handle mask", labelOf("--handle-label")), {}}};
+  if (auto f = args.value("--fixed")) handles.push_back({maskVoxels(*f, image, "fixed mask", labelOf("--fixed-label")), {}});
+  {
+    // The region covers where the handle goes too (plus the padding): its centroid, from its voxels.
+    const VolumeGeometry& g = image.geometry();
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (std::uint32_t v : handles[0].voxels) c += g.toWorld(g.voxelOf(v).cast<double>());
+    c /= double(handles[0].voxels.size());
+    handles[0].reach.push_back(RigidTransform::about(c, rotation, translation));
+  }
+  for (const auto& name : s.materials.capped()) std::cerr << "note: material '" << name << "': Poisson ratio capped at " << kMaxPoisson << " (linear tets lock)\n";
+
+  auto t0 = std::chrono::steady_clock::now();
+  // The coarse model comes with its scene from the preprocessing cache when there (built and
+  // saved otherwise); the fine model needs only the scene.
+  SimScene sc;
+  std::unique_ptr<CoarseModel> cachedModel;
+  if (model == "coarse") {
+    CacheOutcome co;
+    cachedModel = buildOrLoadSimulation(image, handles, s, cacheDir, sc, progress, &co);
+    if (co.hit) std::cout << "preprocessing loaded from the cache in " << cacheDir.string() << "\n";
+    if (!co.note.empty()) std::cerr << "note: " << co.note << "\n";
+  } else {
+    sc = buildSimScene(image, handles, s, progress);
+  }
+  const double tScene = seconds(t0);
+  std::cout << std::fixed << std::setprecision(1) << "region: (" << sc.lo.x() << ", " << sc.lo.y() << ", " << sc.lo.z() << ") .. (" << sc.hi.x() << ", "
+            << sc.hi.y() << ", " << sc.hi.z() << ") mm; coarse " << sc.meshes.coarse.tets.size() << " tets, fine " << sc.meshes.fine.tets.size()
+            << " tets (" << (sc.meshes.regularFine ? std::to_string(sc.meshes.refinement) + "^3 per coarse tet"
+                                                   : "image-adapted: " + std::to_string(sc.adapted.structurePoints) + " points at stiffness jumps, " +
+                                                         std::to_string(sc.adapted.fallbackCells) + " cells left regular")
+            << "); handle nodes " << sc.handleNodeCount[0];
+  if (!sc.regionCell.empty())
+    std::cout << "; cells simulated " << std::count(sc.regionCell.begin(), sc.regionCell.end(), 1) << " of " << sc.regionCell.size() << " (shaped by the handles)";
+  std::cout << "\n";
+  // Large motions are applied in increments of at most 30 degrees and 10 mm, each solve starting
+  // from the previous one (continuation keeps the Newton and corotational iterations in their basin).
+  const int steps = std::max({1, int(std::ceil(rotation.norm() / (M_PI / 6))), int(std::ceil(translation.norm() / 10.0))});
+  auto transformsAt = [&](double f) {
+    std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], f * rotation, f * translation)};
+    if (handles.size() > 1) T.push_back(RigidTransform{});
+    return T;
+  };
+  const auto T = transformsAt(1.0);
+  std::vector<Eigen::Vector3d> x, xc;
+  std::unique_ptr<CoarseModel> model_;
+  t0 = std::chrono::steady_clock::now();
+  double tPre = 0;
+  if (model == "fine") {
+    x = solveFineInIncrements(sc, transformsAt, steps, progress);
+  } else {
+    model_ = std::move(cachedModel);
+    CoarseModel& m = *model_;
+    tPre = seconds(t0);
+    xc = m.restState();
+    for (int k = 1; k <= steps; ++k) m.solve(transformsAt(double(k) / steps), xc, 50);
+    x = m.reconstruct(T, xc);
+    if (refineSteps > 0) {
+      FineRefiner refiner(m, sc.fineK, sc.youngs, sc.poisson);
+      for (int k = 0; k < refineSteps; ++k) refiner.step(xc, x, 10);
+    }
+  }
+  const double tSolve = seconds(t0) - tPre;
+  const int inverted = countInvertedTets(sc.meshes.fine, x);
+  double maxDisp = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) maxDisp = std::max(maxDisp, (x[i] - sc.meshes.fine.nodes[i]).norm());
+  const bool wantStrain = args.value("--strain-out").has_value();
+  const std::vector<float> strain = wantStrain || args.value("--mesh-out") ? tetStrain(sc.meshes.fine, x) : std::vector<float>{};
+  std::vector<std::int32_t> tetOf;
+  t0 = std::chrono::steady_clock::now();
+  Volume out;
+  std::size_t regionVoxels = 0, covered = 0;
+  if (backend == "cpu") {
+    const auto rs = rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, out, nullptr, nullptr,
+                                      defaultMaxTetVoxels(sc.meshes.fine, image.geometry().worldToIndex()), wantStrain ? &tetOf : nullptr);
+    regionVoxels = rs.regionVoxels;
+    covered = rs.covered;
+  } else {
+    vk::ContextOptions co;
+    co.device = args.valueOr("--device", "");
+    co.validation = args.flag("--validation");
+    co.verbose = !quiet;
+    GpuResample r = resampleOnNewDevice(co, image, sc, model_.get(), T, xc, x, model == "coarse" && refineSteps == 0);
+    out = std::move(r.image);
+    regionVoxels = r.regionVoxels;
+    covered = r.covered;
+  }
+  const double tRaster = seconds(t0);
+  writeVolume(out, *args.value("-o"));
+  if (wantStrain) {
+    writeStrain(*args.value("--strain-out"), image, sc, x, strain, tetOf);
+    std::cout << "wrote " << *args.value("--strain-out") << "\n";
+  }
+  // The coarse model's preprocessing (scene and coarsening, or their cache) is one step.
+  std::cout << std::setprecision(3) << "model " << model << ": " << (model == "coarse" ? "scene + coarsening " : "scene ") << tScene << " s, ";
+  std::cout << "solve " << tSolve << " s (" << steps << " increment" << (steps > 1 ? "s" : "") << "), resampling " << tRaster << " s\n"
+            << "largest displacement " << maxDisp << " mm; inverted fine tets " << inverted << "; region voxels " << regionVoxels << ", covered "
+            << covered << " (" << backend << ")\nwrote " << *args.value("-o") << "\n";
+  if (auto fo = args.value("--forces-out")) {
+    // The reactions of the model that was solved: the coarse model's own, or the fine tets' at the
+    // fine or refined positions.
+    const bool coarseOnly = model == "coarse" && refineSteps == 0;
+    writeForcesJson(*fo, coarseOnly ? model_->handleReactions(T, xc) : fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, T, x),
+                    coarseOnly ? "coarse" : model == "fine" ? "fine" : "refined");
+    std::cout << "wrote " << *fo << "\n";
+  }
+  if (auto mo = args.value("--mesh-out")) {
+    writeMesh(*mo, sc, x, strain, s.element);
+    std::cout << "wrote " << *mo << "\n";
+  }
+  return 0;
+}
+
+}  // namespace handson::cli

@@ -1,0 +1,106 @@
+#include "headless_scene.h"
+
+#include <cmath>
+#include <iostream>
+
+#include "app/io/volume_io.h"
+#include "app/session/console.h"
+#include "sim/error.h"
+#include "sim/phantom.h"
+#include "sim/resample.h"
+
+namespace handson {
+
+const char* const kRenderOptionsHelp =
+    "  --frame N                the volume of a 4D NIfTI image to load (default 0)\n"
+    "  --size WxH               output size in pixels (default 512x512)\n"
+    "  --preset NAME            transfer function: ct-abdomen, ct-soft-tissue, ct-bone, mri (default: by value range)\n"
+    "  --tf FILE                transfer function file: lines 'value r g b a' (opacity per mm)\n"
+    "  --camera AZ,EL[,DIST[,ROLL]]  orbit camera in degrees around the volume centre; DIST in mm\n"
+    "                           (0 or omitted: fit the volume); azimuth 0 = anterior view\n"
+    "  --step F                 ray step as a fraction of the smallest voxel spacing (default 0.5)\n"
+    "  --clip-box X0,Y0,Z0,X1,Y1,Z1   draw and pick only inside this box (RAS mm)\n"
+    "  --clip-plane NX,NY,NZ,D  draw and pick only where NX*x + NY*y + NZ*z >= D (RAS mm)\n"
+    "  --voxels N               resample the volume to about N voxels first\n"
+    "  --device NAME            Vulkan device: gpu, cpu, an index or a name substring\n"
+    "                           (default: discrete > integrated > CPU; env HANDSON_DEVICE)\n"
+    "  --validation             enable the Khronos validation layer (env HANDSON_VALIDATION=1)\n"
+    "  --no-skip, --no-early-termination, --no-shading   switch off empty-space skipping,\n"
+    "                           early ray termination, gradient shading\n";
+
+void parseClipOptions(const cli::Args& args, RenderSettings& rs) {
+  if (auto b = args.value("--clip-box"))
+    if (const std::string why = parseClipBox(*b, rs.clip); !why.empty()) throw cli::UsageError("--clip-box: " + why);
+  if (auto p = args.value("--clip-plane"))
+    if (const std::string why = parseClipPlane(*p, rs.clip); !why.empty()) throw cli::UsageError("--clip-plane: " + why);
+}
+
+gpu::RenderParams HeadlessScene::params(std::uint32_t pickCount) const {
+  const double aspect = double(settings.width) / double(settings.height);
+  const glm::dvec3 eye = camera.eye();
+  return makeRenderParams(volume.geometry(), camera.view(), camera.projection(aspect), glm::vec3(eye), settings, pickCount);
+}
+
+HeadlessScene openHeadlessScene(const std::string& path, const cli::Args& args) {
+  HeadlessScene s;
+  const bool quiet = args.flag("--quiet");
+  const ProgressFn progress = quiet ? ProgressFn{} : consoleProgress();
+  if (path.empty()) {
+    s.volume = makePhantom().ct;
+    s.source = "built-in phantom";
+  } else {
+    LoadReport rep;
+    s.volume = loadVolume(path, &rep, progress, cli::loadOptions(args));
+    for (const auto& w : rep.warnings) std::cerr << "warning: " << w << "\n";
+    s.source = path;
+  }
+  if (auto n = args.value("--voxels")) {
+    const long voxels = args.integer("--voxels", 0, 1, long(kMaxVoxels));
+    s.volume = resampleToVoxelCount(s.volume, std::size_t(voxels), progress);
+  }
+  if (auto size = args.value("--size")) cli::parseSize(*size, s.settings.width, s.settings.height);
+  s.settings.stepFactor = float(args.number("--step", 0.5, 0.01, 10.0));
+  s.settings.emptySpaceSkipping = !args.flag("--no-skip");
+  s.settings.earlyTermination = !args.flag("--no-early-termination");
+  s.settings.shading = !args.flag("--no-shading");
+  parseClipOptions(args, s.settings);
+
+  if (auto tfPath = args.value("--tf")) {
+    s.tf = loadTransferFunction(*tfPath);
+  } else {
+    s.tf = transferFunctionPreset(args.valueOr("--preset", defaultPresetFor(s.volume)));
+  }
+
+  const double aspect = double(s.settings.width) / double(s.settings.height);
+  double az = kDefaultAzimuthDeg, el = kDefaultElevationDeg, dist = 0.0, roll = 0.0;
+  if (auto cam = args.value("--camera")) {
+    const auto v = cli::parseNumberList(*cam, "--camera");
+    if (v.size() < 2 || v.size() > 4) throw cli::UsageError("--camera takes AZ,EL[,DIST[,ROLL]]");
+    az = v[0];
+    el = v[1];
+    if (v.size() > 2) dist = v[2];
+    if (v.size() > 3) roll = v[3];
+    if (dist < 0.0) throw cli::UsageError("--camera: distance must be >= 0");
+  }
+  s.camera = OrbitCamera::framing(s.volume.geometry(), glm::radians(az), glm::radians(el), aspect);
+  if (dist > 0.0) {
+    s.camera.distance = dist;
+    s.camera.nearPlane = std::max(1e-3, 0.01 * dist);
+    s.camera.farPlane = dist + 2.0 * s.volume.geometry().diagonalMm();
+  }
+  s.camera.roll = glm::radians(roll);
+
+  vk::ContextOptions opts;
+  opts.validation = args.flag("--validation");
+  opts.device = args.valueOr("--device", "");
+  opts.verbose = !quiet;
+  s.context = std::make_unique<vk::Context>(opts);
+  s.quantized = quantizeVolume(s.volume);
+  s.lut = s.tf.lookupTable(s.quantized);
+  s.renderer = std::make_unique<VolumeRenderer>(*s.context);
+  s.renderer->setVolume(s.quantized, progress);
+  s.renderer->setTransferFunction(s.lut);
+  return s;
+}
+
+}  // namespace handson

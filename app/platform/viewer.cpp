@@ -1,0 +1,556 @@
+#include "viewer.h"
+
+#include <SDL2/SDL.h>
+#include <SDL2/SDL_vulkan.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <optional>
+
+#include "app/io/png_io.h"
+#include "app/io/volume_io.h"
+#include "app/platform/sdl_input.h"
+#include "app/platform/ui.h"
+#include "app/session/console.h"
+#include "app/session/frame_driver.h"
+#include "app/session/latency_log.h"
+#include "app/session/selection_controller.h"
+#include "app/session/session.h"
+#include "app/session/session_export.h"
+#include "app/session/session_recovery.h"
+#include "render/compute_passes.h"
+#include "render/transfer_function.h"
+#include "render/vk_context.h"
+#include "render/vk_swapchain.h"
+#include "render/volume_renderer.h"
+#include "sim/error.h"
+#include "sim/phantom.h"
+
+namespace handson {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds(Clock::time_point t, Clock::time_point t0) { return std::chrono::duration<double>(t - t0).count(); }
+
+struct SdlVideo {
+  SdlVideo() {
+    SDL_SetHint(SDL_HINT_VIDEO_X11_NET_WM_BYPASS_COMPOSITOR, "0");
+    // With a display, SDL must use it: if connecting fails for a moment (a busy X server), SDL
+    // would quietly fall back to its window-less "offscreen" driver. Retry, then say so.
+    for (int attempt = 0;; ++attempt) {
+      if (SDL_Init(SDL_INIT_VIDEO | SDL_INIT_EVENTS) != 0) throw Error(std::string("cannot open a window: ") + SDL_GetError());
+      const char* driver = SDL_GetCurrentVideoDriver();
+      const bool windowless = driver && (std::strcmp(driver, "offscreen") == 0 || std::strcmp(driver, "dummy") == 0);
+      if (!windowless || !displayAvailable()) break;
+      std::cerr << "warning: SDL chose its '" << driver << "' video driver; retrying the display\n";
+      SDL_Quit();
+      if (attempt == 4) throw Error("cannot connect to the display (SDL fell back to its offscreen driver)");
+      SDL_Delay(200);
+    }
+  }
+  ~SdlVideo() { SDL_Quit(); }
+};
+
+struct WindowHandle {
+  SDL_Window* w = nullptr;
+  ~WindowHandle() {
+    if (w) SDL_DestroyWindow(w);
+  }
+};
+
+// Adds the window passes after the raymarch: blit to the swapchain image, the UI, an optional
+// screenshot copy, and the hand-over to presentation.
+class PresentExtension final : public FrameExtension {
+ public:
+  PresentExtension(const vk::Swapchain& sc, Ui& ui) : sc_(sc), ui_(ui) {}
+
+  void prepare(const vk::Swapchain::Frame& f, vk::Buffer* screenshot) {
+    frame_ = f;
+    screenshot_ = screenshot;
+    waitSemaphore = f.acquired;
+    waitStage = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
+    signalSemaphore = f.rendered;
+  }
+
+  void addPasses(fg::FrameGraph& g, fg::ResourceHandle color) override {
+    const VkExtent2D ext = sc_.extent();
+    target_ = g.importImage("swapchain", {ext.width, ext.height, 1, fg::Format::Rgba8Unorm}, fg::Access::None);
+    const fg::ImageDesc src = g.resource(color).image;
+    g.addPass(
+        "blit",
+        [&](fg::PassBuilder& b) {
+          b.read(color, fg::Access::TransferSrc);
+          b.write(target_, fg::Access::TransferDst);
+        },
+        [this, color, src, ext](fg::Executor& e) {
+          auto& x = vk::vulkanExecutor(e);
+          VkImageBlit region{};
+          region.srcSubresource = region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+          region.srcOffsets[1] = {int(src.width), int(src.height), 1};
+          region.dstOffsets[1] = {int(ext.width), int(ext.height), 1};
+          vkCmdBlitImage(x.cmd(), x.image(color).handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, sc_.image(frame_.image),
+                         VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region, VK_FILTER_LINEAR);
+        });
+    g.addPass(
+        "ui", [&](fg::PassBuilder& b) { b.write(target_, fg::Access::ColorAttachmentWrite); },
+        [this, ext](fg::Executor& e) { ui_.record(vk::vulkanExecutor(e).cmd(), sc_.framebuffer(frame_.image), ext); });
+    if (screenshot_) {
+      shot_ = g.importBuffer("screenshot", {screenshot_->size()}, fg::Access::None);
+      g.addPass(
+          "screenshot",
+          [&](fg::PassBuilder& b) {
+            b.read(target_, fg::Access::TransferSrc);
+            b.write(shot_, fg::Access::TransferDst);
+            b.sideEffect();
+          },
+          [this, ext](fg::Executor& e) {
+            auto& x = vk::vulkanExecutor(e);
+            VkBufferImageCopy r{};
+            r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+            r.imageExtent = {ext.width, ext.height, 1};
+            vkCmdCopyImageToBuffer(x.cmd(), sc_.image(frame_.image), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, x.buffer(shot_).handle(), 1, &r);
+          });
+      g.exportResource(shot_, fg::Access::HostRead);
+    }
+    g.exportResource(target_, fg::Access::Present);
+  }
+
+  void bind(vk::GraphExecutor& x) override {
+    // The swapchain image is not a vk::Image; the passes above use its handle directly, and the
+    // executor only needs it for barriers.
+    x.bindRawImage(target_, sc_.image(frame_.image));
+    if (screenshot_) x.bindBuffer(shot_, *screenshot_);
+  }
+
+ private:
+  const vk::Swapchain& sc_;
+  Ui& ui_;
+  vk::Swapchain::Frame frame_{};
+  vk::Buffer* screenshot_ = nullptr;
+  fg::ResourceHandle target_, shot_;
+};
+
+std::vector<std::uint8_t> swizzleToRgba(const void* data, VkFormat format, std::uint32_t w, std::uint32_t h) {
+  std::vector<std::uint8_t> out(std::size_t(w) * h * 4);
+  std::memcpy(out.data(), data, out.size());
+  if (format == VK_FORMAT_B8G8R8A8_UNORM || format == VK_FORMAT_B8G8R8A8_SRGB)
+    for (std::size_t i = 0; i < out.size(); i += 4) std::swap(out[i], out[i + 2]);
+  for (std::size_t i = 3; i < out.size(); i += 4) out[i] = 255;
+  return out;
+}
+
+}  // namespace
+
+bool displayAvailable() {
+  const char* x = std::getenv("DISPLAY");
+  const char* wl = std::getenv("WAYLAND_DISPLAY");
+  return (x && *x) || (wl && *wl);
+}
+
+struct Viewer::Impl {
+  ViewerOptions o;
+  SdlVideo video;
+  WindowHandle window;
+  std::unique_ptr<vk::Context> ctx;
+  Volume volume;
+  QuantizedVolume q;
+  std::unique_ptr<VolumeRenderer> renderer;
+  std::unique_ptr<vk::Swapchain> swapchain;
+  std::unique_ptr<Ui> ui;
+  std::unique_ptr<SdlInput> input;
+  std::unique_ptr<Session> session;
+  std::unique_ptr<PresentExtension> present;
+  std::unique_ptr<SelectionController> selection;
+  std::unique_ptr<LabelMap> labels;  // --labels: organ labels on the volume's grid
+  std::unique_ptr<DeformationController> deform;
+  std::unique_ptr<FrameDriver> driver;
+  std::unique_ptr<SessionExport> exporter;
+  std::uint64_t exportFrame = 0;  // the frame whose image the pending export waits for
+  double scale = 1.0;
+  LatencyLog log;
+  Clock::time_point t0 = Clock::now();
+  std::uint64_t frameNo = 0;
+  std::string rescueNote;          // where the session was saved after the last one
+  bool running = true, resized = false, minimized = false;
+  std::unique_ptr<vk::Buffer> shot;
+  UiStatus status;
+  double lastFrameEnd = 0.0;
+  int dw = 0, dh = 0;
+  std::optional<SessionScript> play;  // --play: a script fed in as live input
+  std::size_t playNext = 0;
+  double playStart = 0.0;
+  int playRound = 0;
+
+  explicit Impl(const ViewerOptions& opts);
+  bool step();
+  int finish();
+  /// The window's events and the played script's due events, as touches and UI actions.
+  void pollInput(const Viewport& vp, std::vector<TouchEvent>& touches, std::vector<ScriptEvent>& actions);
+  /// The panel's status from the session, the controllers and the simulation's failures.
+  void updateStatus();
+  void frameInFreeArea(const Viewport& vp);
+  std::string rescue() const {
+    if (!session || !selection) return "nothing to save yet";
+    return saveRecovery(*session, selection->handles(), selection->picked(), volume.dims(), o.exportDir);
+  }
+};
+
+Viewer::Viewer(const ViewerOptions& o) : impl_(std::make_unique<Impl>(o)) {}
+Viewer::~Viewer() = default;
+bool Viewer::step() {
+  // A failure under the session (a Vulkan allocation, a lost device, running out of memory) ends
+  // it with what the user did so far saved beside the exports.
+  try {
+    return impl_->step();
+  } catch (const std::bad_alloc&) {
+    throw Error("out of memory; " + impl_->rescue());
+  } catch (const std::exception& e) {
+    throw Error(std::string(e.what()) + "; " + impl_->rescue());
+  }
+}
+int Viewer::finish() { return impl_->finish(); }
+Session& Viewer::session() { return *impl_->session; }
+std::uint64_t Viewer::frames() const { return impl_->frameNo; }
+std::vector<std::array<double, 4>> Viewer::uiPanels() const { return impl_->ui->panelRects(); }
+Viewport Viewer::drawableSize() const { return {std::max(impl_->dw, 1), std::max(impl_->dh, 1)}; }
+SDL_Window* Viewer::window() const { return impl_->window.w; }
+
+int runViewer(const ViewerOptions& o) {
+  Viewer v(o);
+  while (v.step()) {
+  }
+  return v.finish();
+}
+
+Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty() ? kSummaryFrames : 0) {
+  window.w = SDL_CreateWindow("Handson", SDL_WINDOWPOS_CENTERED, SDL_WINDOWPOS_CENTERED, o.width, o.height,
+                              SDL_WINDOW_VULKAN | SDL_WINDOW_RESIZABLE | SDL_WINDOW_ALLOW_HIGHDPI);
+  if (!window.w) throw Error(std::string("cannot create a window: ") + SDL_GetError());
+
+  unsigned extCount = 0;
+  SDL_Vulkan_GetInstanceExtensions(window.w, &extCount, nullptr);
+  std::vector<const char*> exts(extCount);
+  SDL_Vulkan_GetInstanceExtensions(window.w, &extCount, exts.data());
+  vk::ContextOptions co;
+  co.validation = o.validation;
+  co.device = o.device;
+  co.verbose = !o.quiet;
+  co.instanceExtensions.assign(exts.begin(), exts.end());
+  co.deviceExtensions = {VK_KHR_SWAPCHAIN_EXTENSION_NAME};
+  SDL_Window* w = window.w;
+  co.makeSurface = [w](VkInstance inst) {
+    VkSurfaceKHR surface = VK_NULL_HANDLE;
+    return SDL_Vulkan_CreateSurface(w, inst, &surface) ? surface : VkSurfaceKHR(VK_NULL_HANDLE);
+  };
+  ctx = std::make_unique<vk::Context>(co);
+
+  // The scene.
+  const ProgressFn progress = o.quiet ? ProgressFn{} : consoleProgress();
+  if (o.path.empty()) {
+    volume = makePhantom().ct;
+  } else {
+    LoadReport rep;
+    volume = loadVolume(o.path, &rep, progress, LoadOptions{o.frame});
+    for (const auto& warning : rep.warnings) std::cerr << "warning: " << warning << "\n";
+  }
+  if (!o.labels.empty()) labels = std::make_unique<LabelMap>(loadLabelMap(o.labels, volume.geometry()));
+  q = quantizeVolume(volume);
+  renderer = std::make_unique<VolumeRenderer>(*ctx, std::uint32_t(o.framesInFlight));
+  renderer->setVolume(q, progress);
+
+  SDL_Vulkan_GetDrawableSize(window.w, &dw, &dh);
+  const float hidpi = float(dw) / float(std::max(o.width, 1));
+  swapchain = std::make_unique<vk::Swapchain>(*ctx, vk::parsePresentMode(o.presentMode), VkExtent2D{std::uint32_t(dw), std::uint32_t(dh)},
+                                              std::uint32_t(o.framesInFlight));
+  ui = std::make_unique<Ui>(window.w, *ctx, *swapchain, hidpi);
+  input = std::make_unique<SdlInput>(window.w);
+  scale = o.renderScale > 0.0 ? o.renderScale : (ctx->summary().type == VK_PHYSICAL_DEVICE_TYPE_CPU ? 0.5 : 1.0);
+
+  session = std::make_unique<Session>(volume.geometry(), Viewport{std::max(dw, 1), std::max(dh, 1)},
+                                      o.preset.empty() ? defaultPresetFor(volume) : o.preset);
+  renderer->setTransferFunction(transferFunctionPreset(session->preset()).lookupTable(q));
+  {  // always recorded: the Export button writes the session so far; --record writes it at the end
+    SessionScript header;
+    header.volumeSource = o.path.empty() ? "phantom" : "file";
+    header.volumePath = o.path;
+    session->startRecording(header);
+  }
+  if (!o.quiet)
+    std::cerr << "window " << dw << "x" << dh << ", present mode " << vk::presentModeName(swapchain->presentMode()) << ", "
+              << o.framesInFlight << " frame(s) in flight, raymarch at " << scale * 100 << " %\n";
+  present = std::make_unique<PresentExtension>(*swapchain, *ui);
+  selection = std::make_unique<SelectionController>(q, *session, *renderer);
+  selection->setLabels(labels.get());
+  if (labels) {
+    renderer->setLabels(labels->labels);
+    session->setLabelTint(true);
+  }
+  deform = std::make_unique<DeformationController>(volume, q, *renderer, o.sim);
+  driver = std::make_unique<FrameDriver>(volume, q, *session, *renderer, *selection, *deform);
+  exporter = std::make_unique<SessionExport>(o.exportDir, volume, o.exportExtension);
+  session->addUiExtension([this](const ScriptEvent& e) { return exporter->onUi(e); });
+  status.device = ctx->summary().name;
+  if (!o.play.empty()) play = readSessionScript(o.play);
+  t0 = Clock::now();
+}
+
+void Viewer::Impl::pollInput(const Viewport& vp, std::vector<TouchEvent>& touches, std::vector<ScriptEvent>& actions) {
+  SDL_Event e;
+  while (SDL_PollEvent(&e)) {
+    const double t = seconds(Clock::now(), t0);
+    ui->processEvent(e);
+    if (e.type == SDL_QUIT) running = false;
+    if (e.type == SDL_WINDOWEVENT) {
+      if (e.window.event == SDL_WINDOWEVENT_SIZE_CHANGED) resized = true;
+      if (e.window.event == SDL_WINDOWEVENT_MINIMIZED) minimized = true;
+    }
+    if (e.type == SDL_KEYDOWN && !ui->wantsKeyboard()) {
+      const SDL_Keycode k = e.key.keysym.sym;
+      ScriptEvent key{t, false, {}, "", ""};
+      if (k == SDLK_ESCAPE) running = false;
+      if (k == SDLK_r) key.action = "reset-camera";
+      if (k >= SDLK_1 && k <= SDLK_5) {
+        static const char* const kModes[] = {"navigate", "select", "manipulate", "clip", "window"};
+        key.action = "set-mode";
+        key.value = kModes[k - SDLK_1];
+      }
+      if (!key.action.empty()) actions.push_back(key);
+    }
+    input->translate(e, t, vp, [this](double x, double y) { return ui->covers(x, y); }, touches);
+  }
+  // A played script's events arrive as a user's would: at their time since the first frame,
+  // scaled from the script's viewport to the window's.
+  if (play) {
+    const double now = seconds(Clock::now(), t0);
+    const glm::dvec2 k(double(vp.width) / play->viewport.width, double(vp.height) / play->viewport.height);
+    while (playNext < play->events.size() && playStart + play->events[playNext].t <= now) {
+      ScriptEvent pe = play->events[playNext++];
+      pe.t += playStart;
+      if (pe.isTouch) {
+        pe.touch.px *= k;
+        pe.touch.time = pe.t;
+        touches.push_back(pe.touch);
+      } else {
+        actions.push_back(pe);
+      }
+    }
+    if (playNext >= play->events.size() && now > playStart + play->duration() + 0.5) {
+      if (++playRound < o.playRepeat) {
+        playNext = 0;  // play it again from here, from the default view
+        playStart = now;
+        ScriptEvent reset;
+        reset.t = now;
+        reset.isTouch = false;
+        reset.action = "reset-camera";
+        actions.push_back(reset);
+      } else if (o.frames <= 0) {
+        running = false;
+      }
+    }
+  }
+}
+
+void Viewer::Impl::updateStatus() {
+  status.mode = modeName(session->gestures().mode());
+  status.preset = session->preset();
+  status.fingers = int(session->gestures().input().fingers().size());
+  status.handles.clear();
+  for (const auto& h : selection->handles().handles()) status.handles.push_back({h.id, handleStatusName(h.status), h.voxels.size(), {}});
+  for (const auto& [id, r] : deform->shownReactions())
+    for (auto& row : status.handles)
+      if (row.id == id) row.reaction = formatReaction(r, deform->shownRefineStep() == 0);
+  status.picked = selection->picked();
+  status.locks = selection->locks();
+  status.strainOverlay = session->strainOverlay();
+  status.hasLabels = labels != nullptr;
+  status.labelTint = session->labelTint();
+  status.clipped = session->clip().box || session->clip().plane;
+  status.window = session->window();
+  status.strainFrom = RenderSettings{}.strainFrom;
+  status.strainTo = RenderSettings{}.strainTo;
+  status.canUndo = selection->handles().canUndo();
+  status.canRedo = selection->handles().canRedo();
+  status.feedback = !selection->pinch().feedback().empty() ? selection->pinch().feedback()
+                    : !selection->labelNote().empty()     ? selection->labelNote()
+                                                          : selection->manipulationNote();
+  status.simulation = deform->status();
+  if (driver->newFailure()) {
+    // The simulation refused a pose, stopped without converging or failed to build: the session
+    // goes on (the last good state shows), and what was done so far is saved.
+    rescueNote = rescue();
+    if (!o.quiet) std::cerr << "warning: " << deform->status() << "\n  " << rescueNote << "\n";
+  }
+  if (!rescueNote.empty()) status.simulation += "; " + rescueNote;
+  status.liveVoxels = selection->liveVoxelCount();
+}
+
+// The first frame's view: the volume framed in the part of the window the panels leave free (they
+// are measured once the UI is laid out), recorded as the session's start and its reset-camera framing.
+void Viewer::Impl::frameInFreeArea(const Viewport& vp) {
+  const VolumeGeometry& g = volume.geometry();
+  const OrbitCamera probe = OrbitCamera::framing(g, glm::radians(kDefaultAzimuthDeg), glm::radians(kDefaultElevationDeg), double(vp.width) / vp.height);
+  const auto box = projectedVolumeBox(probe, g, vp.width, vp.height);
+  const double aspect = box ? ((*box)[2] - (*box)[0]) / std::max((*box)[3] - (*box)[1], 1.0) : 1.0;
+  session->setFreeArea(largestFreeArea(vp.width, vp.height, ui->panelRects(), aspect, 12.0 * ui->scale()));
+  session->resetCamera();
+}
+
+bool Viewer::Impl::step() {
+  if (!running || (o.frames > 0 && int(frameNo) >= o.frames)) return false;
+  if (frameNo == 0) playStart = seconds(Clock::now(), t0);
+  {
+    FrameTiming ft;
+    ft.frame = frameNo + 1;
+    const auto frameStart = Clock::now();
+    ft.cpuStart = seconds(frameStart, t0);
+    double wait = 0.0;
+    if (minimized) {
+      SDL_WaitEventTimeout(nullptr, 100);
+      SDL_Event e;
+      while (SDL_PollEvent(&e))
+        if (e.type == SDL_QUIT) running = false;
+        else if (e.type == SDL_WINDOWEVENT && (e.window.event == SDL_WINDOWEVENT_RESTORED || e.window.event == SDL_WINDOWEVENT_SIZE_CHANGED))
+          resized = true;
+      SDL_Vulkan_GetDrawableSize(window.w, &dw, &dh);
+      minimized = !swapchain->recreate({std::uint32_t(std::max(dw, 0)), std::uint32_t(std::max(dh, 0))});
+      if (!minimized) ui->swapchainRecreated(*swapchain);
+      return true;
+    }
+    if (resized) {
+      SDL_Vulkan_GetDrawableSize(window.w, &dw, &dh);
+      minimized = !swapchain->recreate({std::uint32_t(std::max(dw, 0)), std::uint32_t(std::max(dh, 0))});
+      if (!minimized) ui->swapchainRecreated(*swapchain);
+      session->setViewport({std::max(dw, 1), std::max(dh, 1)});
+      resized = false;
+      if (minimized) return true;
+    }
+    // Acquire first, then sample input as late as possible before recording.
+    const auto a0 = Clock::now();
+    auto frame = swapchain->acquire();
+    wait += seconds(Clock::now(), a0);
+    if (!frame) {
+      resized = true;
+      return true;
+    }
+    std::vector<TouchEvent> touches;
+    std::vector<ScriptEvent> actions;
+    const Viewport vp{int(swapchain->extent().width), int(swapchain->extent().height)};
+    pollInput(vp, touches, actions);
+    if (frameNo == 0 && !play) {
+      // Before any touch is applied (a finger already down would be cancelled by the reframing):
+      // lay the UI out twice (ImGui sizes an auto-resized panel from its content at the end of a
+      // frame; these passes' actions are dropped) so that the panels are measured at their size,
+      // and frame the view where they leave room.
+      updateStatus();
+      std::vector<ScriptEvent> layoutPass;
+      for (int pass = 0; pass < 2; ++pass) ui->build(status, seconds(Clock::now(), t0), layoutPass);
+      frameInFreeArea(vp);
+    }
+    for (const auto& t : touches) {
+      ScriptEvent se;
+      se.t = t.time;
+      se.touch = t;
+      session->apply(se);
+      if (ft.inputFirst < 0 || t.time < ft.inputFirst) ft.inputFirst = t.time;
+      ft.inputLast = std::max(ft.inputLast, t.time);
+      ++ft.inputCount;
+    }
+    updateStatus();
+    ui->build(status, seconds(Clock::now(), t0), actions);
+    for (const auto& a : actions) session->apply(a);
+    driver->refreshTransferFunction();
+
+    status.renderWidth = std::max(1, int(std::lround(vp.width * scale)));
+    status.renderHeight = std::max(1, int(std::lround(vp.height * scale)));
+    FrameRequest req = driver->request(vp, status.renderWidth, status.renderHeight);
+    req.readbackImage = exporter->pending() && exportFrame == 0;  // the export's image (without the UI)
+    req.extension = present.get();
+    driver->attachSimulation(req, false);  // never waits for the solve
+    driver->attachSelection(req, vp, ft);
+    driver->recordSimulation(ft);
+    const bool lastFrame = o.frames > 0 && int(frameNo) + 1 == o.frames;
+    if (lastFrame && !o.screenshot.empty())
+      shot = std::make_unique<vk::Buffer>(*ctx, VkDeviceSize(vp.width) * vp.height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                          vk::Buffer::Memory::HostVisible);
+    present->prepare(*frame, (lastFrame && shot) ? shot.get() : nullptr);
+    ft.cpuEnd = seconds(Clock::now(), t0);
+    const auto s0 = Clock::now();
+    ft.frame = driver->submit(req);  // waits only for the frame two submissions back
+    if (req.readbackImage) exportFrame = ft.frame;
+    ft.submit = seconds(Clock::now(), t0);
+    wait += seconds(Clock::now(), s0);
+    const auto p0 = Clock::now();
+    if (!swapchain->present(*frame)) resized = true;
+    ft.present = seconds(Clock::now(), t0);
+    wait += seconds(Clock::now(), p0);
+    ft.waitMs = wait * 1e3;
+    for (const auto& r : renderer->takeCompleted()) {
+      driver->completed(r);
+      if (exportFrame != 0 && r.frame == exportFrame) {
+        renderer->waitLast();  // the frames after it are done too: the volume and mesh are read at rest
+        status.exported = exporter->write(*session, selection->handles(), selection->picked(), *deform, r);
+        if (!o.quiet) std::cerr << status.exported << "\n";
+        exportFrame = 0;
+      }
+      std::vector<std::pair<std::string, double>> passes;
+      for (const auto& p : r.timings) {
+        passes.emplace_back(p.name, p.gpuMs);
+        if (p.name == "raymarch") status.gpuRaymarchMs = p.gpuMs;
+      }
+      log.setGpuTimes(r.frame, passes);
+    }
+    status.cpuFrameMs = (ft.cpuEnd - ft.cpuStart) * 1e3;
+    status.fps = lastFrameEnd > 0 ? 1.0 / std::max(1e-6, ft.present - lastFrameEnd) : 0.0;
+    status.latencyMs = ft.latencyMs() >= 0 ? ft.latencyMs() : status.latencyMs;
+    lastFrameEnd = ft.present;
+    log.add(ft);
+    ++frameNo;
+  }
+  return running && (o.frames <= 0 || int(frameNo) < o.frames);
+}
+
+int Viewer::Impl::finish() {
+  const FrameResult last = frameNo ? renderer->waitLast() : FrameResult{};
+  if (frameNo) {
+    std::vector<std::pair<std::string, double>> passes;
+    for (const auto& p : last.timings) passes.emplace_back(p.name, p.gpuMs);
+    log.setGpuTimes(last.frame, passes);
+  }
+  // An export asked for on the last frames: its frame is the last one or among those just finished.
+  if (exportFrame != 0) {
+    std::vector<FrameResult> done = renderer->takeCompleted();
+    done.push_back(last);
+    for (const auto& r : done)
+      if (r.frame == exportFrame) {
+        std::cerr << exporter->write(*session, selection->handles(), selection->picked(), *deform, r) << "\n";
+        exportFrame = 0;
+      }
+  }
+  if (exporter && (exporter->pending() || exportFrame != 0)) std::cerr << "warning: an export was asked for as the session ended and was not written\n";
+  if (shot && !o.screenshot.empty()) {
+    shot->invalidate();
+    const VkExtent2D ext = swapchain->extent();
+    writePng(o.screenshot, int(ext.width), int(ext.height), swizzleToRgba(shot->mapped(), swapchain->format(), ext.width, ext.height));
+    std::cout << "wrote " << o.screenshot << "\n";
+  }
+  if (!o.record.empty()) {
+    writeSessionScript(session->script(), o.record);
+    std::cout << "recorded " << session->script().events.size() << " events to " << o.record << "\n";
+  }
+  if (!o.timings.empty()) log.writeCsv(o.timings);
+  if (!o.quiet && frameNo) std::cerr << log.summary() << "\n";
+  if (o.printCamera) std::cout << describeCamera(session->camera()) << "\n";
+  if (ctx->validationMessageCount() > 0) {
+    std::cerr << "error: " << ctx->validationMessageCount() << " Vulkan validation message(s)\n";
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace handson

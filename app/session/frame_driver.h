@@ -1,0 +1,62 @@
+#pragma once
+// One frame of a session, shared by the window (app/viewer) and the headless replay (app/replay,
+// which the soak and the benchmark suite run): the transfer function kept to the session's preset,
+// the frame request at the session's camera, the simulation's state attached (live or settled),
+// the selection's passes, the submission and the finished frames handed back. The loops differ only
+// in where events come from (the window's input and a played script, or a script on a clock), where
+// frames go (a swapchain, or PNG files and a wait) and what they report.
+#include <cstdint>
+#include <optional>
+
+#include "app/session/deformation_controller.h"
+#include "app/session/latency_log.h"
+#include "app/session/selection_controller.h"
+#include "app/session/session.h"
+#include "render/volume_renderer.h"
+#include "sim/quantized_volume.h"
+#include "sim/volume.h"
+
+namespace handson {
+
+class FrameDriver {
+ public:
+  FrameDriver(const Volume& volume, const QuantizedVolume& q, Session& session, VolumeRenderer& renderer, SelectionController& selection,
+              DeformationController& deform)
+      : volume_(volume), q_(q), session_(session), renderer_(renderer), selection_(selection), deform_(deform) {}
+
+  /// The session's transfer function, when an applied event changed its preset.
+  void refreshTransferFunction();
+  /// A frame at the session's camera over a vp-sized view, raymarched at width x height (the
+  /// strain overlay as the session says).
+  FrameRequest request(const Viewport& vp, int width, int height) const;
+  /// The simulation's state attached to the request: the newest landed one (`settled` false: never
+  /// waits for the solve), or the one of the current pose (`settled`: waits for it); handles not yet
+  /// simulated are previewed rigidly.
+  void attachSimulation(FrameRequest& request, bool settled);
+  /// The selection's passes (and the pick that places a clip plane); the frame's CPU stage times
+  /// (selection, then simulation) into ft.
+  void attachSelection(FrameRequest& request, const Viewport& vp, FrameTiming& ft);
+  /// What the frame shows of the simulation (state, its age, the reactions) into ft.
+  void recordSimulation(FrameTiming& ft) const;
+  /// True once for each new simulation failure (a refused pose, no convergence, a failed build):
+  /// the caller saves the session and says so.
+  bool newFailure();
+  /// Submits the frame (waiting only for the frame two submissions back); its number.
+  std::uint64_t submit(const FrameRequest& request);
+  /// A finished frame's results (picks, grown regions) to the selection and the session's clip.
+  void completed(const FrameResult& result);
+
+ private:
+  const Volume& volume_;
+  const QuantizedVolume& q_;
+  Session& session_;
+  VolumeRenderer& renderer_;
+  SelectionController& selection_;
+  DeformationController& deform_;
+  std::uint64_t failuresSeen_ = 0;
+  std::size_t clipPickOffset_ = 0;
+  bool clipPickInRequest_ = false;
+  std::optional<std::uint64_t> clipPickFrame_;
+};
+
+}  // namespace handson

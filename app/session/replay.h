@@ -1,0 +1,50 @@
+#pragma once
+// Headless replay of a session script on any Vulkan device (lavapipe included), with no window:
+// the same session logic and frame graph as the app, frames rendered at a fixed rate of script
+// time, written as numbered PNGs with a timing log. The same script on the same driver gives
+// bit-identical frames.
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "app/session/deformation_controller.h"
+
+#include "app/session/session_script.h"
+
+namespace handson {
+
+struct ReplayOptions {
+  std::string script;      ///< path; empty: the built-in orbit-and-zoom demo
+  std::optional<SessionScript> scriptData;  ///< a script in memory instead (e.g. app/tools/gesture_stress.h: may hold NaN)
+  std::string volume;      ///< overrides the script's volume
+  std::string labels;      ///< organ labels for taps and label-handle actions (empty: none)
+  std::string framesOut;   ///< directory for frame_NNNNN.png (created); empty: no PNGs
+  std::string timings;     ///< timing log CSV
+  double fps = 30.0;       ///< frames per second of script time
+  int width = 0, height = 0;  ///< output size; 0: the script's viewport (touches are scaled)
+  std::string device;
+  bool validation = false;
+  bool quiet = false;
+  bool printCamera = false;
+  bool printHandles = false;
+  std::string exportPath;  ///< the deformed volume at the end (.nii.gz, the input's grid)
+  std::string exportDir = "handson-export";  ///< where the script's "export" actions write
+  std::string exportExtension = ".nii.gz";  ///< the exported volumes' format: ".nii.gz", ".nrrd" or ".mha"
+  DeformationOptions sim;  ///< the simulation of moved handles (each frame waits for it to settle: deterministic)
+  int frames = 0;          ///< frames to render; 0: through the script's last event, plus one
+  /// Called after each frame (index, frame count, validation messages so far): soaks sample here.
+  std::function<void(int frame, int frames, std::uint64_t validationMessages)> afterFrame;
+};
+
+/// The built-in demo script (assets/gestures/orbit-and-zoom.json, embedded at build time).
+SessionScript builtInDemoScript();
+/// The whole touch workflow on the phantom (assets/gestures/full-session.json, embedded): the right
+/// kidney and the vena cava pinch-selected, the kidney tilted and dragged with the tissue deforming
+/// around it, handle edits, an orbit, an export. The headless main job replays it.
+SessionScript builtInFullSessionScript();
+
+/// 0 on success; 1 when a validation message appeared or a handle's pose or the camera ended up
+/// holding a non-finite number (named on stderr). Throws Error for bad options or input.
+int runReplay(const ReplayOptions& options);
+
+}  // namespace handson

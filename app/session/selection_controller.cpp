@@ -1,0 +1,322 @@
+#include "selection_controller.h"
+
+#include <algorithm>
+#include <sstream>
+
+#include "render/raymarch_reference.h"
+
+
+namespace handson {
+
+SelectionController::SelectionController(const QuantizedVolume& volume, Session& session, VolumeRenderer& renderer, const GrowParams& params)
+    : volume_(volume), session_(session), renderer_(renderer), pinch_(volume, params), mask_(volume.data.size(), 0) {
+  dirtyMin_ = volume.geometry.dims;
+  dirtyMax_ = Eigen::Vector3i(-1, -1, -1);
+  session_.gestures().setHandler(InteractionMode::Select, [this](const TouchEvent& e, const TouchInput& input) {
+    {
+      const StageTimes::Scope t(stages_, "selection-update");
+      pinch_.onTouch(e, input, session_.camera(), session_.gestures().viewport());
+      if (pinch_.changed()) refreshLive();
+    }
+    detectTap(e, input);
+  });
+  session_.gestures().setHandler(InteractionMode::Manipulate, [this](const TouchEvent& e, const TouchInput& input) { manipulate(e, input); });
+  session_.gestures().setGrabProbe([this](glm::dvec2 px) { return onActiveHandle(px); });
+  session_.addUiExtension([this](const ScriptEvent& e) { return applyUi(e); });
+}
+
+void SelectionController::repaint(const std::vector<std::uint32_t>& voxels) {
+  for (std::uint32_t v : voxels) {
+    const Eigen::Vector3i p = volume_.geometry.voxelOf(v);
+    dirtyMin_ = dirtyMin_.cwiseMin(p);
+    dirtyMax_ = dirtyMax_.cwiseMax(p);
+    mask_[v] = 0;
+  }
+  for (const auto& h : handles_.handles())
+    for (std::uint32_t v : h.voxels) mask_[v] = std::uint8_t(h.id);  // only voxels in the dirty box matter
+  for (std::uint32_t v : live_) mask_[v] = HandleSet::kLiveSelectionId;
+}
+
+void SelectionController::refreshLive() {
+  std::vector<std::uint32_t> old = std::move(live_);
+  live_ = pinch_.state() == PinchSelection::State::Growing ? pinch_.liveVoxels() : std::vector<std::uint32_t>{};
+  if (auto done = pinch_.takeFinished()) {
+    const auto before = handles_.handles();
+    handles_.add(std::move(*done));
+    old.insert(old.end(), live_.begin(), live_.end());
+    const auto changed = HandleSet::changedVoxels(before, handles_.handles());
+    old.insert(old.end(), changed.begin(), changed.end());
+    tintsDirty_ = true;
+  }
+  old.insert(old.end(), live_.begin(), live_.end());
+  repaint(old);
+}
+
+void SelectionController::detectTap(const TouchEvent& e, const TouchInput& input) {
+  if (e.phase == TouchPhase::Down) {
+    if (input.fingers().size() == 1) {
+      tapFinger_ = e.id;
+      tapStart_ = e.px;
+      tapTime_ = e.time;
+      tapSpoiled_ = false;
+    } else {
+      tapSpoiled_ = true;  // a second finger: a pinch, not a tap
+    }
+  } else if (e.id == tapFinger_) {
+    if (glm::length(e.px - tapStart_) > 12.0 || e.time - tapTime_ > 0.3) tapSpoiled_ = true;
+    if (e.phase == TouchPhase::Up && !tapSpoiled_ && input.fingers().empty()) tapRequest_ = e.px;
+    if (e.phase == TouchPhase::Up || e.phase == TouchPhase::Cancel) tapFinger_ = -1;
+  }
+}
+
+void SelectionController::manipulate(const TouchEvent& e, const TouchInput& input) {
+  const Viewport& vp = session_.gestures().viewport();
+  if (e.phase != TouchPhase::Move) {
+    // The finger set changed: re-anchor on the fingers now down (their points are picked anew).
+    manipulator_.release();
+    grabRequest_.clear();
+    for (const auto& f : input.fingers()) grabRequest_.push_back({f.id, f.px});
+    grabPending_ = !grabRequest_.empty();
+    // A new gesture: its first grab of a handle is one undo step, even when more fingers come
+    // down before that grab is answered (fingers landing in the same frame).
+    if (e.phase == TouchPhase::Down && input.fingers().size() == 1) grabUndoable_ = true;
+    if (input.fingers().empty()) {
+      manipulated_ = 0;
+      grabUndoable_ = false;
+    }
+    return;
+  }
+  if (!manipulator_.active() || !manipulated_) return;
+  const Handle* h = handles_.find(manipulated_);
+  if (!h) return;
+  std::vector<std::pair<std::int64_t, glm::dvec2>> ndc;
+  for (const auto& f : input.fingers()) ndc.push_back({f.id, vp.toNdc(f.px)});
+  std::string why;
+  const StageTimes::Scope t(stages_, "gesture-solve");
+  const auto pose = manipulator_.move(ndc, h->pose, session_.camera(), double(vp.width) / vp.height, locks_, &why);
+  if (pose) handles_.setPose(manipulated_, *pose, false);
+  manipulationNote_ = why;
+}
+
+bool SelectionController::onActiveHandle(glm::dvec2 px) const {
+  if (!haveParams_ || renderer_.transferFunction().empty()) return false;
+  const bool any = std::any_of(handles_.handles().begin(), handles_.handles().end(), [](const Handle& h) { return h.status == HandleStatus::Active; });
+  if (!any) return false;
+  const ReferenceScene scene{&volume_, &renderer_.transferFunction(), &renderer_.occupancy(), &mask_, nullptr};
+  const auto hit = pickReference(scene, lastParams_, {glm::vec2(session_.gestures().viewport().toNdc(px))});
+  if (hit.empty() || hit[0].world.w <= 0.5f) return false;
+  const Handle* h = handles_.find(int(hit[0].voxel.w));
+  return h && h->status == HandleStatus::Active;
+}
+
+std::vector<MovingHandlePose> SelectionController::movingHandles() const {
+  std::vector<MovingHandlePose> out;
+  for (const auto& h : handles_.handles())
+    if (!h.pose.isIdentity()) {
+      MovingHandlePose m{std::uint32_t(h.id), h.pose};
+      m.restMin = volume_.geometry.dims;
+      for (std::uint32_t v : h.voxels) {
+        const Eigen::Vector3i p = volume_.geometry.voxelOf(v);
+        m.restMin = m.restMin.cwiseMin(p);
+        m.restMax = m.restMax.cwiseMax(p);
+      }
+      out.push_back(m);
+    }
+  return out;
+}
+
+void SelectionController::syncTints() {
+  if (!tintsDirty_) return;
+  renderer_.setHandleTints(handles_.tints(picked_.empty() ? 0 : picked_.back()));
+  tintsDirty_ = false;
+}
+
+bool SelectionController::labelHandle(const std::string& value) {
+  labelNote_.clear();
+  if (!labels_) {
+    labelNote_ = "No label map is loaded (--labels)";
+    return false;
+  }
+  Eigen::Vector3i v;
+  char c1 = 0, c2 = 0;
+  std::istringstream in(value);
+  if (!(in >> v.x() >> c1 >> v.y() >> c2 >> v.z()) || c1 != ',' || c2 != ',' || !labels_->geometry.contains(v)) {
+    labelNote_ = "label-handle needs a voxel I,J,K inside the volume";
+    return false;
+  }
+  if (labels_->at(v) == 0) {
+    labelNote_ = "No labelled organ there";
+    return false;
+  }
+  if (handles_.add(labelComponent(*labels_, v)) == 0) {
+    labelNote_ = "No handle left for that organ";
+    return false;
+  }
+  return true;
+}
+
+bool SelectionController::applyUi(const ScriptEvent& e) {
+  auto ids = [&](int& a, int& b) {
+    char comma = 0;
+    std::istringstream in(e.value);
+    return bool(in >> a >> comma >> b) && comma == ',';
+  };
+  const auto before = handles_.handles();
+  bool ok = false;
+  if (e.action == "handle-status") {
+    const auto colon = e.value.find(':');
+    HandleStatus st;
+    if (colon != std::string::npos && parseHandleStatus(e.value.substr(colon + 1), st)) {
+      try {
+        ok = handles_.setStatus(std::stoi(e.value.substr(0, colon)), st);
+      } catch (...) {
+        ok = false;
+      }
+    }
+    if (ok) tintsDirty_ = true;
+    return ok;
+  } else if (e.action == "handle-delete") {
+    try {
+      ok = handles_.remove(std::stoi(e.value));
+    } catch (...) {
+      ok = false;
+    }
+  } else if (e.action == "handle-union" || e.action == "handle-difference") {
+    int a = 0, b = 0;
+    ok = ids(a, b) && (e.action == "handle-union" ? handles_.unite(a, b) : handles_.subtract(a, b));
+  } else if (e.action == "label-handle") {
+    ok = labelHandle(e.value);
+  } else if (e.action == "toggle-lock") {
+    unsigned lock = 0;
+    if (!parseGestureLock(e.value, lock)) return false;
+    locks_ ^= lock;
+    return true;
+  } else if (e.action == "undo") {
+    ok = handles_.undo();
+  } else if (e.action == "redo") {
+    ok = handles_.redo();
+  } else {
+    return false;
+  }
+  if (ok) {
+    repaint(HandleSet::changedVoxels(before, handles_.handles()));
+    picked_.erase(std::remove_if(picked_.begin(), picked_.end(), [&](int id) { return !handles_.find(id); }), picked_.end());
+    tintsDirty_ = true;
+  }
+  return ok;
+}
+
+void SelectionController::prepareFrame(FrameRequest& req, const Viewport& vp) {
+  syncTints();
+  pickInRequest_ = false;
+  tapInRequest_ = false;
+  if (tapRequest_) {
+    tapOffset_ = req.pickPoints.size();
+    req.pickPoints.push_back(glm::vec2(vp.toNdc(*tapRequest_)));
+    tapRequest_.reset();
+    tapInRequest_ = true;
+  }
+  grabInRequest_ = false;
+  if (grabPending_) {
+    grabOffset_ = req.pickPoints.size();
+    for (const auto& [id, px] : grabRequest_) req.pickPoints.push_back(glm::vec2(vp.toNdc(px)));
+    grabPending_ = false;
+    grabInRequest_ = true;
+  }
+  setMovingHandles(req.params, volume_.geometry, movingHandles());
+  lastParams_ = req.params;  // the CPU grab probe sees moved handles where they are, either way
+  haveParams_ = true;
+  if (!rigidPreview_) req.params.control.w = 0;  // the deformed volume already holds them there
+  const auto pts = pinch_.takePickRequest();
+  if (!pts.empty()) {
+    pickOffset_ = req.pickPoints.size();
+    for (const auto& p : pts) req.pickPoints.push_back(glm::vec2(vp.toNdc(p)));  // finger positions are continuous pixels
+    pickInRequest_ = true;
+  }
+  if ((dirtyMin_.array() <= dirtyMax_.array()).all()) {
+    upload_.min = dirtyMin_;
+    upload_.dims = dirtyMax_ - dirtyMin_ + Eigen::Vector3i::Ones();
+    upload_.ids.resize(std::size_t(upload_.dims.prod()));
+    const auto& d = volume_.geometry.dims;
+    std::size_t o = 0;
+    for (int k = dirtyMin_.z(); k <= dirtyMax_.z(); ++k)
+      for (int j = dirtyMin_.y(); j <= dirtyMax_.y(); ++j) {
+        const std::size_t row = std::size_t(dirtyMin_.x()) + std::size_t(d.x()) * (std::size_t(j) + std::size_t(d.y()) * std::size_t(k));
+        std::copy_n(mask_.begin() + std::ptrdiff_t(row), upload_.dims.x(), upload_.ids.begin() + std::ptrdiff_t(o));
+        o += std::size_t(upload_.dims.x());
+      }
+    req.maskUpload = &upload_;
+    dirtyMin_ = d;
+    dirtyMax_ = Eigen::Vector3i(-1, -1, -1);
+  }
+}
+
+void SelectionController::submitted(std::uint64_t frame) {
+  if (pickInRequest_) pickFrame_ = frame;
+  if (tapInRequest_) tapFrame_ = frame;
+  if (grabInRequest_) grabFrame_ = frame;
+}
+
+void SelectionController::onFrameResult(const FrameResult& r) {
+  if (grabFrame_ && r.frame == *grabFrame_) {
+    grabFrame_.reset();
+    // The handle under the fingers: the one already being moved if a finger is on it, else the
+    // first handle hit. Fingers on that handle anchor; the others ride along unanchored.
+    int target = 0;
+    for (std::size_t i = 0; i < grabRequest_.size() && grabOffset_ + i < r.picks.size(); ++i) {
+      const int id = r.picks[grabOffset_ + i].world.w > 0.5f ? r.picks[grabOffset_ + i].voxel.w : 0;
+      if (id > 0 && handles_.find(id) && (target == 0 || id == manipulated_)) target = id;
+    }
+    std::vector<FingerAnchor> anchors;
+    for (std::size_t i = 0; i < grabRequest_.size() && grabOffset_ + i < r.picks.size(); ++i) {
+      const auto& pk = r.picks[grabOffset_ + i];
+      if (target && pk.world.w > 0.5f && pk.voxel.w == target) anchors.push_back({grabRequest_[i].first, Eigen::Vector3d(pk.world.x, pk.world.y, pk.world.z)});
+    }
+    if (target && !anchors.empty() && session_.gestures().input().fingers().size() == grabRequest_.size()) {
+      manipulated_ = target;
+      const Handle* h = handles_.find(target);
+      if (grabUndoable_) handles_.setPose(target, h->pose, true);  // one undo step per gesture
+      grabUndoable_ = false;
+      manipulator_.anchor(anchors, handles_.find(target)->pose);
+      manipulationNote_.clear();
+    } else if (!target) {
+      manipulationNote_ = "Touch a handle to move it";
+    }
+  }
+  if (tapFrame_ && r.frame == *tapFrame_) {
+    tapFrame_.reset();
+    if (tapOffset_ < r.picks.size() && r.picks[tapOffset_].world.w > 0.5f) {
+      const int id = r.picks[tapOffset_].voxel.w;
+      if (id > 0 && handles_.find(id)) {
+        picked_.erase(std::remove(picked_.begin(), picked_.end(), id), picked_.end());
+        picked_.push_back(id);
+        if (picked_.size() > 2) picked_.erase(picked_.begin());
+        tintsDirty_ = true;
+      } else if (labels_) {
+        // A tap on an organ that is no handle yet: the organ behind the picked surface (the first
+        // 2 voxels or 4 mm of the ray) becomes a handle. Applied here, not recorded as an action:
+        // the tap's touches are, and replay picks the same point.
+        const glm::dvec3 hit(r.picks[tapOffset_].world);
+        const glm::dvec3 dir = hit - session_.camera().eye();
+        const double depth = std::max(4.0, 2.0 * labels_->geometry.spacing.maxCoeff());
+        if (const auto v = labelledVoxelBehind(*labels_, {hit.x, hit.y, hit.z}, {dir.x, dir.y, dir.z}, depth)) {
+          std::ostringstream text;
+          text << v->x() << "," << v->y() << "," << v->z();
+          applyUi(uiEvent(0.0, "label-handle", text.str()));
+        } else {
+          labelNote_ = "No labelled organ there";
+        }
+      }
+    }
+  }
+  if (!pickFrame_ || r.frame != *pickFrame_) return;
+  pickFrame_.reset();
+  std::vector<std::optional<glm::dvec3>> world;
+  for (std::size_t i = pickOffset_; i < pickOffset_ + 2 && i < r.picks.size(); ++i)
+    world.push_back(r.picks[i].world.w > 0.5f ? std::optional<glm::dvec3>(glm::dvec3(r.picks[i].world)) : std::nullopt);
+  const StageTimes::Scope t(stages_, "selection-update");
+  pinch_.onPicks(world, session_.camera(), session_.gestures().viewport());
+  if (pinch_.changed()) refreshLive();
+}
+
+}  // namespace handson

@@ -1,0 +1,113 @@
+#pragma once
+// Wires selection into a running session, for the window and for replay alike: the pinch's
+// depth-pick requests ride on the next frame and their answers come back with its results; the
+// live selection and the handles are painted into a CPU copy of the handle-id mask whose changed
+// box is uploaded inside the next frame; handle edits come in as UI actions (recorded and replayed
+// like touches):
+//   handle-status "ID:active|fixed|idle", handle-delete "ID", handle-union "A,B" (A := A ∪ B),
+//   handle-difference "A,B" (A := A \ B), undo, redo, toggle-lock "z-translation|z-rotation|xy-translation",
+//   label-handle "I,J,K" (with a label map: the labelled organ at voxel I,J,K becomes a handle - what
+//   a tap on an organ that is no handle yet does in select mode).
+#include <optional>
+#include <vector>
+
+#include "app/session/session.h"
+#include "app/session/stage_times.h"
+#include "interaction/handles.h"
+#include "interaction/label_map.h"
+#include "interaction/manipulation.h"
+#include "interaction/selection.h"
+#include "render/render_params.h"
+#include "render/volume_renderer.h"
+
+namespace handson {
+
+class SelectionController {
+ public:
+  SelectionController(const QuantizedVolume& volume, Session& session, VolumeRenderer& renderer, const GrowParams& params = {});
+
+  /// Before submitting a frame: appends pending pick points (NDC) and sets the mask upload.
+  void prepareFrame(FrameRequest& request, const Viewport& viewport);
+  /// After submitting it, with the frame id the renderer returned.
+  void submitted(std::uint64_t frame);
+  /// With every completed frame's results.
+  void onFrameResult(const FrameResult& result);
+  /// Handle edits; false for actions that are not the controller's or that were refused.
+  bool applyUi(const ScriptEvent& e);
+
+  /// Organ labels on the volume's grid (owned by the caller, kept alive while this controller is):
+  /// taps and "label-handle" actions then make labelled organs handles. nullptr: none.
+  void setLabels(const LabelMap* labels) { labels_ = labels; }
+  /// Why the last label-handle action was refused ("" if it was not).
+  const std::string& labelNote() const { return labelNote_; }
+
+  const HandleSet& handles() const { return handles_; }
+  /// Handles picked by tapping them (most recent last, at most two): union and difference act on them.
+  const std::vector<int>& picked() const { return picked_; }
+  /// Handles with a pose, for the raymarch (drawn moved rigidly until the simulation lands).
+  std::vector<MovingHandlePose> movingHandles() const;
+  /// Whether moved handles are drawn rigidly (off while the renderer shows the simulated deformation).
+  void setRigidPreview(bool on) { rigidPreview_ = on; }
+  const std::string& manipulationNote() const { return manipulationNote_; }
+  /// Locks of the manipulation (GestureLock bits), toggled by the "toggle-lock" UI action.
+  unsigned locks() const { return locks_; }
+  const PinchSelection& pinch() const { return pinch_; }
+  std::size_t liveVoxelCount() const { return live_.size(); }
+  /// CPU time since the last call: "selection-update" (region growing and the mask's repaint) and
+  /// "gesture-solve" (the manipulation's rigid solve), for the timing log.
+  std::vector<std::pair<std::string, double>> takeStageTimes() { return stages_.take(); }
+
+ private:
+  void repaint(const std::vector<std::uint32_t>& voxels);
+  bool labelHandle(const std::string& voxel);
+  void refreshLive();
+  void syncTints();
+
+  const QuantizedVolume& volume_;
+  Session& session_;
+  VolumeRenderer& renderer_;
+  PinchSelection pinch_;
+  HandleSet handles_;
+  std::vector<std::uint8_t> mask_;           // handle ids on the volume grid (CPU copy)
+  std::vector<std::uint32_t> live_;          // voxels of the live selection
+  Eigen::Vector3i dirtyMin_, dirtyMax_;      // box to upload (empty when min > max)
+  MaskUpload upload_;
+  bool tintsDirty_ = true;
+  std::optional<std::uint64_t> pickFrame_;   // frame carrying the pinch's picks
+  std::size_t pickOffset_ = 0;
+  bool pickInRequest_ = false;
+  // Manipulation: fingers landing on a handle in manipulate mode pick their points on it; moves
+  // solve the rigid increment that keeps those points under the fingers.
+  void manipulate(const TouchEvent& e, const TouchInput& input);
+  // In navigate mode a gesture starting on an active handle moves it: decided at once on the CPU
+  // (the pick pass's reference on the last frame's parameters and this mask), so the camera
+  // never moves first; the GPU picks then anchor the fingers as in manipulate mode.
+  bool onActiveHandle(glm::dvec2 px) const;
+  gpu::RenderParams lastParams_{};
+  bool rigidPreview_ = true;
+  bool haveParams_ = false;
+  HandleManipulator manipulator_;
+  int manipulated_ = 0;                         // handle being moved (0: none)
+  std::vector<std::pair<std::int64_t, glm::dvec2>> grabRequest_;  // fingers (px) to pick
+  bool grabPending_ = false, grabInRequest_ = false, grabUndoable_ = false;
+  std::optional<std::uint64_t> grabFrame_;
+  std::size_t grabOffset_ = 0;
+  std::string manipulationNote_;
+  unsigned locks_ = kLockNone;
+  // Taps (a finger down and up again within 0.3 s and 12 px, alone) pick the handle under them.
+  void detectTap(const TouchEvent& e, const TouchInput& input);
+  std::optional<glm::dvec2> tapRequest_;
+  std::optional<std::uint64_t> tapFrame_;
+  std::size_t tapOffset_ = 0;
+  bool tapInRequest_ = false;
+  std::int64_t tapFinger_ = -1;
+  glm::dvec2 tapStart_{0.0};
+  double tapTime_ = 0.0;
+  bool tapSpoiled_ = false;
+  std::vector<int> picked_;
+  const LabelMap* labels_ = nullptr;
+  std::string labelNote_;
+  StageTimes stages_;
+};
+
+}  // namespace handson

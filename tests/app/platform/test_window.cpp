@@ -1,0 +1,296 @@
+// The app in a real window, run under xvfb-run by ctest. Xvfb has no touch device
+// (SDL_GetNumTouchDevices() is 0 there), so multi-touch is injected with SDL_PushEvent as SDL's
+// own finger events, and a one-finger drag comes from xdotool's mouse with SDL_MOUSE_TOUCH_EVENTS=1.
+#include <gtest/gtest.h>
+
+#include <SDL2/SDL.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "app/io/png_io.h"
+#include "app/platform/viewer.h"
+#include "app/session/session.h"
+#include "app/session/session_recovery.h"
+#include "app/session/session_script.h"
+#include "interaction/camera.h"
+#include "sim/error.h"
+#include "sim/phantom.h"
+
+using namespace handson;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr SDL_TouchID kTouch = 77;
+
+void pushFinger(Uint32 type, SDL_FingerID id, float x, float y) {
+  SDL_Event e{};
+  e.type = type;
+  e.tfinger.touchId = kTouch;
+  e.tfinger.fingerId = id;
+  e.tfinger.x = x;
+  e.tfinger.y = y;
+  e.tfinger.pressure = 1.0f;
+  ASSERT_EQ(SDL_PushEvent(&e), 1) << SDL_GetError();
+}
+
+ViewerOptions smallWindow() {
+  ViewerOptions o;
+  o.width = 640;
+  o.height = 480;
+  o.quiet = true;
+  o.validation = true;
+  return o;
+}
+
+class Window : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!displayAvailable()) GTEST_SKIP() << "no display: run under xvfb-run (ctest does)";
+  }
+};
+
+}  // namespace
+
+TEST_F(Window, InjectedTwoFingerPinchZoomsAndTwistRolls) {
+  Viewer v(smallWindow());
+  ASSERT_TRUE(v.step());
+  const OrbitCamera start = v.session().camera();
+  // Pinch open: fingers 0.2 apart -> 0.4 apart, about the window centre.
+  pushFinger(SDL_FINGERDOWN, 1, 0.4f, 0.5f);
+  pushFinger(SDL_FINGERDOWN, 2, 0.6f, 0.5f);
+  ASSERT_TRUE(v.step());
+  pushFinger(SDL_FINGERMOTION, 1, 0.3f, 0.5f);
+  pushFinger(SDL_FINGERMOTION, 2, 0.7f, 0.5f);
+  ASSERT_TRUE(v.step());
+  const OrbitCamera zoomed = v.session().camera();
+  EXPECT_NEAR(zoomed.distance, start.distance / 2.0, start.distance * 1e-3);
+  EXPECT_NEAR(zoomed.roll, start.roll, 1e-6);
+  // Twist: rotate the pair by 30 degrees clockwise on screen (pixels, so the aspect matters).
+  const double a = glm::radians(30.0), r = 0.2 * 640;
+  const float x1 = float((320 - r * std::cos(a)) / 640), y1 = float((240 - r * std::sin(a)) / 480);
+  const float x2 = float((320 + r * std::cos(a)) / 640), y2 = float((240 + r * std::sin(a)) / 480);
+  pushFinger(SDL_FINGERMOTION, 1, x1, y1);
+  pushFinger(SDL_FINGERMOTION, 2, x2, y2);
+  ASSERT_TRUE(v.step());
+  EXPECT_NEAR(v.session().camera().roll, start.roll - a, 1e-3);
+  EXPECT_NEAR(v.session().camera().distance, zoomed.distance, zoomed.distance * 1e-3);
+  pushFinger(SDL_FINGERUP, 1, x1, y1);
+  pushFinger(SDL_FINGERUP, 2, x2, y2);
+  // Hostile input through the real event path: an up without a down, NaN, far outside.
+  pushFinger(SDL_FINGERUP, 9, 0.5f, 0.5f);
+  pushFinger(SDL_FINGERDOWN, 10, std::nanf(""), 0.5f);
+  pushFinger(SDL_FINGERDOWN, 11, 50.0f, -30.0f);
+  pushFinger(SDL_FINGERUP, 11, 50.0f, -30.0f);
+  ASSERT_TRUE(v.step());
+  EXPECT_TRUE(v.session().gestures().input().fingers().empty());
+  EXPECT_TRUE(std::isfinite(v.session().camera().distance));
+  EXPECT_EQ(v.finish(), 0);  // zero validation messages
+}
+
+TEST_F(Window, TouchesOnTheUiDoNotMoveTheCamera) {
+  Viewer v(smallWindow());
+  ASSERT_TRUE(v.step());
+  const double az = v.session().camera().azimuth;
+  // The mode bar is at the top left.
+  pushFinger(SDL_FINGERDOWN, 1, 0.05f, 0.05f);
+  ASSERT_TRUE(v.step());
+  pushFinger(SDL_FINGERMOTION, 1, 0.3f, 0.3f);
+  pushFinger(SDL_FINGERUP, 1, 0.3f, 0.3f);
+  ASSERT_TRUE(v.step());
+  EXPECT_EQ(v.session().camera().azimuth, az);
+  EXPECT_EQ(v.finish(), 0);
+}
+
+TEST_F(Window, ScreenshotOfTheWindowIsNotEmpty) {
+  const fs::path shot = fs::temp_directory_path() / ("handson_shot_" + std::to_string(getpid()) + ".png");
+  ViewerOptions o = smallWindow();
+  o.frames = 3;
+  o.screenshot = shot.string();
+  Viewer v(o);
+  while (v.step()) {
+  }
+  EXPECT_EQ(v.finish(), 0);
+  int w = 0, h = 0;
+  const auto px = readPng(shot.string(), w, h);
+  EXPECT_EQ(w, 640);
+  EXPECT_EQ(h, 480);
+  // The phantom (reddish) and the UI (blue buttons) are both there.
+  std::size_t red = 0, blue = 0;
+  for (std::size_t i = 0; i < px.size(); i += 4) {
+    red += px[i] > 100 && px[i] > px[i + 2] + 30;
+    blue += px[i + 2] > 150 && px[i + 2] > px[i] + 60;
+  }
+  EXPECT_GT(red, 500u);
+  EXPECT_GT(blue, 500u);
+  fs::remove(shot);
+}
+
+TEST_F(Window, TheDefaultViewFramesTheVolumeInTheAreaThePanelsLeaveFree) {
+  // At two window sizes: the volume's box on screen (its 8 corners projected by the session's camera)
+  // meets no panel (the frame-time overlay included) and lies inside the window, filling the free
+  // area, and the screenshot agrees: every pixel of the phantom's colour outside the panels lies
+  // inside that box (2 px of rasterization slack).
+  for (const auto& [w, h] : {std::pair{1200, 760}, std::pair{800, 600}}) {
+    SCOPED_TRACE(std::to_string(w) + "x" + std::to_string(h));
+    const fs::path shot = fs::temp_directory_path() / ("handson_frame_" + std::to_string(getpid()) + ".png");
+    ViewerOptions o = smallWindow();
+    o.width = w;
+    o.height = h;
+    o.frames = 4;
+    o.screenshot = shot.string();
+    Viewer v(o);
+    while (v.step()) {
+    }
+    const Viewport vp = v.drawableSize();
+    const auto panels = v.uiPanels();
+    const VolumeGeometry g = makePhantom().ct.geometry();
+    const auto box = projectedVolumeBox(v.session().camera(), g, vp.width, vp.height);
+    ASSERT_TRUE(box.has_value());
+    const auto& b = *box;
+    EXPECT_GE(b[0], 0.0);
+    EXPECT_GE(b[1], 0.0);
+    EXPECT_LE(b[2], vp.width);
+    EXPECT_LE(b[3], vp.height);
+    ASSERT_GE(panels.size(), 3u);
+    for (const auto& p : panels) EXPECT_FALSE(b[0] < p[2] && b[2] > p[0] && b[1] < p[3] && b[3] > p[1]) << p[0] << "," << p[1] << "," << p[2] << "," << p[3];
+    // It fills the free area (92 % in its tighter dimension: OrbitCamera::framingIn), which the
+    // session records for replays.
+    const ScreenArea f = v.session().freeArea();
+    ASSERT_FALSE(f.whole());
+    const double fill = std::max((b[2] - b[0]) / ((f.x1 - f.x0) * vp.width), (b[3] - b[1]) / ((f.y1 - f.y0) * vp.height));
+    EXPECT_NEAR(fill, 0.92, 0.01);
+    EXPECT_EQ(f, v.session().script().freeArea.value_or(ScreenArea{}));
+    EXPECT_EQ(v.finish(), 0);
+    int sw = 0, sh = 0;
+    const auto px = readPng(shot.string(), sw, sh);
+    ASSERT_EQ(sw, vp.width);
+    std::size_t inside = 0, outside = 0;
+    for (int y = 0; y < sh; ++y)
+      for (int x = 0; x < sw; ++x) {
+        const std::size_t i = 4 * (std::size_t(y) * std::size_t(sw) + std::size_t(x));
+        if (!(px[i] > 100 && px[i] > px[i + 2] + 30)) continue;  // the phantom's reds
+        bool onPanel = false;
+        for (const auto& p : panels) onPanel |= x >= p[0] && x <= p[2] && y >= p[1] && y <= p[3];
+        if (onPanel) continue;
+        const bool in = x >= b[0] - 2 && x <= b[2] + 2 && y >= b[1] - 2 && y <= b[3] + 2;
+        (in ? inside : outside) += 1;
+      }
+    EXPECT_GT(inside, 2000u);
+    EXPECT_EQ(outside, 0u);
+    fs::remove(shot);
+  }
+}
+
+TEST_F(Window, XdotoolMouseDragArrivesAsOneFingerAndOrbits) {
+  if (std::system("command -v xdotool > /dev/null") != 0) GTEST_SKIP() << "xdotool is not installed";
+  const fs::path dir = fs::temp_directory_path() / ("handson_xdo_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const std::string script = (dir / "drag.sh").string();
+  std::ofstream(script) << "#!/bin/sh\n"
+                        << "SDL_MOUSE_TOUCH_EVENTS=1 " << HANDSON_EXE
+                        << " view --size 800x600 --frames 2000 --quiet --print-camera --validation --record " << (dir / "rec.json").string()
+                        << " > " << (dir / "out.txt").string() << " 2>&1 &\n"
+                        << "APP=$!\n"
+                        << "W=$(timeout 60 xdotool search --sync --name '^Handson$' | head -1)\n"
+                        << "sleep 1\n"
+                        << "xdotool mousemove --window $W 250 350 mousedown 1\n"
+                        << "for x in 270 290 310 330 350 370 390 410; do xdotool mousemove --window $W $x 350; sleep 0.1; done\n"
+                        << "xdotool mouseup 1\nsleep 0.5\nxdotool key --window $W Escape\nwait $APP\n";
+  ASSERT_EQ(std::system(("sh " + script).c_str()), 0);
+  std::ifstream in(dir / "out.txt");
+  const std::string out((std::istreambuf_iterator<char>(in)), {});
+  const auto pos = out.find("camera azimuth_deg=");
+  ASSERT_NE(pos, std::string::npos) << out;
+  const double az = std::stod(out.substr(pos + 19));
+  // 160 px of drag in a 600 px high window: 160 / 600 * 180 = 48 degrees more than the default 25.
+  EXPECT_NEAR(az, 25.0 + 48.0, 1.0) << out;
+  EXPECT_EQ(out.find("validation"), std::string::npos) << out;
+  fs::remove_all(dir);
+}
+
+TEST_F(Window, ResizingRecreatesTheSwapchainAndKeepsRendering) {
+  const fs::path shot = fs::temp_directory_path() / ("handson_resize_" + std::to_string(getpid()) + ".png");
+  ViewerOptions o = smallWindow();
+  o.frames = 6;
+  o.screenshot = shot.string();
+  Viewer v(o);
+  ASSERT_TRUE(v.step());
+  SDL_SetWindowSize(v.window(), 400, 300);
+  while (v.step()) {
+  }
+  EXPECT_EQ(v.finish(), 0);
+  int w = 0, h = 0;
+  readPng(shot.string(), w, h);
+  EXPECT_EQ(w, 400);
+  EXPECT_EQ(h, 300);
+  EXPECT_EQ(v.session().gestures().viewport().width, 400);
+  fs::remove(shot);
+}
+
+TEST_F(Window, TheExportButtonsActionWritesTheSessionTheVolumeAndAScreenshot) {
+  // The Export button applies {"ui": "export"} through the session (recorded, replayable); played
+  // here from a script: the session so far, the volume as shown (nothing simulated: the input) and
+  // the rendered image land in the export directory once that frame has finished.
+  const fs::path dir = fs::temp_directory_path() / ("handson_uiexport_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  std::ofstream(dir / "export.json") << R"({"format": "handson-session", "version": 1, "viewport": [640, 480],
+    "events": [{"t": 0.0, "ui": "set-preset", "value": "ct-bone"}, {"t": 0.01, "ui": "export"}]})";
+  ViewerOptions o = smallWindow();
+  o.play = (dir / "export.json").string();
+  o.frames = 8;
+  o.exportDir = (dir / "out").string();
+  Viewer v(o);
+  while (v.step()) {
+  }
+  EXPECT_EQ(v.finish(), 0);
+  for (const char* f : {"session-01.json", "deformed-01.nii.gz", "screenshot-01.png"}) EXPECT_TRUE(fs::exists(dir / "out" / f)) << f;
+  EXPECT_FALSE(fs::exists(dir / "out" / "mesh-01.vtu")) << "nothing simulated: no mesh";
+  const SessionScript s = readSessionScript((dir / "out" / "session-01.json").string());
+  ASSERT_GE(s.events.size(), 2u);
+  EXPECT_EQ(s.events[0].action, "set-preset");
+  EXPECT_EQ(s.events.back().action, "export");
+  int w = 0, h = 0;
+  EXPECT_FALSE(readPng((dir / "out" / "screenshot-01.png").string(), w, h).empty());
+  EXPECT_GT(w, 0);
+  fs::remove_all(dir);
+}
+
+TEST_F(Window, ALostDeviceEndsTheSessionWithAClearMessageAndItsScriptAndHandlesSaved) {
+  // The 40th queue submission (setup and the first frames done) reports VK_ERROR_DEVICE_LOST, as
+  // does every later one: step() throws the message, and the session so far is in the export
+  // directory, replayable. (HANDSON_FAULT: render/vk_context.h.)
+  const fs::path dir = fs::temp_directory_path() / ("handson_uilost_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  std::ofstream(dir / "play.json") << R"({"format": "handson-session", "version": 1, "viewport": [640, 480],
+    "events": [{"t": 0.0, "ui": "set-preset", "value": "ct-bone"}, {"t": 0.01, "ui": "set-mode", "value": "select"}]})";
+  ViewerOptions o = smallWindow();
+  o.play = (dir / "play.json").string();
+  o.frames = 200;
+  o.exportDir = (dir / "out").string();
+  setenv("HANDSON_FAULT", "device-lost:40", 1);
+  std::string message;
+  {
+    Viewer v(o);
+    unsetenv("HANDSON_FAULT");
+    try {
+      while (v.step()) {
+      }
+      ADD_FAILURE() << "the session ran to its end";
+    } catch (const Error& e) {
+      message = e.what();
+    }
+  }  // the viewer tears down after the failure without crashing
+  unsetenv("HANDSON_FAULT");
+  EXPECT_NE(message.find("VK_ERROR_DEVICE_LOST"), std::string::npos) << message;
+  EXPECT_NE(message.find("the session so far is saved"), std::string::npos) << message;
+  const SessionScript s = readSessionScript((dir / "out" / "recovery-session.json").string());
+  ASSERT_GE(s.events.size(), 2u);
+  EXPECT_EQ(s.events[0].action, "set-preset");
+  EXPECT_TRUE(readHandles((dir / "out" / "recovery-handles.json").string()).handles.empty());
+  fs::remove_all(dir);
+}

@@ -1,0 +1,97 @@
+// Region growing against the organ labels of ../shared/data: the thresholds issue #4 sets.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+
+#include "app/io/nifti_io.h"
+#include "app/tools/selection_eval.h"
+
+using namespace handson;
+
+namespace {
+
+struct Case {
+  const char* dir;
+  std::vector<OrganLabel> organs;
+};
+
+void check(const Case& c) {
+  const std::string dir = std::string(HANDSON_SHARED_DATA_DIR) + "/" + c.dir;
+  if (!std::filesystem::exists(dir + "/ct.nii.gz")) GTEST_SKIP() << "no " << dir;
+  const Volume ct = readNifti(dir + "/ct.nii.gz");
+  const Volume labels = readNifti(dir + "/labels.nii.gz");
+  const auto rows = evaluateSelection(c.dir, ct, labels, c.organs, {20.0}, {GrowCriterion::Paper, GrowCriterion::Smoothed});
+  ASSERT_EQ(rows.size(), 2 * c.organs.size());
+  double recall = 0;
+  int n = 0;
+  for (const auto& r : rows) {
+    // Precision >= 0.9 for every organ, both criteria.
+    EXPECT_GE(r.precision, 0.9) << r.organ << " " << growCriterionName(r.criterion);
+    if (r.criterion == GrowCriterion::Smoothed) {
+      recall += r.recall;
+      ++n;
+      // The default criterion is much more complete than the paper's on every organ.
+      for (const auto& q : rows)
+        if (q.criterion == GrowCriterion::Paper && q.organ == r.organ) {
+          EXPECT_GT(r.recall, q.recall + 0.2) << r.organ;
+        }
+    }
+  }
+  EXPECT_GE(recall / n, 0.8) << "mean recall of the default criterion at 20 mm";
+}
+
+}  // namespace
+
+TEST(SelectionAccuracy, Ircadb) {
+  check({"ircadb1.1", {{3, "kidney_left"}, {4, "kidney_right"}, {9, "artery"}, {10, "portal_vein"}, {8, "liver"}}});
+}
+
+TEST(SelectionAccuracy, TotalsegSmallKidneys) { check({"totalseg-small", {{2, "kidney_right"}, {3, "kidney_left"}}}); }
+
+namespace {
+
+// Whole-organ Dice as the extent sweeps (0.5-1.2x each organ's radius): the core criterion
+// against the smoothed one it refines, on every labelled organ of the file. Thresholds are what
+// was measured (bench selection, docs/region-growing.md) less a margin for rounding: a regression
+// guard, the issue's targets stated in the README.
+void checkSweep(const char* dir, const std::vector<OrganLabel>& organs, double medianGain) {
+  const std::string path = std::string(HANDSON_SHARED_DATA_DIR) + "/" + dir;
+  if (!std::filesystem::exists(path + "/ct.nii.gz")) GTEST_SKIP() << "no " << path;
+  const Volume ct = readNifti(path + "/ct.nii.gz");
+  const Volume labels = readNifti(path + "/labels.nii.gz");
+  const auto sweeps = sweepSelection(dir, ct, labels, organs, {0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.2}, {GrowCriterion::Smoothed, GrowCriterion::Core});
+  ASSERT_EQ(sweeps.size(), 2 * organs.size());
+  std::vector<double> gain;
+  for (const auto& core : sweeps) {
+    if (core.criterion != GrowCriterion::Core) continue;
+    for (const auto& smoothed : sweeps)
+      if (smoothed.criterion == GrowCriterion::Smoothed && smoothed.organ == core.organ) {
+        // Never much worse than smoothed, at its best or at the largest extent (the artery, thin
+        // branches that lose their core, is 0.05 below: measured 0.62 against 0.66 / 0.67).
+        EXPECT_GE(core.best().dice, smoothed.best().dice - 0.06) << core.organ;
+        EXPECT_GE(core.points.back().dice, smoothed.points.back().dice - 0.06) << core.organ;
+        gain.push_back(core.best().dice - smoothed.best().dice);
+      }
+    for (const auto& p : core.points) {
+      EXPECT_GE(p.dice, 0.0);
+      EXPECT_LE(p.dice, 1.0);
+    }
+  }
+  std::sort(gain.begin(), gain.end());
+  EXPECT_GE(gain[gain.size() / 2], medianGain) << "median gain in best Dice over the smoothed criterion";
+}
+
+}  // namespace
+
+TEST(SelectionAccuracy, CoreCriterionSelectsMoreOfTheWholeOrganOnIrcadb) {
+#if defined(HANDSON_TEST_SANITIZED)
+  GTEST_SKIP() << "34 M voxels: too slow under the sanitizers";
+#endif
+  checkSweep("ircadb1.1", {{3, "kidney_left"}, {4, "kidney_right"}, {9, "artery"}, {10, "portal_vein"}, {8, "liver"}, {11, "venous_system"}, {7, "spleen"}},
+             0.04);
+}
+
+TEST(SelectionAccuracy, CoreCriterionSelectsMoreOfTheWholeOrganOnTotalsegSmall) {
+  checkSweep("totalseg-small", {{2, "kidney_right"}, {3, "kidney_left"}, {5, "liver"}, {1, "spleen"}}, 0.0);
+}
