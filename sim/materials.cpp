@@ -48,15 +48,15 @@ bool parseNumber(const std::string& s, double& v) {
 MaterialTable MaterialTable::ctDefault() {
   // Keep in step with assets/materials/ct-default.csv (a test compares them).
   return parse(R"(units,hu
-name,lower,upper,youngs_kpa,poisson
-air,-inf,-500,1,0.3
-lung-or-gas-boundary,-500,-150,3,0.4
-fat,-150,-50,3,0.45
-fluid-and-soft-tissue,-50,45,6,0.45
-organ-and-blood,45,100,8,0.45
-enhanced-vessel-and-cortex,100,150,600,0.45
-spongy-bone,150,700,300000,0.3
-compact-bone,700,inf,15000000,0.3
+name,lower,upper,youngs_kpa,poisson,strain_limit
+air,-inf,-500,1,0.3,inf
+lung-or-gas-boundary,-500,-150,3,0.4,inf
+fat,-150,-50,3,0.45,0.3
+fluid-and-soft-tissue,-50,45,6,0.45,0.22
+organ-and-blood,45,100,8,0.45,0.22
+enhanced-vessel-and-cortex,100,150,600,0.45,0.22
+spongy-bone,150,700,300000,0.3,0.0078
+compact-bone,700,inf,15000000,0.3,0.027
 )",
                "built-in CT material table");
 }
@@ -67,6 +67,7 @@ MaterialTable MaterialTable::parse(const std::string& text, const std::string& s
   std::string line;
   int lineNo = 0;
   bool haveUnits = false, haveHeader = false;
+  std::size_t columns = 0;
   auto fail = [&](const std::string& why) { throw Error(source + ":" + std::to_string(lineNo) + ": " + why); };
   while (std::getline(in, line)) {
     ++lineNo;
@@ -82,12 +83,16 @@ MaterialTable MaterialTable::parse(const std::string& text, const std::string& s
       continue;
     }
     if (!haveHeader) {
-      if (cells != std::vector<std::string>{"name", "lower", "upper", "youngs_kpa", "poisson"})
-        fail("expected the header \"name,lower,upper,youngs_kpa,poisson\"");
+      const std::vector<std::string> base{"name", "lower", "upper", "youngs_kpa", "poisson"};
+      std::vector<std::string> withLimit = base;
+      withLimit.push_back("strain_limit");
+      if (cells != base && cells != withLimit)
+        fail("expected the header \"name,lower,upper,youngs_kpa,poisson\" or \"name,lower,upper,youngs_kpa,poisson,strain_limit\"");
+      columns = cells.size();
       haveHeader = true;
       continue;
     }
-    if (cells.size() != 5) fail("expected 5 columns, found " + std::to_string(cells.size()));
+    if (cells.size() != columns) fail("expected " + std::to_string(columns) + " columns, found " + std::to_string(cells.size()));
     MaterialBand b;
     b.name = cells[0];
     double kpa = 0.0;
@@ -98,6 +103,8 @@ MaterialTable MaterialTable::parse(const std::string& text, const std::string& s
     if (!parseNumber(cells[3], kpa) || kpa <= 0.0 || kpa > 1e9) fail("Young's modulus must be in (0, 1e9] kPa, not \"" + cells[3] + "\"");
     if (!parseNumber(cells[4], b.poisson) || b.poisson < 0.0 || b.poisson >= 0.5) fail("Poisson ratio must be in [0, 0.5), not \"" + cells[4] + "\"");
     b.youngs = kpa * 1e3;
+    if (columns == 6 && (!parseNumber(cells[5], b.strainLimit) || !(b.strainLimit > 0.0)))
+      fail("strain limit must be a positive fraction (0.3 for 30 %) or \"inf\" (none), not \"" + cells[5] + "\"");
     if (b.poisson > kMaxPoisson) {
       b.poisson = kMaxPoisson;
       t.capped_.push_back(b.name);

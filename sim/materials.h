@@ -5,9 +5,12 @@
 // image's values and are resolved against the image before use.
 //
 // Text format (CSV, '#' comments): a line "units,hu" or "units,percentile", a header line
-// "name,lower,upper,youngs_kpa,poisson", then one band per line with half-open bounds
+// "name,lower,upper,youngs_kpa,poisson[,strain_limit]", then one band per line with half-open bounds
 // [lower, upper) ("-inf"/"inf" allowed). Bands must be sorted and must not overlap; a value in a
-// gap or outside every band takes the nearest band.
+// gap or outside every band takes the nearest band. The optional strain limit is the largest
+// principal stretch - 1 (sim/strain.h) past which the tissue is at risk of failing, a fraction
+// ("inf": none; a table without the column has none).
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -23,6 +26,7 @@ struct MaterialBand {
   double lower = 0.0, upper = 0.0;  ///< image units (or percentiles before resolve())
   double youngs = 0.0;              ///< Pa
   double poisson = 0.0;
+  double strainLimit = std::numeric_limits<double>::infinity();  ///< fraction (0.3: 30 %); inf: none
 };
 
 enum class MaterialUnits : std::uint8_t { Hounsfield, Percentile };

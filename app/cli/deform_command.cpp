@@ -25,6 +25,7 @@
 #include "sim/sim_scene.h"
 #include "sim/static_solver.h"
 #include "sim/strain.h"
+#include "sim/tissue_limits.h"
 #include "sim/tet_raster.h"
 #include "sim/two_level.h"
 
@@ -35,7 +36,9 @@ const char* const kDeformHelp =
     "usage: handson deform PATH --handle MASK.nii.gz --translate-mm X,Y,Z -o DEFORMED.nii.gz [options]\n"
     "  Moves the handle (the mask's non-zero voxels) rigidly and deforms the tissue around it; writes the\n"
     "  deformed image on the input's grid (tetrahedral rasterization of the deformed fine mesh); an -o\n"
-    "  ending in .nrrd writes NRRD (LPS space, as 3D Slicer writes it), anything else NIfTI.\n"
+    "  ending in .nrrd writes NRRD (LPS space, as 3D Slicer writes it), anything else NIfTI. Prints the\n"
+    "  volume of tissue strained past its limit (the material table's strain_limit column) and the\n"
+    "  handle whose motion it is put down to (the nearest along the mesh).\n"
     "  --handle-label N        only the mask's voxels equal to N (a label map as the mask)\n"
     "  --frame N               the volume of a 4D NIfTI image to load (default 0)\n"
     "  --fixed MASK.nii.gz     voxels held in place (a fixed handle; wins where the masks overlap)\n"
@@ -296,7 +299,9 @@ int cmdDeform(const Words& words) {
   double maxDisp = 0;
   for (std::size_t i = 0; i < x.size(); ++i) maxDisp = std::max(maxDisp, (x[i] - sc.meshes.fine.nodes[i]).norm());
   const bool wantStrain = args.value("--strain-out").has_value();
-  const std::vector<float> strain = wantStrain || args.value("--mesh-out") ? tetStrain(sc.meshes.fine, x) : std::vector<float>{};
+  const std::vector<float> strain = tetStrain(sc.meshes.fine, x);
+  const TissueLimitReport limits = tissueLimits(sc.meshes.fine, strain, sc.band, s.materials, nearestHandleOfNodes(sc.meshes.fine, sc.constraints),
+                                                sc.constraints.handleCount);
   std::vector<std::int32_t> tetOf;
   t0 = std::chrono::steady_clock::now();
   Volume out;
@@ -326,7 +331,8 @@ int cmdDeform(const Words& words) {
   std::cout << std::setprecision(3) << "model " << model << ": " << (model == "coarse" ? "scene + coarsening " : "scene ") << tScene << " s, ";
   std::cout << "solve " << tSolve << " s (" << steps << " increment" << (steps > 1 ? "s" : "") << "), resampling " << tRaster << " s\n"
             << "largest displacement " << maxDisp << " mm; inverted fine tets " << inverted << "; region voxels " << regionVoxels << ", covered "
-            << covered << " (" << backend << ")\nwrote " << *args.value("-o") << "\n";
+            << covered << " (" << backend << ")\ntissue past its strain limit: " << describeTissueLimits(limits) << "\nwrote "
+            << *args.value("-o") << "\n";
   if (auto fo = args.value("--forces-out")) {
     // The reactions of the model that was solved: the coarse model's own, or the fine tets' at the
     // fine or refined positions.

@@ -19,6 +19,7 @@ TEST(Materials, BuiltInTableEqualsTheAssetFileAndClassifiesCtBands) {
     EXPECT_EQ(file.bands()[i].upper, def.bands()[i].upper);
     EXPECT_EQ(file.bands()[i].youngs, def.bands()[i].youngs);
     EXPECT_EQ(file.bands()[i].poisson, def.bands()[i].poisson);
+    EXPECT_EQ(file.bands()[i].strainLimit, def.bands()[i].strainLimit);
   }
   auto name = [&](double hu) { return def.band(def.classify(hu)).name; };
   EXPECT_EQ(name(-1000), "air");

@@ -241,6 +241,7 @@ TEST_F(Cli, DeformMovesTheHandleRegionOnlyAndWritesAMeshForParaView) {
   double diff = 0;
   for (std::size_t i = 0; i < ct.voxelCount(); ++i) diff = std::max(diff, double(std::abs(same.value(i) - ct.value(i))));
   EXPECT_LE(diff, 1.0) << "zero motion reproduces the input within 1 HU";
+  EXPECT_TRUE(r.has("tissue past its strain limit: none\n")) << r.output;
 
   // The coarse model, the fine reference, and the coarse model on the image-adapted (TetGen) fine mesh.
   for (const char* model : {"coarse", "fine", "coarse --fine-mesh adapted"}) {
@@ -248,6 +249,11 @@ TEST_F(Cli, DeformMovesTheHandleRegionOnlyAndWritesAMeshForParaView) {
     r = runHandson(common + "--model " + model + " --translate-mm 12,0,0 --rotate-deg 0,0,20 -o " + out + " --mesh-out " + p("mesh.vtu") +
                    " --forces-out " + p("forces.json") + " --strain-out " + p("strain.nii.gz"));
     ASSERT_EQ(r.status, 0) << r.output;
+    // The tissue past its limit is reported, all of it put down to the one handle.
+    const auto limits = r.output.find("tissue past its strain limit: ");
+    ASSERT_NE(limits, std::string::npos) << r.output;
+    const std::string line = r.output.substr(limits, r.output.find('\n', limits) - limits);
+    EXPECT_TRUE(line.find(": none") != std::string::npos || line.find("), from handle 1 (") != std::string::npos) << line;
     {
       // The strain on the input's grid: stretched tissue around the moved kidney, nothing outside
       // the simulated region (the far side of the body), never a non-finite value.

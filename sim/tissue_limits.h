@@ -1,0 +1,56 @@
+#pragma once
+// Tissue past its limit (docs/simulation-model.md, "Tissue limits"): each fine tet's strain (the
+// largest principal stretch - 1, sim/strain.h) against the strain limit of its material band (the
+// band at its centroid, SimScene::band; the limits come from the material table), and the handle
+// whose motion each such tet is put down to: the handle nearest to it along the fine mesh's edges at
+// rest (in a scene of one handle, that handle; between two, the closer one).
+#include <string>
+#include <vector>
+
+#include "sim/coarsening.h"
+#include "sim/materials.h"
+#include "sim/tet_mesh.h"
+
+namespace handson {
+
+/// Per fine node: the handle (0-based) nearest along the mesh's edges at rest, and that distance
+/// (mm). Shortest paths from every handle node (Dijkstra over the tets' edges, edge length as
+/// weight); nodes no handle reaches get -1 and +inf.
+struct NearestHandle {
+  std::vector<int> handle;
+  std::vector<double> distance;
+};
+NearestHandle nearestHandleOfNodes(const TetMesh& mesh, const FineConstraints& constraints);
+
+/// Per fine tet: its band's strain limit (+inf where the band has none). `bandOfTet`: indices into `table`.
+std::vector<float> tetStrainLimits(const std::vector<int>& bandOfTet, const MaterialTable& table);
+
+struct TissueLimitBand {
+  int band = 0;
+  std::string name;
+  double limit = 0.0;       ///< the band's strain limit (fraction)
+  std::size_t tets = 0;     ///< fine tets of the band past it
+  double volumeMm3 = 0.0;   ///< their rest volume
+  double worstRatio = 0.0;  ///< largest strain / limit among them (> 1)
+};
+
+struct TissueLimitReport {
+  std::vector<TissueLimitBand> bands;  ///< bands with tissue past their limit, most volume first
+  std::vector<double> volumeByHandle;  ///< per handle: rest volume (mm³) past the limit put down to it
+  std::size_t tets = 0;                ///< fine tets past their limit, all bands
+  double volumeMm3 = 0.0;
+  bool any() const { return tets > 0; }
+};
+
+/// The fine tets whose strain exceeds their limit (NaN strains are not counted), by band and by
+/// handle: a tet is put down to the handle of its node nearest to a handle (`nearest`, from
+/// nearestHandleOfNodes; tets no handle reaches count in the totals only). Throws handson::Error when
+/// the sizes do not match the mesh.
+TissueLimitReport tissueLimits(const TetMesh& mesh, const std::vector<float>& strain, const std::vector<int>& bandOfTet,
+                               const MaterialTable& table, const NearestHandle& nearest, int handleCount);
+
+/// One line for people: "none" or e.g. "2.4 cm³ (organ-and-blood 2.1 cm³ at up to 1.6x its 30 %
+/// limit, fat 0.3 cm³ at up to 1.1x its 40 % limit), from handle 1 (2.4 cm³)".
+std::string describeTissueLimits(const TissueLimitReport& report);
+
+}  // namespace handson
