@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "manipulation.h"
+#include "sim/rigid_transform.h"
 
 namespace handson {
 
@@ -22,7 +22,7 @@ struct Handle {
   int id = 0;                        ///< 1..254 (0: none; 255: the live selection)
   HandleStatus status = HandleStatus::Active;
   std::vector<std::uint32_t> voxels;  ///< sorted linear indices (rest position)
-  RigidTransform pose;                     ///< cumulative rigid transform from the manipulation (R_m, t_m)
+  RigidTransform pose;                ///< cumulative rigid transform from the manipulation (R_m, t_m)
 };
 
 class HandleSet {

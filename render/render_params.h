@@ -58,7 +58,7 @@ struct RenderSettings {
 gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::mat4& view, const glm::mat4& proj,
                                    const glm::vec3& eye, const RenderSettings& settings, std::uint32_t pickCount = 0);
 
-/// A handle drawn at a rigid pose: world_now = rotation * world_rest + translation.
+/// A handle drawn at a rigid pose: world_now = pose.apply(world_rest).
 struct MovingHandlePose {
   std::uint32_t id = 0;
   RigidTransform pose;  ///< world_now = pose.apply(world_rest)

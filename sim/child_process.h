@@ -6,6 +6,18 @@
 // volume); the parent reads them as they come (progress as it goes), with an optional deadline;
 // then the child is reaped and how it ended - an exit status, a signal, killed at the deadline -
 // is returned for the caller to word its own message.
+//
+// What is safe in the child of a threaded process. fork() copies only the calling thread: the app's
+// other threads (the render loop, the simulation worker, the scene builder, OpenBLAS's and the
+// Vulkan driver's pools) do not exist in the child, but every lock they held at that instant is
+// copied held and is never released. POSIX promises only async-signal-safe calls there; glibc also
+// makes malloc usable (its fork handlers reset the allocator's locks), and the children here rely on
+// that and nothing more: single-threaded parsing or meshing (GDCM, MetaIO, TetGen) on memory they
+// allocate themselves, results written to the pipe, then _Exit (no atexit handlers, no destructors,
+// no flush of the parent's stdio buffers, which runInChild flushes before forking). A child must not
+// take a lock another thread may hold (the app's mutexes, iostreams shared with other threads, the
+// sim's progress callbacks), start or join threads (a multithreaded BLAS call would wait forever for
+// its pool), or touch Vulkan or SDL objects.
 #include <cstddef>
 #include <cstdint>
 #include <functional>

@@ -1,5 +1,5 @@
 #pragma once
-// One frame of a session, shared by the window (app/viewer) and the headless replay (app/replay,
+// One frame of a session, shared by the window (app/platform/viewer) and the headless replay (app/session/replay,
 // which the soak and the benchmark suite run): the transfer function kept to the session's preset,
 // the frame request at the session's camera, the simulation's state attached (live or settled),
 // the selection's passes, the submission and the finished frames handed back. The loops differ only

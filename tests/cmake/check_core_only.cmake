@@ -46,7 +46,7 @@ foreach(wanted handson_sim handson_interaction test_sim test_interaction)
   endif()
 endforeach()
 foreach(unwanted handson_render handson_shaders handson_io handson_session handson_platform handson_tools handson_cli handson_bench handson
-        test_render_cpu test_io test_session test_tools test_cli test_bench test_window)
+        test_render_cpu test_render_gpu test_io test_session test_tools test_cli test_bench test_window)
   if(targets MATCHES "(^|[\n ])${unwanted}[:\n ]")
     message(FATAL_ERROR "the core build has the target ${unwanted}, which needs more than the core")
   endif()

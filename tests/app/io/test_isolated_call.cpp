@@ -1,4 +1,4 @@
-// Tests for app/isolated_call: a child's result, its handson::Error and other exceptions, and the
+// Tests for app/io/isolated_call: a child's result, its handson::Error and other exceptions, and the
 // failures that must not reach the caller's process - an abort, a crash, a hang past the time-out.
 #include "app/io/isolated_call.h"
 

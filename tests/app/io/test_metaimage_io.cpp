@@ -1,4 +1,4 @@
-// Tests for app/metaimage_io (MetaImage through MetaIO): hand-written headers (independent of
+// Tests for app/io/metaimage_io (MetaImage through MetaIO): hand-written headers (independent of
 // MetaIO's writer) with an oblique LPS grid, a detached big-endian data file with a skipped header,
 // zlib and gzip data, 4D and multi-channel images, 2D, every number type, a label map used as a
 // mask, our writer's round trip, and broken files - among them the two MetaIO itself reports as read

@@ -1,4 +1,4 @@
-// Tests for app/nifti_io: round trips through writeNifti/readNifti, hand-built NIfTI-1 and NIfTI-2
+// Tests for app/io/nifti_io: round trips through writeNifti/readNifti, hand-built NIfTI-1 and NIfTI-2
 // files in both byte orders (headers laid out here byte by byte, independently of the reader's
 // structs), scaling, and the refusal of broken or unsupported files.
 #include "app/io/nifti_io.h"

@@ -1,4 +1,4 @@
-// Tests for app/nrrd_io (NRRD through Teem): hand-written headers (independent of Teem's writer) in
+// Tests for app/io/nrrd_io (NRRD through Teem): hand-written headers (independent of Teem's writer) in
 // LPS, RAS and no space, raw and gzip encodings, a detached header, a 4D list axis, 2D, and broken
 // files; and the same volume as a NIfTI file written by our writer.
 #include "app/io/nrrd_io.h"

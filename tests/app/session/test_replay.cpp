@@ -19,6 +19,7 @@
 #include "app/io/png_io.h"
 #include "app/io/volume_io.h"
 #include "app/session/session_recovery.h"
+#include "interaction/camera.h"
 #include "sim/phantom.h"
 #include "tests/app/run_handson.h"
 
