@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "sim/error.h"
+#include "sim/strain.h"
 
 #include <chrono>
 #include <exception>
@@ -18,7 +19,11 @@ SimWorker::SimWorker(CoarseModel& model, const std::vector<Mat12>& fineK, const 
 }
 
 SimWorker::SimWorker(CoarseModel& model, const SimScene& scene, const SimWorkerOptions& options)
-    : model_(model), fineK_(scene.fineK), refiner_(model, scene.fineK, scene.youngs, scene.poisson, RefineOptions{options.refineMethod, options.refineThreads}), options_(options) {
+    : model_(model),
+      fineK_(scene.fineK),
+      refiner_(model, scene.fineK, scene.youngs, scene.poisson, RefineOptions{options.refineMethod, options.refineThreads}),
+      options_(options),
+      scene_(&scene) {
   thread_ = std::thread([this] { run(); });
 }
 
@@ -213,6 +218,11 @@ void SimWorker::run() {
         r.settled = step == options_.refineSteps;
         if (options_.elementRotations) r.rotations = model_.elementRotations(x);
         r.reactions = fineHandleReactions(model_.meshes().fine, fineK_, model_.constraints(), handles, fine);
+        if (r.settled && options_.tissueLimits && scene_) {
+          const TetMesh& mesh = scene_->meshes.fine;
+          if (!nearest_) nearest_ = nearestHandleOfNodes(mesh, scene_->constraints, options_.movingHandles);
+          r.limits = tissueLimits(mesh, tetStrain(mesh, fine), scene_->band, *options_.tissueLimits, *nearest_, scene_->constraints.handleCount);
+        }
       } catch (const std::exception& e) {
         r = SimSnapshot{};
         r.input = input;

@@ -16,6 +16,7 @@
 #include "sim/coarsening.h"
 #include "sim/handle_reaction.h"
 #include "sim/sim_scene.h"
+#include "sim/tissue_limits.h"
 #include "sim/two_level.h"
 
 namespace handson {
@@ -37,6 +38,12 @@ struct SimWorkerOptions {
   /// A jump between consecutive inputs larger than this (per handle: translation in mm, rotation in
   /// degrees) is solved in increments, each from the last, keeping the iteration in its basin.
   double continuationMm = 10.0, continuationDeg = 30.0;
+  /// With the scene constructor and refinement: the last refinement step's snapshot also carries
+  /// the tissue past its strain limit by this table (the scene's; sim/tissue_limits.h). Unset: none.
+  std::optional<MaterialTable> tissueLimits;
+  /// Per handle, whether it moves (tissue past its limit is put down to the nearest moving one);
+  /// empty: all of them.
+  std::vector<char> movingHandles;
 };
 
 struct SimSnapshot {
@@ -49,6 +56,8 @@ struct SimSnapshot {
   /// Each handle's reaction (sim/handle_reaction.h): from the coarse model's condensed blocks for a
   /// coarse answer, from the fine tets at the refined positions after a refinement step.
   std::vector<HandleReaction> reactions;
+  /// The last refinement step's tissue past its strain limit (with SimWorkerOptions::tissueLimits).
+  std::optional<TissueLimitReport> limits;
   CoarseSolveStats stats;
   bool settled = false;                 ///< no more coarse snapshots for this input (converged, or the idle budget spent)
   double seconds = 0.0;                 ///< worker time for this snapshot since its input was taken
@@ -83,6 +92,8 @@ class SimWorker {
   const std::vector<Mat12>& fineK_;
   FineRefiner refiner_;
   SimWorkerOptions options_;
+  const SimScene* scene_ = nullptr;       // the scene constructor's (tissue limits)
+  std::optional<NearestHandle> nearest_;  // built on the worker thread at the first report
   std::mutex mutex_;
   std::condition_variable wake_, published_;
   std::optional<std::vector<RigidTransform>> pending_;

@@ -12,9 +12,11 @@
 
 namespace handson {
 
-NearestHandle nearestHandleOfNodes(const TetMesh& mesh, const FineConstraints& constraints) {
+NearestHandle nearestHandleOfNodes(const TetMesh& mesh, const FineConstraints& constraints, const std::vector<char>& moving) {
   const std::size_t n = mesh.nodes.size();
   if (constraints.handleOf.size() != n) throw Error("tissue limits: one handle role per fine node expected");
+  if (!moving.empty() && moving.size() != std::size_t(std::max(constraints.handleCount, 0)))
+    throw Error("tissue limits: one moving flag per handle expected");
   // Node adjacency: the six edges of every tet, as sorted, deduplicated neighbour lists.
   std::vector<std::vector<int>> adjacent(n);
   for (const auto& t : mesh.tets)
@@ -33,7 +35,7 @@ NearestHandle nearestHandleOfNodes(const TetMesh& mesh, const FineConstraints& c
   using Item = std::pair<double, int>;  // (distance, node)
   std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
   for (std::size_t i = 0; i < n; ++i)
-    if (constraints.handleOf[i] >= 0) {
+    if (const int h = constraints.handleOf[i]; h >= 0 && (moving.empty() || (std::size_t(h) < moving.size() && moving[std::size_t(h)]))) {
       out.handle[i] = constraints.handleOf[i];
       out.distance[i] = 0.0;
       queue.push({0.0, int(i)});
@@ -103,7 +105,7 @@ TissueLimitReport tissueLimits(const TetMesh& mesh, const std::vector<float>& st
   return r;
 }
 
-std::string describeTissueLimits(const TissueLimitReport& r) {
+std::string describeTissueLimits(const TissueLimitReport& r, const std::vector<int>& handleIds) {
   if (!r.any()) return "none";
   auto cm3 = [](double mm3) {
     char buf[32];
@@ -120,7 +122,10 @@ std::string describeTissueLimits(const TissueLimitReport& r) {
   s += ")";
   std::string from;
   for (std::size_t h = 0; h < r.volumeByHandle.size(); ++h)
-    if (r.volumeByHandle[h] > 0.0) from += (from.empty() ? "" : ", ") + std::string("handle ") + std::to_string(h + 1) + " (" + cm3(r.volumeByHandle[h]) + ")";
+    if (r.volumeByHandle[h] > 0.0) {
+      const int id = h < handleIds.size() ? handleIds[h] : int(h) + 1;
+      from += (from.empty() ? "" : ", ") + std::string("handle ") + std::to_string(id) + " (" + cm3(r.volumeByHandle[h]) + ")";
+    }
   if (!from.empty()) s += ", from " + from;
   return s;
 }

@@ -2,25 +2,27 @@
 // Tissue past its limit (docs/simulation-model.md, "Tissue limits"): each fine tet's strain (the
 // largest principal stretch - 1, sim/strain.h) against the strain limit of its material band (the
 // band at its centroid, SimScene::band; the limits come from the material table), and the handle
-// whose motion each such tet is put down to: the handle nearest to it along the fine mesh's edges at
-// rest (in a scene of one handle, that handle; between two, the closer one).
+// whose motion each such tet is put down to: the moving handle nearest to it along the fine mesh's
+// edges at rest (in a scene of one moving handle, that handle; between two, the closer one; a held
+// handle - a fixed mask - is never the cause).
 #include <string>
 #include <vector>
 
-#include "sim/coarsening.h"
+#include "sim/coarsening.h"  // FineConstraints
 #include "sim/materials.h"
 #include "sim/tet_mesh.h"
 
 namespace handson {
 
-/// Per fine node: the handle (0-based) nearest along the mesh's edges at rest, and that distance
-/// (mm). Shortest paths from every handle node (Dijkstra over the tets' edges, edge length as
-/// weight); nodes no handle reaches get -1 and +inf.
+/// Per fine node: the moving handle (0-based) nearest along the mesh's edges at rest, and that
+/// distance (mm). Shortest paths from every node of a moving handle (Dijkstra over the tets' edges,
+/// edge length as weight); nodes none reaches get -1 and +inf. `moving`: per handle, whether it
+/// moves (held ones, 0, are no sources); empty: every handle moves.
 struct NearestHandle {
   std::vector<int> handle;
   std::vector<double> distance;
 };
-NearestHandle nearestHandleOfNodes(const TetMesh& mesh, const FineConstraints& constraints);
+NearestHandle nearestHandleOfNodes(const TetMesh& mesh, const FineConstraints& constraints, const std::vector<char>& moving = {});
 
 /// Per fine tet: its band's strain limit (+inf where the band has none). `bandOfTet`: indices into `table`.
 std::vector<float> tetStrainLimits(const std::vector<int>& bandOfTet, const MaterialTable& table);
@@ -49,8 +51,9 @@ struct TissueLimitReport {
 TissueLimitReport tissueLimits(const TetMesh& mesh, const std::vector<float>& strain, const std::vector<int>& bandOfTet,
                                const MaterialTable& table, const NearestHandle& nearest, int handleCount);
 
-/// One line for people: "none" or e.g. "2.4 cm³ (organ-and-blood 2.1 cm³ at up to 1.6x its 30 %
-/// limit, fat 0.3 cm³ at up to 1.1x its 40 % limit), from handle 1 (2.4 cm³)".
-std::string describeTissueLimits(const TissueLimitReport& report);
+/// One line for people: "none" or e.g. "2.40 cm³ (organ-and-blood 2.10 cm³ at up to 1.60x its 22 %
+/// limit, fat 0.30 cm³ at up to 1.10x its 30 % limit), from handle 1 (2.40 cm³)". Handles are named
+/// by `handleIds` (the app's ids, one per handle of the report) or, without them, 1, 2, ...
+std::string describeTissueLimits(const TissueLimitReport& report, const std::vector<int>& handleIds = {});
 
 }  // namespace handson

@@ -25,8 +25,8 @@
 #include "sim/sim_scene.h"
 #include "sim/static_solver.h"
 #include "sim/strain.h"
-#include "sim/tissue_limits.h"
 #include "sim/tet_raster.h"
+#include "sim/tissue_limits.h"
 #include "sim/two_level.h"
 
 namespace handson::cli {
@@ -176,6 +176,19 @@ void writeMesh(const std::string& path, const SimScene& sc, const std::vector<Ei
 
 }  // namespace
 
+// The scene's one-line summary: region, meshes, handle nodes (and the simulated cells of a shaped region).
+static void printScene(const SimScene& sc) {
+  std::cout << std::fixed << std::setprecision(1) << "region: (" << sc.lo.x() << ", " << sc.lo.y() << ", " << sc.lo.z() << ") .. (" << sc.hi.x() << ", "
+            << sc.hi.y() << ", " << sc.hi.z() << ") mm; coarse " << sc.meshes.coarse.tets.size() << " tets, fine " << sc.meshes.fine.tets.size()
+            << " tets (" << (sc.meshes.regularFine ? std::to_string(sc.meshes.refinement) + "^3 per coarse tet"
+                                                   : "image-adapted: " + std::to_string(sc.adapted.structurePoints) + " points at stiffness jumps, " +
+                                                         std::to_string(sc.adapted.fallbackCells) + " cells left regular")
+            << "); handle nodes " << sc.handleNodeCount[0];
+  if (!sc.regionCell.empty())
+    std::cout << "; cells simulated " << std::count(sc.regionCell.begin(), sc.regionCell.end(), 1) << " of " << sc.regionCell.size() << " (shaped by the handles)";
+  std::cout << "\n";
+}
+
 // The fine static solve through `steps` increments of the motion (transformsAt(k / steps)), each
 // starting from the last; a solve that stops unconverged is reported and the next goes on from it.
 static std::vector<Eigen::Vector3d> solveFineInIncrements(const SimScene& sc, const std::function<std::vector<RigidTransform>(double)>& transformsAt, int steps,
@@ -258,15 +271,7 @@ int cmdDeform(const Words& words) {
     sc = buildSimScene(image, handles, s, progress);
   }
   const double tScene = seconds(t0);
-  std::cout << std::fixed << std::setprecision(1) << "region: (" << sc.lo.x() << ", " << sc.lo.y() << ", " << sc.lo.z() << ") .. (" << sc.hi.x() << ", "
-            << sc.hi.y() << ", " << sc.hi.z() << ") mm; coarse " << sc.meshes.coarse.tets.size() << " tets, fine " << sc.meshes.fine.tets.size()
-            << " tets (" << (sc.meshes.regularFine ? std::to_string(sc.meshes.refinement) + "^3 per coarse tet"
-                                                   : "image-adapted: " + std::to_string(sc.adapted.structurePoints) + " points at stiffness jumps, " +
-                                                         std::to_string(sc.adapted.fallbackCells) + " cells left regular")
-            << "); handle nodes " << sc.handleNodeCount[0];
-  if (!sc.regionCell.empty())
-    std::cout << "; cells simulated " << std::count(sc.regionCell.begin(), sc.regionCell.end(), 1) << " of " << sc.regionCell.size() << " (shaped by the handles)";
-  std::cout << "\n";
+  printScene(sc);
   // Large motions are applied in increments of at most 30 degrees and 10 mm, each solve starting
   // from the previous one (continuation keeps the Newton and corotational iterations in their basin).
   const int steps = std::max({1, int(std::ceil(rotation.norm() / (M_PI / 6))), int(std::ceil(translation.norm() / 10.0))});
@@ -300,7 +305,9 @@ int cmdDeform(const Words& words) {
   for (std::size_t i = 0; i < x.size(); ++i) maxDisp = std::max(maxDisp, (x[i] - sc.meshes.fine.nodes[i]).norm());
   const bool wantStrain = args.value("--strain-out").has_value();
   const std::vector<float> strain = tetStrain(sc.meshes.fine, x);
-  const TissueLimitReport limits = tissueLimits(sc.meshes.fine, strain, sc.band, s.materials, nearestHandleOfNodes(sc.meshes.fine, sc.constraints),
+  std::vector<char> moving(std::size_t(sc.constraints.handleCount), 0);  // the moved handle; a --fixed mask is never the cause
+  moving[0] = 1;
+  const TissueLimitReport limits = tissueLimits(sc.meshes.fine, strain, sc.band, s.materials, nearestHandleOfNodes(sc.meshes.fine, sc.constraints, moving),
                                                 sc.constraints.handleCount);
   std::vector<std::int32_t> tetOf;
   t0 = std::chrono::steady_clock::now();

@@ -233,6 +233,13 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   if (st.liveVoxels) ImGui::TextColored(ImVec4(0.3f, 1.0f, 0.4f, 1.0f), "selecting: %zu voxels", st.liveVoxels);
   if (!st.feedback.empty()) ImGui::TextColored(ImVec4(1.0f, 0.5f, 0.3f, 1.0f), "%s", st.feedback.c_str());
   if (!st.simulation.empty()) ImGui::TextUnformatted(st.simulation.c_str());
+  if (!st.tissueLimits.empty()) {
+    const bool none = st.tissueLimits == "none";
+    const ImVec4 colour = none ? ImVec4(0.6f, 0.8f, 0.6f, 1.0f) : ImVec4(1.0f, 0.35f, 0.8f, 1.0f);
+    ImGui::PushStyleColor(ImGuiCol_Text, colour);
+    ImGui::TextWrapped("past the strain limit: %s", st.tissueLimits.c_str());
+    ImGui::PopStyleColor();
+  }
   if (!st.exported.empty()) ImGui::TextWrapped("%s", st.exported.c_str());
   if (st.handles.empty()) ImGui::TextDisabled("none: pinch an organ in Select mode");
   else if (st.picked.size() < 2) ImGui::TextDisabled("tap two handles to unite or subtract them");

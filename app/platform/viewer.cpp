@@ -380,6 +380,7 @@ void Viewer::Impl::updateStatus() {
                     : !selection->labelNote().empty()     ? selection->labelNote()
                                                           : selection->manipulationNote();
   status.simulation = deform->status();
+  status.tissueLimits = deform->shownTissueLimits();
   if (driver->newFailure()) {
     // The simulation refused a pose, stopped without converging or failed to build: the session
     // goes on (the last good state shows), and what was done so far is saved.

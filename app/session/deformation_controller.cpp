@@ -97,6 +97,7 @@ void DeformationController::stopAll() {
   sentPoses_.clear();
   shownInput_ = lastSent_ = answeredInput_ = 0;
   shownReactions_.clear();
+  shownLimits_.reset();
   shownConverged_ = shownSettled_ = answeredSettled_ = false;
   unconverged_ = false;
   lastError_.clear();
@@ -210,6 +211,8 @@ void DeformationController::adoptBuilt() {
   wo.reconstructFine = false;  // the GPU interpolates the fine nodes
   wo.elementRotations = true;
   wo.refineSteps = options_.refineSteps;
+  wo.tissueLimits = options_.sim.materials;  // the refined state says what tissue is past its limit
+  wo.movingHandles.assign(simActive_.begin(), simActive_.end());  // and which active handle's motion did it
   m->worker = std::make_unique<SimWorker>(*m->model, m->scene, wo);
   vk::DeformSetup setup;
   setup.interpolation = &m->data;
@@ -271,6 +274,7 @@ void DeformationController::pull() {
     shownSettled_ = s->settled;
     shownStats_ = s->stats;
     shownReactions_ = s->reactions;
+    shownLimits_ = s->limits;
     // States the worker stopped on without converging: a failure of the solve, counted once per
     // episode (a drag gives one unconverged pose after another until a pose converges again).
     if (s->settled && s->refineStep == 0) {
@@ -430,6 +434,10 @@ bool DeformationController::waitBuilt(double seconds) {
     if (std::chrono::steady_clock::now() > end) return false;
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
+}
+
+std::string DeformationController::shownTissueLimits() const {
+  return shownLimits_ ? describeTissueLimits(*shownLimits_, simIds_) : std::string();
 }
 
 std::vector<std::pair<int, HandleReaction>> DeformationController::shownReactions() const {

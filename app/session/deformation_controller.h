@@ -20,6 +20,7 @@
 #include "sim/handle_reaction.h"
 #include "sim/sim_scene.h"
 #include "sim/sim_worker.h"
+#include "sim/tissue_limits.h"
 #include "sim/volume.h"
 
 namespace handson {
@@ -84,6 +85,10 @@ class DeformationController {
   std::vector<std::pair<int, HandleReaction>> shownReactions() const;
   /// The shown state's refinement step (0: the coarse model's answer).
   int shownRefineStep() const { return shownRefineStep_; }
+  /// The shown state's tissue past its strain limit (sim/tissue_limits.h), with the app's handle
+  /// ids: "none" or "2.40 cm³ (organ-and-blood ...), from handle 3 (2.40 cm³)"; empty until a
+  /// state refined to the last step is shown (only the fine positions tell the strain).
+  std::string shownTissueLimits() const;
   bool shownConverged() const { return shownConverged_; }
   /// Failures so far, for a caller that saves the session when one happens: poses the solve
   /// refused, solves that stopped without converging (each counted once per episode: until a pose
@@ -144,6 +149,7 @@ class DeformationController {
   bool shownConverged_ = false, shownSettled_ = false;
   CoarseSolveStats shownStats_;
   std::vector<HandleReaction> shownReactions_;
+  std::optional<TissueLimitReport> shownLimits_;
   /// The fine node positions as drawn (world mm); empty when they cannot be read.
   std::vector<Eigen::Vector3d> drawnFinePositions() const;
   std::uint64_t failures_ = 0;

@@ -6,6 +6,7 @@
 
 #include "sim/sim_worker.h"
 #include "sim/static_solver.h"
+#include "sim/strain.h"
 
 using namespace handson;
 
@@ -126,4 +127,39 @@ TEST(SimWorker, AHeldPoseSettlesAndALargeJumpIsSolvedInIncrements) {
   double dr = 0;
   for (std::size_t e = 0; e < R.size(); ++e) dr = std::max(dr, (R[e] - s->rotations[e]).norm());
   EXPECT_LT(dr, 1e-12);
+}
+
+TEST(SimWorker, TheLastRefinementStepSaysWhatTissueIsPastItsStrainLimit) {
+  Box box;
+  SimScene scene;
+  scene.meshes = box.meshes;
+  scene.fineK = box.K;
+  scene.constraints = box.c;
+  const std::size_t nt = box.meshes.fine.tets.size();
+  scene.youngs.assign(nt, 5e3);
+  scene.poisson.assign(nt, 0.4);
+  scene.band.assign(nt, 0);
+  const MaterialTable table = MaterialTable::parse("units,hu\nname,lower,upper,youngs_kpa,poisson,strain_limit\nsoft,-inf,inf,5,0.4,0.05\n");
+  CoarseModel model(scene.meshes, scene.fineK, scene.constraints);
+  SimWorkerOptions o;
+  o.refineSteps = 2;
+  o.refineMethod = RefineMethod::Projected;  // the scene's materials are uniform: any method
+  o.tissueLimits = table;
+  SimWorker worker(model, scene, o);
+  const std::vector<RigidTransform> T = {RigidTransform::about({30, 20, 20}, Eigen::Vector3d(0.3, 0, 0), Eigen::Vector3d(4, 0, 0))};
+  const auto id = worker.setHandles(T);
+  const auto r = worker.waitFor(id, 2);
+  ASSERT_TRUE(r.has_value());
+  ASSERT_EQ(r->refineStep, 2);
+  ASSERT_TRUE(r->limits.has_value()) << "the last step carries the report";
+  // The same as the report from its own fine positions; a 4 mm, 17-degree turn of a ball of 8 mm
+  // strains the tissue beside it past 5 %, all of it the one handle's doing.
+  const TissueLimitReport direct = tissueLimits(scene.meshes.fine, tetStrain(scene.meshes.fine, r->fine), scene.band, table,
+                                                nearestHandleOfNodes(scene.meshes.fine, scene.constraints), 1);
+  EXPECT_TRUE(direct.any());
+  EXPECT_EQ(r->limits->tets, direct.tets);
+  EXPECT_DOUBLE_EQ(r->limits->volumeMm3, direct.volumeMm3);
+  ASSERT_EQ(r->limits->volumeByHandle.size(), 1u);
+  EXPECT_DOUBLE_EQ(r->limits->volumeByHandle[0], r->limits->volumeMm3);
+  EXPECT_NE(describeTissueLimits(*r->limits, {7}).find("from handle 7 ("), std::string::npos) << describeTissueLimits(*r->limits, {7});
 }

@@ -2,6 +2,8 @@
 // the mesh against a brute-force search, and the volume past the limit against exact answers.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -75,32 +77,59 @@ TEST(TissueLimits, TheStrainLimitColumnIsParsedOptionalAndChecked) {
 }
 
 TEST(TissueLimits, TheNearestHandleAlongTheMeshMatchesABruteForceRelaxation) {
+  // The bar with a wall cut out of it (2.5 < x < 12.5, y < 7.5: tets removed, a passage left at
+  // y > 7.5), so that distance along the mesh is not distance in space.
   const NestedMeshes nm = bar();
-  const TetMesh& m = nm.fine;
+  TetMesh m = nm.fine;
+  const auto inWall = [&](const std::array<int, 4>& t) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int v : t) c += m.nodes[std::size_t(v)] / 4.0;
+    return c.x() > 2.5 && c.x() < 12.5 && c.y() < 7.5;
+  };
+  m.tets.erase(std::remove_if(m.tets.begin(), m.tets.end(), inWall), m.tets.end());
   const FineConstraints c = endHandles(m, 2);
   const NearestHandle near = nearestHandleOfNodes(m, c);
-  // Independent answer: Bellman-Ford over every tet edge until nothing changes.
-  std::vector<double> d(m.nodes.size(), std::numeric_limits<double>::infinity());
-  std::vector<int> h(m.nodes.size(), -1);
-  for (std::size_t i = 0; i < m.nodes.size(); ++i)
-    if (c.handleOf[i] >= 0) d[i] = 0, h[i] = c.handleOf[i];
-  for (bool changed = true; changed;) {
-    changed = false;
-    for (const auto& t : m.tets)
-      for (int a : t)
-        for (int b : t) {
-          const double w = d[std::size_t(a)] + (m.nodes[std::size_t(b)] - m.nodes[std::size_t(a)]).norm();
-          if (w < d[std::size_t(b)] - 1e-12) d[std::size_t(b)] = w, h[std::size_t(b)] = h[std::size_t(a)], changed = true;
-        }
-  }
-  for (std::size_t i = 0; i < m.nodes.size(); ++i) {
-    EXPECT_NEAR(near.distance[i], d[i], 1e-9) << i;
-    // Equidistant nodes (the plane x = 15) may go either way; elsewhere the handles agree.
-    if (std::abs(m.nodes[i].x() - 15.0) > 1e-9) {
-      EXPECT_EQ(near.handle[i], h[i]) << i;
+  // Independent answer: per handle, Bellman-Ford over every tet edge until nothing changes.
+  const auto relax = [&](int handle) {
+    std::vector<double> d(m.nodes.size(), std::numeric_limits<double>::infinity());
+    for (std::size_t i = 0; i < m.nodes.size(); ++i)
+      if (c.handleOf[i] == handle) d[i] = 0;
+    for (bool changed = true; changed;) {
+      changed = false;
+      for (const auto& t : m.tets)
+        for (int a : t)
+          for (int b : t) {
+            const double w = d[std::size_t(a)] + (m.nodes[std::size_t(b)] - m.nodes[std::size_t(a)]).norm();
+            if (w < d[std::size_t(b)] - 1e-12) d[std::size_t(b)] = w, changed = true;
+          }
     }
-    EXPECT_EQ(near.handle[i], m.nodes[i].x() < 15.0 - 1e-9 ? 0 : m.nodes[i].x() > 15.0 + 1e-9 ? 1 : near.handle[i]);
+    return d;
+  };
+  const std::vector<double> d0 = relax(0), d1 = relax(1);
+  int behindTheWall = -1;
+  for (std::size_t i = 0; i < m.nodes.size(); ++i) {
+    const double d = std::min(d0[i], d1[i]);
+    if (std::isinf(d)) {
+      EXPECT_EQ(near.handle[i], -1) << i;  // inside the wall: no tet holds it
+      EXPECT_TRUE(std::isinf(near.distance[i])) << i;
+      continue;
+    }
+    EXPECT_NEAR(near.distance[i], d, 1e-9) << i;
+    if (std::abs(d0[i] - d1[i]) > 1e-9) {  // equidistant nodes may go either way
+      EXPECT_EQ(near.handle[i], d0[i] < d1[i] ? 0 : 1) << i;
+    }
+    if ((m.nodes[i] - Eigen::Vector3d(12.5, 0, 5)).norm() < 1e-9) behindTheWall = int(i);
   }
+  // The wall's far face at y = 0: 12.5 mm from handle 0 in space, but 20 mm around the wall along
+  // the mesh, so handle 1 (17.5 mm straight along x) is nearer.
+  ASSERT_GE(behindTheWall, 0);
+  EXPECT_EQ(near.handle[std::size_t(behindTheWall)], 1);
+  EXPECT_NEAR(near.distance[std::size_t(behindTheWall)], 17.5, 1e-9);
+  // Only moving handles are sources: with handle 1 held, everything reached goes to handle 0.
+  const NearestHandle only0 = nearestHandleOfNodes(m, c, {1, 0});
+  EXPECT_EQ(only0.handle[std::size_t(behindTheWall)], 0);
+  EXPECT_GT(only0.distance[std::size_t(behindTheWall)], 17.5);
+  EXPECT_THROW(nearestHandleOfNodes(m, c, {1}), Error);
   // No handle: nothing is reached.
   FineConstraints none = c;
   none.handleOf.assign(m.nodes.size(), -1);
@@ -142,21 +171,36 @@ TEST(TissueLimits, AUniformStretchPutsExactlyTheTissueWithALowerLimitPastIt) {
 TEST(TissueLimits, TissueIsPutDownToTheNearerOfTwoHandles) {
   const NestedMeshes nm = bar();
   const TetMesh& m = nm.fine;
-  // One band with a 1 % limit everywhere; a stretch of 3 % over x < 10 only, 0 elsewhere (the
-  // bar's far part moved rigidly with it): the stretched third is nearer handle 0 (x = 0).
+  // One band with a 1 % limit everywhere; a stretch of 3 % over x < 10 and of 4 % over x > 25, none
+  // between (that part moved rigidly): the first third is nearer handle 0 (x = 0), the last sixth
+  // handle 1 (x = 30).
   const MaterialTable table = MaterialTable::parse("units,hu\nname,lower,upper,youngs_kpa,poisson,strain_limit\nsoft,-inf,inf,6,0.45,0.01\n");
   const std::vector<int> band(m.tets.size(), 0);
-  const NearestHandle near = nearestHandleOfNodes(m, endHandles(m, 2));
+  const FineConstraints c = endHandles(m, 2);
   std::vector<Eigen::Vector3d> x(m.nodes.size());
   for (std::size_t i = 0; i < x.size(); ++i) {
     const Eigen::Vector3d& p = m.nodes[i];
-    x[i] = Eigen::Vector3d(p.x() < 10 ? 1.03 * p.x() : p.x() + 0.3, p.y(), p.z());
+    const double along = p.x() < 10 ? 1.03 * p.x() : p.x() < 25 ? p.x() + 0.3 : 25.3 + 1.04 * (p.x() - 25);
+    x[i] = Eigen::Vector3d(along, p.y(), p.z());
   }
-  const TissueLimitReport r = tissueLimits(m, tetStrain(m, x), band, table, near, 2);
-  EXPECT_NEAR(r.volumeMm3, 1000.0, 1e-6);
+  std::vector<float> strain = tetStrain(m, x);
+  const TissueLimitReport r = tissueLimits(m, strain, band, table, nearestHandleOfNodes(m, c), 2);
+  EXPECT_NEAR(r.volumeMm3, 1500.0, 1e-6);
   EXPECT_NEAR(r.volumeByHandle[0], 1000.0, 1e-6);
-  EXPECT_EQ(r.volumeByHandle[1], 0.0);
+  EXPECT_NEAR(r.volumeByHandle[1], 500.0, 1e-6);
+  EXPECT_NE(describeTissueLimits(r, {4, 9}).find("from handle 4 (1.00 cm³), handle 9 (0.50 cm³)"), std::string::npos) << describeTissueLimits(r, {4, 9});
+  // Handle 1 held (a fixed mask): all of it is handle 0's doing.
+  const TissueLimitReport held = tissueLimits(m, strain, band, table, nearestHandleOfNodes(m, c, {1, 0}), 2);
+  EXPECT_NEAR(held.volumeByHandle[0], 1500.0, 1e-6);
+  EXPECT_EQ(held.volumeByHandle[1], 0.0);
+  // A NaN strain (a degenerate tet) is not counted.
+  for (std::size_t t = 0; t < strain.size(); ++t)
+    if (strain[t] > 0.02f) {
+      strain[t] = std::numeric_limits<float>::quiet_NaN();
+      break;
+    }
+  EXPECT_EQ(tissueLimits(m, strain, band, table, nearestHandleOfNodes(m, c), 2).tets, r.tets - 1);
   // Sizes that do not match the mesh are refused.
-  EXPECT_THROW(tissueLimits(m, std::vector<float>(3, 0.f), band, table, near, 2), Error);
+  EXPECT_THROW(tissueLimits(m, std::vector<float>(3, 0.f), band, table, nearestHandleOfNodes(m, c), 2), Error);
   EXPECT_THROW(tetStrainLimits({5}, table), Error);
 }

@@ -249,11 +249,13 @@ TEST_F(Cli, DeformMovesTheHandleRegionOnlyAndWritesAMeshForParaView) {
     r = runHandson(common + "--model " + model + " --translate-mm 12,0,0 --rotate-deg 0,0,20 -o " + out + " --mesh-out " + p("mesh.vtu") +
                    " --forces-out " + p("forces.json") + " --strain-out " + p("strain.nii.gz"));
     ASSERT_EQ(r.status, 0) << r.output;
-    // The tissue past its limit is reported, all of it put down to the one handle.
+    // The tissue past its limit is reported (a 12 mm, 20-degree move strains soft tissue beside the
+    // kidney past 22 % in every model), all of it put down to the one handle.
     const auto limits = r.output.find("tissue past its strain limit: ");
     ASSERT_NE(limits, std::string::npos) << r.output;
     const std::string line = r.output.substr(limits, r.output.find('\n', limits) - limits);
-    EXPECT_TRUE(line.find(": none") != std::string::npos || line.find("), from handle 1 (") != std::string::npos) << line;
+    EXPECT_NE(line.find("fluid-and-soft-tissue"), std::string::npos) << line;
+    EXPECT_NE(line.find("), from handle 1 ("), std::string::npos) << line;
     {
       // The strain on the input's grid: stretched tissue around the moved kidney, nothing outside
       // the simulated region (the far side of the body), never a non-finite value.

@@ -1,4 +1,4 @@
-// The simulation in a running session (app/deformation_controller): built in the background, solved
+// The simulation in a running session (app/session/deformation_controller): built in the background, solved
 // on its worker, shown without the render loop waiting; rebuilt, cancelled and shut down cleanly.
 #include <gtest/gtest.h>
 
@@ -146,6 +146,10 @@ TEST(DeformationController, AHeldPoseIsRefinedWhileFramesGoOnAndEachStateIsNamed
   }
   ASSERT_EQ(dc.modelState(), "converged") << dc.status();
   EXPECT_NE(dc.status().find(", converged"), std::string::npos) << dc.status();
+  // The converged state says what tissue is past its strain limit, by the app's handle id (the
+  // kidney, 10 mm and 30 degrees: some of it is).
+  const std::string limits = dc.shownTissueLimits();
+  EXPECT_NE(limits.find("), from handle " + std::to_string(handles.handles()[0].id) + " ("), std::string::npos) << limits;
   for (const auto& st : seen)
     EXPECT_TRUE(st == "building" || st == "rest" || st == "coarse" || st == "refining 0/2" || st == "refining 1/2" || st == "converged") << st;
   // The refined state landed after the coarse one it started from (worker time since the pose).
