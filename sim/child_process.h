@@ -11,13 +11,14 @@
 // other threads (the render loop, the simulation worker, the scene builder, OpenBLAS's and the
 // Vulkan driver's pools) do not exist in the child, but every lock they held at that instant is
 // copied held and is never released. POSIX promises only async-signal-safe calls there; glibc also
-// makes malloc usable (its fork handlers reset the allocator's locks), and the children here rely on
-// that and nothing more: single-threaded parsing or meshing (GDCM, MetaIO, TetGen) on memory they
-// allocate themselves, results written to the pipe, then _Exit (no atexit handlers, no destructors,
-// no flush of the parent's stdio buffers, which runInChild flushes before forking). A child must not
-// take a lock another thread may hold (the app's mutexes, iostreams shared with other threads, the
-// sim's progress callbacks), start or join threads (a multithreaded BLAS call would wait forever for
-// its pool), or touch Vulkan or SDL objects.
+// makes malloc usable (its fork handlers reset the allocator's locks) and C++ exceptions work (the
+// unwinder's loader lock is glibc's too), and the children here rely on that and no more:
+// single-threaded parsing or meshing (GDCM, MetaIO, TetGen) on memory they allocate themselves,
+// errors thrown and caught inside, results written to the pipe, then _Exit (no atexit handlers, no
+// destructors, no flush of the parent's stdio buffers, which runInChild flushes before forking). A
+// child must not take a lock another thread may hold (the app's mutexes, iostreams shared with
+// other threads, the sim's progress callbacks), start threads or call a threaded library (BLAS,
+// the Vulkan driver), or touch Vulkan or SDL objects.
 #include <cstddef>
 #include <cstdint>
 #include <functional>

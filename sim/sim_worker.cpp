@@ -218,11 +218,6 @@ void SimWorker::run() {
         r.settled = step == options_.refineSteps;
         if (options_.elementRotations) r.rotations = model_.elementRotations(x);
         r.reactions = fineHandleReactions(model_.meshes().fine, fineK_, model_.constraints(), handles, fine);
-        if (r.settled && options_.tissueLimits && scene_) {
-          const TetMesh& mesh = scene_->meshes.fine;
-          if (!nearest_) nearest_ = nearestHandleOfNodes(mesh, scene_->constraints, options_.movingHandles);
-          r.limits = tissueLimits(mesh, tetStrain(mesh, fine), scene_->band, *options_.tissueLimits, *nearest_, scene_->constraints.handleCount);
-        }
       } catch (const std::exception& e) {
         r = SimSnapshot{};
         r.input = input;
@@ -233,9 +228,25 @@ void SimWorker::run() {
         break;
       }
       r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const bool report = r.settled && options_.tissueLimits && scene_;
+      std::optional<SimSnapshot> again;
+      if (report) again = r;  // the state is published at once; its report follows (publishWithLimits)
       publish(std::move(r));
+      if (report && !newer()) publishWithLimits(std::move(*again), t0);
     }
   }
+}
+
+void SimWorker::publishWithLimits(SimSnapshot s, std::chrono::steady_clock::time_point t0) {
+  try {
+    const TetMesh& mesh = scene_->meshes.fine;
+    if (!nearest_) nearest_ = nearestHandleOfNodes(mesh, scene_->constraints, options_.movingHandles);
+    s.limits = tissueLimits(mesh, tetStrain(mesh, s.fine), scene_->band, *options_.tissueLimits, *nearest_, scene_->constraints.handleCount);
+  } catch (const std::exception&) {
+    return;  // no report (e.g. out of memory): the state itself was published and stands
+  }
+  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  publish(std::move(s));
 }
 
 }  // namespace handson

@@ -4,6 +4,7 @@
 // worker runs the quasi-static coarse solve (warm start, an iteration budget), reconstructs the fine
 // nodes and publishes; while no newer input arrives it keeps refining toward the fine answer (the
 // two-level steps) and publishes after each, so a held pose sharpens over the next frames.
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <memory>
@@ -56,7 +57,9 @@ struct SimSnapshot {
   /// Each handle's reaction (sim/handle_reaction.h): from the coarse model's condensed blocks for a
   /// coarse answer, from the fine tets at the refined positions after a refinement step.
   std::vector<HandleReaction> reactions;
-  /// The last refinement step's tissue past its strain limit (with SimWorkerOptions::tissueLimits).
+  /// The tissue past its strain limit (with SimWorkerOptions::tissueLimits): a held pose's last
+  /// refinement step is published as soon as it is done, then once more, the same state with this
+  /// report (the strain of every fine tet: a fraction of a second the state need not wait for).
   std::optional<TissueLimitReport> limits;
   CoarseSolveStats stats;
   bool settled = false;                 ///< no more coarse snapshots for this input (converged, or the idle budget spent)
@@ -70,7 +73,8 @@ class SimWorker {
  public:
   /// The model and stiffness must outlive the worker, and nothing else may use the model meanwhile.
   SimWorker(CoarseModel& model, const std::vector<Mat12>& fineK, const SimWorkerOptions& options = {});
-  /// The scene's stiffness and materials (the warped refinement can run).
+  /// The scene's stiffness and materials (the warped refinement can run); the scene must outlive the
+  /// worker unchanged.
   SimWorker(CoarseModel& model, const SimScene& scene, const SimWorkerOptions& options = {});
   ~SimWorker();
   SimWorker(const SimWorker&) = delete;
@@ -87,6 +91,9 @@ class SimWorker {
  private:
   void run();
   void publish(SimSnapshot s);
+  /// The last refinement step's state again, with its tissue report (on a failure to compute it,
+  /// nothing: the state stands as published).
+  void publishWithLimits(SimSnapshot s, std::chrono::steady_clock::time_point t0);
 
   CoarseModel& model_;
   const std::vector<Mat12>& fineK_;

@@ -36,7 +36,7 @@ struct UiStatus {
   bool canUndo = false, canRedo = false;
   std::string feedback;        ///< e.g. a refused pinch
   std::string simulation;      ///< the simulation's state (building, size, settling)
-  std::string tissueLimits;    ///< the refined state's tissue past its strain limit and whose handle ("" until known)
+  std::string tissueLimits;    ///< the shown state's tissue past its strain limit and whose handle ("": not known for it)
   std::string exported;        ///< the last export's summary (or failure)
   std::size_t liveVoxels = 0;  ///< the selection being pinched
   unsigned locks = 0;          ///< manipulation locks (GestureLock bits)

@@ -236,6 +236,10 @@ void DeformationController::pull() {
   while (auto s = model_->worker->takeLatest()) {
     answeredInput_ = s->input;
     answeredSettled_ = s->settled;
+    if (s->limits && s->refineStep > 0 && s->input == shownInput_ && s->refineStep == shownRefineStep_) {
+      shownLimits_ = s->limits;  // the report on the state already shown (the worker publishes it after the state)
+      continue;
+    }
     if (!s->error.empty()) {  // refused input: the last good state stays
       if (lastError_.empty()) ++failures_;  // a new episode of refused poses
       lastError_ = s->error;

@@ -86,8 +86,9 @@ class DeformationController {
   /// The shown state's refinement step (0: the coarse model's answer).
   int shownRefineStep() const { return shownRefineStep_; }
   /// The shown state's tissue past its strain limit (sim/tissue_limits.h), with the app's handle
-  /// ids: "none" or "2.40 cm³ (organ-and-blood ...), from handle 3 (2.40 cm³)"; empty until a
-  /// state refined to the last step is shown (only the fine positions tell the strain).
+  /// ids: "none" or "2.40 cm³ (organ-and-blood ...), from handle 3 (2.40 cm³)"; empty unless the
+  /// shown state is a held pose's last refinement step (only fine positions tell the strain) and
+  /// its report has come (a fraction of a second after it).
   std::string shownTissueLimits() const;
   bool shownConverged() const { return shownConverged_; }
   /// Failures so far, for a caller that saves the session when one happens: poses the solve
