@@ -174,10 +174,8 @@ void writeMesh(const std::string& path, const SimScene& sc, const std::vector<Ei
   writeVtu(path, sc.meshes.fine, a);
 }
 
-}  // namespace
-
 // The scene's one-line summary: region, meshes, handle nodes (and the simulated cells of a shaped region).
-static void printScene(const SimScene& sc) {
+void printScene(const SimScene& sc) {
   std::cout << std::fixed << std::setprecision(1) << "region: (" << sc.lo.x() << ", " << sc.lo.y() << ", " << sc.lo.z() << ") .. (" << sc.hi.x() << ", "
             << sc.hi.y() << ", " << sc.hi.z() << ") mm; coarse " << sc.meshes.coarse.tets.size() << " tets, fine " << sc.meshes.fine.tets.size()
             << " tets (" << (sc.meshes.regularFine ? std::to_string(sc.meshes.refinement) + "^3 per coarse tet"
@@ -188,6 +186,8 @@ static void printScene(const SimScene& sc) {
     std::cout << "; cells simulated " << std::count(sc.regionCell.begin(), sc.regionCell.end(), 1) << " of " << sc.regionCell.size() << " (shaped by the handles)";
   std::cout << "\n";
 }
+
+}  // namespace
 
 // The fine static solve through `steps` increments of the motion (transformsAt(k / steps)), each
 // starting from the last; a solve that stops unconverged is reported and the next goes on from it.

@@ -61,14 +61,20 @@ struct Scene {
   }
 };
 
-// The kidney as the one handle, moved 8 mm and turned 0.3 rad about z.
-HandleSet kidneyMovedAndTurned(const Scene& s) {
-  HandleSet handles;
+// The kidney added to `handles`, moved 8 mm and turned 0.3 rad about z; returns its id.
+int addKidneyMovedAndTurned(const Scene& s, HandleSet& handles) {
   const int id = handles.add(s.kidney);
   RigidTransform pose;
   pose.t = Eigen::Vector3d(8, 0, 0);
   pose.R = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   handles.setPose(id, pose, false);
+  return id;
+}
+
+// The kidney as the one handle, moved and turned as above.
+HandleSet kidneyMovedAndTurned(const Scene& s) {
+  HandleSet handles;
+  addKidneyMovedAndTurned(s, handles);
   return handles;
 }
 
@@ -163,11 +169,7 @@ TEST(DeformationController, TissuePastItsLimitIsPutDownToTheMovingHandleByItsId)
   HandleSet handles;
   const int liver = handles.add(s.liver);
   ASSERT_TRUE(handles.setStatus(liver, HandleStatus::Fixed));
-  const int kidney = handles.add(s.kidney);
-  RigidTransform pose;
-  pose.t = Eigen::Vector3d(8, 0, 0);
-  pose.R = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  handles.setPose(kidney, pose, false);
+  const int kidney = addKidneyMovedAndTurned(s, handles);
   DeformationOptions o = small();
   o.refineSteps = 1;
   DeformationController dc(s.phantom.ct, s.q, *s.renderer, o);
