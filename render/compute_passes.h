@@ -20,13 +20,14 @@ struct MarchInputs {
   fg::ResourceHandle handles;    ///< storage buffer, vec4 tint per handle id
   fg::ResourceHandle strain;     ///< 3D R32 float strain (raymarch only; a 1-voxel zero image when none)
   fg::ResourceHandle labels;     ///< 3D R16_UNORM organ labels (raymarch only; a 1-voxel zero image when none)
+  fg::ResourceHandle overLimit;  ///< 3D R32 float strain over its tissue's limit (raymarch only; a 1-voxel zero image when none)
 };
 
 /// Direct volume rendering into an RGBA8 storage image (shaders/raymarch.comp).
 class RaymarchPass {
  public:
   explicit RaymarchPass(const Context& ctx);
-  /// `nearest`: the strain and label images' sampler (texelFetch only).
+  /// `nearest`: the strain, label and limit images' sampler (texelFetch only).
   void add(fg::FrameGraph& graph, const MarchInputs& in, fg::ResourceHandle output, const Sampler& sampler, const Sampler& nearest);
 
  private:

@@ -126,7 +126,9 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
                                             {gpu::kBindDeformStrainRasterBox, kSsbo},
                                             {gpu::kBindDeformStrainRasterOwner, kSsbo},
                                             {gpu::kBindDeformStrainRasterStrain, kSsbo},
-                                            {gpu::kBindDeformStrainRasterOut, kStorageImage}}),
+                                            {gpu::kBindDeformStrainRasterOut, kStorageImage},
+                                            {gpu::kBindDeformStrainRasterLimits, kSsbo},
+                                            {gpu::kBindDeformStrainRasterLimitOut, kStorageImage}}),
                                   0);
 
   params_ = Buffer(ctx, sizeof(gpu::DeformParams), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::Device);
@@ -137,6 +139,7 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   elementCorners_ = uploaded(ctx, d.elementCorners);
   coarseRest_ = uploaded(ctx, d.coarseRest);
   tetBuffer_ = uploaded(ctx, valid.tets);
+  strainLimits_ = uploaded(ctx, setup.strainLimits ? *setup.strainLimits : std::vector<float>(1, 0.0f));
   std::vector<Eigen::Vector4f> restIdx(nodes_);
   const Eigen::Matrix4f w2i = setup.worldToIndex.cast<float>();
   for (std::size_t f = 0; f < nodes_; ++f) {
@@ -225,6 +228,7 @@ void GpuDeformer::bind(GraphExecutor& x) {
     x.bindImage(h.volume, volume_);
     x.bindImage(h.mask, mask_);
     if (h.strainVolume.valid()) x.bindImage(h.strainVolume, strainVolume_);
+    if (h.overLimitVolume.valid()) x.bindImage(h.overLimitVolume, overLimitVolume_);
     return;
   }
   const Slot& s = slots_[h.slot];
@@ -245,6 +249,8 @@ void GpuDeformer::bind(GraphExecutor& x) {
   if (h.fineUpload.valid()) x.bindBuffer(h.fineUpload, *s.fine);
   if (h.strain.valid()) x.bindBuffer(h.strain, *strainBuffer_);
   if (h.strainVolume.valid()) x.bindImage(h.strainVolume, strainVolume_);
+  if (h.strainLimits.valid()) x.bindBuffer(h.strainLimits, strainLimits_);
+  if (h.overLimitVolume.valid()) x.bindImage(h.overLimitVolume, overLimitVolume_);
   if (h.withState) {
     x.bindBuffer(h.positions, *s.positions);
     x.bindBuffer(h.rotations, *s.rotations);
@@ -314,6 +320,15 @@ std::vector<float> GpuDeformer::readStrainVolume() const {
   const fg::ImageDesc d = strainVolume_.desc();
   std::vector<float> out(std::size_t(d.width) * d.height * d.depth);
   readImage(ctx_, strainVolume_, out.data(), out.size() * sizeof(float));
+  return out;
+}
+
+std::vector<float> GpuDeformer::readStrainOverLimitVolume() const {
+  if (!strainBuffer_) throw Error("deformation: no strain computed yet");
+  if (!hasStrainLimits()) throw Error("deformation: no strain limits were given");
+  const fg::ImageDesc d = overLimitVolume_.desc();
+  std::vector<float> out(std::size_t(d.width) * d.height * d.depth);
+  readImage(ctx_, overLimitVolume_, out.data(), out.size() * sizeof(float));
   return out;
 }
 

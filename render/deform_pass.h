@@ -38,6 +38,10 @@ struct DeformSetup {
   /// Tets whose voxel range in the region exceeds this are skipped and counted (a torn state must
   /// not make one invocation loop for seconds); 0: defaultMaxTetVoxels of the rest mesh.
   std::uint64_t maxTetVoxels = 0;
+  /// Per fine tet, its tissue's strain limit (sim/tissue_limits.h tetStrainLimits; inf: none). With
+  /// it the strain passes also make the strain-over-limit volume the raymarch highlights tissue past
+  /// its limit with; null: no limits. Finite values must be > 0; NaN is refused.
+  const std::vector<float>* strainLimits = nullptr;
 };
 
 /// What a frame redoes.
@@ -83,17 +87,24 @@ class GpuDeformer {
   /// box: each voxel the strain of the tet it was sampled through, 0 where none (deform_strain_raster
   /// .comp). Call it after one of those, in the same graph. CPU references: tetStrain and
   /// strainVolume (sim/strain.h).
+  /// With strain limits (DeformSetup::strainLimits) the raster also writes, on the same box, each
+  /// voxel's strain over its tet's limit (0 where the tissue has none): strainOverLimitVolume
+  /// (sim/tissue_limits.h) is its CPU reference.
   struct StrainOutputs {
-    fg::ResourceHandle perTet;  ///< float per fine tet (NaN for a degenerate one)
-    fg::ResourceHandle volume;  ///< R32 float, the volume's grid, left in Access::Sampled
+    fg::ResourceHandle perTet;     ///< float per fine tet (NaN for a degenerate one)
+    fg::ResourceHandle volume;     ///< R32 float, the volume's grid, left in Access::Sampled
+    fg::ResourceHandle overLimit;  ///< R32 float strain over limit, likewise (invalid without limits)
   };
   StrainOutputs addStrainPass(fg::FrameGraph& graph);
-  /// Imports the strain volume as the last strain passes left it (a frame without new positions);
-  /// invalid before the first addStrainPass.
-  fg::ResourceHandle importStrainVolume(fg::FrameGraph& graph);
-  /// The strain per fine tet and the strain volume (x fastest), read back after a frame with the pass.
+  /// Imports the strain volumes as the last strain passes left them (a frame without new
+  /// positions); invalid handles before the first addStrainPass (perTet is never imported).
+  StrainOutputs importStrainVolume(fg::FrameGraph& graph);
+  bool hasStrainLimits() const { return p_.limits.z != 0; }
+  /// The strain per fine tet, the strain volume and the strain-over-limit volume (x fastest), read
+  /// back after a frame with the pass.
   std::vector<float> readStrain() const;
   std::vector<float> readStrainVolume() const;
+  std::vector<float> readStrainOverLimitVolume() const;
   /// One frame on its own graph from fine positions (voxel index space; the region redone) with the
   /// strain passes, waited for; returns the strain per fine tet.
   std::vector<float> runStrain(const std::vector<Eigen::Vector4f>& indexPositions);
@@ -141,13 +152,15 @@ class GpuDeformer {
   std::unique_ptr<Buffer> boxReadback_;
   std::unique_ptr<Buffer> strainBuffer_;  ///< float per fine tet, made by the first addStrainPass
   Image strainVolume_;                    ///< R32 float, made (zero) by the first addStrainPass
+  Buffer strainLimits_;                   ///< float per fine tet (1 float, unused, without limits)
+  Image overLimitVolume_;                 ///< R32 float, made (zero) by the first addStrainPass (1 voxel without limits)
   gpu::DeformParams p_{};
   std::size_t nodes_ = 0, tets_ = 0, coarseNodes_ = 0, coarseElements_ = 0;
   std::uint32_t handles_ = 0;
   float commit_ = 1e-3f;
   struct Bound {
     fg::ResourceHandle params, nodeInfo, rest, blocks, elementCorners, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, affine, source, sourceMask,
-        volume, mask, positions, rotations, handles, strain, strainVolume;
+        volume, mask, positions, rotations, handles, strain, strainVolume, strainLimits, overLimitVolume;
     std::uint32_t slot = 0;
     fg::ResourceHandle fineUpload;
     bool withState = false, onlyOutputs = false;

@@ -75,6 +75,13 @@ ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc
     for (auto v : t)
       if (v >= coarseNodes) throw Error("deformation: a coarse element refers to a missing node");
 
+  if (setup.strainLimits) {
+    if (setup.strainLimits->size() != tetCount)
+      throw Error("deformation: " + std::to_string(setup.strainLimits->size()) + " strain limits for " + std::to_string(tetCount) + " fine tets");
+    for (float l : *setup.strainLimits)
+      if (!(l > 0.0f)) throw Error("deformation: a strain limit is not a positive number (inf: none)");
+  }
+
   const std::uint64_t maxGroups = ctx.properties().limits.maxComputeWorkGroupCount[0];
   if ((nodes + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups || (tetCount + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups)
     throw Error("deformation: the fine mesh (" + std::to_string(tetCount) + " tets) needs more workgroups than this device dispatches at once (" +
@@ -102,7 +109,7 @@ ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc
     for (const auto& X : d.rest) rest.nodes.emplace_back(double(X.x()), double(X.y()), double(X.z()));
     rest.tets = *setup.fineTets;
     const std::uint64_t cap = setup.maxTetVoxels ? setup.maxTetVoxels : defaultMaxTetVoxels(rest, setup.worldToIndex);
-    out.params.limits = glm::uvec4(std::uint32_t(std::min<std::uint64_t>(cap, UINT32_MAX)), d.cornersPerElement, 0, 0);
+    out.params.limits = glm::uvec4(std::uint32_t(std::min<std::uint64_t>(cap, UINT32_MAX)), d.cornersPerElement, setup.strainLimits ? 1u : 0u, 0);
   }
   return out;
 }

@@ -23,9 +23,16 @@ GpuDeformer::StrainOutputs GpuDeformer::addStrainPass(fg::FrameGraph& g) {
                           true);
     const std::vector<float> zeros(std::size_t(d.width) * d.height * d.depth, 0.0f);
     uploadToImage(ctx_, strainVolume_, zeros.data(), zeros.size() * sizeof(float), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+    // Strain over limit on the same grid; without limits one voxel the raster never writes.
+    const fg::ImageDesc ld = hasStrainLimits() ? d : fg::ImageDesc{1, 1, 1, fg::Format::R32Sfloat};
+    overLimitVolume_ = Image(ctx_, ld, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                             true);
+    uploadToImage(ctx_, overLimitVolume_, zeros.data(), std::size_t(ld.width) * ld.height * ld.depth * sizeof(float), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   }
   h_.strain = g.importBuffer("fine-strain", {strainBuffer_->size()}, Access::StorageWrite);
   h_.strainVolume = g.importImage("strain-volume", strainVolume_.desc(), Access::Sampled);
+  h_.strainLimits = g.importBuffer("strain-limits", {strainLimits_.size()}, Access::StorageRead);
+  h_.overLimitVolume = g.importImage("strain-over-limit", overLimitVolume_.desc(), Access::Sampled);
   const Bound hb = h_;
   const std::uint32_t groups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
   g.addPass(
@@ -58,7 +65,9 @@ GpuDeformer::StrainOutputs GpuDeformer::addStrainPass(fg::FrameGraph& g) {
         b.read(hb.box, Access::StorageRead);
         b.read(hb.owner, Access::StorageRead);
         b.read(hb.strain, Access::StorageRead);
+        b.read(hb.strainLimits, Access::StorageRead);
         b.write(hb.strainVolume, Access::StorageWrite);
+        b.write(hb.overLimitVolume, Access::StorageWrite);
       },
       [this, hb](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
@@ -69,17 +78,22 @@ GpuDeformer::StrainOutputs GpuDeformer::addStrainPass(fg::FrameGraph& g) {
             .buffer(gpu::kBindDeformStrainRasterOwner, ssbo, x.buffer(hb.owner).handle())
             .buffer(gpu::kBindDeformStrainRasterStrain, ssbo, x.buffer(hb.strain).handle())
             .storageImage(gpu::kBindDeformStrainRasterOut, x.image(hb.strainVolume).view())
+            .buffer(gpu::kBindDeformStrainRasterLimits, ssbo, x.buffer(hb.strainLimits).handle())
+            .storageImage(gpu::kBindDeformStrainRasterLimitOut, x.image(hb.overLimitVolume).view())
             .push(ctx_, x.cmd(), strainRaster_);
         vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
       });
   g.exportResource(hb.strainVolume, Access::Sampled);
-  return {hb.strain, hb.strainVolume};
+  g.exportResource(hb.overLimitVolume, Access::Sampled);
+  return {hb.strain, hb.strainVolume, hasStrainLimits() ? hb.overLimitVolume : fg::ResourceHandle{}};
 }
 
-fg::ResourceHandle GpuDeformer::importStrainVolume(fg::FrameGraph& g) {
+GpuDeformer::StrainOutputs GpuDeformer::importStrainVolume(fg::FrameGraph& g) {
   if (!strainBuffer_) return {};
   h_.strainVolume = g.importImage("strain-volume", strainVolume_.desc(), fg::Access::Sampled);
-  return h_.strainVolume;
+  if (!hasStrainLimits()) return {{}, h_.strainVolume, {}};
+  h_.overLimitVolume = g.importImage("strain-over-limit", overLimitVolume_.desc(), fg::Access::Sampled);
+  return {{}, h_.strainVolume, h_.overLimitVolume};
 }
 
 std::vector<float> GpuDeformer::readStrain() const {

@@ -29,6 +29,7 @@ std::vector<VkDescriptorSetLayoutBinding> marchBindings(VkDescriptorType outputT
   else {
     b.push_back({gpu::kBindStrain, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
     b.push_back({gpu::kBindLabels, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
+    b.push_back({gpu::kBindStrainLimit, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
   }
   return b;
 }

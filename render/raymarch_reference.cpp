@@ -17,6 +17,7 @@ struct Sampler {
   const std::vector<glm::vec4>* tints;
   const std::vector<float>* strain;
   const std::vector<std::uint16_t>* labels;
+  const std::vector<float>* overLimit;
 
   // As raymarch.comp's labelTint.
   glm::vec3 labelTint(glm::vec3 c, glm::vec3 idx) const {
@@ -40,6 +41,15 @@ struct Sampler {
     const float w = glm::clamp((e - P.strain.x) / std::max(P.strain.y - P.strain.x, 1e-6f), 0.0f, 1.0f);
     const glm::vec3 ramp = glm::mix(glm::vec3(1.0f, 0.85f, 0.1f), glm::vec3(0.9f, 0.05f, 0.05f), w);
     return glm::mix(c, ramp, P.strain.z * (0.25f + 0.75f * w));
+  }
+
+  // As raymarch.comp's limitTint.
+  glm::vec3 limitTint(glm::vec3 c, glm::vec3 idx) const {
+    if (!overLimit) return c;
+    const auto& d = v.geometry.dims;
+    const glm::ivec3 q = glm::clamp(glm::ivec3(glm::floor(idx + 0.5f)), glm::ivec3(0), glm::ivec3(d.x(), d.y(), d.z()) - 1);
+    if (!((*overLimit)[std::size_t(q.x) + std::size_t(d.x()) * (std::size_t(q.y) + std::size_t(d.y()) * std::size_t(q.z))] > 1.0f)) return c;
+    return glm::mix(c, glm::vec3(HANDSON_LIMIT_COLOUR), float(HANDSON_LIMIT_WEIGHT));
   }
 
   std::uint32_t handleAt(glm::vec3 idx) const {
@@ -149,7 +159,7 @@ struct Sampler {
     const glm::vec3 tmax = glm::max((lo - o) * inv, (hi - o) * inv);
     return std::min(std::min(tmax.x, tmax.y), tmax.z);
   }
-  float correctedAlpha(float a) const { return 1.0f - std::pow(std::max(1.0f - a, 0.0f), P.march.x / P.march.y); }
+  float correctedAlpha(float a, float step) const { return 1.0f - std::pow(std::max(1.0f - a, 0.0f), step / P.march.y); }
   glm::vec3 gradientIndex(glm::vec3 idx) const {
     return 0.5f * glm::vec3(sample(idx + glm::vec3(1, 0, 0)) - sample(idx - glm::vec3(1, 0, 0)),
                             sample(idx + glm::vec3(0, 1, 0)) - sample(idx - glm::vec3(0, 1, 0)),
@@ -181,7 +191,7 @@ struct Sampler {
       const glm::vec3 o = glm::vec3(P.worldToIndex * glm::vec4(originW, 1.0f));
       const glm::vec3 d = glm::mat3(P.worldToIndex) * dirW;
       const glm::mat3 gradToWorld = glm::transpose(glm::mat3(P.worldToIndex));
-      const float step = P.march.x;
+      const float step = P.quality.x > 0.0f ? P.march.x * P.quality.x : P.march.x;
       std::uint32_t n = 0, taken = 0;
       float occupiedUntil = -1.0f;
       while (taken < P.control.z) {
@@ -196,11 +206,12 @@ struct Sampler {
         if (value < 0.0f) continue;
         const glm::vec4 s = transfer(value);
         if (s.a <= 0.0f) continue;
-        const float a = correctedAlpha(s.a);
+        const float a = correctedAlpha(s.a, step);
         glm::vec3 c(s);
         if ((flags & gpu::kFlagLabelTint) && !isMoving(id)) c = labelTint(c, idx);
         if (id != 0 && tints) c = glm::mix(c, glm::vec3((*tints)[id]), (*tints)[id].a);
         if (flags & gpu::kFlagStrainOverlay) c = strainTint(c, idx);
+        if (flags & gpu::kFlagLimitHighlight) c = limitTint(c, idx);
         if (flags & gpu::kFlagShading) {
           const glm::vec3 g = gradToWorld * gradientIndex(idx);
           const float gl = glm::length(g);
@@ -246,7 +257,7 @@ struct Sampler {
       const glm::vec4 s = transfer(value);
       if (s.a <= 0.0f) continue;
       const float before = alpha;
-      alpha += (1.0f - alpha) * correctedAlpha(s.a);
+      alpha += (1.0f - alpha) * correctedAlpha(s.a, step);
       if (alpha >= P.march.w) {
         const float f = std::clamp((P.march.w - before) / std::max(alpha - before, 1e-6f), 0.0f, 1.0f);
         const float th = std::max(t - step + f * step, t0);
@@ -275,7 +286,7 @@ struct Sampler {
 }  // namespace
 
 std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const gpu::RenderParams& params) {
-  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints, scene.strain, scene.labels};
+  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints, scene.strain, scene.labels, scene.strainOverLimit};
   const int w = params.dims.w, h = params.brickDims.w;
   std::vector<std::uint8_t> img(std::size_t(w) * h * 4);
   auto rows = [&](int y0, int y1) {
@@ -296,7 +307,7 @@ std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const g
 
 std::vector<gpu::PickResult> pickReference(const ReferenceScene& scene, const gpu::RenderParams& params,
                                            const std::vector<glm::vec2>& ndcPoints) {
-  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints, scene.strain, scene.labels};
+  const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints, scene.strain, scene.labels, scene.strainOverLimit};
   std::vector<gpu::PickResult> out;
   out.reserve(ndcPoints.size());
   for (const auto& p : ndcPoints) out.push_back(s.pick(p));

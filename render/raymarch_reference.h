@@ -20,6 +20,7 @@ struct ReferenceScene {
   const std::vector<glm::vec4>* handleTints = nullptr;     ///< gpu::kMaxHandleIds entries
   const std::vector<float>* strain = nullptr;              ///< strain on the volume grid (the overlay; null: none)
   const std::vector<std::uint16_t>* labels = nullptr;      ///< organ labels on the volume grid (the label tint; null: none)
+  const std::vector<float>* strainOverLimit = nullptr;     ///< strain over its tissue's limit on the volume grid (the highlight; null: none)
 };
 
 /// RGBA8 image (width = params.dims.w, height = params.brickDims.w), row 0 at the top.

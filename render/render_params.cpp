@@ -95,6 +95,7 @@ gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::ma
   if (s.earlyTermination) flags |= gpu::kFlagEarlyTermination;
   if (s.shading) flags |= gpu::kFlagShading;
   if (s.strainOverlay) flags |= gpu::kFlagStrainOverlay;
+  if (s.limitHighlight) flags |= gpu::kFlagLimitHighlight;
   if (s.labelTint) flags |= gpu::kFlagLabelTint;
   if (s.clip.box) {
     flags |= gpu::kFlagClipBox;
@@ -107,6 +108,7 @@ gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::ma
     p.clipPlane = glm::vec4(s.clip.normal / nlen, s.clip.offset / nlen);
   }
   p.strain = glm::vec4(s.strainFrom, s.strainTo, s.strainWeight, 0.0f);
+  p.quality = glm::vec4(std::isfinite(s.raymarchStepScale) && s.raymarchStepScale >= 1.0f ? s.raymarchStepScale : 1.0f, 0.0f, 0.0f, 0.0f);
   const double diag = geometry.diagonalMm();
   const std::uint32_t maxSteps = std::uint32_t(std::ceil(diag / step)) * 2u + 64u;
   p.control = glm::uvec4(flags, pickCount, maxSteps, 0u);

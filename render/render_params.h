@@ -47,10 +47,16 @@ struct RenderSettings {
   /// The strain overlay (while deforming): tissue coloured from strainFrom (none) to strainTo (full
   /// colour, yellow to red, weight strainWeight); strain as sim/strain.h defines it (0.3 = 30 %).
   bool strainOverlay = false;
+  /// Tissue past its strain limit highlighted (while deforming with limits: DeformSetup::strainLimits),
+  /// in HANDSON_LIMIT_COLOUR (shaders/shared.h).
+  bool limitHighlight = false;
   /// Tissue tinted by its organ label (VolumeRenderer::setLabels; the palette in shaders/shared.h).
   bool labelTint = false;
   ClipRegion clip;
   float strainFrom = 0.0f, strainTo = 0.30f, strainWeight = 0.85f;
+  /// The raymarch's sample step over the full-quality step (the frame budget, app/session/
+  /// frame_budget.h; >= 1). Picking always takes the full-quality step.
+  float raymarchStepScale = 1.0f;
 };
 
 /// view: world -> eye (right-handed, camera looks down -z); proj: eye -> Vulkan clip (z in [0,1],

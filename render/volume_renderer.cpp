@@ -26,6 +26,8 @@ VolumeRenderer::VolumeRenderer(const vk::Context& ctx, std::uint32_t framesInFli
   noStrain_ = vk::Image(ctx, {1, 1, 1, fg::Format::R32Sfloat}, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
   const float zero = 0.0f;
   vk::uploadToImage(ctx, noStrain_, &zero, sizeof zero, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  noOverLimit_ = vk::Image(ctx, {1, 1, 1, fg::Format::R32Sfloat}, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
+  vk::uploadToImage(ctx, noOverLimit_, &zero, sizeof zero, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   setLabels({});
 }
 
@@ -217,7 +219,7 @@ void VolumeRenderer::harvest(std::uint32_t slot, std::vector<FrameResult>& out) 
 
 // The deformation: new coarse state (or a mask change to carry over) -> its passes, whose outputs
 // the raymarch and picking read (`in`); otherwise the deformed images as they are. With the strain
-// overlay, the strain passes after them (or the strain volume as it is).
+// overlay or the limit highlight, the strain passes after them (or the strain volumes as they are).
 void VolumeRenderer::addDeformation(fg::FrameGraph& g, const FrameRequest& req, bool wantStrain, const vk::GpuDeformer::Outputs& deformed,
                                     vk::MarchInputs& in) {
   if (req.deform) lastDeform_ = *req.deform;
@@ -242,10 +244,14 @@ void VolumeRenderer::addDeformation(fg::FrameGraph& g, const FrameRequest& req, 
   in.volume = deformed.volume;
   in.mask = deformed.mask;
   if (wantStrain && passes) {
-    in.strain = deformer_->addStrainPass(g).volume;
+    const auto st = deformer_->addStrainPass(g);
+    in.strain = st.volume;
+    in.overLimit = st.overLimit;
     strainShown_ = true;
   } else if (wantStrain && strainShown_) {
-    in.strain = deformer_->importStrainVolume(g);
+    const auto st = deformer_->importStrainVolume(g);
+    in.strain = st.volume;
+    in.overLimit = st.overLimit;
   }
   if (!wantStrain) strainShown_ = false;  // shown again later: redone over the region then
 }
@@ -312,13 +318,18 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   // The deformed images (and strain) the raymarch and picking read, while deforming.
   const fg::ResourceHandle sourceVolume = in.volume, sourceMask = in.mask;
   if (req.maskUpload) g.exportResource(sourceMask, fg::Access::Sampled);  // whoever reads it, it ends the frame sampled
-  if (deformer_) addDeformation(g, req, (params.control.x & gpu::kFlagStrainOverlay) != 0, deformed, in);
+  if (deformer_) addDeformation(g, req, (params.control.x & (gpu::kFlagStrainOverlay | gpu::kFlagLimitHighlight)) != 0, deformed, in);
   in.labels = g.importImage("labels", labels_.desc(), fg::Access::Sampled);
   if (!hasLabels_ || !(in.volume == sourceVolume)) params.control.x &= ~gpu::kFlagLabelTint;  // none, or deformed anatomy shown
   const bool ownStrain = !in.strain.valid();
   if (ownStrain) {
     in.strain = g.importImage("no-strain", noStrain_.desc(), fg::Access::Sampled);
     params.control.x &= ~gpu::kFlagStrainOverlay;  // nothing to show (not deforming): no overlay
+  }
+  const bool ownOverLimit = !in.overLimit.valid();
+  if (ownOverLimit) {
+    in.overLimit = g.importImage("no-strain-over-limit", noOverLimit_.desc(), fg::Access::Sampled);
+    params.control.x &= ~gpu::kFlagLimitHighlight;  // not deforming, or no limits: nothing to highlight
   }
   std::memcpy(s.params->mapped(), &params, sizeof(params));
   s.params->flush();
@@ -359,6 +370,7 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   executor_.bindBuffer(in.occupancy, occupancyBuffer_);
   executor_.bindImage(sourceMask, mask_);
   if (ownStrain) executor_.bindImage(in.strain, noStrain_);
+  if (ownOverLimit) executor_.bindImage(in.overLimit, noOverLimit_);
   executor_.bindImage(in.labels, labels_);
   if (deformer_) deformer_->bind(executor_);
   executor_.bindBuffer(in.handles, handleTints_);

@@ -129,6 +129,7 @@ class VolumeRenderer {
   vk::BrickPass brick_;
   vk::Sampler linear_, nearest_;
   vk::Image noStrain_;        ///< the raymarch's strain image without a strain overlay (one zero voxel)
+  vk::Image noOverLimit_;     ///< its strain-over-limit image without the limit highlight (one zero voxel)
   bool strainShown_ = false;  ///< the deformer's strain volume is current over the whole region
   vk::Image volume_, mask_;
   vk::Image labels_;          ///< organ labels (R16 unorm), or one zero voxel when there are none

@@ -2,9 +2,12 @@
 #extension GL_GOOGLE_include_directive : require
 // The strain volume: every voxel of this frame's box takes the strain of the tet that claimed it
 // (deform_claim.comp's owner, the same tet the deformed image was sampled through), 0 where no tet
-// did (outside the region, uncovered) and where the strain is not finite. One invocation per voxel
-// of the box, dispatched indirectly like deform_resolve.comp. CPU reference: strainVolume in
-// sim/strain.cpp on rasterizeDeformed's tet map.
+// did (outside the region, uncovered) and where the strain is not finite. With per-tet strain limits
+// (P.limits.z = 1) the voxel also takes that tet's strain over its tissue's limit (0 where the
+// tissue has none or either is not finite): the raymarch highlights voxels past 1. One invocation
+// per voxel of the box, dispatched indirectly like deform_resolve.comp. CPU references:
+// strainVolume (sim/strain.cpp) and strainOverLimitVolume (sim/tissue_limits.cpp) on
+// rasterizeDeformed's tet map.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_CLEAR_GROUP, local_size_y = HANDSON_DEFORM_CLEAR_GROUP, local_size_z = HANDSON_DEFORM_CLEAR_GROUP) in;
 layout(std430, set = 0, binding = kBindDeformStrainRasterParams) readonly buffer Params { DeformParams P; };
@@ -12,18 +15,25 @@ layout(std430, set = 0, binding = kBindDeformStrainRasterBox) readonly buffer Bo
 layout(std430, set = 0, binding = kBindDeformStrainRasterOwner) readonly buffer Owner { uint owner[]; };
 layout(std430, set = 0, binding = kBindDeformStrainRasterStrain) readonly buffer Strain { float strain[]; };
 layout(set = 0, binding = kBindDeformStrainRasterOut, r32f) uniform writeonly image3D uOut;
+layout(std430, set = 0, binding = kBindDeformStrainRasterLimits) readonly buffer Limits { float limit[]; };
+layout(set = 0, binding = kBindDeformStrainRasterLimitOut, r32f) uniform writeonly image3D uLimitOut;
 
 void main() {
   ivec3 v = box.lo.xyz + ivec3(gl_GlobalInvocationID);
   if (any(greaterThan(v, box.hi.xyz))) return;
-  float s = 0.0;
+  float s = 0.0, r = 0.0;
   ivec3 o = v - P.regionVoxLo.xyz;
   if (all(greaterThanEqual(o, ivec3(0))) && all(lessThan(o, P.ownerDims.xyz))) {
     uint own = owner[uint(o.x + P.ownerDims.x * (o.y + P.ownerDims.y * o.z))];
     if (own != 0u && own != kDeformNoOwner) {
       float e = strain[own - 1u];
       s = isnan(e) || isinf(e) ? 0.0 : e;
+      if (P.limits.z != 0u) {
+        float l = limit[own - 1u];
+        r = s != 0.0 && l > 0.0 && !isinf(l) && !isnan(l) ? s / l : 0.0;
+      }
     }
   }
   imageStore(uOut, v, vec4(s));
+  if (P.limits.z != 0u) imageStore(uLimitOut, v, vec4(r));
 }

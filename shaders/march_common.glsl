@@ -115,7 +115,8 @@ float brickExit(vec3 o, vec3 d, ivec3 brick) {
   return min(min(tmax.x, tmax.y), tmax.z);
 }
 
-// Opacity of one sample, corrected from the reference step to the actual step.
-float correctedAlpha(float a) {
-  return 1.0 - pow(max(1.0 - a, 0.0), P.march.x / P.march.y);
+// Opacity of one sample, corrected from the reference step to the actual step (the raymarch's,
+// P.march.x * P.quality.x; picking's, P.march.x).
+float correctedAlpha(float a, float step) {
+  return 1.0 - pow(max(1.0 - a, 0.0), step / P.march.y);
 }

@@ -48,7 +48,7 @@ void main() {
       vec4 s = transfer(value);
       if (s.a <= 0.0) continue;
       float before = alpha;
-      alpha += (1.0 - alpha) * correctedAlpha(s.a);
+      alpha += (1.0 - alpha) * correctedAlpha(s.a, step);
       if (alpha >= P.march.w) {
         // Accumulated opacity interpolated linearly between this sample and the previous one.
         float f = clamp((P.march.w - before) / max(alpha - before, 1e-6), 0.0, 1.0);

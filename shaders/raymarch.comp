@@ -8,6 +8,7 @@ layout(local_size_x = HANDSON_RAYMARCH_GROUP_X, local_size_y = HANDSON_RAYMARCH_
 layout(set = 0, binding = kBindOutput, rgba8) uniform writeonly image2D uOutput;
 layout(set = 0, binding = kBindStrain) uniform sampler3D uStrain;
 layout(set = 0, binding = kBindLabels) uniform sampler3D uLabels;
+layout(set = 0, binding = kBindStrainLimit) uniform sampler3D uStrainLimit;
 
 // The label tint (kFlagLabelTint): the nearest voxel's organ label in a fixed palette (label % 12),
 // background (0) untouched. CPU reference: labelTint in render/raymarch_reference.cpp.
@@ -32,6 +33,15 @@ vec3 strainTint(vec3 c, vec3 idx) {
   return mix(c, ramp, P.strain.z * (0.25 + 0.75 * w));
 }
 
+// The limit highlight (kFlagLimitHighlight): where the nearest voxel's strain is past its tissue's
+// limit (strain over limit > 1), HANDSON_LIMIT_COLOUR at HANDSON_LIMIT_WEIGHT. CPU reference:
+// limitTint in render/raymarch_reference.cpp.
+vec3 limitTint(vec3 c, vec3 idx) {
+  ivec3 v = clamp(ivec3(floor(idx + 0.5)), ivec3(0), P.dims.xyz - 1);
+  if (!(texelFetch(uStrainLimit, v, 0).r > 1.0)) return c;
+  return mix(c, vec3(HANDSON_LIMIT_COLOUR), HANDSON_LIMIT_WEIGHT);
+}
+
 vec3 gradientIndex(vec3 idx) {
   return 0.5 * vec3(sampleVolume(idx + vec3(1, 0, 0)) - sampleVolume(idx - vec3(1, 0, 0)),
                     sampleVolume(idx + vec3(0, 1, 0)) - sampleVolume(idx - vec3(0, 1, 0)),
@@ -52,7 +62,8 @@ void main() {
     vec3 o = (P.worldToIndex * vec4(originW, 1.0)).xyz;
     vec3 d = mat3(P.worldToIndex) * dirW;
     mat3 gradToWorld = transpose(mat3(P.worldToIndex));
-    float step = P.march.x;
+    // The frame budget's step (1: the full-quality step; unset, 0, is taken as 1).
+    float step = P.quality.x > 0.0 ? P.march.x * P.quality.x : P.march.x;
     uint maxSteps = P.control.z;
     // Samples sit at t0 + (n + 0.5) * step, whatever skipping does, so that skipping changes
     // nothing but the work done.
@@ -81,11 +92,12 @@ void main() {
       if (value < 0.0) continue;  // the place a moved handle left
       vec4 s = transfer(value);
       if (s.a <= 0.0) continue;
-      float a = correctedAlpha(s.a);
+      float a = correctedAlpha(s.a, step);
       vec3 c = s.rgb;
       if ((flags & kFlagLabelTint) != 0u && !isMoving(id)) c = labelTint(c, idx);
       if (id != 0u) c = mix(c, handleTint[id].rgb, handleTint[id].a);
       if ((flags & kFlagStrainOverlay) != 0u) c = strainTint(c, idx);
+      if ((flags & kFlagLimitHighlight) != 0u) c = limitTint(c, idx);
       if ((flags & kFlagShading) != 0u) {
         vec3 g = gradToWorld * gradientIndex(idx);
         float gl = length(g);

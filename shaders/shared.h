@@ -62,6 +62,7 @@ HS_CONST kFlagStrainOverlay = 8u;  // raymarch: colour tissue by its strain (Ren
 HS_CONST kFlagLabelTint = 16u;     // raymarch: colour tissue by its organ label (kBindLabels, kLabelPalette)
 HS_CONST kFlagClipBox = 32u;       // raymarch and pick: only inside RenderParams.clipMin..clipMax (world box)
 HS_CONST kFlagClipPlane = 64u;     // raymarch and pick: only where dot(clipPlane.xyz, x) >= clipPlane.w
+HS_CONST kFlagLimitHighlight = 128u;  // raymarch: colour tissue past its strain limit (kBindStrainLimit)
 
 // Bindings of the raymarch and pick passes (one push-descriptor set).
 HS_CONST kBindParams = 0;     // RenderParams (read-only storage buffer)
@@ -76,12 +77,17 @@ HS_CONST kMaxHandleIds = 256; // id 0 = no handle
 HS_CONST kMaxMovingHandles = 8;  // handles drawn at a rigid pose (RenderParams.moving, count in control.w)
 HS_CONST kBindStrain = 8;     // raymarch only: sampler3D, R32 float strain on the volume's grid (texelFetch)
 HS_CONST kBindLabels = 9;     // raymarch only: sampler3D, R16_UNORM organ labels (label / 65535) on the volume's grid
+HS_CONST kBindStrainLimit = 10;  // raymarch only: sampler3D, R32 float strain over its tissue's limit (texelFetch; 0: none)
 HS_CONST kLabelPaletteSize = 12;  // label l is drawn in colour l % 12 (shaders/raymarch.comp, labelTint)
 // The label palette's rgb triples (GLSL and C++ alike: float[](HANDSON_LABEL_PALETTE)) and weight.
 #define HANDSON_LABEL_PALETTE                                                                                      \
   0.90, 0.30, 0.25, 0.25, 0.65, 0.95, 0.35, 0.85, 0.35, 0.95, 0.80, 0.20, 0.75, 0.40, 0.90, 0.20, 0.85, 0.80, \
       0.95, 0.55, 0.15, 0.95, 0.45, 0.70, 0.55, 0.75, 0.25, 0.40, 0.45, 0.95, 0.70, 0.55, 0.35, 0.85, 0.85, 0.85
 #define HANDSON_LABEL_TINT_WEIGHT 0.45
+// Tissue past its strain limit (kFlagLimitHighlight: strain over limit > 1) is drawn in this colour,
+// at this weight, over whatever tint it had: magenta, apart from the strain ramp's yellow to red.
+#define HANDSON_LIMIT_COLOUR 0.95, 0.10, 0.90
+#define HANDSON_LIMIT_WEIGHT 0.85
 
 // A handle drawn moved rigidly (until the simulation deforms the tissue around it): for a sample at
 // voxel index x, currentToRest * x is where the handle's material was.
@@ -109,6 +115,8 @@ struct RenderParams {
   vec4 clipMin;       // xyz: the clip box's low corner (world mm; kFlagClipBox)
   vec4 clipMax;       // xyz: its high corner
   vec4 clipPlane;     // xyz unit normal n, w = D: what is kept is n.x >= D (world mm; kFlagClipPlane)
+  vec4 quality;       // x = the raymarch's step over march.x (the frame budget; 1: full quality; picking
+                      // always takes march.x), yzw unused
   MovingHandle moving[kMaxMovingHandles];
 };
 
@@ -215,6 +223,8 @@ HS_CONST kBindDeformStrainRasterBox = 1;
 HS_CONST kBindDeformStrainRasterOwner = 2;
 HS_CONST kBindDeformStrainRasterStrain = 3;
 HS_CONST kBindDeformStrainRasterOut = 4;
+HS_CONST kBindDeformStrainRasterLimits = 5;    // float per fine tet: its tissue's strain limit (inf: none)
+HS_CONST kBindDeformStrainRasterLimitOut = 6;  // r32f image: strain over limit (0: no limit, no tet)
 
 // Static per deformation setup (read-only storage buffer).
 struct DeformParams {
@@ -227,7 +237,8 @@ struct DeformParams {
   ivec4 dims;         // xyz volume dims, w = handle count
   ivec4 ownerDims;    // xyz: regionVoxHi - regionVoxLo + 1 (owner buffer), w = coarse element count
   uvec4 limits;       // x = most voxels a tet's range may hold (larger ones are skipped and counted),
-                      // y = corners per coarse element (4 or 8)
+                      // y = corners per coarse element (4 or 8), z = 1: the strain raster also writes
+                      // strain over each tet's limit (kBindDeformStrainRasterLimit*)
 };
 
 // The box redone this frame (storage buffer, written by deform_bounds.comp, clamped by
@@ -244,7 +255,7 @@ static_assert(sizeof(DeformParams) == 2 * 64 + 7 * 16, "DeformParams must match 
 static_assert(sizeof(DeformBox) == 64, "DeformBox must match std430");
 static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
 static_assert(sizeof(MovingHandle) == 112, "MovingHandle must match std140");
-static_assert(sizeof(RenderParams) == 3 * 64 + 11 * 16 + 8 * 112, "RenderParams must match std140");
+static_assert(sizeof(RenderParams) == 3 * 64 + 12 * 16 + 8 * 112, "RenderParams must match std140");
 static_assert(sizeof(PickResult) == 32, "PickResult must match std430");
 }  // namespace handson::gpu
 #endif

@@ -66,6 +66,21 @@ std::vector<float> tetStrainLimits(const std::vector<int>& bandOfTet, const Mate
   return out;
 }
 
+Volume strainOverLimitVolume(const VolumeGeometry& grid, const std::vector<std::int32_t>& tetOf, const std::vector<float>& strain,
+                             const std::vector<float>& limits) {
+  if (tetOf.size() != grid.voxelCount()) throw Error("tissue limits: the tet map does not match the grid");
+  if (limits.size() != strain.size()) throw Error("tissue limits: one strain limit per fine tet expected");
+  Volume v(grid, ScalarType::Float32);
+  for (std::size_t i = 0; i < tetOf.size(); ++i) {
+    const std::int32_t t = tetOf[i];
+    if (t < 0) continue;
+    if (std::size_t(t) >= strain.size()) throw Error("tissue limits: a voxel names a tet that does not exist");
+    const float s = strain[std::size_t(t)], l = limits[std::size_t(t)];
+    if (std::isfinite(s) && s != 0.0f && std::isfinite(l) && l > 0.0f) v.setValue(i, s / l);
+  }
+  return v;
+}
+
 TissueLimitReport tissueLimits(const TetMesh& mesh, const std::vector<float>& strain, const std::vector<int>& bandOfTet,
                                const MaterialTable& table, const NearestHandle& nearest, int handleCount) {
   const std::size_t nt = mesh.tets.size();

@@ -11,6 +11,7 @@
 #include "sim/coarsening.h"  // FineConstraints
 #include "sim/materials.h"
 #include "sim/tet_mesh.h"
+#include "sim/volume.h"
 
 namespace handson {
 
@@ -26,6 +27,13 @@ NearestHandle nearestHandleOfNodes(const TetMesh& mesh, const FineConstraints& c
 
 /// Per fine tet: its band's strain limit (+inf where the band has none). `bandOfTet`: indices into `table`.
 std::vector<float> tetStrainLimits(const std::vector<int>& bandOfTet, const MaterialTable& table);
+
+/// The limit highlight's volume on the image's grid: each voxel the strain over its limit (float,
+/// strain / limit) of the deformed tet that covers it (`tetOf` from rasterizeDeformed, -1: none), 0
+/// where no tet does, where the tet's tissue has no limit (inf) or its strain is not finite; tissue
+/// is past its limit where the value exceeds 1. The GPU's deform_strain_raster.comp writes the same.
+Volume strainOverLimitVolume(const VolumeGeometry& grid, const std::vector<std::int32_t>& tetOf, const std::vector<float>& strain,
+                             const std::vector<float>& limits);
 
 struct TissueLimitBand {
   int band = 0;

@@ -36,6 +36,9 @@ const char* const kViewHelp =
     "  --size WxH              window size in points (default 1280x800)\n"
     "  --present-mode MODE     fifo (vsync, default), mailbox or immediate\n"
     "  --render-scale F        raymarch resolution relative to the window (default 1 on a GPU, 0.5 on a CPU)\n"
+    "  --frame-budget-ms MS    GPU time a changing frame may take (default 33; 0: off, always full quality):\n"
+    "                          while the picture changes the raymarch is drawn smaller and with a longer\n"
+    "                          step to fit, refined back to full quality a level a frame when it stops\n"
     "  --frames-in-flight N    1 (lowest latency), 2 (default) or 3\n"
     "  --preset NAME           ct-abdomen, ct-bone or mri\n"
     "  --frames N              render N frames and exit\n"
@@ -58,6 +61,8 @@ const char* const kReplayHelp =
     "  omitted: the built-in orbit-and-zoom demo. The same script on the same driver gives\n"
     "  bit-identical frames.\n"
     "  --volume PATH       replay on another volume than the script's\n"
+    "  --frame-budget-ms MS  as in view, from the frames' measured times (default 0: off; on, frames\n"
+    "                      depend on timing and are no longer bit-identical run to run)\n"
     "  --size WxH          output size (touches are scaled from the script's viewport)\n"
     "  --fps F             frames per second of script time\n"
     "  --export OUT.nii.gz the deformed volume at the end, on the input's grid\n"
@@ -119,7 +124,7 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 
 int cmdView(const Words& words) {
   Args args(words,
-            with({"--frame", "--size", "--present-mode", "--render-scale", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
+            with({"--frame", "--size", "--present-mode", "--render-scale", "--frame-budget-ms", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
                   "--frames-in-flight", "--play-repeat", "--export-dir", "--export-format", "--labels"},
                  kSimOptions),
             {"--validation", "--quiet", "--print-camera"});
@@ -135,6 +140,7 @@ int cmdView(const Words& words) {
   if (o.presentMode != "fifo" && o.presentMode != "mailbox" && o.presentMode != "immediate")
     throw UsageError("--present-mode must be fifo, mailbox or immediate");
   o.renderScale = args.number("--render-scale", 0.0, 0.05, 4.0);
+  o.frameBudgetMs = args.number("--frame-budget-ms", 33.0, 0.0, 10000.0);
   o.preset = args.valueOr("--preset", "");
   if (!o.preset.empty()) transferFunctionPreset(o.preset);  // validates the name
   o.frames = int(args.integer("--frames", 0, 1, 100000000));
@@ -158,7 +164,7 @@ int cmdView(const Words& words) {
 }
 
 int cmdReplay(const Words& words) {
-  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--size", "--device", "--export", "--export-dir", "--export-format", "--labels"}, kSimOptions),
+  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--frame-budget-ms", "--size", "--device", "--export", "--export-dir", "--export-format", "--labels"}, kSimOptions),
             {"--validation", "--quiet", "--print-camera", "--print-handles"});
   if (args.help() || args.positional().size() > 1) {
     usageStream(args) << kReplayHelp << kSimHelp << "  (replay waits each frame for the simulation to settle: frames do not depend on timing)\n";
@@ -170,6 +176,7 @@ int cmdReplay(const Words& words) {
   o.framesOut = args.valueOr("--frames-out", "");
   o.timings = args.valueOr("--timings", "");
   o.fps = args.number("--fps", 30.0, 0.01, 1000.0);
+  o.frameBudgetMs = args.number("--frame-budget-ms", 0.0, 0.0, 10000.0);
   if (auto s = args.value("--size")) parseSize(*s, o.width, o.height);
   o.device = args.valueOr("--device", "");
   o.validation = args.flag("--validation");

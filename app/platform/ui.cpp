@@ -10,6 +10,7 @@
 #include "render/transfer_function.h"
 #include "render/vk_context.h"
 #include "render/vk_swapchain.h"
+#include "shaders/shared.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -96,7 +97,8 @@ void Ui::swapchainRecreated(const vk::Swapchain& swapchain) {
 }
 
 // The strain overlay's colour bar, bottom left: the raymarch's ramp (shaders/raymarch.comp,
-// strainTint) from the strain where colour starts to where it is full.
+// strainTint) from the strain where colour starts to where it is full; and the limit highlight's
+// colour (limitTint) with what it means.
 void Ui::strainColourBar(const UiStatus& st, const std::function<void()>& remember) {
   const float s = scale_;
   const ImVec2 display = ImGui::GetIO().DisplaySize;
@@ -105,14 +107,25 @@ void Ui::strainColourBar(const UiStatus& st, const std::function<void()>& rememb
   ImGui::Begin("strain-bar", nullptr,
                ImGuiWindowFlags_NoTitleBar | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_AlwaysAutoResize |
                    ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoFocusOnAppearing);
-  ImGui::TextUnformatted(st.simulation.empty() ? "Strain (largest stretch), no simulation" : "Strain (largest stretch)");
-  const ImVec2 p = ImGui::GetCursorScreenPos(), size(220 * s, 18 * s);
-  const ImU32 from = ImGui::GetColorU32(ImVec4(1.0f, 0.85f, 0.1f, 1.0f)), to = ImGui::GetColorU32(ImVec4(0.9f, 0.05f, 0.05f, 1.0f));
-  ImGui::GetWindowDrawList()->AddRectFilledMultiColor(p, ImVec2(p.x + size.x, p.y + size.y), from, to, to, from);
-  ImGui::Dummy(size);
-  ImGui::Text("%.0f %%", 100.0 * st.strainFrom);
-  ImGui::SameLine(size.x - 30 * s);
-  ImGui::Text("%.0f %%", 100.0 * st.strainTo);
+  const ImVec2 size(220 * s, 18 * s);
+  if (st.strainOverlay) {
+    ImGui::TextUnformatted(st.simulation.empty() ? "Strain (largest stretch), no simulation" : "Strain (largest stretch)");
+    const ImVec2 p = ImGui::GetCursorScreenPos();
+    const ImU32 from = ImGui::GetColorU32(ImVec4(1.0f, 0.85f, 0.1f, 1.0f)), to = ImGui::GetColorU32(ImVec4(0.9f, 0.05f, 0.05f, 1.0f));
+    ImGui::GetWindowDrawList()->AddRectFilledMultiColor(p, ImVec2(p.x + size.x, p.y + size.y), from, to, to, from);
+    ImGui::Dummy(size);
+    ImGui::Text("%.0f %%", 100.0 * st.strainFrom);
+    ImGui::SameLine(size.x - 30 * s);
+    ImGui::Text("%.0f %%", 100.0 * st.strainTo);
+  }
+  if (st.limitHighlight) {  // the highlight's colour (shaders/shared.h HANDSON_LIMIT_COLOUR) and what it means
+    static constexpr float kLimit[3] = {HANDSON_LIMIT_COLOUR};
+    const ImVec2 p = ImGui::GetCursorScreenPos(), swatch(size.y, size.y);
+    ImGui::GetWindowDrawList()->AddRectFilled(p, ImVec2(p.x + swatch.x, p.y + swatch.y), ImGui::GetColorU32(ImVec4(kLimit[0], kLimit[1], kLimit[2], 1.0f)));
+    ImGui::Dummy(swatch);
+    ImGui::SameLine();
+    ImGui::TextUnformatted(st.simulation.empty() ? "past its tissue's strain limit, no simulation" : "past its tissue's strain limit");
+  }
   remember();
   ImGui::End();
 }
@@ -201,6 +214,10 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   if (st.strainOverlay) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.85f, 0.35f, 0.10f, 1.0f));
   if (ImGui::Button("Strain", button)) action("toggle-strain", "");
   if (st.strainOverlay) ImGui::PopStyleColor();
+  ImGui::SameLine();
+  if (st.limitHighlight) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.75f, 0.10f, 0.70f, 1.0f));
+  if (ImGui::Button("Limits", button)) action("toggle-limits", "");
+  if (st.limitHighlight) ImGui::PopStyleColor();
   if (st.hasLabels) {
     ImGui::SameLine();
     if (st.labelTint) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.25f, 0.60f, 0.35f, 1.0f));
@@ -211,7 +228,7 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   remember();
   const float barBottom = ImGui::GetWindowPos().y + ImGui::GetWindowSize().y;
   ImGui::End();
-  if (st.strainOverlay) strainColourBar(st, remember);
+  if (st.strainOverlay || st.limitHighlight) strainColourBar(st, remember);
 
   // Transfer-function presets and the handle list, right side: centred, but never over the mode bar.
   const ImVec2 display = ImGui::GetIO().DisplaySize;
@@ -286,6 +303,11 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   ImGui::Text("%.1f fps   CPU %.1f ms   raymarch %.1f ms", st.fps, st.cpuFrameMs, st.gpuRaymarchMs);
   if (st.latencyMs >= 0) ImGui::Text("input to present %.1f ms", st.latencyMs);
   ImGui::Text("%s   %dx%d   fingers %d", st.device.c_str(), st.renderWidth, st.renderHeight, st.fingers);
+  // The frame budget's indicator, on a line of its own from the start (the panels are measured
+  // once, for the first view's framing): amber while the frame is reduced.
+  const bool reduced = st.qualityScale != 1.0 || st.qualityStep != 1.0;
+  ImGui::TextColored(reduced ? ImVec4(1.0f, 0.75f, 0.25f, 1.0f) : ImGui::GetStyleColorVec4(ImGuiCol_Text), "quality: resolution %3.0f %%, step %.1fx", 100.0 * st.qualityScale,
+                     st.qualityStep);
   overlay_ = Rect{ImGui::GetWindowPos().x, ImGui::GetWindowPos().y, ImGui::GetWindowPos().x + ImGui::GetWindowSize().x,
                   ImGui::GetWindowPos().y + ImGui::GetWindowSize().y};
   ImGui::End();

@@ -25,6 +25,7 @@ struct UiStatus {
   double cpuFrameMs = 0, gpuRaymarchMs = 0, latencyMs = -1, fps = 0;
   int fingers = 0;
   int renderWidth = 0, renderHeight = 0;
+  double qualityScale = 1.0, qualityStep = 1.0;  ///< the frame budget's resolution and step scale (1, 1: full quality)
   struct HandleRow {
     int id;
     std::string status;
@@ -41,6 +42,7 @@ struct UiStatus {
   std::size_t liveVoxels = 0;  ///< the selection being pinched
   unsigned locks = 0;          ///< manipulation locks (GestureLock bits)
   bool strainOverlay = false;  ///< the strain overlay is on: its colour bar shows
+  bool limitHighlight = false; ///< tissue past its strain limit is highlighted: the bar's key shows
   bool hasLabels = false;      ///< a label map is loaded: the Labels button shows
   bool labelTint = false;      ///< ... and its tint is on
   bool clipped = false;        ///< a clip box or plane is on (Clip mode shows "Clear clip")

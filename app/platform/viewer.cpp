@@ -293,6 +293,7 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
   }
   deform = std::make_unique<DeformationController>(volume, q, *renderer, o.sim);
   driver = std::make_unique<FrameDriver>(volume, q, *session, *renderer, *selection, *deform);
+  driver->setFrameBudget(o.frameBudgetMs);
   exporter = std::make_unique<SessionExport>(o.exportDir, volume, o.exportExtension);
   session->addUiExtension([this](const ScriptEvent& e) { return exporter->onUi(e); });
   status.device = ctx->summary().name;
@@ -368,6 +369,7 @@ void Viewer::Impl::updateStatus() {
   status.picked = selection->picked();
   status.locks = selection->locks();
   status.strainOverlay = session->strainOverlay();
+  status.limitHighlight = session->limitHighlight();
   status.hasLabels = labels != nullptr;
   status.labelTint = session->labelTint();
   status.clipped = session->clip().box || session->clip().plane;
@@ -474,6 +476,15 @@ bool Viewer::Impl::step() {
     req.extension = present.get();
     driver->attachSimulation(req, false);  // never waits for the solve
     driver->attachSelection(req, vp, ft);
+    // The frame budget: a changing picture drawn smaller or with a longer step to fit, refined when
+    // it stops (never the export's image).
+    const FrameQuality quality = driver->applyFrameBudget(req, !touches.empty() || !actions.empty(), req.readbackImage);
+    status.renderWidth = req.params.dims.w;
+    status.renderHeight = req.params.brickDims.w;
+    status.qualityScale = quality.scale;
+    status.qualityStep = quality.stepScale;
+    ft.qualityScale = quality.scale;
+    ft.qualityStep = quality.stepScale;
     driver->recordSimulation(ft);
     const bool lastFrame = o.frames > 0 && int(frameNo) + 1 == o.frames;
     if (lastFrame && !o.screenshot.empty())

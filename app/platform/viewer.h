@@ -32,6 +32,7 @@ struct ViewerOptions {
   bool validation = false;
   int framesInFlight = 2;   ///< 1 lowers latency, 2 keeps the GPU busy while the CPU records
   double renderScale = 0.0; ///< raymarch resolution / window resolution; 0: 1 on a GPU, 0.5 on a CPU device
+  double frameBudgetMs = 33.0;  ///< GPU time a changing frame may take (app/session/frame_budget.h); 0: off
   bool printCamera = false; ///< print the final camera (tests, scripting)
   bool quiet = false;
   DeformationOptions sim;   ///< the simulation of moved handles (solved asynchronously)

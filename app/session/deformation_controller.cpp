@@ -5,7 +5,9 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
@@ -18,6 +20,7 @@
 #include "sim/scene_cache.h"
 #include "sim/strain.h"
 #include "sim/tet_raster.h"
+#include "sim/tissue_limits.h"
 
 namespace handson {
 
@@ -221,6 +224,9 @@ void DeformationController::adoptBuilt() {
   setup.regionHi = m->scene.hi;
   setup.background = quantized_.toNormalized(image_.valueRange().first);
   setup.worldToIndex = image_.geometry().worldToIndex();
+  // The limit highlight: each fine tet's tissue limit, when the table gives any.
+  const std::vector<float> limits = tetStrainLimits(m->scene.band, options_.sim.materials);
+  if (std::any_of(limits.begin(), limits.end(), [](float l) { return std::isfinite(l); })) setup.strainLimits = &limits;
   try {
     renderer_.beginDeformation(setup);
   } catch (const std::exception& e) {

@@ -2,12 +2,16 @@
 
 #include "render/transfer_function.h"
 
+#include <algorithm>
+#include <cmath>
+#include <cstring>
 #include <utility>
 
 namespace handson {
 
 void FrameDriver::refreshTransferFunction() {
   if (!session_.takePresetChanged()) return;
+  tfChanged_ = true;
   const WindowLevel& w = session_.window();
   renderer_.setTransferFunction(transferFunctionPreset(session_.preset()).windowed(w.scale, w.shift, w.opacity).lookupTable(q_));
 }
@@ -17,6 +21,7 @@ FrameRequest FrameDriver::request(const Viewport& vp, int width, int height) con
   rs.width = width;
   rs.height = height;
   rs.strainOverlay = session_.strainOverlay();
+  rs.limitHighlight = session_.limitHighlight();
   rs.labelTint = session_.labelTint();
   rs.clip = session_.clip();
   const OrbitCamera& cam = session_.camera();
@@ -56,14 +61,52 @@ bool FrameDriver::newFailure() {
   return true;
 }
 
+FrameQuality FrameDriver::applyFrameBudget(FrameRequest& request, bool eventsApplied, bool fullQuality) {
+  // The picture's parameters apart from what the budget itself sets (size, step) and the picks.
+  gpu::RenderParams p = request.params;
+  p.dims.w = p.brickDims.w = 0;
+  p.control.y = 0;
+  p.quality = glm::vec4(0.0f);
+  const bool sameParams = hasLastParams_ && std::memcmp(&p, &lastParams_, sizeof(p)) == 0;
+  lastParams_ = p;
+  hasLastParams_ = true;
+  const bool changing = eventsApplied || !sameParams || std::exchange(tfChanged_, false) || request.maskUpload || request.deform || request.deformFine;
+  nextQuality_ = budget_.next(changing);
+  if (fullQuality) nextQuality_ = FrameQuality{};
+  if (nextQuality_.full()) return nextQuality_;
+  const int w = request.params.dims.w, h = request.params.brickDims.w;
+  request.params.dims.w = std::max(1, int(std::lround(w * nextQuality_.scale)));
+  request.params.brickDims.w = std::max(1, int(std::lround(h * nextQuality_.scale)));
+  request.params.quality.x *= float(nextQuality_.stepScale);
+  return nextQuality_;
+}
+
 std::uint64_t FrameDriver::submit(const FrameRequest& request) {
   const std::uint64_t frame = renderer_.submit(request);
+  if (budget_.enabled()) inFlight_.emplace_back(frame, std::exchange(nextQuality_, FrameQuality{}));
   selection_.submitted(frame);
   if (std::exchange(clipPickInRequest_, false)) clipPickFrame_ = frame;
   return frame;
 }
 
 void FrameDriver::completed(const FrameResult& result) {
+  // The budget learns from the frame's GPU times: the raymarch at the quality it was drawn with,
+  // and the rest.
+  while (!inFlight_.empty() && inFlight_.front().first < result.frame) inFlight_.pop_front();
+  if (!inFlight_.empty() && inFlight_.front().first == result.frame) {
+    double ray = 0.0, other = 0.0;
+    bool drawn = false;
+    for (const auto& t : result.timings) {
+      if (t.name == "raymarch") {
+        ray += t.gpuMs;
+        drawn = true;
+      } else {
+        other += t.gpuMs;
+      }
+    }
+    if (drawn) budget_.measured(inFlight_.front().second, ray, other);
+    inFlight_.pop_front();
+  }
   selection_.onFrameResult(result);
   if (!clipPickFrame_ || result.frame != *clipPickFrame_) return;
   clipPickFrame_.reset();

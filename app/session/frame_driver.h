@@ -6,7 +6,11 @@
 // in where events come from (the window's input and a played script, or a script on a clock), where
 // frames go (a swapchain, or PNG files and a wait) and what they report.
 #include <cstdint>
+#include <deque>
 #include <optional>
+#include <utility>
+
+#include "app/session/frame_budget.h"
 
 #include "app/session/deformation_controller.h"
 #include "app/session/latency_log.h"
@@ -26,6 +30,16 @@ class FrameDriver {
 
   /// The session's transfer function, when an applied event changed its preset.
   void refreshTransferFunction();
+  /// The frame budget (app/session/frame_budget.h; 0: off, the default).
+  void setFrameBudget(double budgetMs) { budget_ = FrameBudget(budgetMs); }
+  const FrameBudget& frameBudget() const { return budget_; }
+  /// The budget's quality for this frame, applied to a request made, attached and ready to submit:
+  /// its raymarch size scaled (its full size is the request's) and its step. The picture counts as
+  /// changing when `eventsApplied` (input or UI actions this frame), its parameters differ from the
+  /// last frame's (camera, clip, overlays, moved handles), the transfer function changed or it
+  /// carries a new simulation state or mask. Off: the request as it is.
+  /// `fullQuality`: this frame at full quality whatever the budget says (an export's image).
+  FrameQuality applyFrameBudget(FrameRequest& request, bool eventsApplied, bool fullQuality = false);
   /// A frame at the session's camera over a vp-sized view, raymarched at width x height (the
   /// strain overlay as the session says).
   FrameRequest request(const Viewport& vp, int width, int height) const;
@@ -57,6 +71,11 @@ class FrameDriver {
   std::size_t clipPickOffset_ = 0;
   bool clipPickInRequest_ = false;
   std::optional<std::uint64_t> clipPickFrame_;
+  FrameBudget budget_{0.0};
+  FrameQuality nextQuality_;                                    ///< applied to the request about to be submitted
+  std::deque<std::pair<std::uint64_t, FrameQuality>> inFlight_;  ///< submitted frames' qualities, until completed
+  gpu::RenderParams lastParams_{};
+  bool hasLastParams_ = false, tfChanged_ = false;
 };
 
 }  // namespace handson

@@ -26,6 +26,8 @@ struct FrameTiming {
   double simStateS = -1.0;  ///< how long after its pose that state landed (s; -1: none)
   /// The shown state's reaction on each simulated handle, by the app's handle id (N, N mm; RAS).
   std::vector<std::pair<int, HandleReaction>> reactions;
+  /// The frame budget's quality (app/session/frame_budget.h): raymarch resolution and step scale.
+  double qualityScale = 1.0, qualityStep = 1.0;
 
   double frameMs() const { return (present - cpuStart) * 1e3; }
   /// Input-to-present latency (ms) from the oldest consumed event; negative without input.

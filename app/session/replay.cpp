@@ -166,6 +166,7 @@ int runReplay(const ReplayOptions& o) {
   }
   DeformationController deform(volume, q, renderer, o.sim);
   FrameDriver driver(volume, q, session, renderer, selection, deform);
+  driver.setFrameBudget(o.frameBudgetMs);
   // Everything applied is recorded: an "export" action writes the session so far as a script.
   {
     SessionScript header = script;
@@ -224,6 +225,9 @@ int runReplay(const ReplayOptions& o) {
       // session goes on (the last good state shows), and what was done so far is saved.
       if (driver.newFailure()) std::cerr << "warning: " << deform.status() << "\n  " << rescue() << "\n";
       driver.attachSelection(req, vp, ft);
+      const FrameQuality quality = driver.applyFrameBudget(req, ft.inputCount > 0, exporter.pending());
+      ft.qualityScale = quality.scale;
+      ft.qualityStep = quality.stepScale;
       ft.cpuEnd = seconds(Clock::now(), t0);
       driver.submit(req);
       ft.submit = seconds(Clock::now(), t0);
@@ -240,7 +244,9 @@ int runReplay(const ReplayOptions& o) {
       if (!o.framesOut.empty()) {
         char name[32];
         std::snprintf(name, sizeof(name), "frame_%05d.png", k);
-        writePng((std::filesystem::path(o.framesOut) / name).string(), r.width, r.height, r.rgba);
+        // A frame the budget drew smaller is written at the full size, as the window shows it.
+        if (r.width == vp.width && r.height == vp.height) writePng((std::filesystem::path(o.framesOut) / name).string(), r.width, r.height, r.rgba);
+        else writePng((std::filesystem::path(o.framesOut) / name).string(), vp.width, vp.height, upscaleRgba(r.rgba, r.width, r.height, vp.width, vp.height));
       }
       log.add(ft);
       if (o.afterFrame) o.afterFrame(k, frames, ctx.validationMessageCount());

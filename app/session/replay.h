@@ -21,6 +21,7 @@ struct ReplayOptions {
   std::string framesOut;   ///< directory for frame_NNNNN.png (created); empty: no PNGs
   std::string timings;     ///< timing log CSV
   double fps = 30.0;       ///< frames per second of script time
+  double frameBudgetMs = 0.0;  ///< app/session/frame_budget.h; 0: off (frames bit-identical run to run)
   int width = 0, height = 0;  ///< output size; 0: the script's viewport (touches are scaled)
   std::string device;
   bool validation = false;

@@ -87,6 +87,8 @@ bool Session::apply(const ScriptEvent& e) {
     resetCamera();
   } else if (e.action == "toggle-strain") {
     strainOverlay_ = !strainOverlay_;
+  } else if (e.action == "toggle-limits") {
+    limitHighlight_ = !limitHighlight_;
   } else if (e.action == "toggle-labels") {
     labelTint_ = !labelTint_;
   } else if (e.action == "set-clip-box" || e.action == "set-clip-plane" || e.action == "clear-clip") {

@@ -43,6 +43,9 @@ class Session {
   bool takePresetChanged() { return std::exchange(presetChanged_, false); }
   /// The strain overlay (the "toggle-strain" action): tissue coloured by its strain while deforming.
   bool strainOverlay() const { return strainOverlay_; }
+  /// The limit highlight (the "toggle-limits" action): tissue past its strain limit coloured while
+  /// deforming (render/render_params.h limitHighlight).
+  bool limitHighlight() const { return limitHighlight_; }
   /// The label tint (the "toggle-labels" action): tissue coloured by its organ label, where the
   /// renderer has labels (on from the start when a label map is loaded: setLabelTint).
   bool labelTint() const { return labelTint_; }
@@ -74,6 +77,7 @@ class Session {
   std::string preset_;
   bool presetChanged_ = false;
   bool strainOverlay_ = false;
+  bool limitHighlight_ = false;
   bool labelTint_ = false;
   Clip clip_;
   WindowLevel window_;

@@ -154,7 +154,7 @@ SessionScript parseSessionScript(const std::string& text, const std::string& nam
         if (!parseMode(ev.value, m)) p.fail(where + ": unknown mode \"" + ev.value + "\"");
       } else {
         static const char* const kActions[] = {"set-preset", "reset-camera", "handle-status", "handle-delete", "handle-union",
-                                                "handle-difference", "undo", "redo", "toggle-lock", "toggle-strain", "export", "label-handle",
+                                                "handle-difference", "undo", "redo", "toggle-lock", "toggle-strain", "toggle-limits", "export", "label-handle",
                                                 "toggle-labels", "set-clip-box", "set-clip-plane", "clear-clip", "set-window", "reset-window"};
         if (std::find(std::begin(kActions), std::end(kActions), ev.action) == std::end(kActions))
           p.fail(where + ": unknown UI action \"" + ev.action + "\"");

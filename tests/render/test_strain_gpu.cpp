@@ -1,8 +1,9 @@
 // The strain passes (deform_strain.comp and deform_strain_raster.comp, GpuDeformer::addStrainPass)
 // against their CPU references, tetStrain and strainVolume (sim/strain.h), and against exact answers: homogeneous deformations of the whole fine
 // mesh (a rigid turn: 0; a 10 % stretch: 0.1 in every tet), the kidney dragged and turned by the
-// coarse model; a non-finite position refused; and the raymarch's strain overlay against its CPU
-// reference. Lavapipe with the validation layer.
+// coarse model; a non-finite position refused; the raymarch's strain overlay against its CPU
+// reference; and the strain-over-limit volume and its highlight against theirs (strainOverLimitVolume,
+// raymarchReference), with bad limits refused. Lavapipe with the validation layer.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -26,6 +27,7 @@
 #include "sim/sim_scene.h"
 #include "sim/strain.h"
 #include "sim/tet_raster.h"
+#include "sim/tissue_limits.h"
 
 using namespace handson;
 
@@ -200,4 +202,103 @@ TEST_F(StrainGpu, TheRaymarchOverlayMatchesItsCpuReference) {
   // Off again: the frame without the overlay comes back.
   const auto [again, againParams] = frame(false);
   EXPECT_EQ(again.rgba, plain.rgba);
+}
+
+// The limit highlight: with per-tet strain limits (5 % on two tets of three, none on the third) the
+// strain passes also write each voxel's strain over its limit, equal to the CPU reference
+// (strainOverLimitVolume on the CPU's rasterization of the same positions); the raymarch colours
+// the voxels past 1 as its CPU reference does, and the frame without the highlight comes back.
+TEST_F(StrainGpu, TheStrainOverLimitVolumeAndItsHighlightMatchTheirCpuReferences) {
+  const Fixture& f = fixture();
+  const std::size_t nt = f.scene.meshes.fine.tets.size();
+  std::vector<float> limits(nt, 0.05f);
+  for (std::size_t t = 0; t < nt; t += 3) limits[t] = std::numeric_limits<float>::infinity();
+  VolumeRenderer renderer(test::gpuContext());
+  renderer.setVolume(f.q);
+  const auto lut = transferFunctionPreset("ct-abdomen").lookupTable(f.q);
+  renderer.setTransferFunction(lut);
+  vk::DeformSetup setup = test::setupFor(f, f.data, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi);
+  setup.strainLimits = &limits;
+  renderer.beginDeformation(setup);
+  ASSERT_TRUE(renderer.deformer()->hasStrainLimits());
+  const std::vector<RigidTransform> T = {
+      RigidTransform::about(f.scene.handleCentroid[0], Eigen::Vector3d(0, 0, 30 * M_PI / 180), Eigen::Vector3d(10, 0, 0))};
+  auto xc = f.model->restState();
+  f.model->solve(T, xc, 20);
+  const auto fine = f.model->reconstruct(T, xc);
+  const Eigen::Matrix4d w2i = f.q.geometry.worldToIndex(), i2w = w2i.inverse();
+  std::vector<Eigen::Vector4f> idx(fine.size());
+  std::vector<Eigen::Vector3d> back(fine.size());
+  for (std::size_t i = 0; i < fine.size(); ++i) {
+    idx[i] = (w2i * fine[i].homogeneous()).cast<float>();
+    idx[i].w() = 1.0f;
+    back[i] = (i2w * idx[i].cast<double>()).head<3>();
+  }
+  RenderSettings rs;
+  rs.width = rs.height = 96;
+  const OrbitCamera cam = OrbitCamera::framing(f.q.geometry, glm::radians(0.0), glm::radians(-90.0));
+  auto frame = [&](bool highlight) {
+    rs.limitHighlight = highlight;
+    FrameRequest req;
+    req.params = makeRenderParams(f.q.geometry, cam.view(), cam.projection(1.0), glm::vec3(cam.eye()), rs);
+    req.deformFine = &idx;
+    renderer.submit(req);
+    return std::pair{renderer.waitLast(), req.params};
+  };
+  const auto [plain, plainParams] = frame(false);
+  const auto [lit, params] = frame(true);
+
+  // The volume: as the strain volume's check, 99.9 % of voxels within the strain tolerance over the
+  // smallest limit (a face voxel may go to either neighbouring tet in single precision).
+  const std::vector<float> gpuRatio = renderer.deformer()->readStrainOverLimitVolume();
+  Volume deformed;
+  std::vector<std::int32_t> tetOf;
+  rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, back, f.scene.lo, f.scene.hi, f.backgroundHu, deformed, nullptr, nullptr, UINT64_MAX, &tetOf);
+  const std::vector<float> cpuStrain = tetStrain(f.scene.meshes.fine, back);
+  const Volume cpuRatio = strainOverLimitVolume(f.phantom.ct.geometry(), tetOf, cpuStrain, limits);
+  const Volume cpuStrainVolume = strainVolume(f.phantom.ct.geometry(), tetOf, cpuStrain);
+  ASSERT_EQ(gpuRatio.size(), cpuRatio.voxelCount());
+  std::size_t same = 0, past = 0, unlimited = 0;
+  for (std::size_t i = 0; i < gpuRatio.size(); ++i) {
+    same += std::abs(gpuRatio[i] - cpuRatio.value(i)) <= kTolerance / 0.05 ? 1 : 0;
+    past += cpuRatio.value(i) > 1.0f ? 1 : 0;
+    unlimited += cpuStrainVolume.value(i) > 0.05f && cpuRatio.value(i) == 0.0f ? 1 : 0;
+  }
+  EXPECT_GE(double(same) / double(gpuRatio.size()), 0.999);
+  EXPECT_GT(past, 100u) << "the drag stretches tissue past 5 %";
+  EXPECT_GT(unlimited, 100u) << "tissue without a limit is never past it, however stretched";
+
+  // The frame: the CPU raymarch of the GPU's deformed volume, mask and ratio volume.
+  QuantizedVolume dq = f.q;
+  dq.data = renderer.deformer()->readVolume();
+  const auto dmask = renderer.deformer()->readMask();
+  ReferenceScene ref{&dq, &lut, &renderer.occupancy(), &dmask, nullptr, nullptr, nullptr, &gpuRatio};
+  const auto cpu = raymarchReference(ref, params);
+  std::size_t over = 0, coloured = 0;
+  for (std::size_t i = 0; i + 3 < cpu.size(); i += 4) {
+    int d = 0, c = 0;
+    for (int k = 0; k < 3; ++k) {
+      d = std::max(d, std::abs(int(cpu[i + k]) - int(lit.rgba[i + k])));
+      c = std::max(c, std::abs(int(plain.rgba[i + k]) - int(lit.rgba[i + k])));
+    }
+    over += d > 2;
+    coloured += c > 8;
+  }
+  EXPECT_LE(double(over) / double(cpu.size() / 4), 0.01) << "pixels off the CPU reference by more than 2/255";
+  EXPECT_GT(coloured, 20u) << "the highlight colours the tissue past its limit";
+  const auto [again, againParams] = frame(false);
+  EXPECT_EQ(again.rgba, plain.rgba);
+}
+
+// Limits that are not one positive number (or inf) per fine tet are refused before any upload.
+TEST_F(StrainGpu, StrainLimitsAreChecked) {
+  const Fixture& f = fixture();
+  const test::Images im = test::upload(f.q, f.mask);
+  vk::DeformSetup s = test::setupFor(f, f.data, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi);
+  const std::size_t nt = f.scene.meshes.fine.tets.size();
+  for (const std::vector<float>& bad : {std::vector<float>(nt - 1, 0.2f), std::vector<float>(nt, 0.0f),
+                                        std::vector<float>(nt, std::numeric_limits<float>::quiet_NaN())}) {
+    s.strainLimits = &bad;
+    EXPECT_THROW(vk::GpuDeformer(test::gpuContext(), im.volume, im.mask, s), Error);
+  }
 }

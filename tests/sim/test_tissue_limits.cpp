@@ -204,3 +204,23 @@ TEST(TissueLimits, TissueIsPutDownToTheNearerOfTwoHandles) {
   EXPECT_THROW(tissueLimits(m, std::vector<float>(3, 0.f), band, table, nearestHandleOfNodes(m, c), 2), Error);
   EXPECT_THROW(tetStrainLimits({5}, table), Error);
 }
+
+// The highlight's volume, by hand on a 5 x 1 x 1 grid: a voxel of no tet, one of a tet with no
+// limit, one past its limit, one within it; NaN strain gives 0; mismatched sizes are refused.
+TEST(TissueLimits, TheStrainOverLimitVolumeIsEachVoxelsTetsRatio) {
+  VolumeGeometry g;
+  g.dims = Eigen::Vector3i(5, 1, 1);
+  const std::vector<std::int32_t> tetOf = {-1, 0, 1, 2, 3};
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  const std::vector<float> strain = {0.5f, 0.33f, 0.1f, nan}, limits = {inf, 0.22f, 0.2f, 0.2f};
+  const Volume v = strainOverLimitVolume(g, tetOf, strain, limits);
+  ASSERT_EQ(v.voxelCount(), 5u);
+  EXPECT_EQ(v.value(0), 0.0f);              // no tet
+  EXPECT_EQ(v.value(1), 0.0f);              // no limit
+  EXPECT_FLOAT_EQ(v.value(2), 1.5f);        // 33 % against 22 %: past it
+  EXPECT_FLOAT_EQ(v.value(3), 0.5f);        // 10 % against 20 %: within
+  EXPECT_EQ(v.value(4), 0.0f);              // a degenerate tet's NaN
+  EXPECT_THROW(strainOverLimitVolume(g, tetOf, strain, {inf}), Error);
+  EXPECT_THROW(strainOverLimitVolume(g, {-1, 0, 1, 2, 4}, strain, limits), Error);
+  EXPECT_THROW(strainOverLimitVolume(g, {0, 1}, strain, limits), Error);
+}

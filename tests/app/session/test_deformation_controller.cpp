@@ -9,6 +9,7 @@
 
 #include "app/session/deformation_controller.h"
 #include "interaction/camera.h"
+#include "render/deform_pass.h"
 #include "render/render_params.h"
 #include "render/transfer_function.h"
 #include "render/vk_context.h"
@@ -109,6 +110,7 @@ TEST(DeformationController, ShowsTheSimulationWithoutWaitingAndFollowsTheHandles
   }
   ASSERT_TRUE(shown) << dc.status();
   EXPECT_TRUE(s.renderer->deforming());
+  EXPECT_TRUE(s.renderer->deformer()->hasStrainLimits()) << "the built-in table's limits reach the highlight";
   EXPECT_NE(dc.status().find("converged"), std::string::npos) << dc.status();
   EXPECT_EQ(dc.modelState(), "converged");
   Volume out;

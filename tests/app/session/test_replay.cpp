@@ -855,3 +855,55 @@ TEST(Replay, ARandomStreamOfValidAndBrokenGesturesLeavesEveryStateFinite) {
   // A bad option is a usage error, not a run.
   EXPECT_EQ(run("stress-gestures --sequences -5", &out), 2) << out;
 }
+
+TEST(Replay, WithAFrameBudgetChangingFramesAreReducedAndTheStillFrameIsTheFullQualityFrameBitForBit) {
+  // An orbit drag over 0.3 s, then nothing until a no-op at 2 s: with a budget nothing fits (1 µs),
+  // the frames while the camera moves are drawn at the cheapest level (the first too: nothing is
+  // measured yet) and differ from the unbudgeted run's; once still, each frame refines a level,
+  // and the frame at 1.9 s equals the unbudgeted one bit for bit.
+  const fs::path dir = freshDir("budget");
+  std::ofstream(dir / "orbit.json") << R"({"format": "handson-session", "version": 1, "volume": {"source": "phantom"},
+    "viewport": [96, 96], "preset": "ct-abdomen", "mode": "navigate",
+    "camera": {"target": [0, 0, 0], "distance": 910, "azimuth_deg": 90, "elevation_deg": 0, "roll_deg": 0, "fov_deg": 35},
+    "events": [{"t": 0.0, "touch": "down", "id": 1, "x": 40, "y": 48},
+               {"t": 0.1, "touch": "move", "id": 1, "x": 46, "y": 48},
+               {"t": 0.2, "touch": "move", "id": 1, "x": 52, "y": 48},
+               {"t": 0.3, "touch": "up", "id": 1, "x": 52, "y": 48},
+               {"t": 2.0, "ui": "set-mode", "value": "navigate"}]})";
+  std::string out;
+  for (const char* budget : {"0", "0.001"}) {
+    const fs::path f = dir / (std::string("b") + budget);
+    ASSERT_EQ(run("replay " + (dir / "orbit.json").string() + " --fps 10 --validation --quiet --sim off --frame-budget-ms " + budget + " --frames-out " +
+                      f.string() + " --timings " + (f / "t.csv").string(),
+                  &out),
+              0)
+        << out;
+  }
+  const fs::path full = dir / "b0", budgeted = dir / "b0.001";
+  EXPECT_NE(slurp(full / "frame_00002.png"), slurp(budgeted / "frame_00002.png")) << "the moving camera's frame is reduced";
+  int w = 0, h = 0;
+  EXPECT_EQ(handson::readPng((budgeted / "frame_00002.png").string(), w, h).size(), 96u * 96u * 4u) << "written at the full size";
+  EXPECT_EQ(slurp(full / "frame_00019.png"), slurp(budgeted / "frame_00019.png")) << "refined to the full-quality frame";
+  // The timing log says which frames were reduced: the moving ones, then one level less each still frame.
+  std::istringstream csv(slurp(budgeted / "t.csv"));
+  std::string line;
+  std::getline(csv, line);
+  std::vector<std::string> header;
+  for (std::stringstream hs(line); std::getline(hs, line, ',');) header.push_back(line);
+  const auto col = std::find(header.begin(), header.end(), "quality_scale") - header.begin();
+  ASSERT_LT(std::size_t(col), header.size());
+  std::vector<double> scale;
+  while (std::getline(csv, line)) {
+    std::vector<std::string> f;
+    for (std::stringstream ls(line); std::getline(ls, line, ',');) f.push_back(line);
+    ASSERT_GT(f.size(), std::size_t(col));
+    scale.push_back(std::stod(f[std::size_t(col)]));
+  }
+  ASSERT_GE(scale.size(), 20u);
+  EXPECT_EQ(scale[0], 0.125);  // the cheapest level (app/session/frame_budget.cpp)
+  EXPECT_EQ(scale[1], 0.125);
+  EXPECT_EQ(scale[3], 0.125);
+  EXPECT_EQ(scale[19], 1.0);
+  for (std::size_t k = 5; k < 19; ++k) EXPECT_GE(scale[k], scale[k - 1]) << "still frames only refine";
+  fs::remove_all(dir);
+}

@@ -145,6 +145,17 @@ TEST(Session, UiActionsAndRecording) {
   const SessionScript back = parseSessionScript(formatSessionScript(s.script()));
   ASSERT_EQ(back.events.size(), 4u);
   EXPECT_EQ(back.events[3].action, "toggle-strain");
+  // So does the limit highlight.
+  ScriptEvent limits = strain;
+  limits.action = "toggle-limits";
+  EXPECT_FALSE(s.limitHighlight());
+  EXPECT_TRUE(s.apply(limits));
+  EXPECT_TRUE(s.limitHighlight());
+  EXPECT_FALSE(s.strainOverlay());
+  EXPECT_EQ(s.script().events.size(), 5u);
+  const SessionScript back2 = parseSessionScript(formatSessionScript(s.script()));
+  ASSERT_EQ(back2.events.size(), 5u);
+  EXPECT_EQ(back2.events[4].action, "toggle-limits");
 }
 
 TEST(LatencyLog, PercentilesAndSummary) {
