@@ -66,6 +66,23 @@ class StrainGpu : public test::GpuTest {
   }
 };
 
+// Pixels of a tinted frame off its CPU reference by more than 2/255, and pixels the tint changed
+// by more than 8/255 from the plain frame (RGBA8, alpha ignored).
+std::pair<std::size_t, std::size_t> offAndColoured(const std::vector<std::uint8_t>& cpu, const std::vector<std::uint8_t>& tinted,
+                                                   const std::vector<std::uint8_t>& plain) {
+  std::size_t over = 0, coloured = 0;
+  for (std::size_t i = 0; i + 3 < cpu.size(); i += 4) {
+    int d = 0, c = 0;
+    for (int k = 0; k < 3; ++k) {
+      d = std::max(d, std::abs(int(cpu[i + k]) - int(tinted[i + k])));
+      c = std::max(c, std::abs(int(plain[i + k]) - int(tinted[i + k])));
+    }
+    over += d > 2;
+    coloured += c > 8;
+  }
+  return {over, coloured};
+}
+
 // Worst |gpu - cpu| over tets where both are finite; the count where exactly one is NaN.
 std::pair<double, int> compare(const std::vector<float>& gpu, const std::vector<float>& cpu) {
   double worst = 0;
@@ -186,16 +203,7 @@ TEST_F(StrainGpu, TheRaymarchOverlayMatchesItsCpuReference) {
   const std::vector<float> strain = renderer.deformer()->readStrainVolume();
   ReferenceScene ref{&dq, &lut, &renderer.occupancy(), &dmask, nullptr, &strain};
   const auto cpu = raymarchReference(ref, params);
-  std::size_t over = 0, coloured = 0;
-  for (std::size_t i = 0; i + 3 < cpu.size(); i += 4) {
-    int d = 0, c = 0;
-    for (int k = 0; k < 3; ++k) {
-      d = std::max(d, std::abs(int(cpu[i + k]) - int(tinted.rgba[i + k])));
-      c = std::max(c, std::abs(int(plain.rgba[i + k]) - int(tinted.rgba[i + k])));
-    }
-    over += d > 2;
-    coloured += c > 8;
-  }
+  const auto [over, coloured] = offAndColoured(cpu, tinted.rgba, plain.rgba);
   // As the deformed frame's own test: filtering precision moves a few pixels by more than 2/255.
   EXPECT_LE(double(over) / double(cpu.size() / 4), 0.01) << "pixels off the CPU reference by more than 2/255";
   EXPECT_GT(coloured, 20u) << "the overlay colours the stretched tissue";
@@ -274,16 +282,7 @@ TEST_F(StrainGpu, TheStrainOverLimitVolumeAndItsHighlightMatchTheirCpuReferences
   const auto dmask = renderer.deformer()->readMask();
   ReferenceScene ref{&dq, &lut, &renderer.occupancy(), &dmask, nullptr, nullptr, nullptr, &gpuRatio};
   const auto cpu = raymarchReference(ref, params);
-  std::size_t over = 0, coloured = 0;
-  for (std::size_t i = 0; i + 3 < cpu.size(); i += 4) {
-    int d = 0, c = 0;
-    for (int k = 0; k < 3; ++k) {
-      d = std::max(d, std::abs(int(cpu[i + k]) - int(lit.rgba[i + k])));
-      c = std::max(c, std::abs(int(plain.rgba[i + k]) - int(lit.rgba[i + k])));
-    }
-    over += d > 2;
-    coloured += c > 8;
-  }
+  const auto [over, coloured] = offAndColoured(cpu, lit.rgba, plain.rgba);
   EXPECT_LE(double(over) / double(cpu.size() / 4), 0.01) << "pixels off the CPU reference by more than 2/255";
   EXPECT_GT(coloured, 20u) << "the highlight colours the tissue past its limit";
   const auto [again, againParams] = frame(false);
