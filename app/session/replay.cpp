@@ -123,6 +123,16 @@ bool stateIsFinite(const Session& session, const SelectionController& selection)
   return finite;
 }
 
+// DIR/frame_NNNNN.png; a frame the budget drew smaller is written at the full size, as the window
+// shows it.
+void writeFrame(const std::string& dir, int k, const FrameResult& r, const Viewport& vp) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "frame_%05d.png", k);
+  const std::string path = (std::filesystem::path(dir) / name).string();
+  if (r.width == vp.width && r.height == vp.height) writePng(path, r.width, r.height, r.rgba);
+  else writePng(path, vp.width, vp.height, upscaleRgba(r.rgba, r.width, r.height, vp.width, vp.height));
+}
+
 }  // namespace
 
 SessionScript builtInDemoScript() { return parseSessionScript(kOrbitAndZoomScript, "built-in orbit-and-zoom script"); }
@@ -241,13 +251,7 @@ int runReplay(const ReplayOptions& o) {
       ft.frame = r.frame;
       for (const auto& p : r.timings) ft.gpuMs.emplace_back(p.name, p.gpuMs);
       driver.recordSimulation(ft);
-      if (!o.framesOut.empty()) {
-        char name[32];
-        std::snprintf(name, sizeof(name), "frame_%05d.png", k);
-        // A frame the budget drew smaller is written at the full size, as the window shows it.
-        if (r.width == vp.width && r.height == vp.height) writePng((std::filesystem::path(o.framesOut) / name).string(), r.width, r.height, r.rgba);
-        else writePng((std::filesystem::path(o.framesOut) / name).string(), vp.width, vp.height, upscaleRgba(r.rgba, r.width, r.height, vp.width, vp.height));
-      }
+      if (!o.framesOut.empty()) writeFrame(o.framesOut, k, r, vp);
       log.add(ft);
       if (o.afterFrame) o.afterFrame(k, frames, ctx.validationMessageCount());
       reportProgress(progress, double(k + 1) / frames, "replaying");

@@ -66,6 +66,15 @@ class StrainGpu : public test::GpuTest {
   }
 };
 
+// The fine positions of the kidney dragged 10 mm and turned 30 degrees by the coarse model (20 iterations).
+std::vector<Eigen::Vector3d> kidneyDrag(const Fixture& f) {
+  const std::vector<RigidTransform> T = {
+      RigidTransform::about(f.scene.handleCentroid[0], Eigen::Vector3d(0, 0, 30 * M_PI / 180), Eigen::Vector3d(10, 0, 0))};
+  auto xc = f.model->restState();
+  f.model->solve(T, xc, 20);
+  return f.model->reconstruct(T, xc);
+}
+
 // Pixels of a tinted frame off its CPU reference by more than 2/255, and pixels the tint changed
 // by more than 8/255 from the plain frame (RGBA8, alpha ignored).
 std::pair<std::size_t, std::size_t> offAndColoured(const std::vector<std::uint8_t>& cpu, const std::vector<std::uint8_t>& tinted,
@@ -124,11 +133,7 @@ TEST_F(StrainGpu, HomogeneousDeformationsExactly) {
 
 TEST_F(StrainGpu, KidneyDragMatchesTheCpuReference) {
   const Fixture& f = fixture();
-  const std::vector<RigidTransform> T = {
-      RigidTransform::about(f.scene.handleCentroid[0], Eigen::Vector3d(0, 0, 30 * M_PI / 180), Eigen::Vector3d(10, 0, 0))};
-  auto xc = f.model->restState();
-  f.model->solve(T, xc, 20);
-  const std::vector<Eigen::Vector3d> x = f.model->reconstruct(T, xc);
+  const std::vector<Eigen::Vector3d> x = kidneyDrag(f);
   std::vector<float> gpu, cpu, gpuVolume;
   Volume cpuVolume;
   run(x, gpu, cpu, &gpuVolume, &cpuVolume);
@@ -175,11 +180,7 @@ TEST_F(StrainGpu, TheRaymarchOverlayMatchesItsCpuReference) {
   const auto lut = transferFunctionPreset("ct-abdomen").lookupTable(f.q);
   renderer.setTransferFunction(lut);
   renderer.beginDeformation(test::setupFor(f, f.data, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi));
-  const std::vector<RigidTransform> T = {
-      RigidTransform::about(f.scene.handleCentroid[0], Eigen::Vector3d(0, 0, 30 * M_PI / 180), Eigen::Vector3d(10, 0, 0))};
-  auto xc = f.model->restState();
-  f.model->solve(T, xc, 20);
-  const auto fine = f.model->reconstruct(T, xc);
+  const auto fine = kidneyDrag(f);
   const Eigen::Matrix4d w2i = f.q.geometry.worldToIndex();
   std::vector<Eigen::Vector4f> idx(fine.size());
   for (std::size_t i = 0; i < fine.size(); ++i) idx[i] = (w2i * fine[i].homogeneous()).cast<float>();
@@ -229,11 +230,7 @@ TEST_F(StrainGpu, TheStrainOverLimitVolumeAndItsHighlightMatchTheirCpuReferences
   setup.strainLimits = &limits;
   renderer.beginDeformation(setup);
   ASSERT_TRUE(renderer.deformer()->hasStrainLimits());
-  const std::vector<RigidTransform> T = {
-      RigidTransform::about(f.scene.handleCentroid[0], Eigen::Vector3d(0, 0, 30 * M_PI / 180), Eigen::Vector3d(10, 0, 0))};
-  auto xc = f.model->restState();
-  f.model->solve(T, xc, 20);
-  const auto fine = f.model->reconstruct(T, xc);
+  const auto fine = kidneyDrag(f);
   const Eigen::Matrix4d w2i = f.q.geometry.worldToIndex(), i2w = w2i.inverse();
   std::vector<Eigen::Vector4f> idx(fine.size());
   std::vector<Eigen::Vector3d> back(fine.size());
