@@ -29,8 +29,8 @@ TEST(FrameBudget, OffDrawsEveryFrameAtFullQuality) {
   b.measured(FrameQuality{}, 2000.0, 500.0);
   for (int i = 0; i < 5; ++i) EXPECT_TRUE(b.next(true).full());
   EXPECT_THROW(FrameBudget(-1.0), Error);
-  EXPECT_THROW(FrameBudget(std::numeric_limits<double>::quiet_NaN()), Error);
-  EXPECT_THROW(FrameBudget(std::numeric_limits<double>::infinity()), Error);
+  EXPECT_THROW(FrameBudget{std::numeric_limits<double>::quiet_NaN()}, Error);
+  EXPECT_THROW(FrameBudget{std::numeric_limits<double>::infinity()}, Error);
 }
 
 TEST(FrameBudget, AChangingPictureTakesTheBestLevelThatFits) {
