@@ -107,12 +107,30 @@ std::vector<DeviceSummary> Context::listDevices() {
   return out;
 }
 
+namespace {
+
+bool deviceHasExtension(VkPhysicalDevice dev, const char* name) {
+  std::uint32_t n = 0;
+  vkEnumerateDeviceExtensionProperties(dev, nullptr, &n, nullptr);
+  std::vector<VkExtensionProperties> ext(n);
+  vkEnumerateDeviceExtensionProperties(dev, nullptr, &n, ext.data());
+  return std::any_of(ext.begin(), ext.end(), [&](const auto& e) { return std::strcmp(e.extensionName, name) == 0; });
+}
+
+}  // namespace
+
 VKAPI_ATTR VkBool32 VKAPI_CALL Context::debugCallback(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
                                                      VkDebugUtilsMessageTypeFlagsEXT /*types*/,
                                                      const VkDebugUtilsMessengerCallbackDataEXT* data, void* user) {
   auto* self = static_cast<Context*>(user);
   if (severity < VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) return VK_FALSE;
   const std::string text = data && data->pMessage ? data->pMessage : "(no message)";
+  // vkWaitForPresentKHR may run beside acquire and present on the same swapchain (the spec's
+  // exception to external synchronization); validation layers before 1.3.270 report it as a
+  // threading error. Only that report is ignored, and only with present wait on.
+  if (self->presentWait_ && data && data->pMessageIdName && std::strncmp(data->pMessageIdName, "UNASSIGNED-Threading", 20) == 0)
+    for (std::uint32_t i = 0; i < data->objectCount; ++i)
+      if (data->pObjects[i].objectType == VK_OBJECT_TYPE_SWAPCHAIN_KHR) return VK_FALSE;
   self->messageCount_.fetch_add(1);
   {
     std::lock_guard<std::mutex> lock(self->messageMutex_);
@@ -311,6 +329,23 @@ void Context::pickDevice(const ContextOptions& options) {
     f2.features.shaderStorageImageExtendedFormats = have.shaderStorageImageExtendedFormats;
     storageExtendedFormats_ = have.shaderStorageImageExtendedFormats == VK_TRUE;
   }
+  // Present timing: both extensions and both features, or neither.
+  VkPhysicalDevicePresentIdFeaturesKHR presentId{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PRESENT_ID_FEATURES_KHR};
+  VkPhysicalDevicePresentWaitFeaturesKHR presentWait{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PRESENT_WAIT_FEATURES_KHR};
+  if (options.presentTiming && deviceHasExtension(physical_, VK_KHR_PRESENT_ID_EXTENSION_NAME) &&
+      deviceHasExtension(physical_, VK_KHR_PRESENT_WAIT_EXTENSION_NAME)) {
+    presentId.pNext = &presentWait;
+    VkPhysicalDeviceFeatures2 query{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+    query.pNext = &presentId;
+    vkGetPhysicalDeviceFeatures2(physical_, &query);
+    presentWait_ = presentId.presentId == VK_TRUE && presentWait.presentWait == VK_TRUE;
+    if (presentWait_) {
+      dexts.push_back(VK_KHR_PRESENT_ID_EXTENSION_NAME);
+      dexts.push_back(VK_KHR_PRESENT_WAIT_EXTENSION_NAME);
+      presentWait.pNext = nullptr;
+      f13.pNext = &presentId;
+    }
+  }
   VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
   dci.pNext = &f2;
   dci.queueCreateInfoCount = 1;
@@ -322,6 +357,10 @@ void Context::pickDevice(const ContextOptions& options) {
   cmdPushDescriptorSet =
       reinterpret_cast<PFN_vkCmdPushDescriptorSetKHR>(vkGetDeviceProcAddr(device_, "vkCmdPushDescriptorSetKHR"));
   if (!cmdPushDescriptorSet) throw Error("Vulkan: vkCmdPushDescriptorSetKHR is not available");
+  if (presentWait_) {
+    waitForPresent = reinterpret_cast<PFN_vkWaitForPresentKHR>(vkGetDeviceProcAddr(device_, "vkWaitForPresentKHR"));
+    presentWait_ = waitForPresent != nullptr;
+  }
   VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
   pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT | VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
   pci.queueFamilyIndex = queueFamily_;

@@ -38,6 +38,9 @@ struct ContextOptions {
   /// VK_ERROR_OUT_OF_DEVICE_MEMORY) and "device-lost:N" (the N-th queue submission and every one
   /// after it fail with VK_ERROR_DEVICE_LOST, as a lost device stays lost); N counts from 1.
   std::string faults;
+  /// Window path: enable VK_KHR_present_id and VK_KHR_present_wait where the device has them, so
+  /// that each present is timed on screen (render/present_timer.h). Needs VK_KHR_swapchain.
+  bool presentTiming = false;
   /// Window path: creates the presentation surface once the instance exists. The chosen queue
   /// family must then be able to present to it. The context owns and destroys the surface.
   std::function<VkSurfaceKHR(VkInstance)> makeSurface;
@@ -74,6 +77,9 @@ class Context {
   double timestampPeriodNs() const { return timestampPeriod_; }
   /// shaderStorageImageExtendedFormats (r16 / r8 storage images) is supported and enabled.
   bool storageExtendedFormats() const { return storageExtendedFormats_; }
+  /// VK_KHR_present_id and VK_KHR_present_wait are enabled (ContextOptions::presentTiming and the
+  /// device has both features); then waitForPresent is set.
+  bool presentWait() const { return presentWait_; }
 
   /// Number of validation messages (warnings and errors) since creation or the last reset.
   std::uint64_t validationMessageCount() const { return messageCount_.load(); }
@@ -88,6 +94,7 @@ class Context {
   void submitAndWait(const std::function<void(VkCommandBuffer)>& record) const;
 
   PFN_vkCmdPushDescriptorSetKHR cmdPushDescriptorSet = nullptr;
+  PFN_vkWaitForPresentKHR waitForPresent = nullptr;
 
   /// Counts one call at `site` and says whether it must fail (ContextOptions::faults). Callers
   /// then return the site's error code instead of calling Vulkan.
@@ -118,6 +125,7 @@ class Context {
   bool validation_ = false;
   double timestampPeriod_ = 0.0;
   bool storageExtendedFormats_ = false;
+  bool presentWait_ = false;
   std::atomic<std::uint64_t> messageCount_{0};
   mutable std::mutex messageMutex_;
   std::vector<std::string> messages_;

@@ -66,12 +66,19 @@ Swapchain::Swapchain(const Context& ctx, VkPresentModeKHR wanted, VkExtent2D siz
   VkSemaphoreCreateInfo sci{VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO};
   acquireSemaphores_.resize(framesInFlight + 1);
   for (auto& s : acquireSemaphores_) check(vkCreateSemaphore(dev, &sci, nullptr, &s), "vkCreateSemaphore");
+  if (ctx.presentWait()) {
+    const PFN_vkWaitForPresentKHR waitFn = ctx.waitForPresent;
+    timer_ = std::make_unique<PresentTimer>([dev, waitFn](VkSwapchainKHR sc, std::uint64_t id, std::uint64_t timeoutNs) {
+      return waitFn(dev, sc, id, timeoutNs);
+    });
+  }
   recreate(size);
 }
 
 Swapchain::~Swapchain() {
   VkDevice dev = ctx_.device();
   vkDeviceWaitIdle(dev);
+  if (timer_) timer_->drain(std::chrono::milliseconds(200));
   destroyImages();
   if (swapchain_) vkDestroySwapchainKHR(dev, swapchain_, nullptr);
   for (auto s : acquireSemaphores_) vkDestroySemaphore(dev, s, nullptr);
@@ -133,6 +140,7 @@ bool Swapchain::recreate(VkExtent2D size) {
   VkSwapchainKHR created = VK_NULL_HANDLE;
   check(vkCreateSwapchainKHR(dev, &ci, nullptr, &created), "vkCreateSwapchainKHR");
   destroyImages();
+  if (timer_) timer_->drain(std::chrono::milliseconds(200));  // the waiter lets go of the old swapchain
   if (swapchain_) vkDestroySwapchainKHR(dev, swapchain_, nullptr);
   swapchain_ = created;
   extent_ = extent;
@@ -177,17 +185,38 @@ std::optional<Swapchain::Frame> Swapchain::acquire() {
   return Frame{index, sem, renderedSemaphores_[index]};
 }
 
-bool Swapchain::present(const Frame& f) {
+bool Swapchain::present(const Frame& f, std::uint64_t tag) {
   VkPresentInfoKHR pi{VK_STRUCTURE_TYPE_PRESENT_INFO_KHR};
+  const std::uint64_t id = presentId_ + 1;
+  VkPresentIdKHR pid{VK_STRUCTURE_TYPE_PRESENT_ID_KHR};
+  pid.swapchainCount = 1;
+  pid.pPresentIds = &id;
+  if (timer_) pi.pNext = &pid;
   pi.waitSemaphoreCount = 1;
   pi.pWaitSemaphores = &f.rendered;
   pi.swapchainCount = 1;
   pi.pSwapchains = &swapchain_;
   pi.pImageIndices = &f.image;
   const VkResult r = vkQueuePresentKHR(ctx_.queue(), &pi);
+  if (timer_ && (r == VK_SUCCESS || r == VK_SUBOPTIMAL_KHR)) {
+    presentId_ = id;
+    timer_->presented(swapchain_, id, tag);
+  }
   if (r == VK_ERROR_OUT_OF_DATE_KHR || r == VK_SUBOPTIMAL_KHR) return false;
   check(r, "vkQueuePresentKHR");
   return true;
+}
+
+std::vector<PresentTimer::Shown> Swapchain::takeShown() { return timer_ ? timer_->takeShown() : std::vector<PresentTimer::Shown>{}; }
+
+void Swapchain::settleDisplayTimes(std::chrono::milliseconds timeout) {
+  if (timer_) timer_->drain(timeout);
+}
+
+std::string Swapchain::presentTimingNote() const {
+  if (timer_)
+    return "displayed_s is when vkWaitForPresentKHR reported the frame shown (VK_KHR_present_wait); present_s is when vkQueuePresentKHR returned";
+  return "display time not measured: this driver offers no VK_KHR_present_wait, so displayed_s is -1 and present_s is when vkQueuePresentKHR returned";
 }
 
 }  // namespace handson::vk

@@ -1,12 +1,16 @@
 #pragma once
 // The window's swapchain: images, views, the UI render pass and framebuffers, acquire and present
 // with their semaphores, recreation on resize. Present modes fifo (vsync), mailbox and immediate;
-// an unsupported request falls back to fifo, which every driver has.
+// an unsupported request falls back to fifo, which every driver has. Where the device offers
+// VK_KHR_present_wait (Context::presentWait), each present is timed on screen (present_timer.h).
 #include <vulkan/vulkan.h>
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "present_timer.h"
 
 namespace handson::vk {
 
@@ -33,8 +37,17 @@ class Swapchain {
   bool recreate(VkExtent2D size);
   /// Next image, or nullopt if the swapchain is out of date (recreate, then try again).
   std::optional<Frame> acquire();
-  /// Returns false if the swapchain became out of date or suboptimal (recreate).
-  bool present(const Frame& f);
+  /// Returns false if the swapchain became out of date or suboptimal (recreate). `tag` names the
+  /// present in takeShown() (the frame number).
+  bool present(const Frame& f, std::uint64_t tag = 0);
+  /// Whether presents are timed on screen (VK_KHR_present_wait); else takeShown() stays empty.
+  bool timesDisplay() const { return timer_ != nullptr; }
+  /// The presents shown on screen since the last call, oldest first, by tag.
+  std::vector<PresentTimer::Shown> takeShown();
+  /// Waits (at most `timeout`) for the display times of the presents queued so far.
+  void settleDisplayTimes(std::chrono::milliseconds timeout);
+  /// How present times are known here, for the timing log's header.
+  std::string presentTimingNote() const;
 
   VkFormat format() const { return format_; }
   VkExtent2D extent() const { return extent_; }
@@ -62,6 +75,8 @@ class Swapchain {
   std::vector<VkSemaphore> acquireSemaphores_, renderedSemaphores_;
   std::uint32_t nextAcquire_ = 0;
   bool warned_ = false;
+  std::unique_ptr<PresentTimer> timer_;  ///< null without VK_KHR_present_wait
+  std::uint64_t presentId_ = 0;
 };
 
 }  // namespace handson::vk

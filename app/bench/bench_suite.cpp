@@ -57,7 +57,9 @@ std::map<std::string, std::vector<double>> readTimings(const std::filesystem::pa
   std::string line;
   std::vector<std::string> names;
   std::map<std::string, std::vector<double>> cols;
-  if (!std::getline(in, line)) return cols;
+  do {  // past the "# " notes to the column names
+    if (!std::getline(in, line)) return cols;
+  } while (line.rfind("#", 0) == 0);
   std::stringstream hs(line);
   for (std::string n; std::getline(hs, n, ',');) names.push_back(n);
   while (std::getline(in, line)) {

@@ -302,6 +302,7 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   ImGui::Begin("timing", nullptr, panel | ImGuiWindowFlags_NoInputs);
   ImGui::Text("%.1f fps   CPU %.1f ms   raymarch %.1f ms", st.fps, st.cpuFrameMs, st.gpuRaymarchMs);
   if (st.latencyMs >= 0) ImGui::Text("input to present %.1f ms", st.latencyMs);
+  if (st.displayLatencyMs >= 0) ImGui::Text("input to display %.1f ms", st.displayLatencyMs);
   ImGui::Text("%s   %dx%d   fingers %d", st.device.c_str(), st.renderWidth, st.renderHeight, st.fingers);
   // The frame budget's indicator, on a line of its own from the start (the panels are measured
   // once, for the first view's framing): amber while the frame is reduced.

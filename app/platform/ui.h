@@ -23,6 +23,7 @@ class Swapchain;
 struct UiStatus {
   std::string mode, preset, device;
   double cpuFrameMs = 0, gpuRaymarchMs = 0, latencyMs = -1, fps = 0;
+  double displayLatencyMs = -1;  ///< input to shown on screen, where the driver can say (VK_KHR_present_wait)
   int fingers = 0;
   int renderWidth = 0, renderHeight = 0;
   double qualityScale = 1.0, qualityStep = 1.0;  ///< the frame budget's resolution and step scale (1, 1: full quality)

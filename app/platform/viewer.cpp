@@ -195,6 +195,17 @@ struct Viewer::Impl {
   /// The panel's status from the session, the controllers and the simulation's failures.
   void updateStatus();
   void frameInFreeArea(const Viewport& vp);
+  /// The display times of presented frames (VK_KHR_present_wait) into the timing log.
+  void takeDisplayTimes() {
+    for (const auto& shown : swapchain->takeShown()) {
+      log.setDisplayed(shown.tag, seconds(shown.at, t0));
+      for (auto it = log.frames().rbegin(); it != log.frames().rend(); ++it)
+        if (it->frame == shown.tag && it->displayLatencyMs() >= 0.0) {
+          status.displayLatencyMs = it->displayLatencyMs();
+          break;
+        }
+    }
+  }
   std::string rescue() const {
     if (!session || !selection) return "nothing to save yet";
     return saveRecovery(*session, selection->handles(), selection->picked(), volume.dims(), o.exportDir);
@@ -243,6 +254,7 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
   co.verbose = !o.quiet;
   co.instanceExtensions.assign(exts.begin(), exts.end());
   co.deviceExtensions = {VK_KHR_SWAPCHAIN_EXTENSION_NAME};
+  co.presentTiming = true;  // the timing log's display times, where the driver has them
   SDL_Window* w = window.w;
   co.makeSurface = [w](VkInstance inst) {
     VkSurfaceKHR surface = VK_NULL_HANDLE;
@@ -283,8 +295,12 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
   }
   if (!o.quiet)
     std::cerr << "window " << dw << "x" << dh << ", present mode " << vk::presentModeName(swapchain->presentMode()) << ", "
-              << o.framesInFlight << " frame(s) in flight, raymarch at " << scale * 100 << " %\n";
+              << o.framesInFlight << " frame(s) in flight, raymarch at " << scale * 100 << " %, display times "
+              << (swapchain->timesDisplay() ? "measured (VK_KHR_present_wait)" : "not measured (no VK_KHR_present_wait)") << "\n";
   present = std::make_unique<PresentExtension>(*swapchain, *ui);
+  log.setNotes({"clock: seconds since the first frame on the steady clock",
+                "input_first_s, input_last_s: when the app read the frame's events from SDL (SDL 2 gives touches no device timestamp)",
+                swapchain->presentTimingNote()});
   selection = std::make_unique<SelectionController>(q, *session, *renderer);
   selection->setLabels(labels.get());
   if (labels) {
@@ -498,7 +514,7 @@ bool Viewer::Impl::step() {
     ft.submit = seconds(Clock::now(), t0);
     wait += seconds(Clock::now(), s0);
     const auto p0 = Clock::now();
-    if (!swapchain->present(*frame)) resized = true;
+    if (!swapchain->present(*frame, ft.frame)) resized = true;
     ft.present = seconds(Clock::now(), t0);
     wait += seconds(Clock::now(), p0);
     ft.waitMs = wait * 1e3;
@@ -522,6 +538,7 @@ bool Viewer::Impl::step() {
     status.latencyMs = ft.latencyMs() >= 0 ? ft.latencyMs() : status.latencyMs;
     lastFrameEnd = ft.present;
     log.add(ft);
+    takeDisplayTimes();
     ++frameNo;
   }
   return running && (o.frames <= 0 || int(frameNo) < o.frames);
@@ -529,6 +546,8 @@ bool Viewer::Impl::step() {
 
 int Viewer::Impl::finish() {
   const FrameResult last = frameNo ? renderer->waitLast() : FrameResult{};
+  swapchain->settleDisplayTimes(std::chrono::milliseconds(500));
+  takeDisplayTimes();
   if (frameNo) {
     std::vector<std::pair<std::string, double>> passes;
     for (const auto& p : last.timings) passes.emplace_back(p.name, p.gpuMs);

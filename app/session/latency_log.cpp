@@ -27,6 +27,14 @@ void LatencyLog::setGpuTimes(std::uint64_t frame, const std::vector<std::pair<st
     }
 }
 
+void LatencyLog::setDisplayed(std::uint64_t frame, double t) {
+  for (auto it = frames_.rbegin(); it != frames_.rend(); ++it)
+    if (it->frame == frame) {
+      it->displayed = t;
+      return;
+    }
+}
+
 void LatencyLog::writeCsv(const std::string& path) const {
   std::set<std::string> passNames, stageNames;
   std::set<int> handleIds;
@@ -44,7 +52,9 @@ void LatencyLog::writeCsv(const std::string& path) const {
   AtomicFile file(path);
   {
     std::ofstream out(file.tempPath());
-    out << "frame,input_count,input_first_s,input_last_s,cpu_start_s,cpu_end_s,submit_s,present_s,frame_ms,input_to_present_ms,wait_ms";
+    for (const auto& note : notes_) out << "# " << note << "\n";
+    out << "frame,input_count,input_first_s,input_last_s,cpu_start_s,cpu_end_s,submit_s,present_s,displayed_s,frame_ms,input_to_submit_ms,"
+           "input_to_present_ms,input_to_display_ms,wait_ms";
     for (const auto& n : passNames) out << ",gpu_" << n << "_ms";
     for (const auto& n : stageNames) out << ",cpu_" << n << "_ms";
     out << ",sim_state,sim_state_s,quality_scale,quality_step";
@@ -54,7 +64,8 @@ void LatencyLog::writeCsv(const std::string& path) const {
     out << "\n" << std::fixed << std::setprecision(6);
     for (const auto& f : frames_) {
       out << f.frame << "," << f.inputCount << "," << f.inputFirst << "," << f.inputLast << "," << f.cpuStart << "," << f.cpuEnd << ","
-          << f.submit << "," << f.present << "," << f.frameMs() << "," << f.latencyMs() << "," << f.waitMs;
+          << f.submit << "," << f.present << "," << f.displayed << "," << f.frameMs() << "," << f.submitLatencyMs() << "," << f.latencyMs() << "," << f.displayLatencyMs()
+          << "," << f.waitMs;
       for (const auto& n : passNames) out << "," << valueOf(f.gpuMs, n);
       for (const auto& n : stageNames) out << "," << valueOf(f.cpuMs, n);
       out << "," << (f.simState.empty() ? "off" : f.simState) << "," << f.simStateS << "," << f.qualityScale << "," << f.qualityStep;
@@ -73,11 +84,12 @@ void LatencyLog::writeCsv(const std::string& path) const {
 }
 
 std::string LatencyLog::summary() const {
-  std::vector<double> frame, latency;
+  std::vector<double> frame, latency, display;
   double wait = 0.0, total = 0.0;
   for (const auto& f : frames_) {
     frame.push_back(f.frameMs());
     if (f.latencyMs() >= 0.0) latency.push_back(f.latencyMs());
+    if (f.displayLatencyMs() >= 0.0) display.push_back(f.displayLatencyMs());
     wait += f.waitMs;
     total += f.frameMs();
   }
@@ -88,6 +100,9 @@ std::string LatencyLog::summary() const {
   if (!latency.empty())
     s << "; input-to-present latency (" << latency.size() << " frames with input) median " << percentile(latency, 0.5) << " ms, p95 "
       << percentile(latency, 0.95) << " ms, p99 " << percentile(latency, 0.99) << " ms";
+  if (!display.empty())
+    s << "; input-to-display latency (" << display.size() << " frames) median " << percentile(display, 0.5) << " ms, p95 "
+      << percentile(display, 0.95) << " ms, p99 " << percentile(display, 0.99) << " ms";
   if (total > 0.0) s << "; waiting " << std::setprecision(1) << 100.0 * wait / total << " % of frame time";
   return s.str();
 }

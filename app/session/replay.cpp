@@ -199,6 +199,9 @@ int runReplay(const ReplayOptions& o) {
   const int frames = o.frames > 0 ? o.frames : int(std::floor(script.duration() * o.fps)) + 2;  // through the last event, plus one
   std::size_t next = 0, refused = 0;
   LatencyLog log(o.timings.empty() ? kSummaryFrames : 0);  // bounded unless the whole log is to be written
+  log.setNotes({"clock: seconds since the replay started on the steady clock",
+                "headless replay: input times are when each scripted event was applied; no window, so present_s is when the frame's "
+                "results were read back and displayed_s is -1"});
   // A failure under the session (a Vulkan allocation, a lost device, running out of memory) ends
   // the replay with the session so far saved beside the exports.
   auto rescue = [&] { return saveRecovery(session, selection.handles(), selection.picked(), volume.dims(), o.exportDir); };

@@ -6,10 +6,12 @@
 #include <SDL2/SDL.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "app/io/png_io.h"
 #include "app/platform/viewer.h"
@@ -293,4 +295,47 @@ TEST_F(Window, ALostDeviceEndsTheSessionWithAClearMessageAndItsScriptAndHandlesS
   EXPECT_EQ(s.events[0].action, "set-preset");
   EXPECT_TRUE(readHandles((dir / "out" / "recovery-handles.json").string()).handles.empty());
   fs::remove_all(dir);
+}
+
+TEST_F(Window, TheTimingLogSaysWhetherItMeasuredWhenEachFrameWasShown) {
+  // With VK_KHR_present_wait each frame's display time is logged (after its submit); without it
+  // (lavapipe under Xvfb) the header says so and displayed_s is -1 throughout, never a guess.
+  const fs::path csvPath = fs::temp_directory_path() / ("handson_present_" + std::to_string(getpid()) + ".csv");
+  ViewerOptions o = smallWindow();
+  o.frames = 6;
+  o.timings = csvPath.string();
+  Viewer v(o);
+  while (v.step()) {
+  }
+  EXPECT_EQ(v.finish(), 0);
+  std::ifstream in(csvPath);
+  std::string line, notes;
+  while (std::getline(in, line) && line.rfind("# ", 0) == 0) notes += line + "\n";
+  EXPECT_NE(notes.find("SDL 2 gives touches no device timestamp"), std::string::npos) << notes;
+  const bool measured = notes.find("vkWaitForPresentKHR reported the frame shown") != std::string::npos;
+  EXPECT_TRUE(measured || notes.find("display time not measured: this driver offers no VK_KHR_present_wait") != std::string::npos) << notes;
+  std::vector<std::string> names;
+  for (std::stringstream hs(line); std::getline(hs, line, ',');) names.push_back(line);
+  const auto at = [&](const char* n) { return std::size_t(std::find(names.begin(), names.end(), n) - names.begin()); };
+  ASSERT_LT(at("displayed_s"), names.size());
+  int rows = 0, shown = 0;
+  while (std::getline(in, line)) {
+    std::vector<double> f;
+    for (std::stringstream ls(line); std::getline(ls, line, ',');) f.push_back(std::atof(line.c_str()));
+    ASSERT_GT(f.size(), at("displayed_s"));
+    ++rows;
+    const double displayed = f[at("displayed_s")];
+    if (!measured) {
+      EXPECT_EQ(displayed, -1.0);
+    }
+    if (displayed >= 0.0) {
+      ++shown;
+      EXPECT_GE(displayed, f[at("submit_s")]) << "shown after it was submitted";
+    }
+  }
+  EXPECT_EQ(rows, 6);
+  if (measured) {
+    EXPECT_GE(shown, 3) << "most frames' display times came back";
+  }
+  fs::remove(csvPath);
 }

@@ -70,7 +70,11 @@ TEST(Replay, SameScriptGivesBitIdenticalFramesAndATimingLog) {
   // Consecutive frames differ: the gestures moved the camera.
   EXPECT_NE(slurp(dir / "a" / "frame_00000.png"), slurp(dir / "a" / "frame_00005.png"));
   const std::string csv = slurp(dir / "a" / "t.csv");
-  EXPECT_EQ(csv.rfind("frame,input_count,", 0), 0u) << csv.substr(0, 200);
+  // The header's notes say where the times come from (no window: no display time), then the columns.
+  EXPECT_EQ(csv.rfind("# clock: ", 0), 0u) << csv.substr(0, 300);
+  EXPECT_NE(csv.find("\n# headless replay: "), std::string::npos) << csv.substr(0, 300);
+  EXPECT_NE(csv.find("\nframe,input_count,"), std::string::npos) << csv.substr(0, 300);
+  EXPECT_NE(csv.find(",displayed_s,"), std::string::npos);
   EXPECT_NE(csv.find("gpu_raymarch_ms"), std::string::npos);
   EXPECT_GE(std::count(csv.begin(), csv.end(), '\n'), long(frames) + 1);
   fs::remove_all(dir);
@@ -387,7 +391,8 @@ TEST(Replay, AMovedActiveHandleDeformsTheTissueAroundItAndReplaysBitIdentically)
     // (the replay waits for each pose's solve and refinement) at the end.
     std::istringstream csv(slurp(dir / "timings.csv"));
     std::string header, line, last;
-    std::getline(csv, header);
+    do std::getline(csv, header);
+    while (header.rfind("# ", 0) == 0);  // the notes
     ASSERT_NE(header.find(",sim_state,sim_state_s"), std::string::npos) << header;
     bool rest = false;
     while (std::getline(csv, line)) {
@@ -887,7 +892,8 @@ TEST(Replay, WithAFrameBudgetChangingFramesAreReducedAndTheStillFrameIsTheFullQu
   // The timing log says which frames were reduced: the moving ones, then one level less each still frame.
   std::istringstream csv(slurp(budgeted / "t.csv"));
   std::string line;
-  std::getline(csv, line);
+  do std::getline(csv, line);
+  while (line.rfind("# ", 0) == 0);  // the notes
   std::vector<std::string> header;
   for (std::stringstream hs(line); std::getline(hs, line, ',');) header.push_back(line);
   const auto col = std::find(header.begin(), header.end(), "quality_scale") - header.begin();

@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
 #include "app/session/latency_log.h"
 #include "app/session/replay.h"
@@ -183,4 +185,44 @@ TEST(LatencyLog, PercentilesAndSummary) {
   EXPECT_NE(s.find("median 50.0 ms"), std::string::npos) << s;
   EXPECT_NE(s.find("median 60.0 ms"), std::string::npos) << s;  // latency: 50 ms + 10 ms before the frame
   EXPECT_NE(s.find("waiting 50.0 %"), std::string::npos) << s;
+}
+
+TEST(LatencyLog, DisplayTimesAndNotesReachTheCsv) {
+  LatencyLog log;
+  for (int i = 1; i <= 4; ++i) {
+    FrameTiming f;
+    f.frame = std::uint64_t(i);
+    f.cpuStart = i * 0.1;
+    f.present = i * 0.1 + 0.05;
+    f.inputFirst = i * 0.1 - 0.01;
+    log.add(f);
+  }
+  // Display times arrive after the frames were logged; frame 4's never does.
+  for (int i = 1; i <= 3; ++i) log.setDisplayed(std::uint64_t(i), i * 0.1 + 0.07);
+  log.setDisplayed(99, 5.0);  // an unknown frame changes nothing
+  EXPECT_DOUBLE_EQ(log.frames()[0].displayLatencyMs(), 80.0);  // 10 ms before the frame + 70 ms
+  EXPECT_LT(log.frames()[3].displayLatencyMs(), 0.0);
+  const std::string s = log.summary();
+  EXPECT_NE(s.find("input-to-display latency (3 frames) median 80.0 ms"), std::string::npos) << s;
+  log.setNotes({"clock: a test", "display: by hand"});
+  const auto path = std::filesystem::temp_directory_path() / "handson_latency_notes.csv";
+  log.writeCsv(path.string());
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "# clock: a test");
+  std::getline(in, line);
+  EXPECT_EQ(line, "# display: by hand");
+  std::getline(in, line);
+  EXPECT_EQ(line.rfind("frame,input_count,input_first_s,input_last_s,cpu_start_s,cpu_end_s,submit_s,present_s,displayed_s,frame_ms,"
+                       "input_to_submit_ms,input_to_present_ms,input_to_display_ms,wait_ms",
+                       0),
+            0u)
+      << line;
+  std::getline(in, line);
+  EXPECT_NE(line.find(",0.170000,"), std::string::npos) << line;  // frame 1 shown at 0.17 s
+  EXPECT_NE(line.find(",80.000000,"), std::string::npos) << line;
+  for (int i = 0; i < 3; ++i) std::getline(in, line);
+  EXPECT_NE(line.find(",-1.000000,"), std::string::npos) << "frame 4: not shown, -1: " << line;
+  std::filesystem::remove(path);
 }
