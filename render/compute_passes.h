@@ -21,6 +21,8 @@ struct MarchInputs {
   fg::ResourceHandle strain;     ///< 3D R32 float strain (raymarch only; a 1-voxel zero image when none)
   fg::ResourceHandle labels;     ///< 3D R16_UNORM organ labels (raymarch only; a 1-voxel zero image when none)
   fg::ResourceHandle overLimit;  ///< 3D R32 float strain over its tissue's limit (raymarch only; a 1-voxel zero image when none)
+  fg::ResourceHandle jitter;     ///< storage buffer, uint[kJitterTile²] blue-noise ranks (raymarch only; render/blue_noise.h)
+  fg::ResourceHandle accum;      ///< 2D RGBA32F storage image, a still frame's running sum (raymarch only; 1x1 when not accumulating)
 };
 
 /// Direct volume rendering into an RGBA8 storage image (shaders/raymarch.comp).

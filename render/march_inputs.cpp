@@ -30,6 +30,8 @@ std::vector<VkDescriptorSetLayoutBinding> marchBindings(VkDescriptorType outputT
     b.push_back({gpu::kBindStrain, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
     b.push_back({gpu::kBindLabels, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
     b.push_back({gpu::kBindStrainLimit, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
+    b.push_back({gpu::kBindJitter, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
+    b.push_back({gpu::kBindAccum, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
   }
   return b;
 }

@@ -4,9 +4,24 @@
 #include <cmath>
 #include <thread>
 
+#include "blue_noise.h"
+#include "sim/error.h"
+
 namespace handson {
 
 namespace {
+
+static_assert(gpu::kJitterTile == kBlueNoiseSize, "the raymarch's jitter tile is the blue-noise tile");
+
+// Where, as a fraction of the step, pixel (x, y)'s first sample lies (shaders/raymarch.comp,
+// sampleOffset): the middle of the first step, or its blue-noise rank shifted by the jitter phase.
+float sampleOffset(const gpu::RenderParams& P, int x, int y) {
+  if (!(P.control.x & gpu::kFlagJitter)) return 0.5f;
+  const std::uint32_t tile = std::uint32_t(gpu::kJitterTile);
+  const std::uint32_t rank = blueNoiseRanks()[(std::uint32_t(y) % tile) * tile + std::uint32_t(x) % tile];
+  const std::uint32_t shifted = (rank + std::uint32_t(P.quality.y) * std::uint32_t(gpu::kJitterPhaseStep)) % (tile * tile);
+  return (float(shifted) + 0.5f) / float(tile * tile);
+}
 
 struct Sampler {
   const QuantizedVolume& v;
@@ -169,7 +184,7 @@ struct Sampler {
   // Advances sample counter n past an empty brick; returns true if the sample at n must be skipped.
   // Advances sample counter n past an empty brick; returns true if the sample at n must be
   // skipped. For an occupied brick, sets occupiedUntil to the ray distance where it is left.
-  bool skip(glm::vec3 o, glm::vec3 d, float t0, float step, glm::vec3 idx, std::uint32_t& n, float& occupiedUntil) const {
+  bool skip(glm::vec3 o, glm::vec3 d, float t0, float step, float offset, glm::vec3 idx, std::uint32_t& n, float& occupiedUntil) const {
     glm::ivec3 brick;
     const bool occupied = brickOccupied(idx, brick);
     const float te = brickExit(o, d, brick);
@@ -177,11 +192,11 @@ struct Sampler {
       occupiedUntil = te;
       return false;
     }
-    n = std::max(n + 1u, std::uint32_t(std::ceil((te - t0) / step - 0.5f)));
+    n = std::max(n + 1u, std::uint32_t(std::ceil((te - t0) / step - offset)));
     return true;
   }
 
-  glm::vec4 shadePixel(glm::vec2 ndc) const {
+  glm::vec4 shadePixel(glm::vec2 ndc, float offset) const {
     const std::uint32_t flags = P.control.x;
     glm::vec3 color(0.0f);
     float alpha = 0.0f;
@@ -195,11 +210,11 @@ struct Sampler {
       std::uint32_t n = 0, taken = 0;
       float occupiedUntil = -1.0f;
       while (taken < P.control.z) {
-        const float t = t0 + (float(n) + 0.5f) * step;
+        const float t = t0 + (float(n) + offset) * step;
         if (t >= t1) break;
         const glm::vec3 idx = o + t * d;
         ++taken;
-        if ((flags & gpu::kFlagEmptySpaceSkipping) && t >= occupiedUntil && skip(o, d, t0, step, idx, n, occupiedUntil)) continue;
+        if ((flags & gpu::kFlagEmptySpaceSkipping) && t >= occupiedUntil && skip(o, d, t0, step, offset, idx, n, occupiedUntil)) continue;
         ++n;
         std::uint32_t id = 0;
         const float value = materialAt(idx, id);
@@ -249,7 +264,7 @@ struct Sampler {
       if (t >= t1) break;
       const glm::vec3 idx = o + t * d;
       ++taken;
-      if (t >= occupiedUntil && skip(o, d, t0, step, idx, n, occupiedUntil)) continue;
+      if (t >= occupiedUntil && skip(o, d, t0, step, 0.5f, idx, n, occupiedUntil)) continue;
       ++n;
       std::uint32_t id = 0;
       const float value = materialAt(idx, id);
@@ -285,15 +300,34 @@ struct Sampler {
 
 }  // namespace
 
-std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const gpu::RenderParams& params) {
+std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const gpu::RenderParams& params,
+                                            std::vector<glm::vec3>* accumulation) {
   const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints, scene.strain, scene.labels, scene.strainOverLimit};
   const int w = params.dims.w, h = params.brickDims.w;
   std::vector<std::uint8_t> img(std::size_t(w) * h * 4);
+  const bool accumulate = (params.control.x & gpu::kFlagAccumulate) != 0;
+  if (accumulate) {
+    if (!accumulation) throw Error("raymarch reference: accumulation asked for without its sum");
+    if (accumulation->size() != std::size_t(w) * h) accumulation->assign(std::size_t(w) * h, glm::vec3(0.0f));
+  }
   auto rows = [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y)
       for (int x = 0; x < w; ++x) {
         const glm::vec2 ndc((float(x) + 0.5f) / float(w) * 2.0f - 1.0f, (float(y) + 0.5f) / float(h) * 2.0f - 1.0f);
-        const glm::vec4 c = s.shadePixel(ndc);
+        glm::vec4 c(0.0f, 0.0f, 0.0f, 1.0f);
+        if (accumulate) {
+          // raymarch.comp: the still frame's sum, this phase added unless it is complete; its mean shown.
+          glm::vec3& sum = (*accumulation)[std::size_t(y) * w + x];
+          if (params.quality.w > 0.5f) {
+            c = glm::vec4(glm::clamp(sum / params.quality.z, 0.0f, 1.0f), 1.0f);
+          } else {
+            const glm::vec3 phase(s.shadePixel(ndc, sampleOffset(params, x, y)));
+            sum = params.quality.z > 0.5f ? sum + phase : phase;
+            c = glm::vec4(glm::clamp(sum / (params.quality.z + 1.0f), 0.0f, 1.0f), 1.0f);
+          }
+        } else {
+          c = s.shadePixel(ndc, sampleOffset(params, x, y));
+        }
         std::uint8_t* p = &img[(std::size_t(y) * w + x) * 4];
         for (int ch = 0; ch < 4; ++ch) p[ch] = std::uint8_t(std::lround(c[ch] * 255.0f));
       }

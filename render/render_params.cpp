@@ -1,6 +1,7 @@
 #include "render_params.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <iomanip>
@@ -97,6 +98,7 @@ gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::ma
   if (s.strainOverlay) flags |= gpu::kFlagStrainOverlay;
   if (s.limitHighlight) flags |= gpu::kFlagLimitHighlight;
   if (s.labelTint) flags |= gpu::kFlagLabelTint;
+  if (s.jitter) flags |= gpu::kFlagJitter;
   if (s.clip.box) {
     flags |= gpu::kFlagClipBox;
     p.clipMin = glm::vec4(glm::min(s.clip.lo, s.clip.hi), 0.0f);
@@ -108,7 +110,8 @@ gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::ma
     p.clipPlane = glm::vec4(s.clip.normal / nlen, s.clip.offset / nlen);
   }
   p.strain = glm::vec4(s.strainFrom, s.strainTo, s.strainWeight, 0.0f);
-  p.quality = glm::vec4(std::isfinite(s.raymarchStepScale) && s.raymarchStepScale >= 1.0f ? s.raymarchStepScale : 1.0f, 0.0f, 0.0f, 0.0f);
+  p.quality = glm::vec4(std::isfinite(s.raymarchStepScale) && s.raymarchStepScale >= 1.0f ? s.raymarchStepScale : 1.0f,
+                        float(std::clamp(s.jitterPhase, 0, int(gpu::kJitterTile * gpu::kJitterTile) - 1)), 0.0f, 0.0f);
   const double diag = geometry.diagonalMm();
   const std::uint32_t maxSteps = std::uint32_t(std::ceil(diag / step)) * 2u + 64u;
   p.control = glm::uvec4(flags, pickCount, maxSteps, 0u);
@@ -150,6 +153,15 @@ void setMovingHandles(gpu::RenderParams& params, const VolumeGeometry& geometry,
     ++n;
   }
   params.control.w = n;
+}
+
+void setStillPhase(gpu::RenderParams& params, int before, int phases) {
+  if (phases < 1) throw Error("a still frame sums at least one jitter phase");
+  params.control.x |= gpu::kFlagAccumulate;
+  const bool complete = before >= phases;
+  params.quality.y = float(complete ? 0 : std::max(before, 0));  // the jitter phase (unused once complete)
+  params.quality.z = float(complete ? phases : std::max(before, 0));
+  params.quality.w = complete ? 1.0f : 0.0f;
 }
 
 glm::vec2 pixelToNdc(float x, float y, int width, int height) {

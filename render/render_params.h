@@ -57,7 +57,20 @@ struct RenderSettings {
   /// The raymarch's sample step over the full-quality step (the frame budget, app/session/
   /// frame_budget.h; >= 1). Picking always takes the full-quality step.
   float raymarchStepScale = 1.0f;
+  /// Each pixel's first raymarch sample offset by a blue-noise fraction of the step (render/
+  /// blue_noise.h): no wood-grain bands where slices are thicker than the step. jitterPhase shifts
+  /// the offsets (a still frame averages phases 0, 1, ...; picking is never jittered).
+  bool jitter = true;
+  int jitterPhase = 0;
 };
+
+/// Jitter phases a still frame sums (kFlagAccumulate): its noise falls as 1 / sqrt(phases).
+inline constexpr int kStillJitterPhases = 8;
+
+/// A still frame, one phase a frame: phase `before` added to the sum of the `before` earlier ones
+/// (0 starts it; the jitter phase is `before`), the running mean shown; `before` >= `phases`: the
+/// complete sum's mean shown, nothing marched. Needs kFlagJitter (otherwise every phase is alike).
+void setStillPhase(gpu::RenderParams& params, int before, int phases = kStillJitterPhases);
 
 /// view: world -> eye (right-handed, camera looks down -z); proj: eye -> Vulkan clip (z in [0,1],
 /// NDC y down). eye: camera position in world (mm).

@@ -6,6 +6,8 @@
 #include <iomanip>
 #include <sstream>
 
+#include "blue_noise.h"
+#include "render_params.h"
 #include "sim/error.h"
 #include "vk_context.h"
 
@@ -28,10 +30,18 @@ VolumeRenderer::VolumeRenderer(const vk::Context& ctx, std::uint32_t framesInFli
   vk::uploadToImage(ctx, noStrain_, &zero, sizeof zero, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   noOverLimit_ = vk::Image(ctx, {1, 1, 1, fg::Format::R32Sfloat}, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
   vk::uploadToImage(ctx, noOverLimit_, &zero, sizeof zero, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  // The raymarch's ray-start jitter tile (render/blue_noise.h), read whether or not jitter is on.
+  const std::vector<std::uint32_t>& ranks = blueNoiseRanks();
+  jitter_ = vk::Buffer(ctx, ranks.size() * sizeof(std::uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                       vk::Buffer::Memory::Device);
+  vk::uploadToBuffer(ctx, jitter_, ranks.data(), ranks.size() * sizeof(std::uint32_t));
+  // The raymarch's accumulation image when a frame does not accumulate (never read then).
+  noAccum_ = vk::Image(ctx, {1, 1, 1, fg::Format::Rgba32Sfloat}, VK_IMAGE_USAGE_STORAGE_BIT);
   setLabels({});
 }
 
 void VolumeRenderer::setLabels(const std::vector<std::uint16_t>& labels) {
+  ++contentVersion_;  // a still frame's sum starts anew
   if (labels.empty()) {
     labels_ = vk::Image(ctx_, {1, 1, 1, fg::Format::R16Unorm}, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
     const std::uint16_t zero = 0;
@@ -61,6 +71,7 @@ void VolumeRenderer::ensureBuffer(std::unique_ptr<Buffer>& b, VkDeviceSize size,
 }
 
 void VolumeRenderer::setVolume(const QuantizedVolume& volume, const ProgressFn& progress) {
+  ++contentVersion_;  // a still frame's sum starts anew
   const auto& d = volume.geometry.dims;
   if (volume.data.size() != volume.geometry.voxelCount() || volume.data.empty())
     throw Error("renderer: volume data does not match its dimensions");
@@ -123,6 +134,7 @@ void VolumeRenderer::setVolume(const QuantizedVolume& volume, const ProgressFn& 
 }
 
 void VolumeRenderer::setTransferFunction(const std::vector<glm::vec4>& lut) {
+  ++contentVersion_;  // a still frame's sum starts anew
   if (!hasVolume_) throw Error("renderer: setVolume() must come before setTransferFunction()");
   if (lut.size() != gpu::kTfEntries) throw Error("renderer: transfer function table has the wrong size");
   executor_.waitLastFrame();
@@ -155,6 +167,7 @@ void VolumeRenderer::uploadOccupancy() {
 }
 
 void VolumeRenderer::beginDeformation(const vk::DeformSetup& setup) {
+  ++contentVersion_;  // a still frame's sum starts anew
   if (!hasVolume_) throw Error("renderer: no volume to deform");
   executor_.waitLastFrame();
   for (std::uint32_t i = 0; i < slots_.size(); ++i) executor_.waitSlot(i);
@@ -165,6 +178,7 @@ void VolumeRenderer::beginDeformation(const vk::DeformSetup& setup) {
 }
 
 void VolumeRenderer::endDeformation() {
+  ++contentVersion_;  // a still frame's sum starts anew
   if (!deformer_) return;
   executor_.waitLastFrame();
   for (std::uint32_t i = 0; i < slots_.size(); ++i) executor_.waitSlot(i);
@@ -174,6 +188,7 @@ void VolumeRenderer::endDeformation() {
 }
 
 void VolumeRenderer::setHandleTints(const std::vector<glm::vec4>& tints) {
+  ++contentVersion_;  // a still frame's sum starts anew
   if (tints.size() != gpu::kMaxHandleIds) throw Error("renderer: the handle tint table has the wrong size");
   executor_.waitLastFrame();
   for (std::uint32_t i = 0; i < slots_.size(); ++i) executor_.waitSlot(i);
@@ -184,6 +199,7 @@ void VolumeRenderer::setHandleTints(const std::vector<glm::vec4>& tints) {
 }
 
 void VolumeRenderer::clearMask() {
+  ++contentVersion_;  // a still frame's sum starts anew
   if (!hasVolume_) throw Error("renderer: no volume");
   for (std::uint32_t i = 0; i < slots_.size(); ++i) executor_.waitSlot(i);
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
@@ -256,6 +272,24 @@ void VolumeRenderer::addDeformation(fg::FrameGraph& g, const FrameRequest& req, 
   if (!wantStrain) strainShown_ = false;  // shown again later: redone over the region then
 }
 
+void VolumeRenderer::sumStillFrame(const FrameRequest& req, gpu::RenderParams& params) {
+  stillShown_ = 0;
+  if (req.stillPhases <= 0 || !(params.control.x & gpu::kFlagJitter)) {
+    still_.count = 0;
+    return;
+  }
+  gpu::RenderParams key = params;
+  key.control.y = 0;
+  key.control.x &= ~gpu::kFlagAccumulate;
+  key.quality.y = key.quality.z = key.quality.w = 0.0f;
+  const bool same = still_.count > 0 && still_.version == contentVersion_ && !req.maskUpload && !req.deform && !req.deformFine &&
+                    std::memcmp(&key, &still_.key, sizeof key) == 0;
+  const int before = same ? std::min(still_.count, req.stillPhases) : 0;
+  setStillPhase(params, before, req.stillPhases);
+  still_ = {key, contentVersion_, std::min(before + 1, req.stillPhases)};
+  stillShown_ = still_.count;
+}
+
 std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   if (!hasVolume_ || !hasTf_) throw Error("renderer: no volume or transfer function");
   const int w = req.params.dims.w, h = req.params.brickDims.w;
@@ -279,6 +313,7 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   in.occupancy = g.importBuffer("occupancy", {occupancyBuffer_.size()}, fg::Access::StorageRead);
   in.mask = g.importImage("handle-mask", mask_.desc(), fg::Access::Sampled);
   in.handles = g.importBuffer("handle-tints", {handleTints_.size()}, fg::Access::StorageRead);
+  in.jitter = g.importBuffer("jitter-tile", {jitter_.size()}, fg::Access::StorageRead);
   // While deforming, the deformed images are what the raymarch and picking read.
   vk::GpuDeformer::Outputs deformed;
   if (deformer_) deformed = deformer_->importOutputs(g);
@@ -331,6 +366,18 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
     in.overLimit = g.importImage("no-strain-over-limit", noOverLimit_.desc(), fg::Access::Sampled);
     params.control.x &= ~gpu::kFlagLimitHighlight;  // not deforming, or no limits: nothing to highlight
   }
+  // A still frame's running sum (kFlagAccumulate), at the frame's size; a new one starts a new sum.
+  sumStillFrame(req, params);
+  const bool accumulate = (params.control.x & gpu::kFlagAccumulate) != 0;
+  if (accumulate && (!accum_.handle() || accum_.desc().width != std::uint32_t(w) || accum_.desc().height != std::uint32_t(h))) {
+    if (accum_.handle()) vkDeviceWaitIdle(ctx_.device());  // frames in flight may still use the old one (a resize: rare)
+    accum_ = vk::Image(ctx_, {std::uint32_t(w), std::uint32_t(h), 1, fg::Format::Rgba32Sfloat}, VK_IMAGE_USAGE_STORAGE_BIT);
+    accumAccess_ = fg::Access::None;
+    params.quality.z = params.quality.w = 0.0f;  // nothing summed in it yet: this phase starts the sum
+  }
+  vk::Image& accumImage = accumulate ? accum_ : noAccum_;
+  fg::Access& accumAccess = accumulate ? accumAccess_ : noAccumAccess_;
+  in.accum = g.importImage(accumulate ? "accumulation" : "no-accumulation", accumImage.desc(), accumAccess);
   std::memcpy(s.params->mapped(), &params, sizeof(params));
   s.params->flush();
   auto color = g.createImage("color", {std::uint32_t(w), std::uint32_t(h), 1, fg::Format::Rgba8Unorm});
@@ -374,6 +421,9 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   executor_.bindImage(in.labels, labels_);
   if (deformer_) deformer_->bind(executor_);
   executor_.bindBuffer(in.handles, handleTints_);
+  executor_.bindBuffer(in.jitter, jitter_);
+  executor_.bindImage(in.accum, accumImage);
+  accumAccess = fg::Access::StorageReadWrite;
   if (maskStaging.valid()) executor_.bindBuffer(maskStaging, *s.maskStaging);
   if (imageHost.valid()) executor_.bindBuffer(imageHost, *s.imageReadback);
   if (pickIn.valid()) {

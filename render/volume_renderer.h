@@ -51,6 +51,11 @@ struct FrameRequest {
   const CoarseFrameState* deform = nullptr;
   /// While deforming: refined fine node positions (voxel index space) to show instead; uploaded.
   const std::vector<Eigen::Vector4f>* deformFine = nullptr;
+  /// > 0, with the ray jitter on (kFlagJitter): a still picture sums up to this many jitter
+  /// phases, one a frame, and shows their running mean (render_params.h, setStillPhase). Any change
+  /// of the picture starts a new sum: other parameters, size, transfer function, tints, labels,
+  /// mask, volume, deformation. 0: no sum (one jitter phase, or none).
+  int stillPhases = 0;
 };
 
 struct FrameResult {
@@ -94,6 +99,8 @@ class VolumeRenderer {
 
   /// Records and submits one frame; blocks only if the slot it reuses is still in flight.
   std::uint64_t submit(const FrameRequest& request);
+  /// The jitter phases in the still frame's sum the last submitted frame shows (0: not a sum).
+  int stillPhasesShown() const { return stillShown_; }
   /// Results that completed since the last call (non-blocking; from slots that came round again).
   std::vector<FrameResult> takeCompleted();
   /// Waits for the last submitted frame and returns its results.
@@ -119,6 +126,8 @@ class VolumeRenderer {
   void ensureBuffer(std::unique_ptr<vk::Buffer>& b, VkDeviceSize size, VkBufferUsageFlags usage);
 
   void uploadOccupancy();
+  /// FrameRequest::stillPhases: the next phase of the still frame's sum, or a new sum (params).
+  void sumStillFrame(const FrameRequest& req, gpu::RenderParams& params);
   void addDeformation(fg::FrameGraph& g, const FrameRequest& req, bool wantStrain, const vk::GpuDeformer::Outputs& deformed, vk::MarchInputs& in);
 
   const vk::Context& ctx_;
@@ -129,6 +138,16 @@ class VolumeRenderer {
   vk::BrickPass brick_;
   vk::Sampler linear_, nearest_;
   vk::Image noStrain_;        ///< the raymarch's strain image without a strain overlay (one zero voxel)
+  vk::Buffer jitter_;         ///< the raymarch's blue-noise tile (render/blue_noise.h)
+  vk::Image accum_, noAccum_;  ///< a still frame's running sum (kFlagAccumulate), and the 1x1 stand-in
+  fg::Access accumAccess_ = fg::Access::None, noAccumAccess_ = fg::Access::None;  ///< how each was last used
+  std::uint64_t contentVersion_ = 0;  ///< bumped by every setter that changes the picture outside the request
+  struct StillSum {
+    gpu::RenderParams key{};     ///< the summed picture's parameters (picks and the sum's own fields cleared)
+    std::uint64_t version = 0;   ///< contentVersion_ when it started
+    int count = 0;               ///< phases in it (0: none)
+  } still_;
+  int stillShown_ = 0;
   vk::Image noOverLimit_;     ///< its strain-over-limit image without the limit highlight (one zero voxel)
   bool strainShown_ = false;  ///< the deformer's strain volume is current over the whole region
   vk::Image volume_, mask_;

@@ -9,6 +9,19 @@ layout(set = 0, binding = kBindOutput, rgba8) uniform writeonly image2D uOutput;
 layout(set = 0, binding = kBindStrain) uniform sampler3D uStrain;
 layout(set = 0, binding = kBindLabels) uniform sampler3D uLabels;
 layout(set = 0, binding = kBindStrainLimit) uniform sampler3D uStrainLimit;
+layout(std430, set = 0, binding = kBindJitter) readonly buffer Jitter { uint jitterRank[]; };
+layout(set = 0, binding = kBindAccum, rgba32f) uniform image2D uAccum;
+
+// Where, as a fraction of the step, a pixel's first sample lies: the middle of the first step, or
+// with kFlagJitter the pixel's blue-noise rank shifted by the jitter phase (integer arithmetic, so
+// the CPU reference finds the same offset). CPU reference: sampleOffset in render/raymarch_reference.cpp.
+float sampleOffset(ivec2 px) {
+  if ((P.control.x & kFlagJitter) == 0u) return 0.5;
+  uint tile = uint(kJitterTile);
+  uint rank = jitterRank[(uint(px.y) % tile) * tile + uint(px.x) % tile];
+  uint shifted = (rank + uint(P.quality.y) * uint(kJitterPhaseStep)) % (tile * tile);
+  return (float(shifted) + 0.5) / float(tile * tile);
+}
 
 // The label tint (kFlagLabelTint): the nearest voxel's organ label in a fixed palette (label % 12),
 // background (0) untouched. CPU reference: labelTint in render/raymarch_reference.cpp.
@@ -52,6 +65,11 @@ void main() {
   ivec2 px = ivec2(gl_GlobalInvocationID.xy);
   int width = P.dims.w, height = P.brickDims.w;
   if (px.x >= width || px.y >= height) return;
+  bool accumulate = (P.control.x & kFlagAccumulate) != 0u;
+  if (accumulate && P.quality.w > 0.5) {  // the still frame is complete: show its mean
+    imageStore(uOutput, px, vec4(clamp(imageLoad(uAccum, px).rgb / P.quality.z, 0.0, 1.0), 1.0));
+    return;
+  }
   vec2 ndc = (vec2(px) + 0.5) / vec2(width, height) * 2.0 - 1.0;
   uint flags = P.control.x;
   vec3 color = vec3(0.0);
@@ -65,13 +83,14 @@ void main() {
     // The frame budget's step (1: the full-quality step; unset, 0, is taken as 1).
     float step = P.quality.x > 0.0 ? P.march.x * P.quality.x : P.march.x;
     uint maxSteps = P.control.z;
-    // Samples sit at t0 + (n + 0.5) * step, whatever skipping does, so that skipping changes
+    // Samples sit at t0 + (n + offset) * step, whatever skipping does, so that skipping changes
     // nothing but the work done.
+    float offset = sampleOffset(px);
     uint n = 0u;
     uint taken = 0u;
     float occupiedUntil = -1.0;  // ray distance up to which the current brick is known occupied
     while (taken < maxSteps) {
-      float t = t0 + (float(n) + 0.5) * step;
+      float t = t0 + (float(n) + offset) * step;
       if (t >= t1) break;
       vec3 idx = o + t * d;
       if ((flags & kFlagEmptySpaceSkipping) != 0u && t >= occupiedUntil) {
@@ -79,7 +98,7 @@ void main() {
         bool occupied = brickOccupied(idx, brick);
         float te = brickExit(o, d, brick);
         if (!occupied) {
-          n = max(n + 1u, uint(ceil((te - t0) / step - 0.5)));
+          n = max(n + 1u, uint(ceil((te - t0) / step - offset)));
           ++taken;
           continue;
         }
@@ -114,6 +133,13 @@ void main() {
       if ((flags & kFlagEarlyTermination) != 0u && alpha >= P.march.z) break;
     }
   }
-  vec3 outc = color + (1.0 - alpha) * P.background.rgb * P.background.a;
+  vec3 outc = clamp(color + (1.0 - alpha) * P.background.rgb * P.background.a, 0.0, 1.0);
+  // A still frame: this phase added to the sum of the earlier ones, their mean shown (CPU
+  // reference: raymarchReference's accumulation in render/raymarch_reference.cpp).
+  if (accumulate) {
+    vec3 sum = P.quality.z > 0.5 ? imageLoad(uAccum, px).rgb + outc : outc;
+    imageStore(uAccum, px, vec4(sum, 1.0));
+    outc = sum / (P.quality.z + 1.0);
+  }
   imageStore(uOutput, px, vec4(clamp(outc, 0.0, 1.0), 1.0));
 }

@@ -63,6 +63,8 @@ HS_CONST kFlagLabelTint = 16u;     // raymarch: colour tissue by its organ label
 HS_CONST kFlagClipBox = 32u;       // raymarch and pick: only inside RenderParams.clipMin..clipMax (world box)
 HS_CONST kFlagClipPlane = 64u;     // raymarch and pick: only where dot(clipPlane.xyz, x) >= clipPlane.w
 HS_CONST kFlagLimitHighlight = 128u;  // raymarch: colour tissue past its strain limit (kBindStrainLimit)
+HS_CONST kFlagJitter = 256u;  // raymarch: each pixel's first sample offset by its blue-noise rank (kBindJitter, quality.y)
+HS_CONST kFlagAccumulate = 512u;  // raymarch: a still frame's running sum in kBindAccum (quality.z frames in it; quality.w = 1: show it, add none)
 
 // Bindings of the raymarch and pick passes (one push-descriptor set).
 HS_CONST kBindParams = 0;     // RenderParams (read-only storage buffer)
@@ -78,6 +80,10 @@ HS_CONST kMaxMovingHandles = 8;  // handles drawn at a rigid pose (RenderParams.
 HS_CONST kBindStrain = 8;     // raymarch only: sampler3D, R32 float strain on the volume's grid (texelFetch)
 HS_CONST kBindLabels = 9;     // raymarch only: sampler3D, R16_UNORM organ labels (label / 65535) on the volume's grid
 HS_CONST kBindStrainLimit = 10;  // raymarch only: sampler3D, R32 float strain over its tissue's limit (texelFetch; 0: none)
+HS_CONST kBindJitter = 11;    // raymarch only: storage buffer uint[kJitterTile²], the blue-noise tile's ranks (render/blue_noise.h)
+HS_CONST kBindAccum = 12;     // raymarch only: rgba32f storage image, the running sum of a still frame's jitter phases
+HS_CONST kJitterTile = 64;    // the tile's side (kBlueNoiseSize)
+HS_CONST kJitterPhaseStep = 2531;  // each jitter phase shifts the ranks by round(kJitterTile² / golden ratio) (odd: all residues)
 HS_CONST kLabelPaletteSize = 12;  // label l is drawn in colour l % 12 (shaders/raymarch.comp, labelTint)
 // The label palette's rgb triples (GLSL and C++ alike: float[](HANDSON_LABEL_PALETTE)) and weight.
 #define HANDSON_LABEL_PALETTE                                                                                      \
@@ -116,7 +122,9 @@ struct RenderParams {
   vec4 clipMax;       // xyz: its high corner
   vec4 clipPlane;     // xyz unit normal n, w = D: what is kept is n.x >= D (world mm; kFlagClipPlane)
   vec4 quality;       // x = the raymarch's step over march.x (the frame budget; 1: full quality; picking
-                      // always takes march.x), yzw unused
+                      // always takes march.x), y = the jitter phase (kFlagJitter; a whole number), z = the
+                      // frames already summed in kBindAccum (kFlagAccumulate; 0 starts the sum), w = 1: show
+                      // the sum divided by z and march nothing
   MovingHandle moving[kMaxMovingHandles];
 };
 

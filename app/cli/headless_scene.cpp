@@ -25,6 +25,8 @@ const char* const kRenderOptionsHelp =
     "  --device NAME            Vulkan device: gpu, cpu, an index or a name substring\n"
     "                           (default: discrete > integrated > CPU; env HANDSON_DEVICE)\n"
     "  --validation             enable the Khronos validation layer (env HANDSON_VALIDATION=1)\n"
+    "  --jitter-phases N        blue-noise ray-start jitter phases the image averages (default 8, 1..64)\n"
+    "  --no-jitter              every ray's samples at the middle of each step (no jitter, one pass)\n"
     "  --no-skip, --no-early-termination, --no-shading   switch off empty-space skipping,\n"
     "                           early ray termination, gradient shading\n";
 
@@ -63,6 +65,8 @@ HeadlessScene openHeadlessScene(const std::string& path, const cli::Args& args) 
   s.settings.emptySpaceSkipping = !args.flag("--no-skip");
   s.settings.earlyTermination = !args.flag("--no-early-termination");
   s.settings.shading = !args.flag("--no-shading");
+  s.settings.jitter = !args.flag("--no-jitter");
+  s.jitterPhases = int(args.integer("--jitter-phases", kStillJitterPhases, 1, 64));
   parseClipOptions(args, s.settings);
 
   if (auto tfPath = args.value("--tf")) {

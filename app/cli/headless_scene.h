@@ -17,8 +17,8 @@ namespace handson {
 
 /// Options every rendering command accepts.
 inline const std::vector<std::string> kRenderValueOptions = {"--frame", "--size", "--preset", "--tf", "--camera", "--device", "--step", "--voxels",
-                                                             "--clip-box", "--clip-plane"};
-inline const std::vector<std::string> kRenderFlagOptions = {"--validation", "--no-skip", "--no-early-termination", "--no-shading", "--quiet"};
+                                                             "--clip-box", "--clip-plane", "--jitter-phases"};
+inline const std::vector<std::string> kRenderFlagOptions = {"--validation", "--no-skip", "--no-early-termination", "--no-shading", "--no-jitter", "--quiet"};
 extern const char* const kRenderOptionsHelp;
 
 struct HeadlessScene {
@@ -28,6 +28,7 @@ struct HeadlessScene {
   TransferFunction tf;
   std::vector<glm::vec4> lut;
   RenderSettings settings;
+  int jitterPhases = kStillJitterPhases;  ///< --jitter-phases: a still image averages this many jitter phases
   OrbitCamera camera;
   std::unique_ptr<vk::Context> context;
   std::unique_ptr<VolumeRenderer> renderer;

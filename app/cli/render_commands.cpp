@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <iostream>
@@ -24,9 +25,11 @@ void printTimings(const FrameResult& r) {
 
 int renderToPng(const std::string& path, const Args& args, const std::string& out) {
   HeadlessScene scene = openHeadlessScene(path, args);
+  // The settled still frame: the mean of the jitter phases, one pass each (render/render_params.h).
   FrameRequest req;
   req.params = scene.params();
-  scene.renderer->submit(req);
+  req.stillPhases = scene.settings.jitter ? scene.jitterPhases : 0;
+  for (int k = 0; k < std::max(req.stillPhases, 1); ++k) scene.renderer->submit(req);
   const FrameResult r = scene.renderer->waitLast();
   writePng(out, r.width, r.height, r.rgba);
   if (!args.flag("--quiet")) {

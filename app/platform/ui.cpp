@@ -309,6 +309,7 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   const bool reduced = st.qualityScale != 1.0 || st.qualityStep != 1.0;
   ImGui::TextColored(reduced ? ImVec4(1.0f, 0.75f, 0.25f, 1.0f) : ImGui::GetStyleColorVec4(ImGuiCol_Text), "quality: resolution %3.0f %%, step %.1fx", 100.0 * st.qualityScale,
                      st.qualityStep);
+  if (st.stillPhases > 0) ImGui::Text("still frame: %d of %d jitter phases", st.stillPhases, st.stillPhasesTotal);
   overlay_ = Rect{ImGui::GetWindowPos().x, ImGui::GetWindowPos().y, ImGui::GetWindowPos().x + ImGui::GetWindowSize().x,
                   ImGui::GetWindowPos().y + ImGui::GetWindowSize().y};
   ImGui::End();

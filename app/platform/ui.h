@@ -27,6 +27,7 @@ struct UiStatus {
   int fingers = 0;
   int renderWidth = 0, renderHeight = 0;
   double qualityScale = 1.0, qualityStep = 1.0;  ///< the frame budget's resolution and step scale (1, 1: full quality)
+  int stillPhases = 0, stillPhasesTotal = 0;      ///< jitter phases in the still frame shown, of how many (0: none)
   struct HandleRow {
     int id;
     std::string status;

@@ -510,6 +510,9 @@ bool Viewer::Impl::step() {
     ft.cpuEnd = seconds(Clock::now(), t0);
     const auto s0 = Clock::now();
     ft.frame = driver->submit(req);  // waits only for the frame two submissions back
+    ft.stillPhases = driver->stillPhases();
+    status.stillPhases = ft.stillPhases;
+    status.stillPhasesTotal = kStillJitterPhases;
     if (req.readbackImage) exportFrame = ft.frame;
     ft.submit = seconds(Clock::now(), t0);
     wait += seconds(Clock::now(), s0);

@@ -62,9 +62,9 @@ bool FrameDriver::newFailure() {
 }
 
 FrameQuality FrameDriver::applyFrameBudget(FrameRequest& request, bool eventsApplied, bool fullQuality) {
-  // The picture's parameters apart from what the budget itself sets (size, step) and the picks.
+  // The picture's parameters (its full size included: a resized view changes) apart from the
+  // picks and what the budget and the still frame's sum set below.
   gpu::RenderParams p = request.params;
-  p.dims.w = p.brickDims.w = 0;
   p.control.y = 0;
   p.quality = glm::vec4(0.0f);
   const bool sameParams = hasLastParams_ && std::memcmp(&p, &lastParams_, sizeof(p)) == 0;
@@ -73,6 +73,10 @@ FrameQuality FrameDriver::applyFrameBudget(FrameRequest& request, bool eventsApp
   const bool changing = eventsApplied || !sameParams || std::exchange(tfChanged_, false) || request.maskUpload || request.deform || request.deformFine;
   nextQuality_ = budget_.next(changing);
   if (fullQuality) nextQuality_ = FrameQuality{};
+  // Full quality: a still picture sums the jitter phases (the renderer sees when it changes; the
+  // phases depend only on the frames, so replays stay bit-identical and the settled frame is the
+  // same with a budget or without).
+  request.stillPhases = nextQuality_.full() ? kStillJitterPhases : 0;
   if (nextQuality_.full()) return nextQuality_;
   const int w = request.params.dims.w, h = request.params.brickDims.w;
   request.params.dims.w = std::max(1, int(std::lround(w * nextQuality_.scale)));

@@ -39,7 +39,12 @@ class FrameDriver {
   /// last frame's (camera, clip, overlays, moved handles), the transfer function changed or it
   /// carries a new simulation state or mask. Off: the request as it is.
   /// `fullQuality`: this frame at full quality whatever the budget says (an export's image).
+  /// A still picture at full quality with the ray jitter on then sums kStillJitterPhases jitter
+  /// phases, one a frame, showing their running mean (render/render_params.h, setStillPhase); the
+  /// settled frame is their mean, budget or none.
   FrameQuality applyFrameBudget(FrameRequest& request, bool eventsApplied, bool fullQuality = false);
+  /// The jitter phases summed in the frame last submitted (1..kStillJitterPhases; 0: none).
+  int stillPhases() const { return renderer_.stillPhasesShown(); }
   /// A frame at the session's camera over a vp-sized view, raymarched at width x height (the
   /// strain overlay as the session says).
   FrameRequest request(const Viewport& vp, int width, int height) const;

@@ -57,7 +57,7 @@ void LatencyLog::writeCsv(const std::string& path) const {
            "input_to_present_ms,input_to_display_ms,wait_ms";
     for (const auto& n : passNames) out << ",gpu_" << n << "_ms";
     for (const auto& n : stageNames) out << ",cpu_" << n << "_ms";
-    out << ",sim_state,sim_state_s,quality_scale,quality_step";
+    out << ",sim_state,sim_state_s,quality_scale,quality_step,still_phases";
     // Each simulated handle's reaction (empty fields on frames without it).
     for (int id : handleIds)
       for (const char* q : {"force_x_N", "force_y_N", "force_z_N", "torque_x_Nmm", "torque_y_Nmm", "torque_z_Nmm"}) out << ",handle" << id << "_" << q;
@@ -68,7 +68,7 @@ void LatencyLog::writeCsv(const std::string& path) const {
           << "," << f.waitMs;
       for (const auto& n : passNames) out << "," << valueOf(f.gpuMs, n);
       for (const auto& n : stageNames) out << "," << valueOf(f.cpuMs, n);
-      out << "," << (f.simState.empty() ? "off" : f.simState) << "," << f.simStateS << "," << f.qualityScale << "," << f.qualityStep;
+      out << "," << (f.simState.empty() ? "off" : f.simState) << "," << f.simStateS << "," << f.qualityScale << "," << f.qualityStep << "," << f.stillPhases;
       for (int id : handleIds) {
         const auto it = std::find_if(f.reactions.begin(), f.reactions.end(), [&](const auto& p) { return p.first == id; });
         for (int i = 0; i < 6; ++i) {

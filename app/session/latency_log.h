@@ -31,6 +31,8 @@ struct FrameTiming {
   std::vector<std::pair<int, HandleReaction>> reactions;
   /// The frame budget's quality (app/session/frame_budget.h): raymarch resolution and step scale.
   double qualityScale = 1.0, qualityStep = 1.0;
+  /// Jitter phases in the still frame shown (FrameDriver::stillPhases; 0: not a still frame's sum).
+  int stillPhases = 0;
 
   double frameMs() const { return (present - cpuStart) * 1e3; }
   /// Input-to-present latency (ms) from the oldest consumed event; negative without input.

@@ -243,6 +243,7 @@ int runReplay(const ReplayOptions& o) {
       ft.qualityStep = quality.stepScale;
       ft.cpuEnd = seconds(Clock::now(), t0);
       driver.submit(req);
+      ft.stillPhases = driver.stillPhases();
       ft.submit = seconds(Clock::now(), t0);
       const auto w0 = Clock::now();
       const FrameResult r = renderer.waitLast();

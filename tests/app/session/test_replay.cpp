@@ -193,18 +193,19 @@ TEST(Replay, WithALabelMapATapOnAnOrganMakesTheWholeLabelledOrganAHandle) {
   ASSERT_EQ(run(common, &out), 0) << out;
   EXPECT_EQ(out.find("handle 1"), std::string::npos) << out;
   EXPECT_NE(out.find("3 refused"), std::string::npos) << out;
-  // The labels are drawn as a tint from the start, and "toggle-labels" turns it off: the frame after
-  // it is the frame of a replay without labels, bit for bit; the frame before it is not.
+  // The labels are drawn as a tint from the start, and "toggle-labels" turns it off: once settled
+  // (the still frame's jitter phases summed from 0.2 s, docs/frame.md) the frame is the frame of a
+  // replay without labels, bit for bit; the frame before it is not.
   std::ofstream(dir / "toggle.json") << R"({"format": "handson-session", "version": 1, "volume": {"source": "phantom"},
     "viewport": [512, 512], "preset": "ct-abdomen", "mode": "navigate",
     "camera": {"target": [0, 0, 0], "distance": 910, "azimuth_deg": 90, "elevation_deg": 0, "roll_deg": 0, "fov_deg": 35},
-    "events": [{"t": 0.15, "ui": "toggle-labels"}]})";
+    "events": [{"t": 0.15, "ui": "toggle-labels"}, {"t": 1.2, "ui": "set-mode", "value": "navigate"}]})";
   const std::string toggle = "replay " + (dir / "toggle.json").string() + " --volume " + (dir / "ct.nii.gz").string() +
                              " --fps 10 --size 96x96 --quiet --validation --sim off --frames-out ";
   ASSERT_EQ(run(toggle + (dir / "with").string() + " --labels " + (dir / "labels.nii.gz").string(), &out), 0) << out;
   ASSERT_EQ(run(toggle + (dir / "without").string(), &out), 0) << out;
   EXPECT_NE(slurp(dir / "with" / "frame_00000.png"), slurp(dir / "without" / "frame_00000.png"));
-  EXPECT_EQ(slurp(dir / "with" / "frame_00002.png"), slurp(dir / "without" / "frame_00002.png"));
+  EXPECT_TRUE(slurp(dir / "with" / "frame_00011.png") == slurp(dir / "without" / "frame_00011.png"));
   // A label map that is no label map, or lies elsewhere, is refused before anything runs.
   ASSERT_EQ(run(common + "--labels " + (dir / "ct.nii.gz").string(), &out), 1) << out;
   EXPECT_NE(out.find("whole numbers"), std::string::npos) << out;
@@ -253,10 +254,10 @@ TEST(Replay, InClipModeADragCutsThroughThePointUnderTheFingerOrMovesABoxFaceAndI
                {"t": 0.3, "touch": "move", "id": 1, "x": 200, "y": 216}, {"t": 0.4, "touch": "up", "id": 1, "x": 200, "y": 216},
                {"t": 0.6, "touch": "down", "id": 2, "x": 256, "y": 117}, {"t": 0.7, "touch": "move", "id": 2, "x": 256, "y": 142},
                {"t": 0.8, "touch": "move", "id": 2, "x": 256, "y": 167}, {"t": 0.9, "touch": "up", "id": 2, "x": 256, "y": 167},
-               {"t": 1.0, "ui": "set-mode", "value": "window"},
-               {"t": 1.1, "touch": "down", "id": 3, "x": 300, "y": 300}, {"t": 1.2, "touch": "move", "id": 3, "x": 300, "y": 236},
-               {"t": 1.3, "touch": "move", "id": 3, "x": 300, "y": 172}, {"t": 1.4, "touch": "up", "id": 3, "x": 300, "y": 172},
-               {"t": 1.55, "ui": "reset-window"}, {"t": 1.75, "ui": "set-mode", "value": "navigate"}]})";
+               {"t": 1.8, "ui": "set-mode", "value": "window"},
+               {"t": 1.9, "touch": "down", "id": 3, "x": 300, "y": 300}, {"t": 2.0, "touch": "move", "id": 3, "x": 300, "y": 236},
+               {"t": 2.1, "touch": "move", "id": 3, "x": 300, "y": 172}, {"t": 2.2, "touch": "up", "id": 3, "x": 300, "y": 172},
+               {"t": 2.35, "ui": "reset-window"}, {"t": 3.35, "ui": "set-mode", "value": "navigate"}]})";
   std::string pick;
   ASSERT_EQ(run("pick --at 200,256 --camera 90,0,700 --size 512x512 --quiet", &pick), 0) << pick;
   double hx = 0, hy = 0, hz = 0;
@@ -288,13 +289,15 @@ TEST(Replay, InClipModeADragCutsThroughThePointUnderTheFingerOrMovesABoxFaceAndI
     std::snprintf(name, sizeof(name), "frame_%05d.png", k);
     return slurp(dir / ("f" + std::to_string(run)) / name);
   };
-  EXPECT_NE(frame(0, 0), frame(0, 10)) << "clipped";
-  EXPECT_NE(frame(0, 10), frame(0, 15)) << "windowed";
-  EXPECT_EQ(frame(0, 10), frame(0, 17)) << "reset-window";
-  for (int k = 0; k <= 17; ++k) EXPECT_EQ(frame(0, k), frame(1, k)) << k;
+  // Each state is held for at least the still frame's jitter phases (docs/frame.md), so the
+  // settled frames compare: the clip's (from 0.8 s) at 1.7 s, and the reset window's (from 2.4 s) at 3.3 s.
+  EXPECT_NE(frame(0, 0), frame(0, 17)) << "clipped";
+  EXPECT_NE(frame(0, 17), frame(0, 22)) << "windowed";
+  EXPECT_TRUE(frame(0, 17) == frame(0, 33)) << "reset-window";
+  for (int k = 0; k <= 34; ++k) EXPECT_TRUE(frame(0, k) == frame(1, k)) << k;
   // Mid-drag in window mode the level was raised by a quarter of the width: a script stopped there.
   std::string text = slurp(dir / "touch.json");
-  const auto reset = text.find(R"({"t": 1.55)");
+  const auto reset = text.find(R"({"t": 2.35)");
   ASSERT_NE(reset, std::string::npos);
   text.erase(text.rfind(',', reset), std::string::npos);
   std::ofstream(dir / "window.json") << text << "]}";
@@ -862,10 +865,11 @@ TEST(Replay, ARandomStreamOfValidAndBrokenGesturesLeavesEveryStateFinite) {
 }
 
 TEST(Replay, WithAFrameBudgetChangingFramesAreReducedAndTheStillFrameIsTheFullQualityFrameBitForBit) {
-  // An orbit drag over 0.3 s, then nothing until a no-op at 2 s: with a budget nothing fits (1 µs),
+  // An orbit drag over 0.3 s, then nothing until a no-op at 3 s: with a budget nothing fits (1 µs),
   // the frames while the camera moves are drawn at the cheapest level (the first too: nothing is
   // measured yet) and differ from the unbudgeted run's; once still, each frame refines a level,
-  // and the frame at 1.9 s equals the unbudgeted one bit for bit.
+  // then sums the jitter phases (render/render_params.h, setStillPhase), and the settled frame
+  // equals the unbudgeted one bit for bit.
   const fs::path dir = freshDir("budget");
   std::ofstream(dir / "orbit.json") << R"({"format": "handson-session", "version": 1, "volume": {"source": "phantom"},
     "viewport": [96, 96], "preset": "ct-abdomen", "mode": "navigate",
@@ -874,7 +878,7 @@ TEST(Replay, WithAFrameBudgetChangingFramesAreReducedAndTheStillFrameIsTheFullQu
                {"t": 0.1, "touch": "move", "id": 1, "x": 46, "y": 48},
                {"t": 0.2, "touch": "move", "id": 1, "x": 52, "y": 48},
                {"t": 0.3, "touch": "up", "id": 1, "x": 52, "y": 48},
-               {"t": 2.0, "ui": "set-mode", "value": "navigate"}]})";
+               {"t": 3.0, "ui": "set-mode", "value": "navigate"}]})";
   std::string out;
   for (const char* budget : {"0", "0.001"}) {
     const fs::path f = dir / (std::string("b") + budget);
@@ -888,7 +892,21 @@ TEST(Replay, WithAFrameBudgetChangingFramesAreReducedAndTheStillFrameIsTheFullQu
   EXPECT_NE(slurp(full / "frame_00002.png"), slurp(budgeted / "frame_00002.png")) << "the moving camera's frame is reduced";
   int w = 0, h = 0;
   EXPECT_EQ(handson::readPng((budgeted / "frame_00002.png").string(), w, h).size(), 96u * 96u * 4u) << "written at the full size";
-  EXPECT_EQ(slurp(full / "frame_00019.png"), slurp(budgeted / "frame_00019.png")) << "refined to the full-quality frame";
+  // Unbudgeted: the last camera move (0.2 s; lifting the finger at 0.3 s changes nothing drawn)
+  // starts the still frame's sum, each later frame adds a jitter phase (each differs from the one
+  // before) until all kStillJitterPhases are in (0.9 s); then the complete sum is shown, the same
+  // bit for bit. Budgeted: 10 refining levels from 0.4 s, then the same 8 phases (2.0 s), the
+  // same settled frame.
+  auto frame = [](const fs::path& run, int k) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%05d.png", k);
+    return slurp(run / name);
+  };
+  for (int k = 3; k <= 9; ++k) EXPECT_FALSE(frame(full, k) == frame(full, k - 1)) << "frame " << k << " adds a jitter phase";
+  EXPECT_TRUE(frame(full, 10) == frame(full, 9)) << "the complete sum, shown again";
+  EXPECT_TRUE(frame(full, 28) == frame(full, 9)) << "settled";
+  EXPECT_TRUE(frame(budgeted, 28) == frame(full, 28)) << "the budget's settled frame is the full-quality frame";
+  EXPECT_FALSE(frame(budgeted, 13) == frame(full, 28)) << "at full quality, the first phase only";
   // The timing log says which frames were reduced: the moving ones, then one level less each still frame.
   std::istringstream csv(slurp(budgeted / "t.csv"));
   std::string line;
@@ -897,13 +915,16 @@ TEST(Replay, WithAFrameBudgetChangingFramesAreReducedAndTheStillFrameIsTheFullQu
   std::vector<std::string> header;
   for (std::stringstream hs(line); std::getline(hs, line, ',');) header.push_back(line);
   const auto col = std::find(header.begin(), header.end(), "quality_scale") - header.begin();
+  const auto phasesCol = std::find(header.begin(), header.end(), "still_phases") - header.begin();
   ASSERT_LT(std::size_t(col), header.size());
-  std::vector<double> scale;
+  ASSERT_LT(std::size_t(phasesCol), header.size());
+  std::vector<double> scale, phases;
   while (std::getline(csv, line)) {
     std::vector<std::string> f;
     for (std::stringstream ls(line); std::getline(ls, line, ',');) f.push_back(line);
     ASSERT_GT(f.size(), std::size_t(col));
     scale.push_back(std::stod(f[std::size_t(col)]));
+    phases.push_back(std::stod(f[std::size_t(phasesCol)]));
   }
   ASSERT_GE(scale.size(), 20u);
   EXPECT_EQ(scale[0], 0.125);  // the cheapest level (app/session/frame_budget.cpp)
@@ -911,5 +932,9 @@ TEST(Replay, WithAFrameBudgetChangingFramesAreReducedAndTheStillFrameIsTheFullQu
   EXPECT_EQ(scale[3], 0.125);
   EXPECT_EQ(scale[19], 1.0);
   for (std::size_t k = 5; k < 19; ++k) EXPECT_GE(scale[k], scale[k - 1]) << "still frames only refine";
+  EXPECT_EQ(phases[12], 0.0) << "reduced: no sum";
+  EXPECT_EQ(phases[13], 1.0) << "full quality: the sum starts";
+  EXPECT_EQ(phases[20], 8.0);
+  EXPECT_EQ(phases[25], 8.0);
   fs::remove_all(dir);
 }
