@@ -516,16 +516,29 @@ TEST_F(GpuPasses, APickOnAThinLayerOverAHandleReportsTheHandleWithinReachAndNotB
   useTf(s, transferFunctionPreset("ct-abdomen"));
 }
 
-TEST_F(GpuPasses, AJitteredStillFrameSumsItsPhasesAsTheCpuReferenceDoesAndSettles) {
-  // A long step (3x the default) on the bone preset: where the jitter matters. Phases 0..7 summed
-  // one a frame, then the complete sum shown: the GPU's running means against the CPU reference's
-  // (the same blue-noise tile and phase shifts), and the settled frame against the last mean.
-  Scene& s = scene();
-  useTf(s, transferFunctionPreset("ct-bone"));
+namespace {
+// The jitter tests' view: the bone preset at a long step (3x the default: where the jitter matters).
+struct JitterView {
   RenderSettings rs;
-  rs.width = rs.height = 72;
-  rs.stepFactor = 1.5f;
-  const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), glm::radians(35.0), glm::radians(20.0));
+  OrbitCamera cam;
+};
+JitterView jitterView(Scene& s, int size) {
+  useTf(s, transferFunctionPreset("ct-bone"));
+  JitterView v{RenderSettings{}, OrbitCamera::framing(s.phantom.ct.geometry(), glm::radians(35.0), glm::radians(20.0))};
+  v.rs.width = v.rs.height = size;
+  v.rs.stepFactor = 1.5f;
+  return v;
+}
+}  // namespace
+
+TEST_F(GpuPasses, AJitteredStillFrameSumsItsPhasesAsTheCpuReferenceDoesAndSettles) {
+  // Phases 0..7 summed one a frame, then the complete sum shown: the GPU's running means against
+  // the CPU reference's (the same blue-noise tile and phase shifts), and the settled frame against
+  // the last mean.
+  Scene& s = scene();
+  const JitterView v = jitterView(s, 72);
+  const RenderSettings& rs = v.rs;
+  const OrbitCamera& cam = v.cam;
   const gpu::RenderParams base = paramsFor(s, cam, rs);
   ASSERT_TRUE(base.control.x & gpu::kFlagJitter) << "jitter is on by default";
   const ReferenceScene ref{&s.q, &s.lut, &s.renderer->occupancy()};
@@ -566,10 +579,9 @@ TEST_F(GpuPasses, TheJitteredStillFrameHasNoWoodGrain) {
   // jitter), the error's band-scale structure must fall to under half with jitter and the phase
   // sum (measured on lavapipe: 2.8 -> 0.9 in 1/255 units; the shader without jitter: unchanged).
   Scene& s = scene();
-  useTf(s, transferFunctionPreset("ct-bone"));
-  RenderSettings rs;
-  rs.width = rs.height = 96;
-  const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), glm::radians(35.0), glm::radians(20.0));
+  JitterView v = jitterView(s, 96);
+  RenderSettings& rs = v.rs;
+  const OrbitCamera& cam = v.cam;
   rs.jitter = false;
   rs.stepFactor = 0.125f;
   const auto truth = renderGpu(s, paramsFor(s, cam, rs)).rgba;
@@ -622,11 +634,9 @@ TEST_F(GpuPasses, TheRendererSumsAStillPictureAndStartsAnewWhenItChanges) {
   // parameters (the handle tints) or of them (the camera) starts a new sum: one phase, the image of
   // a first phase of the new picture.
   Scene& s = scene();
-  useTf(s, transferFunctionPreset("ct-bone"));
-  RenderSettings rs;
-  rs.width = rs.height = 64;
-  rs.stepFactor = 1.5f;
-  const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), glm::radians(35.0), glm::radians(20.0));
+  const JitterView v = jitterView(s, 64);
+  const RenderSettings& rs = v.rs;
+  const OrbitCamera& cam = v.cam;
   FrameRequest req;
   req.params = paramsFor(s, cam, rs);
   req.stillPhases = kStillJitterPhases;
