@@ -138,6 +138,12 @@ void writeFrame(const std::string& dir, int k, const FrameResult& r, const Viewp
 SessionScript builtInDemoScript() { return parseSessionScript(kOrbitAndZoomScript, "built-in orbit-and-zoom script"); }
 SessionScript builtInFullSessionScript() { return parseSessionScript(kScenario_full_session, "built-in full-session script"); }
 
+// The timing log's header: where a headless replay's times come from.
+const std::vector<std::string> kReplayLogNotes = {
+    "clock: seconds since the replay started on the steady clock",
+    "headless replay: input times are when each scripted event was applied; no window, so present_s is when the frame's results were "
+    "read back and displayed_s is -1"};
+
 int runReplay(const ReplayOptions& o) {
   checkReplayOptions(o);
   SessionScript script = o.scriptData ? *o.scriptData : o.script.empty() ? builtInDemoScript() : readSessionScript(o.script);
@@ -199,9 +205,7 @@ int runReplay(const ReplayOptions& o) {
   const int frames = o.frames > 0 ? o.frames : int(std::floor(script.duration() * o.fps)) + 2;  // through the last event, plus one
   std::size_t next = 0, refused = 0;
   LatencyLog log(o.timings.empty() ? kSummaryFrames : 0);  // bounded unless the whole log is to be written
-  log.setNotes({"clock: seconds since the replay started on the steady clock",
-                "headless replay: input times are when each scripted event was applied; no window, so present_s is when the frame's "
-                "results were read back and displayed_s is -1"});
+  log.setNotes(kReplayLogNotes);
   // A failure under the session (a Vulkan allocation, a lost device, running out of memory) ends
   // the replay with the session so far saved beside the exports.
   auto rescue = [&] { return saveRecovery(session, selection.handles(), selection.picked(), volume.dims(), o.exportDir); };
