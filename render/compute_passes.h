@@ -30,7 +30,11 @@ class RaymarchPass {
  public:
   explicit RaymarchPass(const Context& ctx);
   /// `nearest`: the strain, label and limit images' sampler (texelFetch only).
-  void add(fg::FrameGraph& graph, const MarchInputs& in, fg::ResourceHandle output, const Sampler& sampler, const Sampler& nearest);
+  /// `showOnly`: the frame only shows a complete still-frame sum (RenderParams.quality.w = 1; no
+  /// ray is marched), timed as "still-frame" rather than "raymarch" so that frame budgets do not
+  /// take its time for a raymarch's.
+  void add(fg::FrameGraph& graph, const MarchInputs& in, fg::ResourceHandle output, const Sampler& sampler, const Sampler& nearest,
+           bool showOnly = false);
 
  private:
   const Context& ctx_;

@@ -9,12 +9,13 @@ namespace handson::vk {
 
 RaymarchPass::RaymarchPass(const Context& ctx) : ctx_(ctx), pipeline_(ctx, shaders::raymarch(), marchBindingsFor(false), 0) {}
 
-void RaymarchPass::add(fg::FrameGraph& graph, const MarchInputs& in, fg::ResourceHandle output, const Sampler& sampler, const Sampler& nearest) {
+void RaymarchPass::add(fg::FrameGraph& graph, const MarchInputs& in, fg::ResourceHandle output, const Sampler& sampler, const Sampler& nearest,
+                       bool showOnly) {
   if (!in.strain.valid() || !in.labels.valid() || !in.overLimit.valid() || !in.jitter.valid() || !in.accum.valid())
     throw Error("raymarch: no strain, label, limit or accumulation image or jitter tile (bind a small one when there is none)");
   const fg::ImageDesc desc = graph.resource(output).image;
   graph.addPass(
-      "raymarch",
+      showOnly ? "still-frame" : "raymarch",
       [&](fg::PassBuilder& b) {
         declareMarchInputs(b, in);
         b.read(in.strain, fg::Access::Sampled);

@@ -127,10 +127,15 @@ VKAPI_ATTR VkBool32 VKAPI_CALL Context::debugCallback(VkDebugUtilsMessageSeverit
   const std::string text = data && data->pMessage ? data->pMessage : "(no message)";
   // vkWaitForPresentKHR may run beside acquire and present on the same swapchain (the spec's
   // exception to external synchronization); validation layers before 1.3.270 report it as a
-  // threading error. Only that report is ignored, and only with present wait on.
-  if (self->presentWait_ && data && data->pMessageIdName && std::strncmp(data->pMessageIdName, "UNASSIGNED-Threading", 20) == 0)
-    for (std::uint32_t i = 0; i < data->objectCount; ++i)
+  // threading error. Only that report is ignored (a swapchain used by one of those three calls),
+  // and only with present wait on: creating, retiring or destroying one during a wait is not.
+  if (self->presentWait_ && data && data->pMessageIdName && std::strncmp(data->pMessageIdName, "UNASSIGNED-Threading", 20) == 0) {
+    const bool presentCalls = (text.find("vkWaitForPresentKHR") != std::string::npos || text.find("vkAcquireNextImageKHR") != std::string::npos ||
+                               text.find("vkQueuePresentKHR") != std::string::npos) &&
+                              text.find("vkCreateSwapchainKHR") == std::string::npos && text.find("vkDestroySwapchainKHR") == std::string::npos;
+    for (std::uint32_t i = 0; i < data->objectCount && presentCalls; ++i)
       if (data->pObjects[i].objectType == VK_OBJECT_TYPE_SWAPCHAIN_KHR) return VK_FALSE;
+  }
   self->messageCount_.fetch_add(1);
   {
     std::lock_guard<std::mutex> lock(self->messageMutex_);

@@ -99,6 +99,8 @@ void Swapchain::destroyImages() {
 bool Swapchain::recreate(VkExtent2D size) {
   VkDevice dev = ctx_.device();
   vkDeviceWaitIdle(dev);
+  // The waiter lets go of the swapchain before it is retired (oldSwapchain below) or destroyed.
+  if (timer_) timer_->drain(std::chrono::milliseconds(200));
   VkSurfaceCapabilitiesKHR caps;
   check(vkGetPhysicalDeviceSurfaceCapabilitiesKHR(ctx_.physicalDevice(), ctx_.surface(), &caps), "vkGetPhysicalDeviceSurfaceCapabilitiesKHR");
   VkExtent2D extent = caps.currentExtent.width != UINT32_MAX ? caps.currentExtent : size;
@@ -140,7 +142,6 @@ bool Swapchain::recreate(VkExtent2D size) {
   VkSwapchainKHR created = VK_NULL_HANDLE;
   check(vkCreateSwapchainKHR(dev, &ci, nullptr, &created), "vkCreateSwapchainKHR");
   destroyImages();
-  if (timer_) timer_->drain(std::chrono::milliseconds(200));  // the waiter lets go of the old swapchain
   if (swapchain_) vkDestroySwapchainKHR(dev, swapchain_, nullptr);
   swapchain_ = created;
   extent_ = extent;

@@ -282,11 +282,11 @@ void VolumeRenderer::sumStillFrame(const FrameRequest& req, gpu::RenderParams& p
   key.control.y = 0;
   key.control.x &= ~gpu::kFlagAccumulate;
   key.quality.y = key.quality.z = key.quality.w = 0.0f;
-  const bool same = still_.count > 0 && still_.version == contentVersion_ && !req.maskUpload && !req.deform && !req.deformFine &&
-                    std::memcmp(&key, &still_.key, sizeof key) == 0;
-  const int before = same ? std::min(still_.count, req.stillPhases) : 0;
+  const bool same = still_.count > 0 && still_.version == contentVersion_ && still_.phases == req.stillPhases && !req.maskUpload &&
+                    !req.deform && !req.deformFine && std::memcmp(&key, &still_.key, sizeof key) == 0;
+  const int before = same ? still_.count : 0;
   setStillPhase(params, before, req.stillPhases);
-  still_ = {key, contentVersion_, std::min(before + 1, req.stillPhases)};
+  still_ = {key, contentVersion_, req.stillPhases, std::min(before + 1, req.stillPhases)};
   stillShown_ = still_.count;
 }
 
@@ -381,7 +381,7 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   std::memcpy(s.params->mapped(), &params, sizeof(params));
   s.params->flush();
   auto color = g.createImage("color", {std::uint32_t(w), std::uint32_t(h), 1, fg::Format::Rgba8Unorm});
-  raymarch_.add(g, in, color, linear_, nearest_);
+  raymarch_.add(g, in, color, linear_, nearest_, accumulate && params.quality.w > 0.5f);
 
   fg::ResourceHandle imageHost, pickIn, pickOut, pickHost;
   s.width = w;

@@ -145,6 +145,7 @@ class VolumeRenderer {
   struct StillSum {
     gpu::RenderParams key{};     ///< the summed picture's parameters (picks and the sum's own fields cleared)
     std::uint64_t version = 0;   ///< contentVersion_ when it started
+    int phases = 0;              ///< the phases it sums to (FrameRequest::stillPhases)
     int count = 0;               ///< phases in it (0: none)
   } still_;
   int stillShown_ = 0;

@@ -14,8 +14,13 @@ namespace {
 constexpr FrameQuality kLevelTable[FrameBudget::kLevels] = {
     {1.0, 1.0}, {0.85, 1.0}, {0.7, 1.0}, {0.7, 1.5}, {0.5, 1.5}, {0.5, 2.0}, {0.35, 2.0}, {0.25, 2.0}, {0.25, 3.0}, {0.18, 3.0}, {0.125, 4.0},
 };
-// Each measured frame's weight in the running averages.
+// Each measured frame's weight in the running averages when a cost falls; a rising cost is taken
+// at once (the measurements arrive a frame or two late, and a zoom that makes every ray cross the
+// volume raises the cost from frame to frame: a frame over the budget is what the budget is for).
 constexpr double kWeight = 0.5;
+
+// The running average of a cost: rises at once, falls by kWeight of the difference.
+void follow(double& average, double measured) { average = measured > average ? measured : average + kWeight * (measured - average); }
 }  // namespace
 
 std::vector<std::uint8_t> upscaleRgba(const std::vector<std::uint8_t>& rgba, int w, int h, int W, int H) {
@@ -72,8 +77,8 @@ void FrameBudget::measured(const FrameQuality& q, double raymarchMs, double othe
     rayFullMs_ = full;
     otherMs_ = otherMs;
   } else {
-    rayFullMs_ += kWeight * (full - rayFullMs_);
-    otherMs_ += kWeight * (otherMs - otherMs_);
+    follow(rayFullMs_, full);
+    follow(otherMs_, otherMs);
   }
 }
 

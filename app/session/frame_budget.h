@@ -9,8 +9,9 @@
 //
 // The prediction: a frame's GPU time = the other passes' time (deformation, growth: what the
 // budget cannot scale) + the raymarch at full quality x the level's relative cost, scale² / step
-// scale (pixels x samples per ray). Both are averaged over recent frames (each measured frame
-// counts half), the raymarch's time divided by the relative cost it was drawn at.
+// scale (pixels x samples per ray). Both follow the measured frames, the raymarch's time divided
+// by the relative cost it was drawn at: a rising cost at once, a falling one by half the
+// difference each frame.
 #include <cstddef>
 #include <cstdint>
 #include <vector>

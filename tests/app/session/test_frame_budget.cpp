@@ -84,9 +84,12 @@ TEST(FrameBudget, TheAveragesFollowRecentFramesAndIgnoreBadTimes) {
   FrameBudget b(100.0);
   b.measured(FrameQuality{}, 400.0, 0.0);
   EXPECT_NEAR(b.predictedMs(0), 400.0, 1e-9);
-  // Half weight to each new frame, the raymarch's time taken back to full quality.
+  // A falling cost moves half way to each new frame's (the raymarch's time taken back to full
+  // quality); a rising one is taken at once (the other passes: 0 -> 10 ms).
   b.measured(FrameBudget::level(4), 200.0 * FrameBudget::level(4).relativeCost(), 10.0);
-  EXPECT_NEAR(b.predictedMs(0), 0.5 * 400.0 + 0.5 * 200.0 + 5.0, 1e-9);
+  EXPECT_NEAR(b.predictedMs(0), 0.5 * 400.0 + 0.5 * 200.0 + 10.0, 1e-9);
+  b.measured(FrameBudget::level(2), 900.0 * FrameBudget::level(2).relativeCost(), 0.0);
+  EXPECT_NEAR(b.predictedMs(0), 900.0 + 5.0, 1e-9) << "a zoom made every ray longer: the next frame knows at once";
   const double before = b.predictedMs(0);
   b.measured(FrameQuality{}, std::numeric_limits<double>::quiet_NaN(), 1.0);
   b.measured(FrameQuality{}, -3.0, 1.0);
