@@ -260,14 +260,8 @@ void Context::pickDevice(const ContextOptions& options) {
       if (q[f].queueFlags & VK_QUEUE_COMPUTE_BIT) family = int(f);
     if (family < 0) continue;
     // Push descriptors are required.
-    std::uint32_t en = 0;
-    vkEnumerateDeviceExtensionProperties(devs[i], nullptr, &en, nullptr);
-    std::vector<VkExtensionProperties> ext(en);
-    vkEnumerateDeviceExtensionProperties(devs[i], nullptr, &en, ext.data());
-    bool ok = std::any_of(ext.begin(), ext.end(),
-                          [](const auto& e) { return std::strcmp(e.extensionName, VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME) == 0; });
-    for (const auto& need : options.deviceExtensions)
-      ok = ok && std::any_of(ext.begin(), ext.end(), [&](const auto& e) { return need == e.extensionName; });
+    bool ok = deviceHasExtension(devs[i], VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME);
+    for (const auto& need : options.deviceExtensions) ok = ok && deviceHasExtension(devs[i], need.c_str());
     if (!ok) continue;
     usable.push_back({devs[i], p, std::uint32_t(family), int(i)});
   }

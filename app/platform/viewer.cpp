@@ -197,14 +197,8 @@ struct Viewer::Impl {
   void frameInFreeArea(const Viewport& vp);
   /// The display times of presented frames (VK_KHR_present_wait) into the timing log.
   void takeDisplayTimes() {
-    for (const auto& shown : swapchain->takeShown()) {
-      log.setDisplayed(shown.tag, seconds(shown.at, t0));
-      for (auto it = log.frames().rbegin(); it != log.frames().rend(); ++it)
-        if (it->frame == shown.tag && it->displayLatencyMs() >= 0.0) {
-          status.displayLatencyMs = it->displayLatencyMs();
-          break;
-        }
-    }
+    for (const auto& shown : swapchain->takeShown())
+      if (const double ms = log.setDisplayed(shown.tag, seconds(shown.at, t0)); ms >= 0.0) status.displayLatencyMs = ms;
   }
   std::string rescue() const {
     if (!session || !selection) return "nothing to save yet";

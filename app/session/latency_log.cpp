@@ -27,12 +27,13 @@ void LatencyLog::setGpuTimes(std::uint64_t frame, const std::vector<std::pair<st
     }
 }
 
-void LatencyLog::setDisplayed(std::uint64_t frame, double t) {
+double LatencyLog::setDisplayed(std::uint64_t frame, double t) {
   for (auto it = frames_.rbegin(); it != frames_.rend(); ++it)
     if (it->frame == frame) {
       it->displayed = t;
-      return;
+      return it->displayLatencyMs();
     }
+  return -1.0;
 }
 
 void LatencyLog::writeCsv(const std::string& path) const {

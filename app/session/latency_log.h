@@ -54,8 +54,9 @@ class LatencyLog {
   }
   /// GPU times arrive a frame or two later (non-blocking readback): attach them afterwards.
   void setGpuTimes(std::uint64_t frame, const std::vector<std::pair<std::string, double>>& passes);
-  /// Display times arrive later still (render/present_timer.h).
-  void setDisplayed(std::uint64_t frame, double t);
+  /// Display times arrive later still (render/present_timer.h). Returns the frame's
+  /// input-to-display latency (ms; negative without input or for a frame no longer kept).
+  double setDisplayed(std::uint64_t frame, double t);
   /// Lines for the CSV's header: where the input, present and display times come from.
   void setNotes(std::vector<std::string> notes) { notes_ = std::move(notes); }
   const std::deque<FrameTiming>& frames() const { return frames_; }
