@@ -12,6 +12,12 @@
 
 namespace handson::vk {
 
+float GpuDeformer::commitFor(Redo redo) const {
+  // The bricks' lag is kept per brick (deform_bricks.comp): every node takes its exact position.
+  if (redo == Redo::BricksDuringMotion || redo == Redo::Bricks) return 0.0f;
+  return commit_;
+}
+
 using deform::kParams;
 using deform::kSsbo;
 
@@ -46,7 +52,7 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slo
         b.write(hb.posNew, Access::StorageReadWrite);
         b.write(hb.posOld, Access::StorageWrite);
       },
-      [this, hb, nodeGroups, commit = commit_](fg::Executor& e) {
+      [this, hb, nodeGroups, commit = commitFor(redo)](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, interpolate_.pipeline());
         DescriptorWriter w;

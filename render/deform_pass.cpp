@@ -44,6 +44,11 @@ void readImage(const Context& ctx, const Image& img, void* dst, VkDeviceSize byt
 
 }  // namespace
 
+std::uint64_t DeformFrameStats::redoneVoxels() const {
+  if (bricks) return std::uint64_t(dirtyBricks) * HANDSON_DEFORM_BRICK * HANDSON_DEFORM_BRICK * HANDSON_DEFORM_BRICK;
+  return boxVoxels();
+}
+
 std::uint64_t DeformFrameStats::boxVoxels() const {
   if ((boxLo.array() > boxHi.array()).any()) return 0;
   const Eigen::Vector3i d = boxHi - boxLo + Eigen::Vector3i::Ones();
@@ -81,8 +86,16 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
                                       {gpu::kBindDeformBoundsTets, kSsbo},
                                       {gpu::kBindDeformBoundsPosNew, kSsbo},
                                       {gpu::kBindDeformBoundsPosOld, kSsbo},
-                                      {gpu::kBindDeformBoundsBox, kSsbo}}),
+                                      {gpu::kBindDeformBoundsBox, kSsbo},
+                                      {gpu::kBindDeformBoundsBrickMotion, kSsbo}}),
                             0);
+  bricks_ = ComputePipeline(ctx, shaders::deformBricks(),
+                            bindings({{gpu::kBindDeformBricksParams, kParams},
+                                      {gpu::kBindDeformBricksBox, kSsbo},
+                                      {gpu::kBindDeformBricksFlags, kSsbo},
+                                      {gpu::kBindDeformBricksList, kSsbo},
+                                      {gpu::kBindDeformBricksLag, kSsbo}}),
+                            8);
   args_ = ComputePipeline(
       ctx, shaders::deformArgs(),
       bindings({{gpu::kBindDeformArgsParams, kParams}, {gpu::kBindDeformArgsBox, kSsbo}, {gpu::kBindDeformArgsArgs, kSsbo}}), 4);
@@ -93,7 +106,8 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
                                      {gpu::kBindDeformClearSourceMask, kSampled},
                                      {gpu::kBindDeformClearOut, kStorageImage},
                                      {gpu::kBindDeformClearOutMask, kStorageImage},
-                                     {gpu::kBindDeformClearOwner, kSsbo}}),
+                                     {gpu::kBindDeformClearOwner, kSsbo},
+                                     {gpu::kBindDeformClearBrickList, kSsbo}}),
                            0);
   claim_ = ComputePipeline(ctx, shaders::deformClaim(),
                            bindings({{gpu::kBindDeformClaimParams, kParams},
@@ -102,7 +116,8 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
                                      {gpu::kBindDeformClaimBox, kSsbo},
                                      {gpu::kBindDeformClaimOwner, kSsbo},
                                      {gpu::kBindDeformClaimRestIdx, kSsbo},
-                                     {gpu::kBindDeformClaimAffine, kSsbo}}),
+                                     {gpu::kBindDeformClaimAffine, kSsbo},
+                                     {gpu::kBindDeformClaimBrickFlags, kSsbo}}),
                            0);
   resolve_ = ComputePipeline(ctx, shaders::deformResolve(),
                              bindings({{gpu::kBindDeformResolveParams, kParams},
@@ -112,7 +127,8 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
                                        {gpu::kBindDeformResolveSource, kSampled},
                                        {gpu::kBindDeformResolveSourceMask, kSampled},
                                        {gpu::kBindDeformResolveOut, kStorageImage},
-                                       {gpu::kBindDeformResolveOutMask, kStorageImage}}),
+                                       {gpu::kBindDeformResolveOutMask, kStorageImage},
+                                       {gpu::kBindDeformResolveBrickList, kSsbo}}),
                              0);
   strain_ = ComputePipeline(ctx, shaders::deformStrain(),
                             bindings({{gpu::kBindDeformStrainParams, kParams},
@@ -128,7 +144,8 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
                                             {gpu::kBindDeformStrainRasterStrain, kSsbo},
                                             {gpu::kBindDeformStrainRasterOut, kStorageImage},
                                             {gpu::kBindDeformStrainRasterLimits, kSsbo},
-                                            {gpu::kBindDeformStrainRasterLimitOut, kStorageImage}}),
+                                            {gpu::kBindDeformStrainRasterLimitOut, kStorageImage},
+                                            {gpu::kBindDeformStrainRasterBrickList, kSsbo}}),
                                   0);
 
   params_ = Buffer(ctx, sizeof(gpu::DeformParams), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::Device);
@@ -151,6 +168,13 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   prev_ = uploaded(ctx, restIdx);
   if (!(setup.commitVoxels >= 0.0) || !std::isfinite(setup.commitVoxels)) throw Error("deformation: the commit threshold must be a finite number >= 0");
   commit_ = float(setup.commitVoxels);
+  if (!(setup.motionLagVoxels >= 0.0) || !(setup.motionLagVoxels <= 4.0))
+    throw Error("deformation: the lag allowed during motion must be between 0 and 4 voxels");
+  motionLag_ = float(setup.motionLagVoxels);
+  const std::vector<std::uint32_t> noBricks(std::size_t(p_.bricks.w), 0u);
+  brickFlags_ = uploaded(ctx, noBricks);
+  brickList_ = uploaded(ctx, noBricks);
+  brickLag_ = uploaded(ctx, std::vector<float>(std::size_t(p_.bricks.w), 0.0f));
   box_ = Buffer(ctx, sizeof(gpu::DeformBox), kStorageUsage, Buffer::Memory::Device);
   argsBuffer_ = Buffer(ctx, 16, kStorageUsage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, Buffer::Memory::Device);
   owner_ = Buffer(ctx, valid.ownerBytes, kStorageUsage, Buffer::Memory::Device);
@@ -202,6 +226,9 @@ void GpuDeformer::importResources(fg::FrameGraph& g, std::uint32_t slot, bool wi
   h.args = buf("deform-args", argsBuffer_, Access::IndirectRead);
   h.owner = buf("deform-owner", owner_, Access::StorageReadWrite);
   h.affine = buf("deform-tet-maps", affine_, Access::StorageReadWrite);
+  h.brickFlags = buf("deform-brick-flags", brickFlags_, Access::StorageReadWrite);
+  h.brickList = buf("deform-brick-list", brickList_, Access::StorageReadWrite);
+  h.brickLag = buf("deform-brick-lag", brickLag_, Access::StorageReadWrite);
   if (withState) {
     const Slot& s = slots_[slot];
     h.positions = buf("coarse-positions", *s.positions, Access::HostWrite);
@@ -246,6 +273,9 @@ void GpuDeformer::bind(GraphExecutor& x) {
   x.bindBuffer(h.args, argsBuffer_);
   x.bindBuffer(h.owner, owner_);
   x.bindBuffer(h.affine, affine_);
+  x.bindBuffer(h.brickFlags, brickFlags_);
+  x.bindBuffer(h.brickList, brickList_);
+  x.bindBuffer(h.brickLag, brickLag_);
   if (h.fineUpload.valid()) x.bindBuffer(h.fineUpload, *s.fine);
   if (h.strain.valid()) x.bindBuffer(h.strain, *strainBuffer_);
   if (h.strainVolume.valid()) x.bindImage(h.strainVolume, strainVolume_);
@@ -264,6 +294,13 @@ void GpuDeformer::bind(GraphExecutor& x) {
 
 DeformFrameStats GpuDeformer::runFrame(const CoarseFrameState& state, Redo redo) {
   return runOwn([&](fg::FrameGraph& g) { addPasses(g, 0, state, redo); });
+}
+
+DeformFrameStats GpuDeformer::settle(const CoarseFrameState& state, bool withStrain) {
+  return runOwn([&](fg::FrameGraph& g) {
+    addPasses(g, 0, state, Redo::Bricks);
+    if (withStrain) addStrainPass(g);
+  });
 }
 
 DeformFrameStats GpuDeformer::runFrame(const std::vector<Eigen::Vector4f>& indexPositions) {
@@ -305,6 +342,9 @@ DeformFrameStats GpuDeformer::runOwn(const std::function<void(fg::FrameGraph&)>&
   st.movedTets = b.stats.x;
   st.coveredVoxels = b.stats.y;
   st.skippedTets = b.stats.z;
+  st.bricks = b.bricks.x != 0;
+  st.dirtyBricks = b.bricks.y;
+  st.allBricks = b.bricks.z != 0;
   st.timings = x.completedTimings();
   return st;
 }

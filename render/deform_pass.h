@@ -35,6 +35,11 @@ struct DeformSetup {
   /// one by at most this fraction of the largest neighbouring voxel difference (~1 HU at a
   /// 1000 HU edge), with no drift (the comparison is against the position taken, not last frame's).
   double commitVoxels = 1e-3;
+  /// Frames during motion (Redo::BricksDuringMotion) redo a brick only once the tissue around it
+  /// may have moved more than this many voxels (along any axis) since the brick was last resampled:
+  /// its image may lag the tissue by that much. A settled frame (Redo::Bricks) redoes every brick
+  /// whose tissue moved at all. docs/gpu-deformation.md states what it means in HU.
+  double motionLagVoxels = 0.25;
   /// Tets whose voxel range in the region exceeds this are skipped and counted (a torn state must
   /// not make one invocation loop for seconds); 0: defaultMaxTetVoxels of the rest mesh.
   std::uint64_t maxTetVoxels = 0;
@@ -46,7 +51,14 @@ struct DeformSetup {
 
 /// What a frame redoes.
 enum class Redo {
-  Moved,       ///< the box of the tets that moved since the last frame (the interactive path)
+  /// The bricks (HANDSON_DEFORM_BRICK voxels a side) whose tissue may have moved more than
+  /// motionLagVoxels since they were last resampled, redone at the exact fine positions; the others
+  /// keep their image: the interactive path during motion.
+  BricksDuringMotion,
+  /// Every brick whose tissue moved at all since it was last resampled: the settled frame after
+  /// motion, equal to a whole redo bit for bit; refined positions.
+  Bricks,
+  Moved,       ///< the box of the tets that moved since the last frame (the baseline before bricks)
   Region,      ///< every voxel of the simulated region
   WholeVolume  ///< every voxel of the volume (the baseline: a resampler without dirty regions)
 };
@@ -54,7 +66,12 @@ enum class Redo {
 struct DeformFrameStats {
   Eigen::Vector3i boxLo{0, 0, 0}, boxHi{-1, -1, -1};  ///< voxels redone (inclusive; empty when lo > hi)
   std::uint32_t movedTets = 0, coveredVoxels = 0, skippedTets = 0;
+  bool bricks = false;           ///< the frame redid dirty bricks (Redo::Bricks*), not the box
+  std::uint32_t dirtyBricks = 0;  ///< bricks redone (brick mode)
+  bool allBricks = false;         ///< every brick was redone: a moved tet spanned too many to mark
   std::uint64_t boxVoxels() const;
+  /// Voxels redone: the box's, or the dirty bricks' (each counted whole, HANDSON_DEFORM_BRICK³).
+  std::uint64_t redoneVoxels() const;
   std::vector<PassTiming> timings;
 };
 
@@ -118,6 +135,9 @@ class GpuDeformer {
 
   /// One frame on its own graph and executor, waited for; returns the box and counters.
   DeformFrameStats runFrame(const CoarseFrameState& state, Redo redo = Redo::Moved);
+  /// One Redo::Bricks frame from `state` (with the strain passes if asked) on its own graph, waited
+  /// for: the images at the state's exact answer (the caller's frames must not be in flight).
+  DeformFrameStats settle(const CoarseFrameState& state, bool withStrain);
   /// Resamples the region from fine node positions computed elsewhere (voxel index space: the
   /// fine reference, the two-level refinement), uploaded whole (for the command line, not frames).
   DeformFrameStats runFrame(const std::vector<Eigen::Vector4f>& indexPositions);
@@ -135,6 +155,8 @@ class GpuDeformer {
   void importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState, fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {},
                        const Outputs& outputs = {});
   Outputs addResamplePasses(fg::FrameGraph& g, Redo redo);
+  /// The interpolation's commit threshold (voxels) for a frame of this kind.
+  float commitFor(Redo redo) const;
   DeformFrameStats runOwn(const std::function<void(fg::FrameGraph&)>& build);
 
   struct Slot {
@@ -144,8 +166,10 @@ class GpuDeformer {
   const Image& source_;
   const Image& sourceMask_;
   Sampler nearest_;  ///< the shaders only texelFetch
-  ComputePipeline interpolate_, bounds_, args_, clear_, claim_, resolve_, strain_, strainRaster_;
+  ComputePipeline interpolate_, bounds_, bricks_, args_, clear_, claim_, resolve_, strain_, strainRaster_;
   Buffer params_, nodeInfo_, rest_, blocks_, elementCorners_, coarseRest_, tetBuffer_, restIdx_, pos_, prev_, box_, argsBuffer_, owner_, affine_;
+  Buffer brickFlags_, brickList_;  ///< uint per brick: this frame's motion, then 1 = redo; the redone ones listed
+  Buffer brickLag_;                ///< float per brick: the lag accumulated since it was last resampled
   Image volume_, mask_;
   std::vector<Slot> slots_;
   std::unique_ptr<GraphExecutor> ownExecutor_;
@@ -157,10 +181,10 @@ class GpuDeformer {
   gpu::DeformParams p_{};
   std::size_t nodes_ = 0, tets_ = 0, coarseNodes_ = 0, coarseElements_ = 0;
   std::uint32_t handles_ = 0;
-  float commit_ = 1e-3f;
+  float commit_ = 1e-3f, motionLag_ = 0.25f;
   struct Bound {
     fg::ResourceHandle params, nodeInfo, rest, blocks, elementCorners, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, affine, source, sourceMask,
-        volume, mask, positions, rotations, handles, strain, strainVolume, strainLimits, overLimitVolume;
+        volume, mask, positions, rotations, handles, strain, strainVolume, strainLimits, overLimitVolume, brickFlags, brickList, brickLag;
     std::uint32_t slot = 0;
     fg::ResourceHandle fineUpload;
     bool withState = false, onlyOutputs = false;

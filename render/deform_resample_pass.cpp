@@ -1,6 +1,6 @@
-// Resampling: the box of voxels whose tissue moved (deform_bounds.comp, deform_args.comp), then the
-// tetrahedral rasterization of the fine mesh into the deformed volume and mask over that box
-// (deform_clear.comp, deform_claim.comp, deform_resolve.comp).
+// Resampling: the box or the bricks of voxels whose tissue moved (deform_bounds.comp,
+// deform_bricks.comp, deform_args.comp), then the tetrahedral rasterization of the fine mesh into
+// the deformed volume and mask over them (deform_clear.comp, deform_claim.comp, deform_resolve.comp).
 #include <climits>
 
 #include "deform_descriptors.h"
@@ -10,6 +10,13 @@
 #include "vk_context.h"
 
 namespace handson::vk {
+
+namespace {
+struct BricksPush {  // deform_bricks.comp's push constants
+  float lag;
+  std::uint32_t settle;
+};
+}  // namespace
 
 using deform::kParams;
 using deform::kSampled;
@@ -21,9 +28,16 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
   const Bound hb = h_;
   const gpu::DeformParams p = p_;
   const std::uint32_t tetGroups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
+  const std::uint32_t brickGroups = std::uint32_t((p.bricks.w + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
+  const bool bricks = redo == Redo::Bricks || redo == Redo::BricksDuringMotion;
   g.addPass(
-      "deform-reset", [&](fg::PassBuilder& b) { b.write(hb.box, Access::TransferDst); },
-      [hb, p, redo](fg::Executor& e) {
+      "deform-reset",
+      [&](fg::PassBuilder& b) {
+        b.write(hb.box, Access::TransferDst);
+        if (bricks) b.write(hb.brickFlags, Access::TransferDst);
+        if (redo == Redo::Region || redo == Redo::WholeVolume) b.write(hb.brickLag, Access::TransferDst);
+      },
+      [hb, p, redo, bricks](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         gpu::DeformBox init{};
         if (redo == Redo::Region) {
@@ -36,9 +50,14 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
           init.lo = glm::ivec4(INT_MAX);
           init.hi = glm::ivec4(INT_MIN);
         }
+        init.bricks.x = bricks ? 1u : 0u;
         vkCmdUpdateBuffer(x.cmd(), x.buffer(hb.box).handle(), 0, sizeof(init), &init);
+        if (bricks) vkCmdFillBuffer(x.cmd(), x.buffer(hb.brickFlags).handle(), 0, VK_WHOLE_SIZE, 0u);
+        // A redo of the region leaves no brick lagging (the box of a moved-box frame is exact too,
+        // at its own commit threshold, and adds no lag).
+        if (redo == Redo::Region || redo == Redo::WholeVolume) vkCmdFillBuffer(x.cmd(), x.buffer(hb.brickLag).handle(), 0, VK_WHOLE_SIZE, 0u);
       });
-  if (redo == Redo::Moved)
+  if (redo == Redo::Moved || bricks)
     g.addPass(
         "deform-bounds",
         [&](fg::PassBuilder& b) {
@@ -47,6 +66,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
           b.read(hb.posNew, Access::StorageRead);
           b.read(hb.posOld, Access::StorageRead);
           b.write(hb.box, Access::StorageReadWrite);
+          b.write(hb.brickFlags, Access::StorageReadWrite);
         },
         [this, hb, tetGroups](fg::Executor& e) {
           GraphExecutor& x = vulkanExecutor(e);
@@ -57,8 +77,32 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
               .buffer(gpu::kBindDeformBoundsPosNew, kSsbo, x.buffer(hb.posNew).handle())
               .buffer(gpu::kBindDeformBoundsPosOld, kSsbo, x.buffer(hb.posOld).handle())
               .buffer(gpu::kBindDeformBoundsBox, kSsbo, x.buffer(hb.box).handle())
+              .buffer(gpu::kBindDeformBoundsBrickMotion, kSsbo, x.buffer(hb.brickFlags).handle())
               .push(ctx_, x.cmd(), bounds_);
           vkCmdDispatch(x.cmd(), tetGroups, 1, 1);
+        });
+  if (bricks)
+    g.addPass(
+        "deform-bricks",
+        [&](fg::PassBuilder& b) {
+          b.read(hb.params, Access::StorageRead);
+          b.write(hb.brickFlags, Access::StorageReadWrite);
+          b.write(hb.brickLag, Access::StorageReadWrite);
+          b.write(hb.box, Access::StorageReadWrite);
+          b.write(hb.brickList, Access::StorageWrite);
+        },
+        [this, hb, brickGroups, push = BricksPush{redo == Redo::Bricks ? 0.0f : motionLag_, redo == Redo::Bricks ? 1u : 0u}](fg::Executor& e) {
+          GraphExecutor& x = vulkanExecutor(e);
+          vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, bricks_.pipeline());
+          DescriptorWriter()
+              .buffer(gpu::kBindDeformBricksParams, kParams, x.buffer(hb.params).handle())
+              .buffer(gpu::kBindDeformBricksBox, kSsbo, x.buffer(hb.box).handle())
+              .buffer(gpu::kBindDeformBricksFlags, kSsbo, x.buffer(hb.brickFlags).handle())
+              .buffer(gpu::kBindDeformBricksList, kSsbo, x.buffer(hb.brickList).handle())
+              .buffer(gpu::kBindDeformBricksLag, kSsbo, x.buffer(hb.brickLag).handle())
+              .push(ctx_, x.cmd(), bricks_);
+          vkCmdPushConstants(x.cmd(), bricks_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+          vkCmdDispatch(x.cmd(), brickGroups, 1, 1);
         });
   g.addPass(
       "deform-args",
@@ -84,6 +128,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
         b.read(hb.params, Access::StorageRead);
         b.read(hb.args, Access::IndirectRead);
         b.read(hb.box, Access::StorageRead);
+        b.read(hb.brickList, Access::StorageRead);
         b.read(hb.source, Access::Sampled);
         b.read(hb.sourceMask, Access::Sampled);
         b.write(hb.volume, Access::StorageReadWrite);
@@ -103,6 +148,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
             .storageImage(gpu::kBindDeformClearOut, x.image(hb.volume).view())
             .storageImage(gpu::kBindDeformClearOutMask, x.image(hb.mask).view())
             .buffer(gpu::kBindDeformClearOwner, kSsbo, x.buffer(hb.owner).handle())
+            .buffer(gpu::kBindDeformClearBrickList, kSsbo, x.buffer(hb.brickList).handle())
             .push(ctx_, x.cmd(), clear_);
         vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
       });
@@ -114,6 +160,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
         b.read(hb.posNew, Access::StorageRead);
         b.read(hb.box, Access::StorageRead);
         b.read(hb.restIdx, Access::StorageRead);
+        b.read(hb.brickFlags, Access::StorageRead);
         b.write(hb.owner, Access::StorageReadWrite);
         b.write(hb.affine, Access::StorageWrite);
       },
@@ -128,6 +175,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
             .buffer(gpu::kBindDeformClaimOwner, kSsbo, x.buffer(hb.owner).handle())
             .buffer(gpu::kBindDeformClaimRestIdx, kSsbo, x.buffer(hb.restIdx).handle())
             .buffer(gpu::kBindDeformClaimAffine, kSsbo, x.buffer(hb.affine).handle())
+            .buffer(gpu::kBindDeformClaimBrickFlags, kSsbo, x.buffer(hb.brickFlags).handle())
             .push(ctx_, x.cmd(), claim_);
         vkCmdDispatch(x.cmd(), tetGroups, 1, 1);
       });
@@ -138,6 +186,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
         b.read(hb.args, Access::IndirectRead);
         b.read(hb.affine, Access::StorageRead);
         b.read(hb.owner, Access::StorageRead);
+        b.read(hb.brickList, Access::StorageRead);
         b.read(hb.source, Access::Sampled);
         b.read(hb.sourceMask, Access::Sampled);
         b.write(hb.box, Access::StorageReadWrite);
@@ -158,6 +207,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
                           VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
             .storageImage(gpu::kBindDeformResolveOut, x.image(hb.volume).view())
             .storageImage(gpu::kBindDeformResolveOutMask, x.image(hb.mask).view())
+            .buffer(gpu::kBindDeformResolveBrickList, kSsbo, x.buffer(hb.brickList).handle())
             .push(ctx_, x.cmd(), resolve_);
         vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
       });

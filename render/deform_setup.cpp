@@ -35,8 +35,9 @@ ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc
     VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
     p2.pNext = &sub;
     vkGetPhysicalDeviceProperties2(ctx.physicalDevice(), &p2);
-    if (!(sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) || !(sub.supportedOperations & VK_SUBGROUP_FEATURE_ARITHMETIC_BIT))
-      throw Error("deformation: this Vulkan device lacks subgroup arithmetic in compute shaders");
+    if (!(sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) || !(sub.supportedOperations & VK_SUBGROUP_FEATURE_ARITHMETIC_BIT) ||
+        !(sub.supportedOperations & VK_SUBGROUP_FEATURE_VOTE_BIT))
+      throw Error("deformation: this Vulkan device lacks subgroup arithmetic or vote in compute shaders");
   }
   if (sd.format != fg::Format::R16Unorm || md.format != fg::Format::R8Unorm || sd.width != md.width || sd.height != md.height || sd.depth != md.depth)
     throw Error("deformation: the source volume (R16) and mask (R8) must share one grid");
@@ -103,6 +104,8 @@ ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc
   out.params.regionVoxHi = glm::ivec4(rhi.x(), rhi.y(), rhi.z(), int(tetCount));
   out.params.dims = glm::ivec4(dims.x(), dims.y(), dims.z(), int(handles));
   out.params.ownerDims = glm::ivec4(od.x(), od.y(), od.z(), int(coarseElements));
+  const Eigen::Vector3i bd = (od + Eigen::Vector3i::Constant(HANDSON_DEFORM_BRICK - 1)) / HANDSON_DEFORM_BRICK;
+  out.params.bricks = glm::ivec4(bd.x(), bd.y(), bd.z(), bd.x() * bd.y() * bd.z());
   {
     TetMesh rest;  // the rest mesh in world space, for the default cap
     rest.nodes.reserve(nodes);

@@ -56,7 +56,7 @@ GpuDeformer::StrainOutputs GpuDeformer::addStrainPass(fg::FrameGraph& g) {
             .push(ctx_, x.cmd(), strain_);
         vkCmdDispatch(x.cmd(), groups, 1, 1);
       });
-  // After the resolve pass (it writes the box's counters): the same box, the same owners.
+  // After the resolve pass (it writes the box's counters): the same box or bricks, the same owners.
   g.addPass(
       "deform-strain-raster",
       [&](fg::PassBuilder& b) {
@@ -64,6 +64,7 @@ GpuDeformer::StrainOutputs GpuDeformer::addStrainPass(fg::FrameGraph& g) {
         b.read(hb.args, Access::IndirectRead);
         b.read(hb.box, Access::StorageRead);
         b.read(hb.owner, Access::StorageRead);
+        b.read(hb.brickList, Access::StorageRead);
         b.read(hb.strain, Access::StorageRead);
         b.read(hb.strainLimits, Access::StorageRead);
         b.write(hb.strainVolume, Access::StorageWrite);
@@ -80,6 +81,7 @@ GpuDeformer::StrainOutputs GpuDeformer::addStrainPass(fg::FrameGraph& g) {
             .storageImage(gpu::kBindDeformStrainRasterOut, x.image(hb.strainVolume).view())
             .buffer(gpu::kBindDeformStrainRasterLimits, ssbo, x.buffer(hb.strainLimits).handle())
             .storageImage(gpu::kBindDeformStrainRasterLimitOut, x.image(hb.overLimitVolume).view())
+            .buffer(gpu::kBindDeformStrainRasterBrickList, ssbo, x.buffer(hb.brickList).handle())
             .push(ctx_, x.cmd(), strainRaster_);
         vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
       });

@@ -249,12 +249,19 @@ void VolumeRenderer::addDeformation(fg::FrameGraph& g, const FrameRequest& req, 
   const bool whole = deformFirst_ || uploadInRegion || (wantStrain && !strainShown_);  // redo the deformed images over the region
   bool passes = false;
   if (req.deformFine) {
-    deformer_->addPassesFromPositions(g, executor_.slot(), *req.deformFine, whole ? vk::Redo::Region : vk::Redo::Moved, in.volume, in.mask, deformed);
+    deformer_->addPassesFromPositions(g, executor_.slot(), *req.deformFine, whole ? vk::Redo::Region : vk::Redo::Bricks, in.volume, in.mask, deformed);
     deformFirst_ = false;
+    deformLagging_ = false;  // refined positions are drawn as they are
     passes = true;
-  } else if (lastDeform_ && (req.deform || whole)) {
-    deformer_->addPasses(g, executor_.slot(), *lastDeform_, whole ? vk::Redo::Region : vk::Redo::Moved, in.volume, in.mask, deformed);
+  } else if (lastDeform_ && (req.deform || whole || deformLagging_)) {
+    // During motion only the bricks whose tissue moved more than the allowed lag are redone; the
+    // first frame without a new state (or one asked to be exact) brings every brick to the exact state.
+    const bool moving = req.deform && !req.deformExact;
+    const vk::Redo redo = whole ? vk::Redo::Region : moving ? vk::Redo::BricksDuringMotion : vk::Redo::Bricks;
+    deformer_->addPasses(g, executor_.slot(), *lastDeform_, redo, in.volume, in.mask, deformed);
+    if (!req.deform) ++contentVersion_;  // the settled picture differs: a still frame's sum starts anew
     deformFirst_ = false;
+    deformLagging_ = redo != vk::Redo::Bricks;  // a region redo takes nodes at commitVoxels: settled next
     passes = true;
   }
   in.volume = deformed.volume;
@@ -270,6 +277,15 @@ void VolumeRenderer::addDeformation(fg::FrameGraph& g, const FrameRequest& req, 
     in.overLimit = st.overLimit;
   }
   if (!wantStrain) strainShown_ = false;  // shown again later: redone over the region then
+}
+
+void VolumeRenderer::settleDeformation() {
+  if (!deformer_ || !lastDeform_ || !deformLagging_) return;
+  executor_.waitLastFrame();
+  for (std::uint32_t i = 0; i < slots_.size(); ++i) executor_.waitSlot(i);
+  deformer_->settle(*lastDeform_, strainShown_);
+  deformLagging_ = false;
+  ++contentVersion_;
 }
 
 void VolumeRenderer::sumStillFrame(const FrameRequest& req, gpu::RenderParams& params) {

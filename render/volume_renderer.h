@@ -51,6 +51,10 @@ struct FrameRequest {
   const CoarseFrameState* deform = nullptr;
   /// While deforming: refined fine node positions (voxel index space) to show instead; uploaded.
   const std::vector<Eigen::Vector4f>* deformFine = nullptr;
+  /// While deforming: draw `deform` at its exact state, not lagging by up to
+  /// DeformSetup::motionLagVoxels as frames during motion may (a replay's frames, an export).
+  /// Without a new state, a frame after lagging ones always settles the deformation so.
+  bool deformExact = false;
   /// > 0, with the ray jitter on (kFlagJitter): a still picture sums up to this many jitter
   /// phases, one a frame, and shows their running mean (render_params.h, setStillPhase). Any change
   /// of the picture starts a new sum: other parameters, size, transfer function, tints, labels,
@@ -94,6 +98,13 @@ class VolumeRenderer {
   /// Back to the undeformed volume.
   void endDeformation();
   bool deforming() const { return bool(deformer_); }
+  /// Whether the deformed images lag the last coarse state (frames during motion redo only the
+  /// bricks whose tissue moved more than DeformSetup::motionLagVoxels); the next frame without a
+  /// new state settles them.
+  bool deformationLagging() const { return deformLagging_; }
+  /// Brings the deformed images (and the strain volumes, when shown) to the last coarse state's
+  /// exact answer now, waiting for frames in flight: before they are read back (an export).
+  void settleDeformation();
   const vk::GpuDeformer* deformer() const { return deformer_.get(); }
   const vk::Sampler& sampler() const { return linear_; }
 
@@ -163,6 +174,7 @@ class VolumeRenderer {
   bool hasVolume_ = false, hasTf_ = false;
   std::unique_ptr<vk::GpuDeformer> deformer_;
   bool deformFirst_ = false;                 ///< the next deform frame redoes the whole region
+  bool deformLagging_ = false;               ///< the deformed images lag lastDeform_ (see deformationLagging)
   std::optional<CoarseFrameState> lastDeform_;  ///< for a redo when the mask changes while deforming
 };
 

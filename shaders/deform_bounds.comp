@@ -1,9 +1,14 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_vote : require
 // The box of voxels to redo this frame: the union of the old and new voxel bounding boxes of every
 // fine tet with a node whose committed position changed (deform_interpolate.comp). One invocation
-// per fine tet.
+// per fine tet. In brick mode (box.bricks.x) a moved tet also raises, in every brick its old and new
+// boxes meet (widened by a voxel), this frame's largest node motion (voxels along the largest axis;
+// float bits, so atomicMax orders them): deform_bricks.comp adds it to the lag each brick has
+// accumulated since it was last resampled. A tet whose boxes span more than kMaxMarkedBricks
+// bricks (a torn state) makes every brick dirty at once.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_GROUP_X) in;
 layout(std430, set = 0, binding = kBindDeformBoundsParams) readonly buffer Params { DeformParams P; };
@@ -11,22 +16,52 @@ layout(std430, set = 0, binding = kBindDeformBoundsTets) readonly buffer Tets { 
 layout(std430, set = 0, binding = kBindDeformBoundsPosNew) readonly buffer PosNew { vec4 posNew[]; };
 layout(std430, set = 0, binding = kBindDeformBoundsPosOld) readonly buffer PosOld { vec4 posOld[]; };  // before this frame's commits
 layout(std430, set = 0, binding = kBindDeformBoundsBox) buffer Box { DeformBox box; };
+layout(std430, set = 0, binding = kBindDeformBoundsBrickMotion) buffer Motion { uint frameMotion[]; };
+
+const int kMaxMarkedBricks = 64;
+
+// Called by the moved tets only (divergent): where they all mark the same bricks (neighbouring
+// tets mostly do), one lane marks them with the largest motion, not one atomic per tet.
+void markBricks(ivec3 lo, ivec3 hi, float motion) {
+  lo = max(lo, P.regionVoxLo.xyz);
+  hi = min(hi, P.regionVoxHi.xyz);
+  bool none = any(greaterThan(lo, hi));  // outside the region: nothing to mark
+  ivec3 blo = none ? ivec3(0) : (lo - P.regionVoxLo.xyz) / HANDSON_DEFORM_BRICK;
+  ivec3 bhi = none ? ivec3(-1) : (hi - P.regionVoxLo.xyz) / HANDSON_DEFORM_BRICK;
+  if (subgroupAllEqual(blo) && subgroupAllEqual(bhi)) {
+    motion = subgroupMax(motion);
+    if (!subgroupElect()) return;
+  }
+  if (any(greaterThan(blo, bhi))) return;
+  ivec3 n = bhi - blo + 1;
+  if (n.x * n.y * n.z > kMaxMarkedBricks) {
+    atomicOr(box.bricks.z, 1u);
+    return;
+  }
+  for (int z = blo.z; z <= bhi.z; ++z)
+    for (int y = blo.y; y <= bhi.y; ++y)
+      for (int x = blo.x; x <= bhi.x; ++x) atomicMax(frameMotion[x + P.bricks.x * (y + P.bricks.y * z)], floatBitsToUint(motion));
+}
 
 void main() {
   uint t = gl_GlobalInvocationID.x;
   if (t >= uint(P.regionVoxHi.w)) return;
   uvec4 v = tet[t];
   bool moved = false;
+  float motion = 0.0;
   vec3 lo = vec3(1e30), hi = vec3(-1e30);
   for (int c = 0; c < 4; ++c) {
     vec3 a = posNew[v[c]].xyz, b = posOld[v[c]].xyz;
     moved = moved || any(notEqual(a, b));
+    vec3 d = abs(a - b);
+    motion = max(motion, max(d.x, max(d.y, d.z)));
     lo = min(lo, min(a, b));
     hi = max(hi, max(a, b));
   }
   // Reduce over the subgroup first: one lane's atomics instead of one per moved tet.
   ivec3 ilo = ivec3(floor(clamp(lo, vec3(-1.0), vec3(P.dims.xyz))));  // clamped before the int conversion
   ivec3 ihi = ivec3(ceil(clamp(hi, vec3(-1.0), vec3(P.dims.xyz))));
+  if (moved && box.bricks.x != 0u) markBricks(ilo - 1, ihi + 1, motion);
   if (!moved) {
     ilo = ivec3(2147483647);
     ihi = ivec3(-2147483647);

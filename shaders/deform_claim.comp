@@ -1,7 +1,8 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // Tetrahedral rasterization of the deformed fine mesh (docs/gpu-deformation.md), step
-// one: each fine tet claims the region voxels of this frame's box whose centres it covers, for the
+// one: each fine tet claims the region voxels of this frame's box (or of its dirty bricks) whose
+// centres it covers, for the
 // lowest-numbered tet (atomicMin of tet + 1; the owner buffer holds 0 outside the region, so those
 // voxels are never claimed). One invocation per tet. deform_resolve.comp then fills each claimed
 // voxel from its owner through the affine map stored here. CPU reference: rasterizeDeformed in sim/tet_raster.cpp.
@@ -15,6 +16,27 @@ layout(std430, set = 0, binding = kBindDeformClaimOwner) buffer Owner { uint own
 layout(std430, set = 0, binding = kBindDeformClaimRestIdx) readonly buffer RestIdx { vec4 restIdx[]; };
 // Per tet: the affine map from deformed to rest voxel index (rows of [M | b]), for the resolve.
 layout(std430, set = 0, binding = kBindDeformClaimAffine) writeonly buffer Affine { vec4 affine[]; };
+layout(std430, set = 0, binding = kBindDeformClaimBrickFlags) readonly buffer Flags { uint flags[]; };
+
+// The dirty-brick index of a region voxel.
+uint deformBrickOf(ivec3 v) {
+  ivec3 c = (v - P.regionVoxLo.xyz) / HANDSON_DEFORM_BRICK;
+  return uint(c.x + P.bricks.x * (c.y + P.bricks.y * c.z));
+}
+
+// Brick mode: whether a region voxel's brick is redone this frame.
+bool brickDirty(ivec3 v) { return box.bricks.z != 0u || flags[deformBrickOf(v)] != 0u; }
+
+// Brick mode: whether any brick the voxel range [lo, hi] (in the region) meets is redone.
+bool anyBrickDirty(ivec3 lo, ivec3 hi) {
+  if (box.bricks.z != 0u) return true;
+  ivec3 blo = (lo - P.regionVoxLo.xyz) / HANDSON_DEFORM_BRICK, bhi = (hi - P.regionVoxLo.xyz) / HANDSON_DEFORM_BRICK;
+  for (int z = blo.z; z <= bhi.z; ++z)
+    for (int y = blo.y; y <= bhi.y; ++y)
+      for (int x = blo.x; x <= bhi.x; ++x)
+        if (flags[x + P.bricks.x * (y + P.bricks.y * z)] != 0u) return true;
+  return false;
+}
 
 void main() {
   uint t = gl_GlobalInvocationID.x;
@@ -34,9 +56,16 @@ void main() {
     if (all(lessThanEqual(max(lo, box.lo.xyz), min(hi, box.hi.xyz)))) atomicAdd(box.stats.z, 1u);
     return;
   }
-  lo = max(lo, box.lo.xyz);
-  hi = min(hi, box.hi.xyz);
-  if (any(greaterThan(lo, hi))) return;
+  bool bricks = box.bricks.x != 0u;
+  if (bricks) {
+    if (!anyBrickDirty(lo, hi)) return;
+    // Within one brick (most tets), or with every brick redone: no test per voxel.
+    bricks = box.bricks.z == 0u && deformBrickOf(lo) != deformBrickOf(hi);
+  } else {
+    lo = max(lo, box.lo.xyz);
+    hi = min(hi, box.hi.xyz);
+    if (any(greaterThan(lo, hi))) return;
+  }
   mat3 D = mat3(v1 - v0, v2 - v0, v3 - v0);
   float det = determinant(D);
   if (!(abs(det) > 1e-12)) return;
@@ -58,6 +87,7 @@ void main() {
         vec3 l = Dinv * (vec3(x, y, z) - v0);
         float l0 = 1.0 - l.x - l.y - l.z;
         if (min(min(l.x, l.y), min(l.z, l0)) < -eps) continue;
+        if (bricks && !brickDirty(ivec3(x, y, z))) continue;
         ivec3 o = ivec3(x, y, z) - P.regionVoxLo.xyz;
         atomicMin(owner[uint(o.x + P.ownerDims.x * (o.y + P.ownerDims.y * o.z))], t + 1u);
       }

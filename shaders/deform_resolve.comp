@@ -1,7 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
-// Tetrahedral rasterization, step two: every claimed voxel of this frame's box takes the source
+// Tetrahedral rasterization, step two: every claimed voxel of this frame's box (or dirty bricks) takes the source
 // sampled trilinearly at its rest position in the owner tet (barycentric coordinates in the
 // deformed tet applied to the rest positions: the affine map deform_claim.comp stored) and the
 // handle id of the nearest rest voxel.
@@ -18,6 +18,8 @@ layout(set = 0, binding = kBindDeformResolveSource) uniform sampler3D uSource;
 layout(set = 0, binding = kBindDeformResolveSourceMask) uniform sampler3D uSourceMask;
 layout(set = 0, binding = kBindDeformResolveOut, r16) uniform writeonly image3D uOut;
 layout(set = 0, binding = kBindDeformResolveOutMask, r8) uniform writeonly image3D uOutMask;
+layout(std430, set = 0, binding = kBindDeformResolveBrickList) readonly buffer BrickList { uint brickList[]; };
+#include "deform_voxel.glsl"
 
 // Trilinear interpolation from eight texel fetches with float weights (hardware filtering may use
 // 8-bit weights), clamped at the edges like Volume::sampleLinear.
@@ -35,11 +37,12 @@ float sampleTrilinear(vec3 idx) {
 }
 
 void main() {
-  ivec3 v = box.lo.xyz + ivec3(gl_GlobalInvocationID);
+  ivec3 v;
+  bool inBox = deformVoxel(v);
   bool claimed = false;
   ivec3 o = v - P.regionVoxLo.xyz;
   // A whole-volume redo covers voxels outside the region's owner grid: nothing to resolve there.
-  if (all(lessThanEqual(v, box.hi.xyz)) && all(greaterThanEqual(o, ivec3(0))) && all(lessThan(o, P.ownerDims.xyz))) {
+  if (inBox && all(greaterThanEqual(o, ivec3(0))) && all(lessThan(o, P.ownerDims.xyz))) {
     uint own = owner[uint(o.x + P.ownerDims.x * (o.y + P.ownerDims.y * o.z))];
     claimed = own != 0u && own != kDeformNoOwner;
     if (claimed) {

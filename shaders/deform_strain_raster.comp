@@ -1,6 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// The strain volume: every voxel of this frame's box takes the strain of the tet that claimed it
+// The strain volume: every voxel of this frame's box (or dirty bricks) takes the strain of the tet that claimed it
 // (deform_claim.comp's owner, the same tet the deformed image was sampled through), 0 where no tet
 // did (outside the region, uncovered) and where the strain is not finite. With per-tet strain limits
 // (P.limits.z = 1) the voxel also takes that tet's strain over its tissue's limit (0 where the
@@ -17,10 +17,12 @@ layout(std430, set = 0, binding = kBindDeformStrainRasterStrain) readonly buffer
 layout(set = 0, binding = kBindDeformStrainRasterOut, r32f) uniform writeonly image3D uOut;
 layout(std430, set = 0, binding = kBindDeformStrainRasterLimits) readonly buffer Limits { float limit[]; };
 layout(set = 0, binding = kBindDeformStrainRasterLimitOut, r32f) uniform writeonly image3D uLimitOut;
+layout(std430, set = 0, binding = kBindDeformStrainRasterBrickList) readonly buffer BrickList { uint brickList[]; };
+#include "deform_voxel.glsl"
 
 void main() {
-  ivec3 v = box.lo.xyz + ivec3(gl_GlobalInvocationID);
-  if (any(greaterThan(v, box.hi.xyz))) return;
+  ivec3 v;
+  if (!deformVoxel(v)) return;
   float s = 0.0, r = 0.0;
   ivec3 o = v - P.regionVoxLo.xyz;
   if (all(greaterThanEqual(o, ivec3(0))) && all(lessThan(o, P.ownerDims.xyz))) {

@@ -32,6 +32,7 @@ using uint = std::uint32_t;
 #define HANDSON_COMPACT_GROUP_X 64
 #define HANDSON_DEFORM_GROUP_X 64     // deformation passes: one invocation per fine node or tet
 #define HANDSON_DEFORM_CLEAR_GROUP 4  // deform_clear.comp: 4^3 voxels per workgroup
+#define HANDSON_DEFORM_BRICK 8        // dirty bricks of 8^3 voxels: (8/4)^3 = 8 workgroups each
 HS_CONST kRaymarchGroupX = HANDSON_RAYMARCH_GROUP_X;
 HS_CONST kRaymarchGroupY = HANDSON_RAYMARCH_GROUP_Y;
 HS_CONST kPickGroupX = HANDSON_PICK_GROUP_X;
@@ -190,6 +191,13 @@ HS_CONST kBindDeformBoundsTets = 1;
 HS_CONST kBindDeformBoundsPosNew = 2;
 HS_CONST kBindDeformBoundsPosOld = 3;
 HS_CONST kBindDeformBoundsBox = 4;
+HS_CONST kBindDeformBoundsBrickMotion = 5;  // uint per brick: this frame's largest tet motion, float bits (brick mode)
+// deform_bricks.comp
+HS_CONST kBindDeformBricksParams = 0;
+HS_CONST kBindDeformBricksBox = 1;
+HS_CONST kBindDeformBricksFlags = 2;
+HS_CONST kBindDeformBricksList = 3;  // the dirty bricks' indices, box.bricks.y of them
+HS_CONST kBindDeformBricksLag = 4;   // float per brick: lag accumulated since it was last resampled
 // deform_args.comp
 HS_CONST kBindDeformArgsParams = 0;
 HS_CONST kBindDeformArgsBox = 1;
@@ -202,6 +210,7 @@ HS_CONST kBindDeformClearSourceMask = 3;
 HS_CONST kBindDeformClearOut = 4;
 HS_CONST kBindDeformClearOutMask = 5;
 HS_CONST kBindDeformClearOwner = 6;
+HS_CONST kBindDeformClearBrickList = 7;
 // deform_claim.comp
 HS_CONST kBindDeformClaimParams = 0;
 HS_CONST kBindDeformClaimTets = 1;
@@ -210,6 +219,7 @@ HS_CONST kBindDeformClaimBox = 3;
 HS_CONST kBindDeformClaimOwner = 4;
 HS_CONST kBindDeformClaimRestIdx = 5;
 HS_CONST kBindDeformClaimAffine = 6;
+HS_CONST kBindDeformClaimBrickFlags = 7;
 // deform_resolve.comp
 HS_CONST kBindDeformResolveParams = 0;
 HS_CONST kBindDeformResolveAffine = 1;
@@ -219,6 +229,7 @@ HS_CONST kBindDeformResolveSource = 4;
 HS_CONST kBindDeformResolveSourceMask = 5;
 HS_CONST kBindDeformResolveOut = 6;
 HS_CONST kBindDeformResolveOutMask = 7;
+HS_CONST kBindDeformResolveBrickList = 8;
 // deform_strain.comp
 HS_CONST kBindDeformStrainParams = 0;
 HS_CONST kBindDeformStrainTets = 1;
@@ -233,6 +244,7 @@ HS_CONST kBindDeformStrainRasterStrain = 3;
 HS_CONST kBindDeformStrainRasterOut = 4;
 HS_CONST kBindDeformStrainRasterLimits = 5;    // float per fine tet: its tissue's strain limit (inf: none)
 HS_CONST kBindDeformStrainRasterLimitOut = 6;  // r32f image: strain over limit (0: no limit, no tet)
+HS_CONST kBindDeformStrainRasterBrickList = 7;
 
 // Static per deformation setup (read-only storage buffer).
 struct DeformParams {
@@ -247,6 +259,8 @@ struct DeformParams {
   uvec4 limits;       // x = most voxels a tet's range may hold (larger ones are skipped and counted),
                       // y = corners per coarse element (4 or 8), z = 1: the strain raster also writes
                       // strain over each tet's limit (kBindDeformStrainRasterLimit*)
+  ivec4 bricks;       // xyz: the dirty-brick grid over the region's voxel box (HANDSON_DEFORM_BRICK
+                      // voxels a side, brick (0,0,0) at regionVoxLo, x fastest), w = brick count
 };
 
 // The box redone this frame (storage buffer, written by deform_bounds.comp, clamped by
@@ -255,11 +269,12 @@ struct DeformBox {
   ivec4 lo;     // xyz inclusive voxel index
   ivec4 hi;     // xyz inclusive (lo > hi: nothing to redo)
   uvec4 stats;  // x = moved tets, y = covered voxels, z = tets skipped as too large (a torn state)
-  uvec4 pad;
+  uvec4 bricks; // x = 1: this frame redoes the dirty bricks (else the box), y = dirty bricks listed,
+                // z = 1: every brick is dirty (a moved tet spans more bricks than it may mark)
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(DeformParams) == 2 * 64 + 7 * 16, "DeformParams must match std140");
+static_assert(sizeof(DeformParams) == 2 * 64 + 8 * 16, "DeformParams must match std140");
 static_assert(sizeof(DeformBox) == 64, "DeformBox must match std430");
 static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
 static_assert(sizeof(MovingHandle) == 112, "MovingHandle must match std140");

@@ -3,6 +3,7 @@
 #include "brick_minmax.spv.h"
 #include "deform_args.spv.h"
 #include "deform_bounds.spv.h"
+#include "deform_bricks.spv.h"
 #include "deform_claim.spv.h"
 #include "deform_clear.spv.h"
 #include "deform_interpolate.spv.h"
@@ -24,6 +25,7 @@ std::span<const std::uint32_t> regionCompact() { return spirv::region_compact; }
 std::span<const std::uint32_t> deformInterpolate() { return spirv::deform_interpolate; }
 std::span<const std::uint32_t> deformBounds() { return spirv::deform_bounds; }
 std::span<const std::uint32_t> deformArgs() { return spirv::deform_args; }
+std::span<const std::uint32_t> deformBricks() { return spirv::deform_bricks; }
 std::span<const std::uint32_t> deformClear() { return spirv::deform_clear; }
 std::span<const std::uint32_t> deformClaim() { return spirv::deform_claim; }
 std::span<const std::uint32_t> deformResolve() { return spirv::deform_resolve; }

@@ -14,6 +14,7 @@ std::span<const std::uint32_t> regionCompact();
 std::span<const std::uint32_t> deformInterpolate();
 std::span<const std::uint32_t> deformBounds();
 std::span<const std::uint32_t> deformArgs();
+std::span<const std::uint32_t> deformBricks();
 std::span<const std::uint32_t> deformClear();
 std::span<const std::uint32_t> deformClaim();
 std::span<const std::uint32_t> deformResolve();

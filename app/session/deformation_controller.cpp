@@ -339,17 +339,20 @@ bool DeformationController::prepareFrameSettled(FrameRequest& req, const HandleS
   prepareFrame(req, handles, false);
   if (state() == State::Building && waitBuilt(seconds)) prepareFrame(req, handles, false);
   if (model_) waitSettled(seconds);
+  req.deformExact = true;  // drawn at its exact state, not lagging as live frames during motion may
   return prepareFrame(req, handles, true);
 }
 
 bool DeformationController::exportDeformed(Volume& out) const {
   if (!model_ || !renderer_.deforming() || shownInput_ == 0) return false;
   out = image_;
+  renderer_.settleDeformation();  // a frame during motion may have left the images lagging the state
   takeRegionFromQuantized(out, quantized_, renderer_.deformer()->readVolume(), model_->scene.lo, model_->scene.hi);
   return true;
 }
 
 std::vector<Eigen::Vector3d> DeformationController::drawnFinePositions() const {
+  renderer_.settleDeformation();                           // the exact state, not one lagging it
   const auto pos = renderer_.deformer()->readPositions();  // voxel index space, as drawn
   if (pos.size() != model_->scene.meshes.fine.nodes.size()) return {};
   const Eigen::Matrix4d toWorld = quantized_.geometry.worldToIndex().inverse();
