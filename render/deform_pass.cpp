@@ -149,6 +149,10 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
                                   0);
 
   params_ = Buffer(ctx, sizeof(gpu::DeformParams), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::Device);
+  if (!(setup.motionLagVoxels >= 0.0) || !(setup.motionLagVoxels <= 4.0))
+    throw Error("deformation: the lag allowed during motion must be between 0 and 4 voxels");
+  motionLag_ = float(setup.motionLagVoxels);
+  p_.regionHi.w = motionLag_;  // deform_bounds.comp widens what a moved tet marks by it
   uploadToBuffer(ctx, params_, &p_, sizeof(p_));
   nodeInfo_ = uploaded(ctx, d.node);
   rest_ = uploaded(ctx, d.rest);
@@ -168,9 +172,6 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   prev_ = uploaded(ctx, restIdx);
   if (!(setup.commitVoxels >= 0.0) || !std::isfinite(setup.commitVoxels)) throw Error("deformation: the commit threshold must be a finite number >= 0");
   commit_ = float(setup.commitVoxels);
-  if (!(setup.motionLagVoxels >= 0.0) || !(setup.motionLagVoxels <= 4.0))
-    throw Error("deformation: the lag allowed during motion must be between 0 and 4 voxels");
-  motionLag_ = float(setup.motionLagVoxels);
   const std::vector<std::uint32_t> noBricks(std::size_t(p_.bricks.w), 0u);
   brickFlags_ = uploaded(ctx, noBricks);
   brickList_ = uploaded(ctx, noBricks);
@@ -294,6 +295,10 @@ void GpuDeformer::bind(GraphExecutor& x) {
 
 DeformFrameStats GpuDeformer::runFrame(const CoarseFrameState& state, Redo redo) {
   return runOwn([&](fg::FrameGraph& g) { addPasses(g, 0, state, redo); });
+}
+
+DeformFrameStats GpuDeformer::runFrameFromPositions(const std::vector<Eigen::Vector4f>& indexPositions, Redo redo) {
+  return runOwn([&](fg::FrameGraph& g) { addPassesFromPositions(g, 0, indexPositions, redo); });
 }
 
 DeformFrameStats GpuDeformer::settle(const CoarseFrameState& state, bool withStrain) {

@@ -39,7 +39,7 @@ struct DeformSetup {
   /// may have moved more than this many voxels (along any axis) since the brick was last resampled:
   /// its image may lag the tissue by that much. A settled frame (Redo::Bricks) redoes every brick
   /// whose tissue moved at all. docs/gpu-deformation.md states what it means in HU.
-  double motionLagVoxels = 0.25;
+  double motionLagVoxels = 0.5;
   /// Tets whose voxel range in the region exceeds this are skipped and counted (a torn state must
   /// not make one invocation loop for seconds); 0: defaultMaxTetVoxels of the rest mesh.
   std::uint64_t maxTetVoxels = 0;
@@ -94,8 +94,8 @@ class GpuDeformer {
   Outputs addPasses(fg::FrameGraph& graph, std::uint32_t slot, const CoarseFrameState& state, Redo redo = Redo::Moved,
                     fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {}, const Outputs& outputs = {});
   /// Adds one frame's passes from fine node positions computed elsewhere (voxel index space: the
-  /// two-level refinement of a held pose), uploaded through the slot's buffer; with Redo::Moved only
-  /// the moved box is redone. Megabytes, not kilobytes: for the occasional refined state, not every frame.
+  /// two-level refinement of a held pose), uploaded through the slot's buffer; with Redo::Moved or Redo::Bricks only
+  /// the moved box or the bricks whose tissue moved are redone. Megabytes, not kilobytes: for the occasional refined state, not every frame.
   Outputs addPassesFromPositions(fg::FrameGraph& graph, std::uint32_t slot, const std::vector<Eigen::Vector4f>& indexPositions, Redo redo = Redo::Moved,
                                  fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {}, const Outputs& outputs = {});
   /// Adds the strain passes: per fine tet, the largest principal stretch - 1 of its deformation
@@ -135,6 +135,9 @@ class GpuDeformer {
 
   /// One frame on its own graph and executor, waited for; returns the box and counters.
   DeformFrameStats runFrame(const CoarseFrameState& state, Redo redo = Redo::Moved);
+  /// One frame on its own graph from fine positions (voxel index space) taken as the next state after
+  /// the current one (addPassesFromPositions), waited for.
+  DeformFrameStats runFrameFromPositions(const std::vector<Eigen::Vector4f>& indexPositions, Redo redo);
   /// One Redo::Bricks frame from `state` (with the strain passes if asked) on its own graph, waited
   /// for: the images at the state's exact answer (the caller's frames must not be in flight).
   DeformFrameStats settle(const CoarseFrameState& state, bool withStrain);
@@ -181,7 +184,7 @@ class GpuDeformer {
   gpu::DeformParams p_{};
   std::size_t nodes_ = 0, tets_ = 0, coarseNodes_ = 0, coarseElements_ = 0;
   std::uint32_t handles_ = 0;
-  float commit_ = 1e-3f, motionLag_ = 0.25f;
+  float commit_ = 1e-3f, motionLag_ = 0.5f;
   struct Bound {
     fg::ResourceHandle params, nodeInfo, rest, blocks, elementCorners, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, affine, source, sourceMask,
         volume, mask, positions, rotations, handles, strain, strainVolume, strainLimits, overLimitVolume, brickFlags, brickList, brickLag;

@@ -40,7 +40,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
       [hb, p, redo, bricks](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         gpu::DeformBox init{};
-        if (redo == Redo::Region) {
+        if (redo == Redo::Region || bricks) {  // brick mode: the box only bounds the skipped-tet count
           init.lo = glm::ivec4(p.regionVoxLo.x, p.regionVoxLo.y, p.regionVoxLo.z, 0);
           init.hi = glm::ivec4(p.regionVoxHi.x, p.regionVoxHi.y, p.regionVoxHi.z, 0);
         } else if (redo == Redo::WholeVolume) {

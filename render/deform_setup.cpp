@@ -36,8 +36,8 @@ ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc
     p2.pNext = &sub;
     vkGetPhysicalDeviceProperties2(ctx.physicalDevice(), &p2);
     if (!(sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) || !(sub.supportedOperations & VK_SUBGROUP_FEATURE_ARITHMETIC_BIT) ||
-        !(sub.supportedOperations & VK_SUBGROUP_FEATURE_VOTE_BIT))
-      throw Error("deformation: this Vulkan device lacks subgroup arithmetic or vote in compute shaders");
+        !(sub.supportedOperations & VK_SUBGROUP_FEATURE_BALLOT_BIT))
+      throw Error("deformation: this Vulkan device lacks subgroup arithmetic or ballot in compute shaders");
   }
   if (sd.format != fg::Format::R16Unorm || md.format != fg::Format::R8Unorm || sd.width != md.width || sd.height != md.height || sd.depth != md.depth)
     throw Error("deformation: the source volume (R16) and mask (R8) must share one grid");

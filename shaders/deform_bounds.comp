@@ -1,14 +1,15 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
-#extension GL_KHR_shader_subgroup_vote : require
+#extension GL_KHR_shader_subgroup_ballot : require
 // The box of voxels to redo this frame: the union of the old and new voxel bounding boxes of every
 // fine tet with a node whose committed position changed (deform_interpolate.comp). One invocation
 // per fine tet. In brick mode (box.bricks.x) a moved tet also raises, in every brick its old and new
-// boxes meet (widened by a voxel), this frame's largest node motion (voxels along the largest axis;
-// float bits, so atomicMax orders them): deform_bricks.comp adds it to the lag each brick has
-// accumulated since it was last resampled. A tet whose boxes span more than kMaxMarkedBricks
-// bricks (a torn state) makes every brick dirty at once.
+// boxes meet (widened by the allowed lag, P.regionHi.w: the image a brick keeps may come from up to
+// that far away), this frame's largest node motion (voxels along the largest axis; float bits, so
+// atomicMax orders them): deform_bricks.comp adds it to the lag each brick has accumulated since it
+// was last resampled. A tet whose boxes span more than kMaxMarkedBricks bricks (a torn state)
+// makes every brick dirty at once.
 #include "shared.h"
 layout(local_size_x = HANDSON_DEFORM_GROUP_X) in;
 layout(std430, set = 0, binding = kBindDeformBoundsParams) readonly buffer Params { DeformParams P; };
@@ -20,17 +21,22 @@ layout(std430, set = 0, binding = kBindDeformBoundsBrickMotion) buffer Motion { 
 
 const int kMaxMarkedBricks = 64;
 
-// Called by the moved tets only (divergent): where they all mark the same bricks (neighbouring
-// tets mostly do), one lane marks them with the largest motion, not one atomic per tet.
-void markBricks(ivec3 lo, ivec3 hi, float motion) {
-  lo = max(lo, P.regionVoxLo.xyz);
-  hi = min(hi, P.regionVoxHi.xyz);
-  bool none = any(greaterThan(lo, hi));  // outside the region: nothing to mark
-  ivec3 blo = none ? ivec3(0) : (lo - P.regionVoxLo.xyz) / HANDSON_DEFORM_BRICK;
-  ivec3 bhi = none ? ivec3(-1) : (hi - P.regionVoxLo.xyz) / HANDSON_DEFORM_BRICK;
-  if (subgroupAllEqual(blo) && subgroupAllEqual(bhi)) {
-    motion = subgroupMax(motion);
-    if (!subgroupElect()) return;
+// Called by the moved tets only (divergent). Lanes whose bricks are the same (neighbouring tets
+// mostly have the same) mark them once with their largest motion: the subgroup is taken in groups
+// of equal ranges, the first remaining lane's group each round.
+void markBricks(vec3 lo, vec3 hi, float motion) {
+  ivec3 ilo = max(ivec3(floor(clamp(lo, vec3(-1.0), vec3(P.dims.xyz)))), P.regionVoxLo.xyz);
+  ivec3 ihi = min(ivec3(ceil(clamp(hi, vec3(-1.0), vec3(P.dims.xyz)))), P.regionVoxHi.xyz);
+  bool none = any(greaterThan(ilo, ihi));  // outside the region: nothing to mark
+  ivec3 blo = none ? ivec3(0) : (ilo - P.regionVoxLo.xyz) / HANDSON_DEFORM_BRICK;
+  ivec3 bhi = none ? ivec3(-1) : (ihi - P.regionVoxLo.xyz) / HANDSON_DEFORM_BRICK;
+  for (;;) {
+    ivec3 flo = subgroupBroadcastFirst(blo), fhi = subgroupBroadcastFirst(bhi);
+    if (all(equal(blo, flo)) && all(equal(bhi, fhi))) {
+      motion = subgroupMax(motion);
+      if (!subgroupElect()) return;
+      break;
+    }
   }
   if (any(greaterThan(blo, bhi))) return;
   ivec3 n = bhi - blo + 1;
@@ -61,7 +67,13 @@ void main() {
   // Reduce over the subgroup first: one lane's atomics instead of one per moved tet.
   ivec3 ilo = ivec3(floor(clamp(lo, vec3(-1.0), vec3(P.dims.xyz))));  // clamped before the int conversion
   ivec3 ihi = ivec3(ceil(clamp(hi, vec3(-1.0), vec3(P.dims.xyz))));
-  if (moved && box.bricks.x != 0u) markBricks(ilo - 1, ihi + 1, motion);
+  if (box.bricks.x != 0u) {
+    // Brick mode: the box is the region's (deform-reset); only the moved tets are counted.
+    if (moved) markBricks(lo - P.regionHi.w, hi + P.regionHi.w, motion);
+    uint count = subgroupAdd(moved ? 1u : 0u);
+    if (subgroupElect() && count > 0u) atomicAdd(box.stats.x, count);
+    return;
+  }
   if (!moved) {
     ilo = ivec3(2147483647);
     ihi = ivec3(-2147483647);

@@ -251,7 +251,7 @@ struct DeformParams {
   mat4 worldToIndex;
   mat4 indexToWorld;
   vec4 regionLo;      // world box of the mesh at rest (xyz), w = background (normalized value)
-  vec4 regionHi;      // xyz
+  vec4 regionHi;      // xyz, w = the lag allowed during motion (voxels; DeformSetup::motionLagVoxels)
   ivec4 regionVoxLo;  // xyz: voxel index box that can hold region voxels (inclusive), w = fine node count
   ivec4 regionVoxHi;  // xyz, w = fine tet count
   ivec4 dims;         // xyz volume dims, w = handle count

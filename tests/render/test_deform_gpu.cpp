@@ -202,8 +202,7 @@ TEST_F(DeformGpu, DuringMotionOnlyBricksThatMayLagMoreThanTheToleranceAreRedoneA
   const Fixture& f = fixture();
   const Images im = upload(f.q, f.mask);
   const auto& mesh = f.scene.meshes.fine;
-  vk::DeformSetup lagging = setupFor(f, f.data, mesh.tets, f.scene.lo, f.scene.hi);
-  lagging.motionLagVoxels = 0.25;
+  const vk::DeformSetup lagging = setupFor(f, f.data, mesh.tets, f.scene.lo, f.scene.hi);  // the default lag
   vk::DeformSetup exact = lagging;
   exact.commitVoxels = 0.0;
   vk::GpuDeformer bricks(test::gpuContext(), im.volume, im.mask, lagging), whole(test::gpuContext(), im.volume, im.mask, exact);
@@ -489,6 +488,7 @@ TEST_F(DeformGpu, FrameGraphDeformsThenRaymarchesAndPicksTheDeformedVolume) {
   req.params = p;
   renderer.submit(req);
   EXPECT_EQ(renderer.waitLast().rgba, coarseAgain.rgba);
+  EXPECT_FALSE(renderer.deformationLagging()) << "a frame without a new state settles the deformation";
   renderer.endDeformation();
   req = FrameRequest{};
   req.params = p;
@@ -527,4 +527,21 @@ TEST_F(DeformGpu, ATornStateIsDrawnWithoutItsStretchedTetsAsOnTheCpu) {
   std::size_t within = 0;
   for (std::size_t i = 0; i < vol.size(); ++i) within += std::abs(f.q.toValue(vol[i] / 65535.0f) - out.value(i)) <= 1.0f ? 1 : 0;
   EXPECT_GE(double(within) / double(vol.size()), 0.999);
+  // Brick frames from rest to the torn state (the torn node's tets reach across the region: their
+  // bricks are marked, or every brick when they span more than a tet may mark): the same image as
+  // the region redo, the same tets skipped.
+  vk::GpuDeformer bricks(test::gpuContext(), im.volume, im.mask, setupFor(f, rest, mesh.tets, f.scene.lo, f.scene.hi));
+  const auto sb = bricks.runFrameFromPositions(idx, vk::Redo::BricksDuringMotion);
+  EXPECT_EQ(sb.skippedTets, st.skippedTets);
+  EXPECT_EQ(bricks.readVolume(), vol);
+  // A whole-region scale of the same kind: every node thrown far, so tets span more bricks than
+  // they may mark and every brick is redone.
+  std::vector<Eigen::Vector4f> spread(idx.size());
+  const Eigen::Vector4f mid = (w2i * c.homogeneous()).cast<float>();
+  for (std::size_t i = 0; i < idx.size(); ++i) spread[i] << mid.head<3>() + 40.0f * (idx[i].head<3>() - mid.head<3>()), 1.0f;
+  const auto all = bricks.runFrameFromPositions(spread, vk::Redo::BricksDuringMotion);
+  EXPECT_TRUE(all.allBricks);
+  vk::GpuDeformer region(test::gpuContext(), im.volume, im.mask, setupFor(f, rest, mesh.tets, f.scene.lo, f.scene.hi));
+  region.runFrame(spread);
+  EXPECT_EQ(bricks.readVolume(), region.readVolume());
 }
