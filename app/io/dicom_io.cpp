@@ -928,7 +928,10 @@ SliceHeader sliceHeaderOf(const gdcm::Scanner& scanner, const std::string& f, co
   };
   const auto spp = number(kSamplesPerPixel), allocated = number(kBitsAllocated), stored = number(kBitsStored),
              high = number(kHighBit), representation = number(kPixelRepresentation);
-  if ((spp && *spp != 1) || !allocated || (*allocated != 8 && *allocated != 16 && *allocated != 32) ||
+  // A SamplesPerPixel that is there but is not one number is refused too: GDCM reads it its own way
+  // and asserts when it takes it as more than 4 (found by fuzz_dicom).
+  const bool unreadableSpp = scanner.GetValue(f.c_str(), kSamplesPerPixel) && !spp;
+  if (unreadableSpp || (spp && *spp != 1) || !allocated || (*allocated != 8 && *allocated != 16 && *allocated != 32) ||
       (stored && (*stored < 1 || *stored > *allocated)) || (high && (*high < 0 || *high >= *allocated)) ||
       (representation && *representation != 0 && *representation != 1))
     throw Error("DICOM file '" + f + "' has a pixel format this reader does not take (samples per pixel " +

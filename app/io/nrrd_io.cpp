@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -132,6 +133,37 @@ VolumeGeometry geometryOf(const Nrrd* n, const Layout& l, const std::string& pat
   }
 }
 
+// Teem allocates the data the header declares before it reads any: a raw, hex or ASCII file must
+// hold at least that many bytes (found by fuzz_nrrd: a 269-byte file declaring 2.5 GB), and gzip
+// cannot expand more than about 1032:1. (bzip2 can; its declared size is bounded by
+// checkAllocation alone.)
+void checkDataFits(const std::string& path, const NrrdIoState* io, double bytes) {
+  namespace fs = std::filesystem;
+  double have = 0;
+  std::error_code ec;
+  if (io->dataFNArr && io->dataFNArr->len > 0) {
+    const fs::path dir = fs::path(path).parent_path();
+    for (unsigned i = 0; i < io->dataFNArr->len; ++i) {
+      const fs::path p = fs::path(io->dataFN[i]).is_absolute() ? fs::path(io->dataFN[i]) : dir / io->dataFN[i];
+      const auto size = fs::file_size(p, ec);
+      if (!ec) have += double(size);
+    }
+    if (io->dataFNArr->len > 0 && have == 0) return;  // a detached file Teem will report missing itself
+  } else {
+    const auto size = fs::file_size(path, ec);
+    if (ec) return;
+    have = double(size);
+  }
+  double most = -1;  // the largest data the file(s) can hold; < 0: no bound from the encoding
+  if (io->encoding == nrrdEncodingRaw) most = have;
+  else if (io->encoding == nrrdEncodingHex) most = have / 2;
+  else if (io->encoding == nrrdEncodingAscii) most = have * 8;  // one digit and a separator per value, 8 bytes at most each
+  else if (io->encoding == nrrdEncodingGzip) most = have * 1100;
+  if (most >= 0 && bytes > most)
+    fail(path, "its header declares " + std::to_string(std::llround(bytes)) + " bytes of data but the file holds only " + std::to_string(std::llround(have)) +
+                   " bytes: it is truncated or its sizes are wrong");
+}
+
 }  // namespace
 
 Volume readNrrd(const std::string& path, std::int64_t frame, NrrdInfo* info) {
@@ -152,6 +184,8 @@ Volume readNrrd(const std::string& path, std::int64_t frame, NrrdInfo* info) {
   } catch (const Error& e) {
     fail(path, e.what());
   }
+
+  checkDataFits(path, io.get(), elements * double(nrrdTypeSize[head->type]));
 
   std::unique_ptr<Nrrd, NrrdDeleter> n(nrrdNew());
   if (nrrdLoad(n.get(), path.c_str(), nullptr)) fail(path, teemError());

@@ -171,6 +171,15 @@ TEST_F(NrrdIo, BrokenFilesAreRefused) {
       EXPECT_NE(std::string(e.what()).find(f), std::string::npos) << e.what();
     }
   }
+  // Found by fuzz_nrrd: raw data declared far larger than the file (2.5 GB in 269 bytes) is refused
+  // from the header, before Teem allocates it.
+  write("declared.nrrd", "NRRD0004\ntype: short\ndimension: 3\nsizes: 2 311111111 2\nendian: little\nencoding: raw\n\n" + raw(values));
+  try {
+    (void)loadVolume(path("declared.nrrd"));
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("declares 2488888888 bytes of data but the file holds only"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
