@@ -158,6 +158,8 @@ class GpuDeformer {
   void importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState, fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {},
                        const Outputs& outputs = {});
   Outputs addResamplePasses(fg::FrameGraph& g, Redo redo);
+  /// The passes that choose what a frame redoes (the moved box; the bricks' lag and list).
+  void addRedoSelection(fg::FrameGraph& g, Redo redo);
   /// The interpolation's commit threshold (voxels) for a frame of this kind.
   float commitFor(Redo redo) const;
   DeformFrameStats runOwn(const std::function<void(fg::FrameGraph&)>& build);

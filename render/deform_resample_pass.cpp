@@ -23,40 +23,14 @@ using deform::kSampled;
 using deform::kSsbo;
 using deform::kStorageImage;
 
-GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo) {
+// What to redo: the moved tets' box (deform_bounds.comp), and in brick mode each brick's lag and the
+// list of bricks past it (deform_bricks.comp).
+void GpuDeformer::addRedoSelection(fg::FrameGraph& g, Redo redo) {
   using fg::Access;
   const Bound hb = h_;
-  const gpu::DeformParams p = p_;
   const std::uint32_t tetGroups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
-  const std::uint32_t brickGroups = std::uint32_t((p.bricks.w + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
+  const std::uint32_t brickGroups = std::uint32_t((p_.bricks.w + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
   const bool bricks = redo == Redo::Bricks || redo == Redo::BricksDuringMotion;
-  g.addPass(
-      "deform-reset",
-      [&](fg::PassBuilder& b) {
-        b.write(hb.box, Access::TransferDst);
-        if (bricks) b.write(hb.brickFlags, Access::TransferDst);
-        if (redo == Redo::Region || redo == Redo::WholeVolume) b.write(hb.brickLag, Access::TransferDst);
-      },
-      [hb, p, redo, bricks](fg::Executor& e) {
-        GraphExecutor& x = vulkanExecutor(e);
-        gpu::DeformBox init{};
-        if (redo == Redo::Region || bricks) {  // brick mode: the box only bounds the skipped-tet count
-          init.lo = glm::ivec4(p.regionVoxLo.x, p.regionVoxLo.y, p.regionVoxLo.z, 0);
-          init.hi = glm::ivec4(p.regionVoxHi.x, p.regionVoxHi.y, p.regionVoxHi.z, 0);
-        } else if (redo == Redo::WholeVolume) {
-          init.lo = glm::ivec4(0);
-          init.hi = glm::ivec4(p.dims.x - 1, p.dims.y - 1, p.dims.z - 1, 0);
-        } else {
-          init.lo = glm::ivec4(INT_MAX);
-          init.hi = glm::ivec4(INT_MIN);
-        }
-        init.bricks.x = bricks ? 1u : 0u;
-        vkCmdUpdateBuffer(x.cmd(), x.buffer(hb.box).handle(), 0, sizeof(init), &init);
-        if (bricks) vkCmdFillBuffer(x.cmd(), x.buffer(hb.brickFlags).handle(), 0, VK_WHOLE_SIZE, 0u);
-        // A redo of the region leaves no brick lagging (the box of a moved-box frame is exact too,
-        // at its own commit threshold, and adds no lag).
-        if (redo == Redo::Region || redo == Redo::WholeVolume) vkCmdFillBuffer(x.cmd(), x.buffer(hb.brickLag).handle(), 0, VK_WHOLE_SIZE, 0u);
-      });
   if (redo == Redo::Moved || bricks)
     g.addPass(
         "deform-bounds",
@@ -104,6 +78,42 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
           vkCmdPushConstants(x.cmd(), bricks_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
           vkCmdDispatch(x.cmd(), brickGroups, 1, 1);
         });
+}
+
+GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo) {
+  using fg::Access;
+  const Bound hb = h_;
+  const gpu::DeformParams p = p_;
+  const std::uint32_t tetGroups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
+  const bool bricks = redo == Redo::Bricks || redo == Redo::BricksDuringMotion;
+  g.addPass(
+      "deform-reset",
+      [&](fg::PassBuilder& b) {
+        b.write(hb.box, Access::TransferDst);
+        if (bricks) b.write(hb.brickFlags, Access::TransferDst);
+        if (redo == Redo::Region || redo == Redo::WholeVolume) b.write(hb.brickLag, Access::TransferDst);
+      },
+      [hb, p, redo, bricks](fg::Executor& e) {
+        GraphExecutor& x = vulkanExecutor(e);
+        gpu::DeformBox init{};
+        if (redo == Redo::Region || bricks) {  // brick mode: the box only bounds the skipped-tet count
+          init.lo = glm::ivec4(p.regionVoxLo.x, p.regionVoxLo.y, p.regionVoxLo.z, 0);
+          init.hi = glm::ivec4(p.regionVoxHi.x, p.regionVoxHi.y, p.regionVoxHi.z, 0);
+        } else if (redo == Redo::WholeVolume) {
+          init.lo = glm::ivec4(0);
+          init.hi = glm::ivec4(p.dims.x - 1, p.dims.y - 1, p.dims.z - 1, 0);
+        } else {
+          init.lo = glm::ivec4(INT_MAX);
+          init.hi = glm::ivec4(INT_MIN);
+        }
+        init.bricks.x = bricks ? 1u : 0u;
+        vkCmdUpdateBuffer(x.cmd(), x.buffer(hb.box).handle(), 0, sizeof(init), &init);
+        if (bricks) vkCmdFillBuffer(x.cmd(), x.buffer(hb.brickFlags).handle(), 0, VK_WHOLE_SIZE, 0u);
+        // A redo of the region leaves no brick lagging (the box of a moved-box frame is exact too,
+        // at its own commit threshold, and adds no lag).
+        if (redo == Redo::Region || redo == Redo::WholeVolume) vkCmdFillBuffer(x.cmd(), x.buffer(hb.brickLag).handle(), 0, VK_WHOLE_SIZE, 0u);
+      });
+  addRedoSelection(g, redo);
   g.addPass(
       "deform-args",
       [&](fg::PassBuilder& b) {
