@@ -1,8 +1,13 @@
 #include "selection.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace handson {
+
+namespace {
+constexpr double kMaxExtentMm = 500.0;  // the largest extent a pinch may spread to
+}  // namespace
 
 void PinchSelection::onTouch(const TouchEvent& e, const TouchInput& input, const OrbitCamera& camera, const Viewport& viewport) {
   (void)camera;
@@ -25,9 +30,11 @@ void PinchSelection::onTouch(const TouchEvent& e, const TouchInput& input, const
       const bool bothDown = input.find(fingerA_) && input.find(fingerB_);
       if (!bothDown) {  // a finger lifted: the selection ends
         if (state_ == State::Growing && grower_) {
-          finished_ = liveVoxels();
+          finished_ = growingOn_ ? growingOn_->finish() : liveVoxels();
+          std::sort(finished_->begin(), finished_->end());  // the same handle whichever engine grew it
           changed_ = true;
         }
+        growingOn_ = nullptr;
         grower_.reset();
         state_ = State::Idle;
         requestPending_ = false;
@@ -72,8 +79,14 @@ void PinchSelection::onPicks(const std::vector<std::optional<glm::dvec3>>& world
   extent_ = 0.0;
   feedback_.clear();
   // The fingers' current spread decides the first extent.
-  extent_ = pixelMm_ * glm::length(pickA_ - pickB_);
-  grower_->growTo(extent_);
+  extent_ = std::min(pixelMm_ * glm::length(pickA_ - pickB_), kMaxExtentMm);
+  growingOn_ = engine_;
+  if (growingOn_) {
+    growingOn_->start(*grower_);
+    growingOn_->show(grower_->bound(extent_), extent_);
+  } else {
+    grower_->growTo(extent_);
+  }
   changed_ = true;
 }
 
@@ -85,14 +98,15 @@ void PinchSelection::updateExtent(const TouchInput& input) {
   pickB_ = b->px;
   const double e = pixelMm_ * glm::length(a->px - b->px);
   if (!std::isfinite(e) || std::abs(e - extent_) < 1e-9) return;
-  extent_ = std::min(e, 500.0);
-  if (extent_ > grower_->grownExtent()) grower_->growTo(extent_);
+  extent_ = std::min(e, kMaxExtentMm);
+  if (growingOn_) growingOn_->show(grower_->bound(extent_), extent_);
+  else if (extent_ > grower_->grownExtent()) grower_->growTo(extent_);
   changed_ = true;
 }
 
 std::vector<std::uint32_t> PinchSelection::liveVoxels() const {
   std::vector<std::uint32_t> out;
-  if (!grower_) return out;
+  if (!grower_ || growingOn_) return out;
   const std::uint32_t bound = grower_->bound(extent_);
   const auto& keys = grower_->keys();
   for (std::size_t v : grower_->touched())

@@ -18,6 +18,20 @@
 
 namespace handson {
 
+/// Where a pinch's selection grows when not on the CPU reference (the app hands it to the GPU
+/// pass: app/session/selection_backend.h). The reference grower is built either way: its seed
+/// statistics (setup) and key bounds are what the engine grows with, so both select the same voxels.
+class GrowthEngine {
+ public:
+  virtual ~GrowthEngine() = default;
+  /// A selection starts from the reference's seed and statistics.
+  virtual void start(const RegionGrower& reference) = 0;
+  /// The fingers' extent changed: show the selection up to this key bound (reference.bound(mm)).
+  virtual void show(std::uint32_t bound, double extentMm) = 0;
+  /// The pinch ended: the selection's voxels up to the last bound shown (linear indices, ascending).
+  virtual std::vector<std::uint32_t> finish() = 0;
+};
+
 class PinchSelection {
  public:
   enum class State : std::uint8_t { Idle, WaitingForPicks, Growing };
@@ -34,13 +48,17 @@ class PinchSelection {
 
   State state() const { return state_; }
   double extentMm() const { return extent_; }
-  /// Voxels of the live selection (linear indices), valid while Growing.
+  /// Voxels of the live selection (linear indices), valid while Growing on the CPU.
   std::vector<std::uint32_t> liveVoxels() const;
-  /// Set when the selection ended with the lift of a finger: the final voxels (taken once).
+  /// Set when the selection ended with the lift of a finger: the final voxels, ascending (taken once).
   std::optional<std::vector<std::uint32_t>> takeFinished();
   /// A user-facing message about the last pinch ("" if none), e.g. a refusal.
   const std::string& feedback() const { return feedback_; }
   bool changed() { return std::exchange(changed_, false); }
+  /// Grow on `engine` from the next pinch on (nullptr: on the CPU reference, the default). While an
+  /// engine grows, liveVoxels() is empty: the engine shows the live selection itself.
+  void setEngine(GrowthEngine* engine) { engine_ = engine; }
+  GrowthEngine* engine() const { return engine_; }
   const RegionGrower* grower() const { return grower_.get(); }
 
  private:
@@ -53,6 +71,8 @@ class PinchSelection {
   bool requestPending_ = false;
   double pixelMm_ = 0.0, extent_ = 0.0;
   std::unique_ptr<RegionGrower> grower_;
+  GrowthEngine* engine_ = nullptr;
+  GrowthEngine* growingOn_ = nullptr;  // the engine of the pinch now growing (nullptr: the CPU)
   std::optional<std::vector<std::uint32_t>> finished_;
   std::string feedback_;
   bool changed_ = false;

@@ -31,17 +31,6 @@ template <class T> Buffer uploaded(const Context& ctx, const std::vector<T>& dat
   return b;
 }
 
-void readImage(const Context& ctx, const Image& img, void* dst, VkDeviceSize bytes) {
-  Buffer host(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::HostVisible);
-  ctx.submitAndWait([&](VkCommandBuffer cmd) {
-    transitionImage(cmd, img.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
-    copyImageToBuffer(cmd, img, host.handle());
-    transitionImage(cmd, img.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  });
-  host.invalidate();
-  std::memcpy(dst, host.mapped(), bytes);
-}
-
 }  // namespace
 
 std::uint64_t DeformFrameStats::redoneVoxels() const {
@@ -364,7 +353,7 @@ std::vector<float> GpuDeformer::readStrainVolume() const {
   if (!strainBuffer_) throw Error("deformation: no strain computed yet");
   const fg::ImageDesc d = strainVolume_.desc();
   std::vector<float> out(std::size_t(d.width) * d.height * d.depth);
-  readImage(ctx_, strainVolume_, out.data(), out.size() * sizeof(float));
+  downloadFromImage(ctx_, strainVolume_, out.data(), out.size() * sizeof(float));
   return out;
 }
 
@@ -373,21 +362,21 @@ std::vector<float> GpuDeformer::readStrainOverLimitVolume() const {
   if (!hasStrainLimits()) throw Error("deformation: no strain limits were given");
   const fg::ImageDesc d = overLimitVolume_.desc();
   std::vector<float> out(std::size_t(d.width) * d.height * d.depth);
-  readImage(ctx_, overLimitVolume_, out.data(), out.size() * sizeof(float));
+  downloadFromImage(ctx_, overLimitVolume_, out.data(), out.size() * sizeof(float));
   return out;
 }
 
 std::vector<std::uint16_t> GpuDeformer::readVolume() const {
   const fg::ImageDesc d = volume_.desc();
   std::vector<std::uint16_t> out(std::size_t(d.width) * d.height * d.depth);
-  readImage(ctx_, volume_, out.data(), out.size() * 2);
+  downloadFromImage(ctx_, volume_, out.data(), out.size() * 2);
   return out;
 }
 
 std::vector<std::uint8_t> GpuDeformer::readMask() const {
   const fg::ImageDesc d = mask_.desc();
   std::vector<std::uint8_t> out(std::size_t(d.width) * d.height * d.depth);
-  readImage(ctx_, mask_, out.data(), out.size());
+  downloadFromImage(ctx_, mask_, out.data(), out.size());
   return out;
 }
 

@@ -233,9 +233,16 @@ void GpuRegionGrower::bind(GraphExecutor& x) const {
 }
 
 void GpuRegionGrower::frameDone(const fg::FrameGraph& g) {
-  const Bound& h = handles_;
-  const auto imported = bufferHandles(h);
+  recordStates(g);
+  readActive();
+}
+
+void GpuRegionGrower::recordStates(const fg::FrameGraph& g) {
+  const auto imported = bufferHandles(handles_);
   for (int i = 0; i < kBufferCount; ++i) state_[i] = g.stateAfterFrame(imported[std::size_t(i)]);
+}
+
+void GpuRegionGrower::readActive() {
   activeHost_.invalidate();
   std::memcpy(&active_, activeHost_.mapped(), 4);
 }

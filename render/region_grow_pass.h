@@ -48,8 +48,13 @@ class GpuRegionGrower {
   /// Binds the buffers (and the volume, where addRounds imported it) of the last addRounds.
   void bind(GraphExecutor& executor) const;
   /// After the frame's fence: keeps each buffer's last access for the next frame's barriers and
-  /// reads the active count back.
+  /// reads the active count back (recordStates, then readActive).
   void frameDone(const fg::FrameGraph& g);
+  /// Once the frame is recorded: each buffer's last access, for the next frame's barriers (frames
+  /// run in order on one queue, so the next one may be recorded before this one has run).
+  void recordStates(const fg::FrameGraph& g);
+  /// After the frame's fence: the active count it left.
+  void readActive();
   /// Bricks active for the next round, as of the last frame done.
   std::uint32_t activeBricks() const { return active_; }
   /// False once the keys up to the bound are final (no active brick, no resume pending).

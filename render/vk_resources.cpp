@@ -458,4 +458,15 @@ void uploadToImage(const Context& ctx, const Image& dst, const void* data, VkDev
   });
 }
 
+void downloadFromImage(const Context& ctx, const Image& img, void* dst, VkDeviceSize bytes) {
+  Buffer host(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::HostVisible);
+  ctx.submitAndWait([&](VkCommandBuffer cmd) {
+    transitionImage(cmd, img.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+    copyImageToBuffer(cmd, img, host.handle());
+    transitionImage(cmd, img.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  });
+  host.invalidate();
+  std::memcpy(dst, host.mapped(), bytes);
+}
+
 }  // namespace handson::vk

@@ -160,5 +160,7 @@ void uploadToBuffer(const Context& ctx, const Buffer& dst, const void* data, VkD
 void downloadFromBuffer(const Context& ctx, const Buffer& src, void* dst, VkDeviceSize bytes);
 /// Uploads a whole image, leaving it in `finalLayout`.
 void uploadToImage(const Context& ctx, const Image& dst, const void* data, VkDeviceSize bytes, VkImageLayout finalLayout);
+/// Reads a whole image (in SHADER_READ_ONLY_OPTIMAL layout, left so) into `dst`, synchronously.
+void downloadFromImage(const Context& ctx, const Image& img, void* dst, VkDeviceSize bytes);
 
 }  // namespace handson::vk

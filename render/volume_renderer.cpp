@@ -75,6 +75,7 @@ void VolumeRenderer::setVolume(const QuantizedVolume& volume, const ProgressFn& 
   const auto& d = volume.geometry.dims;
   if (volume.data.size() != volume.geometry.voxelCount() || volume.data.empty())
     throw Error("renderer: volume data does not match its dimensions");
+  endLiveSelection();  // its box and keys were on the old volume
   // The textures (16-bit values, 8-bit handle mask), the upload's staging copy, and the
   // deformation's copies of both: refused up front when the device cannot hold them.
   const double voxels = double(volume.data.size());
@@ -201,7 +202,7 @@ void VolumeRenderer::setHandleTints(const std::vector<glm::vec4>& tints) {
 void VolumeRenderer::clearMask() {
   ++contentVersion_;  // a still frame's sum starts anew
   if (!hasVolume_) throw Error("renderer: no volume");
-  for (std::uint32_t i = 0; i < slots_.size(); ++i) executor_.waitSlot(i);
+  waitFramesInFlight();
   ctx_.submitAndWait([&](VkCommandBuffer cmd) {
     vk::transitionImage(cmd, mask_.handle(), VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
     const VkClearColorValue zero{};
@@ -209,6 +210,60 @@ void VolumeRenderer::clearMask() {
     vkCmdClearColorImage(cmd, mask_.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &zero, 1, &range);
     vk::transitionImage(cmd, mask_.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   });
+}
+
+void VolumeRenderer::waitFramesInFlight() {
+  for (std::uint32_t i = 0; i < slots_.size(); ++i) executor_.waitSlot(i);
+  if (live_) live_->frameDone();
+}
+
+void VolumeRenderer::beginLiveSelection(const GrowSetup& setup, const Eigen::Vector3i& boxMin, const Eigen::Vector3i& boxDims,
+                                        const std::vector<std::uint8_t>& base) {
+  if (!hasVolume_) throw Error("renderer: no volume");
+  waitFramesInFlight();  // the last selection's buffers may still be read
+  if (!live_) live_ = std::make_unique<vk::LiveSelection>(ctx_, volume_, linear_);
+  try {
+    live_->setRoundsPerFrame(liveRounds_);
+    live_->begin(setup, boxMin, boxDims, base);
+  } catch (...) {
+    live_.reset();  // never a half-begun selection in the next frames
+    throw;
+  }
+}
+
+void VolumeRenderer::setLiveSelectionBound(std::uint32_t bound) {
+  if (!live_) throw Error("renderer: no live selection");
+  live_->setBound(bound);
+}
+
+void VolumeRenderer::setLiveSelectionBase(const std::vector<std::uint8_t>& base) {
+  if (!live_) throw Error("renderer: no live selection");
+  waitFramesInFlight();
+  live_->setBase(base);
+}
+
+std::vector<std::uint32_t> VolumeRenderer::finishLiveSelection() {
+  if (!live_) throw Error("renderer: no live selection");
+  waitFramesInFlight();
+  const fg::ImageDesc d = volume_.desc();
+  std::vector<std::uint32_t> voxels = live_->finish(Eigen::Vector3i(int(d.width), int(d.height), int(d.depth)));
+  live_.reset();
+  return voxels;
+}
+
+void VolumeRenderer::endLiveSelection() {
+  if (!live_) return;
+  waitFramesInFlight();
+  live_.reset();
+}
+
+std::vector<std::uint8_t> VolumeRenderer::readMask() {
+  if (!hasVolume_) throw Error("renderer: no volume");
+  waitFramesInFlight();
+  const fg::ImageDesc d = mask_.desc();
+  std::vector<std::uint8_t> out(std::size_t(d.width) * d.height * d.depth);
+  vk::downloadFromImage(ctx_, mask_, out.data(), out.size());
+  return out;
 }
 
 void VolumeRenderer::harvest(std::uint32_t slot, std::vector<FrameResult>& out) {
@@ -233,15 +288,74 @@ void VolumeRenderer::harvest(std::uint32_t slot, std::vector<FrameResult>& out) 
   out.push_back(std::move(r));
 }
 
+namespace {
+
+/// Copies a box of ids (rows of rowTexels bytes in `src`) into the handle-id mask and, while
+/// deforming, into the deformed mask: outside the simulated region the ids hold at once; inside it
+/// the region's redo carries them through the deformation.
+void addMaskCopy(fg::FrameGraph& g, const char* name, fg::ResourceHandle src, const Eigen::Vector3i& mn, const Eigen::Vector3i& dm,
+                 std::uint32_t rowTexels, fg::ResourceHandle mask, fg::ResourceHandle deformedMask) {
+  g.addPass(
+      name,
+      [&](fg::PassBuilder& b) {
+        b.read(src, fg::Access::TransferSrc);
+        b.write(mask, fg::Access::TransferDst);
+        if (deformedMask.valid()) b.write(deformedMask, fg::Access::TransferDst);
+      },
+      [src, mn, dm, rowTexels, mask, deformedMask](fg::Executor& e) {
+        auto& x = vk::vulkanExecutor(e);
+        VkBufferImageCopy r{};
+        r.bufferRowLength = rowTexels;
+        r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        r.imageOffset = {mn.x(), mn.y(), mn.z()};
+        r.imageExtent = {std::uint32_t(dm.x()), std::uint32_t(dm.y()), std::uint32_t(dm.z())};
+        vkCmdCopyBufferToImage(x.cmd(), x.buffer(src).handle(), x.image(mask).handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
+        if (deformedMask.valid())
+          vkCmdCopyBufferToImage(x.cmd(), x.buffer(src).handle(), x.image(deformedMask).handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
+      });
+}
+
+}  // namespace
+
+VolumeRenderer::MaskBox VolumeRenderer::addMaskWrites(fg::FrameGraph& g, const FrameRequest& req, Slot& s, fg::ResourceHandle mask,
+                                                      fg::ResourceHandle deformedMask, fg::ResourceHandle volume, fg::ResourceHandle& staging) {
+  MaskBox box;
+  auto cover = [&box](const Eigen::Vector3i& mn, const Eigen::Vector3i& dm) {
+    const Eigen::Vector3i hi = mn + dm - Eigen::Vector3i::Ones();
+    box = box ? std::make_pair(box->first.cwiseMin(mn), box->second.cwiseMax(hi)) : std::make_pair(mn, hi);
+  };
+  if (req.maskUpload) {
+    const MaskUpload& up = *req.maskUpload;
+    const fg::ImageDesc md = mask_.desc();
+    const Eigen::Vector3i mdims(int(md.width), int(md.height), int(md.depth));
+    if ((up.min.array() < 0).any() || (up.dims.array() <= 0).any() || ((up.min + up.dims).array() > mdims.array()).any() ||
+        up.ids.size() != std::size_t(up.dims.prod()))
+      throw Error("renderer: the mask upload does not fit the volume");
+    ensureBuffer(s.maskStaging, up.ids.size(), VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+    std::memcpy(s.maskStaging->mapped(), up.ids.data(), up.ids.size());
+    s.maskStaging->flush();
+    staging = g.importBuffer("mask-staging", {s.maskStaging->size()}, fg::Access::HostWrite);
+    addMaskCopy(g, "mask-upload", staging, up.min, up.dims, 0, mask, deformedMask);
+    cover(up.min, up.dims);
+  }
+  // The live selection's rounds and paint (after the upload: its base holds the uploaded ids).
+  if (live_)
+    if (const auto paint = live_->addPasses(g, volume)) {
+      addMaskCopy(g, "live-mask-copy", paint->ids, paint->min, paint->dims, paint->rowTexels, mask, deformedMask);
+      cover(paint->min, paint->dims);
+    }
+  return box;
+}
+
 // The deformation: new coarse state (or a mask change to carry over) -> its passes, whose outputs
 // the raymarch and picking read (`in`); otherwise the deformed images as they are. With the strain
 // overlay or the limit highlight, the strain passes after them (or the strain volumes as they are).
-void VolumeRenderer::addDeformation(fg::FrameGraph& g, const FrameRequest& req, bool wantStrain, const vk::GpuDeformer::Outputs& deformed,
-                                    vk::MarchInputs& in) {
+void VolumeRenderer::addDeformation(fg::FrameGraph& g, const FrameRequest& req, const MaskBox& maskWritten, bool wantStrain,
+                                    const vk::GpuDeformer::Outputs& deformed, vk::MarchInputs& in) {
   if (req.deform) lastDeform_ = *req.deform;
   bool uploadInRegion = false;
-  if (req.maskUpload) {
-    const Eigen::Vector3i lo = req.maskUpload->min, hi = req.maskUpload->min + req.maskUpload->dims - Eigen::Vector3i::Ones();
+  if (maskWritten) {
+    const auto& [lo, hi] = *maskWritten;
     uploadInRegion = (lo.array() <= deformer_->regionVoxelHi().array()).all() && (hi.array() >= deformer_->regionVoxelLo().array()).all();
     g.exportResource(deformed.mask, fg::Access::Sampled);
   }
@@ -333,43 +447,18 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   // While deforming, the deformed images are what the raymarch and picking read.
   vk::GpuDeformer::Outputs deformed;
   if (deformer_) deformed = deformer_->importOutputs(g);
-  fg::ResourceHandle maskStaging;
-  if (req.maskUpload) {
-    const MaskUpload& up = *req.maskUpload;
-    const fg::ImageDesc md = mask_.desc();
-    const Eigen::Vector3i mdims(int(md.width), int(md.height), int(md.depth));
-    if ((up.min.array() < 0).any() || (up.dims.array() <= 0).any() || ((up.min + up.dims).array() > mdims.array()).any() ||
-        up.ids.size() != std::size_t(up.dims.prod()))
-      throw Error("renderer: the mask upload does not fit the volume");
-    ensureBuffer(s.maskStaging, up.ids.size(), VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
-    std::memcpy(s.maskStaging->mapped(), up.ids.data(), up.ids.size());
-    s.maskStaging->flush();
-    maskStaging = g.importBuffer("mask-staging", {s.maskStaging->size()}, fg::Access::HostWrite);
-    const Eigen::Vector3i mn = up.min, dm = up.dims;
-    g.addPass(
-        "mask-upload",
-        [&](fg::PassBuilder& b) {
-          b.read(maskStaging, fg::Access::TransferSrc);
-          b.write(in.mask, fg::Access::TransferDst);
-          if (deformed.mask.valid()) b.write(deformed.mask, fg::Access::TransferDst);
-        },
-        [this, maskStaging, mn, dm, deformedMask = deformed.mask](fg::Executor& e) {
-          auto& x = vk::vulkanExecutor(e);
-          VkBufferImageCopy r{};
-          r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-          r.imageOffset = {mn.x(), mn.y(), mn.z()};
-          r.imageExtent = {std::uint32_t(dm.x()), std::uint32_t(dm.y()), std::uint32_t(dm.z())};
-          vkCmdCopyBufferToImage(x.cmd(), x.buffer(maskStaging).handle(), mask_.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
-          // The deformed mask takes the same ids outside the simulated region at once; inside it,
-          // the region's redo below carries them through the deformation.
-          if (deformedMask.valid())
-            vkCmdCopyBufferToImage(x.cmd(), x.buffer(maskStaging).handle(), x.image(deformedMask).handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
-        });
+  // A frame carrying the live selection's growth waits for the last one that did.
+  if (live_ && live_->inFlight()) {
+    executor_.waitSlot(liveSlot_);
+    live_->frameDone();
   }
+  fg::ResourceHandle maskStaging;
+  const MaskBox maskWritten = addMaskWrites(g, req, s, in.mask, deformed.mask, in.volume, maskStaging);
   // The deformed images (and strain) the raymarch and picking read, while deforming.
   const fg::ResourceHandle sourceVolume = in.volume, sourceMask = in.mask;
-  if (req.maskUpload) g.exportResource(sourceMask, fg::Access::Sampled);  // whoever reads it, it ends the frame sampled
-  if (deformer_) addDeformation(g, req, (params.control.x & (gpu::kFlagStrainOverlay | gpu::kFlagLimitHighlight)) != 0, deformed, in);
+  if (maskWritten) g.exportResource(sourceMask, fg::Access::Sampled);  // whoever reads it, it ends the frame sampled
+  if (maskWritten) ++contentVersion_;                                 // a still frame's sum starts anew
+  if (deformer_) addDeformation(g, req, maskWritten, (params.control.x & (gpu::kFlagStrainOverlay | gpu::kFlagLimitHighlight)) != 0, deformed, in);
   in.labels = g.importImage("labels", labels_.desc(), fg::Access::Sampled);
   if (!hasLabels_ || !(in.volume == sourceVolume)) params.control.x &= ~gpu::kFlagLabelTint;  // none, or deformed anatomy shown
   const bool ownStrain = !in.strain.valid();
@@ -436,6 +525,8 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   if (ownOverLimit) executor_.bindImage(in.overLimit, noOverLimit_);
   executor_.bindImage(in.labels, labels_);
   if (deformer_) deformer_->bind(executor_);
+  const bool liveRan = live_ && live_->inFlight();  // its passes are in this frame
+  if (liveRan) live_->bind(executor_);
   executor_.bindBuffer(in.handles, handleTints_);
   executor_.bindBuffer(in.jitter, jitter_);
   executor_.bindImage(in.accum, accumImage);
@@ -451,6 +542,10 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   executor_.setGraph(nullptr);
   if (req.extension) executor_.submit(req.extension->waitSemaphore, req.extension->waitStage, req.extension->signalSemaphore);
   else executor_.submit();
+  if (liveRan) {
+    live_->submitted(g);
+    liveSlot_ = executor_.slot();
+  }
   s.frame = nextFrame_++;
   return *s.frame;
 }
@@ -465,6 +560,7 @@ FrameResult VolumeRenderer::waitLast() {
     executor_.waitSlot(i);
     harvest(i, out);
   }
+  if (live_) live_->frameDone();
   if (out.empty()) throw Error("renderer: no frame was submitted");
   std::sort(out.begin(), out.end(), [](const FrameResult& a, const FrameResult& b) { return a.frame < b.frame; });
   FrameResult last = std::move(out.back());

@@ -13,6 +13,7 @@
 
 #include "compute_passes.h"
 #include "deform_pass.h"
+#include "live_selection.h"
 #include "shaders/shared.h"
 #include "sim/progress.h"
 #include "vk_graph_executor.h"
@@ -108,6 +109,29 @@ class VolumeRenderer {
   const vk::GpuDeformer* deformer() const { return deformer_.get(); }
   const vk::Sampler& sampler() const { return linear_; }
 
+  /// A pinch's live selection grown on the GPU (render/live_selection.h): from the next frame on,
+  /// frames carry its region-growing rounds and paint it into the handle-id mask (and, while
+  /// deforming, into the deformed mask as a mask upload does) until the keys up to the bound are
+  /// final; a frame with rounds waits for the last one that had some (the growth's state goes from
+  /// frame to frame). `base`: the box's handle ids as the caller paints them (boxDims.prod() bytes).
+  /// Waits for the frames in flight; replaces a live selection already running.
+  void beginLiveSelection(const GrowSetup& setup, const Eigen::Vector3i& boxMin, const Eigen::Vector3i& boxDims,
+                          const std::vector<std::uint8_t>& base);
+  /// The fingers' extent as a key bound (growKeyBound).
+  void setLiveSelectionBound(std::uint32_t bound);
+  /// New base ids for the box (the handles changed during the pinch); waits for the frames in flight.
+  void setLiveSelectionBase(const std::vector<std::uint8_t>& base);
+  /// Ends the live selection: grows to its bound (waiting for the GPU) and returns its voxels,
+  /// ascending linear indices. The box keeps the last paint until the caller uploads its own ids.
+  std::vector<std::uint32_t> finishLiveSelection();
+  /// Ends it without a result (the box keeps the last paint, as above).
+  void endLiveSelection();
+  const vk::LiveSelection* liveSelection() const { return live_.get(); }
+  /// Region-growing rounds a frame carries while a live selection grows (default 8; from the next begin).
+  void setLiveRoundsPerFrame(int rounds) { liveRounds_ = rounds; }
+  /// The handle-id mask (undeformed) as the frames left it, x-fastest; waits for the frames in flight.
+  std::vector<std::uint8_t> readMask();
+
   /// Records and submits one frame; blocks only if the slot it reuses is still in flight.
   std::uint64_t submit(const FrameRequest& request);
   /// The jitter phases in the still frame's sum the last submitted frame shows (0: not a sum).
@@ -139,7 +163,16 @@ class VolumeRenderer {
   void uploadOccupancy();
   /// FrameRequest::stillPhases: the next phase of the still frame's sum, or a new sum (params).
   void sumStillFrame(const FrameRequest& req, gpu::RenderParams& params);
-  void addDeformation(fg::FrameGraph& g, const FrameRequest& req, bool wantStrain, const vk::GpuDeformer::Outputs& deformed, vk::MarchInputs& in);
+  /// A box of the handle-id mask written this frame: first voxel, last voxel (inclusive).
+  using MaskBox = std::optional<std::pair<Eigen::Vector3i, Eigen::Vector3i>>;
+  /// The frame's writes into the handle-id mask (and the deformed one): the request's upload, then
+  /// the live selection's paint. Returns the box they cover (nullopt: none).
+  MaskBox addMaskWrites(fg::FrameGraph& g, const FrameRequest& req, Slot& s, fg::ResourceHandle mask, fg::ResourceHandle deformedMask,
+                        fg::ResourceHandle volume, fg::ResourceHandle& staging);
+  void addDeformation(fg::FrameGraph& g, const FrameRequest& req, const MaskBox& maskWritten, bool wantStrain,
+                      const vk::GpuDeformer::Outputs& deformed, vk::MarchInputs& in);
+  /// Waits for every frame in flight (and takes the live selection's growth state from them).
+  void waitFramesInFlight();
 
   const vk::Context& ctx_;
   vk::GraphExecutor executor_;
@@ -176,6 +209,9 @@ class VolumeRenderer {
   bool deformFirst_ = false;                 ///< the next deform frame redoes the whole region
   bool deformLagging_ = false;               ///< the deformed images lag lastDeform_ (see deformationLagging)
   std::optional<CoarseFrameState> lastDeform_;  ///< for a redo when the mask changes while deforming
+  std::unique_ptr<vk::LiveSelection> live_;  ///< a pinch's selection growing on the GPU, or none
+  std::uint32_t liveSlot_ = 0;               ///< the slot of the frame carrying its last passes
+  int liveRounds_ = 8;                       ///< its rounds a frame
 };
 
 }  // namespace handson

@@ -155,6 +155,18 @@ HS_CONST kBindRegionCompactFlags = 0;
 HS_CONST kBindRegionCompactList = 1;
 HS_CONST kBindRegionCompactReached = 2;
 
+// live_mask.comp: the live selection painted into a box of the handle-id mask (4 ids a word)
+HS_CONST kBindLiveMaskKeys = 0;
+HS_CONST kBindLiveMaskBase = 1;
+HS_CONST kBindLiveMaskOut = 2;
+#define HANDSON_LIVE_MASK_GROUP_X 64
+HS_CONST kLiveMaskId = 255u;  // interaction/handles.h: HandleSet::kLiveSelectionId
+
+struct LiveMaskPush {
+  ivec4 boxDims;  // xyz: the box in voxels, w: words per row (ceil(x / 4))
+  uvec4 bound;    // x: key bound of the live selection, y: words in the box
+};
+
 struct GrowPush {
   ivec4 boxMin;     // xyz: first voxel of the box in the volume
   ivec4 boxDims;    // xyz: box size in voxels, w: criterion (0 paper, 1 smoothed, 2 core)
@@ -276,6 +288,7 @@ struct DeformBox {
 #ifdef __cplusplus
 static_assert(sizeof(DeformParams) == 2 * 64 + 8 * 16, "DeformParams must match std140");
 static_assert(sizeof(DeformBox) == 64, "DeformBox must match std430");
+static_assert(sizeof(LiveMaskPush) == 32, "LiveMaskPush must match std430");
 static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
 static_assert(sizeof(MovingHandle) == 112, "MovingHandle must match std140");
 static_assert(sizeof(RenderParams) == 3 * 64 + 12 * 16 + 8 * 112, "RenderParams must match std140");

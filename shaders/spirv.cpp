@@ -10,6 +10,7 @@
 #include "deform_resolve.spv.h"
 #include "deform_strain.spv.h"
 #include "deform_strain_raster.spv.h"
+#include "live_mask.spv.h"
 #include "pick.spv.h"
 #include "raymarch.spv.h"
 #include "region_compact.spv.h"
@@ -22,6 +23,7 @@ std::span<const std::uint32_t> pick() { return spirv::pick; }
 std::span<const std::uint32_t> brickMinMax() { return spirv::brick_minmax; }
 std::span<const std::uint32_t> regionGrow() { return spirv::region_grow; }
 std::span<const std::uint32_t> regionCompact() { return spirv::region_compact; }
+std::span<const std::uint32_t> liveMask() { return spirv::live_mask; }
 std::span<const std::uint32_t> deformInterpolate() { return spirv::deform_interpolate; }
 std::span<const std::uint32_t> deformBounds() { return spirv::deform_bounds; }
 std::span<const std::uint32_t> deformArgs() { return spirv::deform_args; }

@@ -11,6 +11,7 @@ std::span<const std::uint32_t> pick();
 std::span<const std::uint32_t> brickMinMax();
 std::span<const std::uint32_t> regionGrow();
 std::span<const std::uint32_t> regionCompact();
+std::span<const std::uint32_t> liveMask();
 std::span<const std::uint32_t> deformInterpolate();
 std::span<const std::uint32_t> deformBounds();
 std::span<const std::uint32_t> deformArgs();

@@ -52,6 +52,8 @@ const char* const kViewHelp =
     "  --play-repeat N         play it N times in a row, resetting the view in between (default 1)\n"
     "  --labels LABELS         organ labels (0 = background; another grid of the same space is resampled):\n"
     "                          in select mode a tap on an organ makes its labelled component a handle\n"
+    "  --selection-backend B   where a pinch's selection grows: auto (default: the GPU pass on a GPU,\n"
+    "                          the CPU search on a CPU device such as lavapipe), gpu or cpu\n"
     "  --device NAME, --validation, --quiet, --print-camera\n";
 
 const char* const kReplayHelp =
@@ -69,6 +71,7 @@ const char* const kReplayHelp =
     "  --export-dir DIR    where the script's export actions write (default handson-export)\n"
     "  --export-format F   nifti (default), nrrd or mha for the exported volumes\n"
     "  --labels LABELS     organ labels: taps in select mode and label-handle actions make organs handles\n"
+    "  --selection-backend auto|gpu|cpu  where a pinch's selection grows (as in view; the same voxels)\n"
     "  --device NAME, --validation, --quiet, --print-camera, --print-handles\n";
 
 const char* const kSimHelp =
@@ -115,6 +118,12 @@ DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   return d;
 }
 
+SelectionBackend selectionBackendOption(const Args& args) {
+  SelectionBackend b = SelectionBackend::Auto;
+  if (!parseSelectionBackend(args.valueOr("--selection-backend", "auto"), b)) throw UsageError("--selection-backend must be auto, gpu or cpu");
+  return b;
+}
+
 std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& b) {
   a.insert(a.end(), b.begin(), b.end());
   return a;
@@ -125,7 +134,7 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 int cmdView(const Words& words) {
   Args args(words,
             with({"--frame", "--size", "--present-mode", "--render-scale", "--frame-budget-ms", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
-                  "--frames-in-flight", "--play-repeat", "--export-dir", "--export-format", "--labels"},
+                  "--frames-in-flight", "--play-repeat", "--export-dir", "--export-format", "--labels", "--selection-backend"},
                  kSimOptions),
             {"--validation", "--quiet", "--print-camera"});
   if (args.help() || args.positional().size() > 1) {
@@ -158,13 +167,14 @@ int cmdView(const Words& words) {
   o.quiet = args.flag("--quiet");
   o.printCamera = args.flag("--print-camera");
   o.labels = args.valueOr("--labels", "");
+  o.selectionBackend = selectionBackendOption(args);
   o.sim = simOptions(args, 2);
   if (!displayAvailable()) throw Error("no display available (DISPLAY and WAYLAND_DISPLAY are unset): use 'handson replay' to run headless");
   return runViewer(o);
 }
 
 int cmdReplay(const Words& words) {
-  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--frame-budget-ms", "--size", "--device", "--export", "--export-dir", "--export-format", "--labels"}, kSimOptions),
+  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--frame-budget-ms", "--size", "--device", "--export", "--export-dir", "--export-format", "--labels", "--selection-backend"}, kSimOptions),
             {"--validation", "--quiet", "--print-camera", "--print-handles"});
   if (args.help() || args.positional().size() > 1) {
     usageStream(args) << kReplayHelp << kSimHelp << "  (replay waits each frame for the simulation to settle: frames do not depend on timing)\n";
@@ -184,6 +194,7 @@ int cmdReplay(const Words& words) {
   o.printCamera = args.flag("--print-camera");
   o.printHandles = args.flag("--print-handles");
   o.labels = args.valueOr("--labels", "");
+  o.selectionBackend = selectionBackendOption(args);
   o.exportPath = args.valueOr("--export", "");
   o.exportDir = args.valueOr("--export-dir", o.exportDir);
   o.exportExtension = exportVolumeExtension(args);

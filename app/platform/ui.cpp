@@ -248,6 +248,7 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   ImGui::Separator();
   ImGui::TextUnformatted("Handles");
   if (st.liveVoxels) ImGui::TextColored(ImVec4(0.3f, 1.0f, 0.4f, 1.0f), "selecting: %zu voxels", st.liveVoxels);
+  if (st.liveOnGpuMm >= 0) ImGui::TextColored(ImVec4(0.3f, 1.0f, 0.4f, 1.0f), "selecting on the GPU: %.0f mm", st.liveOnGpuMm);
   if (!st.feedback.empty()) ImGui::TextColored(ImVec4(1.0f, 0.5f, 0.3f, 1.0f), "%s", st.feedback.c_str());
   if (!st.simulation.empty()) ImGui::TextUnformatted(st.simulation.c_str());
   if (!st.tissueLimits.empty()) {
@@ -310,6 +311,7 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   ImGui::TextColored(reduced ? ImVec4(1.0f, 0.75f, 0.25f, 1.0f) : ImGui::GetStyleColorVec4(ImGuiCol_Text), "quality: resolution %3.0f %%, step %.1fx", 100.0 * st.qualityScale,
                      st.qualityStep);
   if (st.stillPhases > 0) ImGui::Text("still frame: %d of %d jitter phases", st.stillPhases, st.stillPhasesTotal);
+  if (!st.selectionBackend.empty()) ImGui::TextUnformatted(st.selectionBackend.c_str());
   overlay_ = Rect{ImGui::GetWindowPos().x, ImGui::GetWindowPos().y, ImGui::GetWindowPos().x + ImGui::GetWindowSize().x,
                   ImGui::GetWindowPos().y + ImGui::GetWindowSize().y};
   ImGui::End();

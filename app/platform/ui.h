@@ -42,6 +42,8 @@ struct UiStatus {
   std::string tissueLimits;    ///< the shown state's tissue past its strain limit and whose handle ("": not known for it)
   std::string exported;        ///< the last export's summary (or failure)
   std::size_t liveVoxels = 0;  ///< the selection being pinched
+  double liveOnGpuMm = -1.0;   ///< the extent of a selection being pinched on the GPU (< 0: none)
+  std::string selectionBackend;  ///< where pinches grow, and why (app/session/selection_backend.h)
   unsigned locks = 0;          ///< manipulation locks (GestureLock bits)
   bool strainOverlay = false;  ///< the strain overlay is on: its colour bar shows
   bool limitHighlight = false; ///< tissue past its strain limit is highlighted: the bar's key shows

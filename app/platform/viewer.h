@@ -7,6 +7,7 @@
 #include <string>
 
 #include "app/session/deformation_controller.h"
+#include "app/session/selection_backend.h"
 #include "interaction/touch.h"
 
 struct SDL_Window;
@@ -28,6 +29,7 @@ struct ViewerOptions {
   std::string timings;      ///< latency log CSV
   std::string preset;       ///< empty: by the volume's values
   std::string labels;       ///< organ labels for taps in select mode (empty: none)
+  SelectionBackend selectionBackend = SelectionBackend::Auto;  ///< where pinches grow (app/session/selection_backend.h)
   std::string device;
   bool validation = false;
   int framesInFlight = 2;   ///< 1 lowers latency, 2 keeps the GPU busy while the CPU records

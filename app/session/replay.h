@@ -8,6 +8,7 @@
 #include <string>
 
 #include "app/session/deformation_controller.h"
+#include "app/session/selection_backend.h"
 
 #include "app/session/session_script.h"
 
@@ -18,6 +19,7 @@ struct ReplayOptions {
   std::optional<SessionScript> scriptData;  ///< a script in memory instead (e.g. app/tools/gesture_stress.h: may hold NaN)
   std::string volume;      ///< overrides the script's volume
   std::string labels;      ///< organ labels for taps and label-handle actions (empty: none)
+  SelectionBackend selectionBackend = SelectionBackend::Auto;  ///< where pinches grow (app/session/selection_backend.h)
   std::string framesOut;   ///< directory for frame_NNNNN.png (created); empty: no PNGs
   std::string timings;     ///< timing log CSV
   double fps = 30.0;       ///< frames per second of script time

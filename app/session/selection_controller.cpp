@@ -4,14 +4,22 @@
 #include <sstream>
 
 #include "render/raymarch_reference.h"
+#include "render/vk_context.h"
 
 
 namespace handson {
 
-SelectionController::SelectionController(const QuantizedVolume& volume, Session& session, VolumeRenderer& renderer, const GrowParams& params)
+SelectionController::SelectionController(const QuantizedVolume& volume, Session& session, VolumeRenderer& renderer, const GrowParams& params,
+                                         SelectionBackend backend)
     : volume_(volume), session_(session), renderer_(renderer), pinch_(volume, params), mask_(volume.data.size(), 0) {
   dirtyMin_ = volume.geometry.dims;
   dirtyMax_ = Eigen::Vector3i(-1, -1, -1);
+  const VkPhysicalDeviceProperties& device = renderer.context().properties();
+  backend_ = resolveSelectionBackend(backend, device.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU, device.deviceName);
+  if (backend_.backend == SelectionBackend::Gpu) {
+    gpu_ = std::make_unique<GpuGrowthEngine>(renderer, volume, mask_);
+    pinch_.setEngine(gpu_.get());
+  }
   session_.gestures().setHandler(InteractionMode::Select, [this](const TouchEvent& e, const TouchInput& input) {
     {
       const StageTimes::Scope t(stages_, "selection-update");
@@ -25,6 +33,13 @@ SelectionController::SelectionController(const QuantizedVolume& volume, Session&
   session_.addUiExtension([this](const ScriptEvent& e) { return applyUi(e); });
 }
 
+SelectionController::~SelectionController() {
+  try {
+    if (gpu_) gpu_->cancel();
+  } catch (const std::exception&) {  // the device is lost: nothing left to wait for
+  }
+}
+
 void SelectionController::repaint(const std::vector<std::uint32_t>& voxels) {
   for (std::uint32_t v : voxels) {
     const Eigen::Vector3i p = volume_.geometry.voxelOf(v);
@@ -35,6 +50,7 @@ void SelectionController::repaint(const std::vector<std::uint32_t>& voxels) {
   for (const auto& h : handles_.handles())
     for (std::uint32_t v : h.voxels) mask_[v] = std::uint8_t(h.id);  // only voxels in the dirty box matter
   for (std::uint32_t v : live_) mask_[v] = HandleSet::kLiveSelectionId;
+  if (gpu_ && !voxels.empty()) gpu_->rebase();  // the handles changed under a pinch growing on the GPU
 }
 
 void SelectionController::refreshLive() {
@@ -47,6 +63,11 @@ void SelectionController::refreshLive() {
     const auto changed = HandleSet::changedVoxels(before, handles_.handles());
     old.insert(old.end(), changed.begin(), changed.end());
     tintsDirty_ = true;
+  }
+  // The GPU painted the live selection into its box: back to the handles' ids there.
+  if (const auto box = gpu_ && !gpu_->growing() ? gpu_->takePaintedBox() : std::nullopt) {
+    dirtyMin_ = dirtyMin_.cwiseMin(box->first);
+    dirtyMax_ = dirtyMax_.cwiseMax(box->first + box->second - Eigen::Vector3i::Ones());
   }
   old.insert(old.end(), live_.begin(), live_.end());
   repaint(old);

@@ -8,9 +8,12 @@
 //   handle-difference "A,B" (A := A \ B), undo, redo, toggle-lock "z-translation|z-rotation|xy-translation",
 //   label-handle "I,J,K" (with a label map: the labelled organ at voxel I,J,K becomes a handle - what
 //   a tap on an organ that is no handle yet does in select mode).
+#include <memory>
 #include <optional>
 #include <vector>
 
+#include "app/session/gpu_growth.h"
+#include "app/session/selection_backend.h"
 #include "app/session/session.h"
 #include "app/session/stage_times.h"
 #include "interaction/handles.h"
@@ -24,7 +27,12 @@ namespace handson {
 
 class SelectionController {
  public:
-  SelectionController(const QuantizedVolume& volume, Session& session, VolumeRenderer& renderer, const GrowParams& params = {});
+  /// `backend`: where pinches grow (app/session/selection_backend.h; Auto resolves by the renderer's device).
+  SelectionController(const QuantizedVolume& volume, Session& session, VolumeRenderer& renderer, const GrowParams& params = {},
+                      SelectionBackend backend = SelectionBackend::Cpu);
+  ~SelectionController();
+  SelectionController(const SelectionController&) = delete;
+  SelectionController& operator=(const SelectionController&) = delete;
 
   /// Before submitting a frame: appends pending pick points (NDC) and sets the mask upload.
   void prepareFrame(FrameRequest& request, const Viewport& viewport);
@@ -53,6 +61,10 @@ class SelectionController {
   unsigned locks() const { return locks_; }
   const PinchSelection& pinch() const { return pinch_; }
   std::size_t liveVoxelCount() const { return live_.size(); }
+  /// A pinch is growing on the GPU now (its voxels are not counted on the CPU).
+  bool liveOnGpu() const { return gpu_ && gpu_->growing(); }
+  /// Where pinches grow (Gpu or Cpu) and the UI's line saying why.
+  const SelectionBackendChoice& backend() const { return backend_; }
   /// CPU time since the last call: "selection-update" (region growing and the mask's repaint) and
   /// "gesture-solve" (the manipulation's rigid solve), for the timing log.
   std::vector<std::pair<std::string, double>> takeStageTimes() { return stages_.take(); }
@@ -108,6 +120,8 @@ class SelectionController {
   const LabelMap* labels_ = nullptr;
   std::string labelNote_;
   StageTimes stages_;
+  SelectionBackendChoice backend_;
+  std::unique_ptr<GpuGrowthEngine> gpu_;  // set when pinches grow on the GPU
 };
 
 }  // namespace handson

@@ -113,6 +113,77 @@ TEST(PinchSelection, GrowsFromTheMidpointAndEndsWhenAFingerLifts) {
   EXPECT_FALSE(sel.takeFinished().has_value());
 }
 
+// A growth engine that records what the pinch asks of it and answers with the reference's voxels
+// in reverse order (the pinch hands them on sorted).
+class RecordingEngine : public GrowthEngine {
+ public:
+  void start(const RegionGrower& reference) override {
+    ref = &reference;
+    ++starts;
+  }
+  void show(std::uint32_t bound, double extentMm) override { shown.push_back({bound, extentMm}); }
+  std::vector<std::uint32_t> finish() override {
+    ++finishes;
+    RegionGrower own(*volume, ref->setup().seed, GrowParams{});  // the same seed and statistics
+    own.growTo(shown.back().second);
+    std::vector<std::uint32_t> out;
+    for (std::size_t v = 0; v < own.keys().size(); ++v)
+      if (own.keys()[v] <= shown.back().first) out.push_back(std::uint32_t(v));
+    std::reverse(out.begin(), out.end());
+    return out;
+  }
+  const QuantizedVolume* volume = nullptr;
+  const RegionGrower* ref = nullptr;
+  int starts = 0, finishes = 0;
+  std::vector<std::pair<std::uint32_t, double>> shown;
+};
+
+TEST(PinchSelection, WithAGrowthEngineThePinchHandsItTheSeedAndEveryExtentAndTakesItsVoxels) {
+  const Phantom ph = makePhantom();
+  const QuantizedVolume q = quantizeVolume(ph.ct);
+  PinchSelection sel(q, GrowParams{});
+  RecordingEngine engine;
+  engine.volume = &q;
+  sel.setEngine(&engine);
+  OrbitCamera cam = OrbitCamera::framing(ph.ct.geometry(), glm::radians(90.0), 0.0);
+  const Viewport vp{512, 512};
+  TouchInput in;
+  in.setViewport(vp);
+  auto feed = [&](TouchPhase p, int id, double x, double y) {
+    TouchEvent e{p, id, {x, y}, 1.0, 0.0};
+    ASSERT_TRUE(in.apply(e));
+    sel.onTouch(e, in, cam, vp);
+  };
+  feed(TouchPhase::Down, 1, 200, 270);
+  feed(TouchPhase::Down, 2, 220, 270);
+  ASSERT_EQ(sel.takePickRequest().size(), 2u);
+  const Eigen::Vector3d k = ph.geometry.kidneyRightCenter;
+  sel.onPicks({glm::dvec3(k.x() + 20, k.y() - 3, k.z()), glm::dvec3(k.x() + 20, k.y() + 3, k.z())}, cam, vp);
+  ASSERT_EQ(sel.state(), PinchSelection::State::Growing);
+  ASSERT_EQ(engine.starts, 1);
+  ASSERT_EQ(engine.shown.size(), 1u);
+  EXPECT_EQ(engine.shown[0].first, sel.grower()->bound(sel.extentMm()));
+  EXPECT_DOUBLE_EQ(engine.shown[0].second, sel.extentMm());
+  EXPECT_TRUE(sel.liveVoxels().empty()) << "the engine shows the live selection, not the CPU";
+  EXPECT_EQ(sel.grower()->grownExtent(), -1.0) << "nothing grown on the CPU beyond the seed statistics";
+  feed(TouchPhase::Move, 2, 240, 270);
+  feed(TouchPhase::Move, 2, 230, 270);
+  ASSERT_EQ(engine.shown.size(), 3u);
+  EXPECT_GT(engine.shown[1].second, engine.shown[0].second);
+  EXPECT_LT(engine.shown[2].second, engine.shown[1].second);
+  EXPECT_EQ(engine.shown[2].first, sel.grower()->bound(sel.extentMm()));
+  // The reference grown to the last extent: the engine's answer must be its selection.
+  RegionGrower check(q, sel.grower()->setup().seed, GrowParams{});
+  check.growTo(sel.extentMm());
+  feed(TouchPhase::Up, 1, 200, 270);
+  EXPECT_EQ(engine.finishes, 1);
+  const auto done = sel.takeFinished();
+  ASSERT_TRUE(done.has_value());
+  EXPECT_TRUE(std::is_sorted(done->begin(), done->end()));
+  EXPECT_EQ(done->size(), check.count(sel.extentMm()));
+  EXPECT_GT(done->size(), 10u);
+}
+
 TEST(PinchSelection, APinchInEmptySpaceIsRefusedWithFeedback) {
   PhantomOptions o;
   o.spacingMm = 8.0;

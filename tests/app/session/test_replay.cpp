@@ -157,6 +157,45 @@ TEST(Replay, PinchInSelectModeMakesAHandleAndHandleEditsReplay) {
   fs::remove_all(dir);
 }
 
+TEST(Replay, APinchGrownOnTheGpuMakesTheSameHandleAsOnTheCpuAndTheChoiceIsReported) {
+  // The kidney pinch with its growth forced onto the GPU pass (rounds inside the frames, the live
+  // selection painted into the mask on the GPU, the voxels read back when a finger lifts) and onto
+  // the CPU reference: the same handle, and once the pinch has ended the same frames bit for bit.
+  const fs::path script = fs::path(HANDSON_SOURCE_DIR) / "assets/gestures/select-kidney-pinch.json";
+  const fs::path dir = fs::temp_directory_path() / ("handson_backend_" + std::to_string(getpid()));
+  std::string handles[2];
+  for (int i = 0; i < 2; ++i) {
+    const std::string backend = i == 0 ? "gpu" : "cpu";
+    std::string out;
+    ASSERT_EQ(run("replay " + script.string() + " --fps 10 --size 96x96 --validation --print-handles --sim off --selection-backend " + backend +
+                      " --frames-out " + (dir / backend).string(),
+                  &out),
+              0)
+        << out;
+    const auto status = out.find("selection grows on the " + std::string(i == 0 ? "GPU (" : "CPU ("));
+    ASSERT_NE(status, std::string::npos) << out;
+    EXPECT_NE(out.find("--selection-backend " + backend + ")", status), std::string::npos) << out;
+    const auto at = out.find("handle 1 ");
+    ASSERT_NE(at, std::string::npos) << out;
+    handles[i] = out.substr(at, out.find('\n', at) - at);
+  }
+  EXPECT_EQ(handles[0], handles[1]);
+  EXPECT_NE(handles[0].find(" voxels"), std::string::npos);
+  std::vector<fs::path> frames;
+  for (const auto& e : fs::directory_iterator(dir / "gpu")) frames.push_back(e.path().filename());
+  std::sort(frames.begin(), frames.end());
+  ASSERT_GT(frames.size(), 5u);
+  EXPECT_EQ(slurp(dir / "gpu" / frames.back()), slurp(dir / "cpu" / frames.back())) << "the last frame, long after the pinch";
+  // Auto on this device: lavapipe is a CPU device, where the CPU search is faster; a GPU takes the pass.
+  std::string out;
+  ASSERT_EQ(run("replay " + script.string() + " --fps 1 --size 32x32 --sim off", &out), 0) << out;
+  EXPECT_TRUE(out.find("selection grows on the CPU (auto:") != std::string::npos || out.find("selection grows on the GPU (auto:") != std::string::npos)
+      << out;
+  EXPECT_EQ(run("replay " + script.string() + " --selection-backend fast", &out), 2);
+  EXPECT_NE(out.find("--selection-backend must be auto, gpu or cpu"), std::string::npos) << out;
+  fs::remove_all(dir);
+}
+
 TEST(Replay, WithALabelMapATapOnAnOrganMakesTheWholeLabelledOrganAHandle) {
   // The kidney pinch script's camera and tap point, on a 6 mm phantom with its label map: the tap
   // (select mode, no handle there) selects exactly the right kidney's labelled voxels; a

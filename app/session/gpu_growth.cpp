@@ -1,0 +1,69 @@
+#include "gpu_growth.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "sim/error.h"
+
+namespace handson {
+
+GpuGrowthEngine::GpuGrowthEngine(VolumeRenderer& renderer, const QuantizedVolume& volume, const std::vector<std::uint8_t>& mask)
+    : renderer_(renderer), volume_(volume), mask_(mask) {}
+
+std::vector<std::uint8_t> GpuGrowthEngine::baseIds() const {
+  std::vector<std::uint8_t> out(std::size_t(boxDims_.prod()));
+  const Eigen::Vector3i& d = volume_.geometry.dims;
+  std::size_t b = 0;
+  for (int k = 0; k < boxDims_.z(); ++k)
+    for (int j = 0; j < boxDims_.y(); ++j) {
+      const std::size_t row = std::size_t(boxMin_.x()) + std::size_t(d.x()) * (std::size_t(boxMin_.y() + j) + std::size_t(d.y()) * std::size_t(boxMin_.z() + k));
+      std::copy_n(mask_.begin() + std::ptrdiff_t(row), boxDims_.x(), out.begin() + std::ptrdiff_t(b));
+      b += std::size_t(boxDims_.x());
+    }
+  return out;
+}
+
+void GpuGrowthEngine::beginBox(double extentMm) {
+  const Eigen::Vector3d spacing = volume_.geometry.spacing;
+  const Eigen::Vector3i& dims = volume_.geometry.dims;
+  const double e = std::max(2.0 * extentMm, kMinBoxExtentMm);
+  const Eigen::Vector3i reach = growReach(setup_.criterion, e, spacing) + Eigen::Vector3i::Ones();
+  const Eigen::Vector3i lo = (setup_.seed - reach).cwiseMax(Eigen::Vector3i::Zero());
+  const Eigen::Vector3i hi = (setup_.seed + reach).cwiseMin(dims - Eigen::Vector3i::Ones());
+  boxMin_ = lo;
+  boxDims_ = hi - lo + Eigen::Vector3i::Ones();
+  boxExtent_ = boxDims_ == dims ? std::numeric_limits<double>::infinity() : e;
+  renderer_.beginLiveSelection(setup_, boxMin_, boxDims_, baseIds());
+  painted_ = std::make_pair(boxMin_, boxDims_);  // a larger box (same seed) holds the smaller one it replaces
+}
+
+void GpuGrowthEngine::start(const RegionGrower& reference) {
+  setup_ = reference.setup();
+  growing_ = true;
+  beginBox(0.0);
+}
+
+void GpuGrowthEngine::show(std::uint32_t bound, double extentMm) {
+  if (!growing_) throw Error("GPU selection: show() before start()");
+  if (!(extentMm <= boxExtent_)) beginBox(extentMm);  // NaN never reaches here (the pinch drops it)
+  renderer_.setLiveSelectionBound(bound);
+}
+
+std::vector<std::uint32_t> GpuGrowthEngine::finish() {
+  if (!growing_) throw Error("GPU selection: finish() before start()");
+  growing_ = false;
+  return renderer_.finishLiveSelection();
+}
+
+void GpuGrowthEngine::rebase() {
+  if (growing_) renderer_.setLiveSelectionBase(baseIds());
+}
+
+void GpuGrowthEngine::cancel() {
+  if (!growing_) return;
+  growing_ = false;
+  renderer_.endLiveSelection();
+}
+
+}  // namespace handson

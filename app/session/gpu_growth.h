@@ -1,0 +1,52 @@
+#pragma once
+// A pinch's selection grown on the GPU through the renderer's live selection
+// (render/live_selection.h), for PinchSelection (interaction/selection.h: GrowthEngine).
+#include <cstdint>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "interaction/selection.h"
+#include "render/volume_renderer.h"
+
+namespace handson {
+
+/// Grows pinches on the GPU through the renderer's live selection. Its box is the ball a selection
+/// can reach at twice the extent (at least kMinBoxExtentMm), clipped to the volume; when the
+/// fingers spread past it, growth begins again in a box twice as large (keys are recomputed; the
+/// selection is the same).
+class GpuGrowthEngine : public GrowthEngine {
+ public:
+  static constexpr double kMinBoxExtentMm = 20.0;
+  GpuGrowthEngine(VolumeRenderer& renderer, const QuantizedVolume& volume, const std::vector<std::uint8_t>& mask);
+
+  void start(const RegionGrower& reference) override;
+  void show(std::uint32_t bound, double extentMm) override;
+  std::vector<std::uint32_t> finish() override;
+
+  /// The handles under the pinch changed (the mask given at construction): the box's ids anew.
+  void rebase();
+  /// Ends a pinch growing now without a result (the controller going away).
+  void cancel();
+  bool growing() const { return growing_; }
+  /// The box the live selection painted since the last call (first voxel, dims), for the caller to
+  /// repaint with its own ids once the pinch ended; nullopt when none.
+  std::optional<std::pair<Eigen::Vector3i, Eigen::Vector3i>> takePaintedBox() { return std::exchange(painted_, std::nullopt); }
+
+ private:
+  void beginBox(double extentMm);
+  std::vector<std::uint8_t> baseIds() const;
+
+  VolumeRenderer& renderer_;
+  const QuantizedVolume& volume_;
+  const std::vector<std::uint8_t>& mask_;  // the caller's CPU copy of the handle-id mask
+  GrowSetup setup_{};
+  Eigen::Vector3i boxMin_{0, 0, 0}, boxDims_{0, 0, 0};
+  double boxExtent_ = 0.0;  // the largest extent the box holds (infinite once it is the volume)
+  bool growing_ = false;
+  std::optional<std::pair<Eigen::Vector3i, Eigen::Vector3i>> painted_;
+};
+
+}  // namespace handson

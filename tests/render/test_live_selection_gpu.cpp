@@ -1,0 +1,158 @@
+// A pinch's live selection grown by the GPU inside the renderer's frames (render/live_selection.h)
+// against its CPU references: region growing's keys (interaction/region_grow.h) and paintLiveBox
+// (live_mask.comp's reference). Lavapipe, validation layer on.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "gpu_test_env.h"
+#include "interaction/camera.h"
+#include "interaction/region_grow.h"
+#include "render/live_selection.h"
+#include "render/render_params.h"
+#include "render/transfer_function.h"
+#include "render/volume_renderer.h"
+#include "shaders/shared.h"
+#include "sim/error.h"
+#include "sim/phantom.h"
+
+using namespace handson;
+
+namespace {
+
+class LiveSelectionGpu : public test::GpuTest {};
+
+constexpr std::uint8_t kHandle = 3;
+
+std::size_t linear(const Eigen::Vector3i& v, const Eigen::Vector3i& d) {
+  return std::size_t(v.x()) + std::size_t(d.x()) * (std::size_t(v.y()) + std::size_t(d.y()) * std::size_t(v.z()));
+}
+
+/// What the mask must hold: `ids` outside the box, paintLiveBox of the reference's keys inside it.
+std::vector<std::uint8_t> expectedMask(const RegionGrower& cpu, const std::vector<std::uint8_t>& ids, const Eigen::Vector3i& lo,
+                                       const Eigen::Vector3i& dims, const Eigen::Vector3i& volumeDims, std::uint32_t bound) {
+  std::vector<std::uint32_t> keys;
+  std::vector<std::uint8_t> base;
+  for (int k = 0; k < dims.z(); ++k)
+    for (int j = 0; j < dims.y(); ++j)
+      for (int i = 0; i < dims.x(); ++i) {
+        const std::size_t v = linear(lo + Eigen::Vector3i(i, j, k), volumeDims);
+        keys.push_back(cpu.keys()[v]);
+        base.push_back(ids[v]);
+      }
+  const auto painted = vk::paintLiveBox(keys, base, bound);
+  std::vector<std::uint8_t> out = ids;
+  std::size_t b = 0;
+  for (int k = 0; k < dims.z(); ++k)
+    for (int j = 0; j < dims.y(); ++j)
+      for (int i = 0; i < dims.x(); ++i) out[linear(lo + Eigen::Vector3i(i, j, k), volumeDims)] = painted[b++];
+  return out;
+}
+
+}  // namespace
+
+TEST(LiveSelection, PaintLiveBoxMarksKeysWithinTheBoundAndKeepsTheBaseElsewhere) {
+  const std::vector<std::uint32_t> keys = {0, 5, 9, gpu::kGrowUnreached, 6};
+  const std::vector<std::uint8_t> base = {0, 2, 2, 7, 0};
+  EXPECT_EQ(vk::paintLiveBox(keys, base, 6), (std::vector<std::uint8_t>{255, 255, 2, 7, 255}));
+  EXPECT_EQ(vk::paintLiveBox(keys, base, 0), (std::vector<std::uint8_t>{255, 2, 2, 7, 0}));
+  EXPECT_THROW(vk::paintLiveBox(keys, {1, 2}, 6), Error);
+}
+
+// The liver of a 3 mm phantom pinched at 15 mm, closed to 8 mm, spread to 40 mm; a handle's ids lie
+// in part of the box. After each change the frames grow the selection by themselves; the mask they
+// leave equals the reference's selection painted over the handle ids (live id 255 where the key is
+// within the bound), while growing it holds only voxels of the final selection, and finishing
+// returns the reference's voxels.
+TEST_F(LiveSelectionGpu, FramesGrowItPaintTheReferenceSelectionIntoTheMaskAndFinishWithItsVoxels) {
+  PhantomOptions o;
+  o.spacingMm = 3.0;
+  const Phantom ph = makePhantom(o);
+  const QuantizedVolume q = quantizeVolume(ph.ct);
+  const Eigen::Vector3i d = q.geometry.dims;
+  const Eigen::Vector3i seed = ph.ct.geometry().toIndex(ph.geometry.liverCenter).array().round().cast<int>();
+  VolumeRenderer renderer(test::gpuContext());
+  renderer.setVolume(q);
+  renderer.setTransferFunction(transferFunctionPreset("ct-abdomen").lookupTable(q));
+  RenderSettings rs;
+  rs.width = rs.height = 24;
+  const OrbitCamera cam = OrbitCamera::framing(ph.ct.geometry(), 0.6, 0.3, 1.0);
+  FrameRequest req;
+  req.params = makeRenderParams(ph.ct.geometry(), cam.view(), cam.projection(1.0), glm::vec3(cam.eye()), rs, 0);
+  req.readbackImage = false;
+
+  RegionGrower cpu(q, seed, GrowParams{});
+  const double e0 = 8, e1 = 15, e2 = 40;
+  const Eigen::Vector3i reach = growReach(cpu.setup().criterion, e2, q.geometry.spacing) + Eigen::Vector3i::Ones();
+  const Eigen::Vector3i lo = (seed - reach).cwiseMax(Eigen::Vector3i::Zero());
+  const Eigen::Vector3i dims = (seed + reach).cwiseMin(d - Eigen::Vector3i::Ones()) - lo + Eigen::Vector3i::Ones();
+  // A handle in the box's lower slabs, uploaded into the mask as the controller would.
+  std::vector<std::uint8_t> ids(q.data.size(), 0);
+  for (int k = lo.z(); k < lo.z() + 3; ++k)
+    for (int j = 0; j < d.y(); ++j)
+      for (int i = 0; i < d.x(); ++i) ids[linear({i, j, k}, d)] = kHandle;
+  MaskUpload up;
+  up.dims = d;
+  up.ids = ids;
+  req.maskUpload = &up;
+  renderer.submit(req);
+  renderer.waitLast();
+  req.maskUpload = nullptr;
+  std::vector<std::uint8_t> base;
+  for (int k = 0; k < dims.z(); ++k)
+    for (int j = 0; j < dims.y(); ++j)
+      for (int i = 0; i < dims.x(); ++i) base.push_back(ids[linear(lo + Eigen::Vector3i(i, j, k), d)]);
+
+  renderer.setLiveRoundsPerFrame(1);  // rounds spread over many frames
+  renderer.beginLiveSelection(cpu.setup(), lo, dims, base);
+  ASSERT_NE(renderer.liveSelection(), nullptr);
+  renderer.setLiveSelectionBound(cpu.bound(e1));
+  cpu.growTo(e2);
+  auto growFrames = [&]() -> int {
+    int frames = 0;
+    do {
+      renderer.submit(req);
+      renderer.waitLast();
+      ++frames;
+      if (frames == 1) {  // mid-growth: only voxels of the final selection are live
+        const auto mask = renderer.readMask();
+        std::size_t outside = 0;
+        for (std::size_t v = 0; v < mask.size(); ++v) outside += mask[v] == 255 && cpu.keys()[v] > renderer.liveSelection()->bound() ? 1 : 0;
+        EXPECT_EQ(outside, 0u);
+      }
+    } while (renderer.liveSelection()->growing() && frames < 500);
+    EXPECT_FALSE(renderer.liveSelection()->growing()) << frames << " frames";
+    return frames;
+  };
+  EXPECT_GT(growFrames(), 2) << "one round a frame cannot grow a 15 mm liver selection in two frames";
+  const auto afterE1 = renderer.readMask();
+  EXPECT_EQ(afterE1, expectedMask(cpu, ids, lo, dims, d, cpu.bound(e1)));
+  EXPECT_GT(std::count(afterE1.begin(), afterE1.end(), 255), 100);
+
+  renderer.setLiveSelectionBound(cpu.bound(e0));  // closing the fingers: one frame repaints
+  renderer.submit(req);
+  renderer.waitLast();
+  EXPECT_FALSE(renderer.liveSelection()->growing());
+  EXPECT_EQ(renderer.readMask(), expectedMask(cpu, ids, lo, dims, d, cpu.bound(e0)));
+
+  renderer.setLiveSelectionBound(cpu.bound(e2));  // spreading them: growth resumes
+  growFrames();
+  const auto afterE2 = renderer.readMask();
+  EXPECT_EQ(afterE2, expectedMask(cpu, ids, lo, dims, d, cpu.bound(e2)));
+  EXPECT_GT(std::count(afterE2.begin(), afterE2.end(), 255), std::count(afterE1.begin(), afterE1.end(), 255));
+
+  // A frame with nothing to grow or repaint leaves the mask alone.
+  renderer.submit(req);
+  renderer.waitLast();
+  EXPECT_EQ(renderer.readMask(), afterE2);
+
+  std::vector<std::uint32_t> reference;
+  for (std::size_t v = 0; v < q.data.size(); ++v)
+    if (cpu.keys()[v] <= cpu.bound(e2)) reference.push_back(std::uint32_t(v));
+  EXPECT_EQ(renderer.finishLiveSelection(), reference);
+  EXPECT_EQ(renderer.liveSelection(), nullptr);
+  EXPECT_THROW(renderer.setLiveSelectionBound(1), Error);
+  EXPECT_THROW(renderer.finishLiveSelection(), Error);
+  // A box outside the volume is refused.
+  EXPECT_THROW(renderer.beginLiveSelection(cpu.setup(), d, dims, base), Error);
+}
