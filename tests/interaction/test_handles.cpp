@@ -71,19 +71,33 @@ TEST(HandleSet, DifferenceRemovesTheOtherHandlesVoxelsAndKeepsIt) {
   EXPECT_FALSE(only.subtract(p, p));
 }
 
-TEST(PinchSelection, GrowsFromTheMidpointAndEndsWhenAFingerLifts) {
-  const Phantom ph = makePhantom();  // 2 mm voxels, CT-like noise: the 7 mm cortex spans a few voxels
-  const QuantizedVolume q = quantizeVolume(ph.ct);
-  PinchSelection sel(q, GrowParams{});
+namespace {
+
+// The default phantom (2 mm voxels, CT-like noise: the 7 mm cortex spans a few voxels) seen from
+// the patient's right (+x) on a 512 px viewport, and a pinch's touches fed to a selection.
+struct PinchRig {
+  Phantom ph = makePhantom();
+  QuantizedVolume q = quantizeVolume(ph.ct);
   OrbitCamera cam = OrbitCamera::framing(ph.ct.geometry(), glm::radians(90.0), 0.0);
-  const Viewport vp{512, 512};
+  Viewport vp{512, 512};
   TouchInput in;
-  in.setViewport(vp);
-  auto feed = [&](TouchPhase p, int id, double x, double y) {
+  PinchRig() { in.setViewport(vp); }
+  void feed(PinchSelection& sel, TouchPhase p, int id, double x, double y) {
     TouchEvent e{p, id, {x, y}, 1.0, 0.0};
     ASSERT_TRUE(in.apply(e));
     sel.onTouch(e, in, cam, vp);
-  };
+  }
+};
+
+}  // namespace
+
+TEST(PinchSelection, GrowsFromTheMidpointAndEndsWhenAFingerLifts) {
+  PinchRig rig;
+  const Phantom& ph = rig.ph;
+  const OrbitCamera& cam = rig.cam;
+  const Viewport& vp = rig.vp;
+  PinchSelection sel(rig.q, GrowParams{});
+  auto feed = [&](TouchPhase p, int id, double x, double y) { rig.feed(sel, p, id, x, y); };
   feed(TouchPhase::Down, 1, 200, 270);
   EXPECT_TRUE(sel.takePickRequest().empty());  // one finger: nothing yet
   feed(TouchPhase::Down, 2, 220, 270);
@@ -139,26 +153,18 @@ class RecordingEngine : public GrowthEngine {
 };
 
 TEST(PinchSelection, WithAGrowthEngineThePinchHandsItTheSeedAndEveryExtentAndTakesItsVoxels) {
-  const Phantom ph = makePhantom();
-  const QuantizedVolume q = quantizeVolume(ph.ct);
+  PinchRig rig;
+  const QuantizedVolume& q = rig.q;
   PinchSelection sel(q, GrowParams{});
   RecordingEngine engine;
   engine.volume = &q;
   sel.setEngine(&engine);
-  OrbitCamera cam = OrbitCamera::framing(ph.ct.geometry(), glm::radians(90.0), 0.0);
-  const Viewport vp{512, 512};
-  TouchInput in;
-  in.setViewport(vp);
-  auto feed = [&](TouchPhase p, int id, double x, double y) {
-    TouchEvent e{p, id, {x, y}, 1.0, 0.0};
-    ASSERT_TRUE(in.apply(e));
-    sel.onTouch(e, in, cam, vp);
-  };
+  auto feed = [&](TouchPhase p, int id, double x, double y) { rig.feed(sel, p, id, x, y); };
   feed(TouchPhase::Down, 1, 200, 270);
   feed(TouchPhase::Down, 2, 220, 270);
   ASSERT_EQ(sel.takePickRequest().size(), 2u);
-  const Eigen::Vector3d k = ph.geometry.kidneyRightCenter;
-  sel.onPicks({glm::dvec3(k.x() + 20, k.y() - 3, k.z()), glm::dvec3(k.x() + 20, k.y() + 3, k.z())}, cam, vp);
+  const Eigen::Vector3d k = rig.ph.geometry.kidneyRightCenter;
+  sel.onPicks({glm::dvec3(k.x() + 20, k.y() - 3, k.z()), glm::dvec3(k.x() + 20, k.y() + 3, k.z())}, rig.cam, rig.vp);
   ASSERT_EQ(sel.state(), PinchSelection::State::Growing);
   ASSERT_EQ(engine.starts, 1);
   ASSERT_EQ(engine.shown.size(), 1u);
