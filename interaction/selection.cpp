@@ -3,11 +3,23 @@
 #include <algorithm>
 #include <cmath>
 
+#include "sim/error.h"
+
 namespace handson {
 
 namespace {
 constexpr double kMaxExtentMm = 500.0;  // the largest extent a pinch may spread to
 }  // namespace
+
+template <class Call> void PinchSelection::onEngine(Call&& call) {
+  try {
+    call(*growingOn_);
+  } catch (const Error& e) {
+    growingOn_ = nullptr;  // the CPU reference grows this selection from here on
+    grower_->growTo(extent_);
+    feedback_ = std::string("The selection grows on the CPU: ") + e.what();
+  }
+}
 
 void PinchSelection::onTouch(const TouchEvent& e, const TouchInput& input, const OrbitCamera& camera, const Viewport& viewport) {
   (void)camera;
@@ -30,7 +42,9 @@ void PinchSelection::onTouch(const TouchEvent& e, const TouchInput& input, const
       const bool bothDown = input.find(fingerA_) && input.find(fingerB_);
       if (!bothDown) {  // a finger lifted: the selection ends
         if (state_ == State::Growing && grower_) {
-          finished_ = growingOn_ ? growingOn_->finish() : liveVoxels();
+          std::optional<std::vector<std::uint32_t>> voxels;
+          if (growingOn_) onEngine([&voxels](GrowthEngine& g) { voxels = g.finish(); });
+          finished_ = voxels ? std::move(*voxels) : liveVoxels();  // liveVoxels: the CPU's, also after a fallback
           std::sort(finished_->begin(), finished_->end());  // the same handle whichever engine grew it
           changed_ = true;
         }
@@ -82,8 +96,10 @@ void PinchSelection::onPicks(const std::vector<std::optional<glm::dvec3>>& world
   extent_ = std::min(pixelMm_ * glm::length(pickA_ - pickB_), kMaxExtentMm);
   growingOn_ = engine_;
   if (growingOn_) {
-    growingOn_->start(*grower_);
-    growingOn_->show(grower_->bound(extent_), extent_);
+    onEngine([this](GrowthEngine& g) {
+      g.start(*grower_);
+      g.show(grower_->bound(extent_), extent_);
+    });
   } else {
     grower_->growTo(extent_);
   }
@@ -99,7 +115,7 @@ void PinchSelection::updateExtent(const TouchInput& input) {
   const double e = pixelMm_ * glm::length(a->px - b->px);
   if (!std::isfinite(e) || std::abs(e - extent_) < 1e-9) return;
   extent_ = std::min(e, kMaxExtentMm);
-  if (growingOn_) growingOn_->show(grower_->bound(extent_), extent_);
+  if (growingOn_) onEngine([this](GrowthEngine& g) { g.show(grower_->bound(extent_), extent_); });
   else if (extent_ > grower_->grownExtent()) grower_->growTo(extent_);
   changed_ = true;
 }

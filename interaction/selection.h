@@ -19,8 +19,10 @@
 namespace handson {
 
 /// Where a pinch's selection grows when not on the CPU reference (the app hands it to the GPU
-/// pass: app/session/selection_backend.h). The reference grower is built either way: its seed
-/// statistics (setup) and key bounds are what the engine grows with, so both select the same voxels.
+/// pass: app/session/gpu_growth.h). The reference grower is built either way: its seed statistics
+/// (setup) and key bounds are what the engine grows with, so both select the same voxels. An engine
+/// that cannot go on (a box larger than the device allows, no memory, a lost device) throws
+/// handson::Error: the pinch then grows on the CPU reference from there, and says so (feedback()).
 class GrowthEngine {
  public:
   virtual ~GrowthEngine() = default;
@@ -63,6 +65,8 @@ class PinchSelection {
 
  private:
   void updateExtent(const TouchInput& input);
+  /// Runs `call` on the engine; if it throws, the pinch goes on with the CPU reference.
+  template <class Call> void onEngine(Call&& call);
   const QuantizedVolume& volume_;
   GrowParams params_;
   State state_ = State::Idle;

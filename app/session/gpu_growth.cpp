@@ -38,22 +38,40 @@ void GpuGrowthEngine::beginBox(double extentMm) {
   painted_ = std::make_pair(boxMin_, boxDims_);  // a larger box (same seed) holds the smaller one it replaces
 }
 
+template <class Call> auto GpuGrowthEngine::orStop(Call&& call) {
+  try {
+    return call();
+  } catch (const Error&) {
+    // The pinch goes on with the CPU reference (interaction/selection.h): no live selection left
+    // on the GPU, and the box it painted is repainted by the controller (takePaintedBox).
+    growing_ = false;
+    try {
+      renderer_.endLiveSelection();
+    } catch (const Error&) {  // nothing left to end on a lost device
+    }
+    throw;
+  }
+}
+
 void GpuGrowthEngine::start(const RegionGrower& reference) {
   setup_ = reference.setup();
   growing_ = true;
-  beginBox(0.0);
+  orStop([&] { beginBox(0.0); });
 }
 
 void GpuGrowthEngine::show(std::uint32_t bound, double extentMm) {
   if (!growing_) throw Error("GPU selection: show() before start()");
-  if (!(extentMm <= boxExtent_)) beginBox(extentMm);  // NaN never reaches here (the pinch drops it)
-  renderer_.setLiveSelectionBound(bound);
+  orStop([&] {
+    if (!(extentMm <= boxExtent_)) beginBox(extentMm);  // NaN never reaches here (the pinch drops it)
+    renderer_.setLiveSelectionBound(bound);
+  });
 }
 
 std::vector<std::uint32_t> GpuGrowthEngine::finish() {
   if (!growing_) throw Error("GPU selection: finish() before start()");
+  std::vector<std::uint32_t> voxels = orStop([&] { return renderer_.finishLiveSelection(); });
   growing_ = false;
-  return renderer_.finishLiveSelection();
+  return voxels;
 }
 
 void GpuGrowthEngine::rebase() {

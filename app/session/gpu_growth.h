@@ -37,6 +37,9 @@ class GpuGrowthEngine : public GrowthEngine {
 
  private:
   void beginBox(double extentMm);
+  /// Runs `call`; if it throws, the engine stops (growing() false, the renderer's live selection
+  /// ended) and the error goes on to the pinch, which grows on the CPU from there.
+  template <class Call> auto orStop(Call&& call);
   std::vector<std::uint8_t> baseIds() const;
 
   VolumeRenderer& renderer_;

@@ -2,6 +2,7 @@
 
 #include "interaction/handles.h"
 #include "interaction/selection.h"
+#include "sim/error.h"
 #include "sim/phantom.h"
 #include "sim/quantized_volume.h"
 
@@ -188,6 +189,46 @@ TEST(PinchSelection, WithAGrowthEngineThePinchHandsItTheSeedAndEveryExtentAndTak
   EXPECT_TRUE(std::is_sorted(done->begin(), done->end()));
   EXPECT_EQ(done->size(), check.count(sel.extentMm()));
   EXPECT_GT(done->size(), 10u);
+}
+
+// An engine that fails on its second extent (a box too large for the device, say).
+class FailingEngine : public GrowthEngine {
+ public:
+  void start(const RegionGrower&) override {}
+  void show(std::uint32_t, double) override {
+    if (++shows == 2) throw Error("the selection's box is larger than this device's storage buffers allow");
+  }
+  std::vector<std::uint32_t> finish() override { throw Error("not reached"); }
+  int shows = 0;
+};
+
+TEST(PinchSelection, WhenTheGrowthEngineFailsThePinchGoesOnWithTheCpuReferenceAndSaysSo) {
+  PinchRig rig;
+  PinchSelection sel(rig.q, GrowParams{});
+  FailingEngine engine;
+  sel.setEngine(&engine);
+  auto feed = [&](TouchPhase p, int id, double x, double y) { rig.feed(sel, p, id, x, y); };
+  feed(TouchPhase::Down, 1, 200, 270);
+  feed(TouchPhase::Down, 2, 220, 270);
+  ASSERT_EQ(sel.takePickRequest().size(), 2u);
+  const Eigen::Vector3d k = rig.ph.geometry.kidneyRightCenter;
+  sel.onPicks({glm::dvec3(k.x() + 20, k.y() - 3, k.z()), glm::dvec3(k.x() + 20, k.y() + 3, k.z())}, rig.cam, rig.vp);
+  EXPECT_TRUE(sel.liveVoxels().empty());
+  EXPECT_TRUE(sel.feedback().empty());
+  feed(TouchPhase::Move, 2, 240, 270);  // the engine fails here
+  EXPECT_EQ(engine.shows, 2);
+  EXPECT_NE(sel.feedback().find("grows on the CPU: the selection's box is larger"), std::string::npos) << sel.feedback();
+  ASSERT_EQ(sel.state(), PinchSelection::State::Growing);
+  const std::size_t n = sel.liveVoxels().size();
+  EXPECT_EQ(n, sel.grower()->count(sel.extentMm())) << "the CPU grew to the fingers' extent at once";
+  EXPECT_GT(n, 10u);
+  feed(TouchPhase::Move, 2, 250, 270);
+  EXPECT_EQ(engine.shows, 2) << "the failed engine is not asked again in this pinch";
+  feed(TouchPhase::Up, 1, 200, 270);
+  const auto done = sel.takeFinished();
+  ASSERT_TRUE(done.has_value());
+  EXPECT_GT(done->size(), n);
+  EXPECT_TRUE(std::is_sorted(done->begin(), done->end()));
 }
 
 TEST(PinchSelection, APinchInEmptySpaceIsRefusedWithFeedback) {
