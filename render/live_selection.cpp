@@ -1,5 +1,7 @@
 #include "live_selection.h"
 
+#include <algorithm>
+
 #include "compute_passes.h"
 #include "shaders/shared.h"
 #include "shaders/spirv.h"
@@ -84,7 +86,8 @@ std::optional<LiveSelection::Paint> LiveSelection::addPasses(fg::FrameGraph& g, 
         b.read(baseHandle_, fg::Access::StorageRead);
         b.write(idsHandle_, fg::Access::StorageWrite);
       },
-      [this, keys = h.keys, base = baseHandle_, ids = idsHandle_, push](fg::Executor& e) {
+      [this, keys = h.keys, base = baseHandle_, ids = idsHandle_, push,
+       maxGroups = std::min<std::uint32_t>(ctx_.properties().limits.maxComputeWorkGroupCount[0], 65535u)](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, paint_.pipeline());
         DescriptorWriter()
@@ -93,7 +96,8 @@ std::optional<LiveSelection::Paint> LiveSelection::addPasses(fg::FrameGraph& g, 
             .buffer(gpu::kBindLiveMaskOut, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(ids).handle())
             .push(ctx_, x.cmd(), paint_);
         vkCmdPushConstants(x.cmd(), paint_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-        vkCmdDispatch(x.cmd(), (push.bound.y + HANDSON_LIVE_MASK_GROUP_X - 1) / HANDSON_LIVE_MASK_GROUP_X, 1, 1);
+        const std::uint32_t groups = (push.bound.y + HANDSON_LIVE_MASK_GROUP_X - 1) / HANDSON_LIVE_MASK_GROUP_X;
+        vkCmdDispatch(x.cmd(), std::min(groups, maxGroups), 1, 1);  // the shader strides over the rest
       });
   repaint_ = false;  // the rounds above are painted in this frame; more rounds paint again
   inFlight_ = true;

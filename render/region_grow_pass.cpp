@@ -45,6 +45,12 @@ void GpuRegionGrower::begin(const GrowSetup& setup, const Eigen::Vector3i& boxMi
   const std::uint64_t voxels = std::uint64_t(boxDims.x()) * boxDims.y() * boxDims.z();
   if (voxels * 4 > ctx_.properties().limits.maxStorageBufferRange)
     throw Error("region growing: the box is larger than this device's storage buffers allow");
+  {
+    const int B = HANDSON_GROW_BRICK;
+    const Eigen::Vector3i b = (boxDims.array() + (B - 1)) / B;
+    if (std::uint64_t(b.x()) * b.y() * b.z() > ctx_.properties().limits.maxComputeWorkGroupCount[0])
+      throw Error("region growing: the box has more bricks than this device can dispatch at once");
+  }
   if (!relax_.pipeline() || relaxCriterion_ != setup.criterion) {
     static_assert(int(GrowCriterion::Paper) == 0 && int(GrowCriterion::Smoothed) == 1 && int(GrowCriterion::Core) == 2, "region_grow.comp's codes");
     relax_ =

@@ -17,7 +17,7 @@ using vk::Buffer;
 
 VolumeRenderer::VolumeRenderer(const vk::Context& ctx, std::uint32_t framesInFlight)
     : ctx_(ctx),
-      executor_(ctx, framesInFlight),
+      executor_(ctx, framesInFlight, 128),  // a frame can carry a live selection's rounds and the deformation before the raymarch
       raymarch_(ctx),
       pick_(ctx),
       brick_(ctx),

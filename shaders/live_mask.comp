@@ -13,9 +13,7 @@ layout(std430, set = 0, binding = kBindLiveMaskBase) readonly buffer Base { uint
 layout(std430, set = 0, binding = kBindLiveMaskOut) writeonly buffer Out { uint ids[]; };
 layout(push_constant) uniform Push { LiveMaskPush pc; };
 
-void main() {
-  uint w = gl_GlobalInvocationID.x;
-  if (w >= pc.bound.y) return;
+void paintWord(uint w) {
   uint rowWords = uint(pc.boxDims.w);
   uint row = w / rowWords;              // y + dims.y * z
   uint x0 = (w - row * rowWords) * 4u;  // first voxel of this word in its row
@@ -27,4 +25,11 @@ void main() {
     word |= id << (8u * i);
   }
   ids[w] = word;
+}
+
+// A grid-stride loop: the dispatch stays within the device's group count (65535 on many devices)
+// whatever the box's size.
+void main() {
+  uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+  for (uint w = gl_GlobalInvocationID.x; w < pc.bound.y; w += stride) paintWord(w);
 }

@@ -41,10 +41,11 @@ void GpuGrowthEngine::beginBox(double extentMm) {
 template <class Call> auto GpuGrowthEngine::orStop(Call&& call) {
   try {
     return call();
-  } catch (const Error&) {
+  } catch (const Error& e) {
     // The pinch goes on with the CPU reference (interaction/selection.h): no live selection left
     // on the GPU, and the box it painted is repainted by the controller (takePaintedBox).
     growing_ = false;
+    failure_ = e.what();
     try {
       renderer_.endLiveSelection();
     } catch (const Error&) {  // nothing left to end on a lost device
@@ -56,11 +57,16 @@ template <class Call> auto GpuGrowthEngine::orStop(Call&& call) {
 void GpuGrowthEngine::start(const RegionGrower& reference) {
   setup_ = reference.setup();
   growing_ = true;
-  orStop([&] { beginBox(0.0); });
+  failure_.clear();
+  boxExtent_ = -1.0;  // the first show() begins the box, sized for its extent
+}
+
+void GpuGrowthEngine::checkGrowing() const {
+  if (!growing_) throw Error(failure_.empty() ? "GPU selection: no pinch is growing (start() first)" : failure_);
 }
 
 void GpuGrowthEngine::show(std::uint32_t bound, double extentMm) {
-  if (!growing_) throw Error("GPU selection: show() before start()");
+  checkGrowing();
   orStop([&] {
     if (!(extentMm <= boxExtent_)) beginBox(extentMm);  // NaN never reaches here (the pinch drops it)
     renderer_.setLiveSelectionBound(bound);
@@ -68,14 +74,14 @@ void GpuGrowthEngine::show(std::uint32_t bound, double extentMm) {
 }
 
 std::vector<std::uint32_t> GpuGrowthEngine::finish() {
-  if (!growing_) throw Error("GPU selection: finish() before start()");
+  checkGrowing();
   std::vector<std::uint32_t> voxels = orStop([&] { return renderer_.finishLiveSelection(); });
   growing_ = false;
   return voxels;
 }
 
 void GpuGrowthEngine::rebase() {
-  if (growing_) renderer_.setLiveSelectionBase(baseIds());
+  if (growing_ && boxExtent_ >= 0.0) orStop([&] { renderer_.setLiveSelectionBase(baseIds()); });
 }
 
 void GpuGrowthEngine::cancel() {

@@ -3,6 +3,7 @@
 // (render/live_selection.h), for PinchSelection (interaction/selection.h: GrowthEngine).
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -15,8 +16,9 @@ namespace handson {
 
 /// Grows pinches on the GPU through the renderer's live selection. Its box is the ball a selection
 /// can reach at twice the extent (at least kMinBoxExtentMm), clipped to the volume; when the
-/// fingers spread past it, growth begins again in a box twice as large (keys are recomputed; the
-/// selection is the same).
+/// fingers spread past it, growth begins again from the seed in the box for twice the new extent
+/// (the keys are recomputed, so the selection is the same; for a few frames it shows less). A call
+/// that fails (handson::Error) stops the engine: later calls of this pinch throw the same error.
 class GpuGrowthEngine : public GrowthEngine {
  public:
   static constexpr double kMinBoxExtentMm = 20.0;
@@ -27,6 +29,7 @@ class GpuGrowthEngine : public GrowthEngine {
   std::vector<std::uint32_t> finish() override;
 
   /// The handles under the pinch changed (the mask given at construction): the box's ids anew.
+  /// Throws (and stops) as the calls above do.
   void rebase();
   /// Ends a pinch growing now without a result (the controller going away).
   void cancel();
@@ -40,6 +43,7 @@ class GpuGrowthEngine : public GrowthEngine {
   /// Runs `call`; if it throws, the engine stops (growing() false, the renderer's live selection
   /// ended) and the error goes on to the pinch, which grows on the CPU from there.
   template <class Call> auto orStop(Call&& call);
+  void checkGrowing() const;
   std::vector<std::uint8_t> baseIds() const;
 
   VolumeRenderer& renderer_;
@@ -49,6 +53,7 @@ class GpuGrowthEngine : public GrowthEngine {
   Eigen::Vector3i boxMin_{0, 0, 0}, boxDims_{0, 0, 0};
   double boxExtent_ = 0.0;  // the largest extent the box holds (infinite once it is the volume)
   bool growing_ = false;
+  std::string failure_;  // why the engine stopped ("" if it did not)
   std::optional<std::pair<Eigen::Vector3i, Eigen::Vector3i>> painted_;
 };
 

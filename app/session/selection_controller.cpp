@@ -5,6 +5,7 @@
 
 #include "render/raymarch_reference.h"
 #include "render/vk_context.h"
+#include "sim/error.h"
 
 
 namespace handson {
@@ -50,7 +51,12 @@ void SelectionController::repaint(const std::vector<std::uint32_t>& voxels) {
   for (const auto& h : handles_.handles())
     for (std::uint32_t v : h.voxels) mask_[v] = std::uint8_t(h.id);  // only voxels in the dirty box matter
   for (std::uint32_t v : live_) mask_[v] = HandleSet::kLiveSelectionId;
-  if (gpu_ && !voxels.empty()) gpu_->rebase();  // the handles changed under a pinch growing on the GPU
+  if (gpu_ && !voxels.empty()) {  // the handles changed under a pinch growing on the GPU
+    try {
+      gpu_->rebase();
+    } catch (const Error&) {  // the engine stopped: the pinch grows on the CPU at its next step
+    }
+  }
 }
 
 void SelectionController::refreshLive() {

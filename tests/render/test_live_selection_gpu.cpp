@@ -98,10 +98,14 @@ TEST_F(LiveSelectionGpu, FramesGrowItPaintTheReferenceSelectionIntoTheMaskAndFin
   renderer.submit(req);
   renderer.waitLast();
   req.maskUpload = nullptr;
-  std::vector<std::uint8_t> base;
-  for (int k = 0; k < dims.z(); ++k)
-    for (int j = 0; j < dims.y(); ++j)
-      for (int i = 0; i < dims.x(); ++i) base.push_back(ids[linear(lo + Eigen::Vector3i(i, j, k), d)]);
+  auto boxOf = [&](const std::vector<std::uint8_t>& all) {
+    std::vector<std::uint8_t> box;
+    for (int k = 0; k < dims.z(); ++k)
+      for (int j = 0; j < dims.y(); ++j)
+        for (int i = 0; i < dims.x(); ++i) box.push_back(all[linear(lo + Eigen::Vector3i(i, j, k), d)]);
+    return box;
+  };
+  const std::vector<std::uint8_t> base = boxOf(ids);
 
   renderer.setLiveRoundsPerFrame(1);  // rounds spread over many frames
   renderer.beginLiveSelection(cpu.setup(), lo, dims, base);
@@ -141,10 +145,24 @@ TEST_F(LiveSelectionGpu, FramesGrowItPaintTheReferenceSelectionIntoTheMaskAndFin
   EXPECT_EQ(afterE2, expectedMask(cpu, ids, lo, dims, d, cpu.bound(e2)));
   EXPECT_GT(std::count(afterE2.begin(), afterE2.end(), 255), std::count(afterE1.begin(), afterE1.end(), 255));
 
-  // A frame with nothing to grow or repaint leaves the mask alone.
+  // A frame with nothing to grow or repaint carries no growth passes and leaves the mask alone.
   renderer.submit(req);
+  EXPECT_FALSE(renderer.liveSelection()->inFlight());
   renderer.waitLast();
   EXPECT_EQ(renderer.readMask(), afterE2);
+
+  // The handles change under the pinch (another handle's ids in the box's upper slabs): the next
+  // frame repaints the box over the new ids.
+  for (int k = lo.z() + dims.z() - 3; k < lo.z() + dims.z(); ++k)
+    for (int j = 0; j < d.y(); ++j)
+      for (int i = 0; i < d.x(); ++i) ids[linear({i, j, k}, d)] = kHandle + 1;
+  up.ids = ids;
+  req.maskUpload = &up;
+  renderer.setLiveSelectionBase(boxOf(ids));
+  renderer.submit(req);
+  renderer.waitLast();
+  req.maskUpload = nullptr;
+  EXPECT_EQ(renderer.readMask(), expectedMask(cpu, ids, lo, dims, d, cpu.bound(e2)));
 
   std::vector<std::uint32_t> reference;
   for (std::size_t v = 0; v < q.data.size(); ++v)

@@ -33,10 +33,12 @@ TEST(GpuGrowth, ItGrowsTheReferenceSelectionInBoxesThatFollowTheExtentAndStopsCl
   GpuGrowthEngine engine(renderer, q, mask);
   engine.start(reference);
   EXPECT_TRUE(engine.growing());
+  EXPECT_EQ(renderer.liveSelection(), nullptr) << "the box waits for the first extent";
+  engine.show(reference.bound(12.0), 12.0);  // a box for 24 mm
   ASSERT_NE(renderer.liveSelection(), nullptr);
   const Eigen::Vector3i firstBox = renderer.liveSelection()->boxDims();
-  engine.show(reference.bound(12.0), 12.0);
-  EXPECT_EQ(renderer.liveSelection()->boxDims(), firstBox) << "12 mm fits the first box (20 mm)";
+  engine.show(reference.bound(8.0), 8.0);
+  EXPECT_EQ(renderer.liveSelection()->boxDims(), firstBox) << "closing the fingers keeps the box";
   engine.show(reference.bound(35.0), 35.0);  // past the box: a box for 70 mm
   EXPECT_GT(renderer.liveSelection()->boxDims().prod(), firstBox.prod());
   const Eigen::Vector3i lastMin = renderer.liveSelection()->boxMin(), lastDims = renderer.liveSelection()->boxDims();
@@ -55,10 +57,23 @@ TEST(GpuGrowth, ItGrowsTheReferenceSelectionInBoxesThatFollowTheExtentAndStopsCl
   // A failure under the engine (here its live selection ended from outside): the engine stops,
   // ends what is left on the GPU and passes the error on (the pinch then grows on the CPU).
   engine.start(reference);
+  engine.show(reference.bound(10.0), 10.0);
   renderer.endLiveSelection();
-  EXPECT_THROW(engine.show(reference.bound(10.0), 10.0), Error);
+  std::string why;
+  try {
+    engine.show(reference.bound(11.0), 11.0);
+  } catch (const Error& e) {
+    why = e.what();
+  }
+  EXPECT_NE(why.find("no live selection"), std::string::npos) << why;
   EXPECT_FALSE(engine.growing());
   EXPECT_EQ(renderer.liveSelection(), nullptr);
-  EXPECT_THROW(engine.finish(), Error);
+  try {
+    engine.finish();
+    ADD_FAILURE() << "a stopped engine finished";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), why) << "later calls of the pinch say why it stopped";
+  }
+  engine.rebase();  // nothing growing: nothing to do
   EXPECT_EQ(ctx.validationMessageCount(), 0u);
 }
