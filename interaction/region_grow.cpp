@@ -56,13 +56,37 @@ Eigen::Vector3i mostHomogeneousNear(const QuantizedVolume& volume, const Eigen::
   return best;
 }
 
-RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i& seed, const GrowParams& params)
+void GrowWorkspace::reserve(std::size_t voxels) {
+  if (keys.size() != voxels) keys.assign(voxels, kUnreached);
+  if (tests.size() != voxels) tests.assign(voxels, 0);
+}
+
+RegionGrower::~RegionGrower() {
+  if (!workspace_) return;
+  // Back to the workspace as it came: cleared where this grower wrote.
+  for (std::size_t v : touched_) keys_[v] = kUnreached;
+  for (std::size_t v : classified_) class_[v] = 0;
+  if (!front_.empty()) front_.clear();
+  std::swap(workspace_->keys, keys_);
+  std::swap(workspace_->tests, class_);
+}
+
+RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i& seed, const GrowParams& params, GrowWorkspace* workspace)
     : vol_(volume), params_(params) {
   const auto& g = volume.geometry;
   if (!g.contains(seed)) throw Error("region growing: the seed voxel lies outside the volume");
   if (!(params.hMax > 0.0) || !std::isfinite(params.hMax)) throw Error("region growing: h_max must be a positive number");
   if (!(params.sigmaFloor >= 0.0) || !std::isfinite(params.sigmaFloor)) throw Error("region growing: the sigma floor must be >= 0");
   if (!(params.coreFraction > 0.0 && params.coreFraction <= 1.0)) throw Error("region growing: the core fraction must lie in (0, 1]");
+  if (params.criterion != GrowCriterion::Paper &&
+      (params.refinements < 0 || params.refinements > 10 || !(params.probeRadiusMm > 0.0) || !(params.hRegion > 0.0) ||
+       !(params.thinShare >= 0.0 && params.thinShare <= 1.0)))
+    throw Error("region growing: invalid refinement parameters");
+  if (workspace) {  // every check is above: from here the arrays are the grower's (its destructor gives them back)
+    std::swap(keys_, workspace->keys);
+    std::swap(class_, workspace->tests);
+    workspace_ = workspace;
+  }
   setup_.seed = seed;
   setup_.criterion = params.criterion;
   setup_.spacing = g.spacing.cast<float>();
@@ -87,9 +111,6 @@ RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i&
     restart();
     return;
   }
-  if (params.refinements < 0 || params.refinements > 10 || !(params.probeRadiusMm > 0.0) || !(params.hRegion > 0.0) ||
-      !(params.thinShare >= 0.0 && params.thinShare <= 1.0))
-    throw Error("region growing: invalid refinement parameters");
   refine(sum, tol);
   if (setup_.criterion == GrowCriterion::Core) {
     // A structure too thin for a core near the seed (a vessel, a cortex a few voxels thick) grows

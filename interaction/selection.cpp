@@ -88,7 +88,8 @@ void PinchSelection::onPicks(const std::vector<std::optional<glm::dvec3>>& world
   const Eigen::Vector3i seed = mostHomogeneousNear(volume_, idx.cast<int>(), 2);
   const double depth = glm::dot(seedWorld - camera.eye(), camera.forward());
   pixelMm_ = camera.pixelSizeAt(std::max(depth, 1e-3), viewport.height);
-  grower_ = std::make_unique<RegionGrower>(volume_, seed, params_);
+  grower_.reset();  // gives the workspace back before the next grower takes it
+  grower_ = std::make_unique<RegionGrower>(volume_, seed, params_, &workspace_);
   state_ = State::Growing;
   extent_ = 0.0;
   feedback_.clear();

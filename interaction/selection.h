@@ -38,7 +38,11 @@ class PinchSelection {
  public:
   enum class State : std::uint8_t { Idle, WaitingForPicks, Growing };
 
-  PinchSelection(const QuantizedVolume& volume, const GrowParams& params) : volume_(volume), params_(params) {}
+  /// Sizes the growers' per-voxel arrays for the volume now (GrowWorkspace): a pinch then starts in
+  /// milliseconds, not the time to clear a large CT's worth of them.
+  PinchSelection(const QuantizedVolume& volume, const GrowParams& params) : volume_(volume), params_(params) {
+    workspace_.reserve(volume.data.size());
+  }
 
   /// Feed select-mode touches (after the input layer accepted them).
   void onTouch(const TouchEvent& e, const TouchInput& input, const OrbitCamera& camera, const Viewport& viewport);
@@ -74,6 +78,7 @@ class PinchSelection {
   glm::dvec2 pickA_{0.0}, pickB_{0.0};
   bool requestPending_ = false;
   double pixelMm_ = 0.0, extent_ = 0.0;
+  GrowWorkspace workspace_;  // before grower_: outlives it
   std::unique_ptr<RegionGrower> grower_;
   GrowthEngine* engine_ = nullptr;
   GrowthEngine* growingOn_ = nullptr;  // the engine of the pinch now growing (nullptr: the CPU)

@@ -88,6 +88,14 @@ struct PinchRig {
     ASSERT_TRUE(in.apply(e));
     sel.onTouch(e, in, cam, vp);
   }
+  /// Two fingers down 20 px apart, both picks answered on the right kidney's surface.
+  void pinchKidney(PinchSelection& sel) {
+    feed(sel, TouchPhase::Down, 1, 200, 270);
+    feed(sel, TouchPhase::Down, 2, 220, 270);
+    ASSERT_EQ(sel.takePickRequest().size(), 2u);
+    const Eigen::Vector3d k = ph.geometry.kidneyRightCenter;
+    sel.onPicks({glm::dvec3(k.x() + 20, k.y() - 3, k.z()), glm::dvec3(k.x() + 20, k.y() + 3, k.z())}, cam, vp);
+  }
 };
 
 }  // namespace
@@ -161,11 +169,7 @@ TEST(PinchSelection, WithAGrowthEngineThePinchHandsItTheSeedAndEveryExtentAndTak
   engine.volume = &q;
   sel.setEngine(&engine);
   auto feed = [&](TouchPhase p, int id, double x, double y) { rig.feed(sel, p, id, x, y); };
-  feed(TouchPhase::Down, 1, 200, 270);
-  feed(TouchPhase::Down, 2, 220, 270);
-  ASSERT_EQ(sel.takePickRequest().size(), 2u);
-  const Eigen::Vector3d k = rig.ph.geometry.kidneyRightCenter;
-  sel.onPicks({glm::dvec3(k.x() + 20, k.y() - 3, k.z()), glm::dvec3(k.x() + 20, k.y() + 3, k.z())}, rig.cam, rig.vp);
+  rig.pinchKidney(sel);
   ASSERT_EQ(sel.state(), PinchSelection::State::Growing);
   ASSERT_EQ(engine.starts, 1);
   ASSERT_EQ(engine.shown.size(), 1u);
@@ -208,11 +212,7 @@ TEST(PinchSelection, WhenTheGrowthEngineFailsThePinchGoesOnWithTheCpuReferenceAn
   FailingEngine engine;
   sel.setEngine(&engine);
   auto feed = [&](TouchPhase p, int id, double x, double y) { rig.feed(sel, p, id, x, y); };
-  feed(TouchPhase::Down, 1, 200, 270);
-  feed(TouchPhase::Down, 2, 220, 270);
-  ASSERT_EQ(sel.takePickRequest().size(), 2u);
-  const Eigen::Vector3d k = rig.ph.geometry.kidneyRightCenter;
-  sel.onPicks({glm::dvec3(k.x() + 20, k.y() - 3, k.z()), glm::dvec3(k.x() + 20, k.y() + 3, k.z())}, rig.cam, rig.vp);
+  rig.pinchKidney(sel);
   EXPECT_TRUE(sel.liveVoxels().empty());
   EXPECT_TRUE(sel.feedback().empty());
   feed(TouchPhase::Move, 2, 240, 270);  // the engine fails here

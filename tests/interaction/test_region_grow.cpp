@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <queue>
 
@@ -281,4 +282,40 @@ TEST(RegionGrow, ASeedInAStructureTooThinForACoreGrowsSmoothed) {
     for (int j = 3; j <= 4; ++j)
       for (int i = 1; i < 39; ++i) expect += (i - 20) * (i - 20) + (j - 4) * (j - 4) + (k - 4) * (k - 4) <= 64;
   EXPECT_EQ(g.count(8.0), expect);
+}
+
+// Growers that reuse one workspace give the keys fresh growers give, each criterion and seed in
+// turn, and leave the workspace cleared; a grower refused for bad input leaves it usable.
+TEST(RegionGrow, GrowersSharingAWorkspaceGiveTheKeysOfFreshOnesAndLeaveItCleared) {
+  PhantomOptions o;
+  o.spacingMm = 4.0;
+  const Phantom ph = makePhantom(o);
+  const QuantizedVolume q = quantizeVolume(ph.ct);
+  const Eigen::Vector3i kidney = ph.ct.geometry().toIndex(ph.geometry.kidneyRightCenter).array().round().cast<int>();
+  const Eigen::Vector3i liver = ph.ct.geometry().toIndex(ph.geometry.liverCenter).array().round().cast<int>();
+  GrowWorkspace ws;
+  ws.reserve(q.data.size());
+  for (GrowCriterion c : {GrowCriterion::Core, GrowCriterion::Paper, GrowCriterion::Smoothed, GrowCriterion::Core})
+    for (const Eigen::Vector3i& seed : {kidney, liver}) {
+      GrowParams p;
+      p.criterion = c;
+      RegionGrower fresh(q, seed, p);
+      fresh.growTo(40.0);
+      {
+        RegionGrower reused(q, seed, p, &ws);
+        EXPECT_TRUE(ws.keys.empty()) << "the grower holds the arrays";
+        reused.growTo(25.0);
+        reused.growTo(40.0);
+        EXPECT_EQ(reused.keys(), fresh.keys()) << growCriterionName(c);
+        EXPECT_EQ(reused.count(40.0), fresh.count(40.0));
+      }
+      ASSERT_EQ(ws.keys.size(), q.data.size());
+      EXPECT_EQ(std::count(ws.keys.begin(), ws.keys.end(), kUnreached), std::ptrdiff_t(q.data.size()));
+      EXPECT_EQ(std::count(ws.tests.begin(), ws.tests.end(), std::uint8_t(0)), std::ptrdiff_t(q.data.size()));
+    }
+  GrowParams bad;
+  bad.refinements = -1;
+  EXPECT_THROW(RegionGrower(q, kidney, bad, &ws), Error);
+  EXPECT_THROW(RegionGrower(q, Eigen::Vector3i(-1, 0, 0), GrowParams{}, &ws), Error);
+  EXPECT_EQ(ws.keys.size(), q.data.size()) << "a refused grower never took the arrays";
 }
