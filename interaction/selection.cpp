@@ -95,6 +95,13 @@ void PinchSelection::onPicks(const std::vector<std::optional<glm::dvec3>>& world
   feedback_.clear();
   // The fingers' current spread decides the first extent.
   extent_ = std::min(pixelMm_ * glm::length(pickA_ - pickB_), kMaxExtentMm);
+  if (!std::isfinite(extent_)) {  // a camera or fingers that give no pixel size: nothing to grow
+    feedback_ = "Pinch on visible anatomy: the fingers' spread gives no extent";
+    grower_.reset();
+    state_ = State::Idle;
+    changed_ = true;
+    return;
+  }
   growingOn_ = engine_;
   if (growingOn_) {
     onEngine([this](GrowthEngine& g) {

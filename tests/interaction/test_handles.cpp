@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "interaction/handles.h"
 #include "interaction/selection.h"
 #include "sim/error.h"
@@ -229,6 +231,16 @@ TEST(PinchSelection, WhenTheGrowthEngineFailsThePinchGoesOnWithTheCpuReferenceAn
   ASSERT_TRUE(done.has_value());
   EXPECT_GT(done->size(), n);
   EXPECT_TRUE(std::is_sorted(done->begin(), done->end()));
+}
+
+TEST(PinchSelection, APinchWhoseSpreadGivesNoExtentIsRefusedWithFeedback) {
+  PinchRig rig;
+  rig.cam.distance = std::nan("");  // a broken camera: no pixel size at the seed's depth
+  PinchSelection sel(rig.q, GrowParams{});
+  rig.pinchKidney(sel);
+  EXPECT_EQ(sel.state(), PinchSelection::State::Idle);
+  EXPECT_NE(sel.feedback().find("gives no extent"), std::string::npos) << sel.feedback();
+  EXPECT_FALSE(sel.takeFinished().has_value());
 }
 
 TEST(PinchSelection, APinchInEmptySpaceIsRefusedWithFeedback) {
