@@ -15,6 +15,19 @@ namespace handson {
 
 using vk::Buffer;
 
+MaskUpload maskBox(const std::vector<std::uint8_t>& mask, const Eigen::Vector3i& volumeDims, const Eigen::Vector3i& min, const Eigen::Vector3i& dims) {
+  MaskUpload out{min, dims, std::vector<std::uint8_t>(std::size_t(dims.prod()))};
+  const Eigen::Vector3i& d = volumeDims;
+  std::size_t o = 0;
+  for (int k = min.z(); k < min.z() + dims.z(); ++k)
+    for (int j = min.y(); j < min.y() + dims.y(); ++j) {
+      const std::size_t row = std::size_t(min.x()) + std::size_t(d.x()) * (std::size_t(j) + std::size_t(d.y()) * std::size_t(k));
+      std::copy_n(mask.begin() + std::ptrdiff_t(row), dims.x(), out.ids.begin() + std::ptrdiff_t(o));
+      o += std::size_t(dims.x());
+    }
+  return out;
+}
+
 VolumeRenderer::VolumeRenderer(const vk::Context& ctx, std::uint32_t framesInFlight)
     : ctx_(ctx),
       executor_(ctx, framesInFlight, 128),  // a frame can carry a live selection's rounds and the deformation before the raymarch

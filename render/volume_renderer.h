@@ -41,6 +41,8 @@ struct MaskUpload {
   Eigen::Vector3i min{0, 0, 0}, dims{0, 0, 0};
   std::vector<std::uint8_t> ids;  ///< dims.prod() bytes, x-fastest
 };
+/// The box [min, min + dims) of a mask on a volume of `volumeDims` (x-fastest), as an upload.
+MaskUpload maskBox(const std::vector<std::uint8_t>& mask, const Eigen::Vector3i& volumeDims, const Eigen::Vector3i& min, const Eigen::Vector3i& dims);
 
 struct FrameRequest {
   gpu::RenderParams params{};

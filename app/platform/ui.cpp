@@ -297,10 +297,15 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   remember();
   ImGui::End();
 
-  // Frame-time overlay, bottom left.
-  ImGui::SetNextWindowPos(ImVec2(10 * s, display.y - 10 * s), ImGuiCond_Always, ImVec2(0.0f, 1.0f));
+  timingOverlay(st, 10 * s, display.y - 10 * s, panel);
+  ImGui::Render();
+}
+
+// Frame-time overlay, bottom left: times, device, the frame budget's quality, where pinches grow.
+void Ui::timingOverlay(const UiStatus& st, float left, float bottom, int panelFlags) {
+  ImGui::SetNextWindowPos(ImVec2(left, bottom), ImGuiCond_Always, ImVec2(0.0f, 1.0f));
   ImGui::SetNextWindowBgAlpha(0.55f);
-  ImGui::Begin("timing", nullptr, panel | ImGuiWindowFlags_NoInputs);
+  ImGui::Begin("timing", nullptr, panelFlags | ImGuiWindowFlags_NoInputs);
   ImGui::Text("%.1f fps   CPU %.1f ms   raymarch %.1f ms", st.fps, st.cpuFrameMs, st.gpuRaymarchMs);
   if (st.latencyMs >= 0) ImGui::Text("input to present %.1f ms", st.latencyMs);
   if (st.displayLatencyMs >= 0) ImGui::Text("input to display %.1f ms", st.displayLatencyMs);
@@ -315,7 +320,6 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   overlay_ = Rect{ImGui::GetWindowPos().x, ImGui::GetWindowPos().y, ImGui::GetWindowPos().x + ImGui::GetWindowSize().x,
                   ImGui::GetWindowPos().y + ImGui::GetWindowSize().y};
   ImGui::End();
-  ImGui::Render();
 }
 
 void Ui::record(VkCommandBuffer cmd, VkFramebuffer framebuffer, VkExtent2D extent) {

@@ -85,6 +85,7 @@ class Ui {
 
  private:
   void strainColourBar(const UiStatus& st, const std::function<void()>& remember);
+  void timingOverlay(const UiStatus& st, float left, float bottom, int panelFlags);
   void modeOptions(const UiStatus& st, const std::function<void(const char*, const std::string&)>& action, float buttonWidth, float buttonHeight);
 
   const vk::Context& ctx_;

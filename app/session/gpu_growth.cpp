@@ -1,7 +1,6 @@
 #include "gpu_growth.h"
 
 #include <algorithm>
-#include <cmath>
 #include <limits>
 
 #include "sim/error.h"
@@ -12,16 +11,7 @@ GpuGrowthEngine::GpuGrowthEngine(VolumeRenderer& renderer, const QuantizedVolume
     : renderer_(renderer), volume_(volume), mask_(mask) {}
 
 std::vector<std::uint8_t> GpuGrowthEngine::baseIds() const {
-  std::vector<std::uint8_t> out(std::size_t(boxDims_.prod()));
-  const Eigen::Vector3i& d = volume_.geometry.dims;
-  std::size_t b = 0;
-  for (int k = 0; k < boxDims_.z(); ++k)
-    for (int j = 0; j < boxDims_.y(); ++j) {
-      const std::size_t row = std::size_t(boxMin_.x()) + std::size_t(d.x()) * (std::size_t(boxMin_.y() + j) + std::size_t(d.y()) * std::size_t(boxMin_.z() + k));
-      std::copy_n(mask_.begin() + std::ptrdiff_t(row), boxDims_.x(), out.begin() + std::ptrdiff_t(b));
-      b += std::size_t(boxDims_.x());
-    }
-  return out;
+  return maskBox(mask_, volume_.geometry.dims, boxMin_, boxDims_).ids;
 }
 
 void GpuGrowthEngine::beginBox(double extentMm) {

@@ -97,6 +97,16 @@ void printHandlePoses(const SelectionController& selection, const Volume& volume
   }
 }
 
+// --print-handles: the handles, then the clip and the window where they are set.
+void printSessionState(const SelectionController& selection, const Session& session, const Volume& volume) {
+  printHandlePoses(selection, volume);
+  const ClipRegion& clip = session.clip();
+  if (clip.box) std::cout << "clip box " << formatClipBox(clip) << "\n";
+  if (clip.plane) std::cout << "clip plane " << formatClipPlane(clip) << "\n";
+  const WindowLevel& w = session.window();
+  if (!w.identity()) std::cout << "window " << session.preset() << " scale " << w.scale << " shift " << w.shift << " opacity " << w.opacity << "\n";
+}
+
 // False (with a message) where the camera, the clip region, the window or a handle's pose holds a
 // non-finite number.
 bool stateIsFinite(const Session& session, const SelectionController& selection) {
@@ -279,14 +289,7 @@ int runReplay(const ReplayOptions& o) {
   }
   if (!o.framesOut.empty()) std::cout << "wrote " << frames << " frames to " << o.framesOut << "\n";
   if (o.printCamera) std::cout << describeCamera(session.camera()) << "\n";
-  if (o.printHandles) {
-    printHandlePoses(selection, volume);
-    const ClipRegion& clip = session.clip();
-    if (clip.box) std::cout << "clip box " << formatClipBox(clip) << "\n";
-    if (clip.plane) std::cout << "clip plane " << formatClipPlane(clip) << "\n";
-    const WindowLevel& w = session.window();
-    if (!w.identity()) std::cout << "window " << session.preset() << " scale " << w.scale << " shift " << w.shift << " opacity " << w.opacity << "\n";
-  }
+  if (o.printHandles) printSessionState(selection, session, volume);
   // Whatever came in, no state may hold a non-finite number.
   if (!stateIsFinite(session, selection)) return 1;
   if (ctx.validationMessageCount() > 0) {

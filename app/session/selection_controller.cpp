@@ -261,17 +261,8 @@ void SelectionController::prepareFrame(FrameRequest& req, const Viewport& vp) {
     pickInRequest_ = true;
   }
   if ((dirtyMin_.array() <= dirtyMax_.array()).all()) {
-    upload_.min = dirtyMin_;
-    upload_.dims = dirtyMax_ - dirtyMin_ + Eigen::Vector3i::Ones();
-    upload_.ids.resize(std::size_t(upload_.dims.prod()));
     const auto& d = volume_.geometry.dims;
-    std::size_t o = 0;
-    for (int k = dirtyMin_.z(); k <= dirtyMax_.z(); ++k)
-      for (int j = dirtyMin_.y(); j <= dirtyMax_.y(); ++j) {
-        const std::size_t row = std::size_t(dirtyMin_.x()) + std::size_t(d.x()) * (std::size_t(j) + std::size_t(d.y()) * std::size_t(k));
-        std::copy_n(mask_.begin() + std::ptrdiff_t(row), upload_.dims.x(), upload_.ids.begin() + std::ptrdiff_t(o));
-        o += std::size_t(upload_.dims.x());
-      }
+    upload_ = maskBox(mask_, d, dirtyMin_, dirtyMax_ - dirtyMin_ + Eigen::Vector3i::Ones());
     req.maskUpload = &upload_;
     dirtyMin_ = d;
     dirtyMax_ = Eigen::Vector3i(-1, -1, -1);
