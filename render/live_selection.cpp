@@ -36,7 +36,7 @@ LiveSelection::LiveSelection(const Context& ctx, const Image& volume, const Samp
              sizeof(gpu::LiveMaskPush)) {}
 
 void LiveSelection::begin(const GrowSetup& setup, const Eigen::Vector3i& boxMin, const Eigen::Vector3i& boxDims,
-                          const std::vector<std::uint8_t>& base) {
+                          const std::vector<std::uint8_t>& base, std::uint32_t holdBound) {
   grower_.begin(setup, boxMin, boxDims);  // checks the box
   rowWords_ = std::uint32_t(boxDims.x() + 3) / 4;
   words_ = rowWords_ * std::uint32_t(boxDims.y()) * std::uint32_t(boxDims.z());
@@ -45,7 +45,9 @@ void LiveSelection::begin(const GrowSetup& setup, const Eigen::Vector3i& boxMin,
   ids_ = Buffer(ctx_, VkDeviceSize(words_) * 4, usage, Buffer::Memory::Device);
   idsState_ = fg::Access::None;
   bound_ = 0;
-  inFlight_ = false;
+  inFlight_ = painting_ = false;
+  hold_ = holdBound;
+  holding_ = holdBound > 0;
   setBase(base);
 }
 
@@ -63,14 +65,29 @@ void LiveSelection::setBase(const std::vector<std::uint8_t>& base) {
 
 void LiveSelection::setBound(std::uint32_t bound) {
   if (bound == bound_) return;
-  grower_.setBound(bound);  // growth resumes for a larger bound; a smaller one only thresholds
+  // Growth resumes for a larger bound; a smaller one only thresholds. Holding, the growth goes no
+  // further than the held bound until it is reached.
+  grower_.setBound(holding_ ? std::min(bound, hold_) : bound);
   bound_ = bound;
   repaint_ = true;
 }
 
 std::optional<LiveSelection::Paint> LiveSelection::addPasses(fg::FrameGraph& g, fg::ResourceHandle volume) {
   if (inFlight_) throw Error("live selection: the last frame's growth is not done yet");
+  if (holding_ && !grower_.growing()) {
+    // The keys up to the held bound are final: the box shows at least the old selection from now
+    // on, and grows on toward the fingers' bound.
+    holding_ = false;
+    grower_.setBound(bound_);
+    repaint_ = true;
+  }
   const bool grow = grower_.growing();
+  if (holding_) {
+    grower_.addRounds(g, rounds_, false, volume);  // rounds only: the mask keeps the old selection
+    inFlight_ = true;
+    painting_ = false;
+    return std::nullopt;
+  }
   if (!repaint_ && !grow) return std::nullopt;
   const GpuRegionGrower::Bound h = grower_.addRounds(g, grow ? rounds_ : 0, false, volume);
   baseHandle_ = g.importBuffer("live-base-ids", {base_.size()}, baseState_);
@@ -100,18 +117,20 @@ std::optional<LiveSelection::Paint> LiveSelection::addPasses(fg::FrameGraph& g, 
         vkCmdDispatch(x.cmd(), std::min(groups, maxGroups), 1, 1);  // the shader strides over the rest
       });
   repaint_ = false;  // the rounds above are painted in this frame; more rounds paint again
-  inFlight_ = true;
+  inFlight_ = painting_ = true;
   return Paint{idsHandle_, grower_.boxMin(), d, rowWords_ * 4};
 }
 
 void LiveSelection::bind(GraphExecutor& executor) const {
   grower_.bind(executor);
+  if (!painting_) return;
   executor.bindBuffer(baseHandle_, base_);
   executor.bindBuffer(idsHandle_, ids_);
 }
 
 void LiveSelection::submitted(const fg::FrameGraph& g) {
   grower_.recordStates(g);
+  if (!painting_) return;
   idsState_ = g.stateAfterFrame(idsHandle_);
   baseState_ = g.stateAfterFrame(baseHandle_);
 }
@@ -124,6 +143,7 @@ void LiveSelection::frameDone() {
 
 std::vector<std::uint32_t> LiveSelection::finish(const Eigen::Vector3i& volumeDims) {
   if (inFlight_) throw Error("live selection: finish() with a frame in flight");
+  holding_ = false;
   grower_.growTo(bound_);
   const std::vector<std::uint32_t> keys = grower_.readKeys();
   const Eigen::Vector3i& lo = grower_.boxMin();

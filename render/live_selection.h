@@ -30,7 +30,11 @@ class LiveSelection {
 
   /// A new selection over the box (see GpuRegionGrower::begin: no frame using the last selection's
   /// buffers may still be in flight). `base`: the box's handle ids as the CPU paints them, boxDims.prod() bytes.
-  void begin(const GrowSetup& setup, const Eigen::Vector3i& boxMin, const Eigen::Vector3i& boxDims, const std::vector<std::uint8_t>& base);
+  /// `holdBound` > 0: the box replaces a selection already painted up to that bound (a larger box
+  /// around the same seed); its frames grow without painting until the keys up to holdBound are
+  /// final, so the mask keeps showing the old selection instead of less of it, then paint and grow on.
+  void begin(const GrowSetup& setup, const Eigen::Vector3i& boxMin, const Eigen::Vector3i& boxDims, const std::vector<std::uint8_t>& base,
+             std::uint32_t holdBound = 0);
   /// The fingers' extent as a key bound (growKeyBound): growing resumes; shrinking only repaints.
   void setBound(std::uint32_t bound);
   /// New base ids for the box (the handles changed under the pinch); no frame may be in flight.
@@ -56,7 +60,9 @@ class LiveSelection {
   /// A frame carrying the passes was submitted and frameDone has not come yet.
   bool inFlight() const { return inFlight_; }
   /// Rounds still to run for the keys up to the bound to be final.
-  bool growing() const { return grower_.growing(); }
+  bool growing() const { return holding_ || grower_.growing(); }
+  /// Growing up to begin()'s holdBound, painting nothing yet.
+  bool holding() const { return holding_; }
 
   /// Grows to the bound on submissions of its own (no frame may be in flight) and returns the
   /// selection's voxels: linear indices in a volume of `volumeDims`, ascending.
@@ -73,9 +79,9 @@ class LiveSelection {
   Buffer base_, ids_;  // the box's words: the CPU's ids, and the painted ones
   fg::Access idsState_ = fg::Access::None, baseState_ = fg::Access::None;
   fg::ResourceHandle baseHandle_, idsHandle_;
-  std::uint32_t bound_ = 0, rowWords_ = 0, words_ = 0;
+  std::uint32_t bound_ = 0, rowWords_ = 0, words_ = 0, hold_ = 0;
   int rounds_ = 8;
-  bool repaint_ = false, inFlight_ = false;
+  bool repaint_ = false, inFlight_ = false, holding_ = false, painting_ = false;  // painting_: the frame in flight paints
 };
 
 }  // namespace handson::vk

@@ -231,13 +231,13 @@ void VolumeRenderer::waitFramesInFlight() {
 }
 
 void VolumeRenderer::beginLiveSelection(const GrowSetup& setup, const Eigen::Vector3i& boxMin, const Eigen::Vector3i& boxDims,
-                                        const std::vector<std::uint8_t>& base) {
+                                        const std::vector<std::uint8_t>& base, std::uint32_t holdBound) {
   if (!hasVolume_) throw Error("renderer: no volume");
   waitFramesInFlight();  // the last selection's buffers may still be read
   if (!live_) live_ = std::make_unique<vk::LiveSelection>(ctx_, volume_, linear_);
   try {
     live_->setRoundsPerFrame(liveRounds_);
-    live_->begin(setup, boxMin, boxDims, base);
+    live_->begin(setup, boxMin, boxDims, base, holdBound);
   } catch (...) {
     live_.reset();  // never a half-begun selection in the next frames
     throw;

@@ -116,9 +116,11 @@ class VolumeRenderer {
   /// deforming, into the deformed mask as a mask upload does) until the keys up to the bound are
   /// final; a frame with rounds waits for the last one that had some (the growth's state goes from
   /// frame to frame). `base`: the box's handle ids as the caller paints them (boxDims.prod() bytes).
-  /// Waits for the frames in flight; replaces a live selection already running.
+  /// Waits for the frames in flight; replaces a live selection already running. `holdBound` > 0:
+  /// the mask shows a selection up to that bound around the same seed, which the new box keeps
+  /// showing until it has grown that far (LiveSelection::begin).
   void beginLiveSelection(const GrowSetup& setup, const Eigen::Vector3i& boxMin, const Eigen::Vector3i& boxDims,
-                          const std::vector<std::uint8_t>& base);
+                          const std::vector<std::uint8_t>& base, std::uint32_t holdBound = 0);
   /// The fingers' extent as a key bound (growKeyBound).
   void setLiveSelectionBound(std::uint32_t bound);
   /// New base ids for the box (the handles changed during the pinch); waits for the frames in flight.

@@ -24,7 +24,7 @@ void GpuGrowthEngine::beginBox(double extentMm) {
   boxMin_ = lo;
   boxDims_ = hi - lo + Eigen::Vector3i::Ones();
   boxExtent_ = boxDims_ == dims ? std::numeric_limits<double>::infinity() : e;
-  renderer_.beginLiveSelection(setup_, boxMin_, boxDims_, baseIds());
+  renderer_.beginLiveSelection(setup_, boxMin_, boxDims_, baseIds(), shown_);  // the new box holds what was shown
   painted_ = std::make_pair(boxMin_, boxDims_);  // a larger box (same seed) holds the smaller one it replaces
 }
 
@@ -49,6 +49,7 @@ void GpuGrowthEngine::start(const RegionGrower& reference) {
   growing_ = true;
   failure_.clear();
   boxExtent_ = -1.0;  // the first show() begins the box, sized for its extent
+  shown_ = 0;
 }
 
 void GpuGrowthEngine::checkGrowing() const {
@@ -60,6 +61,7 @@ void GpuGrowthEngine::show(std::uint32_t bound, double extentMm) {
   orStop([&] {
     if (!(extentMm <= boxExtent_)) beginBox(extentMm);  // NaN never reaches here (the pinch drops it)
     renderer_.setLiveSelectionBound(bound);
+    shown_ = bound;
   });
 }
 

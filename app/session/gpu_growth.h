@@ -17,7 +17,8 @@ namespace handson {
 /// Grows pinches on the GPU through the renderer's live selection. Its box is the ball a selection
 /// can reach at twice the extent (at least kMinBoxExtentMm), clipped to the volume; when the
 /// fingers spread past it, growth begins again from the seed in the box for twice the new extent
-/// (the keys are recomputed, so the selection is the same; for a few frames it shows less). A call
+/// (the keys are recomputed, so the selection is the same; the frames keep showing the selection
+/// as it was until the new box has grown that far, then show it growing on). A call
 /// that fails (handson::Error) stops the engine: later calls of this pinch throw the same error.
 class GpuGrowthEngine : public GrowthEngine {
  public:
@@ -52,6 +53,7 @@ class GpuGrowthEngine : public GrowthEngine {
   GrowSetup setup_{};
   Eigen::Vector3i boxMin_{0, 0, 0}, boxDims_{0, 0, 0};
   double boxExtent_ = 0.0;  // the largest extent the box holds (infinite once it is the volume)
+  std::uint32_t shown_ = 0;  // the last bound shown in the box (0: none yet)
   bool growing_ = false;
   std::string failure_;  // why the engine stopped ("" if it did not)
   std::optional<std::pair<Eigen::Vector3i, Eigen::Vector3i>> painted_;

@@ -174,3 +174,73 @@ TEST_F(LiveSelectionGpu, FramesGrowItPaintTheReferenceSelectionIntoTheMaskAndFin
   // A box outside the volume is refused.
   EXPECT_THROW(renderer.beginLiveSelection(cpu.setup(), d, dims, base), Error);
 }
+
+// Spreading past the box: a larger box around the same seed replaces it, holding the bound the
+// mask shows. Its frames grow without painting until the keys up to that bound are final (the mask
+// keeps the old selection: never less of it), then paint and grow on to the reference's selection.
+TEST_F(LiveSelectionGpu, ALargerBoxKeepsShowingTheOldSelectionUntilItHasGrownThatFar) {
+  PhantomOptions o;
+  o.spacingMm = 3.0;
+  const Phantom ph = makePhantom(o);
+  const QuantizedVolume q = quantizeVolume(ph.ct);
+  const Eigen::Vector3i d = q.geometry.dims;
+  const Eigen::Vector3i seed = ph.ct.geometry().toIndex(ph.geometry.liverCenter).array().round().cast<int>();
+  VolumeRenderer renderer(test::gpuContext());
+  renderer.setVolume(q);
+  renderer.setTransferFunction(transferFunctionPreset("ct-abdomen").lookupTable(q));
+  RenderSettings rs;
+  rs.width = rs.height = 24;
+  const OrbitCamera cam = OrbitCamera::framing(ph.ct.geometry(), 0.6, 0.3, 1.0);
+  FrameRequest req;
+  req.params = makeRenderParams(ph.ct.geometry(), cam.view(), cam.projection(1.0), glm::vec3(cam.eye()), rs, 0);
+  req.readbackImage = false;
+  RegionGrower cpu(q, seed, GrowParams{});
+  const double e1 = 15, e2 = 40;
+  cpu.growTo(e2);
+  const std::vector<std::uint8_t> ids(q.data.size(), 0);
+  auto boxFor = [&](double extent) {
+    const Eigen::Vector3i reach = growReach(cpu.setup().criterion, extent, q.geometry.spacing) + Eigen::Vector3i::Ones();
+    const Eigen::Vector3i lo = (seed - reach).cwiseMax(Eigen::Vector3i::Zero());
+    return std::make_pair(lo, Eigen::Vector3i((seed + reach).cwiseMin(d - Eigen::Vector3i::Ones()) - lo + Eigen::Vector3i::Ones()));
+  };
+  const auto [lo1, dims1] = boxFor(e1);
+  const auto [lo2, dims2] = boxFor(e2);
+  ASSERT_GT(dims2.prod(), dims1.prod());
+  renderer.setLiveRoundsPerFrame(1);
+  renderer.beginLiveSelection(cpu.setup(), lo1, dims1, std::vector<std::uint8_t>(std::size_t(dims1.prod()), 0));
+  renderer.setLiveSelectionBound(cpu.bound(e1));
+  for (int f = 0; f < 500 && renderer.liveSelection()->growing(); ++f) {
+    renderer.submit(req);
+    renderer.waitLast();
+  }
+  const auto old = renderer.readMask();
+  ASSERT_EQ(old, expectedMask(cpu, ids, lo1, dims1, d, cpu.bound(e1)));
+
+  renderer.beginLiveSelection(cpu.setup(), lo2, dims2, std::vector<std::uint8_t>(std::size_t(dims2.prod()), 0), cpu.bound(e1));
+  renderer.setLiveSelectionBound(cpu.bound(e2));
+  int held = 0, frames = 0;
+  for (; frames < 500 && renderer.liveSelection()->growing(); ++frames) {
+    renderer.submit(req);
+    renderer.waitLast();
+    const auto mask = renderer.readMask();
+    if (renderer.liveSelection()->holding()) {  // the frame carried rounds only (the hold ends in a frame's recording)
+      ++held;
+      EXPECT_EQ(mask, old) << "frame " << frames << " painted while holding";
+    }
+    std::size_t lost = 0, outside = 0;
+    for (std::size_t v = 0; v < mask.size(); ++v) {
+      lost += old[v] == 255 && mask[v] != 255 ? 1 : 0;
+      outside += mask[v] == 255 && cpu.keys()[v] > cpu.bound(e2) ? 1 : 0;
+    }
+    EXPECT_EQ(lost, 0u) << "frame " << frames << " shows less than the old selection";
+    EXPECT_EQ(outside, 0u) << "frame " << frames;
+  }
+  EXPECT_GT(held, 2) << "one round a frame cannot regrow a 15 mm selection in two frames";
+  EXPECT_GT(frames, held) << "growth went on past the held bound";
+  EXPECT_FALSE(renderer.liveSelection()->growing());
+  EXPECT_EQ(renderer.readMask(), expectedMask(cpu, ids, lo2, dims2, d, cpu.bound(e2)));
+  std::vector<std::uint32_t> reference;
+  for (std::size_t v = 0; v < q.data.size(); ++v)
+    if (cpu.keys()[v] <= cpu.bound(e2)) reference.push_back(std::uint32_t(v));
+  EXPECT_EQ(renderer.finishLiveSelection(), reference);
+}
