@@ -58,7 +58,12 @@ struct GrowParams {
   /// voxels the smoothed criterion selects there, the seed lies in a structure too thin for a core
   /// and the smoothed criterion runs instead.
   double thinShare = 0.5;
+  /// A finished selection ends with its partial-volume rim (withBoundaryRim; `--selection-rim` in
+  /// view and replay, `--rim` in select). Measured better on `bench selection` but not yet the
+  /// default (docs/region-growing.md, "The boundary rim").
+  bool boundaryRim = false;
 };
+
 
 /// The voxel within `radius` voxels (a cube) of `near` whose 3x3x3 neighbourhood has the smallest
 /// standard deviation; the nearest one on ties. For seeds that land on an edge.
@@ -86,6 +91,7 @@ class RegionGrower {
   RegionGrower& operator=(const RegionGrower&) = delete;
 
   const GrowSetup& setup() const { return setup_; }
+  const QuantizedVolume& volume() const { return vol_; }
   /// Grows until every voxel with key <= the extent's bound has its final key.
   void growTo(double extentMm);
   /// Is a voxel homogeneous with the seed (the acceptance test alone)?
@@ -128,5 +134,17 @@ class RegionGrower {
   RadixQueue<std::size_t> front_;
   GrowWorkspace* workspace_ = nullptr;  // where keys_ and class_ came from, and go back to
 };
+
+/// The selection's boundary rim (docs/region-growing.md, "The boundary rim"). A voxel on an organ's
+/// surface holds part organ, part neighbour (partial volume), so its value and its 3x3x3 mean lie
+/// between the two and fail the homogeneity test; the labelled organ runs through that layer. A
+/// voxel face-adjacent to the selection joins it when it is not homogeneous with the seed (a
+/// homogeneous one was left out by the extent, not by its value) and its own value is nearer the
+/// selection's mean (the seed statistics, per voxel) than the value of the voxel one step further
+/// out in the same direction: the half-way boundary between the organ and what lies beyond, one
+/// voxel deep. `voxels`: linear indices, ascending (a selection of `grower`); returns them with the
+/// rim's, ascending. No voxel is added from a direction whose step out leaves the volume. Throws
+/// handson::Error for an index outside the volume or voxels out of order.
+std::vector<std::uint32_t> withBoundaryRim(const RegionGrower& grower, const std::vector<std::uint32_t>& voxels);
 
 }  // namespace handson

@@ -46,6 +46,7 @@ void PinchSelection::onTouch(const TouchEvent& e, const TouchInput& input, const
           if (growingOn_) onEngine([&voxels](GrowthEngine& g) { voxels = g.finish(); });
           finished_ = voxels ? std::move(*voxels) : liveVoxels();  // liveVoxels: the CPU's, also after a fallback
           std::sort(finished_->begin(), finished_->end());  // the same handle whichever engine grew it
+          if (params_.boundaryRim) *finished_ = withBoundaryRim(*grower_, *finished_);
           changed_ = true;
         }
         growingOn_ = nullptr;

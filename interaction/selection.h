@@ -56,7 +56,9 @@ class PinchSelection {
   double extentMm() const { return extent_; }
   /// Voxels of the live selection (linear indices), valid while Growing on the CPU.
   std::vector<std::uint32_t> liveVoxels() const;
-  /// Set when the selection ended with the lift of a finger: the final voxels, ascending (taken once).
+  /// Set when the selection ended with the lift of a finger: the final voxels, ascending, with their
+  /// boundary rim when GrowParams::boundaryRim (withBoundaryRim; the live voxels before the lift
+  /// are the grown ones alone). Taken once.
   std::optional<std::vector<std::uint32_t>> takeFinished();
   /// A user-facing message about the last pinch ("" if none), e.g. a refusal.
   const std::string& feedback() const { return feedback_; }

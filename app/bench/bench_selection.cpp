@@ -57,13 +57,15 @@ void writeChart(const std::filesystem::path& chartCsv, const std::filesystem::pa
 // The sweep's table (selection_dice.md, also printed) and chart (selection_dice.csv -> .png): per
 // organ and criterion the best Dice over the sweep and the Dice at the largest extent; then the
 // median and the lowest best, and how many organs keep >= 0.8 of their best at the largest extent.
-void writeDice(const std::vector<OrganSweep>& sweeps, const std::vector<GrowCriterion>& criteria, const std::filesystem::path& out) {
+using Variant = std::pair<GrowCriterion, bool>;  // a criterion, and whether its selections end with their boundary rim
+
+void writeDice(const std::vector<OrganSweep>& sweeps, const std::vector<Variant>& criteria, const std::filesystem::path& out) {
   std::vector<std::pair<std::string, std::string>> organs;  // (dataset, organ) in order
   for (const auto& w : sweeps)
     if (std::find(organs.begin(), organs.end(), std::make_pair(w.dataset, w.organ)) == organs.end()) organs.emplace_back(w.dataset, w.organ);
-  auto find = [&](const std::pair<std::string, std::string>& o, GrowCriterion c) -> const OrganSweep* {
+  auto find = [&](const std::pair<std::string, std::string>& o, const Variant& c) -> const OrganSweep* {
     for (const auto& w : sweeps)
-      if (w.dataset == o.first && w.organ == o.second && w.criterion == c) return &w;
+      if (w.dataset == o.first && w.organ == o.second && w.criterion == c.first && w.rim == c.second) return &w;
     return nullptr;
   };
   std::ofstream md(out / "selection_dice.md"), csv(out / "selection_dice.csv");
@@ -75,7 +77,7 @@ void writeDice(const std::vector<OrganSweep>& sweeps, const std::vector<GrowCrit
   md << std::fixed << std::setprecision(2) << "Whole-organ Dice, extent swept " << sweeps.front().points.front().fraction << "-" << last
      << "x the organ's radius (95th percentile of its voxels' distances from the seed); best (at which fraction) and at " << last << "x\n\n"
      << "| dataset | organ | radius |";
-  for (GrowCriterion c : criteria) md << " " << growCriterionName(c) << " best | at " << last << "x |";
+  for (const Variant& c : criteria) md << " " << sweepVariantName(c.first, c.second) << " best | at " << last << "x |";
   md << "\n|---|---|---|";
   for (std::size_t i = 0; i < criteria.size(); ++i) md << "---|---|";
   md << "\n";
@@ -83,7 +85,7 @@ void writeDice(const std::vector<OrganSweep>& sweeps, const std::vector<GrowCrit
     const OrganSweep* any = find(o, criteria.front());
     md << "| " << o.first << " | " << o.second << " | " << std::setprecision(0) << (any ? any->radiusMm : 0.0) << " mm |" << std::setprecision(2);
     csv << o.first << " " << o.second;
-    for (GrowCriterion c : criteria) {
+    for (const Variant& c : criteria) {
       const OrganSweep* w = find(o, c);
       if (!w) {
         md << " - | - |";
@@ -98,7 +100,7 @@ void writeDice(const std::vector<OrganSweep>& sweeps, const std::vector<GrowCrit
   }
   auto summary = [&](const std::string& what, auto f) {
     md << "| " << what << " | | |";
-    for (GrowCriterion c : criteria) {
+    for (const Variant& c : criteria) {
       std::vector<double> best;
       std::size_t kept = 0;
       for (const auto& o : organs)
@@ -129,7 +131,7 @@ void writeDice(const std::vector<OrganSweep>& sweeps, const std::vector<GrowCrit
   if (std::system("command -v gnuplot > /dev/null 2>&1") != 0) return;
   const auto script = out / "selection_dice.gp";
   const std::string f = (out / "selection_dice.csv").string();
-  const std::vector<std::string> colours = {"#b05fd0", "#2aa876", "#e07b39", "#3b7dd8"};
+  const std::vector<std::string> colours = {"#b05fd0", "#d9a8ec", "#2aa876", "#93d8bb", "#e07b39", "#f2bf9b", "#3b7dd8", "#9dbeec"};
   std::ofstream gp(script);
   gp << "set datafile separator ','\nset terminal pngcairo size 1400,600 font ',11'\nset output '" << (out / "selection_dice.png").string() << "'\n"
      << "set multiplot layout 1,2 title 'Whole-organ Dice of the selection grown from one seed per organ, extent swept as the fingers spread'\n"
@@ -138,7 +140,7 @@ void writeDice(const std::vector<OrganSweep>& sweeps, const std::vector<GrowCrit
   for (int panel = 0; panel < 2; ++panel) {
     gp << "set title '" << (panel == 0 ? "Best over the sweep" : "At the largest extent (" + std::to_string(last).substr(0, 3) + "x the radius)") << "'\nplot ";
     for (std::size_t i = 0; i < criteria.size(); ++i)
-      gp << (i ? ", ''" : "'" + f + "'") << " using " << 2 + 2 * i + std::size_t(panel) << (i ? "" : ":xtic(1)") << " title '" << growCriterionName(criteria[i])
+      gp << (i ? ", ''" : "'" + f + "'") << " using " << 2 + 2 * i + std::size_t(panel) << (i ? "" : ":xtic(1)") << " title '" << sweepVariantName(criteria[i].first, criteria[i].second)
          << "' lc rgb '" << colours[i % colours.size()] << "'";
     gp << "\n";
   }
@@ -255,11 +257,11 @@ int cmdBenchSelection(const Words& words) {
     const Volume labels = readNifti(s.dir + "/labels.nii.gz");
     std::cerr << s.name << ": sweeping " << s.organs.size() << " organs x " << criteria.size() << " criteria\n";
     for (auto& w : sweepSelection(s.name, ct, labels, s.organs, fractions, criteria)) {
-      std::cerr << "  " << w.organ << " " << growCriterionName(w.criterion) << ": best Dice " << std::fixed << std::setprecision(3)
+      std::cerr << "  " << w.organ << " " << sweepVariantName(w.criterion, w.rim) << ": best Dice " << std::fixed << std::setprecision(3)
                 << w.best().dice << " at " << std::setprecision(1) << w.best().fraction << "x, " << std::setprecision(3) << w.points.back().dice
                 << " at " << std::setprecision(1) << w.points.back().fraction << "x\n";
       for (const auto& p : w.points)
-        sweepCsv << w.dataset << "," << w.organ << "," << growCriterionName(w.criterion) << "," << w.radiusMm << "," << w.organVoxels << ","
+        sweepCsv << w.dataset << "," << w.organ << "," << sweepVariantName(w.criterion, w.rim) << "," << w.radiusMm << "," << w.organVoxels << ","
                  << p.fraction << "," << p.extentMm << "," << p.selected << "," << p.dice << "," << p.precision << "," << p.recall << ","
                  << p.milliseconds << "\n";
       sweeps.push_back(std::move(w));
@@ -284,7 +286,12 @@ int cmdBenchSelection(const Words& words) {
   csv.close();
   md.close();
   chart.close();
-  writeDice(sweeps, criteria, out);
+  std::vector<Variant> variants;
+  for (GrowCriterion c : criteria) {
+    variants.emplace_back(c, false);
+    variants.emplace_back(c, true);
+  }
+  writeDice(sweeps, variants, out);
   std::cout << "whole-organ Dice: " << (out / "selection_dice.md").string() << "\n" << std::ifstream(out / "selection_dice.md").rdbuf() << "\n";
   if (args.flag("--sweep-only")) return 0;
   writeChart(out / "selection_chart.csv", out / "selection_accuracy.png");

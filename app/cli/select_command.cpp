@@ -39,6 +39,8 @@ const char* const kSelectHelp =
     "                         (the same without the core) or paper (the paper's rule: raw values,\n"
     "                         breadth-first passes)\n"
     "  --backend cpu|gpu      CPU reference (default) or the Vulkan compute pass\n"
+    "  --rim on|off           end with the selection's partial-volume boundary rim: the surface voxels\n"
+    "                         nearer the selection's value than the tissue beyond (default off)\n"
     "  --labels LABELS        a label map (any volume format; 0 = background): select the seed's organ\n"
     "                         instead of growing. On another grid of the same space it is resampled by\n"
     "                         nearest neighbour (with a warning); growth options do not apply\n"
@@ -95,7 +97,7 @@ int selectLabelled(const Args& args, const Volume& v, const Eigen::Vector3i& see
 }  // namespace
 
 int cmdSelect(const Words& words) {
-  Args args(words, {"--frame", "--seed-voxel", "--seed-mm", "--extent-mm", "--hmax", "--criterion", "--backend", "-o", "--device", "--labels"},
+  Args args(words, {"--frame", "--seed-voxel", "--seed-mm", "--extent-mm", "--hmax", "--criterion", "--backend", "-o", "--device", "--labels", "--rim"},
             {"--validation", "--quiet"});
   const bool labelled = bool(args.value("--labels"));
   if (args.help() || args.positional().size() != 1 || !args.value("-o") || (!labelled && !args.value("--extent-mm")) ||
@@ -105,7 +107,7 @@ int cmdSelect(const Words& words) {
   }
   if (args.value("--seed-voxel") && args.value("--seed-mm")) throw UsageError("give --seed-voxel or --seed-mm, not both");
   if (labelled)
-    for (const char* o : {"--extent-mm", "--hmax", "--criterion", "--backend", "--device"})
+    for (const char* o : {"--extent-mm", "--hmax", "--criterion", "--backend", "--device", "--rim"})
       if (args.value(o)) throw UsageError(std::string(o) + " is for region growing: --labels selects the labelled organ");
   if (labelled) {
     const Volume v = loadVolume(args.positional()[0], nullptr, args.flag("--quiet") ? ProgressFn{} : consoleProgress(), loadOptions(args));
@@ -116,6 +118,9 @@ int cmdSelect(const Words& words) {
   GrowParams p;
   p.hMax = args.number("--hmax", 1.1, 1e-3, 1e3);
   if (!parseGrowCriterion(args.valueOr("--criterion", "core"), p.criterion)) throw UsageError("--criterion must be core, smoothed or paper");
+  const std::string rim = args.valueOr("--rim", "off");
+  if (rim != "on" && rim != "off") throw UsageError("--rim must be on or off");
+  p.boundaryRim = rim == "on";
   const std::string backend = args.valueOr("--backend", "cpu");
   if (backend != "cpu" && backend != "gpu") throw UsageError("--backend must be cpu or gpu");
   const bool quiet = args.flag("--quiet");
@@ -170,6 +175,16 @@ int cmdSelect(const Words& words) {
           }
     if (ctx.validationMessageCount()) throw Error("Vulkan validation messages were reported");
   }
+  std::size_t rimCount = 0;
+  if (p.boundaryRim) {
+    std::vector<std::uint32_t> voxels;
+    for (std::size_t i = 0; i < mask.size(); ++i)
+      if (mask[i]) voxels.push_back(std::uint32_t(i));
+    const std::vector<std::uint32_t> withRim = withBoundaryRim(grower, voxels);
+    for (std::uint32_t i : withRim) mask[i] = 1;
+    rimCount = withRim.size() - voxels.size();
+    count = withRim.size();
+  }
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   writeMask(g, mask, *args.value("-o"));
   const double voxelMm3 = g.spacing.prod();
@@ -178,6 +193,7 @@ int cmdSelect(const Words& words) {
             << (grower.setup().criterion != p.criterion ? " (the seed's structure is too thin for a core)" : "") << ", " << backend
             << " in " << ms << " ms";
   if (backend == "gpu") std::cout << " (" << gpuRounds << " rounds)";
+  if (p.boundaryRim) std::cout << "; " << rimCount << " of the voxels are its boundary rim";
   std::cout << "\nwrote " << *args.value("-o") << "\n";
   return 0;
 }

@@ -54,6 +54,8 @@ const char* const kViewHelp =
     "                          in select mode a tap on an organ makes its labelled component a handle\n"
     "  --selection-backend B   where a pinch's selection grows: auto (default: the GPU pass on a GPU,\n"
     "                          the CPU search on a CPU device such as lavapipe), gpu or cpu\n"
+    "  --selection-rim on|off  a finished pinch's selection ends with its partial-volume boundary rim\n"
+    "                          (default off; docs/region-growing.md)\n"
     "  --device NAME, --validation, --quiet, --print-camera\n";
 
 const char* const kReplayHelp =
@@ -72,6 +74,7 @@ const char* const kReplayHelp =
     "  --export-format F   nifti (default), nrrd or mha for the exported volumes\n"
     "  --labels LABELS     organ labels: taps in select mode and label-handle actions make organs handles\n"
     "  --selection-backend auto|gpu|cpu  where a pinch's selection grows (as in view; the same voxels)\n"
+    "  --selection-rim on|off  a finished pinch's selection ends with its boundary rim (as in view)\n"
     "  --device NAME, --validation, --quiet, --print-camera, --print-handles\n";
 
 const char* const kSimHelp =
@@ -118,6 +121,12 @@ DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   return d;
 }
 
+bool selectionRimOption(const Args& args) {
+  const std::string v = args.valueOr("--selection-rim", "off");
+  if (v != "on" && v != "off") throw UsageError("--selection-rim must be on or off");
+  return v == "on";
+}
+
 SelectionBackend selectionBackendOption(const Args& args) {
   SelectionBackend b = SelectionBackend::Auto;
   if (!parseSelectionBackend(args.valueOr("--selection-backend", "auto"), b)) throw UsageError("--selection-backend must be auto, gpu or cpu");
@@ -134,7 +143,7 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 int cmdView(const Words& words) {
   Args args(words,
             with({"--frame", "--size", "--present-mode", "--render-scale", "--frame-budget-ms", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
-                  "--frames-in-flight", "--play-repeat", "--export-dir", "--export-format", "--labels", "--selection-backend"},
+                  "--frames-in-flight", "--play-repeat", "--export-dir", "--export-format", "--labels", "--selection-backend", "--selection-rim"},
                  kSimOptions),
             {"--validation", "--quiet", "--print-camera"});
   if (args.help() || args.positional().size() > 1) {
@@ -168,13 +177,14 @@ int cmdView(const Words& words) {
   o.printCamera = args.flag("--print-camera");
   o.labels = args.valueOr("--labels", "");
   o.selectionBackend = selectionBackendOption(args);
+  o.selectionRim = selectionRimOption(args);
   o.sim = simOptions(args, 2);
   if (!displayAvailable()) throw Error("no display available (DISPLAY and WAYLAND_DISPLAY are unset): use 'handson replay' to run headless");
   return runViewer(o);
 }
 
 int cmdReplay(const Words& words) {
-  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--frame-budget-ms", "--size", "--device", "--export", "--export-dir", "--export-format", "--labels", "--selection-backend"}, kSimOptions),
+  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--frame-budget-ms", "--size", "--device", "--export", "--export-dir", "--export-format", "--labels", "--selection-backend", "--selection-rim"}, kSimOptions),
             {"--validation", "--quiet", "--print-camera", "--print-handles"});
   if (args.help() || args.positional().size() > 1) {
     usageStream(args) << kReplayHelp << kSimHelp << "  (replay waits each frame for the simulation to settle: frames do not depend on timing)\n";
@@ -195,6 +205,7 @@ int cmdReplay(const Words& words) {
   o.printHandles = args.flag("--print-handles");
   o.labels = args.valueOr("--labels", "");
   o.selectionBackend = selectionBackendOption(args);
+  o.selectionRim = selectionRimOption(args);
   o.exportPath = args.valueOr("--export", "");
   o.exportDir = args.valueOr("--export-dir", o.exportDir);
   o.exportExtension = exportVolumeExtension(args);

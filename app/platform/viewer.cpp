@@ -295,7 +295,9 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
   log.setNotes({"clock: seconds since the first frame on the steady clock",
                 "input_first_s, input_last_s: when the app read the frame's events from SDL (SDL 2 gives touches no device timestamp)",
                 swapchain->presentTimingNote()});
-  selection = std::make_unique<SelectionController>(q, *session, *renderer, GrowParams{}, o.selectionBackend);
+  GrowParams grow;
+  grow.boundaryRim = o.selectionRim;
+  selection = std::make_unique<SelectionController>(q, *session, *renderer, grow, o.selectionBackend);
   if (!o.quiet) std::cerr << selection->backend().status << "\n";
   status.selectionBackend = selection->backend().status;
   selection->setLabels(labels.get());

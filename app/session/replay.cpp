@@ -184,7 +184,9 @@ int runReplay(const ReplayOptions& o) {
   if (script.camera) script.camera->applyTo(session.camera());
   session.apply(ScriptEvent{0.0, false, {}, "set-mode", script.mode});
   renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
-  SelectionController selection(q, session, renderer, GrowParams{}, o.selectionBackend);
+  GrowParams grow;
+  grow.boundaryRim = o.selectionRim;
+  SelectionController selection(q, session, renderer, grow, o.selectionBackend);
   if (!o.quiet) std::cerr << selection.backend().status << "\n";
   if (labels) {
     selection.setLabels(&*labels);

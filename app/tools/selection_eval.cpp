@@ -107,12 +107,14 @@ std::vector<SelectionAccuracy> evaluateSelection(const std::string& dataset, con
   return rows;
 }
 
+std::string sweepVariantName(GrowCriterion c, bool rim) { return std::string(growCriterionName(c)) + (rim ? "+rim" : ""); }
+
 const SweepPoint& OrganSweep::best() const {
   return *std::max_element(points.begin(), points.end(), [](const SweepPoint& a, const SweepPoint& b) { return a.dice < b.dice; });
 }
 
 std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume& ct, const Volume& labels, const std::vector<OrganLabel>& organs,
-                                       const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria) {
+                                       const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria, bool rim) {
   if (ct.dims() != labels.dims()) throw Error("selection accuracy: the label map is not on the CT's grid");
   if (fractions.empty() || !std::is_sorted(fractions.begin(), fractions.end()))
     throw Error("selection accuracy: the extent fractions must be a non-empty increasing list");
@@ -134,23 +136,34 @@ std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume&
       GrowParams p;
       p.criterion = c;
       RegionGrower grower(q, seed, p);
-      OrganSweep s{dataset, organ.name, c, seed, radius, dist.size(), {}};
+      OrganSweep s{dataset, organ.name, c, false, seed, radius, dist.size(), {}};
+      OrganSweep r{dataset, organ.name, c, true, seed, radius, dist.size(), {}};
+      auto point = [&](double f, double extent, const std::vector<std::uint32_t>& voxels, double ms) {
+        std::size_t hit = 0;
+        for (std::uint32_t v : voxels) hit += labels.value(v) == float(organ.label);
+        const std::size_t selected = voxels.size();
+        const double dice = 2.0 * double(hit) / double(selected + dist.size());
+        return SweepPoint{f, extent, selected, dice, selected ? double(hit) / double(selected) : 0.0, double(hit) / double(dist.size()), ms};
+      };
       for (double f : fractions) {
         const double extent = f * radius;
         const auto t0 = std::chrono::steady_clock::now();
         grower.growTo(extent);
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         const std::uint32_t bound = grower.bound(extent);
-        std::size_t selected = 0, hit = 0;
+        std::vector<std::uint32_t> voxels;
         for (std::size_t v : grower.touched())
-          if (grower.keys()[v] <= bound) {
-            ++selected;
-            hit += labels.value(v) == float(organ.label);
-          }
-        const double dice = 2.0 * double(hit) / double(selected + dist.size());
-        s.points.push_back({f, extent, selected, dice, selected ? double(hit) / double(selected) : 0.0, double(hit) / double(dist.size()), ms});
+          if (grower.keys()[v] <= bound) voxels.push_back(std::uint32_t(v));
+        std::sort(voxels.begin(), voxels.end());
+        s.points.push_back(point(f, extent, voxels, ms));
+        if (rim) {
+          const auto t1 = std::chrono::steady_clock::now();
+          const std::vector<std::uint32_t> withRim = withBoundaryRim(grower, voxels);
+          r.points.push_back(point(f, extent, withRim, ms + std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count()));
+        }
       }
       out.push_back(std::move(s));
+      if (rim) out.push_back(std::move(r));
     }
   }
   return out;

@@ -42,14 +42,19 @@ struct SweepPoint {
 struct OrganSweep {
   std::string dataset, organ;
   GrowCriterion criterion;
+  bool rim = false;  ///< the selections end with their boundary rim (withBoundaryRim)
   Eigen::Vector3i seed;
   double radiusMm;
   std::size_t organVoxels;
   std::vector<SweepPoint> points;  // in the order of the fractions
   const SweepPoint& best() const;
 };
+/// Per criterion one sweep of the grown selections and, with `rim`, one of the same selections with
+/// their boundary rim (the grown ones are its baseline, from the same growth).
 std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume& ct, const Volume& labels, const std::vector<OrganLabel>& organs,
-                                       const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria);
+                                       const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria, bool rim = true);
+/// "core", "core+rim", ...
+std::string sweepVariantName(GrowCriterion c, bool rim);
 
 /// The voxel of `label` farthest (in mm) from any voxel of another label, among those whose 3x3x3
 /// mean CT value lies within the organ's interquartile range (label maps include tissue that is

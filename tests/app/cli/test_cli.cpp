@@ -139,6 +139,24 @@ TEST_F(Cli, SelectWritesAMaskOnTheInputGridWithCpuAndGpuAgreeing) {
   }
   EXPECT_GT(selected, 20u);
   EXPECT_GE(double(inKidney) / double(selected), 0.9);
+  // --rim on: the same selection with its boundary rim, on either backend alike (a superset).
+  for (const char* backend : {"cpu", "gpu"}) {
+    const CliRun r = runHandson(std::string("select ") + p("ct.nii.gz") + " --seed-mm 78,-55,-14 --extent-mm 30 --rim on --quiet --backend " + backend +
+                                " -o " + p((std::string("rim-") + backend + ".nii.gz").c_str()));
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("of the voxels are its boundary rim"), std::string::npos) << r.output;
+  }
+  const handson::Volume rimCpu = handson::readNifti(p("rim-cpu.nii.gz")), rimGpu = handson::readNifti(p("rim-gpu.nii.gz"));
+  std::size_t withRim = 0;
+  for (std::size_t i = 0; i < cpu.voxelCount(); ++i) {
+    EXPECT_EQ(rimCpu.value(i), rimGpu.value(i));
+    if (cpu.value(i) > 0) {
+      EXPECT_GT(rimCpu.value(i), 0.0f);
+    }
+    withRim += rimCpu.value(i) > 0;
+  }
+  EXPECT_GE(withRim, selected);
+  EXPECT_EQ(runHandson("select " + p("ct.nii.gz") + " --seed-mm 78,-55,-14 --extent-mm 30 --rim maybe -o " + p("x.nii.gz")).status, 2);
 }
 
 TEST_F(Cli, RenderClipsAndRefusesMalformedClipValues) {

@@ -193,6 +193,24 @@ TEST(Replay, APinchGrownOnTheGpuMakesTheSameHandleAsOnTheCpuAndTheChoiceIsReport
       << out;
   EXPECT_EQ(run("replay " + script.string() + " --selection-backend fast", &out), 2);
   EXPECT_NE(out.find("--selection-backend must be auto, gpu or cpu"), std::string::npos) << out;
+  // With the boundary rim the same pinch ends with more voxels, on either backend alike.
+  std::string rimmed[2];
+  for (int i = 0; i < 2; ++i) {
+    ASSERT_EQ(run("replay " + script.string() + " --fps 10 --size 96x96 --print-handles --sim off --selection-rim on --selection-backend " +
+                      (i == 0 ? "gpu" : "cpu"),
+                  &out),
+              0)
+        << out;
+    rimmed[i] = out.substr(out.find("handle 1 "), out.find('\n', out.find("handle 1 ")) - out.find("handle 1 "));
+  }
+  EXPECT_EQ(rimmed[0], rimmed[1]);
+  auto voxels = [](const std::string& line) {  // "handle 1 <role> N voxels ..."
+    const auto end = line.find(" voxels");
+    const auto start = line.rfind(' ', end - 1) + 1;
+    return std::stoul(line.substr(start, end - start));
+  };
+  EXPECT_GT(voxels(rimmed[1]), voxels(handles[1])) << rimmed[1] << "\n" << handles[1];
+  EXPECT_EQ(run("replay " + script.string() + " --selection-rim maybe", &out), 2);
   fs::remove_all(dir);
 }
 
