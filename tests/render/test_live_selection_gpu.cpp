@@ -49,6 +49,29 @@ std::vector<std::uint8_t> expectedMask(const RegionGrower& cpu, const std::vecto
   return out;
 }
 
+// The liver of a 3 mm phantom, a renderer on it and a small frame (no image read back).
+struct LiverScene {
+  static PhantomOptions options() {
+    PhantomOptions o;
+    o.spacingMm = 3.0;
+    return o;
+  }
+  Phantom ph = makePhantom(options());
+  QuantizedVolume q = quantizeVolume(ph.ct);
+  Eigen::Vector3i seed = ph.ct.geometry().toIndex(ph.geometry.liverCenter).array().round().cast<int>();
+  VolumeRenderer renderer{test::gpuContext()};
+  FrameRequest req;
+  LiverScene() {
+    renderer.setVolume(q);
+    renderer.setTransferFunction(transferFunctionPreset("ct-abdomen").lookupTable(q));
+    RenderSettings rs;
+    rs.width = rs.height = 24;
+    const OrbitCamera cam = OrbitCamera::framing(ph.ct.geometry(), 0.6, 0.3, 1.0);
+    req.params = makeRenderParams(ph.ct.geometry(), cam.view(), cam.projection(1.0), glm::vec3(cam.eye()), rs, 0);
+    req.readbackImage = false;
+  }
+};
+
 }  // namespace
 
 TEST(LiveSelection, PaintLiveBoxMarksKeysWithinTheBoundAndKeepsTheBaseElsewhere) {
@@ -65,21 +88,11 @@ TEST(LiveSelection, PaintLiveBoxMarksKeysWithinTheBoundAndKeepsTheBaseElsewhere)
 // within the bound), while growing it holds only voxels of the final selection, and finishing
 // returns the reference's voxels.
 TEST_F(LiveSelectionGpu, FramesGrowItPaintTheReferenceSelectionIntoTheMaskAndFinishWithItsVoxels) {
-  PhantomOptions o;
-  o.spacingMm = 3.0;
-  const Phantom ph = makePhantom(o);
-  const QuantizedVolume q = quantizeVolume(ph.ct);
-  const Eigen::Vector3i d = q.geometry.dims;
-  const Eigen::Vector3i seed = ph.ct.geometry().toIndex(ph.geometry.liverCenter).array().round().cast<int>();
-  VolumeRenderer renderer(test::gpuContext());
-  renderer.setVolume(q);
-  renderer.setTransferFunction(transferFunctionPreset("ct-abdomen").lookupTable(q));
-  RenderSettings rs;
-  rs.width = rs.height = 24;
-  const OrbitCamera cam = OrbitCamera::framing(ph.ct.geometry(), 0.6, 0.3, 1.0);
-  FrameRequest req;
-  req.params = makeRenderParams(ph.ct.geometry(), cam.view(), cam.projection(1.0), glm::vec3(cam.eye()), rs, 0);
-  req.readbackImage = false;
+  LiverScene scene;
+  const QuantizedVolume& q = scene.q;
+  const Eigen::Vector3i d = scene.q.geometry.dims, seed = scene.seed;
+  VolumeRenderer& renderer = scene.renderer;
+  FrameRequest& req = scene.req;
 
   RegionGrower cpu(q, seed, GrowParams{});
   const double e0 = 8, e1 = 15, e2 = 40;
@@ -179,21 +192,11 @@ TEST_F(LiveSelectionGpu, FramesGrowItPaintTheReferenceSelectionIntoTheMaskAndFin
 // mask shows. Its frames grow without painting until the keys up to that bound are final (the mask
 // keeps the old selection: never less of it), then paint and grow on to the reference's selection.
 TEST_F(LiveSelectionGpu, ALargerBoxKeepsShowingTheOldSelectionUntilItHasGrownThatFar) {
-  PhantomOptions o;
-  o.spacingMm = 3.0;
-  const Phantom ph = makePhantom(o);
-  const QuantizedVolume q = quantizeVolume(ph.ct);
-  const Eigen::Vector3i d = q.geometry.dims;
-  const Eigen::Vector3i seed = ph.ct.geometry().toIndex(ph.geometry.liverCenter).array().round().cast<int>();
-  VolumeRenderer renderer(test::gpuContext());
-  renderer.setVolume(q);
-  renderer.setTransferFunction(transferFunctionPreset("ct-abdomen").lookupTable(q));
-  RenderSettings rs;
-  rs.width = rs.height = 24;
-  const OrbitCamera cam = OrbitCamera::framing(ph.ct.geometry(), 0.6, 0.3, 1.0);
-  FrameRequest req;
-  req.params = makeRenderParams(ph.ct.geometry(), cam.view(), cam.projection(1.0), glm::vec3(cam.eye()), rs, 0);
-  req.readbackImage = false;
+  LiverScene scene;
+  const QuantizedVolume& q = scene.q;
+  const Eigen::Vector3i d = scene.q.geometry.dims, seed = scene.seed;
+  VolumeRenderer& renderer = scene.renderer;
+  FrameRequest& req = scene.req;
   RegionGrower cpu(q, seed, GrowParams{});
   const double e1 = 15, e2 = 40;
   cpu.growTo(e2);
