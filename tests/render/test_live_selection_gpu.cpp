@@ -89,10 +89,8 @@ TEST(LiveSelection, PaintLiveBoxMarksKeysWithinTheBoundAndKeepsTheBaseElsewhere)
 // returns the reference's voxels.
 TEST_F(LiveSelectionGpu, FramesGrowItPaintTheReferenceSelectionIntoTheMaskAndFinishWithItsVoxels) {
   LiverScene scene;
-  const QuantizedVolume& q = scene.q;
-  const Eigen::Vector3i d = scene.q.geometry.dims, seed = scene.seed;
-  VolumeRenderer& renderer = scene.renderer;
-  FrameRequest& req = scene.req;
+  auto& [ph, q, seed, renderer, req] = scene;
+  const Eigen::Vector3i d = q.geometry.dims;
 
   RegionGrower cpu(q, seed, GrowParams{});
   const double e0 = 8, e1 = 15, e2 = 40;
@@ -193,10 +191,8 @@ TEST_F(LiveSelectionGpu, FramesGrowItPaintTheReferenceSelectionIntoTheMaskAndFin
 // keeps the old selection: never less of it), then paint and grow on to the reference's selection.
 TEST_F(LiveSelectionGpu, ALargerBoxKeepsShowingTheOldSelectionUntilItHasGrownThatFar) {
   LiverScene scene;
-  const QuantizedVolume& q = scene.q;
-  const Eigen::Vector3i d = scene.q.geometry.dims, seed = scene.seed;
-  VolumeRenderer& renderer = scene.renderer;
-  FrameRequest& req = scene.req;
+  auto& [ph, q, seed, renderer, req] = scene;
+  const Eigen::Vector3i d = q.geometry.dims;
   RegionGrower cpu(q, seed, GrowParams{});
   const double e1 = 15, e2 = 40;
   cpu.growTo(e2);
