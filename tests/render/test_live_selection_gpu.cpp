@@ -89,26 +89,25 @@ TEST(LiveSelection, PaintLiveBoxMarksKeysWithinTheBoundAndKeepsTheBaseElsewhere)
 // returns the reference's voxels.
 TEST_F(LiveSelectionGpu, FramesGrowItPaintTheReferenceSelectionIntoTheMaskAndFinishWithItsVoxels) {
   LiverScene scene;
-  auto& [ph, q, seed, renderer, req] = scene;
-  const Eigen::Vector3i d = q.geometry.dims;
+  const Eigen::Vector3i d = scene.q.geometry.dims;
 
-  RegionGrower cpu(q, seed, GrowParams{});
+  RegionGrower cpu(scene.q, scene.seed, GrowParams{});
   const double e0 = 8, e1 = 15, e2 = 40;
-  const Eigen::Vector3i reach = growReach(cpu.setup().criterion, e2, q.geometry.spacing) + Eigen::Vector3i::Ones();
-  const Eigen::Vector3i lo = (seed - reach).cwiseMax(Eigen::Vector3i::Zero());
-  const Eigen::Vector3i dims = (seed + reach).cwiseMin(d - Eigen::Vector3i::Ones()) - lo + Eigen::Vector3i::Ones();
+  const Eigen::Vector3i reach = growReach(cpu.setup().criterion, e2, scene.q.geometry.spacing) + Eigen::Vector3i::Ones();
+  const Eigen::Vector3i lo = (scene.seed - reach).cwiseMax(Eigen::Vector3i::Zero());
+  const Eigen::Vector3i dims = (scene.seed + reach).cwiseMin(d - Eigen::Vector3i::Ones()) - lo + Eigen::Vector3i::Ones();
   // A handle in the box's lower slabs, uploaded into the mask as the controller would.
-  std::vector<std::uint8_t> ids(q.data.size(), 0);
+  std::vector<std::uint8_t> ids(scene.q.data.size(), 0);
   for (int k = lo.z(); k < lo.z() + 3; ++k)
     for (int j = 0; j < d.y(); ++j)
       for (int i = 0; i < d.x(); ++i) ids[linear({i, j, k}, d)] = kHandle;
   MaskUpload up;
   up.dims = d;
   up.ids = ids;
-  req.maskUpload = &up;
-  renderer.submit(req);
-  renderer.waitLast();
-  req.maskUpload = nullptr;
+  scene.req.maskUpload = &up;
+  scene.renderer.submit(scene.req);
+  scene.renderer.waitLast();
+  scene.req.maskUpload = nullptr;
   auto boxOf = [&](const std::vector<std::uint8_t>& all) {
     std::vector<std::uint8_t> box;
     for (int k = 0; k < dims.z(); ++k)
@@ -118,49 +117,49 @@ TEST_F(LiveSelectionGpu, FramesGrowItPaintTheReferenceSelectionIntoTheMaskAndFin
   };
   const std::vector<std::uint8_t> base = boxOf(ids);
 
-  renderer.setLiveRoundsPerFrame(1);  // rounds spread over many frames
-  renderer.beginLiveSelection(cpu.setup(), lo, dims, base);
-  ASSERT_NE(renderer.liveSelection(), nullptr);
-  renderer.setLiveSelectionBound(cpu.bound(e1));
+  scene.renderer.setLiveRoundsPerFrame(1);  // rounds spread over many frames
+  scene.renderer.beginLiveSelection(cpu.setup(), lo, dims, base);
+  ASSERT_NE(scene.renderer.liveSelection(), nullptr);
+  scene.renderer.setLiveSelectionBound(cpu.bound(e1));
   cpu.growTo(e2);
   auto growFrames = [&]() -> int {
     int frames = 0;
     do {
-      renderer.submit(req);
-      renderer.waitLast();
+      scene.renderer.submit(scene.req);
+      scene.renderer.waitLast();
       ++frames;
       if (frames == 1) {  // mid-growth: only voxels of the final selection are live
-        const auto mask = renderer.readMask();
+        const auto mask = scene.renderer.readMask();
         std::size_t outside = 0;
-        for (std::size_t v = 0; v < mask.size(); ++v) outside += mask[v] == 255 && cpu.keys()[v] > renderer.liveSelection()->bound() ? 1 : 0;
+        for (std::size_t v = 0; v < mask.size(); ++v) outside += mask[v] == 255 && cpu.keys()[v] > scene.renderer.liveSelection()->bound() ? 1 : 0;
         EXPECT_EQ(outside, 0u);
       }
-    } while (renderer.liveSelection()->growing() && frames < 500);
-    EXPECT_FALSE(renderer.liveSelection()->growing()) << frames << " frames";
+    } while (scene.renderer.liveSelection()->growing() && frames < 500);
+    EXPECT_FALSE(scene.renderer.liveSelection()->growing()) << frames << " frames";
     return frames;
   };
   EXPECT_GT(growFrames(), 2) << "one round a frame cannot grow a 15 mm liver selection in two frames";
-  const auto afterE1 = renderer.readMask();
+  const auto afterE1 = scene.renderer.readMask();
   EXPECT_EQ(afterE1, expectedMask(cpu, ids, lo, dims, d, cpu.bound(e1)));
   EXPECT_GT(std::count(afterE1.begin(), afterE1.end(), 255), 100);
 
-  renderer.setLiveSelectionBound(cpu.bound(e0));  // closing the fingers: one frame repaints
-  renderer.submit(req);
-  renderer.waitLast();
-  EXPECT_FALSE(renderer.liveSelection()->growing());
-  EXPECT_EQ(renderer.readMask(), expectedMask(cpu, ids, lo, dims, d, cpu.bound(e0)));
+  scene.renderer.setLiveSelectionBound(cpu.bound(e0));  // closing the fingers: one frame repaints
+  scene.renderer.submit(scene.req);
+  scene.renderer.waitLast();
+  EXPECT_FALSE(scene.renderer.liveSelection()->growing());
+  EXPECT_EQ(scene.renderer.readMask(), expectedMask(cpu, ids, lo, dims, d, cpu.bound(e0)));
 
-  renderer.setLiveSelectionBound(cpu.bound(e2));  // spreading them: growth resumes
+  scene.renderer.setLiveSelectionBound(cpu.bound(e2));  // spreading them: growth resumes
   growFrames();
-  const auto afterE2 = renderer.readMask();
+  const auto afterE2 = scene.renderer.readMask();
   EXPECT_EQ(afterE2, expectedMask(cpu, ids, lo, dims, d, cpu.bound(e2)));
   EXPECT_GT(std::count(afterE2.begin(), afterE2.end(), 255), std::count(afterE1.begin(), afterE1.end(), 255));
 
   // A frame with nothing to grow or repaint carries no growth passes and leaves the mask alone.
-  renderer.submit(req);
-  EXPECT_FALSE(renderer.liveSelection()->inFlight());
-  renderer.waitLast();
-  EXPECT_EQ(renderer.readMask(), afterE2);
+  scene.renderer.submit(scene.req);
+  EXPECT_FALSE(scene.renderer.liveSelection()->inFlight());
+  scene.renderer.waitLast();
+  EXPECT_EQ(scene.renderer.readMask(), afterE2);
 
   // The handles change under the pinch (another handle's ids in the box's upper slabs): the next
   // frame repaints the box over the new ids.
@@ -168,61 +167,60 @@ TEST_F(LiveSelectionGpu, FramesGrowItPaintTheReferenceSelectionIntoTheMaskAndFin
     for (int j = 0; j < d.y(); ++j)
       for (int i = 0; i < d.x(); ++i) ids[linear({i, j, k}, d)] = kHandle + 1;
   up.ids = ids;
-  req.maskUpload = &up;
-  renderer.setLiveSelectionBase(boxOf(ids));
-  renderer.submit(req);
-  renderer.waitLast();
-  req.maskUpload = nullptr;
-  EXPECT_EQ(renderer.readMask(), expectedMask(cpu, ids, lo, dims, d, cpu.bound(e2)));
+  scene.req.maskUpload = &up;
+  scene.renderer.setLiveSelectionBase(boxOf(ids));
+  scene.renderer.submit(scene.req);
+  scene.renderer.waitLast();
+  scene.req.maskUpload = nullptr;
+  EXPECT_EQ(scene.renderer.readMask(), expectedMask(cpu, ids, lo, dims, d, cpu.bound(e2)));
 
   std::vector<std::uint32_t> reference;
-  for (std::size_t v = 0; v < q.data.size(); ++v)
+  for (std::size_t v = 0; v < scene.q.data.size(); ++v)
     if (cpu.keys()[v] <= cpu.bound(e2)) reference.push_back(std::uint32_t(v));
-  EXPECT_EQ(renderer.finishLiveSelection(), reference);
-  EXPECT_EQ(renderer.liveSelection(), nullptr);
-  EXPECT_THROW(renderer.setLiveSelectionBound(1), Error);
-  EXPECT_THROW(renderer.finishLiveSelection(), Error);
+  EXPECT_EQ(scene.renderer.finishLiveSelection(), reference);
+  EXPECT_EQ(scene.renderer.liveSelection(), nullptr);
+  EXPECT_THROW(scene.renderer.setLiveSelectionBound(1), Error);
+  EXPECT_THROW(scene.renderer.finishLiveSelection(), Error);
   // A box outside the volume is refused.
-  EXPECT_THROW(renderer.beginLiveSelection(cpu.setup(), d, dims, base), Error);
+  EXPECT_THROW(scene.renderer.beginLiveSelection(cpu.setup(), d, dims, base), Error);
 }
 
-// Spreading past the box: a larger box around the same seed replaces it, holding the bound the
+// Spreading past the box: a larger box around the same scene.seed replaces it, holding the bound the
 // mask shows. Its frames grow without painting until the keys up to that bound are final (the mask
 // keeps the old selection: never less of it), then paint and grow on to the reference's selection.
 TEST_F(LiveSelectionGpu, ALargerBoxKeepsShowingTheOldSelectionUntilItHasGrownThatFar) {
   LiverScene scene;
-  auto& [ph, q, seed, renderer, req] = scene;
-  const Eigen::Vector3i d = q.geometry.dims;
-  RegionGrower cpu(q, seed, GrowParams{});
+  const Eigen::Vector3i d = scene.q.geometry.dims;
+  RegionGrower cpu(scene.q, scene.seed, GrowParams{});
   const double e1 = 15, e2 = 40;
   cpu.growTo(e2);
-  const std::vector<std::uint8_t> ids(q.data.size(), 0);
+  const std::vector<std::uint8_t> ids(scene.q.data.size(), 0);
   auto boxFor = [&](double extent) {
-    const Eigen::Vector3i reach = growReach(cpu.setup().criterion, extent, q.geometry.spacing) + Eigen::Vector3i::Ones();
-    const Eigen::Vector3i lo = (seed - reach).cwiseMax(Eigen::Vector3i::Zero());
-    return std::make_pair(lo, Eigen::Vector3i((seed + reach).cwiseMin(d - Eigen::Vector3i::Ones()) - lo + Eigen::Vector3i::Ones()));
+    const Eigen::Vector3i reach = growReach(cpu.setup().criterion, extent, scene.q.geometry.spacing) + Eigen::Vector3i::Ones();
+    const Eigen::Vector3i lo = (scene.seed - reach).cwiseMax(Eigen::Vector3i::Zero());
+    return std::make_pair(lo, Eigen::Vector3i((scene.seed + reach).cwiseMin(d - Eigen::Vector3i::Ones()) - lo + Eigen::Vector3i::Ones()));
   };
   const auto [lo1, dims1] = boxFor(e1);
   const auto [lo2, dims2] = boxFor(e2);
   ASSERT_GT(dims2.prod(), dims1.prod());
-  renderer.setLiveRoundsPerFrame(1);
-  renderer.beginLiveSelection(cpu.setup(), lo1, dims1, std::vector<std::uint8_t>(std::size_t(dims1.prod()), 0));
-  renderer.setLiveSelectionBound(cpu.bound(e1));
-  for (int f = 0; f < 500 && renderer.liveSelection()->growing(); ++f) {
-    renderer.submit(req);
-    renderer.waitLast();
+  scene.renderer.setLiveRoundsPerFrame(1);
+  scene.renderer.beginLiveSelection(cpu.setup(), lo1, dims1, std::vector<std::uint8_t>(std::size_t(dims1.prod()), 0));
+  scene.renderer.setLiveSelectionBound(cpu.bound(e1));
+  for (int f = 0; f < 500 && scene.renderer.liveSelection()->growing(); ++f) {
+    scene.renderer.submit(scene.req);
+    scene.renderer.waitLast();
   }
-  const auto old = renderer.readMask();
+  const auto old = scene.renderer.readMask();
   ASSERT_EQ(old, expectedMask(cpu, ids, lo1, dims1, d, cpu.bound(e1)));
 
-  renderer.beginLiveSelection(cpu.setup(), lo2, dims2, std::vector<std::uint8_t>(std::size_t(dims2.prod()), 0), cpu.bound(e1));
-  renderer.setLiveSelectionBound(cpu.bound(e2));
+  scene.renderer.beginLiveSelection(cpu.setup(), lo2, dims2, std::vector<std::uint8_t>(std::size_t(dims2.prod()), 0), cpu.bound(e1));
+  scene.renderer.setLiveSelectionBound(cpu.bound(e2));
   int held = 0, frames = 0;
-  for (; frames < 500 && renderer.liveSelection()->growing(); ++frames) {
-    renderer.submit(req);
-    renderer.waitLast();
-    const auto mask = renderer.readMask();
-    if (renderer.liveSelection()->holding()) {  // the frame carried rounds only (the hold ends in a frame's recording)
+  for (; frames < 500 && scene.renderer.liveSelection()->growing(); ++frames) {
+    scene.renderer.submit(scene.req);
+    scene.renderer.waitLast();
+    const auto mask = scene.renderer.readMask();
+    if (scene.renderer.liveSelection()->holding()) {  // the frame carried rounds only (the hold ends in a frame's recording)
       ++held;
       EXPECT_EQ(mask, old) << "frame " << frames << " painted while holding";
     }
@@ -236,10 +234,10 @@ TEST_F(LiveSelectionGpu, ALargerBoxKeepsShowingTheOldSelectionUntilItHasGrownTha
   }
   EXPECT_GT(held, 2) << "one round a frame cannot regrow a 15 mm selection in two frames";
   EXPECT_GT(frames, held) << "growth went on past the held bound";
-  EXPECT_FALSE(renderer.liveSelection()->growing());
-  EXPECT_EQ(renderer.readMask(), expectedMask(cpu, ids, lo2, dims2, d, cpu.bound(e2)));
+  EXPECT_FALSE(scene.renderer.liveSelection()->growing());
+  EXPECT_EQ(scene.renderer.readMask(), expectedMask(cpu, ids, lo2, dims2, d, cpu.bound(e2)));
   std::vector<std::uint32_t> reference;
-  for (std::size_t v = 0; v < q.data.size(); ++v)
+  for (std::size_t v = 0; v < scene.q.data.size(); ++v)
     if (cpu.keys()[v] <= cpu.bound(e2)) reference.push_back(std::uint32_t(v));
-  EXPECT_EQ(renderer.finishLiveSelection(), reference);
+  EXPECT_EQ(scene.renderer.finishLiveSelection(), reference);
 }
