@@ -185,6 +185,12 @@ std::vector<int> integerListOption(const Args& args, const char* name, const cha
   return out;
 }
 
+bool onOffOption(const Args& args, const std::string& name, bool fallback) {
+  const std::string v = args.valueOr(name, fallback ? "on" : "off");
+  if (v != "on" && v != "off") throw UsageError(name + " must be on or off");
+  return v == "on";
+}
+
 std::string exportVolumeExtension(const Args& args) {
   const std::string f = args.valueOr("--export-format", "nifti");
   if (f == "nifti") return ".nii.gz";

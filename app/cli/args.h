@@ -74,6 +74,8 @@ HandleScene handleSceneOptions(const Args& args, double defaultSpacingMm, const 
 /// `--export-format nifti|nrrd|mha` (default nifti): the exported volumes' extension (".nii.gz",
 /// ".nrrd", ".mha"). Throws UsageError otherwise.
 std::string exportVolumeExtension(const Args& args);
+/// An `on|off` option (`name` absent: `fallback`). Throws UsageError for any other value.
+bool onOffOption(const Args& args, const std::string& name, bool fallback);
 /// `--frame N`: which volume of a 4D NIfTI image to load (default 0).
 LoadOptions loadOptions(const Args& args);
 /// The help line for it.

@@ -118,9 +118,7 @@ int cmdSelect(const Words& words) {
   GrowParams p;
   p.hMax = args.number("--hmax", 1.1, 1e-3, 1e3);
   if (!parseGrowCriterion(args.valueOr("--criterion", "core"), p.criterion)) throw UsageError("--criterion must be core, smoothed or paper");
-  const std::string rim = args.valueOr("--rim", "off");
-  if (rim != "on" && rim != "off") throw UsageError("--rim must be on or off");
-  p.boundaryRim = rim == "on";
+  p.boundaryRim = onOffOption(args, "--rim", false);
   const std::string backend = args.valueOr("--backend", "cpu");
   if (backend != "cpu" && backend != "gpu") throw UsageError("--backend must be cpu or gpu");
   const bool quiet = args.flag("--quiet");

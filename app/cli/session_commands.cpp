@@ -103,9 +103,7 @@ const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--s
 
 DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   DeformationOptions d;
-  const std::string on = args.valueOr("--sim", "on");
-  if (on != "on" && on != "off") throw UsageError("--sim must be on or off");
-  d.enabled = on == "on";
+  d.enabled = onOffOption(args, "--sim", true);
   d.sim.coarseTets = int(args.integer("--sim-coarse-tets", d.sim.coarseTets, 6, 2000000));
   d.sim.fineTets = int(args.integer("--sim-fine-tets", d.sim.fineTets, 6, 20000000));
   if (d.sim.fineTets < d.sim.coarseTets) throw UsageError("--sim-fine-tets must be at least --sim-coarse-tets");
@@ -119,12 +117,6 @@ DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   const std::string cache = args.valueOr("--sim-cache", defaultSimulationCacheDir().string());
   d.cacheDir = cache == "off" ? "" : cache;
   return d;
-}
-
-bool selectionRimOption(const Args& args) {
-  const std::string v = args.valueOr("--selection-rim", "off");
-  if (v != "on" && v != "off") throw UsageError("--selection-rim must be on or off");
-  return v == "on";
 }
 
 SelectionBackend selectionBackendOption(const Args& args) {
@@ -177,7 +169,7 @@ int cmdView(const Words& words) {
   o.printCamera = args.flag("--print-camera");
   o.labels = args.valueOr("--labels", "");
   o.selectionBackend = selectionBackendOption(args);
-  o.selectionRim = selectionRimOption(args);
+  o.selectionRim = onOffOption(args, "--selection-rim", false);
   o.sim = simOptions(args, 2);
   if (!displayAvailable()) throw Error("no display available (DISPLAY and WAYLAND_DISPLAY are unset): use 'handson replay' to run headless");
   return runViewer(o);
@@ -205,7 +197,7 @@ int cmdReplay(const Words& words) {
   o.printHandles = args.flag("--print-handles");
   o.labels = args.valueOr("--labels", "");
   o.selectionBackend = selectionBackendOption(args);
-  o.selectionRim = selectionRimOption(args);
+  o.selectionRim = onOffOption(args, "--selection-rim", false);
   o.exportPath = args.valueOr("--export", "");
   o.exportDir = args.valueOr("--export-dir", o.exportDir);
   o.exportExtension = exportVolumeExtension(args);
