@@ -46,4 +46,27 @@ std::optional<RigidTransform> HandleManipulator::move(const std::vector<std::pai
   return next;
 }
 
+std::optional<Eigen::Vector3d> contactOnHandle(const VolumeGeometry& g, const std::vector<std::uint8_t>& mask, int id, const RigidTransform& pose,
+                                               const Eigen::Vector3d& eye, const Eigen::Vector3d& picked, double windowMm) {
+  const Eigen::Vector3d ray = picked - eye;
+  const double len = ray.norm();
+  if (!eye.allFinite() || !picked.allFinite() || !(len > 0.0) || !std::isfinite(len) || !(windowMm >= 0.0) || !std::isfinite(windowMm) ||
+      mask.size() != g.voxelCount() || id <= 0 || id > 255)
+    return std::nullopt;
+  const Eigen::Vector3d dir = ray / len;
+  const double step = 0.5 * g.spacing.minCoeff();
+  if (!(step > 0.0)) return std::nullopt;
+  const int half = int(std::min(4096.0, std::floor(windowMm / step)));
+  for (int s = -half; s <= half; ++s) {
+    const Eigen::Vector3d w = picked + dir * (step * s);
+    const Eigen::Vector3d idx = g.toIndex(pose.toRest(w)).array().round();
+    if (!idx.allFinite() || (idx.array().abs() > 1e9).any()) continue;
+    const Eigen::Vector3i v = idx.cast<int>();
+    if (!g.contains(v)) continue;
+    const std::size_t lin = std::size_t(v.x()) + std::size_t(g.dims.x()) * (std::size_t(v.y()) + std::size_t(g.dims.y()) * std::size_t(v.z()));
+    if (mask[lin] == id) return w;
+  }
+  return std::nullopt;
+}
+
 }  // namespace handson

@@ -14,6 +14,7 @@
 
 #include "camera.h"
 #include "gesture_solve.h"
+#include "sim/volume.h"
 
 namespace handson {
 
@@ -38,5 +39,16 @@ class HandleManipulator {
  private:
   std::vector<std::pair<std::int64_t, Eigen::Vector3d>> anchors_;  // finger id, rest-frame point
 };
+
+/// Where a finger's ray meets the handle itself. Under the simulation the handle is drawn from the
+/// deformed volume, resampled through fine tets that straddle its boundary, so the surface a pick
+/// finds can lie up to a fine tet off the handle's own, rigidly moved voxels. Marching the ray from
+/// `eye` through `picked` in half-voxel steps over [-windowMm, +windowMm] about the pick: the first
+/// point whose nearest voxel, taken back to rest by `pose`, belongs to handle `id` in `mask` (the
+/// handles' ids at rest, on `geometry`'s grid, x fastest). nullopt when no such point lies in the
+/// window, and for bad input (a non-finite point, eye == picked, a mask that does not fit the grid,
+/// a negative or non-finite window).
+std::optional<Eigen::Vector3d> contactOnHandle(const VolumeGeometry& geometry, const std::vector<std::uint8_t>& mask, int id, const RigidTransform& pose,
+                                               const Eigen::Vector3d& eye, const Eigen::Vector3d& picked, double windowMm);
 
 }  // namespace handson

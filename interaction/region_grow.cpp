@@ -80,7 +80,8 @@ RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i&
   if (!(params.coreFraction > 0.0 && params.coreFraction <= 1.0)) throw Error("region growing: the core fraction must lie in (0, 1]");
   if (params.criterion != GrowCriterion::Paper &&
       (params.refinements < 0 || params.refinements > 10 || !(params.probeRadiusMm > 0.0) || !(params.hRegion > 0.0) ||
-       !(params.thinShare >= 0.0 && params.thinShare <= 1.0)))
+       !(params.thinShare >= 0.0 && params.thinShare <= 1.0) ||
+       (params.statistics != RegionStatistics::Moments && params.statistics != RegionStatistics::Robust)))
     throw Error("region growing: invalid refinement parameters");
   if (workspace) {  // every check is above: from here the arrays are the grower's (its destructor gives them back)
     std::swap(keys_, workspace->keys);
@@ -137,9 +138,18 @@ void RegionGrower::refine(double seedSum, double seedTolerance) {
   restart();
   for (int r = 0; r < params_.refinements; ++r) {
     growTo(params_.probeRadiusMm);
-    // Statistics of the raw values of the region (integer sums: exact).
+    double centre = 0, spread = 0;
+    if (!regionStatistics(bound(params_.probeRadiusMm), centre, spread)) break;  // too small a region to say more than the seed did
+    setup_.seedValue = float(27.0 * centre);
+    setTolerance(27.0 * std::max(params_.hRegion * spread, seedTolerance));
+    restart();
+  }
+}
+
+bool RegionGrower::regionStatistics(std::uint32_t probe, double& centre, double& spread) const {
+  if (params_.statistics == RegionStatistics::Moments) {
+    // Integer sums: exact.
     std::uint64_t n = 0, s1 = 0, s2 = 0;
-    const std::uint32_t probe = bound(params_.probeRadiusMm);
     for (std::size_t v : touched_)
       if (keys_[v] <= probe) {
         const std::uint64_t u = vol_.data[v];
@@ -147,13 +157,34 @@ void RegionGrower::refine(double seedSum, double seedTolerance) {
         s1 += u;
         s2 += u * u;
       }
-    if (n < 27) break;  // too small a region to say more than the seed did
-    const double m = double(s1) / double(n);
-    const double sd = std::sqrt(std::max(0.0, double(s2) / double(n) - m * m));
-    setup_.seedValue = float(27.0 * m);
-    setTolerance(27.0 * std::max(params_.hRegion * sd, seedTolerance));
-    restart();
+    if (n < 27) return false;
+    centre = double(s1) / double(n);
+    spread = std::sqrt(std::max(0.0, double(s2) / double(n) - centre * centre));
+    return true;
   }
+  // Robust: the median and the median absolute deviation of the 16-bit values, by counting (exact
+  // integers; the upper median of an even count, so both are values of the sample).
+  std::vector<std::uint32_t> values;
+  for (std::size_t v : touched_)
+    if (keys_[v] <= probe) values.push_back(vol_.data[v]);
+  if (values.size() < 27) return false;
+  const auto mid = values.begin() + std::ptrdiff_t(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  const std::uint32_t median = *mid;
+  for (std::uint32_t& x : values) x = x > median ? x - median : median - x;
+  std::nth_element(values.begin(), mid, values.end());
+  centre = double(median);
+  spread = 1.4826 * double(*mid);
+  return true;
+}
+
+const char* regionStatisticsName(RegionStatistics s) { return s == RegionStatistics::Robust ? "robust" : "moments"; }
+
+bool parseRegionStatistics(const std::string& s, RegionStatistics& out) {
+  if (s == "robust") out = RegionStatistics::Robust;
+  else if (s == "moments") out = RegionStatistics::Moments;
+  else return false;
+  return true;
 }
 
 void RegionGrower::setTolerance(double tolerance) {

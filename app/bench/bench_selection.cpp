@@ -200,10 +200,10 @@ GrowTiming timeGrowth(vk::Context& ctx, const QuantizedVolume& q, const vk::Imag
 }  // namespace
 
 int cmdBenchSelection(const Words& words) {
-  Args args(words, {"--data", "--out", "--repeat", "--device", "--extents", "--criteria", "--fractions"}, {"--quick", "--validation", "--sweep-only"});
+  Args args(words, {"--data", "--out", "--repeat", "--device", "--extents", "--criteria", "--fractions", "--statistics"}, {"--quick", "--validation", "--sweep-only"});
   if (args.help() || !args.positional().empty()) {
     usageStream(args) << "usage: handson bench selection [--data DIR] [--out DIR] [--repeat N] [--criteria LIST] [--fractions LIST]\n"
-                         "                               [--extents MM,..] [--sweep-only] [--quick]\n"
+                         "                               [--extents MM,..] [--statistics robust|moments] [--sweep-only] [--quick]\n"
                          "  Region growing on labelled CT (default DIR ../shared/data: ircadb1.1 kidneys, artery, portal vein,\n"
                          "  liver, venous system, spleen; totalseg-small kidneys, liver, spleen), seeds at each organ's deepest\n"
                          "  typical voxel. Whole-organ Dice as the extent sweeps --fractions of the organ's radius (default\n"
@@ -211,7 +211,9 @@ int cmdBenchSelection(const Words& words) {
                          "  selection_dice.md and .png in --out (default bench-out); precision and recall at --extents (default\n"
                          "  10,20,40 mm) -> selection_accuracy.csv, .md, .png; and grow update times of a ~120k-voxel liver\n"
                          "  selection, smoothed and core: CPU reference, GPU sparse bricks, dense dispatch (median of N,\n"
-                         "  default 5) -> selection_timing.csv. --sweep-only stops after the Dice sweep.\n";
+                         "  default 5) -> selection_timing.csv. --sweep-only stops after the Dice sweep. --statistics: how the\n"
+                         "  sweep's core and smoothed criteria refine their statistics (default robust; moments, the earlier\n"
+                         "  rule, to compare).\n";
     return args.help() ? 0 : 2;
   }
   const std::string data = args.valueOr("--data", "../shared/data");
@@ -235,6 +237,8 @@ int cmdBenchSelection(const Words& words) {
     criteria.push_back(c);
   }
   if (criteria.empty()) throw UsageError("--criteria names at least one criterion (core, smoothed, paper)");
+  RegionStatistics statistics = RegionStatistics::Robust;
+  if (!parseRegionStatistics(args.valueOr("--statistics", "robust"), statistics)) throw UsageError("--statistics must be robust or moments");
   std::vector<double> fractions = parseNumberList(args.valueOr("--fractions", "0.3,0.4,0.5,0.6,0.7,0.8,0.9,1,1.1,1.2"), "--fractions");
   for (double f : fractions)
     if (!(f > 0.0 && f <= 3.0)) throw UsageError("--fractions are fractions of the organ's radius in (0, 3]");
@@ -256,7 +260,7 @@ int cmdBenchSelection(const Words& words) {
     const Volume ct = readNifti(s.dir + "/ct.nii.gz");
     const Volume labels = readNifti(s.dir + "/labels.nii.gz");
     std::cerr << s.name << ": sweeping " << s.organs.size() << " organs x " << criteria.size() << " criteria\n";
-    for (auto& w : sweepSelection(s.name, ct, labels, s.organs, fractions, criteria)) {
+    for (auto& w : sweepSelection(s.name, ct, labels, s.organs, fractions, criteria, true, statistics)) {
       std::cerr << "  " << w.organ << " " << sweepVariantName(w.criterion, w.rim) << ": best Dice " << std::fixed << std::setprecision(3)
                 << w.best().dice << " at " << std::setprecision(1) << w.best().fraction << "x, " << std::setprecision(3) << w.points.back().dice
                 << " at " << std::setprecision(1) << w.points.back().fraction << "x\n";

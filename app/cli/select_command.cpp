@@ -38,6 +38,10 @@ const char* const kSelectHelp =
     "                         are cut; a seed in a structure too thin for a core grows smoothed), smoothed\n"
     "                         (the same without the core) or paper (the paper's rule: raw values,\n"
     "                         breadth-first passes)\n"
+    "  --statistics NAME      how core and smoothed refine their statistics from the region near the seed:\n"
+    "                         robust (default: its median and median absolute deviation, so a minority of\n"
+    "                         other tissue there does not widen the tolerance) or moments (mean and\n"
+    "                         standard deviation, the earlier rule)\n"
     "  --backend cpu|gpu      CPU reference (default) or the Vulkan compute pass\n"
     "  --rim on|off           end with the selection's partial-volume boundary rim: the surface voxels\n"
     "                         nearer the selection's value than the tissue beyond (default off)\n"
@@ -97,7 +101,7 @@ int selectLabelled(const Args& args, const Volume& v, const Eigen::Vector3i& see
 }  // namespace
 
 int cmdSelect(const Words& words) {
-  Args args(words, {"--frame", "--seed-voxel", "--seed-mm", "--extent-mm", "--hmax", "--criterion", "--backend", "-o", "--device", "--labels", "--rim"},
+  Args args(words, {"--frame", "--seed-voxel", "--seed-mm", "--extent-mm", "--hmax", "--criterion", "--statistics", "--backend", "-o", "--device", "--labels", "--rim"},
             {"--validation", "--quiet"});
   const bool labelled = bool(args.value("--labels"));
   if (args.help() || args.positional().size() != 1 || !args.value("-o") || (!labelled && !args.value("--extent-mm")) ||
@@ -107,7 +111,7 @@ int cmdSelect(const Words& words) {
   }
   if (args.value("--seed-voxel") && args.value("--seed-mm")) throw UsageError("give --seed-voxel or --seed-mm, not both");
   if (labelled)
-    for (const char* o : {"--extent-mm", "--hmax", "--criterion", "--backend", "--device", "--rim"})
+    for (const char* o : {"--extent-mm", "--hmax", "--criterion", "--statistics", "--backend", "--device", "--rim"})
       if (args.value(o)) throw UsageError(std::string(o) + " is for region growing: --labels selects the labelled organ");
   if (labelled) {
     const Volume v = loadVolume(args.positional()[0], nullptr, args.flag("--quiet") ? ProgressFn{} : consoleProgress(), loadOptions(args));
@@ -118,6 +122,7 @@ int cmdSelect(const Words& words) {
   GrowParams p;
   p.hMax = args.number("--hmax", 1.1, 1e-3, 1e3);
   if (!parseGrowCriterion(args.valueOr("--criterion", "core"), p.criterion)) throw UsageError("--criterion must be core, smoothed or paper");
+  if (!parseRegionStatistics(args.valueOr("--statistics", "robust"), p.statistics)) throw UsageError("--statistics must be robust or moments");
   p.boundaryRim = onOffOption(args, "--rim", false);
   const std::string backend = args.valueOr("--backend", "cpu");
   if (backend != "cpu" && backend != "gpu") throw UsageError("--backend must be cpu or gpu");

@@ -343,6 +343,12 @@ bool DeformationController::prepareFrameSettled(FrameRequest& req, const HandleS
   return prepareFrame(req, handles, true);
 }
 
+double DeformationController::fineCellMm() const {
+  if (!model_) return 0.0;
+  const NestedMeshes& m = model_->scene.meshes;
+  return m.coarseGrid.cell().maxCoeff() / double(std::max(1, m.refinement));
+}
+
 bool DeformationController::exportDeformed(Volume& out) const {
   if (!model_ || !renderer_.deforming() || shownInput_ == 0) return false;
   out = image_;

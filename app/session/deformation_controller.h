@@ -91,6 +91,9 @@ class DeformationController {
   /// its report has come (a fraction of a second after it).
   std::string shownTissueLimits() const;
   bool shownConverged() const { return shownConverged_; }
+  /// The simulated region's fine cell (largest edge, mm): how far the deformed volume's resampling
+  /// can move a surface from where the rigidly moved handle puts it; 0 before a model is built.
+  double fineCellMm() const;
   /// Failures so far, for a caller that saves the session when one happens: poses the solve
   /// refused, solves that stopped without converging (each counted once per episode: until a pose
   /// is solved again), a build that failed. status() describes the newest.

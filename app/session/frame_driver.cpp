@@ -32,7 +32,7 @@ FrameRequest FrameDriver::request(const Viewport& vp, int width, int height) con
 
 void FrameDriver::attachSimulation(FrameRequest& request, bool settled) {
   const bool simulated = settled ? deform_.prepareFrameSettled(request, selection_.handles()) : deform_.prepareFrame(request, selection_.handles());
-  selection_.setRigidPreview(!simulated);
+  selection_.setRigidPreview(!simulated, simulated ? deform_.fineCellMm() : 0.0);
 }
 
 void FrameDriver::attachSelection(FrameRequest& request, const Viewport& vp, FrameTiming& ft) {

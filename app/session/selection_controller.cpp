@@ -290,6 +290,15 @@ void SelectionController::onFrameResult(const FrameResult& r) {
       const auto& pk = r.picks[grabOffset_ + i];
       if (target && pk.world.w > 0.5f && pk.voxel.w == target) anchors.push_back({grabRequest_[i].first, Eigen::Vector3d(pk.world.x, pk.world.y, pk.world.z)});
     }
+    if (target && !rigidPreview_) {
+      // The frame showed the deformed volume: anchor on the handle's own voxels, within a fine tet
+      // (at least two voxels) of the picked surface.
+      const Handle* h = handles_.find(target);
+      const glm::dvec3 e = session_.camera().eye();
+      const double window = std::max(blurMm_, 2.0 * volume_.geometry.spacing.maxCoeff());
+      for (auto& a : anchors)
+        if (const auto c = contactOnHandle(volume_.geometry, mask_, target, h->pose, Eigen::Vector3d(e.x, e.y, e.z), a.world, window)) a.world = *c;
+    }
     if (target && !anchors.empty() && session_.gestures().input().fingers().size() == grabRequest_.size()) {
       manipulated_ = target;
       const Handle* h = handles_.find(target);

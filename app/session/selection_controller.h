@@ -55,7 +55,13 @@ class SelectionController {
   /// Handles with a pose, for the raymarch (drawn moved rigidly until the simulation lands).
   std::vector<MovingHandlePose> movingHandles() const;
   /// Whether moved handles are drawn rigidly (off while the renderer shows the simulated deformation).
-  void setRigidPreview(bool on) { rigidPreview_ = on; }
+  /// Off while the frames show the simulated deformation, whose resampling blurs a handle's surface
+  /// by up to `blurMm` (a fine tet): fingers then anchor on the handle's own voxels behind or before
+  /// the picked surface (contactOnHandle), not on the blur.
+  void setRigidPreview(bool on, double blurMm = 0.0) {
+    rigidPreview_ = on;
+    blurMm_ = blurMm;
+  }
   const std::string& manipulationNote() const { return manipulationNote_; }
   /// Locks of the manipulation (GestureLock bits), toggled by the "toggle-lock" UI action.
   unsigned locks() const { return locks_; }
@@ -97,6 +103,7 @@ class SelectionController {
   bool onActiveHandle(glm::dvec2 px) const;
   gpu::RenderParams lastParams_{};
   bool rigidPreview_ = true;
+  double blurMm_ = 0.0;
   bool haveParams_ = false;
   HandleManipulator manipulator_;
   int manipulated_ = 0;                         // handle being moved (0: none)

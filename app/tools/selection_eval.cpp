@@ -114,7 +114,8 @@ const SweepPoint& OrganSweep::best() const {
 }
 
 std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume& ct, const Volume& labels, const std::vector<OrganLabel>& organs,
-                                       const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria, bool rim) {
+                                       const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria, bool rim,
+                                       RegionStatistics statistics) {
   if (ct.dims() != labels.dims()) throw Error("selection accuracy: the label map is not on the CT's grid");
   if (fractions.empty() || !std::is_sorted(fractions.begin(), fractions.end()))
     throw Error("selection accuracy: the extent fractions must be a non-empty increasing list");
@@ -135,6 +136,7 @@ std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume&
     for (GrowCriterion c : criteria) {
       GrowParams p;
       p.criterion = c;
+      p.statistics = statistics;
       RegionGrower grower(q, seed, p);
       OrganSweep s{dataset, organ.name, c, false, seed, radius, dist.size(), {}};
       OrganSweep r{dataset, organ.name, c, true, seed, radius, dist.size(), {}};

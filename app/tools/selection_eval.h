@@ -50,9 +50,11 @@ struct OrganSweep {
   const SweepPoint& best() const;
 };
 /// Per criterion one sweep of the grown selections and, with `rim`, one of the same selections with
-/// their boundary rim (the grown ones are its baseline, from the same growth).
+/// their boundary rim (the grown ones are its baseline, from the same growth). `statistics`: how the
+/// smoothed criteria refine theirs (GrowParams::statistics).
 std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume& ct, const Volume& labels, const std::vector<OrganLabel>& organs,
-                                       const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria, bool rim = true);
+                                       const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria, bool rim = true,
+                                       RegionStatistics statistics = RegionStatistics::Robust);
 /// "core", "core+rim", ...
 std::string sweepVariantName(GrowCriterion c, bool rim);
 

@@ -105,6 +105,7 @@ TEST_F(Cli, BadInputGivesOneClearMessageAndNonZeroExit) {
       {"select " + p("ct.nii.gz") + " --seed-voxel 24,18,15 --extent-mm nan -o " + p("m.nii.gz"), 2, "--extent-mm"},
       {"select " + p("ct.nii.gz") + " --seed-mm 1e9,0,0 --extent-mm 5 -o " + p("m.nii.gz"), 1, "outside the volume"},
       {"select " + p("ct.nii.gz") + " --seed-voxel 1.5,2,3 --extent-mm 5 -o " + p("m.nii.gz"), 2, "integers"},
+      {"select " + p("ct.nii.gz") + " --seed-voxel 24,18,15 --extent-mm 5 --statistics median -o " + p("m.nii.gz"), 2, "--statistics"},
   };
   for (const auto& c : cases) {
     const CliRun r = runHandson(c.args);
@@ -157,6 +158,20 @@ TEST_F(Cli, SelectWritesAMaskOnTheInputGridWithCpuAndGpuAgreeing) {
   }
   EXPECT_GE(withRim, selected);
   EXPECT_EQ(runHandson("select " + p("ct.nii.gz") + " --seed-mm 78,-55,-14 --extent-mm 30 --rim maybe -o " + p("x.nii.gz")).status, 2);
+  // --statistics moments (the earlier rule of the refined statistics): both backends select the
+  // same voxels under it as well.
+  for (const char* backend : {"cpu", "gpu"}) {
+    const CliRun r = runHandson(std::string("select ") + p("ct.nii.gz") + " --seed-mm 78,-55,-14 --extent-mm 30 --statistics moments --quiet --backend " +
+                                backend + " -o " + p((std::string("moments-") + backend + ".nii.gz").c_str()));
+    ASSERT_EQ(r.status, 0) << r.output;
+  }
+  const handson::Volume momCpu = handson::readNifti(p("moments-cpu.nii.gz")), momGpu = handson::readNifti(p("moments-gpu.nii.gz"));
+  std::size_t momSelected = 0;
+  for (std::size_t i = 0; i < momCpu.voxelCount(); ++i) {
+    EXPECT_EQ(momCpu.value(i), momGpu.value(i));
+    momSelected += momCpu.value(i) > 0;
+  }
+  EXPECT_GT(momSelected, 20u);
 }
 
 TEST_F(Cli, RenderClipsAndRefusesMalformedClipValues) {

@@ -75,8 +75,9 @@ void checkSweep(const char* dir, const std::vector<OrganLabel>& organs, double m
       }
     for (const auto& smoothed : sweeps)
       if (smoothed.criterion == GrowCriterion::Smoothed && !smoothed.rim && smoothed.organ == core.organ) {
-        // Never much worse than smoothed, at its best or at the largest extent (the artery, thin
-        // branches that lose their core, is 0.05 below: measured 0.62 against 0.66 / 0.67).
+        // Never much worse than smoothed, at its best or at the largest extent (the artery and the
+        // portal vein, thin branches that lose their core, are 0.058 and 0.059 below: measured
+        // 0.62 against 0.68 and 0.56 against 0.62).
         EXPECT_GE(core.best().dice, smoothed.best().dice - 0.06) << core.organ;
         EXPECT_GE(core.points.back().dice, smoothed.points.back().dice - 0.06) << core.organ;
         gain.push_back(core.best().dice - smoothed.best().dice);
@@ -93,6 +94,27 @@ void checkSweep(const char* dir, const std::vector<OrganLabel>& organs, double m
   EXPECT_GE(rimGain[rimGain.size() / 2], medianRimGain) << "median gain in best Dice from the boundary rim";
 }
 
+// The core criterion's best Dice per organ with the region's robust statistics (the default) and
+// with its moments (the earlier rule), from the same seeds and extents: the median and the lowest
+// organ's best may not fall, and the median must gain `medianGain` (measured, docs/region-growing.md).
+void checkRobustStatistics(const char* dir, const std::vector<OrganLabel>& organs, double medianGain) {
+  const std::string path = std::string(HANDSON_SHARED_DATA_DIR) + "/" + dir;
+  if (!std::filesystem::exists(path + "/ct.nii.gz")) GTEST_SKIP() << "no " << path;
+  const Volume ct = readNifti(path + "/ct.nii.gz");
+  const Volume labels = readNifti(path + "/labels.nii.gz");
+  const std::vector<double> fractions{0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.2};
+  std::vector<double> best[2];
+  for (RegionStatistics st : {RegionStatistics::Moments, RegionStatistics::Robust}) {
+    const auto sweeps = sweepSelection(dir, ct, labels, organs, fractions, {GrowCriterion::Core}, false, st);
+    ASSERT_EQ(sweeps.size(), organs.size());
+    for (const auto& w : sweeps) best[int(st == RegionStatistics::Robust)].push_back(w.best().dice);
+  }
+  for (auto& b : best) std::sort(b.begin(), b.end());
+  const std::size_t mid = organs.size() / 2;
+  EXPECT_GE(best[1][mid], best[0][mid] + medianGain) << "median best Dice, robust against moments";
+  EXPECT_GE(best[1].front(), best[0].front()) << "lowest best Dice, robust against moments";
+}
+
 }  // namespace
 
 TEST(SelectionAccuracy, CoreCriterionSelectsMoreOfTheWholeOrganOnIrcadb) {
@@ -100,7 +122,23 @@ TEST(SelectionAccuracy, CoreCriterionSelectsMoreOfTheWholeOrganOnIrcadb) {
   GTEST_SKIP() << "34 M voxels: too slow under the sanitizers";
 #endif
   checkSweep("ircadb1.1", {{3, "kidney_left"}, {4, "kidney_right"}, {9, "artery"}, {10, "portal_vein"}, {8, "liver"}, {11, "venous_system"}, {7, "spleen"}},
-             0.04, 0.008);
+             0.02, 0.008);
+}
+
+TEST(SelectionAccuracy, RobustRegionStatisticsSelectMoreOfTheWholeOrganOnIrcadb) {
+#if defined(HANDSON_TEST_SANITIZED)
+  GTEST_SKIP() << "34 M voxels: too slow under the sanitizers";
+#endif
+  // Measured: median 0.73 -> 0.81, lowest 0.49 -> 0.55 (the left kidney 0.73 -> 0.85, the venous
+  // system 0.49 -> 0.55; the portal vein, the one that loses, 0.62 -> 0.56).
+  checkRobustStatistics("ircadb1.1", {{3, "kidney_left"}, {4, "kidney_right"}, {9, "artery"}, {10, "portal_vein"}, {8, "liver"}, {11, "venous_system"}, {7, "spleen"}},
+                        0.05);
+}
+
+TEST(SelectionAccuracy, RobustRegionStatisticsSelectMoreOfTheWholeOrganOnTotalsegSmall) {
+  // Measured: the right kidney 0.59 -> 0.69 (renal sinus fat beside the seed no longer widens the
+  // tolerance to 130 HU), the others within 0.01; median 0.84 -> 0.85.
+  checkRobustStatistics("totalseg-small", {{2, "kidney_right"}, {3, "kidney_left"}, {5, "liver"}, {1, "spleen"}}, 0.0);
 }
 
 TEST(SelectionAccuracy, CoreCriterionSelectsMoreOfTheWholeOrganOnTotalsegSmall) {
