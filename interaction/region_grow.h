@@ -72,9 +72,9 @@ struct GrowParams {
   /// and the smoothed criterion runs instead.
   double thinShare = 0.5;
   /// A finished selection ends with its partial-volume rim (withBoundaryRim; `--selection-rim` in
-  /// view and replay, `--rim` in select). Measured better on `bench selection` but not yet the
-  /// default (docs/region-growing.md, "The boundary rim").
-  bool boundaryRim = false;
+  /// view and replay, `--rim` in select; on by default since it was measured better on `bench
+  /// selection` with no organ lower, docs/region-growing.md, "The boundary rim").
+  bool boundaryRim = true;
 };
 
 

@@ -44,7 +44,7 @@ const char* const kSelectHelp =
     "                         standard deviation, the earlier rule)\n"
     "  --backend cpu|gpu      CPU reference (default) or the Vulkan compute pass\n"
     "  --rim on|off           end with the selection's partial-volume boundary rim: the surface voxels\n"
-    "                         nearer the selection's value than the tissue beyond (default off)\n"
+    "                         nearer the selection's value than the tissue beyond (default on)\n"
     "  --labels LABELS        a label map (any volume format; 0 = background): select the seed's organ\n"
     "                         instead of growing. On another grid of the same space it is resampled by\n"
     "                         nearest neighbour (with a warning); growth options do not apply\n"
@@ -123,7 +123,7 @@ int cmdSelect(const Words& words) {
   p.hMax = args.number("--hmax", 1.1, 1e-3, 1e3);
   if (!parseGrowCriterion(args.valueOr("--criterion", "core"), p.criterion)) throw UsageError("--criterion must be core, smoothed or paper");
   if (!parseRegionStatistics(args.valueOr("--statistics", "robust"), p.statistics)) throw UsageError("--statistics must be robust or moments");
-  p.boundaryRim = onOffOption(args, "--rim", false);
+  p.boundaryRim = onOffOption(args, "--rim", true);
   const std::string backend = args.valueOr("--backend", "cpu");
   if (backend != "cpu" && backend != "gpu") throw UsageError("--backend must be cpu or gpu");
   const bool quiet = args.flag("--quiet");

@@ -55,7 +55,7 @@ const char* const kViewHelp =
     "  --selection-backend B   where a pinch's selection grows: auto (default: the GPU pass on a GPU,\n"
     "                          the CPU search on a CPU device such as lavapipe), gpu or cpu\n"
     "  --selection-rim on|off  a finished pinch's selection ends with its partial-volume boundary rim\n"
-    "                          (default off; docs/region-growing.md)\n"
+    "                          (default on; docs/region-growing.md)\n"
     "  --device NAME, --validation, --quiet, --print-camera\n";
 
 const char* const kReplayHelp =
@@ -169,7 +169,7 @@ int cmdView(const Words& words) {
   o.printCamera = args.flag("--print-camera");
   o.labels = args.valueOr("--labels", "");
   o.selectionBackend = selectionBackendOption(args);
-  o.selectionRim = onOffOption(args, "--selection-rim", false);
+  o.selectionRim = onOffOption(args, "--selection-rim", true);
   o.sim = simOptions(args, 2);
   if (!displayAvailable()) throw Error("no display available (DISPLAY and WAYLAND_DISPLAY are unset): use 'handson replay' to run headless");
   return runViewer(o);
@@ -197,7 +197,7 @@ int cmdReplay(const Words& words) {
   o.printHandles = args.flag("--print-handles");
   o.labels = args.valueOr("--labels", "");
   o.selectionBackend = selectionBackendOption(args);
-  o.selectionRim = onOffOption(args, "--selection-rim", false);
+  o.selectionRim = onOffOption(args, "--selection-rim", true);
   o.exportPath = args.valueOr("--export", "");
   o.exportDir = args.valueOr("--export-dir", o.exportDir);
   o.exportExtension = exportVolumeExtension(args);

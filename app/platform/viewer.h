@@ -30,7 +30,7 @@ struct ViewerOptions {
   std::string preset;       ///< empty: by the volume's values
   std::string labels;       ///< organ labels for taps in select mode (empty: none)
   SelectionBackend selectionBackend = SelectionBackend::Auto;  ///< where pinches grow (app/session/selection_backend.h)
-  bool selectionRim = false;  ///< finished pinches end with their boundary rim (GrowParams::boundaryRim)
+  bool selectionRim = true;  ///< finished pinches end with their boundary rim (GrowParams::boundaryRim)
   std::string device;
   bool validation = false;
   int framesInFlight = 2;   ///< 1 lowers latency, 2 keeps the GPU busy while the CPU records

@@ -20,7 +20,7 @@ struct ReplayOptions {
   std::string volume;      ///< overrides the script's volume
   std::string labels;      ///< organ labels for taps and label-handle actions (empty: none)
   SelectionBackend selectionBackend = SelectionBackend::Auto;  ///< where pinches grow (app/session/selection_backend.h)
-  bool selectionRim = false;  ///< finished pinches end with their boundary rim (GrowParams::boundaryRim)
+  bool selectionRim = true;  ///< finished pinches end with their boundary rim (GrowParams::boundaryRim)
   std::string framesOut;   ///< directory for frame_NNNNN.png (created); empty: no PNGs
   std::string timings;     ///< timing log CSV
   double fps = 30.0;       ///< frames per second of script time

@@ -121,7 +121,7 @@ TEST_F(Cli, SelectWritesAMaskOnTheInputGridWithCpuAndGpuAgreeing) {
   ASSERT_EQ(runHandson("phantom -o " + p("ct.nii.gz") + " --labels-out " + p("labels.nii.gz") + " --spacing 6").status, 0);
   // The right kidney's centre in RAS mm (sim/phantom.h): (78, -55, -14).
   for (const char* backend : {"cpu", "gpu"}) {
-    const CliRun r = runHandson(std::string("select ") + p("ct.nii.gz") + " --seed-mm 78,-55,-14 --extent-mm 30 --validation --quiet --backend " +
+    const CliRun r = runHandson(std::string("select ") + p("ct.nii.gz") + " --seed-mm 78,-55,-14 --extent-mm 30 --rim off --validation --quiet --backend " +
                                 backend + " -o " + p((std::string("mask-") + backend + ".nii.gz").c_str()));
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("selected"), std::string::npos) << r.output;
@@ -140,9 +140,9 @@ TEST_F(Cli, SelectWritesAMaskOnTheInputGridWithCpuAndGpuAgreeing) {
   }
   EXPECT_GT(selected, 20u);
   EXPECT_GE(double(inKidney) / double(selected), 0.9);
-  // --rim on: the same selection with its boundary rim, on either backend alike (a superset).
+  // By default (--rim on) the same selection with its boundary rim, on either backend alike (a superset).
   for (const char* backend : {"cpu", "gpu"}) {
-    const CliRun r = runHandson(std::string("select ") + p("ct.nii.gz") + " --seed-mm 78,-55,-14 --extent-mm 30 --rim on --quiet --backend " + backend +
+    const CliRun r = runHandson(std::string("select ") + p("ct.nii.gz") + " --seed-mm 78,-55,-14 --extent-mm 30 --quiet --backend " + backend +
                                 " -o " + p((std::string("rim-") + backend + ".nii.gz").c_str()));
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("of the voxels are its boundary rim"), std::string::npos) << r.output;
