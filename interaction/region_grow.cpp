@@ -162,7 +162,7 @@ bool RegionGrower::regionStatistics(std::uint32_t probe, double& centre, double&
     spread = std::sqrt(std::max(0.0, double(s2) / double(n) - centre * centre));
     return true;
   }
-  // Robust: the median and the median absolute deviation of the 16-bit values, by counting (exact
+  // Robust: the median and the median absolute deviation of the 16-bit values, by selection (exact
   // integers; the upper median of an even count, so both are values of the sample).
   std::vector<std::uint32_t> values;
   for (std::size_t v : touched_)

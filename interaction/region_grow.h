@@ -43,8 +43,8 @@ namespace handson {
 /// near the seed (GrowParams::refinements):
 ///  - Robust (default): centre = the median, spread = 1.4826 x the median absolute deviation (the
 ///    standard deviation for a normal sample). A minority of other tissue in the probe - renal sinus
-///    fat beside a kidney's parenchyma, a vessel's wall - moves neither, so it no longer widens the
-///    tolerance until neighbours of another intensity pass.
+///    fat beside a kidney's parenchyma, a vessel's wall - moves neither much, so it no longer widens
+///    the tolerance enough to let neighbours of another intensity pass.
 ///  - Moments: mean and standard deviation (the earlier rule, kept to compare; bench selection).
 enum class RegionStatistics : std::uint8_t { Moments, Robust };
 const char* regionStatisticsName(RegionStatistics s);

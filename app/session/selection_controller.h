@@ -54,10 +54,9 @@ class SelectionController {
   const std::vector<int>& picked() const { return picked_; }
   /// Handles with a pose, for the raymarch (drawn moved rigidly until the simulation lands).
   std::vector<MovingHandlePose> movingHandles() const;
-  /// Whether moved handles are drawn rigidly (off while the renderer shows the simulated deformation).
-  /// Off while the frames show the simulated deformation, whose resampling blurs a handle's surface
-  /// by up to `blurMm` (a fine tet): fingers then anchor on the handle's own voxels behind or before
-  /// the picked surface (contactOnHandle), not on the blur.
+  /// Whether moved handles are drawn rigidly: off while the renderer shows the simulated
+  /// deformation, whose resampling blurs a handle's surface by up to `blurMm` (a fine tet); fingers
+  /// then anchor on the handle's own voxels before or behind the picked surface (contactOnHandle).
   void setRigidPreview(bool on, double blurMm = 0.0) {
     rigidPreview_ = on;
     blurMm_ = blurMm;
