@@ -5,6 +5,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include "interaction/nearest_voxel.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -133,10 +134,9 @@ std::optional<Eigen::Vector3i> labelledVoxelBehind(const LabelMap& map, const Ei
   };
   std::vector<Seen> seen;
   for (int s = 0; s < samples; ++s) {
-    const Eigen::Vector3d idx = map.geometry.toIndex(hitWorld + dir * (step * s)).array().round();
-    if (!idx.allFinite() || (idx.array().abs() > 1e9).any()) continue;
-    const Eigen::Vector3i v = idx.cast<int>();
-    if (!map.geometry.contains(v) || map.at(v) == 0) continue;
+    const auto voxel = nearestVoxel(map.geometry, hitWorld + dir * (step * s));
+    if (!voxel || map.at(*voxel) == 0) continue;
+    const Eigen::Vector3i v = *voxel;
     auto it = std::find_if(seen.begin(), seen.end(), [&](const Seen& e) { return e.label == map.at(v); });
     if (it == seen.end()) seen.push_back({map.at(v), 1, v});
     else ++it->count;

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "interaction/nearest_voxel.h"
+
 namespace handson {
 
 void HandleManipulator::anchor(const std::vector<FingerAnchor>& fingers, const RigidTransform& pose) {
@@ -59,12 +61,8 @@ std::optional<Eigen::Vector3d> contactOnHandle(const VolumeGeometry& g, const st
   const int half = int(std::min(4096.0, std::floor(windowMm / step)));
   for (int s = -half; s <= half; ++s) {
     const Eigen::Vector3d w = picked + dir * (step * s);
-    const Eigen::Vector3d idx = g.toIndex(pose.toRest(w)).array().round();
-    if (!idx.allFinite() || (idx.array().abs() > 1e9).any()) continue;
-    const Eigen::Vector3i v = idx.cast<int>();
-    if (!g.contains(v)) continue;
-    const std::size_t lin = std::size_t(v.x()) + std::size_t(g.dims.x()) * (std::size_t(v.y()) + std::size_t(g.dims.y()) * std::size_t(v.z()));
-    if (mask[lin] == id) return w;
+    const auto v = nearestVoxel(g, pose.toRest(w));
+    if (v && mask[linearIndex(g, *v)] == id) return w;
   }
   return std::nullopt;
 }
