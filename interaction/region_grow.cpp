@@ -6,6 +6,7 @@
 #include <limits>
 #include <string>
 
+#include "interaction/nearest_voxel.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -81,8 +82,11 @@ RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i&
   if (params.criterion != GrowCriterion::Paper &&
       (params.refinements < 0 || params.refinements > 10 || !(params.probeRadiusMm > 0.0) || !(params.hRegion > 0.0) ||
        !(params.thinShare >= 0.0 && params.thinShare <= 1.0) ||
-       (params.statistics != RegionStatistics::Moments && params.statistics != RegionStatistics::Robust)))
+       (params.statistics != RegionStatistics::Moments && params.statistics != RegionStatistics::Robust) ||
+       (params.bound != GrowBound::Ball && params.bound != GrowBound::Path)))
     throw Error("region growing: invalid refinement parameters");
+  if (params.criterion != GrowCriterion::Paper && params.bound == GrowBound::Path && !(g.spacing.maxCoeff() < 1e5))
+    throw Error("region growing: path keys need voxel spacings below 100 m");  // a step < 2^26 units: keys cannot overflow
   if (workspace) {  // every check is above: from here the arrays are the grower's (its destructor gives them back)
     std::swap(keys_, workspace->keys);
     std::swap(class_, workspace->tests);
@@ -91,6 +95,7 @@ RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i&
   setup_.seed = seed;
   setup_.criterion = params.criterion;
   setup_.spacing = g.spacing.cast<float>();
+  steps_ = growStepCosts(setup_.spacing);
   // Seed statistics over the 3x3x3 neighbourhood (edges clamped).
   double sum = 0, sum2 = 0;
   for (int dz = -1; dz <= 1; ++dz)
@@ -129,6 +134,10 @@ RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i&
     } else {
       refine(sum, tol);  // the statistics again, from the region the smoothed criterion grows
     }
+  }
+  if (params.bound == GrowBound::Path) {  // the probes above ran in the ball; the selection grows along paths
+    setup_.bound = GrowBound::Path;
+    restart();
   }
 }
 
@@ -264,7 +273,7 @@ bool RegionGrower::accepts(std::size_t linear) const {
   return std::abs(value(v.x(), v.y(), v.z()) - setup_.seedValue) < setup_.tolerance;
 }
 
-std::uint32_t RegionGrower::bound(double extentMm) const { return growKeyBound(setup_.criterion, extentMm, vol_.geometry.spacing); }
+std::uint32_t RegionGrower::bound(double extentMm) const { return growKeyBound(setup_.criterion, setup_.bound, extentMm, vol_.geometry.spacing); }
 
 void RegionGrower::growTo(double extentMm) {
   if (!std::isfinite(extentMm) || extentMm < 0.0) throw Error("region growing: the extent must be a finite number >= 0");
@@ -280,6 +289,10 @@ void RegionGrower::growTo(double extentMm) {
     if (key != keys_[v]) continue;  // superseded
     const Eigen::Vector3i vox = vol_.geometry.voxelOf(v);
     if (!passesOn(v, vox)) continue;  // joins, but passes nothing on
+    if (setup_.criterion != GrowCriterion::Paper && setup_.bound == GrowBound::Path) {
+      relaxPathSteps(key, vox);
+      continue;
+    }
     const int i = vox.x(), j = vox.y(), k = vox.z();
     const int ni[6] = {i - 1, i + 1, i, i, i, i}, nj[6] = {j, j, j - 1, j + 1, j, j}, nk[6] = {k, k, k, k, k - 1, k + 1};
     for (int n = 0; n < 6; ++n) {
@@ -297,6 +310,50 @@ void RegionGrower::growTo(double extentMm) {
     }
   }
   grown_ = extentMm;
+}
+
+bool RegionGrower::passesThrough(const Eigen::Vector3i& w) {
+  if (!vol_.geometry.contains(w)) return false;
+  const std::size_t l = linearIndex(vol_.geometry, w);
+  return l == seedLinear_ || (homogeneous(l, w.x(), w.y(), w.z()) && passesOn(l, w));
+}
+
+void RegionGrower::relaxPathSteps(std::uint32_t key, const Eigen::Vector3i& vox) {
+  // The 26 neighbours; a step across an edge or a corner only where face steps through voxels that
+  // pass growth on join the two too (one of the orders of its axes), so the 6-connected region is
+  // the same as the ball's and only the lengths change.
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const Eigen::Vector3i step(dx, dy, dz), u = vox + step;
+        const int mask = (dx != 0) | ((dy != 0) << 1) | ((dz != 0) << 2);
+        if (mask == 0 || !vol_.geometry.contains(u)) continue;
+        const std::size_t ul = linearIndex(vol_.geometry, u);
+        const std::uint32_t nkey = key + steps_[std::size_t(mask)];  // key <= 4e9, a step < 2^26 (spacing < 100 m): no overflow
+        if (nkey >= keys_[ul] || !homogeneous(ul, u.x(), u.y(), u.z())) continue;
+        bool joined = mask == 1 || mask == 2 || mask == 4;
+        if (!joined && (mask == 3 || mask == 5 || mask == 6)) {  // an edge: through either face neighbour
+          const int a = mask == 6 ? 1 : 0, b = mask == 3 ? 1 : 2;
+          Eigen::Vector3i wa = vox, wb = vox;
+          wa[a] += step[a];
+          wb[b] += step[b];
+          joined = passesThrough(wa) || passesThrough(wb);
+        }
+        if (!joined && mask == 7) {  // a corner: through two voxels, in one of the six orders of the axes
+          const int orders[6][2] = {{0, 1}, {0, 2}, {1, 0}, {1, 2}, {2, 0}, {2, 1}};
+          for (const auto& o : orders) {
+            Eigen::Vector3i w1 = vox;
+            w1[o[0]] += step[o[0]];
+            Eigen::Vector3i w2 = w1;
+            w2[o[1]] += step[o[1]];
+            if (passesThrough(w1) && passesThrough(w2)) {
+              joined = true;
+              break;
+            }
+          }
+        }
+        if (joined) push(ul, nkey);
+      }
 }
 
 void RegionGrower::push(std::size_t v, std::uint32_t key) {

@@ -24,9 +24,16 @@
 //    paths along an organ's blurred rim, no longer join them.
 //    key(v) = max(|v - seed|^2, min over core 6-neighbours n of key(n)) for homogeneous v; the seed
 //    has key 0 and always passes on.
+// The smoothed and core criteria take a bound (GrowParams::bound, sim/grow_setup.h): the ball above
+// (Ball), or path keys (Path): key(v) = min over passing neighbours n of key(n) + the step's length
+// (26 neighbours, a step across an edge or corner only where face steps through passing voxels join
+// them too; sim/grow_setup.h), the shortest path's length through the region, and the selection
+// for an extent d is {key <= d in path units}. The statistics are refined, and the core's thinness
+// judged, in the 10 mm probe ball either way.
 // In all, shrinking is a threshold on stored keys and growing resumes where the last call stopped.
 // The smoothed criteria then refine their statistics from the region they grow near the seed (see
 // GrowParams); the paper criterion is the paper's rule, unchanged.
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -75,6 +82,9 @@ struct GrowParams {
   /// view and replay, `--rim` in select; on by default since it was measured better on `bench
   /// selection` with no organ lower, docs/region-growing.md, "The boundary rim").
   bool boundaryRim = true;
+  /// Smoothed and core criteria: how the extent bounds growth (sim/grow_setup.h: GrowBound). Path by
+  /// default since it was measured better on `bench selection` (docs/region-growing.md, "The path bound").
+  GrowBound bound = GrowBound::Path;
 };
 
 
@@ -125,6 +135,10 @@ class RegionGrower {
  private:
   float value(int i, int j, int k) const;  // u16 value or 3x3x3 sum, per criterion
   void push(std::size_t v, std::uint32_t key);
+  /// Path keys: relaxes the 26 neighbours of a voxel that passes growth on (GrowBound::Path).
+  void relaxPathSteps(std::uint32_t key, const Eigen::Vector3i& voxel);
+  /// A voxel inside the volume that is homogeneous and passes growth on (or the seed).
+  bool passesThrough(const Eigen::Vector3i& voxel);
   void restart();
   bool homogeneous(std::size_t v, int i, int j, int k);  // accepts(), cached; (i, j, k) = v's voxel
   bool passesOn(std::size_t v, const Eigen::Vector3i& voxel);
@@ -149,6 +163,7 @@ class RegionGrower {
   // Resumable front: (key, voxel), smallest key first (keys only grow as the search goes on).
   RadixQueue<std::size_t> front_;
   GrowWorkspace* workspace_ = nullptr;  // where keys_ and class_ came from, and go back to
+  std::array<std::uint32_t, 8> steps_{};  // Path keys: step lengths by axis mask (growStepCosts)
 };
 
 /// The selection's boundary rim (docs/region-growing.md, "The boundary rim"). A voxel on an organ's

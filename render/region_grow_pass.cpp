@@ -51,7 +51,8 @@ void GpuRegionGrower::begin(const GrowSetup& setup, const Eigen::Vector3i& boxMi
     if (std::uint64_t(b.x()) * b.y() * b.z() > ctx_.properties().limits.maxComputeWorkGroupCount[0])
       throw Error("region growing: the box has more bricks than this device can dispatch at once");
   }
-  if (!relax_.pipeline() || relaxCriterion_ != setup.criterion) {
+  const bool pathKeys = setup.criterion != GrowCriterion::Paper && setup.bound == GrowBound::Path;
+  if (!relax_.pipeline() || relaxCriterion_ != setup.criterion || relaxPathKeys_ != pathKeys) {
     static_assert(int(GrowCriterion::Paper) == 0 && int(GrowCriterion::Smoothed) == 1 && int(GrowCriterion::Core) == 2, "region_grow.comp's codes");
     relax_ =
         ComputePipeline(ctx_, shaders::regionGrow(),
@@ -61,8 +62,9 @@ void GpuRegionGrower::begin(const GrowSetup& setup, const Eigen::Vector3i& boxMi
                          storage(gpu::kBindRegionGrowList),
                          storage(gpu::kBindRegionGrowFlags),
                          storage(gpu::kBindRegionGrowReached)},
-                        sizeof(gpu::GrowPush), {std::uint32_t(setup.criterion)});
+                        sizeof(gpu::GrowPush), {std::uint32_t(setup.criterion), pathKeys ? 1u : 0u});
     relaxCriterion_ = setup.criterion;
+    relaxPathKeys_ = pathKeys;
   }
   setup_ = setup;
   boxMin_ = boxMin;
@@ -193,6 +195,9 @@ GpuRegionGrower::Bound GpuRegionGrower::addRounds(fg::FrameGraph& g, int rounds,
   push.seed = glm::ivec4(setup_.seed.x(), setup_.seed.y(), setup_.seed.z(), int(bound_));
   push.spacing = glm::vec4(setup_.spacing.x(), setup_.spacing.y(), setup_.spacing.z(), setup_.seedValue);
   push.tolerance = glm::vec4(setup_.tolerance, setup_.coreTolerance, 0, 0);
+  const auto steps = growStepCosts(setup_.spacing);
+  push.steps[0] = glm::uvec4(0, steps[1], steps[2], steps[3]);
+  push.steps[1] = glm::uvec4(steps[4], steps[5], steps[6], steps[7]);
   if (rounds > 0) grown_ = true;
   for (int r = 0; r < rounds; ++r) {
     const fg::ResourceHandle list = dense ? h.dense : h.lists[current_];

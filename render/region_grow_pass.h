@@ -81,8 +81,9 @@ class GpuRegionGrower {
   const Context& ctx_;
   const Image& volume_;
   const Sampler& sampler_;
-  ComputePipeline relax_, compact_;  // relax_: built in begin() for the setup's criterion (a specialization constant)
+  ComputePipeline relax_, compact_;  // relax_: built in begin() for the setup's criterion and keys (specialization constants)
   GrowCriterion relaxCriterion_ = GrowCriterion::Paper;
+  bool relaxPathKeys_ = false;  // relax_ built with path keys (the second specialization constant)
   GrowSetup setup_{};
   Eigen::Vector3i boxMin_{0, 0, 0}, boxDims_{0, 0, 0}, bricks_{0, 0, 0};
   std::uint32_t brickCount_ = 0, bound_ = 0, seedIndex_ = 0, seedBrick_ = 0, active_ = 0;

@@ -2,7 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 // Region growing, one workgroup per active 8^3 brick of the box around the seed: keys relax to
 // key(v) = f(min over 6-neighbours) for homogeneous voxels (paper: steps + 1; smoothed and core:
-// max of the neighbour's key and v's own squared distance), bounded by the extent's key. Under the
+// max of the neighbour's key and v's own squared distance, or with path keys the neighbour's key
+// plus the step's length), bounded by the extent's key. Under the
 // core criterion only core neighbours (and the seed, key 0) pass their key on. The brick iterates
 // locally in shared memory until it settles, then publishes its keys with atomicMin and flags the
 // neighbouring bricks its faces changed. The fixed point is the CPU reference's
@@ -19,6 +20,11 @@ layout(push_constant) uniform Push { GrowPush pc; };
 // The criterion (0 paper, 1 smoothed, 2 core) as a specialization constant: each pipeline carries
 // only its own criterion's code (the core's extra tests cost the others nothing).
 layout(constant_id = 0) const uint kCriterion = 1u;
+// Smoothed and core: 1 for path keys (GrowBound::Path: over the 26 neighbours, the neighbour's key
+// plus the step's length in 1/256 mm, a step across an edge or corner only where face steps through
+// voxels that pass growth on join the two too), 0 for the ball's (6 neighbours: the larger of the
+// neighbour's key and the voxel's squared distance).
+layout(constant_id = 1) const uint kPathKeys = 0u;
 
 const int B = HANDSON_GROW_BRICK;
 const int H = HANDSON_GROW_BRICK + 2;  // with a one-voxel halo
@@ -79,6 +85,58 @@ uint classOf(ivec3 v) {
 }
 
 int haloIndex(ivec3 h) { return h.x + H * (h.y + H * h.z); }
+// Path keys: a step's length by its axis mask (1 x, 2 y, 4 z).
+uint stepCost(uint mask) { return pc.steps[mask >> 2][mask & 3u]; }
+
+// Path keys: does a halo voxel pass growth on? Reached, and under the core criterion core (or the
+// seed, key 0). A voxel not yet reached reads as not passing; once it is reached its brick flags
+// this one, which runs again: the fixed point is the CPU reference's (a step's intermediate voxels
+// lie within the bound whenever the step does, so they are reached by then).
+bool passesAt(int h) {
+  uint k = sk[h];
+  if (k == kGrowUnreached) return false;
+  return kCriterion != 2u || k == 0u || (sc[h] & kCore) != 0u;
+}
+
+// Path keys: the best key over the 20 edge and corner neighbours of halo voxel c (a step's length
+// from pc.steps by its axis mask). A step from n to c needs face steps from n through passing
+// voxels to c: an edge step one of its two intermediates, a corner step both of one of six orders.
+uint edgeAndCornerSteps(ivec3 c) {
+  uint best = kGrowUnreached;
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        ivec3 s = ivec3(dx, dy, dz);  // from c to the neighbour n; the step runs from n to c
+        int axes = int(dx != 0) + int(dy != 0) + int(dz != 0);
+        if (axes < 2) continue;
+        int hn = haloIndex(c + s);
+        uint kn = sk[hn];
+        if (kn == kGrowUnreached || !passesAt(hn)) continue;
+        bool joined = false;
+        if (axes == 2) {
+          for (int a = 0; a < 3 && !joined; ++a) {  // intermediates: n moved along one of its axes toward c
+            if (s[a] == 0) continue;
+            ivec3 w = c + s;
+            w[a] -= s[a];
+            joined = passesAt(haloIndex(w));
+          }
+        } else {
+          for (int a = 0; a < 3 && !joined; ++a)
+            for (int b = 0; b < 3 && !joined; ++b) {
+              if (a == b) continue;
+              ivec3 w1 = c + s;
+              w1[a] -= s[a];
+              ivec3 w2 = w1;
+              w2[b] -= s[b];
+              joined = passesAt(haloIndex(w1)) && passesAt(haloIndex(w2));
+            }
+        }
+        if (!joined) continue;
+        uint mask = uint(dx != 0) | (uint(dy != 0) << 1) | (uint(dz != 0) << 2);
+        best = min(best, kn + stepCost(mask));
+      }
+  return best;
+}
 uint brickIndex(ivec3 b) { return uint(b.x + pc.brickDims.x * (b.y + pc.brickDims.y * b.z)); }
 
 void main() {
@@ -119,9 +177,10 @@ void main() {
         uint kn = sk[hn];
         if (kn == kGrowUnreached) continue;
         if (kCriterion == 2u && kn != 0u && (sc[hn] & kCore) == 0u) continue;  // joined, passes nothing on
-        uint cand = kCriterion == 0u ? kn + 1u : max(kn, myDist);
+        uint cand = kCriterion == 0u ? kn + 1u : (kPathKeys != 0u ? kn + stepCost(1u << uint(n / 2)) : max(kn, myDist));
         best = min(best, cand);
       }
+      if (kPathKeys != 0u) best = min(best, edgeAndCornerSteps(lv + 1));
     }
     bool changed = false;
     if (best < myKey && best <= bound) {
@@ -146,6 +205,19 @@ void main() {
   if (myKey != kGrowUnreached) reached[brick] = 1u;
   if (!everChanged) return;
   atomicMin(keys[boxIndex(v)], myKey);
+  if (kPathKeys != 0u) {
+    // Path keys step across edges and corners too: every brick this voxel borders wakes.
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          ivec3 o = ivec3(dx, dy, dz);
+          bool borders = o != ivec3(0);
+          for (int a = 0; a < 3; ++a) borders = borders && (o[a] == 0 || (o[a] < 0 ? lv[a] == 0 : lv[a] == B - 1));
+          ivec3 nb = b + o;
+          if (borders && all(greaterThanEqual(nb, ivec3(0))) && all(lessThan(nb, pc.brickDims.xyz))) flags[brickIndex(nb)] = 1u;
+        }
+    return;
+  }
   // Faces that changed wake the neighbouring bricks.
   if (lv.x == 0 && b.x > 0) flags[brickIndex(b - ivec3(1, 0, 0))] = 1u;
   if (lv.x == B - 1 && b.x + 1 < pc.brickDims.x) flags[brickIndex(b + ivec3(1, 0, 0))] = 1u;

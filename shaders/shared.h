@@ -174,6 +174,7 @@ struct GrowPush {
   ivec4 seed;       // xyz: seed voxel in the volume, w: key bound
   vec4 spacing;     // xyz mm, w: seed value (u16 units, or 3x3x3 sum)
   vec4 tolerance;   // x: accept |value - seed value| < x; y: core tolerance (core criterion)
+  uvec4 steps[2];   // path keys: step lengths by axis mask (1 x, 2 y, 4 z; growStepCosts), [0].x unused
 };
 
 // Deformation (shaders/deform_*.comp; CPU references sim/fine_interpolation.h, sim/tet_raster.h).

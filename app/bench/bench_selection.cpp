@@ -151,6 +151,7 @@ void writeDice(const std::vector<OrganSweep>& sweeps, const std::vector<Variant>
 
 struct GrowTiming {
   GrowCriterion criterion;
+  GrowBound bound;
   std::size_t voxels = 0;
   double cpuMs = 0, sparseMs = 0, denseMs = 0;  // medians; denseMs 0 when not measured
 };
@@ -158,17 +159,18 @@ struct GrowTiming {
 // A live update: the selection of a liver seed of ircadb1.1 grown from 20 to 25 mm, on the CPU
 // reference and the GPU pass (sparse bricks, and optionally the dense dispatch over the box).
 GrowTiming timeGrowth(vk::Context& ctx, const QuantizedVolume& q, const vk::Image& volume, const vk::Sampler& sampler, GrowCriterion criterion,
-                      int repeat, bool dense) {
+                      GrowBound bound, int repeat, bool dense) {
   const Eigen::Vector3i seed(216, 150, 96);
   const double e1 = 20.0, e2 = 25.0;
   GrowParams p;
   p.criterion = criterion;
+  p.bound = bound;
   RegionGrower setup(q, seed, p);
   const auto& d = q.geometry.dims;
-  const Eigen::Vector3i r = growReach(setup.setup().criterion, 50.0, q.geometry.spacing);  // a box beyond the 25 mm ball
+  const Eigen::Vector3i r = growReach(setup.setup().criterion, setup.setup().bound, 50.0, q.geometry.spacing);  // a box beyond the 25 mm reach
   const Eigen::Vector3i lo = (seed - r).cwiseMax(Eigen::Vector3i::Zero()), hi = (seed + r).cwiseMin(d - Eigen::Vector3i::Ones());
   std::vector<double> cpuMs, sparseMs, denseMs;
-  GrowTiming out{setup.setup().criterion};  // the one that runs (a thin structure falls back to smoothed)
+  GrowTiming out{setup.setup().criterion, bound};  // the criterion that runs (a thin structure falls back to smoothed)
   for (int i = 0; i < repeat; ++i) {
     RegionGrower cpu(q, seed, p);
     cpu.growTo(e1);
@@ -200,10 +202,11 @@ GrowTiming timeGrowth(vk::Context& ctx, const QuantizedVolume& q, const vk::Imag
 }  // namespace
 
 int cmdBenchSelection(const Words& words) {
-  Args args(words, {"--data", "--out", "--repeat", "--device", "--extents", "--criteria", "--fractions", "--statistics"}, {"--quick", "--validation", "--sweep-only"});
+  Args args(words, {"--data", "--out", "--repeat", "--device", "--extents", "--criteria", "--fractions", "--statistics", "--bound"}, {"--quick", "--validation", "--sweep-only"});
   if (args.help() || !args.positional().empty()) {
     usageStream(args) << "usage: handson bench selection [--data DIR] [--out DIR] [--repeat N] [--criteria LIST] [--fractions LIST]\n"
-                         "                               [--extents MM,..] [--statistics robust|moments] [--sweep-only] [--quick]\n"
+                         "                               [--extents MM,..] [--statistics robust|moments] [--bound path|ball]\n"
+                         "                               [--sweep-only] [--quick]\n"
                          "  Region growing on labelled CT (default DIR ../shared/data: ircadb1.1 kidneys, artery, portal vein,\n"
                          "  liver, venous system, spleen; totalseg-small kidneys, liver, spleen), seeds at each organ's deepest\n"
                          "  typical voxel. Whole-organ Dice as the extent sweeps --fractions of the organ's radius (default\n"
@@ -213,7 +216,7 @@ int cmdBenchSelection(const Words& words) {
                          "  selection, smoothed and core: CPU reference, GPU sparse bricks, dense dispatch (median of N,\n"
                          "  default 5) -> selection_timing.csv. --sweep-only stops after the Dice sweep. --statistics: how the\n"
                          "  sweep's core and smoothed criteria refine their statistics (default robust; moments, the earlier\n"
-                         "  rule, to compare).\n";
+                         "  rule, to compare); --bound: how the extent bounds them (default path; ball, the earlier rule).\n";
     return args.help() ? 0 : 2;
   }
   const std::string data = args.valueOr("--data", "../shared/data");
@@ -239,6 +242,8 @@ int cmdBenchSelection(const Words& words) {
   if (criteria.empty()) throw UsageError("--criteria names at least one criterion (core, smoothed, paper)");
   RegionStatistics statistics = RegionStatistics::Robust;
   if (!parseRegionStatistics(args.valueOr("--statistics", "robust"), statistics)) throw UsageError("--statistics must be robust or moments");
+  GrowBound bound = GrowParams{}.bound;
+  if (!parseGrowBound(args.valueOr("--bound", growBoundName(bound)), bound)) throw UsageError("--bound must be ball or path");
   std::vector<double> fractions = parseNumberList(args.valueOr("--fractions", "0.3,0.4,0.5,0.6,0.7,0.8,0.9,1,1.1,1.2"), "--fractions");
   for (double f : fractions)
     if (!(f > 0.0 && f <= 3.0)) throw UsageError("--fractions are fractions of the organ's radius in (0, 3]");
@@ -260,7 +265,7 @@ int cmdBenchSelection(const Words& words) {
     const Volume ct = readNifti(s.dir + "/ct.nii.gz");
     const Volume labels = readNifti(s.dir + "/labels.nii.gz");
     std::cerr << s.name << ": sweeping " << s.organs.size() << " organs x " << criteria.size() << " criteria\n";
-    for (auto& w : sweepSelection(s.name, ct, labels, s.organs, fractions, criteria, true, statistics)) {
+    for (auto& w : sweepSelection(s.name, ct, labels, s.organs, fractions, criteria, true, statistics, bound)) {
       std::cerr << "  " << w.organ << " " << sweepVariantName(w.criterion, w.rim) << ": best Dice " << std::fixed << std::setprecision(3)
                 << w.best().dice << " at " << std::setprecision(1) << w.best().fraction << "x, " << std::setprecision(3) << w.points.back().dice
                 << " at " << std::setprecision(1) << w.points.back().fraction << "x\n";
@@ -309,25 +314,30 @@ int cmdBenchSelection(const Words& words) {
   vk::Context ctx(co);
   const QuantizedVolume q = quantizeVolume(*ircadb);
   std::ofstream tcsv(out / "selection_timing.csv");
-  tcsv << "criterion,method,update_ms\n";
+  tcsv << "criterion,bound,method,update_ms\n";
   std::cout << "\ngrow update 20 -> 25 mm of a liver selection of ircadb1.1 on " << ctx.summary().name << " (median of " << repeat << ")\n";
   const auto& d = q.geometry.dims;  // the volume uploaded once for both criteria
   vk::Image volume(ctx, {std::uint32_t(d.x()), std::uint32_t(d.y()), std::uint32_t(d.z()), fg::Format::R16Unorm},
                    VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
   vk::uploadToImage(ctx, volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   vk::Sampler sampler(ctx, false);
-  const GrowTiming base = timeGrowth(ctx, q, volume, sampler, GrowCriterion::Smoothed, repeat, false);
-  const GrowTiming now = timeGrowth(ctx, q, volume, sampler, GrowParams{}.criterion, repeat, true);
-  for (const GrowTiming* t : {&base, &now}) {
-    tcsv << growCriterionName(t->criterion) << ",cpu," << t->cpuMs << "\n" << growCriterionName(t->criterion) << ",gpu_sparse," << t->sparseMs << "\n";
-    if (t->denseMs > 0) tcsv << growCriterionName(t->criterion) << ",gpu_dense," << t->denseMs << "\n";
-    std::cout << std::fixed << std::setprecision(1) << "  " << growCriterionName(t->criterion) << " (" << t->voxels << " voxels): CPU reference "
-              << t->cpuMs << " ms, GPU sparse bricks " << t->sparseMs << " ms";
+  const GrowTiming base = timeGrowth(ctx, q, volume, sampler, GrowCriterion::Smoothed, GrowBound::Ball, repeat, false);
+  const GrowTiming ball = timeGrowth(ctx, q, volume, sampler, GrowParams{}.criterion, GrowBound::Ball, repeat, false);
+  const GrowTiming now = timeGrowth(ctx, q, volume, sampler, GrowParams{}.criterion, GrowParams{}.bound, repeat, true);
+  for (const GrowTiming* t : {&base, &ball, &now}) {
+    const std::string name = std::string(growCriterionName(t->criterion)) + "," + growBoundName(t->bound);
+    tcsv << name << ",cpu," << t->cpuMs << "\n" << name << ",gpu_sparse," << t->sparseMs << "\n";
+    if (t->denseMs > 0) tcsv << name << ",gpu_dense," << t->denseMs << "\n";
+    std::cout << std::fixed << std::setprecision(1) << "  " << growCriterionName(t->criterion) << ", " << growBoundName(t->bound) << " bound ("
+              << t->voxels << " voxels): CPU reference " << t->cpuMs << " ms, GPU sparse bricks " << t->sparseMs << " ms";
     if (t->denseMs > 0) std::cout << ", GPU dense dispatch " << t->denseMs << " ms (sparse " << std::setprecision(2) << t->denseMs / t->sparseMs << "x faster)";
     std::cout << "\n";
   }
-  std::cout << std::setprecision(2) << "  " << growCriterionName(now.criterion) << " against smoothed, same run: CPU " << now.cpuMs / base.cpuMs
-            << "x the time, GPU sparse " << now.sparseMs / base.sparseMs << "x\n  shrinking is a threshold on stored keys: no growth work\n";
+  std::cout << std::setprecision(2) << "  " << growCriterionName(now.criterion) << ", " << growBoundName(now.bound)
+            << " bound against smoothed, ball bound, same run: CPU " << now.cpuMs / base.cpuMs << "x the time, GPU sparse "
+            << now.sparseMs / base.sparseMs << "x; against " << growCriterionName(ball.criterion) << ", ball bound: CPU "
+            << now.cpuMs / ball.cpuMs << "x, GPU sparse " << now.sparseMs / ball.sparseMs
+            << "x\n  shrinking is a threshold on stored keys: no growth work\n";
   return ctx.validationMessageCount() ? 1 : 0;
 }
 

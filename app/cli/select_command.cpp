@@ -33,7 +33,7 @@ const char* const kSelectHelp =
     "  --extent-mm D          selection extent (radius about the seed)\n"
     "  --frame N              the volume of a 4D NIfTI image to load (default 0)\n"
     "  --hmax H               homogeneity threshold in seed standard deviations (default 1.1)\n"
-    "  --criterion NAME       core (default: 3x3x3 means, a ball in mm, statistics refined from the region,\n"
+    "  --criterion NAME       core (default: 3x3x3 means, statistics refined from the region,\n"
     "                         growth passing only through the organ's core so thin bridges to a neighbour\n"
     "                         are cut; a seed in a structure too thin for a core grows smoothed), smoothed\n"
     "                         (the same without the core) or paper (the paper's rule: raw values,\n"
@@ -42,6 +42,10 @@ const char* const kSelectHelp =
     "                         robust (default: its median and median absolute deviation, so a minority of\n"
     "                         other tissue there does not widen the tolerance) or moments (mean and\n"
     "                         standard deviation, the earlier rule)\n"
+    "  --bound path|ball      how the extent bounds core and smoothed growth: path (default: the region\n"
+    "                         reached by paths through it no longer than D, so a neighbour joined by a\n"
+    "                         detour through a neck or a vein waits) or ball (the earlier rule: the region\n"
+    "                         joined to the seed inside the ball of radius D)\n"
     "  --backend cpu|gpu      CPU reference (default) or the Vulkan compute pass\n"
     "  --rim on|off           end with the selection's partial-volume boundary rim: the surface voxels\n"
     "                         nearer the selection's value than the tissue beyond (default on)\n"
@@ -101,7 +105,7 @@ int selectLabelled(const Args& args, const Volume& v, const Eigen::Vector3i& see
 }  // namespace
 
 int cmdSelect(const Words& words) {
-  Args args(words, {"--frame", "--seed-voxel", "--seed-mm", "--extent-mm", "--hmax", "--criterion", "--statistics", "--backend", "-o", "--device", "--labels", "--rim"},
+  Args args(words, {"--frame", "--seed-voxel", "--seed-mm", "--extent-mm", "--hmax", "--criterion", "--statistics", "--bound", "--backend", "-o", "--device", "--labels", "--rim"},
             {"--validation", "--quiet"});
   const bool labelled = bool(args.value("--labels"));
   if (args.help() || args.positional().size() != 1 || !args.value("-o") || (!labelled && !args.value("--extent-mm")) ||
@@ -111,7 +115,7 @@ int cmdSelect(const Words& words) {
   }
   if (args.value("--seed-voxel") && args.value("--seed-mm")) throw UsageError("give --seed-voxel or --seed-mm, not both");
   if (labelled)
-    for (const char* o : {"--extent-mm", "--hmax", "--criterion", "--statistics", "--backend", "--device", "--rim"})
+    for (const char* o : {"--extent-mm", "--hmax", "--criterion", "--statistics", "--bound", "--backend", "--device", "--rim"})
       if (args.value(o)) throw UsageError(std::string(o) + " is for region growing: --labels selects the labelled organ");
   if (labelled) {
     const Volume v = loadVolume(args.positional()[0], nullptr, args.flag("--quiet") ? ProgressFn{} : consoleProgress(), loadOptions(args));
@@ -123,6 +127,7 @@ int cmdSelect(const Words& words) {
   p.hMax = args.number("--hmax", 1.1, 1e-3, 1e3);
   if (!parseGrowCriterion(args.valueOr("--criterion", "core"), p.criterion)) throw UsageError("--criterion must be core, smoothed or paper");
   if (!parseRegionStatistics(args.valueOr("--statistics", "robust"), p.statistics)) throw UsageError("--statistics must be robust or moments");
+  if (!parseGrowBound(args.valueOr("--bound", growBoundName(p.bound)), p.bound)) throw UsageError("--bound must be ball or path");
   p.boundaryRim = onOffOption(args, "--rim", true);
   const std::string backend = args.valueOr("--backend", "cpu");
   if (backend != "cpu" && backend != "gpu") throw UsageError("--backend must be cpu or gpu");
@@ -160,7 +165,7 @@ int cmdSelect(const Words& words) {
     vk::uploadToImage(ctx, volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
     vk::Sampler sampler(ctx, false);
     vk::GpuRegionGrower gpu(ctx, volume, sampler);
-    const Eigen::Vector3i r = growReach(grower.setup().criterion, extent, g.spacing) + Eigen::Vector3i::Ones();
+    const Eigen::Vector3i r = growReach(grower.setup().criterion, grower.setup().bound, extent, g.spacing) + Eigen::Vector3i::Ones();
     const Eigen::Vector3i boxLo = (seed - r).cwiseMax(Eigen::Vector3i::Zero());
     const Eigen::Vector3i boxHi = (seed + r).cwiseMin(g.dims - Eigen::Vector3i::Ones());
     const Eigen::Vector3i box = boxHi - boxLo + Eigen::Vector3i::Ones();

@@ -56,6 +56,9 @@ const char* const kViewHelp =
     "                          the CPU search on a CPU device such as lavapipe), gpu or cpu\n"
     "  --selection-rim on|off  a finished pinch's selection ends with its partial-volume boundary rim\n"
     "                          (default on; docs/region-growing.md)\n"
+    "  --selection-bound path|ball  how far the fingers' spread lets a selection grow: path (default:\n"
+    "                          that far along paths through the organ) or ball (the earlier rule: inside\n"
+    "                          the ball of that radius about the seed)\n"
     "  --device NAME, --validation, --quiet, --print-camera\n";
 
 const char* const kReplayHelp =
@@ -75,6 +78,7 @@ const char* const kReplayHelp =
     "  --labels LABELS     organ labels: taps in select mode and label-handle actions make organs handles\n"
     "  --selection-backend auto|gpu|cpu  where a pinch's selection grows (as in view; the same voxels)\n"
     "  --selection-rim on|off  a finished pinch's selection ends with its boundary rim (as in view)\n"
+    "  --selection-bound path|ball  how far the fingers' spread lets a selection grow (as in view)\n"
     "  --device NAME, --validation, --quiet, --print-camera, --print-handles\n";
 
 const char* const kSimHelp =
@@ -125,6 +129,12 @@ SelectionBackend selectionBackendOption(const Args& args) {
   return b;
 }
 
+GrowBound selectionBoundOption(const Args& args) {
+  GrowBound b = GrowParams{}.bound;
+  if (!parseGrowBound(args.valueOr("--selection-bound", growBoundName(b)), b)) throw UsageError("--selection-bound must be path or ball");
+  return b;
+}
+
 std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& b) {
   a.insert(a.end(), b.begin(), b.end());
   return a;
@@ -135,7 +145,8 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 int cmdView(const Words& words) {
   Args args(words,
             with({"--frame", "--size", "--present-mode", "--render-scale", "--frame-budget-ms", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
-                  "--frames-in-flight", "--play-repeat", "--export-dir", "--export-format", "--labels", "--selection-backend", "--selection-rim"},
+                  "--frames-in-flight", "--play-repeat", "--export-dir", "--export-format", "--labels", "--selection-backend", "--selection-rim",
+                  "--selection-bound"},
                  kSimOptions),
             {"--validation", "--quiet", "--print-camera"});
   if (args.help() || args.positional().size() > 1) {
@@ -170,13 +181,15 @@ int cmdView(const Words& words) {
   o.labels = args.valueOr("--labels", "");
   o.selectionBackend = selectionBackendOption(args);
   o.selectionRim = onOffOption(args, "--selection-rim", true);
+  o.selectionBound = selectionBoundOption(args);
   o.sim = simOptions(args, 2);
   if (!displayAvailable()) throw Error("no display available (DISPLAY and WAYLAND_DISPLAY are unset): use 'handson replay' to run headless");
   return runViewer(o);
 }
 
 int cmdReplay(const Words& words) {
-  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--frame-budget-ms", "--size", "--device", "--export", "--export-dir", "--export-format", "--labels", "--selection-backend", "--selection-rim"}, kSimOptions),
+  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--frame-budget-ms", "--size", "--device", "--export", "--export-dir", "--export-format", "--labels", "--selection-backend", "--selection-rim", "--selection-bound"},
+                 kSimOptions),
             {"--validation", "--quiet", "--print-camera", "--print-handles"});
   if (args.help() || args.positional().size() > 1) {
     usageStream(args) << kReplayHelp << kSimHelp << "  (replay waits each frame for the simulation to settle: frames do not depend on timing)\n";
@@ -198,6 +211,7 @@ int cmdReplay(const Words& words) {
   o.labels = args.valueOr("--labels", "");
   o.selectionBackend = selectionBackendOption(args);
   o.selectionRim = onOffOption(args, "--selection-rim", true);
+  o.selectionBound = selectionBoundOption(args);
   o.exportPath = args.valueOr("--export", "");
   o.exportDir = args.valueOr("--export-dir", o.exportDir);
   o.exportExtension = exportVolumeExtension(args);

@@ -297,6 +297,7 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
                 swapchain->presentTimingNote()});
   GrowParams grow;
   grow.boundaryRim = o.selectionRim;
+  grow.bound = o.selectionBound;
   selection = std::make_unique<SelectionController>(q, *session, *renderer, grow, o.selectionBackend);
   if (!o.quiet) std::cerr << selection->backend().status << "\n";
   status.selectionBackend = selection->backend().status;

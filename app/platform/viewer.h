@@ -8,6 +8,7 @@
 
 #include "app/session/deformation_controller.h"
 #include "app/session/selection_backend.h"
+#include "interaction/region_grow.h"
 #include "interaction/touch.h"
 
 struct SDL_Window;
@@ -31,6 +32,7 @@ struct ViewerOptions {
   std::string labels;       ///< organ labels for taps in select mode (empty: none)
   SelectionBackend selectionBackend = SelectionBackend::Auto;  ///< where pinches grow (app/session/selection_backend.h)
   bool selectionRim = true;  ///< finished pinches end with their boundary rim (GrowParams::boundaryRim)
+  GrowBound selectionBound = GrowParams{}.bound;  ///< how the fingers' extent bounds growth (GrowParams::bound)
   std::string device;
   bool validation = false;
   int framesInFlight = 2;   ///< 1 lowers latency, 2 keeps the GPU busy while the CPU records

@@ -18,7 +18,7 @@ void GpuGrowthEngine::beginBox(double extentMm) {
   const Eigen::Vector3d spacing = volume_.geometry.spacing;
   const Eigen::Vector3i& dims = volume_.geometry.dims;
   const double e = std::max(2.0 * extentMm, kMinBoxExtentMm);
-  const Eigen::Vector3i reach = growReach(setup_.criterion, e, spacing) + Eigen::Vector3i::Ones();
+  const Eigen::Vector3i reach = growReach(setup_.criterion, setup_.bound, e, spacing) + Eigen::Vector3i::Ones();
   const Eigen::Vector3i lo = (setup_.seed - reach).cwiseMax(Eigen::Vector3i::Zero());
   const Eigen::Vector3i hi = (setup_.seed + reach).cwiseMin(dims - Eigen::Vector3i::Ones());
   boxMin_ = lo;

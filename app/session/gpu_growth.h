@@ -14,8 +14,8 @@
 
 namespace handson {
 
-/// Grows pinches on the GPU through the renderer's live selection. Its box is the ball a selection
-/// can reach at twice the extent (at least kMinBoxExtentMm), clipped to the volume; when the
+/// Grows pinches on the GPU through the renderer's live selection. Its box is what a selection can
+/// reach (growReach) at twice the extent (at least kMinBoxExtentMm), clipped to the volume; when the
 /// fingers spread past it, growth begins again from the seed in the box for twice the new extent
 /// (the keys are recomputed, so the selection is the same; the frames keep showing the selection
 /// as it was until the new box has grown that far, then show it growing on). A call

@@ -186,6 +186,7 @@ int runReplay(const ReplayOptions& o) {
   renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
   GrowParams grow;
   grow.boundaryRim = o.selectionRim;
+  grow.bound = o.selectionBound;
   SelectionController selection(q, session, renderer, grow, o.selectionBackend);
   if (!o.quiet) std::cerr << selection.backend().status << "\n";
   if (labels) {

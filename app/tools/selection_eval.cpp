@@ -71,6 +71,7 @@ std::vector<SelectionAccuracy> evaluateSelection(const std::string& dataset, con
       GrowParams p;
       p.criterion = c;
       p.hMax = hMax;
+      p.bound = GrowBound::Ball;  // recall is counted inside the extent's ball: the bound it is defined for
       RegionGrower grower(q, seed, p);
       for (double extent : extentsMm) {
         const auto t0 = std::chrono::steady_clock::now();
@@ -79,10 +80,10 @@ std::vector<SelectionAccuracy> evaluateSelection(const std::string& dataset, con
         const std::uint32_t bound = grower.bound(extent);
         const auto& keys = grower.keys();
         std::size_t selected = 0, selectedInOrgan = 0, organInBall = 0, selectedOrganInBall = 0;
-        // Only voxels within the ball (smoothed, core) or within extent / smallest spacing steps
-        // (paper: a diamond that reaches past the ball along coarser axes) can be selected: scan
-        // the box they can reach, which holds the ball.
-        const Eigen::Vector3i r = growReach(grower.setup().criterion, extent, g.spacing);
+        // Only voxels within the ball (smoothed, core: the path bound's geodesic ball lies inside
+        // it) or within extent / smallest spacing steps (paper: a diamond that reaches past the
+        // ball along coarser axes) can be selected: scan the box they can reach, which holds the ball.
+        const Eigen::Vector3i r = growReach(grower.setup().criterion, grower.setup().bound, extent, g.spacing);
         const Eigen::Vector3i lo = (seed - r).cwiseMax(Eigen::Vector3i::Zero());
         const Eigen::Vector3i hi = (seed + r).cwiseMin(g.dims - Eigen::Vector3i::Ones());
         for (int k = lo.z(); k <= hi.z(); ++k)
@@ -115,7 +116,7 @@ const SweepPoint& OrganSweep::best() const {
 
 std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume& ct, const Volume& labels, const std::vector<OrganLabel>& organs,
                                        const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria, bool rim,
-                                       RegionStatistics statistics) {
+                                       RegionStatistics statistics, GrowBound bound) {
   if (ct.dims() != labels.dims()) throw Error("selection accuracy: the label map is not on the CT's grid");
   if (fractions.empty() || !std::is_sorted(fractions.begin(), fractions.end()))
     throw Error("selection accuracy: the extent fractions must be a non-empty increasing list");
@@ -137,6 +138,7 @@ std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume&
       GrowParams p;
       p.criterion = c;
       p.statistics = statistics;
+      p.bound = bound;
       RegionGrower grower(q, seed, p);
       OrganSweep s{dataset, organ.name, c, false, seed, radius, dist.size(), {}};
       OrganSweep r{dataset, organ.name, c, true, seed, radius, dist.size(), {}};
@@ -152,10 +154,10 @@ std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume&
         const auto t0 = std::chrono::steady_clock::now();
         grower.growTo(extent);
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-        const std::uint32_t bound = grower.bound(extent);
+        const std::uint32_t keyBound = grower.bound(extent);
         std::vector<std::uint32_t> voxels;
         for (std::size_t v : grower.touched())
-          if (grower.keys()[v] <= bound) voxels.push_back(std::uint32_t(v));
+          if (grower.keys()[v] <= keyBound) voxels.push_back(std::uint32_t(v));
         std::sort(voxels.begin(), voxels.end());
         s.points.push_back(point(f, extent, voxels, ms));
         if (rim) {

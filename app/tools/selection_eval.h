@@ -26,7 +26,8 @@ struct SelectionAccuracy {
 };
 
 /// Grows from the deepest typical voxel of each organ (labels on the CT's grid) for each extent and
-/// criterion. Organs missing from the label map are skipped.
+/// criterion, under the ball bound (recall is counted inside the extent's ball). Organs missing from
+/// the label map are skipped.
 std::vector<SelectionAccuracy> evaluateSelection(const std::string& dataset, const Volume& ct, const Volume& labels,
                                                  const std::vector<OrganLabel>& organs, const std::vector<double>& extentsMm,
                                                  const std::vector<GrowCriterion>& criteria, double hMax = 1.1);
@@ -51,10 +52,11 @@ struct OrganSweep {
 };
 /// Per criterion one sweep of the grown selections and, with `rim`, one of the same selections with
 /// their boundary rim (the grown ones are its baseline, from the same growth). `statistics`: how the
-/// smoothed criteria refine theirs (GrowParams::statistics).
+/// smoothed criteria refine theirs (GrowParams::statistics); `bound`: how the extent bounds them
+/// (GrowParams::bound).
 std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume& ct, const Volume& labels, const std::vector<OrganLabel>& organs,
                                        const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria, bool rim = true,
-                                       RegionStatistics statistics = RegionStatistics::Robust);
+                                       RegionStatistics statistics = RegionStatistics::Robust, GrowBound bound = GrowParams{}.bound);
 /// "core", "core+rim", ...
 std::string sweepVariantName(GrowCriterion c, bool rim);
 

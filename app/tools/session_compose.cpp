@@ -448,15 +448,18 @@ class Composer {
   }
 
   // Pinches: down inside the footprint (3 px margin), spread until the extent (sigma_px times the
-  // fingers' distance) is 1.8 inscribed radii. Each is also run here, through the app's own
-  // PinchSelection answered by the CPU picks, so that the later touches can be put on the handle it
-  // makes (a grown region is often only part of the organ: the kidney's cortex and medulla differ).
+  // fingers' distance) is 2.5 inscribed radii (1.8 before the path bound: a path through the organ
+  // is longer than the straight line, so the same spread takes less; at 1.8 totalseg-small's right
+  // kidney gave a 516-voxel handle that the test model's blur lost the fingers on, at 2.5 1,341
+  // voxels). Each is also run here, through the app's own PinchSelection answered by the CPU picks,
+  // so that the later touches can be put on the handle it makes (a grown region is often only part
+  // of the organ: the kidney's cortex and medulla differ).
   void selectBoth() {
     pinch(3, co, ro, 1);  // a new handle is active
     pinch(5, ca, ra, 2);
   }
   void pinch(std::int64_t id, glm::dvec2 c, double r, std::uint8_t handle) {
-    const double s1 = 1.8 * r;
+    const double s1 = 2.5 * r;
     const double s0 = std::clamp(0.45 * s1, 4.0, 2.0 * (r - 3.0));
     const std::vector<glm::dvec2> from{c - glm::dvec2(0.5 * s0, 0.0), c + glm::dvec2(0.5 * s0, 0.0)};
     const std::vector<glm::dvec2> to{c - glm::dvec2(0.5 * s1, 0.0), c + glm::dvec2(0.5 * s1, 0.0)};

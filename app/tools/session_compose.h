@@ -23,7 +23,7 @@
 //     3 px inside the footprint).
 //  3. The events: start 30 degrees of azimuth away and orbit there with one finger (navigate); in
 //     select mode pinch the organ (handle 1, active) and the anchor (handle 2, fixed), each pinch
-//     spread to an extent of 1.8 inscribed radii. Each pinch is also run here through the app's own
+//     spread to an extent of 2.5 inscribed radii. Each pinch is also run here through the app's own
 //     PinchSelection answered by CPU picks, and the later touches go where that selection (not just
 //     the label) shows; each manipulation is run here too, on the rigid model the app draws while
 //     dragging (its HandleManipulator, CPU picks with the handle drawn at its pose), so that every

@@ -87,10 +87,12 @@ TEST(RegionGrow, PaperCriterionIsBreadthFirstPassesInAHomogeneousRegion) {
 }
 
 TEST(RegionGrow, SmoothedCriterionIsABallInMillimetres) {
+  // Under the ball bound (the path bound's keys are tested below).
   const QuantizedVolume q = blockVolume();
   for (GrowCriterion c : {GrowCriterion::Smoothed, GrowCriterion::Core}) {
   GrowParams p;
   p.criterion = c;
+  p.bound = GrowBound::Ball;
   RegionGrower g(q, {4, 8, 6}, p);
   EXPECT_EQ(g.setup().criterion, c);
   g.growTo(4.0);
@@ -116,6 +118,7 @@ TEST(RegionGrow, MinimaxKeysMatchABruteForceSearch) {
   GrowParams p;
   p.criterion = GrowCriterion::Smoothed;
   p.refinements = 0;
+  p.bound = GrowBound::Ball;
   RegionGrower g(q, seed, p);
   g.growTo(60.0);
   const auto& d = q.geometry.dims;
@@ -125,6 +128,163 @@ TEST(RegionGrow, MinimaxKeysMatchABruteForceSearch) {
     const std::size_t n = floodFill(q, seed, r, accepted, [](const Eigen::Vector3i&) { return true; });
     EXPECT_EQ(g.count(r), n) << "radius " << r;
   }
+}
+
+TEST(RegionGrow, PathKeysInAUniformRegionAreTheChamferDistance) {
+  // Every voxel is homogeneous and passes growth on, so a voxel's key is the 26-neighbour chamfer
+  // distance: with the offsets' magnitudes sorted a >= b >= c, c corner steps, b - c edge steps and
+  // a - b face steps (1 mm voxels: 256, 362 and 443 units, the rounded 256, 256 sqrt 2, 256 sqrt 3).
+  VolumeGeometry geo;
+  geo.dims = {21, 21, 21};
+  geo.spacing = {1, 1, 1};
+  Volume v(geo, ScalarType::Int16);
+  for (int k = 0; k < 21; ++k)
+    for (int j = 0; j < 21; ++j)
+      for (int i = 0; i < 21; ++i) v.setValue(i, j, k, 2000.f);
+  const QuantizedVolume q = quantizeVolume(v);
+  const auto cost = growStepCosts({1, 1, 1});
+  EXPECT_EQ(cost[1], 256u);
+  EXPECT_EQ(cost[3], 362u);
+  EXPECT_EQ(cost[7], 443u);
+  for (GrowCriterion c : {GrowCriterion::Smoothed, GrowCriterion::Core}) {
+    GrowParams p;
+    p.criterion = c;
+    p.bound = GrowBound::Path;
+    RegionGrower g(q, {10, 10, 10}, p);
+    ASSERT_EQ(g.setup().criterion, c);
+    g.growTo(12.0);
+    std::size_t within = 0;
+    for (int k = 0; k < 21; ++k)
+      for (int j = 0; j < 21; ++j)
+        for (int i = 0; i < 21; ++i) {
+          int m[3] = {std::abs(i - 10), std::abs(j - 10), std::abs(k - 10)};
+          std::sort(m, m + 3);
+          const std::uint32_t chamfer = std::uint32_t(m[0]) * 443u + std::uint32_t(m[1] - m[0]) * 362u + std::uint32_t(m[2] - m[1]) * 256u;
+          const std::uint32_t key = g.keys()[std::size_t(i + 21 * (j + 21 * k))];
+          if (chamfer <= g.bound(12.0)) {
+            EXPECT_EQ(key, chamfer) << growCriterionName(c) << " " << i << "," << j << "," << k;
+            ++within;
+          } else {
+            EXPECT_GT(key, g.bound(12.0)) << growCriterionName(c) << " " << i << "," << j << "," << k;
+          }
+          // Never beyond the straight line's length (the ball of the same extent holds the selection).
+          if (key <= g.bound(12.0)) {
+            EXPECT_LE(m[0] * m[0] + m[1] * m[1] + m[2] * m[2], 144) << i << "," << j << "," << k;
+          }
+        }
+    EXPECT_EQ(g.count(12.0), within);
+    EXPECT_GT(within, 4000u);  // the 12 mm ball holds 7,153 voxel centres; the chamfer ball ~90 % of it
+  }
+}
+
+TEST(RegionGrow, PathKeysAreShortestPathLengthsThroughTheRegion) {
+  // A U: two bars along x (y 4-11 and 18-25) joined at x 26-33, 1 x 1 x 2 mm voxels. The seed lies
+  // near the free end of one bar; the other bar's free end is 14 mm away in a straight line and
+  // over 40 mm along the U.
+  VolumeGeometry geo;
+  geo.dims = {40, 30, 12};
+  geo.spacing = {1, 1, 2};
+  Volume v(geo, ScalarType::Int16);
+  for (int k = 0; k < 12; ++k)
+    for (int j = 0; j < 30; ++j)
+      for (int i = 0; i < 40; ++i) {
+        const bool slab = k >= 2 && k <= 9 && i >= 4 && i <= 33;
+        const bool bars = (j >= 4 && j <= 11) || (j >= 18 && j <= 25) || (i >= 26 && j >= 4 && j <= 25);
+        v.setValue(i, j, k, slab && bars ? 3000.f : 1000.f);
+      }
+  const QuantizedVolume q = quantizeVolume(v);
+  const Eigen::Vector3i seed(7, 7, 5), far(7, 21, 5);
+  const auto& d = q.geometry.dims;
+  const auto lin = [&](const Eigen::Vector3i& x) { return std::size_t(x.x()) + std::size_t(d.x()) * (std::size_t(x.y()) + std::size_t(d.y()) * std::size_t(x.z())); };
+  // Step lengths by axis mask on this grid: sqrt of 1, 1, 2, 4, 5, 5, 6 mm^2, times 256, rounded.
+  const auto cost = growStepCosts({1, 1, 2});
+  EXPECT_EQ(std::vector<std::uint32_t>(cost.begin() + 1, cost.end()), (std::vector<std::uint32_t>{256, 256, 362, 512, 572, 572, 627}));
+  EXPECT_EQ(growStepCosts({0.001f, 0.001f, 0.001f})[7], 1u);  // never a free step
+  for (GrowCriterion c : {GrowCriterion::Smoothed, GrowCriterion::Core}) {
+    GrowParams p;
+    p.criterion = c;
+    p.bound = GrowBound::Path;
+    RegionGrower g(q, seed, p);
+    ASSERT_EQ(g.setup().criterion, c);
+    ASSERT_EQ(g.setup().bound, GrowBound::Path);
+    g.growTo(60.0);
+    // Independent answer: Bellman-Ford over the whole grid (relax every voxel until nothing
+    // changes) with the straight-line step lengths in double, rounded per step, into accepted
+    // voxels, out of voxels that pass growth on; a step across an edge or corner only where face
+    // steps through such voxels join the two (tried over every order of its axes).
+    const auto through = [&](const Eigen::Vector3i& w) { return q.geometry.contains(w) && (w == seed || (g.accepts(lin(w)) && g.passesOn(lin(w)))); };
+    std::vector<std::uint64_t> ref(q.data.size(), ~0ull);
+    ref[lin(seed)] = 0;
+    for (bool changed = true; changed;) {
+      changed = false;
+      for (std::size_t x = 0; x < ref.size(); ++x) {
+        const Eigen::Vector3i vx = q.geometry.voxelOf(x);
+        if (ref[x] == ~0ull || !through(vx)) continue;
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const Eigen::Vector3i st(dx, dy, dz), u = vx + st;
+              if (st == Eigen::Vector3i::Zero() || !q.geometry.contains(u) || !g.accepts(lin(u))) continue;
+              std::vector<int> axes;
+              for (int a = 0; a < 3; ++a)
+                if (st[a] != 0) axes.push_back(a);
+              bool joined = false;
+              do {
+                Eigen::Vector3i w = vx;
+                bool ok = true;
+                for (std::size_t t = 0; t + 1 < axes.size() && ok; ++t) {
+                  w[axes[t]] += st[axes[t]];
+                  ok = through(w);
+                }
+                joined = ok;
+              } while (!joined && std::next_permutation(axes.begin(), axes.end()));
+              if (!joined) continue;
+              const double mm = std::sqrt(double(dx * dx) + double(dy * dy) + 4.0 * double(dz * dz));
+              const std::uint64_t k = ref[x] + std::uint64_t(std::llround(mm * 256.0));
+              if (k < ref[lin(u)]) {
+                ref[lin(u)] = k;
+                changed = true;
+              }
+            }
+      }
+    }
+    const std::uint32_t bound60 = g.bound(60.0);
+    EXPECT_EQ(bound60, 60u * 256u);
+    std::size_t reached = 0;
+    for (std::size_t x = 0; x < ref.size(); ++x) {
+      const bool in = ref[x] <= bound60;
+      reached += in;
+      EXPECT_EQ(g.keys()[x] <= bound60, in) << growCriterionName(c) << " voxel " << x;
+      if (in) {
+        EXPECT_EQ(g.keys()[x], ref[x]) << growCriterionName(c) << " voxel " << x;
+      }
+    }
+    EXPECT_GT(reached, 1000u);
+    // The far end lies beyond 30 mm of path, though the U's bend lies in the ball of 30 mm within
+    // which the ball bound selects it.
+    const std::uint32_t farKey = g.keys()[lin(far)];
+    EXPECT_GT(farKey, g.bound(40.0)) << growCriterionName(c);
+    EXPECT_LE(farKey, g.bound(60.0)) << growCriterionName(c);
+    GrowParams pb = p;
+    pb.bound = GrowBound::Ball;
+    RegionGrower ball(q, seed, pb);
+    ball.growTo(30.0);
+    EXPECT_LE(ball.keys()[lin(far)], ball.bound(30.0)) << growCriterionName(c);
+    // Shrinking is a threshold on the stored keys, and growing resumes: the same keys.
+    RegionGrower resumed(q, seed, p);
+    for (double e : {5.0, 20.0, 12.0, 60.0}) resumed.growTo(e);
+    for (std::size_t x = 0; x < ref.size(); ++x)
+      if (ref[x] <= bound60) {
+        EXPECT_EQ(resumed.keys()[x], ref[x]);
+      }
+  }
+  // The reach of a path bound: whole steps along each axis within d.
+  EXPECT_EQ(growReach(GrowCriterion::Core, GrowBound::Path, 10.0, {1, 1, 2}), Eigen::Vector3i(10, 10, 5));
+  EXPECT_EQ(growReach(GrowCriterion::Core, GrowBound::Path, 10.0, {0.57, 0.57, 1.6}), Eigen::Vector3i(17, 17, 6));
+  GrowBound b;
+  EXPECT_TRUE(parseGrowBound("path", b) && b == GrowBound::Path);
+  EXPECT_TRUE(parseGrowBound("ball", b) && b == GrowBound::Ball);
+  EXPECT_FALSE(parseGrowBound("geodesic", b));
 }
 
 TEST(RegionGrow, RobustStatisticsIgnoreAMinorityOfOtherTissueNearTheSeed) {
@@ -212,6 +372,20 @@ TEST(RegionGrow, BadInputIsRefused) {
   p = {};
   p.statistics = RegionStatistics(7);
   EXPECT_THROW(RegionGrower(q, {1, 1, 1}, p), Error);
+  p = {};
+  p.bound = GrowBound(9);
+  EXPECT_THROW(RegionGrower(q, {1, 1, 1}, p), Error);
+  {
+    // Path keys on absurd spacings (a step's length would overflow the keys) are refused.
+    VolumeGeometry huge;
+    huge.dims = {4, 4, 4};
+    huge.spacing = {1, 1, 2e5};
+    const QuantizedVolume hq = quantizeVolume(Volume(huge, ScalarType::Int16));
+    EXPECT_THROW(RegionGrower(hq, {1, 1, 1}), Error);
+    p = {};
+    p.bound = GrowBound::Ball;
+    EXPECT_NO_THROW(RegionGrower(hq, {1, 1, 1}, p));
+  }
   RegionGrower g(q, {1, 1, 1});
   EXPECT_THROW(g.growTo(std::nan("")), Error);
   EXPECT_THROW(g.growTo(-2.0), Error);
@@ -267,24 +441,37 @@ TEST(RegionGrow, TheCoreCriterionDoesNotMergeOrgansJoinedByABridge) {
 
 TEST(RegionGrow, AnOrganLargerThanTheExtentIsCutAtTheExtent) {
   // The ball of 4 mm about the box's centre lies at least two voxels inside it: the selection is
-  // exactly the ball; at 30 mm it is exactly the organ's accepted voxels and nothing else.
+  // exactly that ball (ball bound) or the chamfer ball of 4 mm of path (path bound: c corner,
+  // b - c edge and a - b face steps of 443, 362 and 256 units for sorted offsets a >= b >= c); at
+  // 30 mm it is exactly the organ's accepted voxels and nothing else, under either bound.
   const QuantizedVolume q = twoOrgans(1);
-  RegionGrower g(q, {8, 10, 10});
-  ASSERT_EQ(g.setup().criterion, GrowCriterion::Core);
-  g.growTo(30.0);
-  for (int k = 0; k < 20; ++k)
-    for (int j = 0; j < 20; ++j)
-      for (int i = 0; i < 40; ++i) {
-        const std::size_t v = std::size_t(i + 40 * (j + 20 * k));
-        const int d2 = (i - 8) * (i - 8) + (j - 10) * (j - 10) + (k - 10) * (k - 10);
-        EXPECT_EQ(g.keys()[v] <= g.bound(4.0), d2 <= 16) << i << "," << j << "," << k;
-        // The first box's voxels whose 3x3x3 neighbourhood is all organ, less its twelve edge lines
-        // (they touch no core voxel: both neighbours inward lie on a face layer).
-        const int mi = std::min(i - 2, 15 - i), mj = std::min(j - 3, 16 - j), mk = std::min(k - 3, 16 - k);
-        const bool accepted = mi >= 1 && mj >= 1 && mk >= 1;
-        const int onFaceLayer = (mi == 1) + (mj == 1) + (mk == 1);
-        EXPECT_EQ(g.keys()[v] <= g.bound(30.0), accepted && onFaceLayer < 2) << i << "," << j << "," << k;
-      }
+  for (GrowBound b : {GrowBound::Ball, GrowBound::Path}) {
+    GrowParams p;
+    p.bound = b;
+    RegionGrower g(q, {8, 10, 10}, p);
+    ASSERT_EQ(g.setup().criterion, GrowCriterion::Core);
+    g.growTo(30.0);
+    std::size_t inFour = 0;
+    for (int k = 0; k < 20; ++k)
+      for (int j = 0; j < 20; ++j)
+        for (int i = 0; i < 40; ++i) {
+          const std::size_t v = std::size_t(i + 40 * (j + 20 * k));
+          const int d2 = (i - 8) * (i - 8) + (j - 10) * (j - 10) + (k - 10) * (k - 10);
+          int m[3] = {std::abs(i - 8), std::abs(j - 10), std::abs(k - 10)};
+          std::sort(m, m + 3);
+          const int chamfer = m[0] * 443 + (m[1] - m[0]) * 362 + (m[2] - m[1]) * 256;
+          const bool within = b == GrowBound::Ball ? d2 <= 16 : chamfer <= 4 * 256;
+          inFour += within;
+          EXPECT_EQ(g.keys()[v] <= g.bound(4.0), within) << growBoundName(b) << " " << i << "," << j << "," << k;
+          // The first box's voxels whose 3x3x3 neighbourhood is all organ, less its twelve edge lines
+          // (they touch no core voxel: both neighbours inward lie on a face layer).
+          const int mi = std::min(i - 2, 15 - i), mj = std::min(j - 3, 16 - j), mk = std::min(k - 3, 16 - k);
+          const bool accepted = mi >= 1 && mj >= 1 && mk >= 1;
+          const int onFaceLayer = (mi == 1) + (mj == 1) + (mk == 1);
+          EXPECT_EQ(g.keys()[v] <= g.bound(30.0), accepted && onFaceLayer < 2) << growBoundName(b) << " " << i << "," << j << "," << k;
+        }
+    EXPECT_EQ(g.count(4.0), inFour) << growBoundName(b);
+  }
 }
 
 TEST(RegionGrow, CoreKeysMatchABruteForceSearch) {
@@ -295,9 +482,12 @@ TEST(RegionGrow, CoreKeysMatchABruteForceSearch) {
   const Phantom ph = makePhantom(o);
   const QuantizedVolume q = quantizeVolume(ph.ct);
   const Eigen::Vector3i seed = ph.ct.geometry().toIndex(ph.geometry.liverCenter).array().round().cast<int>();
-  RegionGrower g(q, seed);
+  GrowParams cp;
+  cp.bound = GrowBound::Ball;  // the flood fill is bounded by the ball (path keys: PathKeysAreShortestPathLengths...)
+  RegionGrower g(q, seed, cp);
   ASSERT_EQ(g.setup().criterion, GrowCriterion::Core);
   GrowParams sp;
+  sp.bound = GrowBound::Ball;
   sp.criterion = GrowCriterion::Smoothed;
   RegionGrower smoothed(q, seed, sp);
   const auto& d = q.geometry.dims;

@@ -93,7 +93,7 @@ TEST_F(LiveSelectionGpu, FramesGrowItPaintTheReferenceSelectionIntoTheMaskAndFin
 
   RegionGrower cpu(scene.q, scene.seed, GrowParams{});
   const double e0 = 8, e1 = 15, e2 = 40;
-  const Eigen::Vector3i reach = growReach(cpu.setup().criterion, e2, scene.q.geometry.spacing) + Eigen::Vector3i::Ones();
+  const Eigen::Vector3i reach = growReach(cpu.setup().criterion, cpu.setup().bound, e2, scene.q.geometry.spacing) + Eigen::Vector3i::Ones();
   const Eigen::Vector3i lo = (scene.seed - reach).cwiseMax(Eigen::Vector3i::Zero());
   const Eigen::Vector3i dims = (scene.seed + reach).cwiseMin(d - Eigen::Vector3i::Ones()) - lo + Eigen::Vector3i::Ones();
   // A handle in the box's lower slabs, uploaded into the mask as the controller would.
@@ -196,7 +196,7 @@ TEST_F(LiveSelectionGpu, ALargerBoxKeepsShowingTheOldSelectionUntilItHasGrownTha
   cpu.growTo(e2);
   const std::vector<std::uint8_t> ids(scene.q.data.size(), 0);
   auto boxFor = [&](double extent) {
-    const Eigen::Vector3i reach = growReach(cpu.setup().criterion, extent, scene.q.geometry.spacing) + Eigen::Vector3i::Ones();
+    const Eigen::Vector3i reach = growReach(cpu.setup().criterion, cpu.setup().bound, extent, scene.q.geometry.spacing) + Eigen::Vector3i::Ones();
     const Eigen::Vector3i lo = (scene.seed - reach).cwiseMax(Eigen::Vector3i::Zero());
     return std::make_pair(lo, Eigen::Vector3i((scene.seed + reach).cwiseMin(d - Eigen::Vector3i::Ones()) - lo + Eigen::Vector3i::Ones()));
   };

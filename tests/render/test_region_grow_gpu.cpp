@@ -31,10 +31,10 @@ vk::Image uploadedVolume(const QuantizedVolume& q) {
   return volume;
 }
 
-/// The GPU box: the ball of the largest extent (plus a voxel) around the seed, clipped to the volume.
-void boxAround(const QuantizedVolume& q, const Eigen::Vector3i& seed, GrowCriterion c, double maxExtent, Eigen::Vector3i& lo,
+/// The GPU box: the reach of the largest extent (plus a voxel) around the seed, clipped to the volume.
+void boxAround(const QuantizedVolume& q, const Eigen::Vector3i& seed, const GrowSetup& s, double maxExtent, Eigen::Vector3i& lo,
                Eigen::Vector3i& dims) {
-  const Eigen::Vector3i r = growReach(c, maxExtent, q.geometry.spacing) + Eigen::Vector3i::Ones();
+  const Eigen::Vector3i r = growReach(s.criterion, s.bound, maxExtent, q.geometry.spacing) + Eigen::Vector3i::Ones();
   lo = (seed - r).cwiseMax(Eigen::Vector3i::Zero());
   const Eigen::Vector3i hi = (seed + r).cwiseMin(q.geometry.dims - Eigen::Vector3i::Ones());
   dims = hi - lo + Eigen::Vector3i::Ones();
@@ -68,17 +68,19 @@ KeyComparison compareKeys(const RegionGrower& cpu, const vk::GpuRegionGrower& gp
 // Grows on CPU and GPU at several extents (growing and shrinking) and compares the selections
 // over the box. Returns the largest selection's size.
 std::size_t compareOn(const QuantizedVolume& q, const Eigen::Vector3i& seed, GrowCriterion c, const std::vector<double>& extents,
-                      bool dense) {
+                      bool dense, GrowBound b = GrowBound::Ball) {
   auto& ctx = test::gpuContext();
   const vk::Image volume = uploadedVolume(q);
   vk::Sampler sampler(ctx, false);
   GrowParams p;
   p.criterion = c;
+  p.bound = b;
   RegionGrower cpu(q, seed, p);
+  EXPECT_EQ(cpu.setup().bound, c == GrowCriterion::Paper ? GrowBound::Ball : b);
   EXPECT_EQ(cpu.setup().criterion, c) << "the seed lies in a structure too thin for a core: pick another";
   vk::GpuRegionGrower gpu(ctx, volume, sampler);
   Eigen::Vector3i lo, dims;
-  boxAround(q, seed, c, *std::max_element(extents.begin(), extents.end()), lo, dims);
+  boxAround(q, seed, cpu.setup(), *std::max_element(extents.begin(), extents.end()), lo, dims);
   gpu.begin(cpu.setup(), lo, dims);
   std::size_t largest = 0;
   for (double e : extents) {
@@ -86,9 +88,9 @@ std::size_t compareOn(const QuantizedVolume& q, const Eigen::Vector3i& seed, Gro
     const std::uint32_t bound = cpu.bound(e);
     gpu.growTo(bound, dense);
     const KeyComparison k = compareKeys(cpu, gpu, bound, q.geometry.dims);
-    EXPECT_EQ(k.onlyCpu, 0u) << growCriterionName(c) << " extent " << e;
-    EXPECT_EQ(k.onlyGpu, 0u) << growCriterionName(c) << " extent " << e;
-    EXPECT_EQ(k.keyDiffers, 0u) << growCriterionName(c) << " extent " << e;
+    EXPECT_EQ(k.onlyCpu, 0u) << growCriterionName(c) << " " << growBoundName(b) << " extent " << e;
+    EXPECT_EQ(k.onlyGpu, 0u) << growCriterionName(c) << " " << growBoundName(b) << " extent " << e;
+    EXPECT_EQ(k.keyDiffers, 0u) << growCriterionName(c) << " " << growBoundName(b) << " extent " << e;
     EXPECT_EQ(k.both, cpu.count(e)) << "the selection lies inside the box";
     largest = std::max(largest, k.both);
   }
@@ -108,6 +110,11 @@ TEST_F(RegionGrowGpu, SameVoxelSetAsCpuOnThePhantom) {
     EXPECT_GT(compareOn(q, kidney, c, {6, 15, 30, 20}, false), 50u);
     EXPECT_GT(compareOn(q, liver, c, {12, 40}, true), 500u);
   }
+  // Path keys (sums of step lengths): the same shortest paths whatever order the rounds relax them in.
+  for (GrowCriterion c : {GrowCriterion::Smoothed, GrowCriterion::Core}) {
+    EXPECT_GT(compareOn(q, kidney, c, {6, 15, 30, 20}, false, GrowBound::Path), 50u);
+    EXPECT_GT(compareOn(q, liver, c, {12, 40}, true, GrowBound::Path), 500u);
+  }
 }
 
 TEST_F(RegionGrowGpu, SameVoxelSetAsCpuOnRealCt) {
@@ -119,6 +126,10 @@ TEST_F(RegionGrowGpu, SameVoxelSetAsCpuOnRealCt) {
   for (GrowCriterion c : {GrowCriterion::Paper, GrowCriterion::Smoothed, GrowCriterion::Core}) {
     EXPECT_GT(compareOn(q, {79, 35, 12}, c, {10, 20, 40}, false), 20u);
     EXPECT_GT(compareOn(q, {86, 47, 29}, c, {20, 10}, false), 20u);
+  }
+  for (GrowCriterion c : {GrowCriterion::Smoothed, GrowCriterion::Core}) {
+    EXPECT_GT(compareOn(q, {79, 35, 12}, c, {10, 20, 40}, false, GrowBound::Path), 20u);
+    EXPECT_GT(compareOn(q, {86, 47, 29}, c, {20, 10}, true, GrowBound::Path), 20u);
   }
 }
 
@@ -134,40 +145,44 @@ TEST_F(RegionGrowGpu, RoundsSpreadOverFramesWithTheExtentRaisedMidGrowthGiveTheC
   auto& ctx = test::gpuContext();
   const vk::Image volume = uploadedVolume(q);
   vk::Sampler sampler(ctx, false);
-  RegionGrower cpu(q, seed, GrowParams{});
-  ASSERT_EQ(cpu.setup().criterion, GrowCriterion::Core);
-  const double e1 = 15, e2 = 40;
-  Eigen::Vector3i lo, dims;
-  boxAround(q, seed, GrowCriterion::Core, e2, lo, dims);
-  vk::GpuRegionGrower gpu(ctx, volume, sampler);
-  gpu.begin(cpu.setup(), lo, dims);
-  gpu.setBound(cpu.bound(e1));
-  vk::GraphExecutor x(ctx, 1);
-  int frames = 0;
-  for (; frames < 2000 && gpu.growing(); ++frames) {
-    if (frames == 3) gpu.setBound(cpu.bound(e2));  // the fingers spread while the front moves
-    x.beginFrame();
-    fg::FrameGraph g;
-    const fg::ResourceHandle v = g.importImage("volume", volumeDesc(q), fg::Access::Sampled);
-    gpu.addRounds(g, 1, false, v);
-    g.compile();
-    x.setGraph(&g);
-    x.bindImage(v, volume);
-    gpu.bind(x);
-    g.execute(x);
-    x.setGraph(nullptr);
-    x.submit();
-    x.waitLastFrame();
-    gpu.frameDone(g);
+  for (GrowBound b : {GrowBound::Ball, GrowBound::Path}) {
+    GrowParams p;
+    p.bound = b;
+    RegionGrower cpu(q, seed, p);
+    ASSERT_EQ(cpu.setup().criterion, GrowCriterion::Core);
+    const double e1 = 15, e2 = 40;
+    Eigen::Vector3i lo, dims;
+    boxAround(q, seed, cpu.setup(), e2, lo, dims);
+    vk::GpuRegionGrower gpu(ctx, volume, sampler);
+    gpu.begin(cpu.setup(), lo, dims);
+    gpu.setBound(cpu.bound(e1));
+    vk::GraphExecutor x(ctx, 1);
+    int frames = 0;
+    for (; frames < 2000 && gpu.growing(); ++frames) {
+      if (frames == 2) gpu.setBound(cpu.bound(e2));  // the fingers spread while the front moves
+      x.beginFrame();
+      fg::FrameGraph g;
+      const fg::ResourceHandle v = g.importImage("volume", volumeDesc(q), fg::Access::Sampled);
+      gpu.addRounds(g, 1, false, v);
+      g.compile();
+      x.setGraph(&g);
+      x.bindImage(v, volume);
+      gpu.bind(x);
+      g.execute(x);
+      x.setGraph(nullptr);
+      x.submit();
+      x.waitLastFrame();
+      gpu.frameDone(g);
+    }
+    EXPECT_FALSE(gpu.growing()) << growBoundName(b) << ": the growth did not stop in " << frames << " frames";
+    EXPECT_EQ(gpu.activeBricks(), 0u);
+    EXPECT_GT(frames, 2) << growBoundName(b) << ": the extent was raised after the growth had stopped: not a mid-growth change";
+    cpu.growTo(e2);
+    const KeyComparison k = compareKeys(cpu, gpu, cpu.bound(e2), q.geometry.dims);
+    EXPECT_EQ(k.onlyCpu, 0u) << growBoundName(b);
+    EXPECT_EQ(k.onlyGpu, 0u) << growBoundName(b);
+    EXPECT_EQ(k.keyDiffers, 0u) << growBoundName(b);
+    EXPECT_EQ(k.both, cpu.count(e2)) << "the selection lies inside the box";
+    EXPECT_GT(k.both, 500u);
   }
-  EXPECT_FALSE(gpu.growing()) << "the growth did not stop in " << frames << " frames";
-  EXPECT_EQ(gpu.activeBricks(), 0u);
-  EXPECT_GT(frames, 3) << "the extent was raised after the growth had stopped: not a mid-growth change";
-  cpu.growTo(e2);
-  const KeyComparison k = compareKeys(cpu, gpu, cpu.bound(e2), q.geometry.dims);
-  EXPECT_EQ(k.onlyCpu, 0u);
-  EXPECT_EQ(k.onlyGpu, 0u);
-  EXPECT_EQ(k.keyDiffers, 0u);
-  EXPECT_EQ(k.both, cpu.count(e2)) << "the selection lies inside the box";
-  EXPECT_GT(k.both, 500u);
 }

@@ -106,6 +106,7 @@ TEST_F(Cli, BadInputGivesOneClearMessageAndNonZeroExit) {
       {"select " + p("ct.nii.gz") + " --seed-mm 1e9,0,0 --extent-mm 5 -o " + p("m.nii.gz"), 1, "outside the volume"},
       {"select " + p("ct.nii.gz") + " --seed-voxel 1.5,2,3 --extent-mm 5 -o " + p("m.nii.gz"), 2, "integers"},
       {"select " + p("ct.nii.gz") + " --seed-voxel 24,18,15 --extent-mm 5 --statistics median -o " + p("m.nii.gz"), 2, "--statistics"},
+      {"select " + p("ct.nii.gz") + " --seed-voxel 24,18,15 --extent-mm 5 --bound geodesic -o " + p("m.nii.gz"), 2, "--bound"},
   };
   for (const auto& c : cases) {
     const CliRun r = runHandson(c.args);
@@ -172,6 +173,23 @@ TEST_F(Cli, SelectWritesAMaskOnTheInputGridWithCpuAndGpuAgreeing) {
     momSelected += momCpu.value(i) > 0;
   }
   EXPECT_GT(momSelected, 20u);
+  // --bound ball (the earlier rule): both backends agree under it too, and it selects at least the
+  // default path bound's voxels (the geodesic ball of the same extent lies inside the ball).
+  for (const char* backend : {"cpu", "gpu"}) {
+    const CliRun r = runHandson(std::string("select ") + p("ct.nii.gz") + " --seed-mm 78,-55,-14 --extent-mm 30 --bound ball --quiet --backend " +
+                                backend + " -o " + p((std::string("ball-") + backend + ".nii.gz").c_str()));
+    ASSERT_EQ(r.status, 0) << r.output;
+  }
+  const handson::Volume ballCpu = handson::readNifti(p("ball-cpu.nii.gz")), ballGpu = handson::readNifti(p("ball-gpu.nii.gz"));
+  const handson::Volume pathCpu = handson::readNifti(p("rim-cpu.nii.gz"));  // the default: path bound, with the rim
+  std::size_t ballSelected = 0, pathSelected = 0;
+  for (std::size_t i = 0; i < ballCpu.voxelCount(); ++i) {
+    EXPECT_EQ(ballCpu.value(i), ballGpu.value(i));
+    ballSelected += ballCpu.value(i) > 0;
+    pathSelected += pathCpu.value(i) > 0;
+  }
+  EXPECT_GE(ballSelected, pathSelected);
+  EXPECT_GT(pathSelected, 20u);
 }
 
 TEST_F(Cli, RenderClipsAndRefusesMalformedClipValues) {
