@@ -289,7 +289,7 @@ void RegionGrower::growTo(double extentMm) {
     if (key != keys_[v]) continue;  // superseded
     const Eigen::Vector3i vox = vol_.geometry.voxelOf(v);
     if (!passesOn(v, vox)) continue;  // joins, but passes nothing on
-    if (setup_.criterion != GrowCriterion::Paper && setup_.bound == GrowBound::Path) {
+    if (setup_.bound == GrowBound::Path) {  // never set under the paper criterion
       relaxPathSteps(key, vox);
       continue;
     }

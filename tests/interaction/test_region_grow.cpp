@@ -26,6 +26,14 @@ QuantizedVolume filledVolume(const Eigen::Vector3i& dims, const Eigen::Vector3d&
   return quantizeVolume(v);
 }
 
+// The 26-neighbour chamfer distance on a 1 mm grid in path units: with the offsets' magnitudes
+// sorted a >= b >= c, c corner steps (443), b - c edge steps (362) and a - b face steps (256).
+std::uint32_t chamferUnits(int di, int dj, int dk) {
+  int m[3] = {std::abs(di), std::abs(dj), std::abs(dk)};
+  std::sort(m, m + 3);
+  return std::uint32_t(m[0]) * 443u + std::uint32_t(m[1] - m[0]) * 362u + std::uint32_t(m[2] - m[1]) * 256u;
+}
+
 QuantizedVolume blockVolume() {
   // Two halves: 1000 (x < 10) and 3000 (x >= 10), on a 20x16x12 grid of 1 x 1 x 2 mm voxels.
   return filledVolume({20, 16, 12}, {1, 1, 2}, [](int i, int, int) { return i < 10 ? 1000.f : 3000.f; });
@@ -156,9 +164,7 @@ TEST(RegionGrow, PathKeysInAUniformRegionAreTheChamferDistance) {
     for (int k = 0; k < 21; ++k)
       for (int j = 0; j < 21; ++j)
         for (int i = 0; i < 21; ++i) {
-          int m[3] = {std::abs(i - 10), std::abs(j - 10), std::abs(k - 10)};
-          std::sort(m, m + 3);
-          const std::uint32_t chamfer = std::uint32_t(m[0]) * 443u + std::uint32_t(m[1] - m[0]) * 362u + std::uint32_t(m[2] - m[1]) * 256u;
+          const std::uint32_t chamfer = chamferUnits(i - 10, j - 10, k - 10);
           const std::uint32_t key = g.keys()[std::size_t(i + 21 * (j + 21 * k))];
           if (chamfer <= g.bound(12.0)) {
             EXPECT_EQ(key, chamfer) << growCriterionName(c) << " " << i << "," << j << "," << k;
@@ -168,7 +174,7 @@ TEST(RegionGrow, PathKeysInAUniformRegionAreTheChamferDistance) {
           }
           // Never beyond the straight line's length (the ball of the same extent holds the selection).
           if (key <= g.bound(12.0)) {
-            EXPECT_LE(m[0] * m[0] + m[1] * m[1] + m[2] * m[2], 144) << i << "," << j << "," << k;
+            EXPECT_LE((i - 10) * (i - 10) + (j - 10) * (j - 10) + (k - 10) * (k - 10), 144) << i << "," << j << "," << k;
           }
         }
     EXPECT_EQ(g.count(12.0), within);
@@ -449,10 +455,7 @@ TEST(RegionGrow, AnOrganLargerThanTheExtentIsCutAtTheExtent) {
         for (int i = 0; i < 40; ++i) {
           const std::size_t v = std::size_t(i + 40 * (j + 20 * k));
           const int d2 = (i - 8) * (i - 8) + (j - 10) * (j - 10) + (k - 10) * (k - 10);
-          int m[3] = {std::abs(i - 8), std::abs(j - 10), std::abs(k - 10)};
-          std::sort(m, m + 3);
-          const int chamfer = m[0] * 443 + (m[1] - m[0]) * 362 + (m[2] - m[1]) * 256;
-          const bool within = b == GrowBound::Ball ? d2 <= 16 : chamfer <= 4 * 256;
+          const bool within = b == GrowBound::Ball ? d2 <= 16 : chamferUnits(i - 8, j - 10, k - 10) <= 4u * 256u;
           inFour += within;
           EXPECT_EQ(g.keys()[v] <= g.bound(4.0), within) << growBoundName(b) << " " << i << "," << j << "," << k;
           // The first box's voxels whose 3x3x3 neighbourhood is all organ, less its twelve edge lines
