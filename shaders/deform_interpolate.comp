@@ -62,7 +62,7 @@ void main() {
       for (int k = 0; k < 4; ++k, o += 3u) q += block3(o) * (Rt * cpos[cs[k]].xyz - crest[cs[k]].xyz);
     }
     for (uint g = 0u; g < n.w; ++g) {
-      mat4 T = handle[uint(blk[o].x)];
+      mat4 T = blk[o].x < 0.0 ? mat4(1.0) : handle[uint(blk[o].x)];  // -1: the anchored skeleton (identity)
       ++o;
       mat3 M = Rt * mat3(T) - mat3(1.0);
       for (int j = 0; j < 3; ++j, o += 3u) q += block3(o) * M[j];

@@ -169,7 +169,8 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
     const double scale = (nodes_[std::size_t(el.node[1])] - nodes_[std::size_t(el.node[0])]).norm();
     for (int l = nc; l < n; ++l) {
       const int f = nodes[std::size_t(l)];
-      if (handleOf[std::size_t(f)] >= 0) {
+      const bool held = constraints_.fixed[std::size_t(f)] != 0;
+      if (!held && handleOf[std::size_t(f)] >= 0) {
         Dn.push_back(l);
         continue;
       }
@@ -181,6 +182,13 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
         w.head<4>() = lam.cwiseMax(0.0) / lam.cwiseMax(0.0).sum();
       } else {
         w = elementWeights(int(e), F.nodes[std::size_t(f)], &onBoundary);
+      }
+      // A held node (the anchored skeleton) is Dirichlet at rest - the anchor handle's node, x = X -
+      // unless it lies on a face whose weighted corners are all held (the region's fixed faces:
+      // N_b x_c is its rest position already).
+      if (held && !(onBoundary && onHeldCorners(el, w))) {
+        Dn.push_back(l);
+        continue;
       }
       if (onBoundary) {
         Bn.push_back(l);
@@ -226,7 +234,7 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
       const Mat Khd = KPhic.transpose() * PhiD;  // 3nc x 3nD
       for (int i = 0; i < nD; ++i) {
         const int f = nodes[std::size_t(Dn[std::size_t(i)])];
-        addHandleBlock(el, handleOf[std::size_t(f)], F.nodes[std::size_t(f)], Khd.middleCols(3 * i, 3));
+        addHandleBlock(el, dirichletHandle(f), F.nodes[std::size_t(f)], Khd.middleCols(3 * i, 3));
       }
       // The handles' own condensed stiffness for their reactions: Q = (Phi_D U)^T K (Phi_D U),
       // U (3nD x 12h) each D node's 12 unit motions in its handle's columns (el.handles order).
@@ -234,7 +242,7 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
       Mat U = Mat::Zero(3 * nD, 12 * h);
       for (int i = 0; i < nD; ++i) {
         const int f = nodes[std::size_t(Dn[std::size_t(i)])];
-        const auto it = std::find_if(el.handles.begin(), el.handles.end(), [&](const HandleBlock& b) { return b.handle == handleOf[std::size_t(f)]; });
+        const auto it = std::find_if(el.handles.begin(), el.handles.end(), [&](const HandleBlock& b) { return b.handle == dirichletHandle(f); });
         U.block<3, 12>(3 * i, 12 * int(it - el.handles.begin())) = unitMotions(F.nodes[std::size_t(f)]);
       }
       const Mat PU = PhiD * U;
@@ -249,7 +257,7 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
       in.H = H.middleRows(3 * i, 3);
       for (int d = 0; d < nD; ++d) {
         const int f = nodes[std::size_t(Dn[std::size_t(d)])];
-        addInteriorHandleBlock(in, handleOf[std::size_t(f)], F.nodes[std::size_t(f)], G.block<3, 3>(3 * i, 3 * d));
+        addInteriorHandleBlock(in, dirichletHandle(f), F.nodes[std::size_t(f)], G.block<3, 3>(3 * i, 3 * d));
       }
       interior_.push_back(std::move(in));
     }
@@ -260,6 +268,20 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
       boundary_.push_back({f, int(e), Bw[std::size_t(i)]});
     }
   }
+}
+
+bool CoarseModel::onHeldCorners(const Element& el, const Eigen::Matrix<double, 8, 1>& w) const {
+  for (int c = 0; c < nc_; ++c)
+    if (w[c] > 1e-12 && !constraints_.fixed[std::size_t(nodeFine_[std::size_t(el.node[std::size_t(c)])])]) return false;
+  return true;
+}
+
+int CoarseModel::dirichletHandle(int fine) const { return constraints_.fixed[std::size_t(fine)] ? anchorHandle() : constraints_.handleOf[std::size_t(fine)]; }
+
+std::vector<RigidTransform> CoarseModel::withAnchor(const std::vector<RigidTransform>& handles) const {
+  std::vector<RigidTransform> out(handles.begin(), handles.begin() + std::min<std::ptrdiff_t>(std::ptrdiff_t(handles.size()), anchorHandle()));
+  out.resize(std::size_t(anchorHandle()) + 1);  // the anchor: the identity
+  return out;
 }
 
 void CoarseModel::finishElement(Element& el) const {
@@ -383,11 +405,11 @@ std::unique_ptr<CoarseModel> CoarseModel::load(std::istream& is, std::uint64_t b
     r.matrix(el.fitInv, 3, 3);
     for (int c = 0; c < nc; ++c) el.dX[std::size_t(c)] = r.pod<Eigen::Vector3d>();
     const auto nh = r.pod<std::uint32_t>();
-    if (nh > std::uint32_t(hc)) throw Error("cache file corrupt (handle blocks)");
+    if (nh > std::uint32_t(hc) + 1) throw Error("cache file corrupt (handle blocks)");
     el.handles.resize(nh);
     for (auto& h : el.handles) {
       h.handle = r.pod<std::int32_t>();
-      checkIndex(h.handle, std::size_t(hc));
+      checkIndex(h.handle, std::size_t(hc) + 1);  // the anchor is handle hc
       r.matrix(h.A, 3 * nc, 9);
       r.matrix(h.B, 3 * nc, 3);
     }
@@ -403,11 +425,11 @@ std::unique_ptr<CoarseModel> CoarseModel::load(std::istream& is, std::uint64_t b
     checkIndex(in.element, ne);
     r.matrix(in.H, 3, 3 * nc);
     const auto ng = r.pod<std::uint32_t>();
-    if (ng > std::uint32_t(hc)) throw Error("cache file corrupt (handle blocks)");
+    if (ng > std::uint32_t(hc) + 1) throw Error("cache file corrupt (handle blocks)");
     in.g.resize(ng);
     for (auto& g : in.g) {
       g.handle = r.pod<std::int32_t>();
-      checkIndex(g.handle, std::size_t(hc));
+      checkIndex(g.handle, std::size_t(hc) + 1);  // the anchor is handle hc
       g.A = r.pod<Eigen::Matrix<double, 3, 9>>();
       g.B = r.pod<Eigen::Matrix3d>();
     }
@@ -476,7 +498,7 @@ FineInterpolationData CoarseModel::interpolationData() const {
                                     std::uint32_t(in.g.size())};
     for (int c = 0; c < nc_; ++c) push3(in.H.block<3, 3>(0, 3 * c));
     for (const auto& g : in.g) {
-      d.blocks.emplace_back(float(g.handle), 0.0f, 0.0f, 0.0f);
+      d.blocks.emplace_back(g.handle == anchorHandle() ? -1.0f : float(g.handle), 0.0f, 0.0f, 0.0f);  // -1: the anchor (identity)
       for (int j = 0; j < 3; ++j) push3(g.A.block<3, 3>(0, 3 * j));
       push3(g.B);
     }
@@ -526,10 +548,11 @@ double CoarseModel::pinDirichlet(const std::vector<RigidTransform>& handles, std
   return tolerance * std::max(motion, 1e-3);  // a micron at least: zero motion converges too
 }
 
-CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tolerance) {
+CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& given, std::vector<Eigen::Vector3d>& x, int maxIterations, double tolerance) {
   const auto start = std::chrono::steady_clock::now();
   const SingleThreadedBlas blas;  // small triangular solves (sim/blas_threads.h)
-  const double tol = pinDirichlet(handles, x, tolerance);
+  const double tol = pinDirichlet(given, x, tolerance);
+  const std::vector<RigidTransform> handles = withAnchor(given);
   CoarseSolveStats st;
   if (dofCount_ == 0) st.converged = true;
   else if (solverKind_ == CoarseSolver::Pcg) st = solvePcg(handles, x, maxIterations, tol);
@@ -633,10 +656,12 @@ CoarseSolveStats CoarseModel::solveAssembled(const std::vector<RigidTransform>& 
 CoarseModel::CoarseModel(const NestedMeshes& meshes, CoarseElement kind)
     : meshes_(meshes), nodes_(meshes.coarse.nodes), nodeFine_(meshes.coarseNodeInFine), kind_(kind), nc_(kind == CoarseElement::Tet ? 4 : 8) {}
 
-std::vector<Eigen::Vector3d> CoarseModel::reconstruct(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const {
+std::vector<Eigen::Vector3d> CoarseModel::reconstruct(const std::vector<RigidTransform>& given, const std::vector<Eigen::Vector3d>& x) const {
   const auto& C = nodes_;
   const TetMesh& F = meshes_.fine;
   if (x.size() != C.size()) throw Error("coarse reconstruction: one position per coarse node expected");
+  if (int(given.size()) < constraints_.handleCount) throw Error("coarse reconstruction: a transform per handle expected");
+  const std::vector<RigidTransform> handles = withAnchor(given);
   std::vector<Eigen::Vector3d> out = F.nodes;
   for (std::size_t f = 0; f < F.nodes.size(); ++f) {
     const int h = constraints_.handleOf[f];

@@ -242,6 +242,18 @@ class CoarseModel {
   Eigen::Matrix3d stationaryRotation(const Element& el, const Eigen::Matrix3d& R0, const std::vector<Eigen::Vector3d>& x, const std::vector<RigidTransform>& handles,
                                      ElementLoad& L) const;
 
+  // The anchored skeleton inside the elements (held fine nodes that are not on a face of held
+  // corners) is Dirichlet at rest: an internal handle, index handleCount, whose transform is the
+  // identity, so its nodes stay at X in the world frame whatever the element's rotation (its term
+  // A vec(R_c^T - I) in every element it touches).
+  int anchorHandle() const { return constraints_.handleCount; }
+  /// The handle whose Dirichlet node fine node `fine` is: the anchor for a held node.
+  int dirichletHandle(int fine) const;
+  /// The caller's handle transforms with the anchor's identity appended (index anchorHandle()).
+  std::vector<RigidTransform> withAnchor(const std::vector<RigidTransform>& handles) const;
+  struct Element;
+  /// All corners with a weight in w are held (fixed).
+  bool onHeldCorners(const Element& el, const Eigen::Matrix<double, 8, 1>& w) const;
   /// Symmetrizes el.Kh and derives KhX, the corners' offsets and fitInv.
   void finishElement(Element& el) const;
   /// Adds the blocks of one handle node at rest position X (blk: 3n x 3, K_hd's columns of the node).

@@ -88,8 +88,8 @@ std::vector<Eigen::Vector4f> interpolateFineReference(const FineInterpolationDat
         }
         for (std::uint32_t g = 0; g < n[3]; ++g) {
           const float hidx = d.blocks[o].x();
-          if (!(hidx >= 0.0f && hidx < float(s.handles.size()))) throw Error("deformation: a handle block refers to a missing handle");
-          const Eigen::Matrix4f& T = s.handles[std::size_t(hidx)];
+          if (!(hidx == -1.0f || (hidx >= 0.0f && hidx < float(s.handles.size())))) throw Error("deformation: a handle block refers to a missing handle");
+          const Eigen::Matrix4f T = hidx < 0.0f ? Eigen::Matrix4f::Identity() : s.handles[std::size_t(hidx)];  // -1: the anchor
           ++o;
           const Eigen::Matrix3f M = Rt * T.topLeftCorner<3, 3>() - Eigen::Matrix3f::Identity();
           for (int j = 0; j < 3; ++j, o += 3) q += block3(d.blocks, o) * M.col(j);

@@ -6,7 +6,7 @@
 // one rotation (a unit quaternion) per coarse element, one rigid transform per handle.
 //
 // A fine node is one of:
-//   Rest      held at rest (the region's fixed faces)          x = X
+//   Rest      held at rest (the region's fixed faces, the skeleton) x = X
 //   Handle    moved by handle k                               x = R_k X + t_k
 //   Corner    a coarse node v                                  x = x_v
 //   Boundary  on coarse element e's faces or edges             x = sum_c N_c x_c
@@ -30,7 +30,7 @@ struct FineInterpolationData {
   std::vector<std::array<std::uint32_t, 4>> node;
   std::vector<Eigen::Vector4f> rest;    ///< per fine node: world rest position, w = 1
   /// Boundary: n/4 vec4 (N). Interior: 3n vec4 (H_c for c = 0..n-1, three columns each, xyz), then
-  /// per handle block one vec4 (x = handle index) and 12 vec4 (A_k0, A_k1, A_k2, B_k, three columns each).
+  /// per handle block one vec4 (x = handle index, -1 for the anchored skeleton: the identity) and 12 vec4 (A_k0, A_k1, A_k2, B_k, three columns each).
   std::vector<Eigen::Vector4f> blocks;
   /// Two uvec4 per coarse element: its corner nodes (the first cornersPerElement count).
   std::vector<std::array<std::uint32_t, 4>> elementCorners;

@@ -19,6 +19,8 @@
 #include <cstdio>
 
 #include "sim/error.h"
+#include <cstdio>
+#include <cstdlib>
 #include "sim/fem.h"
 
 namespace handson {
@@ -214,9 +216,10 @@ Eigen::Matrix3d CoarseModel::stationaryRotation(const Element& el, const Eigen::
   return R;  // the frame of least |m| found (L is its load)
 }
 
-std::vector<HandleReaction> CoarseModel::handleReactions(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const {
-  if (int(handles.size()) < constraints_.handleCount || x.size() != nodes_.size()) throw Error("handle reactions: inconsistent sizes");
-  std::vector<HandleReaction> r(std::size_t(constraints_.handleCount));
+std::vector<HandleReaction> CoarseModel::handleReactions(const std::vector<RigidTransform>& given, const std::vector<Eigen::Vector3d>& x) const {
+  if (int(given.size()) < constraints_.handleCount || x.size() != nodes_.size()) throw Error("handle reactions: inconsistent sizes");
+  const std::vector<RigidTransform> handles = withAnchor(given);
+  std::vector<HandleReaction> r(std::size_t(constraints_.handleCount) + 1);  // the anchor's last, dropped
   const int nc = nc_;
   for (std::size_t e = 0; e < elements_.size(); ++e) {
     const Element& el = elements_[e];
@@ -233,6 +236,14 @@ std::vector<HandleReaction> CoarseModel::handleReactions(const std::vector<Rigid
     const Eigen::Matrix3d Rfit = elementRotation(int(e), x);
     const Eigen::Matrix3d Rc = rigid ? Rfit : stationaryRotation(el, Rfit, x, handles, L);
     if (rigid) L = elementLoad(el, Rc, x, handles);
+    if (std::getenv("HANDSON_DEBUG_REACTION")) {
+      Eigen::Vector3d fe = Eigen::Vector3d::Zero();
+      for (int c = 0; c < nc; ++c) if (coarseRole_[std::size_t(el.node[std::size_t(c)])] == 0) fe -= Rc * L.corner.segment<3>(3 * c);
+      for (std::size_t a = 0; a < el.handles.size(); ++a) if (el.handles[a].handle == 0) fe -= Rc * L.g[a].tail<3>();
+      bool anchored = false;
+      for (const auto& b : el.handles) anchored = anchored || b.handle == anchorHandle();
+      if (fe.norm() > 1e6) std::fprintf(stderr, "element %zu force %.1f N anchored %d rigid %d handles %zu\n", e, fe.norm() * 1e-6, int(anchored), int(rigid), el.handles.size());
+    }
     // The handles' coarse corners: their rows of the element force.
     for (int c = 0; c < nc; ++c) {
       const auto v = std::size_t(el.node[std::size_t(c)]);
@@ -253,7 +264,8 @@ std::vector<HandleReaction> CoarseModel::handleReactions(const std::vector<Rigid
       r[std::size_t(el.handles[a].handle)].torqueNmm -= T.R * m + T.t.cross(gt);
     }
   }
-  return aboutCentroids(std::move(r), handleRestCentroid_, handles);
+  r.pop_back();
+  return aboutCentroids(std::move(r), handleRestCentroid_, given);
 }
 
 }  // namespace handson

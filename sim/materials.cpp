@@ -48,15 +48,15 @@ bool parseNumber(const std::string& s, double& v) {
 MaterialTable MaterialTable::ctDefault() {
   // Keep in step with assets/materials/ct-default.csv (a test compares them).
   return parse(R"(units,hu
-name,lower,upper,youngs_kpa,poisson,strain_limit
-air,-inf,-500,1,0.3,inf
-lung-or-gas-boundary,-500,-150,3,0.4,inf
-fat,-150,-50,3,0.45,0.3
-fluid-and-soft-tissue,-50,45,6,0.45,0.22
-organ-and-blood,45,100,8,0.45,0.22
-enhanced-vessel-and-cortex,100,150,600,0.45,0.22
-spongy-bone,150,700,300000,0.3,0.0078
-compact-bone,700,inf,15000000,0.3,0.027
+name,lower,upper,youngs_kpa,poisson,strain_limit,skeleton
+air,-inf,-500,1,0.3,inf,no
+lung-or-gas-boundary,-500,-150,3,0.4,inf,no
+fat,-150,-50,3,0.45,0.3,no
+fluid-and-soft-tissue,-50,45,6,0.45,0.22,no
+organ-and-blood,45,100,8,0.45,0.22,no
+enhanced-organ-and-blood,100,150,15,0.45,0.22,no
+spongy-bone,150,700,300000,0.3,0.0078,joined
+compact-bone,700,inf,15000000,0.3,0.027,yes
 )",
                "built-in CT material table");
 }
@@ -86,8 +86,10 @@ MaterialTable MaterialTable::parse(const std::string& text, const std::string& s
       const std::vector<std::string> base{"name", "lower", "upper", "youngs_kpa", "poisson"};
       std::vector<std::string> withLimit = base;
       withLimit.push_back("strain_limit");
-      if (cells != base && cells != withLimit)
-        fail("expected the header \"name,lower,upper,youngs_kpa,poisson\" or \"name,lower,upper,youngs_kpa,poisson,strain_limit\"");
+      std::vector<std::string> withSkeleton = withLimit;
+      withSkeleton.push_back("skeleton");
+      if (cells != base && cells != withLimit && cells != withSkeleton)
+        fail("expected the header \"name,lower,upper,youngs_kpa,poisson\", optionally followed by \",strain_limit\" and \",skeleton\"");
       columns = cells.size();
       haveHeader = true;
       continue;
@@ -103,8 +105,14 @@ MaterialTable MaterialTable::parse(const std::string& text, const std::string& s
     if (!parseNumber(cells[3], kpa) || kpa <= 0.0 || kpa > 1e9) fail("Young's modulus must be in (0, 1e9] kPa, not \"" + cells[3] + "\"");
     if (!parseNumber(cells[4], b.poisson) || b.poisson < 0.0 || b.poisson >= 0.5) fail("Poisson ratio must be in [0, 0.5), not \"" + cells[4] + "\"");
     b.youngs = kpa * 1e3;
-    if (columns == 6 && (!parseNumber(cells[5], b.strainLimit) || !(b.strainLimit > 0.0)))
+    if (columns >= 6 && (!parseNumber(cells[5], b.strainLimit) || !(b.strainLimit > 0.0)))
       fail("strain limit must be a positive fraction (0.3 for 30 %) or \"inf\" (none), not \"" + cells[5] + "\"");
+    if (columns >= 7) {
+      if (cells[6] == "no") b.skeleton = SkeletonRole::No;
+      else if (cells[6] == "yes") b.skeleton = SkeletonRole::Yes;
+      else if (cells[6] == "joined") b.skeleton = SkeletonRole::Joined;
+      else fail("skeleton must be no, yes or joined, not \"" + cells[6] + "\"");
+    }
     if (b.poisson > kMaxPoisson) {
       b.poisson = kMaxPoisson;
       t.capped_.push_back(b.name);

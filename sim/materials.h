@@ -2,14 +2,16 @@
 // Materials from image values (docs/simulation-model.md, "Materials"): an editable table of value
 // bands, each a tissue class with a Young's modulus and a Poisson ratio. CT tables are in
 // Hounsfield units; tables for uncalibrated images (MRI) give their bands as percentiles of the
-// image's values and are resolved against the image before use.
+// image's values and are resolved against the image before use. The optional skeleton column
+// (no|yes|joined, SkeletonRole) says which bands are bone anchored to the skeleton.
 //
 // Text format (CSV, '#' comments): a line "units,hu" or "units,percentile", a header line
-// "name,lower,upper,youngs_kpa,poisson[,strain_limit]", then one band per line with half-open bounds
+// "name,lower,upper,youngs_kpa,poisson[,strain_limit[,skeleton]]", then one band per line with half-open bounds
 // [lower, upper) ("-inf"/"inf" allowed). Bands must be sorted and must not overlap; a value in a
 // gap or outside every band takes the nearest band. The optional strain limit is the largest
 // principal stretch - 1 (sim/strain.h) past which the tissue is at risk of failing, a fraction
 // ("inf": none; a table without the column has none).
+#include <cstdint>
 #include <limits>
 #include <string>
 #include <vector>
@@ -21,12 +23,19 @@ namespace handson {
 /// Linear tetrahedra lock as nu -> 0.5; Poisson ratios above this are capped (and reported).
 constexpr double kMaxPoisson = 0.45;
 
+/// A band's part in the skeleton (sim/skeleton.h), the optional column "skeleton": no; yes (bone
+/// wherever its values are: compact bone); joined (bone only where joined, through bone voxels, to a
+/// "yes" voxel within the reach: spongy bone, whose values contrast-enhanced blood and organs share -
+/// elsewhere its voxels take the material of the band below it).
+enum class SkeletonRole : std::uint8_t { No, Yes, Joined };
+
 struct MaterialBand {
   std::string name;
   double lower = 0.0, upper = 0.0;  ///< image units (or percentiles before resolve())
   double youngs = 0.0;              ///< Pa
   double poisson = 0.0;
   double strainLimit = std::numeric_limits<double>::infinity();  ///< fraction (0.3: 30 %); inf: none
+  SkeletonRole skeleton = SkeletonRole::No;
 };
 
 enum class MaterialUnits : std::uint8_t { Hounsfield, Percentile };

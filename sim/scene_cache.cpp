@@ -86,6 +86,9 @@ std::string simulationCacheKey(const Volume& image, const std::vector<SimHandle>
   h.pod(s.element);
   h.pod(s.fineMesh);
   h.pod(s.adaptContrast);
+  h.pod(s.handleNodes);
+  h.pod(s.bone);
+  h.pod(s.skeletonReachMm);
   h.pod(s.materials.units());
   for (const auto& b : s.materials.bands()) {
     h.string(b.name);
@@ -93,6 +96,7 @@ std::string simulationCacheKey(const Volume& image, const std::vector<SimHandle>
     h.pod(b.upper);
     h.pod(b.youngs);
     h.pod(b.poisson);
+    h.pod(b.skeleton);
   }
   char hex[33];
   std::snprintf(hex, sizeof hex, "%016llx%016llx", static_cast<unsigned long long>(h.a), static_cast<unsigned long long>(h.b));

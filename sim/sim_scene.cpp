@@ -7,6 +7,7 @@
 #include "sim/adapted_mesh.h"
 #include "sim/error.h"
 #include "sim/region_shape.h"
+#include "sim/skeleton.h"
 
 namespace handson {
 
@@ -22,6 +23,94 @@ void holdCellsAwayFromHandles(SimScene& sc, const HandlePoints& shape, const std
   for (std::size_t t = 0; t < F.tets.size(); ++t)
     if (!sc.regionCell[std::size_t(sc.meshes.fineParent[t] / 6)])
       for (int n : F.tets[t]) sc.constraints.fixed[std::size_t(n)] = 1;
+}
+
+// Materials: the tissue at five points of each fine tet (centroid and midway to each corner),
+// classified and averaged: Young's modulus harmonically (the Reuss bound, tissues in series), the
+// Poisson ratio arithmetically; the band at the centroid is kept. A tet straddling bone and soft
+// tissue is then about as soft as its soft part: with the arithmetic mean (the Voigt bound) one bone
+// sample in five made it ~1/5 of bone's stiffness, so a handle one tet from the skeleton was held to
+// it by gigapascals and its force grew by 100-1000x as the fine mesh was coarsened.
+void assignMaterials(SimScene& sc, const TissueMap& tissue) {
+  const TetMesh& F = sc.meshes.fine;
+  sc.band.resize(F.tets.size());
+  sc.youngs.resize(F.tets.size());
+  sc.poisson.resize(F.tets.size());
+  for (std::size_t t = 0; t < F.tets.size(); ++t) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int v : F.tets[t]) c += F.nodes[std::size_t(v)];
+    c /= 4.0;
+    double compliance = 0, nu = 0;
+    for (int k = 0; k < 5; ++k) {
+      const Eigen::Vector3d p = k == 0 ? c : Eigen::Vector3d(0.5 * (c + F.nodes[std::size_t(F.tets[t][std::size_t(k - 1)])]));
+      const int b = tissue.bandAt(p);
+      if (k == 0) sc.band[t] = b;
+      compliance += 1.0 / tissue.table().band(b).youngs;  // > 0: the table refuses moduli <= 0
+      nu += tissue.table().band(b).poisson;
+    }
+    sc.youngs[t] = 5.0 / compliance;
+    sc.poisson[t] = nu / 5.0;
+  }
+}
+
+// Handle nodes under the Tets rule: every node of the fine tets holding handle h's voxel centres.
+void claimNodesOfTets(SimScene& sc, const VolumeGeometry& g, const SimHandle& handle, int h) {
+  for (std::uint32_t v : handle.voxels) {
+    const int t = sc.meshes.locateFine(g.toWorld(g.voxelOf(v).cast<double>()));
+    if (t >= 0)  // outside the region otherwise (whole-volume runs include every voxel centre)
+      for (int n : sc.meshes.fine.tets[std::size_t(t)]) sc.constraints.handleOf[std::size_t(n)] = h;
+  }
+}
+
+// Handle nodes under the Inside rule: the nodes whose nearest voxel is one of the handle's (its
+// voxels sorted, binary search). Returns how many it claimed.
+std::size_t claimNodesInside(SimScene& sc, const VolumeGeometry& g, const SimHandle& handle, int h) {
+  std::vector<std::uint32_t> sorted = handle.voxels;
+  std::sort(sorted.begin(), sorted.end());
+  const Eigen::Matrix4d toIndex = g.worldToIndex();
+  const TetMesh& F = sc.meshes.fine;
+  std::size_t claimed = 0;
+  for (std::size_t n = 0; n < F.nodes.size(); ++n) {
+    const Eigen::Vector3d idx = (toIndex * F.nodes[n].homogeneous()).head<3>();
+    bool in = true;
+    std::size_t l = 0, stride = 1;
+    for (int a = 0; a < 3 && in; ++a) {
+      const double r = std::round(idx[a]);
+      in = r >= 0 && r < g.dims[a];
+      if (in) l += std::size_t(r) * stride;
+      stride *= std::size_t(g.dims[a]);
+    }
+    if (in && std::binary_search(sorted.begin(), sorted.end(), std::uint32_t(l))) {
+      sc.constraints.handleOf[n] = h;
+      ++claimed;
+    }
+  }
+  return claimed;
+}
+
+// Dirichlet roles: the region's outer faces are fixed; handle nodes by the settings' rule, later
+// handles winning; the skeleton's nodes that no handle holds are anchored (fixed). `holdsHandle`
+// (shaped regions): the coarse cells holding a handle voxel.
+void assignConstraints(SimScene& sc, const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& s, const TissueMap& tissue,
+                       std::vector<char>* holdsHandle) {
+  const TetMesh& F = sc.meshes.fine;
+  const VolumeGeometry& g = image.geometry();
+  sc.constraints.handleCount = int(handles.size());
+  sc.constraints.handleOf.assign(F.nodes.size(), -1);
+  sc.constraints.fixed.assign(F.nodes.size(), 0);
+  const double onFace = 1e-9 * sc.meshes.coarseGrid.cell().maxCoeff();
+  for (std::size_t n = 0; n < F.nodes.size(); ++n)
+    for (int a = 0; a < 3; ++a)
+      if (F.nodes[n][a] <= sc.lo[a] + onFace || F.nodes[n][a] >= sc.hi[a] - onFace) sc.constraints.fixed[n] = 1;
+  for (std::size_t h = 0; h < handles.size(); ++h) {
+    if (s.handleNodes == SimSettings::HandleNodes::Tets || claimNodesInside(sc, g, handles[h], int(h)) == 0) claimNodesOfTets(sc, g, handles[h], int(h));
+    if (holdsHandle)
+      for (std::uint32_t v : handles[h].voxels)
+        if (const int t = sc.meshes.locateFine(g.toWorld(g.voxelOf(v).cast<double>())); t >= 0) (*holdsHandle)[std::size_t(sc.meshes.fineParent[std::size_t(t)] / 6)] = 1;
+  }
+  if (tissue.skeletonVoxelCount() > 0)
+    for (std::size_t n = 0; n < F.nodes.size(); ++n)
+      if (sc.constraints.handleOf[n] < 0 && tissue.skeletonAt(F.nodes[n])) sc.constraints.fixed[n] = 1;
 }
 }  // namespace
 
@@ -106,62 +195,23 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   checkAllocation(0, std::size_t(1.5 * double(std::max(double(finePer) * coarseTets, double(coarseTets))) * 2700.0), "the simulation meshes");
   reportProgress(progress, 0.0, "meshing");
   const MaterialTable table = s.materials.resolve(image);
-  const Eigen::Matrix4d toIndex = g.worldToIndex();
+  const TissueMap tissue(image, table, lo, hi, s.skeletonReachMm, s.bone == SimSettings::Bone::Anchored);
   if (s.fineMesh == SimSettings::FineMesh::ImageAdapted) {
     if (s.element != CoarseElement::Cell) throw Error("simulation: the image-adapted fine mesh needs cell elements");
-    const auto youngsAt = [&](const Eigen::Vector3d& p) {
-      return table.band(table.classify(image.sampleLinear((toIndex * p.homogeneous()).head<3>()))).youngs;
-    };
+    const auto youngsAt = [&](const Eigen::Vector3d& p) { return table.band(tissue.bandAt(p)).youngs; };
     sc.meshes = buildImageAdaptedMeshes(lo, hi, coarseTets, finePer, youngsAt, s.adaptContrast, progress, &sc.adapted);
   } else {
     sc.meshes = buildNestedMeshes(lo, hi, coarseTets, finePer);
   }
-  const TetMesh& F = sc.meshes.fine;
   reportProgress(progress, 0.2, "materials");
-  // Materials: the image at five points of each fine tet (centroid and midway to each corner),
-  // classified and averaged (Young's modulus and Poisson ratio; the band at the centroid is kept).
-  sc.band.resize(F.tets.size());
-  sc.youngs.resize(F.tets.size());
-  sc.poisson.resize(F.tets.size());
-  for (std::size_t t = 0; t < F.tets.size(); ++t) {
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (int v : F.tets[t]) c += F.nodes[std::size_t(v)];
-    c /= 4.0;
-    double E = 0, nu = 0;
-    for (int k = 0; k < 5; ++k) {
-      const Eigen::Vector3d p = k == 0 ? c : Eigen::Vector3d(0.5 * (c + F.nodes[std::size_t(F.tets[t][std::size_t(k - 1)])]));
-      const Eigen::Vector3d idx = (toIndex * p.homogeneous()).head<3>();
-      const int b = table.classify(image.sampleLinear(idx));
-      if (k == 0) sc.band[t] = b;
-      E += table.band(b).youngs;
-      nu += table.band(b).poisson;
-    }
-    sc.youngs[t] = E / 5.0;
-    sc.poisson[t] = nu / 5.0;
-  }
+  assignMaterials(sc, tissue);
   reportProgress(progress, 0.5, "stiffness");
-  sc.fineK = tetStiffnesses(F, sc.youngs, sc.poisson);
-  // Dirichlet roles: the region's outer faces are fixed; handle nodes are those of fine tets
-  // containing a handle voxel's centre, later handles winning.
-  sc.constraints.handleCount = int(handles.size());
-  sc.constraints.handleOf.assign(F.nodes.size(), -1);
-  sc.constraints.fixed.assign(F.nodes.size(), 0);
-  const double onFace = 1e-9 * sc.meshes.coarseGrid.cell().maxCoeff();
-  for (std::size_t n = 0; n < F.nodes.size(); ++n)
-    for (int a = 0; a < 3; ++a)
-      if (F.nodes[n][a] <= lo[a] + onFace || F.nodes[n][a] >= hi[a] - onFace) sc.constraints.fixed[n] = 1;
-  // Handle nodes: those of the fine tets holding a handle voxel's centre; the cells holding them.
+  sc.fineK = tetStiffnesses(sc.meshes.fine, sc.youngs, sc.poisson);
   std::vector<char> holdsHandle(shaped ? sc.meshes.coarseGrid.cellCount() : 0, 0);
-  for (std::size_t h = 0; h < handles.size(); ++h)
-    for (std::uint32_t v : handles[h].voxels) {
-      const int t = sc.meshes.locateFine(g.toWorld(g.voxelOf(v).cast<double>()));
-      if (t < 0) continue;  // outside the region (whole-volume runs include every voxel centre)
-      for (int n : F.tets[std::size_t(t)]) sc.constraints.handleOf[std::size_t(n)] = int(h);
-      if (shaped) holdsHandle[std::size_t(sc.meshes.fineParent[std::size_t(t)] / 6)] = 1;
-    }
+  assignConstraints(sc, image, handles, s, tissue, shaped ? &holdsHandle : nullptr);
   if (shaped) holdCellsAwayFromHandles(sc, shape, holdsHandle, s.paddingMm);
   sc.handleNodeCount.assign(handles.size(), 0);
-  for (std::size_t n = 0; n < F.nodes.size(); ++n)
+  for (std::size_t n = 0; n < sc.meshes.fine.nodes.size(); ++n)
     if (sc.constraints.handleOf[n] >= 0 && !sc.constraints.fixed[n]) ++sc.handleNodeCount[std::size_t(sc.constraints.handleOf[n])];
   reportProgress(progress, 1.0, "scene");
   return sc;

@@ -44,6 +44,17 @@ struct SimSettings {
   enum class FineMesh { Regular, ImageAdapted } fineMesh = FineMesh::Regular;
   double adaptContrast = 10.0;  ///< image-adapted: a Young's modulus jump of this factor adds points
   MaterialTable materials = MaterialTable::ctDefault();
+  /// Which fine nodes a handle moves rigidly (docs/simulation-model.md, "What a handle holds"):
+  /// Inside (default): the nodes whose nearest voxel is one of the handle's, so the handle holds what
+  /// was selected and converges to its shape as the mesh is refined; a handle no node lands in (thinner
+  /// than the fine mesh) falls back to Tets. Tets (the earlier rule): every node of each fine tet
+  /// holding a handle voxel's centre - up to a tet beyond the selection, bone included.
+  enum class HandleNodes : std::uint8_t { Inside, Tets } handleNodes = HandleNodes::Inside;
+  /// Bone (sim/skeleton.h): Anchored (default): the skeleton told from contrast-enhanced tissue and
+  /// held at rest where no handle holds it; ByValue (the earlier rule): bands by value alone, nothing
+  /// anchored but the region's faces.
+  enum class Bone : std::uint8_t { Anchored, ByValue } bone = Bone::Anchored;
+  double skeletonReachMm = 15.0;  ///< how far spongy-band voxels may lie from compact bone (TissueMap)
 };
 
 struct SimScene {
@@ -52,7 +63,7 @@ struct SimScene {
   std::vector<int> band;               ///< material band per fine tet
   std::vector<double> youngs, poisson; ///< per fine tet
   std::vector<Mat12> fineK;            ///< rest stiffness per fine tet
-  FineConstraints constraints;         ///< handle nodes (last claimer wins) and the fixed outer faces
+  FineConstraints constraints;         ///< handle nodes (last claimer wins), the fixed outer faces and the anchored skeleton
   std::vector<Eigen::Vector3d> handleCentroid;  ///< world centroid of each handle's voxels
   std::vector<std::size_t> handleNodeCount;
   /// Region::Handles: per coarse grid cell, simulated (1) or held at rest (0); empty for a box.

@@ -149,6 +149,16 @@ void coarseModelOptions(const Args& args, const std::string& prefix, SimSettings
     throw UsageError(prefix + "graded-split needs cell elements (" + prefix + "coarse-element cell)");
   if (settings.grading.graded() && settings.coarseSolver != CoarseSolver::Pcg)
     throw UsageError(prefix + "graded-split needs the pcg coarse solver");
+  if (const auto v = args.value(prefix + "handle-nodes")) {
+    if (*v == "inside") settings.handleNodes = SimSettings::HandleNodes::Inside;
+    else if (*v == "tets") settings.handleNodes = SimSettings::HandleNodes::Tets;
+    else throw UsageError(prefix + "handle-nodes must be inside or tets");
+  }
+  if (const auto v = args.value(prefix + "bone")) {
+    if (*v == "anchored") settings.bone = SimSettings::Bone::Anchored;
+    else if (*v == "by-value") settings.bone = SimSettings::Bone::ByValue;
+    else throw UsageError(prefix + "bone must be anchored or by-value");
+  }
 }
 
 void regionOption(const Args& args, const char* name, SimSettings& settings) {

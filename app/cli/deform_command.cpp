@@ -55,6 +55,13 @@ const char* const kDeformHelp =
     "  --graded-split CELLS    graded cells (a named option, off by default): the coarse cells within\n"
     "                          CELLS cell sizes of a handle halved, their hanging corners tied to the\n"
     "                          whole cells; more accurate, several times the frame, pcg only, not cached\n"
+    "  --handle-nodes inside|tets  the fine nodes the handle moves rigidly: those inside the selection\n"
+    "                          (default: the handle holds what was selected) or every node of the fine\n"
+    "                          tets holding its voxels (the earlier rule: up to a tet beyond it, bone too)\n"
+    "  --bone anchored|by-value  bone anchored to the skeleton (default: compact bone and the spongy-bone\n"
+    "                          values joined to it within 15 mm held at rest unless a handle holds them;\n"
+    "                          spongy-bone values elsewhere, contrast-enhanced tissue, take the band below)\n"
+    "                          or bands by value alone with nothing anchored (the earlier rule)\n"
     "  --fine-mesh regular|adapted  the regular refinement (default) or image-adapted: TetGen meshes\n"
     "                          each cell with extra points at stiffness jumps (cell elements only)\n"
     "  --adapt-contrast F      a Young's modulus jump of F or more adds points (default 10)\n"
@@ -211,7 +218,8 @@ static std::vector<Eigen::Vector3d> solveFineInIncrements(const SimScene& sc, co
 int cmdDeform(const Words& words) {
   Args args(words,
             {"--frame", "--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm", "--region",
-             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--graded-split", "--fine-mesh", "--adapt-contrast", "--cache-dir", "--forces-out", "--strain-out"},
+             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--graded-split", "--fine-mesh", "--adapt-contrast", "--cache-dir", "--forces-out", "--strain-out",
+             "--handle-nodes", "--bone"},
             {"--whole-volume", "--quiet", "--validation"});
   if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {
     usageStream(args) << kDeformHelp;

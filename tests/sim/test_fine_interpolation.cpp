@@ -52,7 +52,8 @@ void expectPackedEqualsReconstruction(const Scene& s, CoarseModel& model, std::s
   const FineInterpolationData d = model.interpolationData();
   ASSERT_EQ(d.node.size(), expect.size());
   // Every kind the model emits occurs (4 fine cells per coarse edge: each coarse element has interior
-  // nodes). Fixed fine nodes are corners or face nodes of fixed coarse nodes, never Rest records.
+  // nodes). Fixed fine nodes are corners or face nodes of fixed coarse nodes, never Rest records (an
+  // anchored skeleton's nodes inside elements would be: this scene has none).
   std::array<int, 5> kinds{};
   for (const auto& n : d.node) ++kinds[n[0]];
   EXPECT_EQ(kinds[FineInterpolationData::Rest], 0);

@@ -7,6 +7,7 @@
 
 #include "sim/box_scene.h"
 #include "sim/coarsening.h"
+#include "sim/fine_interpolation.h"
 #include "sim/handle_reaction.h"
 #include "sim/phantom.h"
 #include "sim/sim_scene.h"
@@ -132,4 +133,56 @@ TEST(HandleReaction, CoarseReactionOfTheTurnedKidneyFollowsTheFineModel) {
   EXPECT_LT(mr, 2.0) << "the fit frame's torque was 348x the fine one here";
   EXPECT_LT((coarse.forceN.normalized() - fine.forceN.normalized()).norm(), 0.1);
   EXPECT_LT((coarse.torqueNmm.normalized() - fine.torqueNmm.normalized()).norm(), 0.1);
+}
+
+namespace {
+// The box with a ball handle and the stiff slab anchored (held at rest): its fine nodes are fixed, most
+// of them inside coarse cells, so the coarse model holds them through its anchor handle.
+BoxScene anchoredSlabBox() {
+  BoxScene box(100.0);
+  box.ball({30, 15, 20}, 7.0, 0);
+  for (std::size_t n = 0; n < box.meshes.fine.nodes.size(); ++n)
+    if (box.meshes.fine.nodes[n].y() > 24.0 + 1e-9 && box.meshes.fine.nodes[n].y() < 30.0 - 1e-9) box.c.fixed[n] = 1;
+  return box;
+}
+}  // namespace
+
+TEST(HandleReaction, AnchoredNodesInsideCoarseElementsStayAtRestAndTheReactionIsStillTheFineForce) {
+  // Anchored fine nodes inside coarse elements are Dirichlet at rest in the world frame (x = X), not
+  // in the element's turning frame: after a 25-degree turn of the handle the reconstruction and its
+  // GPU packing hold them exactly at rest (a frame-bound rule would put them at R_e X, millimetres
+  // away), and in a small motion the reaction is the fine force on the reconstruction, as without
+  // anchors (tolerances as in CoarseReactionIsTheFineForceOnItsOwnReconstruction...).
+  const BoxScene box = anchoredSlabBox();
+  CoarseModel model(box.meshes, box.K, box.c);
+  std::size_t inside = 0;
+  for (std::size_t n = 0; n < box.meshes.fine.nodes.size(); ++n) inside += box.c.fixed[n] && model.interpolationData().node[n][0] == FineInterpolationData::Rest;
+  ASSERT_GT(inside, 100u) << "anchored nodes inside coarse elements";
+  const std::vector<RigidTransform> turn{RigidTransform::about({30, 15, 20}, Eigen::Vector3d(0.3, 0.2, 25 * M_PI / 180), Eigen::Vector3d(3, -2, 1))};
+  auto xc = model.restState();
+  for (int k = 1; k <= 5; ++k) {
+    std::vector<RigidTransform> Tk{RigidTransform::about({30, 15, 20}, Eigen::Vector3d(0.3, 0.2, 25 * M_PI / 180) * (k / 5.0), Eigen::Vector3d(3, -2, 1) * (k / 5.0))};
+    ASSERT_TRUE(model.solve(Tk, xc, 500, 1e-8).converged) << "increment " << k;
+  }
+  const auto x = model.reconstruct(turn, xc);
+  const auto packed = interpolateFineReference(model.interpolationData(), packFrameState(xc, model.elementRotations(xc), turn), Eigen::Matrix4f::Identity());
+  double worst = 0.0, worstPacked = 0.0;
+  for (std::size_t n = 0; n < x.size(); ++n)
+    if (box.c.fixed[n]) {
+      worst = std::max(worst, (x[n] - box.meshes.fine.nodes[n]).norm());
+      worstPacked = std::max(worstPacked, (packed[n].head<3>().cast<double>() - box.meshes.fine.nodes[n]).norm());
+    }
+  EXPECT_LT(worst, 1e-9);  // held face nodes interpolate held corners: round-off
+  EXPECT_LT(worstPacked, 1e-4);  // float packing of positions ~50 mm
+  auto at = [&](double s) {
+    return std::vector<RigidTransform>{RigidTransform::about({30, 15, 20}, Eigen::Vector3d(0, 0, s * 0.00001 * M_PI / 180), Eigen::Vector3d(1e-5, -4e-6, 6e-6) * s)};
+  };
+  auto xs = model.restState();
+  ASSERT_TRUE(model.solve(at(1), xs, 300, 1e-10).converged);
+  const auto coarse = model.handleReactions(at(1), xs);
+  const auto fine = fineHandleReactions(box.meshes.fine, box.K, box.c, at(1), model.reconstruct(at(1), xs));
+  ASSERT_EQ(coarse.size(), 1u);
+  const double F = coarse[0].forceN.norm();
+  ASSERT_GT(F, 0.0);
+  EXPECT_LT((coarse[0].forceN - fine[0].forceN).norm(), 1e-4 * F);
 }
