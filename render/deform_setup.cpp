@@ -64,7 +64,8 @@ ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc
     if (n[0] == FineInterpolationData::Interior && std::size_t(n[2]) + d.interiorBlocks(n[3]) <= d.blocks.size())
       for (std::uint32_t k = 0; k < n[3]; ++k) {
         const float hidx = d.blocks[std::size_t(n[2]) + hc + 13 * k].x();
-        if (!(hidx >= 0.0f && hidx < float(handles) && hidx == std::floor(hidx))) throw Error("deformation: a handle block refers to a missing handle");
+        // -1: the anchored skeleton (the identity, shaders/deform_interpolate.comp).
+        if (!(hidx == -1.0f || (hidx >= 0.0f && hidx < float(handles) && hidx == std::floor(hidx)))) throw Error("deformation: a handle block refers to a missing handle");
       }
     const bool ok = n[0] == FineInterpolationData::Rest || (n[0] == FineInterpolationData::Handle && n[1] < handles) ||
                     (n[0] == FineInterpolationData::Corner && n[1] < coarseNodes) ||

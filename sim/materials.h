@@ -20,6 +20,10 @@
 
 namespace handson {
 
+/// The band of a simulation's fine tet in the exterior layer (sim/sim_scene.h, SimSettings::Outer): it
+/// stands for tissue beyond the region, so it has no band of the table and no strain limit.
+constexpr int kExteriorBand = -1;
+
 /// Linear tetrahedra lock as nu -> 0.5; Poisson ratios above this are capped (and reported).
 constexpr double kMaxPoisson = 0.45;
 

@@ -89,6 +89,7 @@ std::string simulationCacheKey(const Volume& image, const std::vector<SimHandle>
   h.pod(s.handleNodes);
   h.pod(s.bone);
   h.pod(s.skeletonReachMm);
+  h.pod(s.outer);
   h.pod(s.materials.units());
   for (const auto& b : s.materials.bands()) {
     h.string(b.name);

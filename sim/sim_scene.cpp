@@ -27,7 +27,8 @@ void holdCellsAwayFromHandles(SimScene& sc, const HandlePoints& shape, const std
 
 // Materials: the tissue at five points of each fine tet (centroid and midway to each corner),
 // classified and averaged: Young's modulus harmonically (the Reuss bound, tissues in series), the
-// Poisson ratio arithmetically; the band at the centroid is kept. A tet straddling bone and soft
+// Poisson ratio arithmetically. The tet's band (its strain limit) is its softest sample's, where a
+// series composite's strain goes (the centroid's, first, among equally soft). A tet straddling bone and soft
 // tissue is then about as soft as its soft part: with the arithmetic mean (the Voigt bound) one bone
 // sample in five made it ~1/5 of bone's stiffness, so a handle one tet from the skeleton was held to
 // it by gigapascals and its force grew by 100-1000x as the fine mesh was coarsened.
@@ -44,12 +45,41 @@ void assignMaterials(SimScene& sc, const TissueMap& tissue) {
     for (int k = 0; k < 5; ++k) {
       const Eigen::Vector3d p = k == 0 ? c : Eigen::Vector3d(0.5 * (c + F.nodes[std::size_t(F.tets[t][std::size_t(k - 1)])]));
       const int b = tissue.bandAt(p);
-      if (k == 0) sc.band[t] = b;
+      if (k == 0 || tissue.table().band(b).youngs < tissue.table().band(sc.band[t]).youngs) sc.band[t] = b;
       compliance += 1.0 / tissue.table().band(b).youngs;  // > 0: the table refuses moduli <= 0
       nu += tissue.table().band(b).poisson;
     }
     sc.youngs[t] = 5.0 / compliance;
     sc.poisson[t] = nu / 5.0;
+  }
+}
+
+// The exterior layer: the fine tets of the region's outermost coarse cells (along any axis) stand for
+// the unbounded tissue beyond the region. Seen from a handle at distance R, that tissue resists a
+// displacement u of the region's boundary with a traction k u, k = 6 G (1 - nu) / ((5 - 6 nu) R):
+// the average traction on a sphere of radius R translated in an unbounded medium of shear modulus G
+// (F = 24 pi G R U (1 - nu) / (5 - 6 nu), 6 pi G R U incompressible). A layer of thickness t whose
+// outer face is held has shear stiffness G_L / t per area, so the layer takes G_L = k t with
+// Poisson's ratio 0 (E_L = 2 k t; its normal stiffness is then 2k). G and nu are the tet's own
+// tissue's; R its distance to the nearest handle centroid (at least t).
+void applyExteriorLayer(SimScene& sc) {
+  const TetMesh& F = sc.meshes.fine;
+  const Eigen::Vector3d cell = sc.meshes.coarseGrid.cell();
+  for (std::size_t t = 0; t < F.tets.size(); ++t) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int v : F.tets[t]) c += F.nodes[std::size_t(v)] / 4.0;
+    double thickness = 0.0;
+    for (int a = 0; a < 3; ++a)
+      if (std::min(c[a] - sc.lo[a], sc.hi[a] - c[a]) < cell[a]) thickness = thickness > 0 ? std::min(thickness, cell[a]) : cell[a];
+    if (thickness <= 0.0) continue;
+    double R = 1e300;
+    for (const Eigen::Vector3d& h : sc.handleCentroid) R = std::min(R, (c - h).norm());
+    R = std::max(R, thickness);
+    const double nu = sc.poisson[t], G = sc.youngs[t] / (2.0 * (1.0 + nu));
+    const double k = 6.0 * G * (1.0 - nu) / ((5.0 - 6.0 * nu) * R);
+    sc.youngs[t] = 2.0 * k * thickness;
+    sc.poisson[t] = 0.0;
+    sc.band[t] = kExteriorBand;
   }
 }
 
@@ -205,6 +235,7 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   }
   reportProgress(progress, 0.2, "materials");
   assignMaterials(sc, tissue);
+  if (s.outer == SimSettings::Outer::Exterior && !sc.handleCentroid.empty()) applyExteriorLayer(sc);
   reportProgress(progress, 0.5, "stiffness");
   sc.fineK = tetStiffnesses(sc.meshes.fine, sc.youngs, sc.poisson);
   std::vector<char> holdsHandle(shaped ? sc.meshes.coarseGrid.cellCount() : 0, 0);

@@ -55,12 +55,18 @@ struct SimSettings {
   /// anchored but the region's faces.
   enum class Bone : std::uint8_t { Anchored, ByValue } bone = Bone::Anchored;
   double skeletonReachMm = 15.0;  ///< how far spongy-band voxels may lie from compact bone (TissueMap)
+  /// The region's outer boundary (docs/tissue-physics.md, "The region's boundary"): Exterior
+  /// (default): the outermost layer of coarse cells stands for the tissue beyond the region, an elastic
+  /// layer with the stiffness of an unbounded medium seen from the handles (its outer faces held);
+  /// Wall (the earlier rule): the region's own tissue to its faces, held there.
+  enum class Outer : std::uint8_t { Exterior, Wall } outer = Outer::Exterior;
 };
+
 
 struct SimScene {
   Eigen::Vector3d lo, hi;              ///< region box (world mm, axis-aligned)
   NestedMeshes meshes;
-  std::vector<int> band;               ///< material band per fine tet
+  std::vector<int> band;               ///< material band per fine tet (kExteriorBand in the exterior layer)
   std::vector<double> youngs, poisson; ///< per fine tet
   std::vector<Mat12> fineK;            ///< rest stiffness per fine tet
   FineConstraints constraints;         ///< handle nodes (last claimer wins), the fixed outer faces and the anchored skeleton

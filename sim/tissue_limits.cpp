@@ -60,6 +60,10 @@ std::vector<float> tetStrainLimits(const std::vector<int>& bandOfTet, const Mate
   std::vector<float> out(bandOfTet.size());
   for (std::size_t t = 0; t < bandOfTet.size(); ++t) {
     const int b = bandOfTet[t];
+    if (b == kExteriorBand) {  // the exterior layer stands for tissue beyond the region: no limit
+      out[t] = std::numeric_limits<float>::infinity();
+      continue;
+    }
     if (b < 0 || std::size_t(b) >= table.bands().size()) throw Error("tissue limits: a tet names a material band the table does not have");
     out[t] = float(table.band(b).strainLimit);
   }

@@ -154,6 +154,11 @@ void coarseModelOptions(const Args& args, const std::string& prefix, SimSettings
     else if (*v == "tets") settings.handleNodes = SimSettings::HandleNodes::Tets;
     else throw UsageError(prefix + "handle-nodes must be inside or tets");
   }
+  if (const auto v = args.value(prefix + "outer-boundary")) {
+    if (*v == "exterior") settings.outer = SimSettings::Outer::Exterior;
+    else if (*v == "wall") settings.outer = SimSettings::Outer::Wall;
+    else throw UsageError(prefix + "outer-boundary must be exterior or wall");
+  }
   if (const auto v = args.value(prefix + "bone")) {
     if (*v == "anchored") settings.bone = SimSettings::Bone::Anchored;
     else if (*v == "by-value") settings.bone = SimSettings::Bone::ByValue;

@@ -57,7 +57,7 @@ void parseSize(const std::string& text, int& width, int& height);
 /// The coarse model's element kind from option `name` ("cell" or "tet"; absent: cell).
 CoarseElement coarseElementOption(const Args& args, const char* name);
 /// The simulation's options `prefix` + "coarse-element", "coarse-solver", "graded-split",
-/// "handle-nodes" and "bone" (prefix "--" or "--sim-") into `settings`.
+/// "handle-nodes", "bone" and "outer-boundary" (prefix "--" or "--sim-") into `settings`.
 void coarseModelOptions(const Args& args, const std::string& prefix, SimSettings& settings);
 /// The simulated region's shape from option `name` ("box" or "handles") into `settings` (absent: kept).
 void regionOption(const Args& args, const char* name, SimSettings& settings);

@@ -62,6 +62,10 @@ const char* const kDeformHelp =
     "                          values joined to it within 15 mm held at rest unless a handle holds them;\n"
     "                          spongy-bone values elsewhere, contrast-enhanced tissue, take the band below)\n"
     "                          or bands by value alone with nothing anchored (the earlier rule)\n"
+    "  --outer-boundary exterior|wall  the region's outer boundary: an elastic layer standing for the\n"
+    "                          unbounded tissue beyond it (default: its outermost coarse cells, as stiff\n"
+    "                          as an infinite medium seen from the handle) or a wall of the region's own\n"
+    "                          tissue held at rest (the earlier rule)\n"
     "  --fine-mesh regular|adapted  the regular refinement (default) or image-adapted: TetGen meshes\n"
     "                          each cell with extra points at stiffness jumps (cell elements only)\n"
     "  --adapt-contrast F      a Young's modulus jump of F or more adds points (default 10)\n"
@@ -219,7 +223,7 @@ int cmdDeform(const Words& words) {
   Args args(words,
             {"--frame", "--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm", "--region",
              "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--graded-split", "--fine-mesh", "--adapt-contrast", "--cache-dir", "--forces-out", "--strain-out",
-             "--handle-nodes", "--bone"},
+             "--handle-nodes", "--bone", "--outer-boundary"},
             {"--whole-volume", "--quiet", "--validation"});
   if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {
     usageStream(args) << kDeformHelp;

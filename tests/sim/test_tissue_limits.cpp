@@ -203,6 +203,11 @@ TEST(TissueLimits, TissueIsPutDownToTheNearerOfTwoHandles) {
   // Sizes that do not match the mesh are refused.
   EXPECT_THROW(tissueLimits(m, std::vector<float>(3, 0.f), band, table, nearestHandleOfNodes(m, c), 2), Error);
   EXPECT_THROW(tetStrainLimits({5}, table), Error);
+  EXPECT_THROW(tetStrainLimits({-2}, table), Error);
+  // The exterior layer stands for tissue beyond the region: no limit, never past it.
+  EXPECT_EQ(tetStrainLimits({kExteriorBand}, table)[0], std::numeric_limits<float>::infinity());
+  std::vector<int> exterior(band.size(), kExteriorBand);
+  EXPECT_EQ(tissueLimits(m, std::vector<float>(band.size(), 10.0f), exterior, table, nearestHandleOfNodes(m, c), 2).tets, 0u);
 }
 
 // The highlight's volume, by hand on a 5 x 1 x 1 grid: a voxel of no tet, one of a tet with no
