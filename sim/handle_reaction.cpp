@@ -19,8 +19,6 @@
 #include <cstdio>
 
 #include "sim/error.h"
-#include <cstdio>
-#include <cstdlib>
 #include "sim/fem.h"
 
 namespace handson {
@@ -236,14 +234,6 @@ std::vector<HandleReaction> CoarseModel::handleReactions(const std::vector<Rigid
     const Eigen::Matrix3d Rfit = elementRotation(int(e), x);
     const Eigen::Matrix3d Rc = rigid ? Rfit : stationaryRotation(el, Rfit, x, handles, L);
     if (rigid) L = elementLoad(el, Rc, x, handles);
-    if (std::getenv("HANDSON_DEBUG_REACTION")) {
-      Eigen::Vector3d fe = Eigen::Vector3d::Zero();
-      for (int c = 0; c < nc; ++c) if (coarseRole_[std::size_t(el.node[std::size_t(c)])] == 0) fe -= Rc * L.corner.segment<3>(3 * c);
-      for (std::size_t a = 0; a < el.handles.size(); ++a) if (el.handles[a].handle == 0) fe -= Rc * L.g[a].tail<3>();
-      bool anchored = false;
-      for (const auto& b : el.handles) anchored = anchored || b.handle == anchorHandle();
-      if (fe.norm() > 1e6) std::fprintf(stderr, "element %zu force %.1f N anchored %d rigid %d handles %zu\n", e, fe.norm() * 1e-6, int(anchored), int(rigid), el.handles.size());
-    }
     // The handles' coarse corners: their rows of the element force.
     for (int c = 0; c < nc; ++c) {
       const auto v = std::size_t(el.node[std::size_t(c)]);

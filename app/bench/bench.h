@@ -12,6 +12,7 @@ int cmdBenchSim(const Words& args);
 int cmdBenchDeform(const Words& args);
 int cmdBenchMesh(const Words& args);
 int cmdBenchStability(const Words& args);
+int cmdBenchTissue(const Words& args);
 int cmdBenchSuite(const Words& args);
 
 }  // namespace handson::cli

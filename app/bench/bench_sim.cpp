@@ -45,6 +45,8 @@ const char* const kBenchSimHelp =
     "  --fine-per-coarse N    fine tets per coarse tet (default 64: m = 4)\n"
     "  --spacing MM           phantom voxel size (default 2)\n"
     "  --refine-steps N       two-level steps measured (default 4, 10 PCG iterations each)\n"
+    "  --handle-nodes inside|tets, --bone anchored|by-value, --outer-boundary exterior|wall  the tissue\n"
+    "                         rules (see handson deform --help; the earlier rules to compare with)\n"
     "  --graded-split CELLS   graded cells: halve the cells within CELLS cell sizes of the handle (default 1;\n"
     "                         -1 skips them)\n"
     "  --translate-mm X,Y,Z, --rotate-deg AX,AY,AZ   another motion\n"
@@ -253,7 +255,8 @@ void coarseIterationSweep(const SimScene& sc, CoarseModel& model, const std::vec
 }  // namespace
 
 int cmdBenchSim(const Words& words) {
-  Args args(words, {"--handle", "--handle-label", "--coarse-list", "--fine-per-coarse", "--spacing", "--refine-steps", "--graded-split", "--translate-mm", "--rotate-deg", "--materials", "--out"},
+  Args args(words, {"--handle", "--handle-label", "--coarse-list", "--fine-per-coarse", "--spacing", "--refine-steps", "--graded-split", "--translate-mm", "--rotate-deg", "--materials", "--out",
+                    "--handle-nodes", "--bone", "--outer-boundary"},
             {"--quiet"});
   if (args.help() || args.positional().size() > 1 || (args.positional().size() == 1) != bool(args.value("--handle"))) {
     usageStream(args) << kBenchSimHelp;
@@ -283,6 +286,7 @@ int cmdBenchSim(const Words& words) {
   for (int nc : coarseList) {
     SimSettings s;
     s.materials = materials;
+    tissueRuleOptions(args, "--", s);
     s.coarseTets = nc;
     s.fineTets = nc * finePer;
     auto t0 = std::chrono::steady_clock::now();

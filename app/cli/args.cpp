@@ -149,6 +149,10 @@ void coarseModelOptions(const Args& args, const std::string& prefix, SimSettings
     throw UsageError(prefix + "graded-split needs cell elements (" + prefix + "coarse-element cell)");
   if (settings.grading.graded() && settings.coarseSolver != CoarseSolver::Pcg)
     throw UsageError(prefix + "graded-split needs the pcg coarse solver");
+  tissueRuleOptions(args, prefix, settings);
+}
+
+void tissueRuleOptions(const Args& args, const std::string& prefix, SimSettings& settings) {
   if (const auto v = args.value(prefix + "handle-nodes")) {
     if (*v == "inside") settings.handleNodes = SimSettings::HandleNodes::Inside;
     else if (*v == "tets") settings.handleNodes = SimSettings::HandleNodes::Tets;

@@ -56,9 +56,12 @@ std::vector<double> parseNumberList(const std::string& text, const std::string& 
 void parseSize(const std::string& text, int& width, int& height);
 /// The coarse model's element kind from option `name` ("cell" or "tet"; absent: cell).
 CoarseElement coarseElementOption(const Args& args, const char* name);
-/// The simulation's options `prefix` + "coarse-element", "coarse-solver", "graded-split",
-/// "handle-nodes", "bone" and "outer-boundary" (prefix "--" or "--sim-") into `settings`.
+/// The simulation's options `prefix` + "coarse-element", "coarse-solver", "graded-split" and the
+/// tissue rules' (tissueRuleOptions) (prefix "--" or "--sim-") into `settings`.
 void coarseModelOptions(const Args& args, const std::string& prefix, SimSettings& settings);
+/// The tissue rules (docs/tissue-physics.md): `prefix` + "handle-nodes" (inside|tets), "bone"
+/// (anchored|by-value) and "outer-boundary" (exterior|wall) into `settings` (absent: kept).
+void tissueRuleOptions(const Args& args, const std::string& prefix, SimSettings& settings);
 /// The simulated region's shape from option `name` ("box" or "handles") into `settings` (absent: kept).
 void regionOption(const Args& args, const char* name, SimSettings& settings);
 /// pcg (default) or assembled (the baseline coarse solve; sim/coarsening.h).

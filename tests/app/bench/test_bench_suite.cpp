@@ -6,7 +6,11 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <cmath>
 #include <fstream>
+#include <map>
+#include <sstream>
+#include <vector>
 #include <string>
 
 #include "tests/app/run_handson.h"
@@ -74,5 +78,39 @@ TEST_F(Bench, TheQuickBenchmarkSuiteRunsEveryScenarioAndComponent) {
     EXPECT_TRUE(std::filesystem::exists(dir + "/stages.png"));
     EXPECT_TRUE(std::filesystem::exists(dir + "/latency.png"));
     EXPECT_TRUE(std::filesystem::exists(dir + "/stability/stability_interaction.png"));
+  }
+}
+
+TEST_F(Bench, TheTissueBenchmarkChartsForceAndStrainAgainstMotion) {
+  // `handson bench tissue` on the 6 mm phantom's kidney, 0..10 mm in 5 mm steps, small meshes: every
+  // row of tissue_response.csv (2 directions x 3 motions x coarse and refined) with the issue's
+  // columns; no force at no motion, more force further (the tissue pulls back harder), finite figures.
+  const std::string dir = (scratch / "tissue").string();
+  const CliRun r = runHandson("bench tissue --spacing 6 --coarse-tets 300 --fine-tets 8100 --max-mm 10 --quiet --out " + dir, 300);
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream csv(dir + "/tissue_response.csv");
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "scene,interface,model,direction,motion_mm,force_N,past_limit_cm3,peak_strain");
+  std::map<std::string, std::vector<double>> force;  // per model and direction, by motion
+  int rows = 0;
+  while (std::getline(csv, line)) {
+    std::stringstream ss(line);
+    std::vector<std::string> c;
+    for (std::string cell; std::getline(ss, cell, ',');) c.push_back(cell);
+    ASSERT_EQ(c.size(), 8u) << line;
+    EXPECT_EQ(c[0], "phantom");
+    EXPECT_EQ(c[1], "glued");
+    for (int k = 4; k < 8; ++k) EXPECT_TRUE(std::isfinite(std::stod(c[std::size_t(k)]))) << line;
+    force[c[2] + " " + c[3]].push_back(std::stod(c[5]));
+    ++rows;
+  }
+  EXPECT_EQ(rows, 12);
+  ASSERT_EQ(force.size(), 4u);
+  for (const auto& [key, f] : force) {
+    ASSERT_EQ(f.size(), 3u) << key;
+    EXPECT_LT(f[0], 1e-6) << key;
+    EXPECT_GT(f[1], 0.0) << key;
+    EXPECT_GT(f[2], f[1]) << key;
   }
 }
