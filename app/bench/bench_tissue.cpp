@@ -13,6 +13,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <sstream>
 
 #include "app/bench/bench.h"
 #include "app/cli/args.h"
@@ -79,6 +80,7 @@ void sweep(const SimScene& sc, const SimSettings& s, const Direction& d, const s
   const NearestHandle nearest = nearestHandleOfNodes(sc.meshes.fine, sc.constraints, std::vector<char>(std::size_t(sc.constraints.handleCount), 1));
   std::vector<Eigen::Vector3d> xc = model.restState();
   const char* interface = "glued";
+  std::ostringstream refinedRows;  // after the coarse rows: each series' rows together (the chart's lines)
   for (double m : motions) {
     const std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], Eigen::Vector3d::Zero(), m * d.unit)};
     model.solve(T, xc, 50);
@@ -87,8 +89,9 @@ void sweep(const SimScene& sc, const SimSettings& s, const Direction& d, const s
     for (int k = 0; k < refineSteps; ++k) refiner.step(xc, x, 10);
     const Row refined = measure(sc, s.materials, nearest, x, fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, T, x)[0].forceN.norm());
     write(csv, {scene, interface, "coarse", d.name, m}, coarse);
-    write(csv, {scene, interface, "refined", d.name, m}, refined);
+    write(refinedRows, {scene, interface, "refined", d.name, m}, refined);
   }
+  csv << refinedRows.str();
 }
 
 void chart(const std::filesystem::path& out) {

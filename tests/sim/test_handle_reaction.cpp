@@ -68,6 +68,13 @@ TEST(HandleReaction, ARigidMotionOfEverythingIsForceFree) {
   }
 }
 
+namespace {
+// The box scenes' ball handle at (30, 15, 20) moved 1e-5 mm-scale and turned 1e-5 degrees, times s.
+std::vector<RigidTransform> smallMotionOfTheBall(double s) {
+  return {RigidTransform::about({30, 15, 20}, Eigen::Vector3d(0, 0, s * 0.00001 * M_PI / 180), Eigen::Vector3d(1e-5, -4e-6, 6e-6) * s)};
+}
+}  // namespace
+
 TEST(HandleReaction, CoarseReactionIsTheFineForceOnItsOwnReconstructionAndLinearInASmallMotion) {
   // A ball handle in the box beside a 100x stiffer slab, moved 1 micron and turned 1e-5 degrees:
   // the coarse model's energy is the fine energy of its reconstruction, so its reaction (from the
@@ -78,9 +85,7 @@ TEST(HandleReaction, CoarseReactionIsTheFineForceOnItsOwnReconstructionAndLinear
   BoxScene box(100.0);
   box.ball({30, 15, 20}, 7.0, 0);
   CoarseModel model(box.meshes, box.K, box.c);
-  auto at = [&](double s) {
-    return std::vector<RigidTransform>{RigidTransform::about({30, 15, 20}, Eigen::Vector3d(0, 0, s * 0.00001 * M_PI / 180), Eigen::Vector3d(1e-5, -4e-6, 6e-6) * s)};
-  };
+  const auto at = smallMotionOfTheBall;
   auto xc = model.restState();
   ASSERT_TRUE(model.solve(at(1), xc, 300, 1e-10).converged);
   const auto coarse = model.handleReactions(at(1), xc);
@@ -174,9 +179,7 @@ TEST(HandleReaction, AnchoredNodesInsideCoarseElementsStayAtRestAndTheReactionIs
     }
   EXPECT_LT(worst, 1e-9);  // held face nodes interpolate held corners: round-off
   EXPECT_LT(worstPacked, 1e-4);  // float packing of positions ~50 mm
-  auto at = [&](double s) {
-    return std::vector<RigidTransform>{RigidTransform::about({30, 15, 20}, Eigen::Vector3d(0, 0, s * 0.00001 * M_PI / 180), Eigen::Vector3d(1e-5, -4e-6, 6e-6) * s)};
-  };
+  const auto at = smallMotionOfTheBall;
   auto xs = model.restState();
   ASSERT_TRUE(model.solve(at(1), xs, 300, 1e-10).converged);
   const auto coarse = model.handleReactions(at(1), xs);
