@@ -251,7 +251,6 @@ class CoarseModel {
   int dirichletHandle(int fine) const;
   /// The caller's handle transforms with the anchor's identity appended (index anchorHandle()).
   std::vector<RigidTransform> withAnchor(const std::vector<RigidTransform>& handles) const;
-  struct Element;
   /// All corners with a weight in w are held (fixed).
   bool onHeldCorners(const Element& el, const Eigen::Matrix<double, 8, 1>& w) const;
   /// Symmetrizes el.Kh and derives KhX, the corners' offsets and fitInv.

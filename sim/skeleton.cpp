@@ -1,5 +1,6 @@
 #include "skeleton.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <queue>
