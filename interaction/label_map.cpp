@@ -5,7 +5,7 @@
 #include <iomanip>
 #include <sstream>
 
-#include "interaction/nearest_voxel.h"
+#include "sim/volume.h"
 #include "sim/error.h"
 
 namespace handson {

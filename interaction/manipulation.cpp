@@ -1,9 +1,9 @@
 #include "manipulation.h"
+#include "sim/volume.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "interaction/nearest_voxel.h"
 
 namespace handson {
 

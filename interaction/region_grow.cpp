@@ -6,7 +6,7 @@
 #include <limits>
 #include <string>
 
-#include "interaction/nearest_voxel.h"
+#include "sim/volume.h"
 #include "sim/error.h"
 
 namespace handson {

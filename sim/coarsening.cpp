@@ -118,7 +118,6 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
 void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::vector<std::vector<int>>& tetsOf, const ProgressFn& progress) {
   const TetMesh& C = meshes_.coarse;
   const TetMesh& F = meshes_.fine;
-  const auto& handleOf = constraints_.handleOf;
   const int nc = nc_;
   const std::size_t elementCount = tetsOf.size();
   // A fine node takes its position from one record; coarse nodes are their own (graded: a hanging
@@ -163,40 +162,9 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
           const int la = local[F.tets[std::size_t(t)][std::size_t(a)]], lb = local[F.tets[std::size_t(t)][std::size_t(b)]];
           K.block<3, 3>(3 * la, 3 * lb) += fineK[std::size_t(t)].block<3, 3>(3 * a, 3 * b);
         }
-    // Classify the non-corner nodes: weights of the corners for the nodes on the element's faces.
-    std::vector<int> Dn, Bn, In;
-    std::vector<Eigen::Matrix<double, 8, 1>> Bw;
-    const double scale = (nodes_[std::size_t(el.node[1])] - nodes_[std::size_t(el.node[0])]).norm();
-    for (int l = nc; l < n; ++l) {
-      const int f = nodes[std::size_t(l)];
-      const bool held = constraints_.fixed[std::size_t(f)] != 0;
-      if (!held && handleOf[std::size_t(f)] >= 0) {
-        Dn.push_back(l);
-        continue;
-      }
-      Eigen::Matrix<double, 8, 1> w = Eigen::Matrix<double, 8, 1>::Zero();
-      bool onBoundary = false;
-      if (kind_ == CoarseElement::Tet) {
-        const Eigen::Vector4d lam = barycentric(Xt, F.nodes[std::size_t(f)]);
-        onBoundary = lam.minCoeff() < 1e-9 * std::max(1.0, scale);
-        w.head<4>() = lam.cwiseMax(0.0) / lam.cwiseMax(0.0).sum();
-      } else {
-        w = elementWeights(int(e), F.nodes[std::size_t(f)], &onBoundary);
-      }
-      // A held node (the anchored skeleton) is Dirichlet at rest - the anchor handle's node, x = X -
-      // unless it lies on a face whose weighted corners are all held (the region's fixed faces:
-      // N_b x_c is its rest position already).
-      if (held && !(onBoundary && onHeldCorners(el, w))) {
-        Dn.push_back(l);
-        continue;
-      }
-      if (onBoundary) {
-        Bn.push_back(l);
-        Bw.push_back(w);
-      } else {
-        In.push_back(l);
-      }
-    }
+    const ElementNodes roles = classifyNodes(int(e), el, nodes, Xt);
+    const std::vector<int>&Dn = roles.D, &Bn = roles.B, &In = roles.I;
+    const auto& Bw = roles.Bw;
     const int nI = int(In.size()), nB = int(Bn.size()), nD = int(Dn.size());
     auto rows = [&](const std::vector<int>& set, const Mat& M, int cols) {
       Mat out(3 * Eigen::Index(set.size()), cols);
@@ -268,6 +236,45 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
       boundary_.push_back({f, int(e), Bw[std::size_t(i)]});
     }
   }
+}
+
+CoarseModel::ElementNodes CoarseModel::classifyNodes(int e, const Element& el, const std::vector<int>& nodes, const std::array<Eigen::Vector3d, 4>& Xt) const {
+  const TetMesh& F = meshes_.fine;
+  const auto& handleOf = constraints_.handleOf;
+  const int nc = nc_, n = int(nodes.size());
+  ElementNodes r;
+  const double scale = (nodes_[std::size_t(el.node[1])] - nodes_[std::size_t(el.node[0])]).norm();
+  for (int l = nc; l < n; ++l) {
+    const int f = nodes[std::size_t(l)];
+    const bool held = constraints_.fixed[std::size_t(f)] != 0;
+    if (!held && handleOf[std::size_t(f)] >= 0) {
+      r.D.push_back(l);
+      continue;
+    }
+    Eigen::Matrix<double, 8, 1> w = Eigen::Matrix<double, 8, 1>::Zero();
+    bool onBoundary = false;
+    if (kind_ == CoarseElement::Tet) {
+      const Eigen::Vector4d lam = barycentric(Xt, F.nodes[std::size_t(f)]);
+      onBoundary = lam.minCoeff() < 1e-9 * std::max(1.0, scale);
+      w.head<4>() = lam.cwiseMax(0.0) / lam.cwiseMax(0.0).sum();
+    } else {
+      w = elementWeights(int(e), F.nodes[std::size_t(f)], &onBoundary);
+    }
+    // A held node (the anchored skeleton) is Dirichlet at rest - the anchor handle's node, x = X -
+    // unless it lies on a face whose weighted corners are all held (the region's fixed faces:
+    // N_b x_c is its rest position already).
+    if (held && !(onBoundary && onHeldCorners(el, w))) {
+      r.D.push_back(l);
+      continue;
+    }
+    if (onBoundary) {
+      r.B.push_back(l);
+      r.Bw.push_back(w);
+    } else {
+      r.I.push_back(l);
+    }
+  }
+  return r;
 }
 
 bool CoarseModel::onHeldCorners(const Element& el, const Eigen::Matrix<double, 8, 1>& w) const {

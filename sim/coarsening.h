@@ -251,6 +251,14 @@ class CoarseModel {
   int dirichletHandle(int fine) const;
   /// The caller's handle transforms with the anchor's identity appended (index anchorHandle()).
   std::vector<RigidTransform> withAnchor(const std::vector<RigidTransform>& handles) const;
+  /// Element e's non-corner fine nodes (`nodes`, local order, corners first) by role: Dirichlet
+  /// (handle or anchor), on its faces (with the corners' weights) or interior. `Xt`: a tet element's
+  /// rest corners.
+  struct ElementNodes {
+    std::vector<int> D, B, I;
+    std::vector<Eigen::Matrix<double, 8, 1>> Bw;
+  };
+  ElementNodes classifyNodes(int e, const Element& el, const std::vector<int>& nodes, const std::array<Eigen::Vector3d, 4>& Xt) const;
   /// All corners with a weight in w are held (fixed).
   bool onHeldCorners(const Element& el, const Eigen::Matrix<double, 8, 1>& w) const;
   /// Symmetrizes el.Kh and derives KhX, the corners' offsets and fitInv.

@@ -97,20 +97,11 @@ void claimNodesOfTets(SimScene& sc, const VolumeGeometry& g, const SimHandle& ha
 std::size_t claimNodesInside(SimScene& sc, const VolumeGeometry& g, const SimHandle& handle, int h) {
   std::vector<std::uint32_t> sorted = handle.voxels;
   std::sort(sorted.begin(), sorted.end());
-  const Eigen::Matrix4d toIndex = g.worldToIndex();
   const TetMesh& F = sc.meshes.fine;
   std::size_t claimed = 0;
   for (std::size_t n = 0; n < F.nodes.size(); ++n) {
-    const Eigen::Vector3d idx = (toIndex * F.nodes[n].homogeneous()).head<3>();
-    bool in = true;
-    std::size_t l = 0, stride = 1;
-    for (int a = 0; a < 3 && in; ++a) {
-      const double r = std::round(idx[a]);
-      in = r >= 0 && r < g.dims[a];
-      if (in) l += std::size_t(r) * stride;
-      stride *= std::size_t(g.dims[a]);
-    }
-    if (in && std::binary_search(sorted.begin(), sorted.end(), std::uint32_t(l))) {
+    const std::optional<Eigen::Vector3i> v = nearestVoxel(g, F.nodes[n]);
+    if (v && std::binary_search(sorted.begin(), sorted.end(), std::uint32_t(linearIndex(g, *v)))) {
       sc.constraints.handleOf[n] = h;
       ++claimed;
     }

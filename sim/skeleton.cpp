@@ -90,15 +90,11 @@ void TissueMap::grow(double reachMm) {
 
 long long TissueMap::boxIndex(const Eigen::Vector3d& p) const {
   if (skeleton_.empty()) return -1;
-  const Eigen::Vector3d idx = (toIndex_ * p.homogeneous()).head<3>();
-  long long l = 0, stride = 1;
-  for (int a = 0; a < 3; ++a) {
-    const double r = std::round(idx[a]) - boxLo_[a];
-    if (!(r >= 0) || r >= boxDims_[a]) return -1;
-    l += (long long)r * stride;
-    stride *= boxDims_[a];
-  }
-  return l;
+  const std::optional<Eigen::Vector3i> v = nearestVoxel(image_.geometry(), p);
+  if (!v) return -1;
+  const Eigen::Vector3i r = *v - boxLo_;
+  if ((r.array() < 0).any() || (r.array() >= boxDims_.array()).any()) return -1;
+  return (long long)r.x() + (long long)boxDims_.x() * ((long long)r.y() + (long long)boxDims_.y() * (long long)r.z());
 }
 
 bool TissueMap::skeletonAt(const Eigen::Vector3d& p) const {

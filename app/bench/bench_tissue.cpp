@@ -72,21 +72,29 @@ struct Direction {
   Eigen::Vector3d unit;
 };
 
+struct Sweep {
+  std::string scene;
+  Direction direction;
+  std::vector<double> motions;  ///< mm, from 0, each solved from the last
+  int refineSteps = 2;
+};
+
 // One direction's motions, written to csv.
-void sweep(const SimScene& sc, const SimSettings& s, const Direction& d, const std::vector<double>& motions, int refineSteps, const std::string& scene,
-           std::ostream& csv) {
+void sweep(const SimScene& sc, const SimSettings& s, const Sweep& w, std::ostream& csv) {
+  const Direction& d = w.direction;
+  const std::string& scene = w.scene;
   CoarseModel model(sc.meshes, sc.fineK, sc.constraints, {}, s.element);
   FineRefiner refiner(model, sc.fineK, sc.youngs, sc.poisson);
   const NearestHandle nearest = nearestHandleOfNodes(sc.meshes.fine, sc.constraints, std::vector<char>(std::size_t(sc.constraints.handleCount), 1));
   std::vector<Eigen::Vector3d> xc = model.restState();
   const char* interface = "glued";
   std::ostringstream refinedRows;  // after the coarse rows: each series' rows together (the chart's lines)
-  for (double m : motions) {
+  for (double m : w.motions) {
     const std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], Eigen::Vector3d::Zero(), m * d.unit)};
     model.solve(T, xc, 50);
     std::vector<Eigen::Vector3d> x = model.reconstruct(T, xc);
     const Row coarse = measure(sc, s.materials, nearest, x, model.handleReactions(T, xc)[0].forceN.norm());
-    for (int k = 0; k < refineSteps; ++k) refiner.step(xc, x, 10);
+    for (int k = 0; k < w.refineSteps; ++k) refiner.step(xc, x, 10);
     const Row refined = measure(sc, s.materials, nearest, x, fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, T, x)[0].forceN.norm());
     write(csv, {scene, interface, "coarse", d.name, m}, coarse);
     write(refinedRows, {scene, interface, "refined", d.name, m}, refined);
@@ -147,7 +155,7 @@ int cmdBenchTissue(const Words& words) {
     // The region covers the handle at its furthest motion (plus the padding).
     SimHandle h{loaded.handle, {RigidTransform{Eigen::Matrix3d::Identity(), maxMm * d.unit}}};
     const SimScene sc = buildSimScene(loaded.image, {h}, s);
-    sweep(sc, s, d, motions, refineSteps, scene, csv);
+    sweep(sc, s, {scene, d, motions, refineSteps}, csv);
   }
   csv.close();
   chart(out);
