@@ -9,6 +9,7 @@
 #include <unordered_map>
 
 #include "sim/binary_io.h"
+#include "sim/slide_io.h"
 #include "sim/blas_threads.h"
 #include "sim/handle_reaction.h"
 #include "sim/coarse_pcg_workspace.h"
@@ -124,6 +125,8 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
   // node also lies on a whole cell's face, and is condensed there as a face node, not recorded).
   std::vector<char> boundaryDone(F.nodes.size(), 0);
   for (const int f : nodeFine_) boundaryDone[std::size_t(f)] = 1;
+  const SlideShares slide = slideShares(tetsOf, fineK);
+  std::vector<char> touches;
   elements_.resize(elementCount);
   std::unordered_map<int, int> local;
   for (std::size_t e = 0; e < elementCount; ++e) {
@@ -155,14 +158,28 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
       finishElement(el);
       continue;
     }
-    Mat K = Mat::Zero(3 * n, 3 * n);
+    // Sliding interfaces: the slide nodes touching tissue here; those on the element's faces are
+    // held to the surface exactly (roles.S), the others by their springs, each through a Dirichlet
+    // ghost node of the handle after the fine nodes.
+    const std::vector<int> candidates = slide.of(nodes, tetsOf[e], F, local, touches);
+    ElementNodes roles = classifyNodes(int(e), el, nodes, Xt, slide, touches);
+    std::vector<int> springs;
+    for (int s : candidates)
+      if (std::find(roles.S.begin(), roles.S.end(), local[constraints_.slide[std::size_t(s)].node]) == roles.S.end()) springs.push_back(s);
+    const int ng = n + int(springs.size() + roles.S.size());
+    Mat K = Mat::Zero(3 * ng, 3 * ng);
     for (int t : tetsOf[e])
       for (int a = 0; a < 4; ++a)
         for (int b = 0; b < 4; ++b) {
           const int la = local[F.tets[std::size_t(t)][std::size_t(a)]], lb = local[F.tets[std::size_t(t)][std::size_t(b)]];
           K.block<3, 3>(3 * la, 3 * lb) += fineK[std::size_t(t)].block<3, 3>(3 * a, 3 * b);
         }
-    const ElementNodes roles = classifyNodes(int(e), el, nodes, Xt);
+    for (std::size_t g = 0; g < springs.size(); ++g) addGhost(K, local[constraints_.slide[std::size_t(springs[g])].node], n + int(g), slide, springs[g], roles);
+    const std::size_t firstSurfaceGhost = roles.D.size();
+    for (std::size_t j = 0; j < roles.S.size(); ++j) {
+      const SlideNode& sn = constraints_.slide[std::size_t(slide.slideOf[std::size_t(nodes[std::size_t(roles.S[j])])])];
+      roles.addDirichlet(n + int(springs.size() + j), sn.handle, F.nodes[std::size_t(sn.node)]);
+    }
     const std::vector<int>&Dn = roles.D, &Bn = roles.B, &In = roles.I;
     const auto& Bw = roles.Bw;
     const int nI = int(In.size()), nB = int(Bn.size()), nD = int(Dn.size());
@@ -171,16 +188,26 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
       for (std::size_t i = 0; i < set.size(); ++i) out.middleRows(3 * Eigen::Index(i), 3) = M.middleRows(3 * set[i], 3);
       return out;
     };
-    // Phi_c (3n x 3nc) and Phi_D (3n x 3 nD).
-    Mat Phic = Mat::Zero(3 * n, 3 * nc), PhiD = Mat::Zero(3 * n, 3 * nD);
+    // Phi_c (3n' x 3nc) and Phi_D (3n' x 3 nD), n' = n + the ghosts.
+    Mat Phic = Mat::Zero(3 * ng, 3 * nc), PhiD = Mat::Zero(3 * ng, 3 * nD);
     for (int c = 0; c < nc; ++c) Phic.block<3, 3>(3 * c, 3 * c).setIdentity();
     for (int i = 0; i < nB; ++i)
       for (int c = 0; c < nc; ++c) Phic.block<3, 3>(3 * Bn[std::size_t(i)], 3 * c) = Bw[std::size_t(i)][c] * Eigen::Matrix3d::Identity();
     for (int i = 0; i < nD; ++i) PhiD.block<3, 3>(3 * Dn[std::size_t(i)], 3 * i).setIdentity();
+    // A slide node on a face: its tangential motion follows the face's corners (conforming with the
+    // element beside it), its normal motion is the handle's (its surface ghost's): u = (I - n n^T)
+    // N_b u_c + n n^T u_ghost.
+    for (std::size_t j = 0; j < roles.S.size(); ++j) {
+      const int l = roles.S[j];
+      const Eigen::Vector3d& nrm = constraints_.slide[std::size_t(slide.slideOf[std::size_t(nodes[std::size_t(l)])])].normal;
+      const Eigen::Matrix3d Pn = nrm * nrm.transpose();
+      for (int c = 0; c < nc; ++c) Phic.block<3, 3>(3 * l, 3 * c) = roles.Sw[j][c] * (Eigen::Matrix3d::Identity() - Pn);
+      PhiD.block<3, 3>(3 * l, 3 * Eigen::Index(firstSurfaceGhost + j)) = Pn;
+    }
     Mat H, G;
     if (nI > 0) {
       // K_I* Phi restricted: -K_II^{-1} (K_I,(c,b) Phi_c) and -K_II^{-1} K_ID.
-      Mat KI = rows(In, K, 3 * n);  // 3nI x 3n
+      Mat KI = rows(In, K, 3 * ng);  // 3nI x 3n'
       Mat KII(3 * nI, 3 * nI);
       for (int j = 0; j < nI; ++j) KII.middleCols(3 * j, 3) = KI.middleCols(3 * In[std::size_t(j)], 3);
       const Eigen::LDLT<Mat> ldlt(KII);
@@ -200,33 +227,38 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
     // Handle blocks, per handle among the D nodes.
     if (nD > 0) {
       const Mat Khd = KPhic.transpose() * PhiD;  // 3nc x 3nD
-      for (int i = 0; i < nD; ++i) {
-        const int f = nodes[std::size_t(Dn[std::size_t(i)])];
-        addHandleBlock(el, dirichletHandle(f), F.nodes[std::size_t(f)], Khd.middleCols(3 * i, 3));
-      }
+      for (int i = 0; i < nD; ++i) addHandleBlock(el, roles.Dhandle[std::size_t(i)], roles.DX[std::size_t(i)], Khd.middleCols(3 * i, 3));
       // The handles' own condensed stiffness for their reactions: Q = (Phi_D U)^T K (Phi_D U),
       // U (3nD x 12h) each D node's 12 unit motions in its handle's columns (el.handles order).
       const int h = int(el.handles.size());
       Mat U = Mat::Zero(3 * nD, 12 * h);
       for (int i = 0; i < nD; ++i) {
-        const int f = nodes[std::size_t(Dn[std::size_t(i)])];
-        const auto it = std::find_if(el.handles.begin(), el.handles.end(), [&](const HandleBlock& b) { return b.handle == dirichletHandle(f); });
-        U.block<3, 12>(3 * i, 12 * int(it - el.handles.begin())) = unitMotions(F.nodes[std::size_t(f)]);
+        const int hd = roles.Dhandle[std::size_t(i)];
+        const auto it = std::find_if(el.handles.begin(), el.handles.end(), [&](const HandleBlock& b) { return b.handle == hd; });
+        U.block<3, 12>(3 * i, 12 * int(it - el.handles.begin())) = unitMotions(roles.DX[std::size_t(i)]);
       }
       const Mat PU = PhiD * U;
       el.Q = PU.transpose() * (K * PU);
       el.Q = 0.5 * (el.Q + el.Q.transpose()).eval();
     }
-    // Reconstruction data.
+    // Reconstruction data: slide nodes on faces (the first element's record) like interior nodes.
+    for (std::size_t j = 0; j < roles.S.size(); ++j) {
+      const int l = roles.S[j], f = nodes[std::size_t(l)];
+      if (boundaryDone[std::size_t(f)]) continue;
+      boundaryDone[std::size_t(f)] = 1;
+      InteriorNode in;
+      in.fine = f;
+      in.element = int(e);
+      in.H = Phic.middleRows(3 * l, 3);
+      for (int d = 0; d < nD; ++d) addInteriorHandleBlock(in, roles.Dhandle[std::size_t(d)], roles.DX[std::size_t(d)], PhiD.block<3, 3>(3 * l, 3 * d));
+      interior_.push_back(std::move(in));
+    }
     for (int i = 0; i < nI; ++i) {
       InteriorNode in;
       in.fine = nodes[std::size_t(In[std::size_t(i)])];
       in.element = int(e);
       in.H = H.middleRows(3 * i, 3);
-      for (int d = 0; d < nD; ++d) {
-        const int f = nodes[std::size_t(Dn[std::size_t(d)])];
-        addInteriorHandleBlock(in, dirichletHandle(f), F.nodes[std::size_t(f)], G.block<3, 3>(3 * i, 3 * d));
-      }
+      for (int d = 0; d < nD; ++d) addInteriorHandleBlock(in, roles.Dhandle[std::size_t(d)], roles.DX[std::size_t(d)], G.block<3, 3>(3 * i, 3 * d));
       interior_.push_back(std::move(in));
     }
     for (int i = 0; i < nB; ++i) {
@@ -238,7 +270,8 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
   }
 }
 
-CoarseModel::ElementNodes CoarseModel::classifyNodes(int e, const Element& el, const std::vector<int>& nodes, const std::array<Eigen::Vector3d, 4>& Xt) const {
+CoarseModel::ElementNodes CoarseModel::classifyNodes(int e, const Element& el, const std::vector<int>& nodes, const std::array<Eigen::Vector3d, 4>& Xt,
+                                                     const SlideShares& slide, const std::vector<char>& touches) const {
   const TetMesh& F = meshes_.fine;
   const auto& handleOf = constraints_.handleOf;
   const int nc = nc_, n = int(nodes.size());
@@ -248,7 +281,11 @@ CoarseModel::ElementNodes CoarseModel::classifyNodes(int e, const Element& el, c
     const int f = nodes[std::size_t(l)];
     const bool held = constraints_.fixed[std::size_t(f)] != 0;
     if (!held && handleOf[std::size_t(f)] >= 0) {
-      r.D.push_back(l);
+      r.addDirichlet(l, handleOf[std::size_t(f)], F.nodes[std::size_t(f)]);
+      continue;
+    }
+    if (slide.slides(f) && !touches[std::size_t(l)]) {  // only the handle's own tets here: it moves with the handle
+      r.addDirichlet(l, constraints_.slide[std::size_t(slide.slideOf[std::size_t(f)])].handle, F.nodes[std::size_t(f)]);
       continue;
     }
     Eigen::Matrix<double, 8, 1> w = Eigen::Matrix<double, 8, 1>::Zero();
@@ -264,10 +301,13 @@ CoarseModel::ElementNodes CoarseModel::classifyNodes(int e, const Element& el, c
     // unless it lies on a face whose weighted corners are all held (the region's fixed faces:
     // N_b x_c is its rest position already).
     if (held && !(onBoundary && onHeldCorners(el, w))) {
-      r.D.push_back(l);
+      r.addDirichlet(l, anchorHandle(), F.nodes[std::size_t(f)]);
       continue;
     }
-    if (onBoundary) {
+    if (onBoundary && slide.slides(f)) {
+      r.S.push_back(l);
+      r.Sw.push_back(w);
+    } else if (onBoundary) {
       r.B.push_back(l);
       r.Bw.push_back(w);
     } else {
@@ -348,6 +388,7 @@ void CoarseModel::save(std::ostream& os) const {
   w.podVector(constraints_.handleOf);
   w.podVector(constraints_.fixed);
   w.pod(std::int32_t(constraints_.handleCount));
+  bin::writeSlideNodes(w, constraints_.slide);
   w.pod(std::uint64_t(elements_.size()));
   for (const auto& el : elements_) {
     w.pod(el.node);
@@ -398,6 +439,7 @@ std::unique_ptr<CoarseModel> CoarseModel::load(std::istream& is, std::uint64_t b
   m->constraints_.handleCount = r.pod<std::int32_t>();
   const int hc = m->constraints_.handleCount;
   if (m->constraints_.handleOf.size() != nf || m->constraints_.fixed.size() != nf || hc < 0) throw Error("cache file does not fit the mesh");
+  m->constraints_.slide = bin::readSlideNodes(r, nf, hc);
   auto checkIndex = [](std::int64_t v, std::size_t n) {
     if (v < 0 || std::uint64_t(v) >= n) throw Error("cache file corrupt (an index out of range)");
   };

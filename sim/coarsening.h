@@ -22,12 +22,14 @@
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include "sim/fem.h"
 #include "sim/fine_interpolation.h"
 #include "sim/progress.h"
 #include "sim/rigid_transform.h"
+#include "sim/sliding_interface.h"
 #include "sim/sparse_direct.h"
 #include <Eigen/SparseCholesky>
 #include "sim/static_solver.h"
@@ -42,6 +44,9 @@ struct FineConstraints {
   std::vector<int> handleOf;  ///< per fine node: handle index (0-based) or -1
   std::vector<char> fixed;    ///< per fine node: held at rest (the region's outer boundary)
   int handleCount = 0;
+  /// Sliding interfaces (sim/sliding_interface.h): the handles' surface nodes, free (handleOf -1) and
+  /// held to their handle's surface in the normal direction only. Empty: every interface is glued.
+  std::vector<SlideNode> slide;
 };
 
 struct CoarseSolveStats {
@@ -257,8 +262,42 @@ class CoarseModel {
   struct ElementNodes {
     std::vector<int> D, B, I;
     std::vector<Eigen::Matrix<double, 8, 1>> Bw;
+    std::vector<int> S;                            ///< slide nodes on the element's faces
+    std::vector<Eigen::Matrix<double, 8, 1>> Sw;   ///< their corners' weights
+    std::vector<int> Dhandle;            ///< per D node: its handle (or the anchor)
+    std::vector<Eigen::Vector3d> DX;     ///< per D node: its rest position
+    void addDirichlet(int local, int handle, const Eigen::Vector3d& X) {
+      D.push_back(local);
+      Dhandle.push_back(handle);
+      DX.push_back(X);
+    }
   };
-  ElementNodes classifyNodes(int e, const Element& el, const std::vector<int>& nodes, const std::array<Eigen::Vector3d, 4>& Xt) const;
+  /// Sliding interfaces: the spring of each slide node inside an element or at its corner, shared
+  /// among the elements where it touches tissue (its stiffness over their count), enters each as a
+  /// Dirichlet *ghost* node of the handle at the slide node's rest position, joined to it by
+  /// k/c n n^T - so the springs are condensed with the rest.
+  /// A slide node that touches no tissue tet of an element (only its handle's own, stiffness-free
+  /// tets) moves with the handle there: the element's energy does not depend on it.
+  struct SlideShares {
+    std::vector<int> slideOf;      ///< per fine node: index into constraints_.slide, or -1
+    std::vector<int> elementCount; ///< per fine node: the elements where it touches a tissue tet
+    std::vector<char> rigidTet;    ///< per fine tet: no stiffness (a sliding handle's own)
+    bool slides(int fine) const { return !slideOf.empty() && slideOf[std::size_t(fine)] >= 0; }
+    /// The slide indices among `nodes` that touch a tissue tet of `tets`, and per local node whether
+    /// it does (`touches`, sized to nodes).
+    std::vector<int> of(const std::vector<int>& nodes, const std::vector<int>& tets, const TetMesh& fine, const std::unordered_map<int, int>& local,
+                        std::vector<char>& touches) const;
+  };
+  SlideShares slideShares(const std::vector<std::vector<int>>& tetsOf, const std::vector<Mat12>& fineK) const;
+  /// Adds ghost `g` (local index) of slide entry `s` joined to local node `l` to K and to `roles`.
+  void addGhost(Eigen::MatrixXd& K, int l, int g, const SlideShares& shares, int s, ElementNodes& roles) const;
+  /// A slide node on a face (not a corner, roles S) moves tangentially with the face's corners and
+  /// normally with its handle, exactly (no spring: a spring on the corners' linear field would lock
+  /// the interface to the handle, the surface cutting the faces at any angle).
+  /// `touches`: per local node, whether it touches a tissue tet of the element (slide nodes that do not
+  /// are Dirichlet nodes of their handle).
+  ElementNodes classifyNodes(int e, const Element& el, const std::vector<int>& nodes, const std::array<Eigen::Vector3d, 4>& Xt, const SlideShares& slide,
+                             const std::vector<char>& touches) const;
   /// All corners with a weight in w are held (fixed).
   bool onHeldCorners(const Element& el, const Eigen::Matrix<double, 8, 1>& w) const;
   /// Symmetrizes el.Kh and derives KhX, the corners' offsets and fitInv.

@@ -15,6 +15,8 @@
 // stationary (stationaryRotation; docs/simulation-model.md, "Reaction force and torque").
 #include "sim/handle_reaction.h"
 
+#include <algorithm>
+
 #include <Eigen/Geometry>
 #include <cstdio>
 
@@ -57,30 +59,47 @@ std::vector<Eigen::Vector3d> handleRestCentroids(const TetMesh& fine, const Fine
     sum[std::size_t(k)] += fine.nodes[i];
     n[std::size_t(k)] += 1.0;
   }
+  for (const SlideNode& s : cons.slide) {  // a sliding handle's surface nodes are its too
+    sum[std::size_t(s.handle)] += fine.nodes[std::size_t(s.node)];
+    n[std::size_t(s.handle)] += 1.0;
+  }
   for (std::size_t k = 0; k < sum.size(); ++k)
     if (n[k] > 0) sum[k] /= n[k];
   return sum;
 }
 
 std::vector<HandleReaction> fineHandleReactions(const TetMesh& F, const std::vector<Mat12>& fineK, const FineConstraints& cons,
-                                                const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) {
+                                                const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x,
+                                                const std::vector<NeoHookeanTet>* hyperelastic) {
   if (fineK.size() != F.tets.size() || x.size() != F.nodes.size() || cons.handleOf.size() != F.nodes.size() || cons.fixed.size() != F.nodes.size() ||
-      int(handles.size()) < cons.handleCount)
+      int(handles.size()) < cons.handleCount || (hyperelastic && hyperelastic->size() != F.tets.size()))
     throw Error("handle reactions: inconsistent sizes");
-  std::vector<HandleReaction> r(std::size_t(cons.handleCount));
+  // The tissue's forces on the handles' nodes and on the sliding interfaces' nodes.
+  std::vector<char> carries(F.nodes.size(), 0);
+  for (std::size_t i = 0; i < F.nodes.size(); ++i) carries[i] = cons.handleOf[i] >= 0 && !cons.fixed[i];
+  for (const SlideNode& s : cons.slide) carries[std::size_t(s.node)] = 1;
+  std::vector<Eigen::Vector3d> f(F.nodes.size(), Eigen::Vector3d::Zero());
   for (std::size_t t = 0; t < F.tets.size(); ++t) {
     const auto& tet = F.tets[t];
-    bool touches = false;
-    for (int v : tet) touches = touches || (cons.handleOf[std::size_t(v)] >= 0 && !cons.fixed[std::size_t(v)]);
-    if (!touches) continue;
-    const Vec12 f = corotationalForce(fineK[t], tetCorners(tet, F.nodes), tetCorners(tet, x));
-    for (int a = 0; a < 4; ++a) {
-      const auto v = std::size_t(tet[std::size_t(a)]);
-      const int k = cons.handleOf[v];
-      if (k < 0 || cons.fixed[v]) continue;
-      r[std::size_t(k)].forceN += f.segment<3>(3 * a);
-      r[std::size_t(k)].torqueNmm += x[v].cross(f.segment<3>(3 * a));
-    }
+    if (std::none_of(tet.begin(), tet.end(), [&](int v) { return carries[std::size_t(v)] != 0; })) continue;
+    const Vec12 ft = hyperelastic ? neoHookeanForce((*hyperelastic)[t], tetCorners(tet, x)) : corotationalForce(fineK[t], tetCorners(tet, F.nodes), tetCorners(tet, x));
+    for (int a = 0; a < 4; ++a) f[std::size_t(tet[std::size_t(a)])] += ft.segment<3>(3 * a);
+  }
+  std::vector<HandleReaction> r(std::size_t(cons.handleCount));
+  auto add = [&](int k, std::size_t v, const Eigen::Vector3d& fv) {
+    r[std::size_t(k)].forceN += fv;
+    r[std::size_t(k)].torqueNmm += x[v].cross(fv);
+  };
+  for (std::size_t v = 0; v < F.nodes.size(); ++v)
+    if (cons.handleOf[v] >= 0 && !cons.fixed[v]) add(cons.handleOf[v], v, f[v]);
+  // A sliding interface passes on the normal part of the tissue's force on its nodes (at
+  // equilibrium all of it: the springs balance it). Taken from the tissue, not from the springs'
+  // k n (n . gap), so that a state short of equilibrium is as accurate here as a glued one: the
+  // springs are kSlidePenalty times stiffer than the tissue, and their gaps' errors with them.
+  const std::vector<NormalSpring> springs = slideSprings(F, cons.slide, handles);
+  for (std::size_t i = 0; i < springs.size(); ++i) {
+    const auto v = std::size_t(springs[i].node);
+    add(cons.slide[i].handle, v, springs[i].normal.dot(f[v]) * springs[i].normal);
   }
   return aboutCentroids(std::move(r), handleRestCentroids(F, cons), handles);
 }

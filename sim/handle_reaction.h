@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "sim/coarsening.h"
+#include "sim/neo_hookean.h"
 
 namespace handson {
 
@@ -28,8 +29,10 @@ std::string formatReaction(const HandleReaction& r, bool coarse = false);
 std::vector<Eigen::Vector3d> handleRestCentroids(const TetMesh& fine, const FineConstraints& constraints);
 
 /// The reactions on the fine mesh at positions x: per handle, the sum of the corotational elastic
-/// forces of the fine tets on its nodes (and their moments). Throws handson::Error on a size mismatch.
+/// forces of the fine tets on its nodes (and their moments); with `hyperelastic` (one per fine tet),
+/// the Neo-Hookean forces instead. Throws handson::Error on a size mismatch.
 std::vector<HandleReaction> fineHandleReactions(const TetMesh& fine, const std::vector<Mat12>& fineK, const FineConstraints& constraints,
-                                                const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x);
+                                                const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x,
+                                                const std::vector<NeoHookeanTet>* hyperelastic = nullptr);
 
 }  // namespace handson

@@ -23,6 +23,9 @@ namespace handson {
 /// The band of a simulation's fine tet in the exterior layer (sim/sim_scene.h, SimSettings::Outer): it
 /// stands for tissue beyond the region, so it has no band of the table and no strain limit.
 constexpr int kExteriorBand = -1;
+/// The band of a handle's own fine tets under a sliding interface (sim/sliding_interface.h): they move
+/// rigidly with the handle, carry no stiffness and have no strain limit.
+constexpr int kRigidBand = -2;
 
 /// Linear tetrahedra lock as nu -> 0.5; Poisson ratios above this are capped (and reported).
 constexpr double kMaxPoisson = 0.45;

@@ -131,12 +131,13 @@ Eigen::Matrix3d edges(const std::array<int, 4>& tet, const Field& p) {
 
 }  // namespace
 
-double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
+double FineRefiner::stepWarped(const Springs& springs, const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
   if (!warped_) throw Error("refiner: the matrix-free methods need the fine materials");
   const Warped& w = *warped_;
   const TetMesh& F = coarse_.meshes().fine;
   const std::size_t n = F.nodes.size(), nt = F.tets.size();
   const int T = w.threads;
+  projectOntoSpringPlanes(springs, x);
   // Sums the per-thread node buffers into out (zero at Dirichlet nodes), split over nodes.
   auto reduce = [&](Field& out) {
     out.resize(n);
@@ -187,6 +188,7 @@ double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vect
   for (double v : energyOf) e0 += v;
   Field r;
   reduce(r);
+  removeNormalParts(springs, r);
   std::vector<Eigen::Matrix3d> diag(n, Eigen::Matrix3d::Zero());
   for (std::size_t i = 0; i < n; ++i)
     for (int t = 0; t < T; ++t) diag[i] += w.diag[std::size_t(t)][i];
@@ -204,9 +206,13 @@ double FineRefiner::stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vect
       }
     });
     reduce(out);
+    removeNormalParts(springs, out);
   };
   const std::vector<Eigen::Matrix3d> Rc = coarse_.elementRotations(xc);
-  auto precondition = [&](const Field& res, Field& z) { refine::twoLevelPrecondition(coarse_, Rc, dinv, free_, res, z); };
+  auto precondition = [&](const Field& res, Field& z) {
+    refine::twoLevelPrecondition(coarse_, Rc, dinv, free_, res, z);
+    removeNormalParts(springs, z);
+  };
   auto energyAt = [&](const Field& pos) {
     std::vector<double> part(std::size_t(T), 0.0);
     parallelChunks(nt, T, [&](std::size_t b, std::size_t e, int c) {

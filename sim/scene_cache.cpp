@@ -11,6 +11,7 @@
 
 #include "sim/atomic_file.h"
 #include "sim/binary_io.h"
+#include "sim/slide_io.h"
 #include "sim/source_hash.h"
 #include "sim/error.h"
 #include "sim/static_solver.h"
@@ -90,6 +91,7 @@ std::string simulationCacheKey(const Volume& image, const std::vector<SimHandle>
   h.pod(s.bone);
   h.pod(s.skeletonReachMm);
   h.pod(s.outer);
+  h.pod(s.interface);
   h.pod(s.materials.units());
   for (const auto& b : s.materials.bands()) {
     h.string(b.name);
@@ -132,6 +134,7 @@ void saveSimulation(const std::filesystem::path& file, const SimScene& sc, const
     w.podVector(sc.constraints.handleOf);
     w.podVector(sc.constraints.fixed);
     w.pod(std::int32_t(sc.constraints.handleCount));
+    bin::writeSlideNodes(w, sc.constraints.slide);
     w.podVector(sc.handleCentroid);
     w.podVector(sc.handleNodeCount);
     w.podVector(sc.regionCell);
@@ -194,6 +197,7 @@ std::unique_ptr<CoarseModel> loadSimulation(const std::filesystem::path& file, S
   sc.constraints.handleOf = r.podVector<int>();
   sc.constraints.fixed = r.podVector<char>();
   sc.constraints.handleCount = r.pod<std::int32_t>();
+  sc.constraints.slide = bin::readSlideNodes(r, m.fine.nodes.size(), sc.constraints.handleCount);
   sc.handleCentroid = r.podVector<Eigen::Vector3d>();
   sc.handleNodeCount = r.podVector<std::size_t>();
   sc.regionCell = r.podVector<char>();
@@ -228,8 +232,8 @@ std::unique_ptr<CoarseModel> loadSimulation(const std::filesystem::path& file, S
   if (hc < 0 || sc.handleCentroid.size() != std::size_t(hc) || sc.handleNodeCount.size() != std::size_t(hc)) bad();
   for (int role : sc.constraints.handleOf)
     if (role < -1 || role >= hc) bad();
-  for (double v : sc.youngs)
-    if (!(v > 0) || !std::isfinite(v)) bad();
+  for (std::size_t t = 0; t < nt; ++t)  // a sliding handle's own tets carry no stiffness
+    if (!(sc.youngs[t] > 0 || (sc.youngs[t] == 0 && sc.band[t] == kRigidBand)) || !std::isfinite(sc.youngs[t])) bad();
   for (double v : sc.poisson)
     if (!(v > -1 && v < 0.5)) bad();
   auto model = CoarseModel::load(is, r.remaining, m);

@@ -6,8 +6,10 @@
 
 #include "sim/adapted_mesh.h"
 #include "sim/error.h"
+#include "sim/neo_hookean.h"
 #include "sim/region_shape.h"
 #include "sim/skeleton.h"
+#include "sim/sliding_interface.h"
 
 namespace handson {
 
@@ -133,7 +135,43 @@ void assignConstraints(SimScene& sc, const Volume& image, const std::vector<SimH
     for (std::size_t n = 0; n < F.nodes.size(); ++n)
       if (sc.constraints.handleOf[n] < 0 && tissue.skeletonAt(F.nodes[n])) sc.constraints.fixed[n] = 1;
 }
+// Sliding interfaces (sim/sliding_interface.h): each handle's own tets (all four nodes selected by
+// it) lose their stiffness and strain limit, and its surface nodes become free nodes held to its
+// surface by normal springs. The normals come from the handle's voxels within three of the image's
+// largest spacings (a neighbourhood wide enough to smooth the voxels' staircase, fixed with the
+// image, not with the mesh); the springs' stiffness from each node's remaining tissue stiffness.
+void makeInterfacesSliding(SimScene& sc, const VolumeGeometry& g, const std::vector<SimHandle>& handles) {
+  const TetMesh& F = sc.meshes.fine;
+  claimEnclosedTissue(F, sc.constraints.handleOf, sc.constraints.fixed);
+  const InterfaceNodes in = findInterfaceNodes(F, sc.constraints.handleOf, sc.constraints.fixed);
+  for (std::size_t t = 0; t < F.tets.size(); ++t)
+    if (in.handleTet[t]) {
+      sc.youngs[t] = 0.0;
+      sc.band[t] = kRigidBand;
+      sc.fineK[t].setZero();
+    }
+  std::vector<double> diag(F.nodes.size(), 0.0);
+  for (std::size_t t = 0; t < F.tets.size(); ++t)
+    for (int a = 0; a < 4; ++a) diag[std::size_t(F.tets[t][std::size_t(a)])] += sc.fineK[t].block<3, 3>(3 * a, 3 * a).trace() / 3.0;
+  std::vector<HandleMask> masks;
+  for (const SimHandle& h : handles) masks.push_back(handleMask(g, h.voxels));
+  const double radius = 3.0 * g.spacing.maxCoeff();
+  for (std::size_t i = 0; i < in.slideNodes.size(); ++i) {
+    const int node = in.slideNodes[i], h = in.slideHandle[i];
+    const Eigen::Vector3d n = maskNormal(g, masks[std::size_t(h)], F.nodes[std::size_t(node)], radius);
+    sc.constraints.slide.push_back({node, h, n, kSlidePenalty * diag[std::size_t(node)]});
+    sc.constraints.handleOf[std::size_t(node)] = -1;
+  }
+}
 }  // namespace
+
+const char* interfaceName(SimSettings::Interface i) { return i == SimSettings::Interface::Sliding ? "sliding" : "glued"; }
+
+std::optional<SimSettings::Interface> parseInterface(const std::string& name) {
+  if (name == "glued") return SimSettings::Interface::Glued;
+  if (name == "sliding") return SimSettings::Interface::Sliding;
+  return std::nullopt;
+}
 
 SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& s, const ProgressFn& progress) {
   if (image.empty()) throw Error("simulation: empty image");
@@ -235,8 +273,29 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   sc.handleNodeCount.assign(handles.size(), 0);
   for (std::size_t n = 0; n < sc.meshes.fine.nodes.size(); ++n)
     if (sc.constraints.handleOf[n] >= 0 && !sc.constraints.fixed[n]) ++sc.handleNodeCount[std::size_t(sc.constraints.handleOf[n])];
+  if (s.interface == SimSettings::Interface::Sliding && !handles.empty()) makeInterfacesSliding(sc, g, handles);
   reportProgress(progress, 1.0, "scene");
   return sc;
+}
+
+const char* fineMaterialName(FineMaterial m) { return m == FineMaterial::NeoHookean ? "neo-hookean" : "corotational"; }
+
+StaticSolveResult solveFineStatic(const SimScene& sc, const std::vector<RigidTransform>& handles, StaticSolveOptions options,
+                                  const std::vector<Eigen::Vector3d>* start, FineMaterial material) {
+  std::vector<char> dir;
+  std::vector<Eigen::Vector3d> x0 = prescribedPositions(sc.meshes.fine, sc.constraints, handles, &dir);
+  if (start) {
+    if (start->size() != x0.size()) throw Error("fine solve: the start has the wrong node count");
+    for (std::size_t i = 0; i < x0.size(); ++i)
+      if (!dir[i]) x0[i] = (*start)[i];
+  }
+  options.springs = slideSprings(sc.meshes.fine, sc.constraints.slide, handles);
+  StaticSolveResult r = solveStatic(sc.meshes.fine, sc.fineK, dir, x0, options);
+  if (material == FineMaterial::Corotational) return r;
+  StaticSolveResult h = solveStaticNeoHookean(sc.meshes.fine, neoHookeanTets(sc.meshes.fine, sc.youngs, sc.poisson), dir, r.x, options);
+  h.iterations += r.iterations;
+  h.factorizations += r.factorizations;
+  return h;
 }
 
 std::vector<Eigen::Vector3d> sampleDeformation(const SimScene& sc, const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& points) {

@@ -3,12 +3,15 @@
 // handles, the cells of that box near the handles, or the whole volume), the nested coarse and fine meshes over it, a material per fine tet
 // from the image values, and the fine nodes' Dirichlet roles (docs/simulation-model.md).
 #include <cstdint>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "sim/adapted_mesh.h"
 #include "sim/coarsening.h"
 #include "sim/materials.h"
 #include "sim/progress.h"
+#include "sim/static_solver.h"
 #include "sim/tet_mesh.h"
 #include "sim/volume.h"
 
@@ -60,13 +63,23 @@ struct SimSettings {
   /// layer with the stiffness of an unbounded medium seen from the handles (its outer faces held);
   /// Wall (the earlier rule): the region's own tissue to its faces, held there.
   enum class Outer : std::uint8_t { Exterior, Wall } outer = Outer::Exterior;
+  /// The interface between a handle and the tissue around it (sim/sliding_interface.h,
+  /// docs/tissue-physics.md "Organs slide"): Glued (default, the earlier rule): the handle's surface
+  /// nodes move with it; Sliding: frictionless and bilateral, the surface nodes free to slide over
+  /// it - the forces physiology gives, but the organ's outermost fine tets are drawn with the sliding
+  /// tissue (why it is not the default yet: docs/tissue-physics.md).
+  enum class Interface : std::uint8_t { Glued, Sliding } interface = Interface::Glued;
 };
+
+/// "glued" / "sliding"; and back (nullopt for anything else).
+const char* interfaceName(SimSettings::Interface i);
+std::optional<SimSettings::Interface> parseInterface(const std::string& name);
 
 
 struct SimScene {
   Eigen::Vector3d lo, hi;              ///< region box (world mm, axis-aligned)
   NestedMeshes meshes;
-  std::vector<int> band;               ///< material band per fine tet (kExteriorBand in the exterior layer)
+  std::vector<int> band;               ///< per fine tet: material band, kExteriorBand (exterior layer), kRigidBand (a sliding handle's own)
   std::vector<double> youngs, poisson; ///< per fine tet
   std::vector<Mat12> fineK;            ///< rest stiffness per fine tet
   FineConstraints constraints;         ///< handle nodes (last claimer wins), the fixed outer faces and the anchored skeleton
@@ -81,6 +94,18 @@ struct SimScene {
 /// later one. Throws handson::Error for an empty handle, a handle outside the image, or a region
 /// that is empty after clipping to the image.
 SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& settings, const ProgressFn& progress = {});
+
+/// The fine reference's material: the linear corotational model (the default, what the coarse model
+/// condenses) or compressible Neo-Hookean (sim/neo_hookean.h: where the linear material stops holding).
+enum class FineMaterial : std::uint8_t { Corotational, NeoHookean };
+const char* fineMaterialName(FineMaterial m);
+
+/// The fine static answer of `scene` with its handles at `handles`: handle nodes moved, held nodes at
+/// rest, the sliding interfaces' springs at those poses (options.springs is replaced); the free nodes
+/// start from `start` (default: at rest). Neo-Hookean: from the corotational answer (a start that
+/// inverts no tet), its iterations counted in. Throws handson::Error as solveStatic does.
+StaticSolveResult solveFineStatic(const SimScene& scene, const std::vector<RigidTransform>& handles, StaticSolveOptions options = {},
+                                  const std::vector<Eigen::Vector3d>* start = nullptr, FineMaterial material = FineMaterial::Corotational);
 
 /// The fine positions x of `scene` sampled at rest points (world mm): each point moves with the fine
 /// tet holding it (linear interpolation); points outside the scene's meshes stay where they are. For

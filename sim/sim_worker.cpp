@@ -209,7 +209,7 @@ void SimWorker::run() {
       r.input = input;
       try {
         const auto s0 = std::chrono::steady_clock::now();
-        refiner_.step(x, fine, options_.refineIterations);
+        refiner_.step(handles, x, fine, options_.refineIterations);
         r.refineMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - s0).count();
         r.refineStep = step;
         r.coarse = x;

@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "sim/error.h"
 
@@ -97,27 +98,57 @@ std::vector<Eigen::Vector3d> internalForces(const TetMesh& mesh, const std::vect
   return f;
 }
 
+FreeDofs freeDofs(const TetMesh& mesh, const std::vector<char>& fixed, const std::vector<Eigen::Vector3d>& x0, const std::vector<NormalSpring>& springs,
+                  const char* solve) {
+  const std::size_t n = mesh.nodes.size();
+  FreeDofs f;
+  f.dof.assign(n, -1);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!x0[i].allFinite()) throw Error(std::string(solve) + ": a prescribed or initial position is not finite");
+    if (fixed[i]) f.motion = std::max(f.motion, (x0[i] - mesh.nodes[i]).norm());
+    else f.dof[i] = (f.count += 3) - 3;
+  }
+  for (const NormalSpring& s : springs) {
+    if (s.node < 0 || std::size_t(s.node) >= n || fixed[std::size_t(s.node)]) throw Error(std::string(solve) + ": a spring on a fixed node or outside the mesh");
+    f.motion = std::max(f.motion, (s.anchor - mesh.nodes[std::size_t(s.node)]).norm());
+  }
+  return f;
+}
+
+BlockAssembler tetAndSpringAssembler(const TetMesh& mesh, const std::vector<NormalSpring>& springs, const FreeDofs& free) {
+  std::vector<int> elementNodes;
+  elementNodes.reserve(4 * (mesh.tets.size() + springs.size()));
+  for (const auto& t : mesh.tets) elementNodes.insert(elementNodes.end(), t.begin(), t.end());
+  for (const NormalSpring& s : springs) elementNodes.insert(elementNodes.end(), 4, s.node);
+  return BlockAssembler(std::move(elementNodes), 4, free.dof, free.count);
+}
+
+void addSpringBlocks(BlockAssembler& assembler, const TetMesh& mesh, const std::vector<NormalSpring>& springs) {
+  const int first = int(mesh.tets.size());
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    Mat12 blk = Mat12::Zero();
+    blk.topLeftCorner<3, 3>() = springs[k].stiffness * springs[k].normal * springs[k].normal.transpose();
+    assembler.add(first + int(k), blk);
+  }
+}
+
 StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, const std::vector<char>& fixed,
                               const std::vector<Eigen::Vector3d>& x0, const StaticSolveOptions& opt) {
   const std::size_t n = mesh.nodes.size();
   if (K.size() != mesh.tets.size() || fixed.size() != n || x0.size() != n) throw Error("static solve: inconsistent sizes");
-  std::vector<int> dof(n, -1);
-  int dofs = 0;
-  double motion = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!x0[i].allFinite()) throw Error("static solve: a prescribed or initial position is not finite");
-    if (fixed[i]) motion = std::max(motion, (x0[i] - mesh.nodes[i]).norm());
-    else dof[i] = (dofs += 3) - 3;
-  }
   if (std::none_of(fixed.begin(), fixed.end(), [](char c) { return c != 0; })) throw Error("static solve: no Dirichlet nodes, the system is singular");
+  const FreeDofs free = freeDofs(mesh, fixed, x0, opt.springs, "static solve");
+  const std::vector<int>& dof = free.dof;
+  const int dofs = free.count;
   StaticSolveResult res;
   res.x = x0;
   if (dofs == 0) {
     res.converged = true;
     return res;
   }
-  const double tol = opt.tolerance * std::max(motion, 1e-9);
-  BlockAssembler asmb(mesh.tets, dof, dofs);
+  const double tol = opt.tolerance * std::max(free.motion, 1e-9);
+  BlockAssembler asmb = tetAndSpringAssembler(mesh, opt.springs, free);
+  auto addSprings = [&] { addSpringBlocks(asmb, mesh, opt.springs); };
   DirectSolver solver;
   solver.cholmod().print = 0;  // an indefinite Hessian is expected (then projected), not an error to print
   bool analyzed = false;
@@ -125,7 +156,8 @@ StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, 
   bool refactor = true;
   bool project = false;  // the exact Hessian first; projected per element if it is not positive definite
   Eigen::VectorXd rhs(dofs);
-  auto energy = [&](const std::vector<Eigen::Vector3d>& x) { return elasticEnergy(mesh, K, x); };
+  auto energy = [&](const std::vector<Eigen::Vector3d>& x) { return elasticEnergy(mesh, K, x) + springEnergy(opt.springs, x); };
+  std::vector<Eigen::Vector3d> springForce(n);
   for (int it = 0; it < opt.maxIterations; ++it) {
     // Forces (and, when refactorizing, the warped stiffness) at the current positions.
     rhs.setZero();
@@ -150,7 +182,16 @@ StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, 
         }
       }
     }
+    if (!opt.springs.empty()) {
+      std::fill(springForce.begin(), springForce.end(), Eigen::Vector3d::Zero());
+      addSpringForces(opt.springs, res.x, springForce);
+      for (const NormalSpring& s : opt.springs) {  // a node with two springs: its sum, once
+        rhs.segment<3>(dof[std::size_t(s.node)]) += springForce[std::size_t(s.node)];
+        springForce[std::size_t(s.node)].setZero();
+      }
+    }
     if (refactor) {
+      addSprings();
       if (!analyzed) {
         solver.analyzePattern(asmb.matrix());
         analyzed = true;
@@ -161,6 +202,7 @@ StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, 
         project = true;
         asmb.zero();
         for (std::size_t t = 0; t < mesh.tets.size(); ++t) asmb.add(int(t), corotationalHessian(K[t], corners(mesh, int(t), mesh.nodes), corners(mesh, int(t), res.x), true));
+        addSprings();
         solver.factorize(asmb.matrix());
       }
       if (solver.info() != Eigen::Success) throw Error("static solve: the stiffness matrix is not positive definite (a free part of the mesh with no Dirichlet node, or degenerate elements)");

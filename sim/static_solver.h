@@ -6,6 +6,7 @@
 
 #include "sim/fem.h"
 #include "sim/progress.h"
+#include "sim/sliding_interface.h"
 #include "sim/sparse_direct.h"
 #include "sim/tet_mesh.h"
 
@@ -59,6 +60,9 @@ struct StaticSolveOptions {
   /// quadratic convergence. Off: plain warped-stiffness iterations (linear convergence, slow at
   /// large rotations), kept for comparison.
   bool newton = true;
+  /// Normal springs to prescribed planes (sliding interfaces, sim/sliding_interface.h), added to the
+  /// elastic energy: their nodes must be free.
+  std::vector<NormalSpring> springs;
   ProgressFn progress;
 };
 
@@ -70,7 +74,24 @@ struct StaticSolveResult {
   int invertedTets = 0;            ///< tets with det F <= 0 at the end
 };
 
-/// Static equilibrium of the corotational model: internal forces vanish at the free nodes; nodes with
+/// The free degrees of freedom of a static solve: per node the first of its 3 dofs (-1 for a Dirichlet
+/// node, fixed != 0), their count, and the largest prescribed motion (of the Dirichlet nodes from rest
+/// and of the springs' anchors). Throws handson::Error (`solve` names it) for a non-finite position,
+/// or a spring on a fixed node or outside the mesh.
+struct FreeDofs {
+  std::vector<int> dof;
+  int count = 0;
+  double motion = 0.0;
+};
+FreeDofs freeDofs(const TetMesh& mesh, const std::vector<char>& fixed, const std::vector<Eigen::Vector3d>& x0, const std::vector<NormalSpring>& springs,
+                  const char* solve);
+
+/// The assembler of a static solve over the tets, then one one-node element per spring (its block
+/// k n n^T on the node's diagonal, added by addSpringBlocks).
+BlockAssembler tetAndSpringAssembler(const TetMesh& mesh, const std::vector<NormalSpring>& springs, const FreeDofs& free);
+void addSpringBlocks(BlockAssembler& assembler, const TetMesh& mesh, const std::vector<NormalSpring>& springs);
+
+/// Static equilibrium of the corotational model (plus options.springs): forces vanish at the free nodes; nodes with
 /// fixed[n] != 0 are held at x0[n]. Each iteration solves H dx = f(x) with a positive definite H
 /// (projected Newton, or the warped stiffness sum R K_e R^T) by sparse Cholesky, then backtracks on
 /// the elastic energy along dx. Throws handson::Error if the system is singular (no Dirichlet nodes).

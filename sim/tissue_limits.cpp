@@ -60,7 +60,7 @@ std::vector<float> tetStrainLimits(const std::vector<int>& bandOfTet, const Mate
   std::vector<float> out(bandOfTet.size());
   for (std::size_t t = 0; t < bandOfTet.size(); ++t) {
     const int b = bandOfTet[t];
-    if (b == kExteriorBand) {  // the exterior layer stands for tissue beyond the region: no limit
+    if (b == kExteriorBand || b == kRigidBand) {  // tissue beyond the region, or a handle's own: no limit
       out[t] = std::numeric_limits<float>::infinity();
       continue;
     }

@@ -16,14 +16,16 @@ const char* refineMethodName(RefineMethod m) {
   return m == RefineMethod::Analytic ? "analytic" : m == RefineMethod::Warped ? "warped" : "projected";
 }
 
-double FineRefiner::step(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
+double FineRefiner::step(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
   if (x.size() != coarse_.meshes().fine.nodes.size()) throw Error("refiner: wrong node count");
+  const Springs springs = slideSprings(coarse_.meshes().fine, coarse_.constraints().slide, handles);
   const SingleThreadedBlas blas;  // the coarse correction's small solves (sim/blas_threads.h)
-  return options_.method == RefineMethod::Projected ? stepProjected(xc, x, iterations) : stepWarped(xc, x, iterations);
+  return options_.method == RefineMethod::Projected ? stepProjected(springs, xc, x, iterations) : stepWarped(springs, xc, x, iterations);
 }
 
-double FineRefiner::stepProjected(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
+double FineRefiner::stepProjected(const Springs& springs, const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
   const TetMesh& F = coarse_.meshes().fine;
+  projectOntoSpringPlanes(springs, x);
   const std::size_t n = F.nodes.size(), nt = F.tets.size();
   // Residual f(x) and the element Hessians (projected to positive semi-definite) at x.
   std::vector<Mat12> H(nt);
@@ -43,21 +45,27 @@ double FineRefiner::stepProjected(const std::vector<Eigen::Vector3d>& xc, std::v
   const std::vector<Eigen::Matrix3d> dinv = refine::jacobiInverse(diag, free_);
   for (std::size_t i = 0; i < n; ++i)
     if (!free_[i]) r[i].setZero();
+  removeNormalParts(springs, r);
   auto applyK = [&](const Field& p, Field& out) {
     out.assign(n, Eigen::Vector3d::Zero());
     for (std::size_t t = 0; t < nt; ++t) {
       const Vec12 hp = H[t] * stack(cornersAt(t, p));
       for (int i = 0; i < 4; ++i) out[std::size_t(F.tets[t][std::size_t(i)])] += hp.segment<3>(3 * i);
     }
+    removeNormalParts(springs, out);
     for (std::size_t i = 0; i < n; ++i)
       if (!free_[i]) out[i].setZero();
   };
   const std::vector<Eigen::Matrix3d> Rc = coarse_.elementRotations(xc);
-  auto precondition = [&](const Field& res, Field& z) { refine::twoLevelPrecondition(coarse_, Rc, dinv, free_, res, z); };
+  auto precondition = [&](const Field& res, Field& z) {
+    refine::twoLevelPrecondition(coarse_, Rc, dinv, free_, res, z);
+    removeNormalParts(springs, z);
+  };
 
   Field dx;
   const double reduction = refine::pcg(r, free_, iterations, applyK, precondition, dx);
-  refine::backtrack(x, dx, free_, elasticEnergy(F, K_, x), [&](const Field& pos) { return elasticEnergy(F, K_, pos); });
+  auto energy = [&](const Field& pos) { return elasticEnergy(F, K_, pos); };
+  refine::backtrack(x, dx, free_, energy(x), energy);
   return reduction;
 }
 

@@ -46,18 +46,22 @@ class FineRefiner {
 
   RefineMethod method() const { return options_.method; }
 
-  /// One refinement step on fine positions x (Dirichlet nodes must already hold their values):
-  /// `iterations` PCG iterations, then x += dx. `xc` is the coarse state the coarse matrix was
-  /// factorized at (the last CoarseModel::solve). Returns the residual reduction |r_k| / |r_0|.
-  double step(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
+  /// One refinement step on fine positions x (Dirichlet nodes must already hold their values) with
+  /// the handles at `handles` (their sliding interfaces' planes held exactly, not by the springs:
+  /// the slide nodes put on them, the steps projected onto them - a stiff spring slowed the
+  /// conjugate gradients several-fold): `iterations` PCG iterations, then
+  /// x += dx. `xc` is the coarse state the coarse matrix was factorized at (the last
+  /// CoarseModel::solve). Returns the residual reduction |r_k| / |r_0|.
+  double step(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
 
   /// Analytic, Warped: the product H(x) p over all nodes (Dirichlet ones included), rotations at x
   /// from a cold start; for tests against the stored 12x12 blocks and the exact Hessian.
   std::vector<Eigen::Vector3d> product(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& p) const;
 
  private:
-  double stepProjected(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
-  double stepWarped(const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
+  using Springs = std::vector<NormalSpring>;
+  double stepProjected(const Springs& springs, const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
+  double stepWarped(const Springs& springs, const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
   struct Warped;  // the matrix-free methods' per-tet data and buffers (sim/refine_warped.cpp)
 
   const CoarseModel& coarse_;

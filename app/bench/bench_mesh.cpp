@@ -80,13 +80,11 @@ int cmdBenchMesh(const Words& words) {
     s.meshSeconds = since(t0);
     if (s.scene.meshes.refinement != m) throw Error("bench mesh: the refinement came out as " + std::to_string(s.scene.meshes.refinement));
     const std::vector<RigidTransform> T{RigidTransform::about(s.scene.handleCentroid[0], Eigen::Vector3d(0, 0, M_PI / 6), Eigen::Vector3d(10, 0, 0))};
-    std::vector<char> dir;
-    const auto x0 = prescribedPositions(s.scene.meshes.fine, s.scene.constraints, T, &dir);
     StaticSolveOptions so;
     so.tolerance = 1e-5;
     so.progress = progress;
     t0 = std::chrono::steady_clock::now();
-    const auto r = solveStatic(s.scene.meshes.fine, s.scene.fineK, dir, x0, so);
+    const auto r = solveFineStatic(s.scene, T, so);
     s.solveSeconds = since(t0);
     if (!r.converged) std::cerr << "warning: the fine solve (m = " << m << (adaptedMesh ? ", adapted" : "") << ") did not converge\n";
     s.x = r.x;

@@ -45,7 +45,8 @@ const char* const kBenchSimHelp =
     "  --fine-per-coarse N    fine tets per coarse tet (default 64: m = 4)\n"
     "  --spacing MM           phantom voxel size (default 2)\n"
     "  --refine-steps N       two-level steps measured (default 4, 10 PCG iterations each)\n"
-    "  --handle-nodes inside|tets, --bone anchored|by-value, --outer-boundary exterior|wall  the tissue\n"
+    "  --handle-nodes inside|tets, --bone anchored|by-value, --outer-boundary exterior|wall,\n"
+    "  --interface sliding|glued  the tissue\n"
     "                         rules (see handson deform --help; the earlier rules to compare with)\n"
     "  --graded-split CELLS   graded cells: halve the cells within CELLS cell sizes of the handle (default 1;\n"
     "                         -1 skips them)\n"
@@ -71,7 +72,7 @@ std::vector<double> compareRefinements(const SimScene& sc, const CoarseModel& mo
     double tStep = 0;
     for (int k = 1; k <= refineSteps; ++k) {
       const auto t0 = std::chrono::steady_clock::now();
-      refiner.step(xc, x, 10);
+      refiner.step(T, xc, x, 10);
       tStep += since(t0);
       const auto e = compareDeformation(sc, T, x, fine);
       acc << "," << e.rmsOfMotion;
@@ -256,7 +257,7 @@ void coarseIterationSweep(const SimScene& sc, CoarseModel& model, const std::vec
 
 int cmdBenchSim(const Words& words) {
   Args args(words, {"--handle", "--handle-label", "--coarse-list", "--fine-per-coarse", "--spacing", "--refine-steps", "--graded-split", "--translate-mm", "--rotate-deg", "--materials", "--out",
-                    "--handle-nodes", "--bone", "--outer-boundary"},
+                    "--handle-nodes", "--bone", "--outer-boundary", "--interface"},
             {"--quiet"});
   if (args.help() || args.positional().size() > 1 || (args.positional().size() == 1) != bool(args.value("--handle"))) {
     usageStream(args) << kBenchSimHelp;
@@ -287,6 +288,7 @@ int cmdBenchSim(const Words& words) {
     SimSettings s;
     s.materials = materials;
     tissueRuleOptions(args, "--", s);
+    interfaceOption(args, "--", s);
     s.coarseTets = nc;
     s.fineTets = nc * finePer;
     auto t0 = std::chrono::steady_clock::now();
@@ -297,12 +299,10 @@ int cmdBenchSim(const Words& words) {
     const std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], rv, tv)};
     // Fine reference.
     t0 = std::chrono::steady_clock::now();
-    std::vector<char> dir;
-    const auto x0 = prescribedPositions(sc.meshes.fine, sc.constraints, T, &dir);
     StaticSolveOptions so;
     so.progress = progress;
     so.tolerance = 1e-4;  // the errors measured are >= 1e-3 of the motion: a 1e-4 reference suffices
-    const auto fine = solveStatic(sc.meshes.fine, sc.fineK, dir, x0, so);
+    const auto fine = solveFineStatic(sc, T, so);
     const double tFine = since(t0);
     // Coarse models: preprocessing, a 10-frame drag (3 iterations a frame), then their converged answers.
     struct Measured {

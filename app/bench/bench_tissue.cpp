@@ -33,9 +33,11 @@ constexpr const char* kBenchTissueHelp =
     "usage: handson bench tissue [PATH --handle MASK [--handle-label N]] [--out DIR] [--max-mm D] [--step-mm D]\n"
     "        [--coarse-tets N] [--fine-tets N] [--refine-steps N] [--spacing MM] [--materials FILE]\n"
     "        [--handle-nodes inside|tets] [--bone anchored|by-value] [--outer-boundary exterior|wall]\n"
+    "        [--interface sliding|glued|both]\n"
     "  The handle (default: the built-in phantom's right kidney) moved 0..D mm (default 30, in steps of 5)\n"
     "  craniocaudally and anteriorly: its reaction force, the tissue past its strain limit and the peak\n"
-    "  strain, from the coarse model and after N refinement steps (default 2), in DIR/tissue_response.csv\n"
+    "  strain, from the coarse model and after N refinement steps (default 2), with each interface\n"
+    "  (default both: sliding and glued), in DIR/tissue_response.csv\n"
     "  (scene, interface, model, direction, motion_mm, force_N, past_limit_cm3, peak_strain) and\n"
     "  DIR/tissue_response.png (gnuplot). Meshes default to the app's (6000 coarse, 300000 fine tets).\n";
 
@@ -50,7 +52,7 @@ Row measure(const SimScene& sc, const MaterialTable& table, const NearestHandle&
   const std::vector<float> strain = tetStrain(sc.meshes.fine, x);
   r.pastCm3 = tissueLimits(sc.meshes.fine, strain, sc.band, table, nearest, sc.constraints.handleCount).volumeMm3 / 1000.0;
   for (std::size_t t = 0; t < strain.size(); ++t)
-    if (sc.band[t] != kExteriorBand && std::isfinite(strain[t])) r.peak = std::max(r.peak, double(strain[t]));
+    if (sc.band[t] >= 0 && std::isfinite(strain[t])) r.peak = std::max(r.peak, double(strain[t]));
   return r;
 }
 
@@ -87,14 +89,14 @@ void sweep(const SimScene& sc, const SimSettings& s, const Sweep& w, std::ostrea
   FineRefiner refiner(model, sc.fineK, sc.youngs, sc.poisson);
   const NearestHandle nearest = nearestHandleOfNodes(sc.meshes.fine, sc.constraints, std::vector<char>(std::size_t(sc.constraints.handleCount), 1));
   std::vector<Eigen::Vector3d> xc = model.restState();
-  const char* interface = "glued";
+  const char* interface = interfaceName(s.interface);
   std::ostringstream refinedRows;  // after the coarse rows: each series' rows together (the chart's lines)
   for (double m : w.motions) {
     const std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], Eigen::Vector3d::Zero(), m * d.unit)};
     model.solve(T, xc, 50);
     std::vector<Eigen::Vector3d> x = model.reconstruct(T, xc);
     const Row coarse = measure(sc, s.materials, nearest, x, model.handleReactions(T, xc)[0].forceN.norm());
-    for (int k = 0; k < w.refineSteps; ++k) refiner.step(xc, x, 10);
+    for (int k = 0; k < w.refineSteps; ++k) refiner.step(T, xc, x, 10);
     const Row refined = measure(sc, s.materials, nearest, x, fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, T, x)[0].forceN.norm());
     write(csv, {scene, interface, "coarse", d.name, m}, coarse);
     write(refinedRows, {scene, interface, "refined", d.name, m}, refined);
@@ -102,23 +104,29 @@ void sweep(const SimScene& sc, const SimSettings& s, const Sweep& w, std::ostrea
   csv << refinedRows.str();
 }
 
-void chart(const std::filesystem::path& out) {
+void chart(const std::filesystem::path& out, const std::vector<SimSettings::Interface>& interfaces) {
   if (std::system("command -v gnuplot > /dev/null 2>&1") != 0) return;
   const auto gp = out / "tissue_response.gp";
   const std::string f = (out / "tissue_response.csv").string();
-  // Columns: 5 motion, 6 force, 7 past limit; rows selected by model (3) and direction (4).
-  auto series = [&](int col) {
+  // Columns: 5 motion, 6 force, 7 past limit; rows selected by interface (2), model (3) and
+  // direction (4). One row of panels per interface.
+  auto series = [&](const char* interface, int col) {
     std::string s;
     for (const char* dir : {"craniocaudal", "anterior"})
       for (const char* model : {"coarse", "refined"})
-        s += std::string(s.empty() ? "plot " : ", ") + "'" + f + "' using 5:(strcol(3) eq '" + model + "' && strcol(4) eq '" + dir + "' ? $" +
-             std::to_string(col) + " : 1/0) with linespoints title '" + dir + ", " + model + "'";
+        s += std::string(s.empty() ? "plot " : ", ") + "'" + f + "' using 5:(strcol(2) eq '" + interface + "' && strcol(3) eq '" + model +
+             "' && strcol(4) eq '" + dir + "' ? $" + std::to_string(col) + " : 1/0) with linespoints title '" + dir + ", " + model + "'";
     return s + "\n";
   };
-  std::ofstream(gp) << "set datafile separator ','\nset terminal pngcairo size 1100,460 font ',11'\nset output '" << (out / "tissue_response.png").string()
-                    << "'\nset termoption noenhanced\nset multiplot layout 1,2 title 'What the tissue feels as the handle moves (glued)'\n"
-                    << "set xlabel 'handle motion (mm)'\nset grid\nset key top left\nset ylabel 'reaction force (N)'\n"
-                    << series(6) << "set ylabel 'tissue past its strain limit (cm3)'\n" << series(7) << "unset multiplot\n";
+  std::ofstream g(gp);
+  g << "set datafile separator ','\nset terminal pngcairo size 1100,"  << 440 * interfaces.size() << " font ',11'\nset output '"
+    << (out / "tissue_response.png").string() << "'\nset termoption noenhanced\nset multiplot layout " << interfaces.size()
+    << ",2 title 'What the tissue feels as the handle moves'\nset xlabel 'handle motion (mm)'\nset grid\nset key top left\n";
+  for (const auto i : interfaces)
+    g << "set ylabel 'reaction force (N), " << interfaceName(i) << "'\n" << series(interfaceName(i), 6) << "set ylabel 'tissue past its strain limit (cm3), "
+      << interfaceName(i) << "'\n" << series(interfaceName(i), 7);
+  g << "unset multiplot\n";
+  g.close();
   if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) != 0) std::cerr << "gnuplot failed: no chart\n";
 }
 
@@ -127,7 +135,7 @@ void chart(const std::filesystem::path& out) {
 int cmdBenchTissue(const Words& words) {
   Args args(words,
             {"--handle", "--handle-label", "--out", "--max-mm", "--step-mm", "--coarse-tets", "--fine-tets", "--refine-steps", "--spacing", "--materials",
-             "--handle-nodes", "--bone", "--outer-boundary"},
+             "--handle-nodes", "--bone", "--outer-boundary", "--interface"},
             {"--quiet"});
   if (args.help() || args.positional().size() > 1 || (args.positional().size() == 1) != bool(args.value("--handle"))) {
     usageStream(args) << kBenchTissueHelp;
@@ -139,6 +147,11 @@ int cmdBenchTissue(const Words& words) {
   s.coarseTets = int(args.integer("--coarse-tets", s.coarseTets, 6, 2000000));
   s.fineTets = int(args.integer("--fine-tets", s.fineTets, 6, 20000000));
   if (auto m = args.value("--materials")) s.materials = MaterialTable::load(*m);
+  std::vector<SimSettings::Interface> interfaces{SimSettings::Interface::Sliding, SimSettings::Interface::Glued};
+  if (const auto v = args.value("--interface"); v && *v != "both") {
+    if (!parseInterface(*v)) throw UsageError("--interface must be sliding, glued or both");
+    interfaces = {*parseInterface(*v)};
+  }
   tissueRuleOptions(args, "--", s);
   const std::filesystem::path out = args.valueOr("--out", "bench-out");
   std::filesystem::create_directories(out);
@@ -151,14 +164,16 @@ int cmdBenchTissue(const Words& words) {
   csv << "scene,interface,model,direction,motion_mm,force_N,past_limit_cm3,peak_strain\n";
   std::cout << "tissue response of " << scene << " (" << s.coarseTets << " coarse / " << s.fineTets << " fine tets requested, " << refineSteps
             << " refinement steps):\n";
-  for (const Direction& d : dirs) {
-    // The region covers the handle at its furthest motion (plus the padding).
-    SimHandle h{loaded.handle, {RigidTransform{Eigen::Matrix3d::Identity(), maxMm * d.unit}}};
-    const SimScene sc = buildSimScene(loaded.image, {h}, s);
-    sweep(sc, s, {scene, d, motions, refineSteps}, csv);
-  }
+  for (const auto i : interfaces)
+    for (const Direction& d : dirs) {
+      s.interface = i;
+      // The region covers the handle at its furthest motion (plus the padding).
+      SimHandle h{loaded.handle, {RigidTransform{Eigen::Matrix3d::Identity(), maxMm * d.unit}}};
+      const SimScene sc = buildSimScene(loaded.image, {h}, s);
+      sweep(sc, s, {scene, d, motions, refineSteps}, csv);
+    }
   csv.close();
-  chart(out);
+  chart(out, interfaces);
   std::cout << "wrote " << (out / "tissue_response.csv").string() << "\n";
   return 0;
 }

@@ -150,6 +150,7 @@ void coarseModelOptions(const Args& args, const std::string& prefix, SimSettings
   if (settings.grading.graded() && settings.coarseSolver != CoarseSolver::Pcg)
     throw UsageError(prefix + "graded-split needs the pcg coarse solver");
   tissueRuleOptions(args, prefix, settings);
+  interfaceOption(args, prefix, settings);
 }
 
 void tissueRuleOptions(const Args& args, const std::string& prefix, SimSettings& settings) {
@@ -167,6 +168,23 @@ void tissueRuleOptions(const Args& args, const std::string& prefix, SimSettings&
     if (*v == "anchored") settings.bone = SimSettings::Bone::Anchored;
     else if (*v == "by-value") settings.bone = SimSettings::Bone::ByValue;
     else throw UsageError(prefix + "bone must be anchored or by-value");
+  }
+}
+
+FineMaterial fineMaterialOption(const Args& args, bool fineModel) {
+  const auto v = args.value("--fine-material");
+  if (!v) return FineMaterial::Corotational;
+  if (!fineModel) throw UsageError("--fine-material needs the fine model (--model fine)");
+  if (*v == "corotational") return FineMaterial::Corotational;
+  if (*v == "neo-hookean") return FineMaterial::NeoHookean;
+  throw UsageError("--fine-material must be corotational or neo-hookean");
+}
+
+void interfaceOption(const Args& args, const std::string& prefix, SimSettings& settings) {
+  if (const auto v = args.value(prefix + "interface")) {
+    const auto i = parseInterface(*v);
+    if (!i) throw UsageError(prefix + "interface must be sliding or glued");
+    settings.interface = *i;
   }
 }
 

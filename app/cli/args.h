@@ -1,6 +1,7 @@
 #pragma once
 // A small, strict command-line parser: options are --name VALUE or --name=VALUE, flags are --name,
 // everything else is positional. Unknown options and malformed values are usage errors.
+#include <cstdint>
 #include <optional>
 #include <ostream>
 #include <stdexcept>
@@ -13,6 +14,7 @@ namespace handson {
 enum class CoarseElement;
 enum class CoarseSolver;
 struct SimSettings;
+enum class FineMaterial : std::uint8_t;
 }
 
 namespace handson::cli {
@@ -57,11 +59,15 @@ void parseSize(const std::string& text, int& width, int& height);
 /// The coarse model's element kind from option `name` ("cell" or "tet"; absent: cell).
 CoarseElement coarseElementOption(const Args& args, const char* name);
 /// The simulation's options `prefix` + "coarse-element", "coarse-solver", "graded-split" and the
-/// tissue rules' (tissueRuleOptions) (prefix "--" or "--sim-") into `settings`.
+/// tissue rules' (tissueRuleOptions, interfaceOption) (prefix "--" or "--sim-") into `settings`.
 void coarseModelOptions(const Args& args, const std::string& prefix, SimSettings& settings);
 /// The tissue rules (docs/tissue-physics.md): `prefix` + "handle-nodes" (inside|tets), "bone"
 /// (anchored|by-value) and "outer-boundary" (exterior|wall) into `settings` (absent: kept).
 void tissueRuleOptions(const Args& args, const std::string& prefix, SimSettings& settings);
+/// "--fine-material" (corotational|neo-hookean; absent: corotational); only with `fineModel`.
+FineMaterial fineMaterialOption(const Args& args, bool fineModel);
+/// `prefix` + "interface" (sliding|glued) into `settings` (absent: kept).
+void interfaceOption(const Args& args, const std::string& prefix, SimSettings& settings);
 /// The simulated region's shape from option `name` ("box" or "handles") into `settings` (absent: kept).
 void regionOption(const Args& args, const char* name, SimSettings& settings);
 /// pcg (default) or assembled (the baseline coarse solve; sim/coarsening.h).

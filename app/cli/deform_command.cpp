@@ -46,6 +46,9 @@ const char* const kDeformHelp =
     "  --rotate-deg AX,AY,AZ   rotation vector in RAS+ degrees about the handle's centroid (default 0)\n"
     "  --model coarse|fine     the interactive coarsened model (default) or the fine reference (static\n"
     "                          corotational FEM, projected Newton to 1e-6 of the handle's motion)\n"
+    "  --fine-material corotational|neo-hookean  the fine reference's material: the linear corotational\n"
+    "                          one (default) or compressible Neo-Hookean, solved from the corotational\n"
+    "                          answer (where the linear material stops holding; --model fine only)\n"
     "  --refine-steps N        coarse model: two-level refinement steps toward the fine answer (default 0)\n"
     "  --coarse-tets N         coarse tets over the region (default 6000; 6 per grid cell)\n"
     "  --coarse-element cell|tet  the coarse model's elements: grid cells (default; 8 corners, the\n"
@@ -66,6 +69,9 @@ const char* const kDeformHelp =
     "                          unbounded tissue beyond it (default: its outermost coarse cells, as stiff\n"
     "                          as an infinite medium seen from the handle) or a wall of the region's own\n"
     "                          tissue held at rest (the earlier rule)\n"
+    "  --interface sliding|glued  the handle's interface with the tissue around it: frictionless and\n"
+    "                          bilateral, the tissue free to slide over the organ's surface, or glued to\n"
+    "                          it (default glued; docs/tissue-physics.md says why)\n"
     "  --fine-mesh regular|adapted  the regular refinement (default) or image-adapted: TetGen meshes\n"
     "                          each cell with extra points at stiffness jumps (cell elements only)\n"
     "  --adapt-contrast F      a Young's modulus jump of F or more adds points (default 10)\n"
@@ -203,16 +209,12 @@ void printScene(const SimScene& sc) {
 // The fine static solve through `steps` increments of the motion (transformsAt(k / steps)), each
 // starting from the last; a solve that stops unconverged is reported and the next goes on from it.
 static std::vector<Eigen::Vector3d> solveFineInIncrements(const SimScene& sc, const std::function<std::vector<RigidTransform>(double)>& transformsAt, int steps,
-                                                          const ProgressFn& progress) {
-  std::vector<char> dir;
+                                                          const ProgressFn& progress, FineMaterial material) {
   std::vector<Eigen::Vector3d> x = sc.meshes.fine.nodes;
   for (int k = 1; k <= steps; ++k) {
-    auto x0 = prescribedPositions(sc.meshes.fine, sc.constraints, transformsAt(double(k) / steps), &dir);
-    for (std::size_t i = 0; i < x0.size(); ++i)
-      if (!dir[i]) x0[i] = x[i];
     StaticSolveOptions o;
     o.progress = progress;
-    const auto r = solveStatic(sc.meshes.fine, sc.fineK, dir, x0, o);
+    const auto r = solveFineStatic(sc, transformsAt(double(k) / steps), o, &x, material);
     if (!r.converged) std::cerr << "warning: the fine solve stopped after " << r.iterations << " iterations (last update " << r.lastUpdate << " mm)\n";
     x = r.x;
   }
@@ -223,7 +225,7 @@ int cmdDeform(const Words& words) {
   Args args(words,
             {"--frame", "--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm", "--region",
              "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--graded-split", "--fine-mesh", "--adapt-contrast", "--cache-dir", "--forces-out", "--strain-out",
-             "--handle-nodes", "--bone", "--outer-boundary"},
+             "--handle-nodes", "--bone", "--outer-boundary", "--interface", "--fine-material"},
             {"--whole-volume", "--quiet", "--validation"});
   if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {
     usageStream(args) << kDeformHelp;
@@ -237,6 +239,7 @@ int cmdDeform(const Words& words) {
   if (translation.norm() > 1000.0 || rotation.norm() > 4 * M_PI) throw UsageError("--translate-mm beyond 1 m or --rotate-deg beyond 720 degrees");
   const std::string model = args.valueOr("--model", "coarse");
   if (model != "coarse" && model != "fine") throw UsageError("--model must be coarse or fine");
+  const FineMaterial material = fineMaterialOption(args, model == "fine");
   const std::string backend = args.valueOr("--backend", "cpu");
   if (backend != "cpu" && backend != "gpu") throw UsageError("--backend must be cpu or gpu");
   SimSettings s;
@@ -298,7 +301,7 @@ int cmdDeform(const Words& words) {
   t0 = std::chrono::steady_clock::now();
   double tPre = 0;
   if (model == "fine") {
-    x = solveFineInIncrements(sc, transformsAt, steps, progress);
+    x = solveFineInIncrements(sc, transformsAt, steps, progress, material);
   } else {
     model_ = std::move(cachedModel);
     CoarseModel& m = *model_;
@@ -308,7 +311,7 @@ int cmdDeform(const Words& words) {
     x = m.reconstruct(T, xc);
     if (refineSteps > 0) {
       FineRefiner refiner(m, sc.fineK, sc.youngs, sc.poisson);
-      for (int k = 0; k < refineSteps; ++k) refiner.step(xc, x, 10);
+      for (int k = 0; k < refineSteps; ++k) refiner.step(T, xc, x, 10);
     }
   }
   const double tSolve = seconds(t0) - tPre;
@@ -356,7 +359,8 @@ int cmdDeform(const Words& words) {
     // The reactions of the model that was solved: the coarse model's own, or the fine tets' at the
     // fine or refined positions.
     const bool coarseOnly = model == "coarse" && refineSteps == 0;
-    writeForcesJson(*fo, coarseOnly ? model_->handleReactions(T, xc) : fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, T, x),
+    const auto hyper = material == FineMaterial::NeoHookean ? neoHookeanTets(sc.meshes.fine, sc.youngs, sc.poisson) : std::vector<NeoHookeanTet>{};
+    writeForcesJson(*fo, coarseOnly ? model_->handleReactions(T, xc) : fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, T, x, hyper.empty() ? nullptr : &hyper),
                     coarseOnly ? "coarse" : model == "fine" ? "fine" : "refined");
     std::cout << "wrote " << *fo << "\n";
   }

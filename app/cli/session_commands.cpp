@@ -100,13 +100,14 @@ const char* const kSimHelp =
     "  --sim-handle-nodes inside|tets, --sim-bone anchored|by-value  what a handle holds and whether\n"
     "                          bone is anchored to the skeleton (see handson deform --help)\n"
     "  --sim-outer-boundary exterior|wall  the region's boundary (see handson deform --help)\n"
+    "  --sim-interface sliding|glued  the handles' interface with the tissue (see handson deform --help)\n"
     "  --sim-refine-steps N    two-level refinement steps toward the fine answer while a pose is held\n"
     "                          (default 2 in view, 0 in replay)\n"
     "  --sim-iterations N      coarse solver iterations per new pose (default 3)\n"
     "  --sim-idle-iterations N more while a pose is held, until converged (default 300); a solve that\n"
     "                          has not converged when they are spent is reported and the session saved\n";
 const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--sim-fine-tets", "--sim-padding-mm", "--sim-region", "--sim-refine-steps", "--sim-coarse-element", "--sim-coarse-solver", "--sim-graded-split", "--sim-fine-mesh",
-                                                 "--sim-handle-nodes", "--sim-bone", "--sim-outer-boundary",
+                                                 "--sim-handle-nodes", "--sim-bone", "--sim-outer-boundary", "--sim-interface",
                                                  "--sim-adapt-contrast", "--sim-cache", "--sim-iterations", "--sim-idle-iterations"};
 
 DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {

@@ -218,6 +218,9 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   if (st.limitHighlight) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.75f, 0.10f, 0.70f, 1.0f));
   if (ImGui::Button("Limits", button)) action("toggle-limits", "");
   if (st.limitHighlight) ImGui::PopStyleColor();
+  ImGui::SameLine();
+  // The handles' interface with the tissue: the button names the current one, a tap switches.
+  if (ImGui::Button(st.sliding ? "Sliding" : "Glued", button)) action("set-interface", st.sliding ? "glued" : "sliding");
   if (st.hasLabels) {
     ImGui::SameLine();
     if (st.labelTint) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.25f, 0.60f, 0.35f, 1.0f));

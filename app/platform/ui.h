@@ -48,6 +48,7 @@ struct UiStatus {
   bool strainOverlay = false;  ///< the strain overlay is on: its colour bar shows
   bool limitHighlight = false; ///< tissue past its strain limit is highlighted: the bar's key shows
   bool hasLabels = false;      ///< a label map is loaded: the Labels button shows
+  bool sliding = false;        ///< the handles' interface with the tissue is sliding (else glued)
   bool labelTint = false;      ///< ... and its tint is on
   bool clipped = false;        ///< a clip box or plane is on (Clip mode shows "Clear clip")
   WindowLevel window;          ///< the preset's window (Window mode shows it and "Reset window")

@@ -386,6 +386,7 @@ void Viewer::Impl::updateStatus() {
   status.strainOverlay = session->strainOverlay();
   status.limitHighlight = session->limitHighlight();
   status.hasLabels = labels != nullptr;
+  status.sliding = deform->interface() == SimSettings::Interface::Sliding;
   status.labelTint = session->labelTint();
   status.clipped = session->clip().box || session->clip().plane;
   status.window = session->window();

@@ -294,12 +294,19 @@ void DeformationController::pull() {
   }
 }
 
+void DeformationController::setInterface(SimSettings::Interface i) {
+  if (i == options_.sim.interface) return;
+  options_.sim.interface = i;
+  rebuild_ = true;
+}
+
 bool DeformationController::prepareFrame(FrameRequest& req, const HandleSet& handles, bool attach) {
   if (!options_.enabled) return false;
   reapBuilders(false);
   const Key key = keyOf(handles);
-  if (!(key == key_)) {
+  if (!(key == key_) || rebuild_) {
     key_ = key;
+    rebuild_ = false;
     startBuild(handles);
   }
   if (!model_) adoptBuilt();

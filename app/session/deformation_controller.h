@@ -67,6 +67,12 @@ class DeformationController {
   /// not a frame's). False when nothing is simulated yet.
   bool exportMeshAndStrain(const std::string& meshPath, const std::string& strainPath) const;
 
+  /// The handles' interface with the tissue (SimSettings::Interface, the "set-interface" action): a
+  /// change rebuilds the model on the next frame (moved handles drawn rigidly meanwhile), as a
+  /// changed handle set does.
+  void setInterface(SimSettings::Interface i);
+  SimSettings::Interface interface() const { return options_.sim.interface; }
+
   State state() const;
   /// "" when off; else the build's stage and progress, the model's size, or the failure.
   std::string status() const;
@@ -129,6 +135,7 @@ class DeformationController {
   VolumeRenderer& renderer_;
   DeformationOptions options_;
   Key key_;
+  bool rebuild_ = false;  // the settings changed: rebuild on the next frame
   std::vector<int> simIds_;  // handle ids in simulation order (active, then fixed)
   std::vector<bool> simActive_;
   std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> restBoxes_;  // world box of each simulated handle at rest

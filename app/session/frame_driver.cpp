@@ -9,6 +9,14 @@
 
 namespace handson {
 
+bool FrameDriver::applyUi(const ScriptEvent& e) {
+  if (e.action != "set-interface") return false;
+  const auto i = parseInterface(e.value);
+  if (!i) return false;  // refused: an unknown interface
+  deform_.setInterface(*i);
+  return true;
+}
+
 void FrameDriver::refreshTransferFunction() {
   if (!session_.takePresetChanged()) return;
   tfChanged_ = true;

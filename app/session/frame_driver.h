@@ -26,8 +26,12 @@ class FrameDriver {
  public:
   FrameDriver(const Volume& volume, const QuantizedVolume& q, Session& session, VolumeRenderer& renderer, SelectionController& selection,
               DeformationController& deform)
-      : volume_(volume), q_(q), session_(session), renderer_(renderer), selection_(selection), deform_(deform) {}
+      : volume_(volume), q_(q), session_(session), renderer_(renderer), selection_(selection), deform_(deform) {
+    session_.addUiExtension([this](const ScriptEvent& e) { return applyUi(e); });
+  }
 
+  /// The simulation's UI actions: "set-interface" sliding|glued (DeformationController::setInterface).
+  bool applyUi(const ScriptEvent& e);
   /// The session's transfer function, when an applied event changed its preset.
   void refreshTransferFunction();
   /// The frame budget (app/session/frame_budget.h; 0: off, the default).

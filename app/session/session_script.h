@@ -26,6 +26,7 @@
 //                                                               // toggle-lock z-translation|z-rotation|xy-translation
 //     {"t": 0.85, "ui": "toggle-strain"},  // the strain overlay on / off (while deforming)
 //     {"t": 0.86, "ui": "toggle-limits"},  // the highlight of tissue past its strain limit on / off
+//     {"t": 0.87, "ui": "set-interface", "value": "sliding"},  // the handles' interface: sliding | glued
 //     {"t": 0.90, "ui": "export"},  // session, deformed volume, mesh, screenshot (app/session/session_export.h)
 //   ]
 // }

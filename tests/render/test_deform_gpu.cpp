@@ -150,7 +150,9 @@ TEST_F(DeformGpu, KidneyDragAgreesWithTheCpuReferenceAndRedoesOnlyTheMovedBox) {
   std::size_t restKidney = 0;
   for (auto v : f.mask) restKidney += v == kKidneyId ? 1 : 0;
   // Within 5 %: the handle holds the fine nodes inside the kidney, so the tets that straddle its
-  // boundary deform and its outermost voxels go with them (measured 3.4 % fewer on this 4 mm phantom).
+  // boundary deform and its outermost voxels go with them (measured 3.4 % fewer on this 4 mm phantom;
+  // with --interface sliding 9.5 %, those tets' outer nodes sliding past the kidney:
+  // docs/tissue-physics.md).
   EXPECT_NEAR(double(kidneyVoxels), double(restKidney), 0.05 * double(restKidney));
 
   // A further, smaller drag: only the moved tets' box is redone, and the result equals a redo of
@@ -342,7 +344,7 @@ FrameResult expectRefinedStateDrawnLikeAWholeRegionRedo(VolumeRenderer& renderer
   FineRefiner refiner(*f.model, f.scene.fineK);
   auto xc = m.xc;
   auto fine = f.model->reconstruct(m.T, xc);
-  refiner.step(xc, fine, 10);
+  refiner.step(m.T, xc, fine, 10);
   const Eigen::Matrix4d w2i = f.q.geometry.worldToIndex();
   std::vector<Eigen::Vector4f> idx(fine.size());
   for (std::size_t i = 0; i < fine.size(); ++i) idx[i] = (w2i * fine[i].homogeneous()).cast<float>();

@@ -114,11 +114,10 @@ TEST(HandleReaction, CoarseReactionOfTheTurnedKidneyFollowsTheFineModel) {
   SimSettings s;
   s.coarseTets = 1500;
   s.fineTets = 1500 * 8;
+  s.interface = SimSettings::Interface::Glued;  // the measured figures below are glued (sliding: test_sliding_interface.cpp)
   const SimScene sc = buildSimScene(p.ct, {SimHandle{voxelsLabelled(p.labels, label::kKidneyRight), {}}}, s);
   const std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], Eigen::Vector3d(0, 0, 30 * M_PI / 180), Eigen::Vector3d(10, 0, 0))};
-  std::vector<char> dir;
-  const auto x0 = prescribedPositions(sc.meshes.fine, sc.constraints, T, &dir);
-  const StaticSolveResult fineSolve = solveStatic(sc.meshes.fine, sc.fineK, dir, x0);
+  const StaticSolveResult fineSolve = solveFineStatic(sc, T);
   ASSERT_TRUE(fineSolve.converged);
   const HandleReaction fine = fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, T, fineSolve.x)[0];
   CoarseModel model(sc.meshes, sc.fineK, sc.constraints);

@@ -142,7 +142,7 @@ TEST(RefineWarped, StepsConvergeToTheFineStaticAnswerWithAnyThreadCount) {
     const FineRefiner refiner(model, b.K, b.E, b.nu, RefineOptions{RefineMethod::Analytic, threads});
     auto x = start;
     const double e0 = rms(x);
-    for (int k = 0; k < 8; ++k) refiner.step(xc, x, 10);
+    for (int k = 0; k < 8; ++k) refiner.step(T, xc, x, 10);
     std::printf("%d thread(s): RMS to the fine answer %.3e -> %.3e mm\n", threads, e0, rms(x));
     EXPECT_LT(rms(x), 1e-3 * e0) << "8 steps cut the coarse model's error a thousandfold";
     results.push_back(x);

@@ -203,9 +203,11 @@ TEST(TissueLimits, TissueIsPutDownToTheNearerOfTwoHandles) {
   // Sizes that do not match the mesh are refused.
   EXPECT_THROW(tissueLimits(m, std::vector<float>(3, 0.f), band, table, nearestHandleOfNodes(m, c), 2), Error);
   EXPECT_THROW(tetStrainLimits({5}, table), Error);
-  EXPECT_THROW(tetStrainLimits({-2}, table), Error);
-  // The exterior layer stands for tissue beyond the region: no limit, never past it.
+  EXPECT_THROW(tetStrainLimits({-3}, table), Error);
+  // The exterior layer stands for tissue beyond the region, a sliding handle's own tets move
+  // rigidly with it: no limit, never past it.
   EXPECT_EQ(tetStrainLimits({kExteriorBand}, table)[0], std::numeric_limits<float>::infinity());
+  EXPECT_EQ(tetStrainLimits({kRigidBand}, table)[0], std::numeric_limits<float>::infinity());
   std::vector<int> exterior(band.size(), kExteriorBand);
   EXPECT_EQ(tissueLimits(m, std::vector<float>(band.size(), 10.0f), exterior, table, nearestHandleOfNodes(m, c), 2).tets, 0u);
 }

@@ -78,6 +78,8 @@ TEST(SessionScript, RejectsBadScriptsWithClearMessages) {
       {R"({"format": "handson-session", "version": 1, "viewport": [10, 10], "events": [{"t": 0, "ui": "explode"}]})", "unknown UI action"},
       {R"({"format": "handson-session", "version": 1, "viewport": [10, 10], "events": [{"t": 0, "ui": "set-mode", "value": "dance"}]})",
        "unknown mode"},
+      {R"({"format": "handson-session", "version": 1, "viewport": [10, 10], "events": [{"t": 0, "ui": "set-interface", "value": "velcro"}]})",
+       "sliding or glued"},
       {R"({"format": "handson-session", "version": 1, "viewport": [10, 10], "events": [{"t": 0, "touch": "down", "ui": "x", "id": 1, "x": 0, "y": 0}]})",
        "exactly one"},
       {R"({"format": "handson-session", "version": 1, "viewport": [10, 10], "camera": {"target": [0, 0], "distance": 1, "azimuth_deg": 0, "elevation_deg": 0}, "events": []})",
