@@ -304,7 +304,7 @@ CoarseModel::ElementNodes CoarseModel::classifyNodes(int e, const Element& el, c
       r.addDirichlet(l, anchorHandle(), F.nodes[std::size_t(f)]);
       continue;
     }
-    if (onBoundary && slide.slides(f)) {
+    if (onBoundary && slide.heldExactly(f)) {
       r.S.push_back(l);
       r.Sw.push_back(w);
     } else if (onBoundary) {
@@ -323,7 +323,6 @@ bool CoarseModel::onHeldCorners(const Element& el, const Eigen::Matrix<double, 8
   return true;
 }
 
-int CoarseModel::dirichletHandle(int fine) const { return constraints_.fixed[std::size_t(fine)] ? anchorHandle() : constraints_.handleOf[std::size_t(fine)]; }
 
 std::vector<RigidTransform> CoarseModel::withAnchor(const std::vector<RigidTransform>& handles) const {
   std::vector<RigidTransform> out(handles.begin(), handles.begin() + std::min<std::ptrdiff_t>(std::ptrdiff_t(handles.size()), anchorHandle()));
@@ -439,7 +438,7 @@ std::unique_ptr<CoarseModel> CoarseModel::load(std::istream& is, std::uint64_t b
   m->constraints_.handleCount = r.pod<std::int32_t>();
   const int hc = m->constraints_.handleCount;
   if (m->constraints_.handleOf.size() != nf || m->constraints_.fixed.size() != nf || hc < 0) throw Error("cache file does not fit the mesh");
-  m->constraints_.slide = bin::readSlideNodes(r, nf, hc);
+  m->constraints_.slide = bin::readSlideNodes(r, m->constraints_.handleOf, m->constraints_.fixed, hc);
   auto checkIndex = [](std::int64_t v, std::size_t n) {
     if (v < 0 || std::uint64_t(v) >= n) throw Error("cache file corrupt (an index out of range)");
   };

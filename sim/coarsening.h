@@ -252,8 +252,6 @@ class CoarseModel {
   // identity, so its nodes stay at X in the world frame whatever the element's rotation (its term
   // A vec(R_c^T - I) in every element it touches).
   int anchorHandle() const { return constraints_.handleCount; }
-  /// The handle whose Dirichlet node fine node `fine` is: the anchor for a held node.
-  int dirichletHandle(int fine) const;
   /// The caller's handle transforms with the anchor's identity appended (index anchorHandle()).
   std::vector<RigidTransform> withAnchor(const std::vector<RigidTransform>& handles) const;
   /// Element e's non-corner fine nodes (`nodes`, local order, corners first) by role: Dirichlet
@@ -282,7 +280,10 @@ class CoarseModel {
     std::vector<int> slideOf;      ///< per fine node: index into constraints_.slide, or -1
     std::vector<int> elementCount; ///< per fine node: the elements where it touches a tissue tet
     std::vector<char> rigidTet;    ///< per fine tet: no stiffness (a sliding handle's own)
+    std::vector<char> coarseNode;  ///< per fine node: a coarse node (a corner, or a hanging node) - never held exactly
     bool slides(int fine) const { return !slideOf.empty() && slideOf[std::size_t(fine)] >= 0; }
+    /// On a face and held to the surface exactly (roles S): a slide node that is no coarse node.
+    bool heldExactly(int fine) const { return slides(fine) && !coarseNode[std::size_t(fine)]; }
     /// The slide indices among `nodes` that touch a tissue tet of `tets`, and per local node whether
     /// it does (`touches`, sized to nodes).
     std::vector<int> of(const std::vector<int>& nodes, const std::vector<int>& tets, const TetMesh& fine, const std::unordered_map<int, int>& local,

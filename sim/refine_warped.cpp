@@ -70,7 +70,8 @@ FineRefiner::FineRefiner(const CoarseModel& coarse, const std::vector<Mat12>& fi
     const double scale = (X[1] - X[0]).norm() + (X[2] - X[0]).norm() + (X[3] - X[0]).norm();
     const double E = youngs[t], nu = poisson[t];
     // The same degenerate cases as tetStiffness (a zero matrix there, no contribution here).
-    if (!(V > 1e-12 * scale * scale * scale) || !std::isfinite(E) || !std::isfinite(nu)) continue;
+    // A sliding handle's own tets (E = 0) add nothing either.
+    if (!(V > 1e-12 * scale * scale * scale) || !std::isfinite(E) || !std::isfinite(nu) || !(E > 0)) continue;
     w->G[t] = Dm.inverse();
     w->V[t] = V;
     w->lambda[t] = E * nu / ((1 + nu) * (1 - 2 * nu));

@@ -197,7 +197,7 @@ std::unique_ptr<CoarseModel> loadSimulation(const std::filesystem::path& file, S
   sc.constraints.handleOf = r.podVector<int>();
   sc.constraints.fixed = r.podVector<char>();
   sc.constraints.handleCount = r.pod<std::int32_t>();
-  sc.constraints.slide = bin::readSlideNodes(r, m.fine.nodes.size(), sc.constraints.handleCount);
+  sc.constraints.slide = bin::readSlideNodes(r, sc.constraints.handleOf, sc.constraints.fixed, sc.constraints.handleCount);
   sc.handleCentroid = r.podVector<Eigen::Vector3d>();
   sc.handleNodeCount = r.podVector<std::size_t>();
   sc.regionCell = r.podVector<char>();
@@ -237,7 +237,9 @@ std::unique_ptr<CoarseModel> loadSimulation(const std::filesystem::path& file, S
   for (double v : sc.poisson)
     if (!(v > -1 && v < 0.5)) bad();
   auto model = CoarseModel::load(is, r.remaining, m);
-  if (model->constraints().handleCount != hc) bad();
+  if (model->constraints().handleCount != hc || model->constraints().slide.size() != sc.constraints.slide.size()) bad();
+  for (std::size_t i = 0; i < sc.constraints.slide.size(); ++i)
+    if (model->constraints().slide[i].node != sc.constraints.slide[i].node || model->constraints().slide[i].handle != sc.constraints.slide[i].handle) bad();
   if (model->elementKind() == CoarseElement::Tet && !m.regularFine) bad();
   char end[8];
   if (!is.read(end, sizeof end) || std::memcmp(end, kMagic, sizeof end) != 0) throw Error("simulation cache truncated (no end marker)");

@@ -18,11 +18,14 @@ inline void writeSlideNodes(Writer& w, const std::vector<SlideNode>& slide) {
   }
 }
 
-/// Throws handson::Error for a node outside `fineNodes`, a handle outside `handleCount`, a normal
-/// that is not unit or a stiffness that is not finite and >= 0.
-inline std::vector<SlideNode> readSlideNodes(Reader& r, std::size_t fineNodes, int handleCount) {
+/// Throws handson::Error for a node outside the fine mesh (`handleOf`, `fixed`: its roles), held,
+/// a handle's own or listed twice, a handle outside `handleCount`, a normal that is not unit or a
+/// stiffness that is not finite and >= 0.
+inline std::vector<SlideNode> readSlideNodes(Reader& r, const std::vector<int>& handleOf, const std::vector<char>& fixed, int handleCount) {
+  const std::size_t fineNodes = handleOf.size();
   const auto n = r.pod<std::uint64_t>();
-  if (n > fineNodes) throw Error("cache file corrupt (slide nodes)");
+  if (n > fineNodes || fixed.size() != fineNodes) throw Error("cache file corrupt (slide nodes)");
+  std::vector<char> seen(fineNodes, 0);
   std::vector<SlideNode> out(n);
   for (SlideNode& s : out) {
     s.node = r.pod<std::int32_t>();
@@ -30,7 +33,7 @@ inline std::vector<SlideNode> readSlideNodes(Reader& r, std::size_t fineNodes, i
     s.normal = r.pod<Eigen::Vector3d>();
     s.stiffness = r.pod<double>();
     if (s.node < 0 || std::size_t(s.node) >= fineNodes || s.handle < 0 || s.handle >= handleCount || !(std::abs(s.normal.norm() - 1.0) < 1e-9) ||
-        !(s.stiffness >= 0) || !std::isfinite(s.stiffness))
+        !(s.stiffness >= 0) || !std::isfinite(s.stiffness) || fixed[std::size_t(s.node)] || handleOf[std::size_t(s.node)] >= 0 || seen[std::size_t(s.node)]++)
       throw Error("cache file corrupt (a slide node)");
   }
   return out;

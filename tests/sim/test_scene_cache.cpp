@@ -65,12 +65,21 @@ INSTANTIATE_TEST_SUITE_P(BothFineMeshes, SceneCacheKinds, ::testing::Values(SimS
                          [](const auto& p) { return std::string(p.param == SimSettings::FineMesh::Regular ? "regular" : "adapted"); });
 
 TEST_P(SceneCacheKinds, ALoadedSceneAndModelAnswerBitForBitLikeTheBuiltOnes) {
-  for (const auto region : {SimSettings::Region::Box, SimSettings::Region::Handles}) {
-  SCOPED_TRACE(region == SimSettings::Region::Box ? "box region" : "region shaped by the handle");
+  struct Case {
+    SimSettings::Region region;
+    bool sliding;  // a sliding interface: its slide nodes and ghost blocks are cached too
+    const char* name;
+  };
+  for (const Case c : {Case{SimSettings::Region::Box, false, "box region"}, Case{SimSettings::Region::Handles, false, "region shaped by the handle"},
+                       Case{SimSettings::Region::Box, true, "box region, sliding"}}) {
+  SCOPED_TRACE(c.name);
+  const auto region = c.region;
+  const bool sliding = c.sliding;
   const Inputs& in = inputs();
   SimSettings s = in.settings;
   s.fineMesh = GetParam();
   s.region = region;
+  s.interface = sliding ? SimSettings::Interface::Sliding : SimSettings::Interface::Glued;
   if (region == SimSettings::Region::Handles) {  // with held cells: the box's far corners
     s.coarseTets = 1500;
     s.fineTets = 1500 * 8;
@@ -92,6 +101,13 @@ TEST_P(SceneCacheKinds, ALoadedSceneAndModelAnswerBitForBitLikeTheBuiltOnes) {
   EXPECT_EQ(loaded.youngs, built.youngs);
   EXPECT_EQ(loaded.constraints.handleOf, built.constraints.handleOf);
   EXPECT_EQ(loaded.constraints.fixed, built.constraints.fixed);
+  ASSERT_EQ(loaded.constraints.slide.size(), built.constraints.slide.size());
+  EXPECT_EQ(built.constraints.slide.empty(), !sliding);
+  for (std::size_t i = 0; i < built.constraints.slide.size(); ++i) {
+    EXPECT_EQ(loaded.constraints.slide[i].node, built.constraints.slide[i].node);
+    EXPECT_EQ(loaded.constraints.slide[i].normal, built.constraints.slide[i].normal);
+    EXPECT_EQ(loaded.constraints.slide[i].stiffness, built.constraints.slide[i].stiffness);
+  }
   EXPECT_EQ(loaded.regionCell, built.regionCell);
   EXPECT_EQ(built.regionCell.empty(), region == SimSettings::Region::Box);
   if (region == SimSettings::Region::Handles) {
