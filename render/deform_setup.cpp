@@ -9,6 +9,7 @@
 
 #include "sim/error.h"
 #include "sim/tet_raster.h"
+#include "sim/tissue_limits.h"
 #include "vk_context.h"
 
 namespace handson::vk {
@@ -81,7 +82,7 @@ ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc
     if (setup.strainLimits->size() != tetCount)
       throw Error("deformation: " + std::to_string(setup.strainLimits->size()) + " strain limits for " + std::to_string(tetCount) + " fine tets");
     for (float l : *setup.strainLimits)
-      if (!(l > 0.0f)) throw Error("deformation: a strain limit is not a positive number (inf: none)");
+      if (!(l > 0.0f) && l != kRigidStrainLimit) throw Error("deformation: a strain limit is not a positive number (inf: none; -1: a sliding handle's own tet)");
   }
 
   const std::uint64_t maxGroups = ctx.properties().limits.maxComputeWorkGroupCount[0];

@@ -4,7 +4,8 @@
 // (deform_claim.comp's owner, the same tet the deformed image was sampled through), 0 where no tet
 // did (outside the region, uncovered) and where the strain is not finite. With per-tet strain limits
 // (P.limits.z = 1) the voxel also takes that tet's strain over its tissue's limit (0 where the
-// tissue has none or either is not finite): the raymarch highlights voxels past 1. One invocation
+// tissue has none or either is not finite): the raymarch highlights voxels past 1; a limit below 0
+// (a sliding handle's own tet, kRigidStrainLimit) shows no strain either. One invocation
 // per voxel of the box, dispatched indirectly like deform_resolve.comp. CPU references:
 // strainVolume (sim/strain.cpp) and strainOverLimitVolume (sim/tissue_limits.cpp) on
 // rasterizeDeformed's tet map.
@@ -32,6 +33,7 @@ void main() {
       s = isnan(e) || isinf(e) ? 0.0 : e;
       if (P.limits.z != 0u) {
         float l = limit[own - 1u];
+        if (l < 0.0) s = 0.0;  // a sliding handle's own tet: rigid, its apparent strain hidden
         r = s != 0.0 && l > 0.0 && !isinf(l) && !isnan(l) ? s / l : 0.0;
       }
     }

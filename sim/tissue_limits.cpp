@@ -60,14 +60,24 @@ std::vector<float> tetStrainLimits(const std::vector<int>& bandOfTet, const Mate
   std::vector<float> out(bandOfTet.size());
   for (std::size_t t = 0; t < bandOfTet.size(); ++t) {
     const int b = bandOfTet[t];
-    if (b == kExteriorBand || b == kRigidBand) {  // tissue beyond the region, or a handle's own: no limit
+    if (b == kExteriorBand) {  // tissue beyond the region: no limit
       out[t] = std::numeric_limits<float>::infinity();
+      continue;
+    }
+    if (b == kRigidBand) {  // a sliding handle's own: no limit, no strain shown
+      out[t] = kRigidStrainLimit;
       continue;
     }
     if (b < 0 || std::size_t(b) >= table.bands().size()) throw Error("tissue limits: a tet names a material band the table does not have");
     out[t] = float(table.band(b).strainLimit);
   }
   return out;
+}
+
+void hideRigidStrain(std::vector<float>& strain, const std::vector<float>& limits) {
+  if (strain.size() != limits.size()) throw Error("tissue limits: one strain limit per fine tet expected");
+  for (std::size_t t = 0; t < strain.size(); ++t)
+    if (limits[t] == kRigidStrainLimit) strain[t] = 0.0f;
 }
 
 Volume strainOverLimitVolume(const VolumeGeometry& grid, const std::vector<std::int32_t>& tetOf, const std::vector<float>& strain,
@@ -96,7 +106,7 @@ TissueLimitReport tissueLimits(const TetMesh& mesh, const std::vector<float>& st
   std::vector<TissueLimitBand> byBand(table.bands().size());
   const std::vector<float> limits = tetStrainLimits(bandOfTet, table);
   for (std::size_t t = 0; t < nt; ++t) {
-    if (!(strain[t] > limits[t])) continue;  // within the limit, no limit (inf), or NaN
+    if (!(limits[t] > 0.0f) || !(strain[t] > limits[t])) continue;  // within the limit, no limit (inf, rigid), or NaN
     const double volume = std::abs(mesh.signedVolume(int(t)));
     TissueLimitBand& b = byBand[std::size_t(bandOfTet[t])];
     ++b.tets;

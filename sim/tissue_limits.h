@@ -25,8 +25,17 @@ struct NearestHandle {
 };
 NearestHandle nearestHandleOfNodes(const TetMesh& mesh, const FineConstraints& constraints, const std::vector<char>& moving = {});
 
-/// Per fine tet: its band's strain limit (+inf where the band has none). `bandOfTet`: indices into `table`.
+/// The limit of a sliding handle's own tets (kRigidBand): they move rigidly with the handle, so they
+/// have no limit, and their apparent strain (their outer nodes slide with the tissue) is not shown -
+/// hideRigidStrain and the GPU strain pass show 0 there.
+constexpr float kRigidStrainLimit = -1.0f;
+
+/// Per fine tet: its band's strain limit (+inf where the band has none or in the exterior layer,
+/// kRigidStrainLimit for a sliding handle's own tets). `bandOfTet`: indices into `table`, or those two.
 std::vector<float> tetStrainLimits(const std::vector<int>& bandOfTet, const MaterialTable& table);
+
+/// The strain as shown: 0 where the limit is kRigidStrainLimit. Throws handson::Error on a size mismatch.
+void hideRigidStrain(std::vector<float>& strain, const std::vector<float>& limits);
 
 /// The limit highlight's volume on the image's grid: each voxel the strain over its limit (float,
 /// strain / limit) of the deformed tet that covers it (`tetOf` from rasterizeDeformed, -1: none), 0

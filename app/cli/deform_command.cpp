@@ -319,7 +319,8 @@ int cmdDeform(const Words& words) {
   double maxDisp = 0;
   for (std::size_t i = 0; i < x.size(); ++i) maxDisp = std::max(maxDisp, (x[i] - sc.meshes.fine.nodes[i]).norm());
   const bool wantStrain = args.value("--strain-out").has_value();
-  const std::vector<float> strain = tetStrain(sc.meshes.fine, x);
+  std::vector<float> strain = tetStrain(sc.meshes.fine, x);
+  hideRigidStrain(strain, tetStrainLimits(sc.band, s.materials));  // a sliding handle's own tets: not shown
   std::vector<char> moving(std::size_t(sc.constraints.handleCount), 0);  // the moved handle; a --fixed mask is never the cause
   moving[0] = 1;
   const TissueLimitReport limits = tissueLimits(sc.meshes.fine, strain, sc.band, s.materials, nearestHandleOfNodes(sc.meshes.fine, sc.constraints, moving),

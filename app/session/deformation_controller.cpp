@@ -226,7 +226,7 @@ void DeformationController::adoptBuilt() {
   setup.worldToIndex = image_.geometry().worldToIndex();
   // The limit highlight: each fine tet's tissue limit, when the table gives any.
   const std::vector<float> limits = tetStrainLimits(m->scene.band, options_.sim.materials);
-  if (std::any_of(limits.begin(), limits.end(), [](float l) { return std::isfinite(l); })) setup.strainLimits = &limits;
+  if (std::any_of(limits.begin(), limits.end(), [](float l) { return std::isfinite(l); })) setup.strainLimits = &limits;  // finite, or a handle's own (hidden)
   try {
     renderer_.beginDeformation(setup);
   } catch (const std::exception& e) {
@@ -379,7 +379,8 @@ bool DeformationController::exportMeshAndStrain(const std::string& meshPath, con
   const SimScene& sc = model_->scene;
   const auto x = drawnFinePositions();
   if (x.empty()) return false;
-  const std::vector<float> strain = tetStrain(sc.meshes.fine, x);
+  std::vector<float> strain = tetStrain(sc.meshes.fine, x);
+  hideRigidStrain(strain, tetStrainLimits(sc.band, options_.sim.materials));
   std::vector<Eigen::Vector3d> disp(x.size());
   std::vector<double> dir(x.size()), element(sc.meshes.fine.tets.size()), strainD(strain.begin(), strain.end());
   for (std::size_t i = 0; i < x.size(); ++i) {

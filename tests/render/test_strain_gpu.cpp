@@ -222,6 +222,7 @@ TEST_F(StrainGpu, TheStrainOverLimitVolumeAndItsHighlightMatchTheirCpuReferences
   const std::size_t nt = f.scene.meshes.fine.tets.size();
   std::vector<float> limits(nt, 0.05f);
   for (std::size_t t = 0; t < nt; t += 3) limits[t] = std::numeric_limits<float>::infinity();
+  for (std::size_t t = 1; t < nt; t += 7) limits[t] = kRigidStrainLimit;  // as a sliding handle's own: strain hidden
   VolumeRenderer renderer(test::gpuContext());
   renderer.setVolume(f.q);
   const auto lut = transferFunctionPreset("ct-abdomen").lookupTable(f.q);
@@ -262,6 +263,24 @@ TEST_F(StrainGpu, TheStrainOverLimitVolumeAndItsHighlightMatchTheirCpuReferences
   const std::vector<float> cpuStrain = tetStrain(f.scene.meshes.fine, back);
   const Volume cpuRatio = strainOverLimitVolume(f.phantom.ct.geometry(), tetOf, cpuStrain, limits);
   const Volume cpuStrainVolume = strainVolume(f.phantom.ct.geometry(), tetOf, cpuStrain);
+  {  // the strain volume as shown: the rigid tets' strain hidden, as hideRigidStrain on the CPU
+    std::vector<float> shown = cpuStrain;
+    hideRigidStrain(shown, limits);
+    const Volume cpuShown = strainVolume(f.phantom.ct.geometry(), tetOf, shown);
+    const std::vector<float> gpuShown = renderer.deformer()->readStrainVolume();
+    ASSERT_EQ(gpuShown.size(), cpuShown.voxelCount());
+    std::size_t agree = 0, hidden = 0, shownAnyway = 0;
+    for (std::size_t i = 0; i < gpuShown.size(); ++i) {
+      agree += std::abs(gpuShown[i] - cpuShown.value(i)) <= kTolerance ? 1 : 0;
+      if (tetOf[i] >= 0 && limits[std::size_t(tetOf[i])] == kRigidStrainLimit && cpuStrain[std::size_t(tetOf[i])] > 0.01f) {
+        ++hidden;
+        shownAnyway += gpuShown[i] > 0.005f ? 1 : 0;  // a face voxel may go to the neighbouring tet
+      }
+    }
+    EXPECT_GE(double(agree) / double(gpuShown.size()), 0.999);
+    EXPECT_GT(hidden, 100u) << "strained voxels of hidden tets";
+    EXPECT_LE(double(shownAnyway), 0.02 * double(hidden)) << "the GPU hides them too";
+  }
   ASSERT_EQ(gpuRatio.size(), cpuRatio.voxelCount());
   std::size_t same = 0, past = 0, unlimited = 0;
   for (std::size_t i = 0; i < gpuRatio.size(); ++i) {

@@ -207,7 +207,13 @@ TEST(TissueLimits, TissueIsPutDownToTheNearerOfTwoHandles) {
   // The exterior layer stands for tissue beyond the region, a sliding handle's own tets move
   // rigidly with it: no limit, never past it.
   EXPECT_EQ(tetStrainLimits({kExteriorBand}, table)[0], std::numeric_limits<float>::infinity());
-  EXPECT_EQ(tetStrainLimits({kRigidBand}, table)[0], std::numeric_limits<float>::infinity());
+  EXPECT_EQ(tetStrainLimits({kRigidBand}, table)[0], kRigidStrainLimit);
+  std::vector<int> rigid(band.size(), kRigidBand);
+  EXPECT_EQ(tissueLimits(m, std::vector<float>(band.size(), 10.0f), rigid, table, nearestHandleOfNodes(m, c), 2).tets, 0u);
+  std::vector<float> shown{0.5f, 0.7f};
+  hideRigidStrain(shown, {0.2f, kRigidStrainLimit});
+  EXPECT_EQ(shown, (std::vector<float>{0.5f, 0.0f}));
+  EXPECT_THROW(hideRigidStrain(shown, {0.2f}), Error);
   std::vector<int> exterior(band.size(), kExteriorBand);
   EXPECT_EQ(tissueLimits(m, std::vector<float>(band.size(), 10.0f), exterior, table, nearestHandleOfNodes(m, c), 2).tets, 0u);
 }
