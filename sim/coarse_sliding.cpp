@@ -58,4 +58,15 @@ void CoarseModel::addGhost(Eigen::MatrixXd& K, int l, int g, const SlideShares& 
   roles.addDirichlet(g, sn.handle, meshes_.fine.nodes[std::size_t(sn.node)]);
 }
 
+void CoarseModel::holdSurfaceSlides(const ElementNodes& roles, const std::vector<int>& nodes, const SlideShares& slide, std::size_t firstGhost,
+                                    Eigen::MatrixXd& Phic, Eigen::MatrixXd& PhiD) const {
+  for (std::size_t j = 0; j < roles.S.size(); ++j) {
+    const int l = roles.S[j];
+    const Eigen::Vector3d& nrm = constraints_.slide[std::size_t(slide.slideOf[std::size_t(nodes[std::size_t(l)])])].normal;
+    const Eigen::Matrix3d Pn = nrm * nrm.transpose();
+    for (int c = 0; c < nc_; ++c) Phic.block<3, 3>(3 * l, 3 * c) = roles.Sw[j][c] * (Eigen::Matrix3d::Identity() - Pn);
+    PhiD.block<3, 3>(3 * l, 3 * Eigen::Index(firstGhost + j)) = Pn;
+  }
+}
+
 }  // namespace handson

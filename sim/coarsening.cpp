@@ -194,16 +194,7 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
     for (int i = 0; i < nB; ++i)
       for (int c = 0; c < nc; ++c) Phic.block<3, 3>(3 * Bn[std::size_t(i)], 3 * c) = Bw[std::size_t(i)][c] * Eigen::Matrix3d::Identity();
     for (int i = 0; i < nD; ++i) PhiD.block<3, 3>(3 * Dn[std::size_t(i)], 3 * i).setIdentity();
-    // A slide node on a face: its tangential motion follows the face's corners (conforming with the
-    // element beside it), its normal motion is the handle's (its surface ghost's): u = (I - n n^T)
-    // N_b u_c + n n^T u_ghost.
-    for (std::size_t j = 0; j < roles.S.size(); ++j) {
-      const int l = roles.S[j];
-      const Eigen::Vector3d& nrm = constraints_.slide[std::size_t(slide.slideOf[std::size_t(nodes[std::size_t(l)])])].normal;
-      const Eigen::Matrix3d Pn = nrm * nrm.transpose();
-      for (int c = 0; c < nc; ++c) Phic.block<3, 3>(3 * l, 3 * c) = roles.Sw[j][c] * (Eigen::Matrix3d::Identity() - Pn);
-      PhiD.block<3, 3>(3 * l, 3 * Eigen::Index(firstSurfaceGhost + j)) = Pn;
-    }
+    holdSurfaceSlides(roles, nodes, slide, firstSurfaceGhost, Phic, PhiD);
     Mat H, G;
     if (nI > 0) {
       // K_I* Phi restricted: -K_II^{-1} (K_I,(c,b) Phi_c) and -K_II^{-1} K_ID.

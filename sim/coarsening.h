@@ -290,6 +290,11 @@ class CoarseModel {
                         std::vector<char>& touches) const;
   };
   SlideShares slideShares(const std::vector<std::vector<int>>& tetsOf, const std::vector<Mat12>& fineK) const;
+  /// The rows of the slide nodes on element faces (roles.S, whose surface ghosts are PhiD's columns from
+  /// `firstGhost` on): tangentially the face's corners, normally the handle,
+  /// u = (I - n n^T) N_b u_c + n n^T u_ghost - so the element beside agrees on them.
+  void holdSurfaceSlides(const ElementNodes& roles, const std::vector<int>& nodes, const SlideShares& slide, std::size_t firstGhost, Eigen::MatrixXd& Phic,
+                         Eigen::MatrixXd& PhiD) const;
   /// Adds ghost `g` (local index) of slide entry `s` joined to local node `l` to K and to `roles`.
   void addGhost(Eigen::MatrixXd& K, int l, int g, const SlideShares& shares, int s, ElementNodes& roles) const;
   /// A slide node on a face (not a corner, roles S) moves tangentially with the face's corners and

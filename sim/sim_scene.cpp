@@ -270,17 +270,12 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   std::vector<char> holdsHandle(shaped ? sc.meshes.coarseGrid.cellCount() : 0, 0);
   assignConstraints(sc, image, handles, s, tissue, shaped ? &holdsHandle : nullptr);
   if (shaped) holdCellsAwayFromHandles(sc, shape, holdsHandle, s.paddingMm);
+  if (s.interface == SimSettings::Interface::Sliding && !handles.empty()) makeInterfacesSliding(sc, g, handles);
+  // A handle's nodes: those it moves rigidly (enclosed tissue included) and its sliding surface's.
   sc.handleNodeCount.assign(handles.size(), 0);
   for (std::size_t n = 0; n < sc.meshes.fine.nodes.size(); ++n)
     if (sc.constraints.handleOf[n] >= 0 && !sc.constraints.fixed[n]) ++sc.handleNodeCount[std::size_t(sc.constraints.handleOf[n])];
-  if (s.interface == SimSettings::Interface::Sliding && !handles.empty()) {
-    makeInterfacesSliding(sc, g, handles);
-    // Counted again: enclosed tissue joined the handles, and their surface nodes are theirs too.
-    sc.handleNodeCount.assign(handles.size(), 0);
-    for (std::size_t n = 0; n < sc.meshes.fine.nodes.size(); ++n)
-      if (sc.constraints.handleOf[n] >= 0 && !sc.constraints.fixed[n]) ++sc.handleNodeCount[std::size_t(sc.constraints.handleOf[n])];
-    for (const SlideNode& sn : sc.constraints.slide) ++sc.handleNodeCount[std::size_t(sn.handle)];
-  }
+  for (const SlideNode& sn : sc.constraints.slide) ++sc.handleNodeCount[std::size_t(sn.handle)];
   reportProgress(progress, 1.0, "scene");
   return sc;
 }
