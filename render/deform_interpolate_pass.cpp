@@ -37,6 +37,7 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slo
   hostBuffer(s.positions, state.positions.data(), state.positions.size() * 16);
   hostBuffer(s.rotations, state.rotations.data(), state.rotations.size() * 16);
   hostBuffer(s.handles, state.handles.data(), state.handles.size() * 64);
+  if (!rigidIds_.empty()) poses_ = state.handles;  // the rigid handles drawn at the state's poses
 
   importResources(g, slot, true, sourceVolume, sourceMask, outputs);
   using fg::Access;

@@ -117,7 +117,8 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
                                        {gpu::kBindDeformResolveSourceMask, kSampled},
                                        {gpu::kBindDeformResolveOut, kStorageImage},
                                        {gpu::kBindDeformResolveOutMask, kStorageImage},
-                                       {gpu::kBindDeformResolveBrickList, kSsbo}}),
+                                       {gpu::kBindDeformResolveBrickList, kSsbo},
+                                       {gpu::kBindDeformResolveRigid, kSsbo}}),
                              0);
   strain_ = ComputePipeline(ctx, shaders::deformStrain(),
                             bindings({{gpu::kBindDeformStrainParams, kParams},
@@ -161,6 +162,8 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   prev_ = uploaded(ctx, restIdx);
   if (!(setup.commitVoxels >= 0.0) || !std::isfinite(setup.commitVoxels)) throw Error("deformation: the commit threshold must be a finite number >= 0");
   commit_ = float(setup.commitVoxels);
+  rigidIds_ = setup.rigidIds;
+  worldToIndex_ = setup.worldToIndex;
   const std::vector<std::uint32_t> noBricks(std::size_t(p_.bricks.w), 0u);
   brickFlags_ = uploaded(ctx, noBricks);
   brickList_ = uploaded(ctx, noBricks);
@@ -225,6 +228,8 @@ void GpuDeformer::importResources(fg::FrameGraph& g, std::uint32_t slot, bool wi
     h.rotations = buf("coarse-rotations", *s.rotations, Access::HostWrite);
     h.handles = buf("handle-transforms", *s.handles, Access::HostWrite);
   }
+  writeRigidDraws(slots_[slot]);
+  h.rigid = buf("rigid-handle-draws", *slots_[slot].rigid, Access::HostWrite);
   h.source = sourceVolume.valid() ? sourceVolume : g.importImage("volume", source_.desc(), Access::Sampled);
   h.sourceMask = sourceMask.valid() ? sourceMask : g.importImage("handle-mask", sourceMask_.desc(), Access::Sampled);
   h.volume = outputs.volume.valid() ? outputs.volume : g.importImage("deformed-volume", volume_.desc(), Access::Sampled);
@@ -276,10 +281,43 @@ void GpuDeformer::bind(GraphExecutor& x) {
     x.bindBuffer(h.rotations, *s.rotations);
     x.bindBuffer(h.handles, *s.handles);
   }
+  if (h.rigid.valid()) x.bindBuffer(h.rigid, *s.rigid);
   x.bindImage(h.source, source_);
   x.bindImage(h.sourceMask, sourceMask_);
   x.bindImage(h.volume, volume_);
   x.bindImage(h.mask, mask_);
+}
+
+void GpuDeformer::setHandlePoses(const std::vector<Eigen::Matrix4f>& worldPoses) {
+  if (!rigidIds_.empty() && worldPoses.size() != rigidIds_.size())
+    throw Error("deformation: " + std::to_string(worldPoses.size()) + " handle poses for " + std::to_string(rigidIds_.size()) + " handles");
+  for (const auto& T : worldPoses)
+    if (!T.allFinite()) throw Error("deformation: a handle pose is not finite");
+  poses_ = worldPoses;
+}
+
+void GpuDeformer::writeRigidDraws(Slot& s) const {
+  std::vector<gpu::RigidDraw> draws;
+  if (poses_.size() == rigidIds_.size()) {
+    const Eigen::Matrix4d i2w = worldToIndex_.inverse();
+    for (std::size_t h = 0; h < rigidIds_.size(); ++h) {
+      if (rigidIds_[h] == 0) continue;
+      const Eigen::Matrix4d T = poses_[h].cast<double>();
+      Eigen::Matrix4d inv = Eigen::Matrix4d::Identity();  // world: current -> rest (a rigid pose)
+      inv.topLeftCorner<3, 3>() = T.topLeftCorner<3, 3>().transpose();
+      inv.topRightCorner<3, 1>() = -T.topLeftCorner<3, 3>().transpose() * T.topRightCorner<3, 1>();
+      gpu::RigidDraw d{};
+      d.currentToRest = toGlm(worldToIndex_ * inv * i2w);
+      d.id = glm::uvec4(rigidIds_[h], 0, 0, 0);
+      draws.push_back(d);
+    }
+  }
+  const VkDeviceSize bytes = 16 + std::max<std::size_t>(1, draws.size()) * sizeof(gpu::RigidDraw);
+  if (!s.rigid || s.rigid->size() < bytes) s.rigid = std::make_unique<Buffer>(ctx_, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, Buffer::Memory::HostVisible);
+  const glm::uvec4 head(std::uint32_t(draws.size()), 0, 0, 0);
+  std::memcpy(s.rigid->mapped(), &head, 16);
+  if (!draws.empty()) std::memcpy(static_cast<char*>(s.rigid->mapped()) + 16, draws.data(), draws.size() * sizeof(gpu::RigidDraw));
+  s.rigid->flush();
 }
 
 DeformFrameStats GpuDeformer::runFrame(const CoarseFrameState& state, Redo redo) {

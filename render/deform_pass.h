@@ -47,6 +47,10 @@ struct DeformSetup {
   /// it the strain passes also make the strain-over-limit volume the raymarch highlights tissue past
   /// its limit with; null: no limits. Finite values must be > 0; NaN is refused.
   const std::vector<float>* strainLimits = nullptr;
+  /// Per handle (the order of the poses: CoarseFrameState::handles, setHandlePoses), its id in the
+  /// mask when the resampling draws it where its pose puts it (a sliding handle), 0 when the fine
+  /// tets draw it (a glued one); empty: none. Ids up to 255.
+  std::vector<std::uint32_t> rigidIds;
 };
 
 /// What a frame redoes.
@@ -133,6 +137,10 @@ class GpuDeformer {
   /// Binds what the last addPasses imported.
   void bind(GraphExecutor& executor);
 
+  /// The handles' world poses the next frames from positions draw the rigid handles at
+  /// (DeformSetup::rigidIds, one pose each); a frame from a coarse state takes its own.
+  void setHandlePoses(const std::vector<Eigen::Matrix4f>& worldPoses);
+
   /// One frame on its own graph and executor, waited for; returns the box and counters.
   DeformFrameStats runFrame(const CoarseFrameState& state, Redo redo = Redo::Moved);
   /// One frame on its own graph from fine positions (voxel index space) taken as the next state after
@@ -165,8 +173,10 @@ class GpuDeformer {
   DeformFrameStats runOwn(const std::function<void(fg::FrameGraph&)>& build);
 
   struct Slot {
-    std::unique_ptr<Buffer> positions, rotations, handles, fine;
+    std::unique_ptr<Buffer> positions, rotations, handles, fine, rigid;
   };
+  /// Writes the slot's RigidDraws (the rigid handles at poses_, index space).
+  void writeRigidDraws(Slot& s) const;
   const Context& ctx_;
   const Image& source_;
   const Image& sourceMask_;
@@ -187,9 +197,12 @@ class GpuDeformer {
   std::size_t nodes_ = 0, tets_ = 0, coarseNodes_ = 0, coarseElements_ = 0;
   std::uint32_t handles_ = 0;
   float commit_ = 1e-3f, motionLag_ = 0.5f;
+  std::vector<std::uint32_t> rigidIds_;
+  std::vector<Eigen::Matrix4f> poses_;  ///< the handles' world poses the rigid handles are drawn at
+  Eigen::Matrix4d worldToIndex_ = Eigen::Matrix4d::Identity();
   struct Bound {
     fg::ResourceHandle params, nodeInfo, rest, blocks, elementCorners, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, affine, source, sourceMask,
-        volume, mask, positions, rotations, handles, strain, strainVolume, strainLimits, overLimitVolume, brickFlags, brickList, brickLag;
+        volume, mask, positions, rotations, handles, strain, strainVolume, strainLimits, overLimitVolume, brickFlags, brickList, brickLag, rigid;
     std::uint32_t slot = 0;
     fg::ResourceHandle fineUpload;
     bool withState = false, onlyOutputs = false;

@@ -195,10 +195,11 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
         b.read(hb.params, Access::StorageRead);
         b.read(hb.args, Access::IndirectRead);
         b.read(hb.affine, Access::StorageRead);
-        b.read(hb.owner, Access::StorageRead);
         b.read(hb.brickList, Access::StorageRead);
+        b.read(hb.rigid, Access::StorageRead);
         b.read(hb.source, Access::Sampled);
         b.read(hb.sourceMask, Access::Sampled);
+        b.write(hb.owner, Access::StorageReadWrite);  // the voxels a rigid handle took
         b.write(hb.box, Access::StorageReadWrite);
         b.write(hb.volume, Access::StorageReadWrite);
         b.write(hb.mask, Access::StorageReadWrite);
@@ -218,6 +219,7 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
             .storageImage(gpu::kBindDeformResolveOut, x.image(hb.volume).view())
             .storageImage(gpu::kBindDeformResolveOutMask, x.image(hb.mask).view())
             .buffer(gpu::kBindDeformResolveBrickList, kSsbo, x.buffer(hb.brickList).handle())
+            .buffer(gpu::kBindDeformResolveRigid, kSsbo, x.buffer(hb.rigid).handle())
             .push(ctx_, x.cmd(), resolve_);
         vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
       });

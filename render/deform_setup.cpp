@@ -14,14 +14,14 @@
 
 namespace handson::vk {
 
-namespace {
-
 glm::mat4 toGlm(const Eigen::Matrix4d& m) {
   glm::mat4 g;
   for (int c = 0; c < 4; ++c)
     for (int r = 0; r < 4; ++r) g[c][r] = float(m(r, c));
   return g;
 }
+
+namespace {
 
 }  // namespace
 
@@ -84,6 +84,11 @@ ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc
     for (float l : *setup.strainLimits)
       if (!(l > 0.0f) && l != kRigidStrainLimit) throw Error("deformation: a strain limit is not a positive number (inf: none; -1: a sliding handle's own tet)");
   }
+
+  if (!setup.rigidIds.empty() && handles != 0 && setup.rigidIds.size() != handles)
+    throw Error("deformation: " + std::to_string(setup.rigidIds.size()) + " rigid-draw ids for " + std::to_string(handles) + " handles");
+  for (auto id : setup.rigidIds)
+    if (id > 255) throw Error("deformation: a handle drawn rigidly has an id beyond the mask's 255");
 
   const std::uint64_t maxGroups = ctx.properties().limits.maxComputeWorkGroupCount[0];
   if ((nodes + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups || (tetCount + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups)

@@ -376,6 +376,7 @@ void VolumeRenderer::addDeformation(fg::FrameGraph& g, const FrameRequest& req, 
   const bool whole = deformFirst_ || uploadInRegion || (wantStrain && !strainShown_);  // redo the deformed images over the region
   bool passes = false;
   if (req.deformFine) {
+    if (lastDeform_) deformer_->setHandlePoses(lastDeform_->handles);  // the refined state's poses
     deformer_->addPassesFromPositions(g, executor_.slot(), *req.deformFine, whole ? vk::Redo::Region : vk::Redo::Bricks, in.volume, in.mask, deformed);
     deformFirst_ = false;
     deformLagging_ = false;  // refined positions are drawn as they are

@@ -28,7 +28,7 @@ void main() {
   ivec3 o = v - P.regionVoxLo.xyz;
   if (all(greaterThanEqual(o, ivec3(0))) && all(lessThan(o, P.ownerDims.xyz))) {
     uint own = owner[uint(o.x + P.ownerDims.x * (o.y + P.ownerDims.y * o.z))];
-    if (own != 0u && own != kDeformNoOwner) {
+    if (own != 0u && own != kDeformNoOwner && own != kDeformRigidOwner) {  // a handle drawn rigidly: none
       float e = strain[own - 1u];
       s = isnan(e) || isinf(e) ? 0.0 : e;
       if (P.limits.z != 0u) {

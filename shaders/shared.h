@@ -185,6 +185,8 @@ HS_CONST kFineCorner = 2u;
 HS_CONST kFineBoundary = 3u;
 HS_CONST kFineInterior = 4u;
 HS_CONST kDeformNoOwner = 0xffffffffu;
+// Owner of a region voxel a rigidly drawn handle took (deform_resolve.comp): no tet, no strain.
+HS_CONST kDeformRigidOwner = 0xfffffffeu;
 // Bindings (one push-descriptor set each).
 // deform_interpolate.comp
 HS_CONST kBindDeformInterpolateParams = 0;
@@ -243,6 +245,7 @@ HS_CONST kBindDeformResolveSourceMask = 5;
 HS_CONST kBindDeformResolveOut = 6;
 HS_CONST kBindDeformResolveOutMask = 7;
 HS_CONST kBindDeformResolveBrickList = 8;
+HS_CONST kBindDeformResolveRigid = 9;  // RigidDraws: the handles drawn where their rigid poses put them
 // deform_strain.comp
 HS_CONST kBindDeformStrainParams = 0;
 HS_CONST kBindDeformStrainTets = 1;
@@ -276,6 +279,14 @@ struct DeformParams {
                       // voxels a side, brick (0,0,0) at regionVoxLo, x fastest), w = brick count
 };
 
+// A handle drawn rigidly by the resampling (a sliding handle: its voxels are where its pose puts
+// them, not where the fine tets straddling its surface would): a voxel at index x whose rest voxel
+// currentToRest * x (rounded) has the handle's id takes the source there (sim/tet_raster.h, RigidDraw).
+struct RigidDraw {
+  mat4 currentToRest;  // index space -> index space
+  uvec4 id;            // x: the handle's id in the mask
+};
+
 // The box redone this frame (storage buffer, written by deform_bounds.comp, clamped by
 // deform_args.comp) and counters.
 struct DeformBox {
@@ -289,6 +300,7 @@ struct DeformBox {
 #ifdef __cplusplus
 static_assert(sizeof(DeformParams) == 2 * 64 + 8 * 16, "DeformParams must match std140");
 static_assert(sizeof(DeformBox) == 64, "DeformBox must match std430");
+static_assert(sizeof(RigidDraw) == 80, "RigidDraw must match std430");
 static_assert(sizeof(LiveMaskPush) == 32, "LiveMaskPush must match std430");
 static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
 static_assert(sizeof(MovingHandle) == 112, "MovingHandle must match std140");

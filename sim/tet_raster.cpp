@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "sim/error.h"
@@ -49,14 +50,98 @@ std::size_t takeRegionFromQuantized(Volume& image, const QuantizedVolume& q, con
   return forEachRegionVoxel(image.geometry(), lo, hi, [&](std::size_t lin) { image.setValue(lin, q.toValue(values[lin] / 65535.0f)); });
 }
 
+std::vector<RigidDraw> rigidDraws(const VolumeGeometry& g, const std::vector<std::uint32_t>& ids, const std::vector<RigidTransform>& T) {
+  if (ids.size() != T.size()) throw Error("rasterization: one pose per handle drawn rigidly expected");
+  const Eigen::Matrix4d w2i = g.worldToIndex(), i2w = g.indexToWorld();
+  std::vector<RigidDraw> out;
+  for (std::size_t h = 0; h < ids.size(); ++h) {
+    if (ids[h] == 0) continue;
+    if (ids[h] > 255) throw Error("rasterization: a handle id beyond the mask's 255");
+    Eigen::Matrix4d inv = Eigen::Matrix4d::Identity();  // world: current -> rest
+    inv.topLeftCorner<3, 3>() = T[h].R.transpose();
+    inv.topRightCorner<3, 1>() = -T[h].R.transpose() * T[h].t;
+    out.push_back({std::uint8_t(ids[h]), w2i * inv * i2w});
+  }
+  return out;
+}
+
+namespace {
+
+// The per-voxel rules of rasterizeDeformed's options: handles drawn rigidly, and the value of the
+// tissue that slid onto their rest voxels (deform_resolve.comp is the GPU's copy).
+class VoxelSource {
+ public:
+  VoxelSource(const Volume& src, const RasterOptions& o) : src_(src), o_(o), d_(src.geometry().dims) {
+    for (const auto& r : o.rigid) {
+      if (r.id == 0) throw Error("rasterization: a handle drawn rigidly needs an id above 0");
+      rigidId_[r.id] = true;
+    }
+  }
+  struct Sample {
+    float value = 0.0f;
+    std::uint8_t id = 0;
+    bool rigid = false;
+  };
+  // The voxel (i, j, k) whose rest position in its tet is `ri` (index space).
+  Sample at(const Eigen::Vector3i& v, const Eigen::Vector3d& ri) const {
+    for (const auto& r : o_.rigid) {
+      const Eigen::Vector3d p = (r.currentToRest * v.cast<double>().homogeneous()).head<3>();
+      if ((p.array() < -0.5).any() || (p.array() >= d_.cast<double>().array() - 0.5).any()) continue;
+      if (maskAt(nearest(p)) == r.id) return {src_.sampleLinear(p), r.id, true};
+    }
+    if (!o_.restMask) return {src_.sampleLinear(ri), 0, false};
+    const std::uint8_t id = maskAt(nearest(ri));
+    if (rigidId_[id]) return {nearestTissue(ri), 0, false};
+    return {src_.sampleLinear(ri), id, false};
+  }
+
+ private:
+  Eigen::Vector3i nearest(const Eigen::Vector3d& r) const {
+    Eigen::Vector3i n;
+    for (int a = 0; a < 3; ++a) n[a] = std::clamp(int(std::floor(r[a] + 0.5)), 0, d_[a] - 1);
+    return n;
+  }
+  std::uint8_t maskAt(const Eigen::Vector3i& n) const { return (*o_.restMask)[src_.linearIndex(n.x(), n.y(), n.z())]; }
+  // The value of the voxel nearest to r (within 2 voxels along each axis of its nearest voxel)
+  // outside the handles drawn rigidly: the tissue beside a rest position on a handle's rim; the
+  // plain trilinear when there is none (the first of equally near voxels, z, y, x ascending).
+  float nearestTissue(const Eigen::Vector3d& r) const {
+    const Eigen::Vector3i n = nearest(r);
+    double best = 1e30;
+    float value = src_.sampleLinear(r);
+    for (int dz = -2; dz <= 2; ++dz)
+      for (int dy = -2; dy <= 2; ++dy)
+        for (int dx = -2; dx <= 2; ++dx) {
+          const Eigen::Vector3i i = n + Eigen::Vector3i(dx, dy, dz);
+          if ((i.array() < 0).any() || (i.array() >= d_.array()).any()) continue;
+          const double d2 = (i.cast<double>() - r).squaredNorm();
+          if (d2 >= best || rigidId_[maskAt(i)]) continue;
+          best = d2;
+          value = src_.value(src_.linearIndex(i.x(), i.y(), i.z()));
+        }
+    return value;
+  }
+  const Volume& src_;
+  const RasterOptions& o_;
+  Eigen::Vector3i d_;
+  std::array<bool, 256> rigidId_{};
+};
+
+}  // namespace
+
 RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& lo,
-                              const Eigen::Vector3d& hi, float background, Volume& out, const std::vector<std::uint8_t>* restMask,
-                              std::vector<std::uint8_t>* outMask, std::uint64_t maxTetVoxels, std::vector<std::int32_t>* tetOf) {
+                              const Eigen::Vector3d& hi, float background, Volume& out, const RasterOptions& options) {
   if (deformed.size() != mesh.nodes.size()) throw Error("rasterization: one deformed position per node expected");
   for (const auto& p : deformed)
     if (!p.allFinite()) throw Error("rasterization: a deformed node position is not finite");
-  if ((restMask == nullptr) != (outMask == nullptr)) throw Error("rasterization: a mask needs both its input and its output");
+  const std::vector<std::uint8_t>* restMask = options.restMask;
+  std::vector<std::uint8_t>* outMask = options.outMask;
+  std::vector<std::int32_t>* tetOf = options.tetOf;
+  const std::uint64_t maxTetVoxels = options.maxTetVoxels;
+  if (outMask && !restMask) throw Error("rasterization: a mask needs both its input and its output");
+  if (!options.rigid.empty() && !restMask) throw Error("rasterization: handles drawn rigidly need the handles' mask");
   if (restMask && restMask->size() != src.voxelCount()) throw Error("rasterization: the mask does not match the image");
+  const VoxelSource voxel(src, options);
   const VolumeGeometry& g = src.geometry();
   out = src;
   if (outMask) *outMask = *restMask;
@@ -65,7 +150,6 @@ RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std:
   RasterStats st;
   const Eigen::Matrix4d w2i = g.worldToIndex();
   auto toIndex = [&](const Eigen::Vector3d& w) -> Eigen::Vector3d { return (w2i * w.homogeneous()).head<3>(); };
-  const Eigen::Vector3i& d = g.dims;
   Eigen::Vector3i rlo, rhi;
   regionVoxelBox(g, lo, hi, rlo, rhi);
   // 1 where the voxel centre lies in the region (and may be written), 2 once written.
@@ -112,16 +196,12 @@ RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std:
           }
           state[lin] = 2;
           ++st.covered;
-          if (tetOf) (*tetOf)[lin] = std::int32_t(t);
           const Eigen::Vector3d rest = l0 * mesh.nodes[std::size_t(tet[0])] + l.x() * mesh.nodes[std::size_t(tet[1])] + l.y() * mesh.nodes[std::size_t(tet[2])] +
                                        l.z() * mesh.nodes[std::size_t(tet[3])];
-          const Eigen::Vector3d ri = toIndex(rest);
-          out.setValue(lin, src.sampleLinear(ri));
-          if (outMask) {
-            Eigen::Vector3i n;
-            for (int a = 0; a < 3; ++a) n[a] = std::clamp(int(std::floor(ri[a] + 0.5)), 0, d[a] - 1);
-            (*outMask)[lin] = (*restMask)[src.linearIndex(n.x(), n.y(), n.z())];
-          }
+          const VoxelSource::Sample sm = voxel.at(Eigen::Vector3i(i, j, k), toIndex(rest));
+          if (tetOf) (*tetOf)[lin] = sm.rigid ? kRigidVoxel : std::int32_t(t);
+          out.setValue(lin, sm.value);
+          if (outMask) (*outMask)[lin] = sm.id;
         }
   }
   return st;

@@ -7,11 +7,17 @@
 // folded tet poking out of the box is clipped); outside the region the image is unchanged.
 // With a handle-id mask, covered voxels also take the mask's id at the rest position (nearest
 // voxel), so the handles' fine tets carry their ids where they moved; cleared voxels get 0.
+// Handles drawn rigidly (RigidDraw: a sliding handle, whose surface nodes slide with the tissue so
+// the fine tets straddling its surface would smear its outermost voxels) take first every covered
+// voxel whose rest voxel under their pose is their own; a voxel the tets map onto such a handle's
+// voxels elsewhere is tissue that slid there: it takes the value of the voxel nearest to its rest
+// position outside those handles (within 2 voxels), mask 0.
 #include <Eigen/Core>
 #include <cstdint>
 #include <vector>
 
 #include "sim/quantized_volume.h"
+#include "sim/rigid_transform.h"
 #include "sim/tet_mesh.h"
 #include "sim/volume.h"
 
@@ -31,6 +37,28 @@ struct RasterStats {
   std::size_t skipped = 0;       ///< tets whose voxel range exceeded maxTetVoxels
 };
 
+/// A handle drawn where its rigid pose puts it: a voxel at index x is the handle's when the rest
+/// mask's nearest voxel to currentToRest * x (inside the grid) holds `id` (> 0).
+struct RigidDraw {
+  std::uint8_t id = 0;
+  Eigen::Matrix4d currentToRest = Eigen::Matrix4d::Identity();  ///< index space -> index space
+};
+
+/// The draws of the handles whose mask ids are `ids[i]` (0: not drawn rigidly) at world poses T[i].
+std::vector<RigidDraw> rigidDraws(const VolumeGeometry& g, const std::vector<std::uint32_t>& ids, const std::vector<RigidTransform>& T);
+
+/// tetOf's value at a voxel a rigidly drawn handle took (no tet: no strain).
+constexpr std::int32_t kRigidVoxel = -2;
+
+/// What rasterizeDeformed reads and writes besides the image.
+struct RasterOptions {
+  const std::vector<std::uint8_t>* restMask = nullptr;  ///< handle ids at rest (needed by outMask and rigid)
+  std::vector<std::uint8_t>* outMask = nullptr;         ///< the ids where they moved
+  std::uint64_t maxTetVoxels = UINT64_MAX;
+  std::vector<std::int32_t>* tetOf = nullptr;           ///< per voxel: its tet, -1 none, kRigidVoxel
+  std::vector<RigidDraw> rigid;
+};
+
 /// The default cap on a tet's voxel range: 64 times the largest rest tet's (at least 4096).
 std::uint64_t defaultMaxTetVoxels(const TetMesh& mesh, const Eigen::Matrix4d& worldToIndex);
 
@@ -38,9 +66,13 @@ std::uint64_t defaultMaxTetVoxels(const TetMesh& mesh, const Eigen::Matrix4d& wo
 /// filled at rest (cleared to `background` before rasterizing). `tetOf` (optional): per voxel of the
 /// grid, the tet that wrote it, -1 where none did (outside the region, or uncovered).
 RasterStats rasterizeDeformed(const Volume& source, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& regionLo,
-                              const Eigen::Vector3d& regionHi, float background, Volume& out, const std::vector<std::uint8_t>* restMask = nullptr,
-                              std::vector<std::uint8_t>* outMask = nullptr, std::uint64_t maxTetVoxels = UINT64_MAX,
-                              std::vector<std::int32_t>* tetOf = nullptr);
+                              const Eigen::Vector3d& regionHi, float background, Volume& out, const RasterOptions& options);
+inline RasterStats rasterizeDeformed(const Volume& source, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& regionLo,
+                                     const Eigen::Vector3d& regionHi, float background, Volume& out, const std::vector<std::uint8_t>* restMask = nullptr,
+                                     std::vector<std::uint8_t>* outMask = nullptr, std::uint64_t maxTetVoxels = UINT64_MAX,
+                                     std::vector<std::int32_t>* tetOf = nullptr) {
+  return rasterizeDeformed(source, mesh, deformed, regionLo, regionHi, background, out, RasterOptions{restMask, outMask, maxTetVoxels, tetOf, {}});
+}
 
 /// The voxel index box [lo, hi] (inclusive, clamped to the grid) of the voxels whose centres lie in
 /// the world box [regionLo, regionHi] up to 1e-3 mm; empty (lo > hi) when none.

@@ -106,19 +106,48 @@ struct GpuResample {
   std::size_t regionVoxels = 0, covered = 0;
 };
 
+// The handles the resampling draws where their poses put them (those with a sliding interface):
+// the rest mask (handle i has id i + 1; empty when none) and each handle's id (0: drawn by the tets).
+struct RigidHandles {
+  std::vector<std::uint8_t> mask;
+  std::vector<std::uint32_t> ids;
+};
+
+RigidHandles rigidHandlesOf(const Volume& image, const std::vector<SimHandle>& handles, const SimScene& sc) {
+  RigidHandles r;
+  r.ids.assign(handles.size(), 0);
+  for (const auto& n : sc.constraints.slide) r.ids[std::size_t(n.handle)] = std::uint32_t(n.handle + 1);
+  if (std::all_of(r.ids.begin(), r.ids.end(), [](std::uint32_t id) { return id == 0; })) return {};
+  r.mask.assign(image.voxelCount(), 0);
+  for (std::size_t h = 0; h < handles.size(); ++h)
+    for (std::uint32_t v : handles[h].voxels) r.mask[v] = std::uint8_t(h + 1);
+  return r;
+}
+
+std::vector<Eigen::Matrix4f> worldPoses(const std::vector<RigidTransform>& T) {
+  std::vector<Eigen::Matrix4f> out;
+  for (const auto& t : T) {
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    m.topLeftCorner<3, 3>() = t.R;
+    m.topRightCorner<3, 1>() = t.t;
+    out.push_back(m.cast<float>());
+  }
+  return out;
+}
+
 // The GPU passes: the image quantized to 16 bits as the renderer holds it; the coarse state goes
 // through the interpolation pass when `fromCoarseState`, else the fine positions are uploaded.
 // Region voxels take the GPU's values; the rest of the image is copied from the input unchanged.
 GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const SimScene& sc, const CoarseModel* model, const std::vector<RigidTransform>& T,
-                          const std::vector<Eigen::Vector3d>& xc, const std::vector<Eigen::Vector3d>& x, bool fromCoarseState) {
+                          const std::vector<Eigen::Vector3d>& xc, const std::vector<Eigen::Vector3d>& x, bool fromCoarseState, const RigidHandles& rigid) {
   const QuantizedVolume q = quantizeVolume(image);
   const VolumeGeometry& g = q.geometry;
   const fg::ImageDesc desc{std::uint32_t(g.dims.x()), std::uint32_t(g.dims.y()), std::uint32_t(g.dims.z()), fg::Format::R16Unorm};
   const VkImageUsageFlags usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
   vk::Image volume(ctx, desc, usage, true), mask(ctx, {desc.width, desc.height, desc.depth, fg::Format::R8Unorm}, usage, true);
   vk::uploadToImage(ctx, volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  const std::vector<std::uint8_t> zeros(q.data.size(), 0);
-  vk::uploadToImage(ctx, mask, zeros.data(), zeros.size(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  const std::vector<std::uint8_t> ids = rigid.mask.empty() ? std::vector<std::uint8_t>(q.data.size(), 0) : rigid.mask;
+  vk::uploadToImage(ctx, mask, ids.data(), ids.size(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   FineInterpolationData data;
   if (fromCoarseState) data = model->interpolationData();
   else {
@@ -136,7 +165,9 @@ GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const Sim
   setup.background = q.toNormalized(image.valueRange().first);  // as on the CPU path
   setup.worldToIndex = g.worldToIndex();
   setup.commitVoxels = 0.0;
+  setup.rigidIds = rigid.ids;
   vk::GpuDeformer gpu(ctx, volume, mask, setup, 1);
+  if (!rigid.mask.empty()) gpu.setHandlePoses(worldPoses(T));
   vk::DeformFrameStats st;
   if (fromCoarseState) {
     st = gpu.runFrame(packFrameState(xc, model->elementRotations(xc), T), vk::Redo::Region);
@@ -154,9 +185,9 @@ GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const Sim
 // resampleOnGpu on a device of its own; any validation message is an error.
 GpuResample resampleOnNewDevice(const vk::ContextOptions& co, const Volume& image, const SimScene& sc, const CoarseModel* model,
                                 const std::vector<RigidTransform>& T, const std::vector<Eigen::Vector3d>& xc, const std::vector<Eigen::Vector3d>& x,
-                                bool interpolate) {
+                                bool interpolate, const RigidHandles& rigid) {
   const vk::Context ctx(co);
-  GpuResample r = resampleOnGpu(ctx, image, sc, model, T, xc, x, interpolate);
+  GpuResample r = resampleOnGpu(ctx, image, sc, model, T, xc, x, interpolate, rigid);
   if (ctx.validationMessageCount()) throw Error("Vulkan validation messages were reported");
   return r;
 }
@@ -164,11 +195,11 @@ GpuResample resampleOnNewDevice(const vk::ContextOptions& co, const Volume& imag
 // The strain on the input's grid. `tetOf`: which tet covers each voxel, from the CPU resampling;
 // empty after the GPU one (then rasterized here with the CPU reference).
 void writeStrain(const std::string& path, const Volume& image, const SimScene& sc, const std::vector<Eigen::Vector3d>& x, const std::vector<float>& strain,
-                 std::vector<std::int32_t>& tetOf) {
+                 std::vector<std::int32_t>& tetOf, RasterOptions raster) {
   if (tetOf.empty()) {
     Volume unused;
-    rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, unused, nullptr, nullptr,
-                      defaultMaxTetVoxels(sc.meshes.fine, image.geometry().worldToIndex()), &tetOf);
+    raster.tetOf = &tetOf;
+    rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, unused, raster);
   }
   writeVolume(strainVolume(image.geometry(), tetOf, strain), path);
 }
@@ -329,9 +360,14 @@ int cmdDeform(const Words& words) {
   t0 = std::chrono::steady_clock::now();
   Volume out;
   std::size_t regionVoxels = 0, covered = 0;
+  // A sliding handle is drawn where its pose puts it, not smeared by the tets straddling its surface.
+  const RigidHandles rigid = rigidHandlesOf(image, handles, sc);
+  RasterOptions raster{rigid.mask.empty() ? nullptr : &rigid.mask, nullptr, defaultMaxTetVoxels(sc.meshes.fine, image.geometry().worldToIndex()), nullptr,
+                       rigid.mask.empty() ? std::vector<RigidDraw>{} : rigidDraws(image.geometry(), rigid.ids, T)};
   if (backend == "cpu") {
-    const auto rs = rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, out, nullptr, nullptr,
-                                      defaultMaxTetVoxels(sc.meshes.fine, image.geometry().worldToIndex()), wantStrain ? &tetOf : nullptr);
+    raster.tetOf = wantStrain ? &tetOf : nullptr;
+    const auto rs = rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, out, raster);
+    raster.tetOf = nullptr;
     regionVoxels = rs.regionVoxels;
     covered = rs.covered;
   } else {
@@ -339,7 +375,7 @@ int cmdDeform(const Words& words) {
     co.device = args.valueOr("--device", "");
     co.validation = args.flag("--validation");
     co.verbose = !quiet;
-    GpuResample r = resampleOnNewDevice(co, image, sc, model_.get(), T, xc, x, model == "coarse" && refineSteps == 0);
+    GpuResample r = resampleOnNewDevice(co, image, sc, model_.get(), T, xc, x, model == "coarse" && refineSteps == 0, rigid);
     out = std::move(r.image);
     regionVoxels = r.regionVoxels;
     covered = r.covered;
@@ -347,7 +383,7 @@ int cmdDeform(const Words& words) {
   const double tRaster = seconds(t0);
   writeVolume(out, *args.value("-o"));
   if (wantStrain) {
-    writeStrain(*args.value("--strain-out"), image, sc, x, strain, tetOf);
+    writeStrain(*args.value("--strain-out"), image, sc, x, strain, tetOf, raster);
     std::cout << "wrote " << *args.value("--strain-out") << "\n";
   }
   // The coarse model's preprocessing (scene and coarsening, or their cache) is one step.

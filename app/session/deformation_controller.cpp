@@ -227,6 +227,12 @@ void DeformationController::adoptBuilt() {
   // The limit highlight: each fine tet's tissue limit, when the table gives any.
   const std::vector<float> limits = tetStrainLimits(m->scene.band, options_.sim.materials);
   if (std::any_of(limits.begin(), limits.end(), [](float l) { return std::isfinite(l); })) setup.strainLimits = &limits;  // finite, or a handle's own (hidden)
+  // Handles that slide are drawn where their poses put them (the tets straddling their surfaces
+  // slide with the tissue); glued ones by their tets.
+  if (!m->scene.constraints.slide.empty()) {
+    setup.rigidIds.assign(simIds_.size(), 0);
+    for (const auto& n : m->scene.constraints.slide) setup.rigidIds[std::size_t(n.handle)] = std::uint32_t(simIds_[std::size_t(n.handle)]);
+  }
   try {
     renderer_.beginDeformation(setup);
   } catch (const std::exception& e) {

@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 
 #include "sim/error.h"
@@ -96,4 +97,95 @@ TEST(TetRaster, SmoothDeformationWithFixedBoundaryCoversTheRegionExactly) {
   EXPECT_THROW(rasterizeDeformed(src, m, std::vector<Eigen::Vector3d>(3), {-30, -20, -10}, {10, 15, 20}, 0.0f, out), Error);
   x[5].x() = std::nan("");
   EXPECT_THROW(rasterizeDeformed(src, m, x, {-30, -20, -10}, {10, 15, 20}, 0.0f, out), Error);
+}
+
+namespace {
+
+// A ball of id 5 in the pattern's mask (radius 5 voxels about voxel (16, 16, 14)).
+std::vector<std::uint8_t> ballMask(const Volume& src) {
+  const auto& d = src.geometry().dims;
+  std::vector<std::uint8_t> mask(src.voxelCount(), 0);
+  for (int k = 0; k < d.z(); ++k)
+    for (int j = 0; j < d.y(); ++j)
+      for (int i = 0; i < d.x(); ++i)
+        if ((Eigen::Vector3d(i, j, k) - Eigen::Vector3d(16, 16, 14)).norm() <= 5.0) mask[src.linearIndex(i, j, k)] = 5;
+  return mask;
+}
+
+// Brute force: the value of the voxel outside the ball nearest to voxel v (the first of equally
+// near ones, z, y, x ascending), and its distance.
+std::pair<float, double> nearestOutside(const Volume& src, const std::vector<std::uint8_t>& mask, const Eigen::Vector3i& v) {
+  const auto& d = src.geometry().dims;
+  double best = 1e30;
+  float value = 0;
+  for (int k = 0; k < d.z(); ++k)
+    for (int j = 0; j < d.y(); ++j)
+      for (int i = 0; i < d.x(); ++i) {
+        const double d2 = (Eigen::Vector3i(i, j, k) - v).cast<double>().squaredNorm();
+        if (d2 < best && mask[src.linearIndex(i, j, k)] == 0) {
+          best = d2;
+          value = src.value(i, j, k);
+        }
+      }
+  return {value, std::sqrt(best)};
+}
+
+}  // namespace
+
+// The tets at rest and the ball drawn rigidly 2 voxels along +x (what a sliding handle moved with
+// the tissue still is): the ball is exactly where its pose puts it, the rim it left takes the
+// nearest tissue outside it, and the rest of the image is unchanged.
+TEST(TetRaster, AHandleDrawnRigidlyIsWhereItsPoseIsAndTheRimItLeftIsTissue) {
+  const Volume src = pattern();
+  const auto mask = ballMask(src);
+  const KuhnGrid grid({-30, -20, -10}, {5, 5, 5}, {8, 7, 6});
+  const TetMesh m = grid.mesh();
+  const auto& g = src.geometry();
+  RigidTransform T;
+  T.t = Eigen::Vector3d(4, 0, 0);  // 2 voxels of 2 mm
+  Volume out;
+  std::vector<std::uint8_t> outMask;
+  std::vector<std::int32_t> tetOf;
+  RasterOptions o{&mask, &outMask, UINT64_MAX, &tetOf, rigidDraws(g, {5}, {T})};
+  const auto st = rasterizeDeformed(src, m, m.nodes, {-30, -20, -10}, {10, 15, 20}, -1000.0f, out, o);
+  EXPECT_EQ(st.covered, st.regionVoxels);
+  std::size_t drawn = 0, rim = 0;
+  for (int k = 0; k < g.dims.z(); ++k)
+    for (int j = 0; j < g.dims.y(); ++j)
+      for (int i = 0; i < g.dims.x(); ++i) {
+        const std::size_t lin = src.linearIndex(i, j, k);
+        if (tetOf[lin] == -1) continue;  // outside the region
+        const bool ball = i >= 2 && mask[src.linearIndex(i - 2, j, k)] == 5;
+        if (ball) {  // the ball, moved: its own voxel's value (integer shift: exact)
+          ++drawn;
+          ASSERT_EQ(outMask[lin], 5);
+          ASSERT_EQ(tetOf[lin], kRigidVoxel);
+          ASSERT_NEAR(out.value(lin), src.value(i - 2, j, k), 1e-3);
+        } else if (mask[lin] == 5) {  // the rim it left: the tissue nearest to it
+          ++rim;
+          const auto [value, dist] = nearestOutside(src, mask, {i, j, k});
+          ASSERT_LE(dist, 2.0);
+          ASSERT_EQ(outMask[lin], 0);
+          ASSERT_NEAR(out.value(lin), value, 1e-3);
+        } else {
+          ASSERT_EQ(outMask[lin], 0);
+          ASSERT_NEAR(out.value(lin), src.value(lin), 1e-3);
+        }
+      }
+  EXPECT_EQ(drawn, std::size_t(std::count(mask.begin(), mask.end(), 5)));
+  EXPECT_GT(rim, 50u);
+}
+
+TEST(TetRaster, HandlesDrawnRigidlyNeedTheMaskAndAnId) {
+  const Volume src = pattern();
+  const KuhnGrid grid({-30, -20, -10}, {5, 5, 5}, {8, 7, 6});
+  const TetMesh m = grid.mesh();
+  Volume out;
+  EXPECT_THROW(rasterizeDeformed(src, m, m.nodes, {-30, -20, -10}, {10, 15, 20}, 0.0f, out, RasterOptions{nullptr, nullptr, UINT64_MAX, nullptr, {RigidDraw{5}}}),
+               Error);
+  const auto mask = ballMask(src);
+  EXPECT_THROW(rasterizeDeformed(src, m, m.nodes, {-30, -20, -10}, {10, 15, 20}, 0.0f, out, RasterOptions{&mask, nullptr, UINT64_MAX, nullptr, {RigidDraw{0}}}),
+               Error);
+  EXPECT_THROW(rigidDraws(src.geometry(), {5, 6}, {RigidTransform{}}), Error);
+  EXPECT_THROW(rigidDraws(src.geometry(), {300}, {RigidTransform{}}), Error);
 }
