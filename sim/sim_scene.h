@@ -64,11 +64,10 @@ struct SimSettings {
   /// Wall (the earlier rule): the region's own tissue to its faces, held there.
   enum class Outer : std::uint8_t { Exterior, Wall } outer = Outer::Exterior;
   /// The interface between a handle and the tissue around it (sim/sliding_interface.h,
-  /// docs/tissue-physics.md "Organs slide"): Glued (default, the earlier rule): the handle's surface
-  /// nodes move with it; Sliding: frictionless and bilateral, the surface nodes free to slide over
-  /// it - the forces physiology gives, but the organ's outermost fine tets are drawn with the sliding
-  /// tissue (why it is not the default yet: docs/tissue-physics.md).
-  enum class Interface : std::uint8_t { Glued, Sliding } interface = Interface::Glued;
+  /// docs/tissue-physics.md "Organs slide"): Sliding (default): frictionless and bilateral, the
+  /// handle's surface nodes free to slide over it (the organ drawn rigidly where its pose puts it);
+  /// Glued (the earlier rule): the handle's surface nodes move with it.
+  enum class Interface : std::uint8_t { Glued, Sliding } interface = Interface::Sliding;
 };
 
 /// "glued" / "sliding"; and back (nullopt for anything else).

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <functional>
 #include <cmath>
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <memory>
@@ -10,6 +11,7 @@
 
 #include "app/cli/args.h"
 #include "app/cli/commands.h"
+#include "app/cli/deform_resample.h"
 #include "app/io/forces_json.h"
 #include "app/io/nifti_io.h"
 #include "app/io/volume_io.h"
@@ -71,7 +73,7 @@ const char* const kDeformHelp =
     "                          tissue held at rest (the earlier rule)\n"
     "  --interface sliding|glued  the handle's interface with the tissue around it: frictionless and\n"
     "                          bilateral, the tissue free to slide over the organ's surface, or glued to\n"
-    "                          it (default glued; docs/tissue-physics.md says why)\n"
+    "                          it (default sliding; docs/tissue-physics.md says why)\n"
     "  --fine-mesh regular|adapted  the regular refinement (default) or image-adapted: TetGen meshes\n"
     "                          each cell with extra points at stiffness jumps (cell elements only)\n"
     "  --adapt-contrast F      a Young's modulus jump of F or more adds points (default 10)\n"
@@ -100,109 +102,6 @@ const char* const kDeformHelp =
     "  --quiet                 no progress output\n";
 
 double seconds(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
-
-struct GpuResample {
-  Volume image;
-  std::size_t regionVoxels = 0, covered = 0;
-};
-
-// The handles the resampling draws where their poses put them (those with a sliding interface):
-// the rest mask (handle i has id i + 1; empty when none) and each handle's id (0: drawn by the tets).
-struct RigidHandles {
-  std::vector<std::uint8_t> mask;
-  std::vector<std::uint32_t> ids;
-};
-
-RigidHandles rigidHandlesOf(const Volume& image, const std::vector<SimHandle>& handles, const SimScene& sc) {
-  RigidHandles r;
-  r.ids.assign(handles.size(), 0);
-  for (const auto& n : sc.constraints.slide) r.ids[std::size_t(n.handle)] = std::uint32_t(n.handle + 1);
-  if (std::all_of(r.ids.begin(), r.ids.end(), [](std::uint32_t id) { return id == 0; })) return {};
-  r.mask.assign(image.voxelCount(), 0);
-  for (std::size_t h = 0; h < handles.size(); ++h)
-    for (std::uint32_t v : handles[h].voxels) r.mask[v] = std::uint8_t(h + 1);
-  return r;
-}
-
-std::vector<Eigen::Matrix4f> worldPoses(const std::vector<RigidTransform>& T) {
-  std::vector<Eigen::Matrix4f> out;
-  for (const auto& t : T) {
-    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-    m.topLeftCorner<3, 3>() = t.R;
-    m.topRightCorner<3, 1>() = t.t;
-    out.push_back(m.cast<float>());
-  }
-  return out;
-}
-
-// The GPU passes: the image quantized to 16 bits as the renderer holds it; the coarse state goes
-// through the interpolation pass when `fromCoarseState`, else the fine positions are uploaded.
-// Region voxels take the GPU's values; the rest of the image is copied from the input unchanged.
-GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const SimScene& sc, const CoarseModel* model, const std::vector<RigidTransform>& T,
-                          const std::vector<Eigen::Vector3d>& xc, const std::vector<Eigen::Vector3d>& x, bool fromCoarseState, const RigidHandles& rigid) {
-  const QuantizedVolume q = quantizeVolume(image);
-  const VolumeGeometry& g = q.geometry;
-  const fg::ImageDesc desc{std::uint32_t(g.dims.x()), std::uint32_t(g.dims.y()), std::uint32_t(g.dims.z()), fg::Format::R16Unorm};
-  const VkImageUsageFlags usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
-  vk::Image volume(ctx, desc, usage, true), mask(ctx, {desc.width, desc.height, desc.depth, fg::Format::R8Unorm}, usage, true);
-  vk::uploadToImage(ctx, volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  const std::vector<std::uint8_t> ids = rigid.mask.empty() ? std::vector<std::uint8_t>(q.data.size(), 0) : rigid.mask;
-  vk::uploadToImage(ctx, mask, ids.data(), ids.size(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  FineInterpolationData data;
-  if (fromCoarseState) data = model->interpolationData();
-  else {
-    // Positions come from elsewhere: records that keep every node where it is told.
-    data.node.assign(sc.meshes.fine.nodes.size(), {FineInterpolationData::Rest, 0, 0, 0});
-    for (const auto& X : sc.meshes.fine.nodes) data.rest.emplace_back(float(X.x()), float(X.y()), float(X.z()), 1.0f);
-    data.coarseRest = {Eigen::Vector4f(0, 0, 0, 1)};
-    data.elementCorners = {{0, 0, 0, 0}, {0, 0, 0, 0}};
-  }
-  vk::DeformSetup setup;
-  setup.interpolation = &data;
-  setup.fineTets = &sc.meshes.fine.tets;
-  setup.regionLo = sc.lo;
-  setup.regionHi = sc.hi;
-  setup.background = q.toNormalized(image.valueRange().first);  // as on the CPU path
-  setup.worldToIndex = g.worldToIndex();
-  setup.commitVoxels = 0.0;
-  setup.rigidIds = rigid.ids;
-  vk::GpuDeformer gpu(ctx, volume, mask, setup, 1);
-  if (!rigid.mask.empty()) gpu.setHandlePoses(worldPoses(T));
-  vk::DeformFrameStats st;
-  if (fromCoarseState) {
-    st = gpu.runFrame(packFrameState(xc, model->elementRotations(xc), T), vk::Redo::Region);
-  } else {
-    std::vector<Eigen::Vector4f> idx(x.size());
-    const Eigen::Matrix4d w2i = g.worldToIndex();
-    for (std::size_t i = 0; i < x.size(); ++i) idx[i] = (w2i * x[i].homogeneous()).cast<float>();
-    st = gpu.runFrame(idx);
-  }
-  GpuResample r{image, 0, st.coveredVoxels};
-  r.regionVoxels = takeRegionFromQuantized(r.image, q, gpu.readVolume(), sc.lo, sc.hi);
-  return r;
-}
-
-// resampleOnGpu on a device of its own; any validation message is an error.
-GpuResample resampleOnNewDevice(const vk::ContextOptions& co, const Volume& image, const SimScene& sc, const CoarseModel* model,
-                                const std::vector<RigidTransform>& T, const std::vector<Eigen::Vector3d>& xc, const std::vector<Eigen::Vector3d>& x,
-                                bool interpolate, const RigidHandles& rigid) {
-  const vk::Context ctx(co);
-  GpuResample r = resampleOnGpu(ctx, image, sc, model, T, xc, x, interpolate, rigid);
-  if (ctx.validationMessageCount()) throw Error("Vulkan validation messages were reported");
-  return r;
-}
-
-// The strain on the input's grid. `tetOf`: which tet covers each voxel, from the CPU resampling;
-// empty after the GPU one (then rasterized here with the CPU reference).
-void writeStrain(const std::string& path, const Volume& image, const SimScene& sc, const std::vector<Eigen::Vector3d>& x, const std::vector<float>& strain,
-                 std::vector<std::int32_t>& tetOf, RasterOptions raster) {
-  if (tetOf.empty()) {
-    Volume unused;
-    raster.tetOf = &tetOf;
-    rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, unused, raster);
-  }
-  writeVolume(strainVolume(image.geometry(), tetOf, strain), path);
-}
 
 // The fine mesh for ParaView: displacement and Dirichlet roles per node; material, coarse element
 // and strain per tet.
@@ -252,6 +151,178 @@ static std::vector<Eigen::Vector3d> solveFineInIncrements(const SimScene& sc, co
   return x;
 }
 
+namespace {
+
+// What `handson deform` was asked, parsed and checked.
+struct DeformRequest {
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero(), rotation = Eigen::Vector3d::Zero();  ///< mm; rotation vector in radians
+  std::string model, backend;
+  FineMaterial material = FineMaterial::Corotational;
+  SimSettings settings;
+  int refineSteps = 0;
+  std::filesystem::path cacheDir;  ///< empty: no cache
+  bool quiet = false;
+  bool coarseOnly() const { return model == "coarse" && refineSteps == 0; }
+};
+
+DeformRequest parseDeformRequest(const Args& args) {
+  DeformRequest r;
+  const auto tr = parseNumberList(*args.value("--translate-mm"), "--translate-mm");
+  const auto rot = parseNumberList(args.valueOr("--rotate-deg", "0,0,0"), "--rotate-deg");
+  if (tr.size() != 3 || rot.size() != 3) throw UsageError("--translate-mm and --rotate-deg take three numbers");
+  r.translation = Eigen::Vector3d(tr[0], tr[1], tr[2]);
+  r.rotation = Eigen::Vector3d(rot[0], rot[1], rot[2]) * (M_PI / 180.0);
+  if (r.translation.norm() > 1000.0 || r.rotation.norm() > 4 * M_PI) throw UsageError("--translate-mm beyond 1 m or --rotate-deg beyond 720 degrees");
+  r.model = args.valueOr("--model", "coarse");
+  if (r.model != "coarse" && r.model != "fine") throw UsageError("--model must be coarse or fine");
+  r.material = fineMaterialOption(args, r.model == "fine");
+  r.backend = args.valueOr("--backend", "cpu");
+  if (r.backend != "cpu" && r.backend != "gpu") throw UsageError("--backend must be cpu or gpu");
+  SimSettings& s = r.settings;
+  s.coarseTets = int(args.integer("--coarse-tets", s.coarseTets, 6, 2000000));
+  s.fineTets = int(args.integer("--fine-tets", s.fineTets, 6, 20000000));
+  if (s.fineTets < s.coarseTets) throw UsageError("--fine-tets must be at least --coarse-tets");
+  s.paddingMm = args.number("--padding-mm", s.paddingMm, 0.0, 1e4);
+  regionOption(args, "--region", s);
+  s.wholeVolume = args.flag("--whole-volume");
+  coarseModelOptions(args, "--", s);
+  fineMeshOptions(args, "--fine-mesh", "--adapt-contrast", s);
+  if (auto m = args.value("--materials")) s.materials = MaterialTable::load(*m);
+  r.refineSteps = int(args.integer("--refine-steps", 0, 0, 1000));
+  const std::string cacheArg = args.valueOr("--cache-dir", defaultSimulationCacheDir().string());
+  r.cacheDir = cacheArg == "off" ? std::filesystem::path() : std::filesystem::path(cacheArg);
+  r.quiet = args.flag("--quiet");
+  return r;
+}
+
+// The moved handle (and the fixed one, when given); the region covers where the handle goes too.
+std::vector<SimHandle> loadHandles(const Args& args, const Volume& image, const DeformRequest& r) {
+  auto labelOf = [&](const char* opt) { return args.value(opt) ? std::optional<long>(args.integer(opt, 0, 1, 65535)) : std::nullopt; };
+  std::vector<SimHandle> handles{{maskVoxels(*args.value("--handle"), image, "handle mask", labelOf("--handle-label")), {}}};
+  if (auto f = args.value("--fixed")) handles.push_back({maskVoxels(*f, image, "fixed mask", labelOf("--fixed-label")), {}});
+  const VolumeGeometry& g = image.geometry();
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();  // the handle's centroid, from its voxels
+  for (std::uint32_t v : handles[0].voxels) c += g.toWorld(g.voxelOf(v).cast<double>());
+  c /= double(handles[0].voxels.size());
+  handles[0].reach.push_back(RigidTransform::about(c, r.rotation, r.translation));
+  return handles;
+}
+
+// The scene solved at the requested motion.
+struct DeformSolution {
+  SimScene scene;
+  std::unique_ptr<CoarseModel> model;  ///< null for the fine model
+  std::vector<RigidTransform> T;       ///< the handles' poses
+  std::vector<Eigen::Vector3d> x, xc;  ///< fine positions; the coarse state (coarse model)
+  int steps = 1;                       ///< increments of the motion
+  double sceneSeconds = 0, solveSeconds = 0;
+};
+
+DeformSolution solveDeform(const DeformRequest& r, const Volume& image, const std::vector<SimHandle>& handles, const ProgressFn& progress) {
+  DeformSolution d;
+  SimScene& sc = d.scene;
+  auto t0 = std::chrono::steady_clock::now();
+  // The coarse model comes with its scene from the preprocessing cache when there (built and
+  // saved otherwise); the fine model needs only the scene.
+  if (r.model == "coarse") {
+    CacheOutcome co;
+    d.model = buildOrLoadSimulation(image, handles, r.settings, r.cacheDir, sc, progress, &co);
+    if (co.hit) std::cout << "preprocessing loaded from the cache in " << r.cacheDir.string() << "\n";
+    if (!co.note.empty()) std::cerr << "note: " << co.note << "\n";
+  } else {
+    sc = buildSimScene(image, handles, r.settings, progress);
+  }
+  d.sceneSeconds = seconds(t0);
+  printScene(sc);
+  // Large motions are applied in increments of at most 30 degrees and 10 mm, each solve starting
+  // from the previous one (continuation keeps the Newton and corotational iterations in their basin).
+  d.steps = std::max({1, int(std::ceil(r.rotation.norm() / (M_PI / 6))), int(std::ceil(r.translation.norm() / 10.0))});
+  auto transformsAt = [&](double f) {
+    std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], f * r.rotation, f * r.translation)};
+    if (handles.size() > 1) T.push_back(RigidTransform{});
+    return T;
+  };
+  d.T = transformsAt(1.0);
+  t0 = std::chrono::steady_clock::now();
+  if (!d.model) {
+    d.x = solveFineInIncrements(sc, transformsAt, d.steps, progress, r.material);
+  } else {
+    CoarseModel& m = *d.model;
+    d.xc = m.restState();
+    for (int k = 1; k <= d.steps; ++k) m.solve(transformsAt(double(k) / d.steps), d.xc, 50);
+    d.x = m.reconstruct(d.T, d.xc);
+    if (r.refineSteps > 0) {
+      FineRefiner refiner(m, sc.fineK, sc.youngs, sc.poisson);
+      for (int k = 0; k < r.refineSteps; ++k) refiner.step(d.T, d.xc, d.x, 10);
+    }
+  }
+  d.solveSeconds = seconds(t0);
+  return d;
+}
+
+// The deformed volume on the chosen backend; with `tetOf` (CPU) which tet wrote each voxel.
+struct DeformImage {
+  Volume out;
+  std::size_t regionVoxels = 0, covered = 0;
+  double seconds = 0;
+};
+
+DeformImage resampleDeform(const Args& args, const DeformRequest& r, const Volume& image, const DeformSolution& d, const RigidHandles& rigid,
+                           RasterOptions raster) {
+  DeformImage im;
+  const auto t0 = std::chrono::steady_clock::now();
+  const SimScene& sc = d.scene;
+  if (r.backend == "cpu") {
+    const auto rs = rasterizeDeformed(image, sc.meshes.fine, d.x, sc.lo, sc.hi, image.valueRange().first, im.out, raster);
+    im.regionVoxels = rs.regionVoxels;
+    im.covered = rs.covered;
+  } else {
+    vk::ContextOptions co;
+    co.device = args.valueOr("--device", "");
+    co.validation = args.flag("--validation");
+    co.verbose = !r.quiet;
+    GpuResample g = resampleOnNewDevice(co, image, {&sc, d.model.get(), d.T, &d.xc, &d.x, r.coarseOnly(), &rigid});
+    im.out = std::move(g.image);
+    im.regionVoxels = g.regionVoxels;
+    im.covered = g.covered;
+  }
+  im.seconds = seconds(t0);
+  return im;
+}
+
+// The tissue past its strain limit, from the moved handle (a --fixed mask is never the cause).
+TissueLimitReport movedHandleLimits(const SimScene& sc, const std::vector<float>& strain, const MaterialTable& materials) {
+  std::vector<char> moving(std::size_t(sc.constraints.handleCount), 0);
+  moving[0] = 1;
+  return tissueLimits(sc.meshes.fine, strain, sc.band, materials, nearestHandleOfNodes(sc.meshes.fine, sc.constraints, moving), sc.constraints.handleCount);
+}
+
+// The run's summary on stdout: timings, the motion, the resampling and the tissue past its limit.
+void printDeformSummary(const DeformRequest& r, const DeformSolution& d, const DeformImage& im, const TissueLimitReport& limits, const std::string& outPath) {
+  const auto& fine = d.scene.meshes.fine;
+  double maxDisp = 0;
+  for (std::size_t i = 0; i < d.x.size(); ++i) maxDisp = std::max(maxDisp, (d.x[i] - fine.nodes[i]).norm());
+  // The coarse model's preprocessing (scene and coarsening, or their cache) is one step.
+  std::cout << std::setprecision(3) << "model " << r.model << ": " << (r.model == "coarse" ? "scene + coarsening " : "scene ") << d.sceneSeconds << " s, ";
+  std::cout << "solve " << d.solveSeconds << " s (" << d.steps << " increment" << (d.steps > 1 ? "s" : "") << "), resampling " << im.seconds << " s\n"
+            << "largest displacement " << maxDisp << " mm; inverted fine tets " << countInvertedTets(fine, d.x) << "; region voxels " << im.regionVoxels
+            << ", covered " << im.covered << " (" << r.backend << ")\ntissue past its strain limit: " << describeTissueLimits(limits) << "\nwrote "
+            << outPath << "\n";
+}
+
+// --forces-out: the reactions of the model that was solved: the coarse model's own, or the fine
+// tets' at the fine or refined positions.
+void writeForces(const std::string& path, const DeformRequest& r, const DeformSolution& d) {
+  const SimScene& sc = d.scene;
+  const auto hyper = r.material == FineMaterial::NeoHookean ? neoHookeanTets(sc.meshes.fine, sc.youngs, sc.poisson) : std::vector<NeoHookeanTet>{};
+  writeForcesJson(path,
+                  r.coarseOnly() ? d.model->handleReactions(d.T, d.xc)
+                                 : fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, d.T, d.x, hyper.empty() ? nullptr : &hyper),
+                  r.coarseOnly() ? "coarse" : r.model == "fine" ? "fine" : "refined");
+}
+
+}  // namespace
+
 int cmdDeform(const Words& words) {
   Args args(words,
             {"--frame", "--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm", "--region",
@@ -262,147 +333,35 @@ int cmdDeform(const Words& words) {
     usageStream(args) << kDeformHelp;
     return args.help() ? 0 : 2;
   }
-  const auto tr = parseNumberList(*args.value("--translate-mm"), "--translate-mm");
-  const auto rot = parseNumberList(args.valueOr("--rotate-deg", "0,0,0"), "--rotate-deg");
-  if (tr.size() != 3 || rot.size() != 3) throw UsageError("--translate-mm and --rotate-deg take three numbers");
-  const Eigen::Vector3d translation(tr[0], tr[1], tr[2]);
-  const Eigen::Vector3d rotation = Eigen::Vector3d(rot[0], rot[1], rot[2]) * (M_PI / 180.0);
-  if (translation.norm() > 1000.0 || rotation.norm() > 4 * M_PI) throw UsageError("--translate-mm beyond 1 m or --rotate-deg beyond 720 degrees");
-  const std::string model = args.valueOr("--model", "coarse");
-  if (model != "coarse" && model != "fine") throw UsageError("--model must be coarse or fine");
-  const FineMaterial material = fineMaterialOption(args, model == "fine");
-  const std::string backend = args.valueOr("--backend", "cpu");
-  if (backend != "cpu" && backend != "gpu") throw UsageError("--backend must be cpu or gpu");
-  SimSettings s;
-  s.coarseTets = int(args.integer("--coarse-tets", s.coarseTets, 6, 2000000));
-  s.fineTets = int(args.integer("--fine-tets", s.fineTets, 6, 20000000));
-  if (s.fineTets < s.coarseTets) throw UsageError("--fine-tets must be at least --coarse-tets");
-  s.paddingMm = args.number("--padding-mm", s.paddingMm, 0.0, 1e4);
-  regionOption(args, "--region", s);
-  s.wholeVolume = args.flag("--whole-volume");
-  coarseModelOptions(args, "--", s);
-  fineMeshOptions(args, "--fine-mesh", "--adapt-contrast", s);
-  if (auto m = args.value("--materials")) s.materials = MaterialTable::load(*m);
-  const int refineSteps = int(args.integer("--refine-steps", 0, 0, 1000));
-  const std::string cacheArg = args.valueOr("--cache-dir", defaultSimulationCacheDir().string());
-  const std::filesystem::path cacheDir = cacheArg == "off" ? std::filesystem::path() : std::filesystem::path(cacheArg);
-  const bool quiet = args.flag("--quiet");
-  const ProgressFn progress = quiet ? ProgressFn{} : consoleProgress();
-
+  const DeformRequest r = parseDeformRequest(args);
+  const ProgressFn progress = r.quiet ? ProgressFn{} : consoleProgress();
   const Volume image = loadVolume(args.positional()[0], nullptr, progress, loadOptions(args));
-  auto labelOf = [&](const char* opt) { return args.value(opt) ? std::optional<long>(args.integer(opt, 0, 1, 65535)) : std::nullopt; };
-  std::vector<SimHandle> handles{{maskVoxels(*args.value("--handle"), image, "handle mask", labelOf("--handle-label")), {}}};
-  if (auto f = args.value("--fixed")) handles.push_back({maskVoxels(*f, image, "fixed mask", labelOf("--fixed-label")), {}});
-  {
-    // The region covers where the handle goes too (plus the padding): its centroid, from its voxels.
-    const VolumeGeometry& g = image.geometry();
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (std::uint32_t v : handles[0].voxels) c += g.toWorld(g.voxelOf(v).cast<double>());
-    c /= double(handles[0].voxels.size());
-    handles[0].reach.push_back(RigidTransform::about(c, rotation, translation));
-  }
-  for (const auto& name : s.materials.capped()) std::cerr << "note: material '" << name << "': Poisson ratio capped at " << kMaxPoisson << " (linear tets lock)\n";
-
-  auto t0 = std::chrono::steady_clock::now();
-  // The coarse model comes with its scene from the preprocessing cache when there (built and
-  // saved otherwise); the fine model needs only the scene.
-  SimScene sc;
-  std::unique_ptr<CoarseModel> cachedModel;
-  if (model == "coarse") {
-    CacheOutcome co;
-    cachedModel = buildOrLoadSimulation(image, handles, s, cacheDir, sc, progress, &co);
-    if (co.hit) std::cout << "preprocessing loaded from the cache in " << cacheDir.string() << "\n";
-    if (!co.note.empty()) std::cerr << "note: " << co.note << "\n";
-  } else {
-    sc = buildSimScene(image, handles, s, progress);
-  }
-  const double tScene = seconds(t0);
-  printScene(sc);
-  // Large motions are applied in increments of at most 30 degrees and 10 mm, each solve starting
-  // from the previous one (continuation keeps the Newton and corotational iterations in their basin).
-  const int steps = std::max({1, int(std::ceil(rotation.norm() / (M_PI / 6))), int(std::ceil(translation.norm() / 10.0))});
-  auto transformsAt = [&](double f) {
-    std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], f * rotation, f * translation)};
-    if (handles.size() > 1) T.push_back(RigidTransform{});
-    return T;
-  };
-  const auto T = transformsAt(1.0);
-  std::vector<Eigen::Vector3d> x, xc;
-  std::unique_ptr<CoarseModel> model_;
-  t0 = std::chrono::steady_clock::now();
-  double tPre = 0;
-  if (model == "fine") {
-    x = solveFineInIncrements(sc, transformsAt, steps, progress, material);
-  } else {
-    model_ = std::move(cachedModel);
-    CoarseModel& m = *model_;
-    tPre = seconds(t0);
-    xc = m.restState();
-    for (int k = 1; k <= steps; ++k) m.solve(transformsAt(double(k) / steps), xc, 50);
-    x = m.reconstruct(T, xc);
-    if (refineSteps > 0) {
-      FineRefiner refiner(m, sc.fineK, sc.youngs, sc.poisson);
-      for (int k = 0; k < refineSteps; ++k) refiner.step(T, xc, x, 10);
-    }
-  }
-  const double tSolve = seconds(t0) - tPre;
-  const int inverted = countInvertedTets(sc.meshes.fine, x);
-  double maxDisp = 0;
-  for (std::size_t i = 0; i < x.size(); ++i) maxDisp = std::max(maxDisp, (x[i] - sc.meshes.fine.nodes[i]).norm());
-  const bool wantStrain = args.value("--strain-out").has_value();
-  std::vector<float> strain = tetStrain(sc.meshes.fine, x);
-  hideRigidStrain(strain, tetStrainLimits(sc.band, s.materials));  // a sliding handle's own tets: not shown
-  std::vector<char> moving(std::size_t(sc.constraints.handleCount), 0);  // the moved handle; a --fixed mask is never the cause
-  moving[0] = 1;
-  const TissueLimitReport limits = tissueLimits(sc.meshes.fine, strain, sc.band, s.materials, nearestHandleOfNodes(sc.meshes.fine, sc.constraints, moving),
-                                                sc.constraints.handleCount);
-  std::vector<std::int32_t> tetOf;
-  t0 = std::chrono::steady_clock::now();
-  Volume out;
-  std::size_t regionVoxels = 0, covered = 0;
+  const std::vector<SimHandle> handles = loadHandles(args, image, r);
+  for (const auto& name : r.settings.materials.capped()) std::cerr << "note: material '" << name << "': Poisson ratio capped at " << kMaxPoisson << " (linear tets lock)\n";
+  const DeformSolution d = solveDeform(r, image, handles, progress);
+  const SimScene& sc = d.scene;
+  std::vector<float> strain = tetStrain(sc.meshes.fine, d.x);
+  hideRigidStrain(strain, tetStrainLimits(sc.band, r.settings.materials));  // a sliding handle's own tets: not shown
   // A sliding handle is drawn where its pose puts it, not smeared by the tets straddling its surface.
   const RigidHandles rigid = rigidHandlesOf(image, handles, sc);
-  RasterOptions raster{rigid.mask.empty() ? nullptr : &rigid.mask, nullptr, defaultMaxTetVoxels(sc.meshes.fine, image.geometry().worldToIndex()), nullptr,
-                       rigid.mask.empty() ? std::vector<RigidDraw>{} : rigidDraws(image.geometry(), rigid.ids, T)};
-  if (backend == "cpu") {
-    raster.tetOf = wantStrain ? &tetOf : nullptr;
-    const auto rs = rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, out, raster);
-    raster.tetOf = nullptr;
-    regionVoxels = rs.regionVoxels;
-    covered = rs.covered;
-  } else {
-    vk::ContextOptions co;
-    co.device = args.valueOr("--device", "");
-    co.validation = args.flag("--validation");
-    co.verbose = !quiet;
-    GpuResample r = resampleOnNewDevice(co, image, sc, model_.get(), T, xc, x, model == "coarse" && refineSteps == 0, rigid);
-    out = std::move(r.image);
-    regionVoxels = r.regionVoxels;
-    covered = r.covered;
-  }
-  const double tRaster = seconds(t0);
-  writeVolume(out, *args.value("-o"));
+  RasterOptions raster = rasterOptions(image, sc, rigid, d.T);
+  std::vector<std::int32_t> tetOf;
+  const bool wantStrain = args.value("--strain-out").has_value();
+  if (wantStrain && r.backend == "cpu") raster.tetOf = &tetOf;
+  const DeformImage im = resampleDeform(args, r, image, d, rigid, raster);
+  raster.tetOf = nullptr;
+  writeVolume(im.out, *args.value("-o"));
   if (wantStrain) {
-    writeStrain(*args.value("--strain-out"), image, sc, x, strain, tetOf, raster);
+    writeStrain(*args.value("--strain-out"), image, sc, d.x, strain, tetOf, raster);
     std::cout << "wrote " << *args.value("--strain-out") << "\n";
   }
-  // The coarse model's preprocessing (scene and coarsening, or their cache) is one step.
-  std::cout << std::setprecision(3) << "model " << model << ": " << (model == "coarse" ? "scene + coarsening " : "scene ") << tScene << " s, ";
-  std::cout << "solve " << tSolve << " s (" << steps << " increment" << (steps > 1 ? "s" : "") << "), resampling " << tRaster << " s\n"
-            << "largest displacement " << maxDisp << " mm; inverted fine tets " << inverted << "; region voxels " << regionVoxels << ", covered "
-            << covered << " (" << backend << ")\ntissue past its strain limit: " << describeTissueLimits(limits) << "\nwrote "
-            << *args.value("-o") << "\n";
+  printDeformSummary(r, d, im, movedHandleLimits(sc, strain, r.settings.materials), *args.value("-o"));
   if (auto fo = args.value("--forces-out")) {
-    // The reactions of the model that was solved: the coarse model's own, or the fine tets' at the
-    // fine or refined positions.
-    const bool coarseOnly = model == "coarse" && refineSteps == 0;
-    const auto hyper = material == FineMaterial::NeoHookean ? neoHookeanTets(sc.meshes.fine, sc.youngs, sc.poisson) : std::vector<NeoHookeanTet>{};
-    writeForcesJson(*fo, coarseOnly ? model_->handleReactions(T, xc) : fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, T, x, hyper.empty() ? nullptr : &hyper),
-                    coarseOnly ? "coarse" : model == "fine" ? "fine" : "refined");
+    writeForces(*fo, r, d);
     std::cout << "wrote " << *fo << "\n";
   }
   if (auto mo = args.value("--mesh-out")) {
-    writeMesh(*mo, sc, x, strain, s.element);
+    writeMesh(*mo, sc, d.x, strain, r.settings.element);
     std::cout << "wrote " << *mo << "\n";
   }
   return 0;

@@ -49,6 +49,7 @@ inline const DeformFixture& deformFixture() {
     SimSettings s;
     s.coarseTets = 300;
     s.fineTets = 300 * 64;
+    s.interface = SimSettings::Interface::Glued;  // the tets draw the handle (a sliding one drawn rigidly: test_deform_rigid_gpu.cpp)
     x->scene = buildSimScene(x->phantom.ct, {h}, s);
     x->model = std::make_unique<CoarseModel>(x->scene.meshes, x->scene.fineK, x->scene.constraints);
     x->data = x->model->interpolationData();

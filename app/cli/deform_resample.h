@@ -1,0 +1,53 @@
+#pragma once
+// `handson deform`'s resampling of the deformed volume: on the CPU (rasterizeDeformed) or through the
+// GPU passes (GpuDeformer), sliding handles drawn where their poses put them, and the strain volume.
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "render/vk_context.h"
+#include "sim/coarsening.h"
+#include "sim/sim_scene.h"
+#include "sim/tet_raster.h"
+
+namespace handson::cli {
+
+/// The handles the resampling draws where their poses put them (those with a sliding interface):
+/// the rest mask (handle i has id i + 1; empty when none) and each handle's id (0: drawn by the tets).
+struct RigidHandles {
+  std::vector<std::uint8_t> mask;
+  std::vector<std::uint32_t> ids;
+};
+RigidHandles rigidHandlesOf(const Volume& image, const std::vector<SimHandle>& handles, const SimScene& scene);
+
+/// The rasterization options of `scene` at poses T: the cap on a tet's voxels and the rigid handles
+/// (pointing into `rigid`, which must outlive them).
+RasterOptions rasterOptions(const Volume& image, const SimScene& scene, const RigidHandles& rigid, const std::vector<RigidTransform>& T);
+
+/// What the GPU passes are given: the scene at poses T, the coarse state xc (with `model`) when
+/// `fromCoarseState`, else the fine positions x.
+struct GpuResampleInput {
+  const SimScene* scene = nullptr;
+  const CoarseModel* model = nullptr;
+  std::vector<RigidTransform> T;
+  const std::vector<Eigen::Vector3d>* xc = nullptr;
+  const std::vector<Eigen::Vector3d>* x = nullptr;
+  bool fromCoarseState = false;
+  const RigidHandles* rigid = nullptr;
+};
+
+struct GpuResample {
+  Volume image;  ///< region voxels the GPU's, the rest the input's
+  std::size_t regionVoxels = 0, covered = 0;
+};
+
+/// The GPU passes on a device of their own (any validation message is an error).
+GpuResample resampleOnNewDevice(const vk::ContextOptions& options, const Volume& image, const GpuResampleInput& in);
+
+/// Writes the strain on the input's grid. `tetOf`: which tet covers each voxel, from the CPU
+/// resampling; empty after the GPU one (then rasterized here with `raster`).
+void writeStrain(const std::string& path, const Volume& image, const SimScene& scene, const std::vector<Eigen::Vector3d>& x, const std::vector<float>& strain,
+                 std::vector<std::int32_t>& tetOf, RasterOptions raster);
+
+}  // namespace handson::cli
