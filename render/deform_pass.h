@@ -166,6 +166,11 @@ class GpuDeformer {
   void importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState, fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {},
                        const Outputs& outputs = {});
   Outputs addResamplePasses(fg::FrameGraph& g, Redo redo);
+  void addResetPass(fg::FrameGraph& g, Redo redo);
+  void addArgsPass(fg::FrameGraph& g, Redo redo);
+  void addClearPass(fg::FrameGraph& g);
+  void addClaimPass(fg::FrameGraph& g);
+  void addResolvePass(fg::FrameGraph& g);
   /// The passes that choose what a frame redoes (the moved box; the bricks' lag and list).
   void addRedoSelection(fg::FrameGraph& g, Redo redo);
   /// The interpolation's commit threshold (voxels) for a frame of this kind.

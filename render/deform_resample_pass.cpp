@@ -81,10 +81,22 @@ void GpuDeformer::addRedoSelection(fg::FrameGraph& g, Redo redo) {
 }
 
 GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo) {
+  addResetPass(g, redo);
+  addRedoSelection(g, redo);
+  addArgsPass(g, redo);
+  addClearPass(g);
+  addClaimPass(g);
+  addResolvePass(g);
+  g.exportResource(h_.volume, fg::Access::Sampled);
+  g.exportResource(h_.mask, fg::Access::Sampled);
+  return {h_.volume, h_.mask};
+}
+
+// The frame's box (or brick mode) and counters reset; brick flags cleared; a region redo's lag zeroed.
+void GpuDeformer::addResetPass(fg::FrameGraph& g, Redo redo) {
   using fg::Access;
   const Bound hb = h_;
   const gpu::DeformParams p = p_;
-  const std::uint32_t tetGroups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
   const bool bricks = redo == Redo::Bricks || redo == Redo::BricksDuringMotion;
   g.addPass(
       "deform-reset",
@@ -113,7 +125,12 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
         // at its own commit threshold, and adds no lag).
         if (redo == Redo::Region || redo == Redo::WholeVolume) vkCmdFillBuffer(x.cmd(), x.buffer(hb.brickLag).handle(), 0, VK_WHOLE_SIZE, 0u);
       });
-  addRedoSelection(g, redo);
+}
+
+// The indirect dispatch of the per-voxel passes over the box or the listed bricks.
+void GpuDeformer::addArgsPass(fg::FrameGraph& g, Redo redo) {
+  using fg::Access;
+  const Bound hb = h_;
   g.addPass(
       "deform-args",
       [&](fg::PassBuilder& b) {
@@ -132,6 +149,12 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
         vkCmdPushConstants(x.cmd(), args_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, 4, &whole);
         vkCmdDispatch(x.cmd(), 1, 1, 1);
       });
+}
+
+// The redone voxels reset (deform_clear.comp).
+void GpuDeformer::addClearPass(fg::FrameGraph& g) {
+  using fg::Access;
+  const Bound hb = h_;
   g.addPass(
       "deform-clear",
       [&](fg::PassBuilder& b) {
@@ -162,6 +185,13 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
             .push(ctx_, x.cmd(), clear_);
         vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
       });
+}
+
+// Each deformed tet claims the voxel centres it covers (deform_claim.comp).
+void GpuDeformer::addClaimPass(fg::FrameGraph& g) {
+  using fg::Access;
+  const Bound hb = h_;
+  const std::uint32_t tetGroups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
   g.addPass(
       "deform-claim",
       [&](fg::PassBuilder& b) {
@@ -189,6 +219,12 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
             .push(ctx_, x.cmd(), claim_);
         vkCmdDispatch(x.cmd(), tetGroups, 1, 1);
       });
+}
+
+// Each claimed voxel sampled at its rest position, rigid handles first (deform_resolve.comp).
+void GpuDeformer::addResolvePass(fg::FrameGraph& g) {
+  using fg::Access;
+  const Bound hb = h_;
   g.addPass(
       "deform-resolve",
       [&](fg::PassBuilder& b) {
@@ -223,9 +259,6 @@ GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo
             .push(ctx_, x.cmd(), resolve_);
         vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
       });
-  g.exportResource(hb.volume, Access::Sampled);
-  g.exportResource(hb.mask, Access::Sampled);
-  return {hb.volume, hb.mask};
 }
 
 }  // namespace handson::vk
