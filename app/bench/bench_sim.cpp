@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <sstream>
 
 #include "app/bench/bench.h"
@@ -58,13 +59,32 @@ const char* const kBenchSimHelp =
 
 double since(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
 
+// One benchmark case: a scene at one coarse count, the handle's motion and the fine reference.
+struct BenchCase {
+  const SimScene& sc;
+  Eigen::Vector3d rv, tv;                     ///< rotation vector (radians) about the handle's centroid; translation (mm)
+  std::vector<RigidTransform> T;              ///< the final pose
+  double motion = 1;                          ///< the handle's motion (mm), the errors' unit
+  const std::vector<Eigen::Vector3d>& fine;   ///< the fine reference's positions
+  ProgressFn progress;
+};
+
+// The benchmark's two CSV files.
+struct BenchCsv {
+  std::ostream& acc;    ///< sim_accuracy.csv: a row per coarse count
+  std::ostream& trade;  ///< sim_tradeoff.csv: model, coarse tets, seconds, RMS
+};
+
 // The two-level refinement from the coarse answer (fine positions xcoarse, coarse state xc), with the
 // analytic matrix-free linearization (the default), the warped stiffness alone and the projected
 // exact Hessian (the baseline), the same steps from the same start: RMS after each step to `acc` and
 // `trade`, and the seconds per step of each method (in that order).
-std::vector<double> compareRefinements(const SimScene& sc, const CoarseModel& model, const std::vector<RigidTransform>& T,
-                                       const std::vector<Eigen::Vector3d>& xc, const std::vector<Eigen::Vector3d>& xcoarse,
-                                       const std::vector<Eigen::Vector3d>& fine, int refineSteps, double frameMs, std::ostream& acc, std::ostream& trade) {
+std::vector<double> compareRefinements(const BenchCase& c, const CoarseModel& model, const std::vector<Eigen::Vector3d>& xc, int refineSteps, double frameMs,
+                                       BenchCsv& csv) {
+  const SimScene& sc = c.sc;
+  const std::vector<RigidTransform>& T = c.T;
+  const std::vector<Eigen::Vector3d> xcoarse = model.reconstruct(T, xc);
+  std::ostream &acc = csv.acc, &trade = csv.trade;
   std::vector<double> stepSeconds;
   for (const RefineMethod method : {RefineMethod::Analytic, RefineMethod::Warped, RefineMethod::Projected}) {
     const FineRefiner refiner(model, sc.fineK, sc.youngs, sc.poisson, RefineOptions{method, 0});
@@ -74,7 +94,7 @@ std::vector<double> compareRefinements(const SimScene& sc, const CoarseModel& mo
       const auto t0 = std::chrono::steady_clock::now();
       refiner.step(T, xc, x, 10);
       tStep += since(t0);
-      const auto e = compareDeformation(sc, T, x, fine);
+      const auto e = compareDeformation(sc, T, x, c.fine);
       acc << "," << e.rmsOfMotion;
       trade << (method == RefineMethod::Analytic ? std::string("refined") : std::string("refined-") + refineMethodName(method)) << ","
             << sc.meshes.coarse.tets.size() << "," << frameMs * 1e-3 + tStep << "," << e.rmsOfMotion << "\n";
@@ -88,16 +108,18 @@ std::vector<double> compareRefinements(const SimScene& sc, const CoarseModel& mo
               << stepSeconds[2] << " s (projected / analytic " << std::setprecision(1) << stepSeconds[2] / stepSeconds[0] << "x)\n";
   return stepSeconds;
 }
-// A 10-frame drag from rest to the motion (rotation vector rv about `centre`, translation tv), 3
-// iterations a frame, with `solver`, three times: the median frame, the mean breakdown, and how far
-// the last state lies from the converged one (of `motion`); leaves the model's state in xc.
+// A 10-frame drag from rest to the case's motion (rotation vector rv about the handle's centroid,
+// translation tv), 3 iterations a frame, with `solver`, three times: the median frame, the mean
+// breakdown, and how far the last state lies from the converged one (of the motion); leaves the
+// model's state in xc.
 struct Drag {
   double frame = 0;        // median frame (ms)
   CoarseSolveStats mean;   // per frame, averaged over the drag: the breakdown
   double lag = 0;          // after the drag: largest coarse node distance to the converged state / motion
 };
-Drag dragRun(CoarseModel& model, CoarseSolver solver, const Eigen::Vector3d& centre, const Eigen::Vector3d& rv, const Eigen::Vector3d& tv, double motion,
-             std::vector<Eigen::Vector3d>& xc) {
+Drag dragRun(CoarseModel& model, CoarseSolver solver, const BenchCase& c, std::vector<Eigen::Vector3d>& xc) {
+  const Eigen::Vector3d& centre = c.sc.handleCentroid[0];
+  const Eigen::Vector3d &rv = c.rv, &tv = c.tv;
   model.setSolver(solver);
   model.prepareSolve();  // one-off set-up (pcg: the rest factorization), part of the preprocessing
   Drag d;
@@ -120,7 +142,7 @@ Drag dragRun(CoarseModel& model, CoarseSolver solver, const Eigen::Vector3d& cen
   d.frame = frameMs[frameMs.size() / 2];
   auto xconv = xc;
   model.solve({RigidTransform::about(centre, rv, tv)}, xconv, 2000, 1e-10);
-  for (std::size_t v = 0; v < xc.size(); ++v) d.lag = std::max(d.lag, (xc[v] - xconv[v]).norm() / motion);
+  for (std::size_t v = 0; v < xc.size(); ++v) d.lag = std::max(d.lag, (xc[v] - xconv[v]).norm() / c.motion);
   return d;
 }
 
@@ -141,19 +163,18 @@ struct ShapedRun {
     return o.str();
   }
 };
-ShapedRun measureShapedRegion(const Volume& image, const SimHandle& handle, SimSettings s, const SimScene& box, const Eigen::Vector3d& rv,
-                              const Eigen::Vector3d& tv, double motion, const std::vector<Eigen::Vector3d>& fine, const ProgressFn& progress) {
+ShapedRun measureShapedRegion(const Volume& image, const SimHandle& handle, SimSettings s, const BenchCase& c) {
+  const SimScene& box = c.sc;
   s.region = SimSettings::Region::Handles;
-  const SimScene shaped = buildSimScene(image, {handle}, s, progress);
+  const SimScene shaped = buildSimScene(image, {handle}, s, c.progress);
   ShapedRun r;
   r.tets = shaped.meshes.coarse.tets.size();
   r.share = double(std::count(shaped.regionCell.begin(), shaped.regionCell.end(), 1)) / double(shaped.regionCell.size());
-  CoarseModel model(shaped.meshes, shaped.fineK, shaped.constraints, progress, CoarseElement::Cell);
+  CoarseModel model(shaped.meshes, shaped.fineK, shaped.constraints, c.progress, CoarseElement::Cell);
   std::vector<Eigen::Vector3d> x;
-  r.drag = dragRun(model, CoarseSolver::Pcg, box.handleCentroid[0], rv, tv, motion, x);
-  const std::vector<RigidTransform> T{RigidTransform::about(box.handleCentroid[0], rv, tv)};
-  model.solve(T, x, 500);
-  r.error = compareDeformation(box, T, sampleDeformation(shaped, model.reconstruct(T, x), box.meshes.fine.nodes), fine);
+  r.drag = dragRun(model, CoarseSolver::Pcg, c, x);
+  model.solve(c.T, x, 500);
+  r.error = compareDeformation(box, c.T, sampleDeformation(shaped, model.reconstruct(c.T, x), box.meshes.fine.nodes), c.fine);
   return r;
 }
 
@@ -174,19 +195,18 @@ struct GradedRun {
     return o.str();
   }
 };
-GradedRun measureGraded(const SimScene& sc, double split, const Eigen::Vector3d& rv, const Eigen::Vector3d& tv, double motion,
-                        const std::vector<Eigen::Vector3d>& fine, double frame, const ProgressFn& progress, std::ostream& trade) {
+GradedRun measureGraded(const BenchCase& c, double split, double frame, std::ostream& trade) {
+  const SimScene& sc = c.sc;
   GradedRun g;
   g.split = split;
   if (split < 0) return g;
-  CoarseModel model(sc.meshes, sc.fineK, sc.constraints, progress, CoarseElement::Cell, CoarseGrading{split});
+  CoarseModel model(sc.meshes, sc.fineK, sc.constraints, c.progress, CoarseElement::Cell, CoarseGrading{split});
   g.elements = model.elementCount();
   g.hanging = model.hangingNodeCount();
   std::vector<Eigen::Vector3d> x;
-  g.drag = dragRun(model, CoarseSolver::Pcg, sc.handleCentroid[0], rv, tv, motion, x);
-  const std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], rv, tv)};
-  g.conv = model.solve(T, x, 5000);
-  g.error = compareDeformation(sc, T, model.reconstruct(T, x), fine);
+  g.drag = dragRun(model, CoarseSolver::Pcg, c, x);
+  g.conv = model.solve(c.T, x, 5000);
+  g.error = compareDeformation(sc, c.T, model.reconstruct(c.T, x), c.fine);
   trade << "graded-cells," << sc.meshes.coarse.tets.size() << "," << g.drag.frame * 1e-3 << "," << g.error.rmsOfMotion << "\n";
   std::ostringstream o;
   o << std::fixed << std::setprecision(3) << "  graded cells (--graded-split " << split << "): " << g.elements << " cells (" << g.hanging
@@ -240,8 +260,10 @@ void writeTradeoffChart(const std::filesystem::path& out) {
 
 // The coarse solve from rest to the final pose in one input (no warm start, the worst case) with 1,
 // 2, 3, 5 and 8 iterations: error against the time spent (solver iterations), to `trade`.
-void coarseIterationSweep(const SimScene& sc, CoarseModel& model, const std::vector<RigidTransform>& T, const std::vector<Eigen::Vector3d>& fine,
-                          std::ostream& trade) {
+void coarseIterationSweep(const BenchCase& c, CoarseModel& model, std::ostream& trade) {
+  const SimScene& sc = c.sc;
+  const std::vector<RigidTransform>& T = c.T;
+  const std::vector<Eigen::Vector3d>& fine = c.fine;
   for (int k : {1, 2, 3, 5, 8}) {
     std::vector<Eigen::Vector3d> xk = model.restState();
     const auto t0 = std::chrono::steady_clock::now();
@@ -253,6 +275,183 @@ void coarseIterationSweep(const SimScene& sc, CoarseModel& model, const std::vec
               << " ms): RMS " << std::setprecision(4) << e.rmsOfMotion << "\n";
   }
 }
+// What `bench sim` was asked.
+struct BenchSimOptions {
+  std::vector<int> coarseList;
+  int finePer = 64, refineSteps = 4;
+  double gradedSplit = 1.0;
+  Eigen::Vector3d rv = Eigen::Vector3d::Zero(), tv = Eigen::Vector3d::Zero();  ///< radians (rotation vector), mm
+  std::filesystem::path out;
+  SimSettings settings;  ///< materials, tissue rules and interface (the counts set per level)
+};
+
+BenchSimOptions parseBenchSimOptions(const Args& args) {
+  BenchSimOptions o;
+  o.coarseList = integerListOption(args, "--coarse-list", "1500,3000,6000", 6, 1000000);
+  o.finePer = int(args.integer("--fine-per-coarse", 64, 1, 4096));
+  o.refineSteps = int(args.integer("--refine-steps", 4, 0, 100));
+  o.gradedSplit = args.number("--graded-split", 1.0, -1.0, 10.0);
+  const auto tr = parseNumberList(args.valueOr("--translate-mm", "10,0,0"), "--translate-mm");
+  const auto ro = parseNumberList(args.valueOr("--rotate-deg", "0,0,30"), "--rotate-deg");
+  if (tr.size() != 3 || ro.size() != 3) throw UsageError("--translate-mm and --rotate-deg take three numbers");
+  o.tv = Eigen::Vector3d(tr[0], tr[1], tr[2]);
+  o.rv = Eigen::Vector3d(ro[0], ro[1], ro[2]) * (M_PI / 180);
+  o.out = args.valueOr("--out", "bench-out");
+  o.settings.materials = args.value("--materials") ? MaterialTable::load(*args.value("--materials")) : MaterialTable::ctDefault();
+  tissueRuleOptions(args, "--", o.settings);
+  interfaceOption(args, "--", o.settings);
+  return o;
+}
+
+// One coarse element kind's model: preprocessing, a 10-frame drag (3 iterations a frame), then its
+// converged answer and its error against the fine reference.
+struct Measured {
+  std::unique_ptr<CoarseModel> model;
+  std::vector<Eigen::Vector3d> xc;
+  double coarsening = 0;
+  Drag drag, baseline;     // the default solver (pcg) and the assembled one (cells only)
+  CoarseSolveStats conv;
+  double solverDiff = 0;   // the two solvers' converged states: largest difference / motion
+  DeformationError error;
+};
+
+Measured measureCoarse(const BenchCase& c, CoarseElement kind) {
+  const SimScene& sc = c.sc;
+  Measured m;
+  auto t1 = std::chrono::steady_clock::now();
+  m.model = std::make_unique<CoarseModel>(sc.meshes, sc.fineK, sc.constraints, c.progress, kind);
+  m.coarsening = since(t1);
+  std::vector<Eigen::Vector3d> xb;
+  if (kind == CoarseElement::Cell) {
+    m.baseline = dragRun(*m.model, CoarseSolver::Assembled, c, xb);
+    m.model->solve(c.T, xb, 2000, 1e-10);
+  }
+  m.drag = dragRun(*m.model, CoarseSolver::Pcg, c, m.xc);
+  m.conv = m.model->solve(c.T, m.xc, 500);  // the coarse model's own converged answer
+  if (kind == CoarseElement::Cell) {
+    // Both solvers to 1e-10 of the motion: how far apart their answers are.
+    auto xp = m.xc;
+    m.model->solve(c.T, xp, 2000, 1e-10);
+    for (std::size_t v = 0; v < xb.size(); ++v) m.solverDiff = std::max(m.solverDiff, (xb[v] - xp[v]).norm() / c.motion);
+  }
+  m.error = compareDeformation(sc, c.T, m.model->reconstruct(c.T, m.xc), c.fine);
+  return m;
+}
+
+// Everything one coarse count measures.
+struct Level {
+  double sceneSeconds = 0, fineSeconds = 0;
+  int fineIterations = 0;
+  Measured tet, cell;
+  ShapedRun shaped;
+  GradedRun graded;
+  DeformationError plain;  ///< the plain coarse FEM's error
+};
+
+// The level's sim_accuracy.csv fields up to the refinement's, and its sim_tradeoff.csv rows.
+void writeLevel(const BenchCase& c, const Level& l, bool operatingPoint, BenchCsv& csv) {
+  const SimScene& sc = c.sc;
+  const Measured& cell = l.cell;
+  const double frame = cell.drag.frame;
+  const auto& ec = cell.error;
+  csv.acc << sc.meshes.coarse.tets.size() << "," << sc.meshes.fine.tets.size() << "," << l.sceneSeconds << "," << cell.coarsening << "," << frame << ","
+          << l.fineSeconds << "," << l.fineSeconds / (frame * 1e-3) << "," << l.fineIterations << "," << (cell.conv.converged ? cell.conv.iterations : -1) << ","
+          << ec.rmsOfMotion << "," << ec.maxOfMotion << "," << l.shaped.tets << "," << l.shaped.share << "," << l.shaped.drag.frame << ","
+          << l.shaped.error.rmsOfMotion << "," << l.shaped.error.maxOfMotion << "," << l.graded.csv() << l.tet.coarsening << "," << l.tet.drag.frame << ","
+          << l.tet.error.rmsOfMotion << "," << l.tet.error.maxOfMotion << "," << l.plain.rmsOfMotion << "," << l.plain.maxOfMotion;
+  const Drag& a = cell.baseline;
+  const CoarseSolveStats& b = cell.drag.mean;
+  csv.acc << "," << a.frame << "," << a.frame / frame << "," << cell.drag.lag << "," << a.lag << "," << cell.solverDiff << "," << b.rotationMs << ","
+          << b.productMs << "," << b.factorMs << "," << b.backSolveMs << "," << b.boundaryMs << "," << b.pcgIterations / 30.0 << "," << a.mean.rotationMs << ","
+          << a.mean.productMs << "," << a.mean.factorMs << "," << a.mean.backSolveMs << "," << a.mean.boundaryMs << "," << a.mean.factorizations / 30.0;
+  const auto n = sc.meshes.coarse.tets.size();
+  std::ostream& trade = csv.trade;
+  trade << "coarsened-cells," << n << "," << frame * 1e-3 << "," << ec.rmsOfMotion << "\n";
+  trade << "coarsened-cells-assembled," << n << "," << a.frame * 1e-3 << "," << ec.rmsOfMotion << "\n";
+  // The paper's operating point: about 6,000 coarse and 300,000 fine tets (the defaults).
+  if (operatingPoint) trade << "operating-point," << n << "," << frame * 1e-3 << "," << ec.rmsOfMotion << "\n";
+  trade << "coarsened-tets," << n << "," << l.tet.drag.frame * 1e-3 << "," << l.tet.error.rmsOfMotion << "\n";
+  trade << "plain," << n << "," << frame * 1e-3 << "," << l.plain.rmsOfMotion << "\n";
+  trade << "shaped-region," << l.shaped.tets << "," << l.shaped.drag.frame * 1e-3 << "," << l.shaped.error.rmsOfMotion << "\n";
+}
+
+// The level's console report.
+void printLevel(const BenchCase& c, const Level& l) {
+  const SimScene& sc = c.sc;
+  const Measured &cell = l.cell, &tet = l.tet;
+  const double frame = cell.drag.frame;
+  const auto& ec = cell.error;
+  const Drag& a = cell.baseline;
+  const CoarseSolveStats& b = cell.drag.mean;
+  std::cout << std::setprecision(3) << "\ncoarse " << sc.meshes.coarse.tets.size() << " tets (" << cell.model->elementCount() << " cells) / fine "
+            << sc.meshes.fine.tets.size() << " tets: scene " << l.sceneSeconds << " s, coarsening " << cell.coarsening << " s (tets " << tet.coarsening
+            << " s); coarse frame " << frame << " ms (tets " << tet.drag.frame << " ms), fine solve " << l.fineSeconds << " s (" << l.fineIterations
+            << " Newton iterations): " << std::setprecision(0) << l.fineSeconds / (frame * 1e-3) << "x\n"
+            << "  coarse model converged in " << cell.conv.iterations << " iterations" << (cell.conv.converged ? "" : " (NOT converged)") << " (tets "
+            << tet.conv.iterations << (tet.conv.converged ? "" : ", NOT converged") << ")\n"
+            << std::setprecision(3) << "  coarse frame, pcg " << frame << " ms against assembled " << a.frame << " ms (" << std::setprecision(1)
+            << a.frame / frame << "x); per frame, pcg: rotations " << std::setprecision(3) << b.rotationMs << ", products " << b.productMs
+            << ", factorization " << b.factorMs << ", back-solves " << b.backSolveMs << ", boundary " << b.boundaryMs << " ms, "
+            << b.pcgIterations / 30.0 << " CG iterations; assembled: rotations " << a.mean.rotationMs << ", assembly " << a.mean.productMs
+            << ", factorization " << a.mean.factorMs << ", back-solves " << a.mean.backSolveMs << ", boundary " << a.mean.boundaryMs << " ms\n"
+            << std::setprecision(6) << "  after the drag, distance to the converged state / motion: pcg " << cell.drag.lag << ", assembled " << a.lag
+            << "; converged states differ by " << std::setprecision(2) << std::scientific << cell.solverDiff << std::fixed << " of the motion\n"
+            << std::setprecision(4) << "  RMS / max of the handle's motion (" << std::setprecision(2) << ec.handleMotionMm << " mm): coarsened (cells) "
+            << std::setprecision(4) << ec.rmsOfMotion << " / " << ec.maxOfMotion << ", coarsened (tets) " << tet.error.rmsOfMotion << " / "
+            << tet.error.maxOfMotion << ", plain coarse FEM " << l.plain.rmsOfMotion << " / " << l.plain.maxOfMotion << " (plain / cells "
+            << std::setprecision(2) << l.plain.rmsOfMotion / ec.rmsOfMotion << "x)\n"
+            << l.shaped.summary(frame) << l.graded.summary;
+}
+
+// The handle's reaction (what the tissue does to it), coarse model against the fine reference: to
+// the console and the accuracy row's last fields.
+void compareReactions(const BenchCase& c, const Measured& cell, std::ostream& acc) {
+  const SimScene& sc = c.sc;
+  const HandleReaction rf = fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, c.T, c.fine)[0], rc = cell.model->handleReactions(c.T, cell.xc)[0];
+  std::cout << std::setprecision(4) << "  reaction on the handle: fine " << rf.forceN.norm() << " N, " << rf.torqueNmm.norm() << " N mm; coarse model "
+            << rc.forceN.norm() << " N (" << std::setprecision(2) << rc.forceN.norm() / rf.forceN.norm() << "x), " << std::setprecision(4)
+            << rc.torqueNmm.norm() << " N mm\n";
+  acc << "," << rf.forceN.norm() << "," << rc.forceN.norm() << "," << rc.forceN.norm() / rf.forceN.norm() << "," << rf.torqueNmm.norm() << ","
+      << rc.torqueNmm.norm();
+}
+
+// One coarse count: the scene, the fine reference, the coarse models, the shaped region, graded
+// cells, the plain coarse FEM, the refinements and the reactions; its rows written as it goes.
+void runLevel(const BenchSimOptions& o, const Volume& image, const SimHandle& handle, int nc, const ProgressFn& progress, BenchCsv& csv) {
+  SimSettings s = o.settings;
+  s.coarseTets = nc;
+  s.fineTets = nc * o.finePer;
+  Level l;
+  auto t0 = std::chrono::steady_clock::now();
+  const SimScene sc = buildSimScene(image, {handle}, s, progress);
+  l.sceneSeconds = since(t0);
+  const std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], o.rv, o.tv)};
+  t0 = std::chrono::steady_clock::now();
+  StaticSolveOptions so;
+  so.progress = progress;
+  so.tolerance = 1e-4;  // the errors measured are >= 1e-3 of the motion: a 1e-4 reference suffices
+  const auto fine = solveFineStatic(sc, T, so);
+  l.fineSeconds = since(t0);
+  l.fineIterations = fine.iterations;
+  const double motion = std::max(1e-9, compareDeformation(sc, T, sc.meshes.fine.nodes, sc.meshes.fine.nodes).handleMotionMm);
+  const BenchCase c{sc, o.rv, o.tv, T, motion, fine.x, progress};
+  l.tet = measureCoarse(c, CoarseElement::Tet);
+  l.cell = measureCoarse(c, CoarseElement::Cell);
+  l.shaped = measureShapedRegion(image, handle, s, c);
+  l.graded = measureGraded(c, o.gradedSplit, l.cell.drag.frame, csv.trade);
+  l.plain = compareDeformation(sc, T, plainCoarseSolve(sc.meshes, sc.youngs, sc.poisson, sc.constraints, T), fine.x);
+  writeLevel(c, l, nc == 6000 && o.finePer == 64, csv);
+  printLevel(c, l);
+  coarseIterationSweep(c, *l.cell.model, csv.trade);
+  const std::vector<double> stepSeconds = compareRefinements(c, *l.cell.model, l.cell.xc, o.refineSteps, l.cell.drag.frame, csv);
+  csv.trade << "fine," << sc.meshes.coarse.tets.size() << "," << l.fineSeconds << ",1e-4\n";
+  csv.acc << "," << stepSeconds[0] << "," << stepSeconds[1] << "," << stepSeconds[2];
+  compareReactions(c, l.cell, csv.acc);
+  csv.acc << std::endl;  // a row at a time: long runs show progress
+  csv.trade.flush();
+  std::cout.flush();
+}
+
 }  // namespace
 
 int cmdBenchSim(const Words& words) {
@@ -263,145 +462,23 @@ int cmdBenchSim(const Words& words) {
     usageStream(args) << kBenchSimHelp;
     return args.help() ? 0 : 2;
   }
-  const bool quiet = args.flag("--quiet");
-  const ProgressFn progress = quiet ? ProgressFn{} : consoleProgress();
-  const std::vector<int> coarseList = integerListOption(args, "--coarse-list", "1500,3000,6000", 6, 1000000);
-  const int finePer = int(args.integer("--fine-per-coarse", 64, 1, 4096));
-  const int refineSteps = int(args.integer("--refine-steps", 4, 0, 100));
-  const double gradedSplit = args.number("--graded-split", 1.0, -1.0, 10.0);
-  const auto tr = parseNumberList(args.valueOr("--translate-mm", "10,0,0"), "--translate-mm");
-  const auto ro = parseNumberList(args.valueOr("--rotate-deg", "0,0,30"), "--rotate-deg");
-  if (tr.size() != 3 || ro.size() != 3) throw UsageError("--translate-mm and --rotate-deg take three numbers");
-  const std::filesystem::path out = args.valueOr("--out", "bench-out");
-  std::filesystem::create_directories(out);
-
+  const ProgressFn progress = args.flag("--quiet") ? ProgressFn{} : consoleProgress();
+  const BenchSimOptions o = parseBenchSimOptions(args);
+  std::filesystem::create_directories(o.out);
   HandleScene loaded = handleSceneOptions(args, 2.0, progress);
   const Volume image = std::move(loaded.image);
   const SimHandle handle{std::move(loaded.handle), {}};
-
-  std::ofstream acc(out / "sim_accuracy.csv"), trade(out / "sim_tradeoff.csv");
-  writeAccuracyHeader(acc, refineSteps);
+  std::ofstream acc(o.out / "sim_accuracy.csv"), trade(o.out / "sim_tradeoff.csv");
+  writeAccuracyHeader(acc, o.refineSteps);
   trade << "model,coarse_tets,seconds,rms\n";
   std::cout << std::fixed;
-  const MaterialTable materials = args.value("--materials") ? MaterialTable::load(*args.value("--materials")) : MaterialTable::ctDefault();
-  for (int nc : coarseList) {
-    SimSettings s;
-    s.materials = materials;
-    tissueRuleOptions(args, "--", s);
-    interfaceOption(args, "--", s);
-    s.coarseTets = nc;
-    s.fineTets = nc * finePer;
-    auto t0 = std::chrono::steady_clock::now();
-    const SimScene sc = buildSimScene(image, {handle}, s, progress);
-    const double tScene = since(t0);
-    const Eigen::Vector3d rv = Eigen::Vector3d(ro[0], ro[1], ro[2]) * (M_PI / 180);
-    const Eigen::Vector3d tv(tr[0], tr[1], tr[2]);
-    const std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], rv, tv)};
-    // Fine reference.
-    t0 = std::chrono::steady_clock::now();
-    StaticSolveOptions so;
-    so.progress = progress;
-    so.tolerance = 1e-4;  // the errors measured are >= 1e-3 of the motion: a 1e-4 reference suffices
-    const auto fine = solveFineStatic(sc, T, so);
-    const double tFine = since(t0);
-    // Coarse models: preprocessing, a 10-frame drag (3 iterations a frame), then their converged answers.
-    struct Measured {
-      std::unique_ptr<CoarseModel> model;
-      std::vector<Eigen::Vector3d> xc;
-      double coarsening = 0;
-      Drag drag, baseline;     // the default solver (pcg) and the assembled one (cells only)
-      CoarseSolveStats conv;
-      double solverDiff = 0;   // the two solvers' converged states: largest difference / motion
-      DeformationError error;
-    };
-    const double motion = std::max(1e-9, compareDeformation(sc, T, sc.meshes.fine.nodes, sc.meshes.fine.nodes).handleMotionMm);
-    auto drag = [&](CoarseModel& model, CoarseSolver solver, std::vector<Eigen::Vector3d>& xc) {
-      return dragRun(model, solver, sc.handleCentroid[0], rv, tv, motion, xc);
-    };
-    auto measure = [&](CoarseElement kind) {
-      Measured m;
-      auto t1 = std::chrono::steady_clock::now();
-      m.model = std::make_unique<CoarseModel>(sc.meshes, sc.fineK, sc.constraints, progress, kind);
-      m.coarsening = since(t1);
-      std::vector<Eigen::Vector3d> xb;
-      if (kind == CoarseElement::Cell) {
-        m.baseline = drag(*m.model, CoarseSolver::Assembled, xb);
-        m.model->solve(T, xb, 2000, 1e-10);
-      }
-      m.drag = drag(*m.model, CoarseSolver::Pcg, m.xc);
-      m.conv = m.model->solve(T, m.xc, 500);  // the coarse model's own converged answer
-      if (kind == CoarseElement::Cell) {
-        // Both solvers to 1e-10 of the motion: how far apart their answers are.
-        auto xp = m.xc;
-        m.model->solve(T, xp, 2000, 1e-10);
-        for (std::size_t v = 0; v < xb.size(); ++v) m.solverDiff = std::max(m.solverDiff, (xb[v] - xp[v]).norm() / motion);
-      }
-      m.error = compareDeformation(sc, T, m.model->reconstruct(T, m.xc), fine.x);
-      return m;
-    };
-    const Measured tet = measure(CoarseElement::Tet);
-    Measured cell = measure(CoarseElement::Cell);
-    const ShapedRun shaped = measureShapedRegion(image, handle, s, sc, rv, tv, motion, fine.x, progress);
-    const GradedRun graded = measureGraded(sc, gradedSplit, rv, tv, motion, fine.x, cell.drag.frame, progress, trade);
-    CoarseModel& model = *cell.model;
-    auto& xc = cell.xc;
-    const double frame = cell.drag.frame;
-    const auto& ec = cell.error;
-    const auto xcoarse = model.reconstruct(T, xc);
-    const auto ep = compareDeformation(sc, T, plainCoarseSolve(sc.meshes, sc.youngs, sc.poisson, sc.constraints, T), fine.x);
-    acc << sc.meshes.coarse.tets.size() << "," << sc.meshes.fine.tets.size() << "," << tScene << "," << cell.coarsening << "," << frame << "," << tFine << ","
-        << tFine / (frame * 1e-3) << "," << fine.iterations << "," << (cell.conv.converged ? cell.conv.iterations : -1) << "," << ec.rmsOfMotion << ","
-        << ec.maxOfMotion << "," << shaped.tets << "," << shaped.share << "," << shaped.drag.frame << "," << shaped.error.rmsOfMotion << ","
-        << shaped.error.maxOfMotion << "," << graded.csv() << tet.coarsening << "," << tet.drag.frame << "," << tet.error.rmsOfMotion << "," << tet.error.maxOfMotion << "," << ep.rmsOfMotion
-        << "," << ep.maxOfMotion;
-    const Drag& a = cell.baseline;
-    const CoarseSolveStats& b = cell.drag.mean;
-    acc << "," << a.frame << "," << a.frame / frame << "," << cell.drag.lag << "," << a.lag << "," << cell.solverDiff << "," << b.rotationMs << ","
-        << b.productMs << "," << b.factorMs << "," << b.backSolveMs << "," << b.boundaryMs << "," << b.pcgIterations / 30.0 << "," << a.mean.rotationMs << ","
-        << a.mean.productMs << "," << a.mean.factorMs << "," << a.mean.backSolveMs << "," << a.mean.boundaryMs << "," << a.mean.factorizations / 30.0;
-    trade << "coarsened-cells," << sc.meshes.coarse.tets.size() << "," << frame * 1e-3 << "," << ec.rmsOfMotion << "\n";
-    trade << "coarsened-cells-assembled," << sc.meshes.coarse.tets.size() << "," << a.frame * 1e-3 << "," << ec.rmsOfMotion << "\n";
-    // The paper's operating point: about 6,000 coarse and 300,000 fine tets (the defaults).
-    if (nc == 6000 && finePer == 64) trade << "operating-point," << sc.meshes.coarse.tets.size() << "," << frame * 1e-3 << "," << ec.rmsOfMotion << "\n";
-    trade << "coarsened-tets," << sc.meshes.coarse.tets.size() << "," << tet.drag.frame * 1e-3 << "," << tet.error.rmsOfMotion << "\n";
-    trade << "plain," << sc.meshes.coarse.tets.size() << "," << frame * 1e-3 << "," << ep.rmsOfMotion << "\n";
-    trade << "shaped-region," << shaped.tets << "," << shaped.drag.frame * 1e-3 << "," << shaped.error.rmsOfMotion << "\n";
-    std::cout << std::setprecision(3) << "\ncoarse " << sc.meshes.coarse.tets.size() << " tets (" << model.elementCount() << " cells) / fine "
-              << sc.meshes.fine.tets.size() << " tets: scene " << tScene << " s, coarsening " << cell.coarsening << " s (tets " << tet.coarsening
-              << " s); coarse frame " << frame << " ms (tets " << tet.drag.frame << " ms), fine solve " << tFine << " s (" << fine.iterations
-              << " Newton iterations): " << std::setprecision(0) << tFine / (frame * 1e-3) << "x\n"
-              << "  coarse model converged in " << cell.conv.iterations << " iterations" << (cell.conv.converged ? "" : " (NOT converged)") << " (tets "
-              << tet.conv.iterations << (tet.conv.converged ? "" : ", NOT converged") << ")\n"
-              << std::setprecision(3) << "  coarse frame, pcg " << frame << " ms against assembled " << a.frame << " ms (" << std::setprecision(1)
-              << a.frame / frame << "x); per frame, pcg: rotations " << std::setprecision(3) << b.rotationMs << ", products " << b.productMs
-              << ", factorization " << b.factorMs << ", back-solves " << b.backSolveMs << ", boundary " << b.boundaryMs << " ms, "
-              << b.pcgIterations / 30.0 << " CG iterations; assembled: rotations " << a.mean.rotationMs << ", assembly " << a.mean.productMs
-              << ", factorization " << a.mean.factorMs << ", back-solves " << a.mean.backSolveMs << ", boundary " << a.mean.boundaryMs << " ms\n"
-              << std::setprecision(6) << "  after the drag, distance to the converged state / motion: pcg " << cell.drag.lag << ", assembled " << a.lag
-              << "; converged states differ by " << std::setprecision(2) << std::scientific << cell.solverDiff << std::fixed << " of the motion\n"
-              << std::setprecision(4) << "  RMS / max of the handle's motion (" << std::setprecision(2) << ec.handleMotionMm << " mm): coarsened (cells) "
-              << std::setprecision(4) << ec.rmsOfMotion << " / " << ec.maxOfMotion << ", coarsened (tets) " << tet.error.rmsOfMotion << " / "
-              << tet.error.maxOfMotion << ", plain coarse FEM " << ep.rmsOfMotion << " / " << ep.maxOfMotion << " (plain / cells "
-              << std::setprecision(2) << ep.rmsOfMotion / ec.rmsOfMotion << "x)\n"
-              << shaped.summary(frame) << graded.summary;
-    coarseIterationSweep(sc, model, T, fine.x, trade);
-    const std::vector<double> stepSeconds = compareRefinements(sc, model, T, xc, xcoarse, fine.x, refineSteps, frame, acc, trade);
-    trade << "fine," << sc.meshes.coarse.tets.size() << "," << tFine << ",1e-4\n";
-    // The handle's reaction (what the tissue does to it), coarse model against the fine reference.
-    const HandleReaction rf = fineHandleReactions(sc.meshes.fine, sc.fineK, sc.constraints, T, fine.x)[0], rc = model.handleReactions(T, xc)[0];
-    std::cout << std::setprecision(4) << "  reaction on the handle: fine " << rf.forceN.norm() << " N, " << rf.torqueNmm.norm() << " N mm; coarse model "
-              << rc.forceN.norm() << " N (" << std::setprecision(2) << rc.forceN.norm() / rf.forceN.norm() << "x), " << std::setprecision(4)
-              << rc.torqueNmm.norm() << " N mm\n";
-    acc << "," << stepSeconds[0] << "," << stepSeconds[1] << "," << stepSeconds[2] << "," << rf.forceN.norm() << "," << rc.forceN.norm() << ","
-        << rc.forceN.norm() / rf.forceN.norm() << "," << rf.torqueNmm.norm() << "," << rc.torqueNmm.norm() << std::endl;  // a row at a time: long runs show progress
-    trade.flush();
-    std::cout.flush();
-  }
+  BenchCsv csv{acc, trade};
+  for (int nc : o.coarseList) runLevel(o, image, handle, nc, progress, csv);
   acc.close();
   trade.close();
-  writeTradeoffChart(out);
-  benchForceCurve(out);
-  std::cout << "\nwrote " << (out / "sim_accuracy.csv").string() << ", " << (out / "sim_tradeoff.csv").string()
+  writeTradeoffChart(o.out);
+  benchForceCurve(o.out);
+  std::cout << "\nwrote " << (o.out / "sim_accuracy.csv").string() << ", " << (o.out / "sim_tradeoff.csv").string()
             << " and the charts sim_tradeoff.png, sim_force.png\n";
   return 0;
 }
