@@ -70,30 +70,65 @@ double passMs(const std::vector<vk::PassTiming>& t, std::initializer_list<const 
   return ms;
 }
 
+// The benchmark's scene: the image and its 16-bit copy on the GPU, the simulation, the handle's
+// mask (id 1) and the deformers' setup (a sliding handle drawn rigidly, as in the app).
+struct DeformBench {
+  const vk::Context& ctx;
+  const Volume& image;
+  const QuantizedVolume& q;
+  const SimScene& sc;
+  CoarseModel& model;
+  const FineInterpolationData& data;
+  const std::vector<std::uint8_t>& ids;
+  vk::Image &volume, &mask;
+  vk::DeformSetup setup;
+  Eigen::Vector3i rlo, rhi;  ///< the region's voxel box
+};
+
+// The drag's frames and where its rows go.
+struct DragOptions {
+  int frames = 10;
+  double stepMm = 1, stepDeg = 1;  ///< per frame: translation along x, rotation about z
+  std::filesystem::path out;
+  bool quiet = false;
+};
+
+// The three deformers a drag compares: dirty bricks, the moved box, the whole volume (exact).
+struct Deformers {
+  vk::GpuDeformer &bricks, &box, &whole;
+};
+
 // The last frame's region resampled on the GPU from scratch and on the CPU (the reference), and
 // the fine nodes interpolated by the CPU float reference and by CoarseModel::reconstruct: times and
 // the fraction of voxels within 1 HU.
 struct RegionCheck {
   double cpuInterp = 0, cpuReconstruct = 0, cpuRaster = 0, gpuRegionWall = 0, gpuRegion = 0, gpuInterp = 0, withinFraction = 0;
 };
-RegionCheck checkRegionAgainstCpu(const vk::Context& ctx, vk::Image& volume, vk::Image& mask, const vk::DeformSetup& setup, const Volume& image,
-                                  const QuantizedVolume& q, const SimScene& sc, const CoarseModel& model, const FineInterpolationData& data,
-                                  const CoarseFrameState& state, const std::vector<RigidTransform>& T, const std::vector<Eigen::Vector3d>& xc) {
+RegionCheck checkRegionAgainstCpu(const DeformBench& bench, const CoarseFrameState& state, const std::vector<RigidTransform>& T,
+                                  const std::vector<Eigen::Vector3d>& xc) {
+  const QuantizedVolume& q = bench.q;
+  const SimScene& sc = bench.sc;
+  const Volume& image = bench.image;
   RegionCheck r;
   const VolumeGeometry& g = q.geometry;
   const Eigen::Matrix4f w2i = g.worldToIndex().cast<float>();
   auto t0 = std::chrono::steady_clock::now();
-  const auto cpuPos = interpolateFineReference(data, state, w2i);
+  const auto cpuPos = interpolateFineReference(bench.data, state, w2i);
   r.cpuInterp = since(t0);
   t0 = std::chrono::steady_clock::now();
-  const auto world = model.reconstruct(T, xc);
+  const auto world = bench.model.reconstruct(T, xc);
   r.cpuReconstruct = since(t0);
   t0 = std::chrono::steady_clock::now();
   Volume cpuOut;
-  rasterizeDeformed(image, sc.meshes.fine, world, sc.lo, sc.hi, image.valueRange().first, cpuOut, nullptr, nullptr,
-                    defaultMaxTetVoxels(sc.meshes.fine, g.worldToIndex()));
+  RasterOptions ro;
+  ro.maxTetVoxels = defaultMaxTetVoxels(sc.meshes.fine, g.worldToIndex());
+  if (!bench.setup.rigidIds.empty()) {
+    ro.restMask = &bench.ids;
+    ro.rigid = rigidDraws(g, bench.setup.rigidIds, T);
+  }
+  rasterizeDeformed(image, sc.meshes.fine, world, sc.lo, sc.hi, image.valueRange().first, cpuOut, ro);
   r.cpuRaster = since(t0);
-  vk::GpuDeformer region(ctx, volume, mask, setup, 1);
+  vk::GpuDeformer region(bench.ctx, bench.volume, bench.mask, bench.setup, 1);
   t0 = std::chrono::steady_clock::now();
   const auto rr = region.runFrame(state, vk::Redo::Region);
   r.gpuRegionWall = since(t0);
@@ -181,10 +216,13 @@ struct DragRun {
   std::vector<RigidTransform> T;
   std::vector<Eigen::Vector3d> xc;
 };
-DragRun runDrag(const vk::Context& ctx, const SimScene& sc, CoarseModel& model, vk::GpuDeformer& bricks, vk::GpuDeformer& box, vk::GpuDeformer& whole,
-                const QuantizedVolume& q, const Eigen::Vector3i& rlo, const Eigen::Vector3i& rhi, double tau, int frames, double stepMm, double stepDeg,
-                const std::filesystem::path& out, bool quiet) {
-  std::ofstream csv(out / "deform_frames.csv");
+DragRun runDrag(const DeformBench& bench, Deformers& d, const DragOptions& o) {
+  const SimScene& sc = bench.sc;
+  CoarseModel& model = bench.model;
+  const QuantizedVolume& q = bench.q;
+  const double tau = bench.setup.motionLagVoxels;
+  const int frames = o.frames;
+  std::ofstream csv(o.out / "deform_frames.csv");
   csv << "frame,coarse_solve_ms,upload_bytes,moved_tets,dirty_bricks,bricks_voxels,box_voxels,interpolate_ms,bricks_resample_ms,bricks_frame_wall_ms,"
          "box_resample_ms,box_frame_wall_ms,whole_resample_ms,whole_frame_wall_ms,rms_hu,p99_hu,max_hu,within_bound\n";
   DragRun r;
@@ -196,25 +234,25 @@ DragRun runDrag(const vk::Context& ctx, const SimScene& sc, CoarseModel& model, 
   std::vector<RigidTransform>& T = r.T;
   auto& xc = r.xc;
   const VolumeGeometry& g = q.geometry;
-  auto timed = [&](vk::GpuDeformer& d, vk::Redo redo, double& wall) {
+  auto timed = [&](vk::GpuDeformer& deformer, vk::Redo redo, double& wall) {
     const auto t = std::chrono::steady_clock::now();
-    const auto st = d.runFrame(state, redo);
+    const auto st = deformer.runFrame(state, redo);
     wall = since(t);
     return st;
   };
   for (int f = 1; f <= frames; ++f) {
-    T = {RigidTransform::about(sc.handleCentroid[0], Eigen::Vector3d(0, 0, f * stepDeg * M_PI / 180), Eigen::Vector3d(f * stepMm, 0, 0))};
+    T = {RigidTransform::about(sc.handleCentroid[0], Eigen::Vector3d(0, 0, f * o.stepDeg * M_PI / 180), Eigen::Vector3d(f * o.stepMm, 0, 0))};
     const auto t0 = std::chrono::steady_clock::now();
     model.solve(T, xc, 3);
     state = packFrameState(xc, model.elementRotations(xc), T);
     const double tSolve = since(t0);
     double wk = 0, wb = 0, ww = 0;
-    const auto k = timed(bricks, vk::Redo::BricksDuringMotion, wk);
-    const auto b = timed(box, vk::Redo::Moved, wb);
-    const auto w = timed(whole, vk::Redo::WholeVolume, ww);
+    const auto k = timed(d.bricks, vk::Redo::BricksDuringMotion, wk);
+    const auto b = timed(d.box, vk::Redo::Moved, wb);
+    const auto w = timed(d.whole, vk::Redo::WholeVolume, ww);
     const double rk = passMs(k.timings, kResamplePasses), rb = passMs(b.timings, kResamplePasses), rw = passMs(w.timings, kResamplePasses);
     const double ik = passMs(k.timings, {"deform-interpolate"});
-    const LagError e = lagError(bricks.readVolume(), whole.readVolume(), q, rlo, rhi, tau);
+    const LagError e = lagError(d.bricks.readVolume(), d.whole.readVolume(), q, bench.rlo, bench.rhi, tau);
     csv << f << "," << tSolve << "," << state.bytes() << "," << b.movedTets << "," << k.dirtyBricks << "," << k.redoneVoxels() << "," << b.boxVoxels() << ","
         << ik << "," << rk << "," << wk << "," << rb << "," << wb << "," << rw << "," << ww << "," << e.rmsHu << "," << e.p99Hu << "," << e.maxHu << ","
         << e.withinBound << "\n";
@@ -236,19 +274,108 @@ DragRun runDrag(const vk::Context& ctx, const SimScene& sc, CoarseModel& model, 
     worst.withinBound = std::min(worst.withinBound, e.withinBound);
     worst.worstOverBound = std::max(worst.worstOverBound, e.worstOverBound);
     worst.worstOverRange = std::max(worst.worstOverRange, e.worstOverRange);
-    if (!quiet && f == frames) {
+    if (!o.quiet && f == frames) {
       std::cout << "  passes of the last frame (dirty bricks / moved box / whole volume, ms):";
       for (const char* n : {"deform-interpolate", "deform-reset", "deform-bounds", "deform-bricks", "deform-args", "deform-clear", "deform-claim", "deform-resolve"})
         std::cout << " " << n << " " << std::setprecision(2) << passMs(k.timings, {n}) << "/" << passMs(b.timings, {n}) << "/" << passMs(w.timings, {n});
       std::cout << "\n";
     }
-    if (!quiet)
-      std::cout << std::setprecision(2) << "frame " << f << ": " << k.dirtyBricks << (k.allBricks ? " (all)" : "") << " dirty bricks " << (haveTsOf(ctx) ? rk : wk) << " ms, error RMS "
-                << e.rmsHu << " HU (p99 " << e.p99Hu << ", max " << e.maxHu << "); moved box " << b.boxVoxels() << " voxels " << (haveTsOf(ctx) ? rb : wb)
-                << " ms; whole volume " << (haveTsOf(ctx) ? rw : ww) << " ms\n";
+    if (!o.quiet)
+      std::cout << std::setprecision(2) << "frame " << f << ": " << k.dirtyBricks << (k.allBricks ? " (all)" : "") << " dirty bricks " << (haveTsOf(bench.ctx) ? rk : wk) << " ms, error RMS "
+                << e.rmsHu << " HU (p99 " << e.p99Hu << ", max " << e.maxHu << "); moved box " << b.boxVoxels() << " voxels " << (haveTsOf(bench.ctx) ? rb : wb)
+                << " ms; whole volume " << (haveTsOf(bench.ctx) ? rw : ww) << " ms\n";
   }
   csv.close();
   return r;
+}
+
+// What the drag's end measures: the settled frame against the whole redo, the moved box against
+// a whole redo of its own positions, the CPU references; and the drag's medians.
+struct DeformBenchResult {
+  vk::DeformFrameStats settled;
+  double settleMs = 0, settleWall = 0;
+  bool identical = false, boxIdentical = false;
+  RegionCheck region;
+};
+
+DeformBenchResult checkAfterDrag(DeformBench& bench, Deformers& d, const DragRun& run) {
+  DeformBenchResult r;
+  // Motion stops: one settled frame brings every brick to the exact state, equal to the whole redo.
+  const auto t = std::chrono::steady_clock::now();
+  r.settled = d.bricks.runFrame(run.state, vk::Redo::Bricks);
+  r.settleWall = since(t);
+  r.settleMs = passMs(r.settled.timings, kResamplePasses);
+  r.identical = d.bricks.readVolume() == d.whole.readVolume() && d.bricks.readMask() == d.whole.readMask();
+  // The moved box against a whole redo of the same positions (its own commit threshold).
+  const auto v = d.box.readVolume();
+  const auto m = d.box.readMask();
+  d.box.runFrame(run.state, vk::Redo::WholeVolume);
+  r.boxIdentical = v == d.box.readVolume() && m == d.box.readMask();
+  // CPU references on the last frame: interpolation and the region's rasterization.
+  r.region = checkRegionAgainstCpu(bench, run.state, run.T, run.xc);
+  return r;
+}
+
+void writeDeformSummary(const DeformBench& bench, const DragRun& run, const DeformBenchResult& r, const std::filesystem::path& out) {
+  const auto& [bricksMs, boxMs, wholeMs, bricksWall, boxWall, wholeWall, interpMs, solveMs, brickFrac, boxFrac, rmsHu, p99Hu] = run.series;
+  const double km = median(bricksMs), bm = median(boxMs), wm = median(wholeMs), kw = median(bricksWall), bw = median(boxWall), ww = median(wholeWall);
+  const SimScene& sc = bench.sc;
+  const RegionCheck& rc = r.region;
+  const LagError& worst = run.worst;
+  std::ofstream sum(out / "deform_summary.csv");
+  sum << "quantity,value\n"
+      << "voxels," << bench.q.geometry.voxelCount() << "\nfine_tets," << sc.meshes.fine.tets.size() << "\nfine_nodes," << sc.meshes.fine.nodes.size()
+      << "\nupload_bytes_per_frame," << run.state.bytes() << "\nlag_voxels," << bench.setup.motionLagVoxels << "\nmedian_bricks_fraction," << median(brickFrac)
+      << "\nmedian_box_fraction," << median(boxFrac) << "\nmedian_dirty_resample_ms," << km << "\nmedian_box_resample_ms," << bm
+      << "\nmedian_whole_resample_ms," << wm << "\nwhole_over_dirty_gpu," << (km > 0 ? wm / km : 0) << "\nwhole_over_box_gpu," << (bm > 0 ? wm / bm : 0)
+      << "\nmedian_dirty_frame_wall_ms," << kw << "\nmedian_box_frame_wall_ms," << bw << "\nmedian_whole_frame_wall_ms," << ww
+      << "\nwhole_over_dirty_wall," << ww / kw << "\nwhole_over_box_wall," << ww / bw << "\nmotion_error_median_rms_hu," << median(rmsHu)
+      << "\nmotion_error_median_p99_hu," << median(p99Hu) << "\nmotion_error_max_hu," << worst.maxHu << "\nmotion_error_within_bound," << worst.withinBound
+      << "\nmotion_error_worst_over_bound," << worst.worstOverBound << "\nmotion_error_worst_over_neighbourhood_range," << worst.worstOverRange
+      << "\nsettle_resample_ms," << (haveTsOf(bench.ctx) ? r.settleMs : r.settleWall) << "\nsettle_dirty_bricks," << r.settled.dirtyBricks
+      << "\ngpu_interpolate_ms," << rc.gpuInterp << "\ncpu_interpolate_reference_ms," << rc.cpuInterp << "\ncpu_reconstruct_double_ms," << rc.cpuReconstruct
+      << "\ngpu_region_resample_ms," << rc.gpuRegion << "\ngpu_region_frame_wall_ms," << rc.gpuRegionWall << "\ncpu_region_resample_ms," << rc.cpuRaster
+      << "\nmedian_coarse_solve_ms," << median(solveMs) << "\nmedian_interpolate_ms," << median(interpMs) << "\ngpu_cpu_within_1hu," << rc.withinFraction
+      << "\nsettled_equals_whole," << (r.identical ? 1 : 0) << "\nbox_equals_whole," << (r.boxIdentical ? 1 : 0) << "\n";
+}
+
+void printDeformSummary(const DeformBench& bench, const DragRun& run, const DeformBenchResult& r, int frames) {
+  const auto& [bricksMs, boxMs, wholeMs, bricksWall, boxWall, wholeWall, interpMs, solveMs, brickFrac, boxFrac, rmsHu, p99Hu] = run.series;
+  const double km = median(bricksMs), bm = median(boxMs), wm = median(wholeMs), kw = median(bricksWall), bw = median(boxWall), ww = median(wholeWall);
+  const bool haveTs = haveTsOf(bench.ctx);
+  const RegionCheck& rc = r.region;
+  const LagError& worst = run.worst;
+  const double tau = bench.setup.motionLagVoxels;
+  std::cout << std::setprecision(2) << "\nkidney drag, frames 2.." << frames << " (medians; " << (haveTs ? "GPU timestamps" : "wall") << "):\n"
+            << "  resampling: dirty bricks " << (haveTs ? km : kw) << " ms (" << std::setprecision(1) << 100 * median(brickFrac) << " % of the volume), moved box "
+            << std::setprecision(2) << (haveTs ? bm : bw) << " ms (" << std::setprecision(1) << 100 * median(boxFrac) << " %), whole volume "
+            << std::setprecision(2) << (haveTs ? wm : ww) << " ms: whole / dirty bricks " << (haveTs ? wm / km : ww / kw) << "x, whole / moved box "
+            << (haveTs ? wm / bm : ww / bw) << "x\n  during motion (lag <= " << tau << " voxel per axis) against the whole redo: RMS " << median(rmsHu)
+            << " HU, p99 " << median(p99Hu) << " HU (medians over frames), max " << worst.maxHu << " HU; within 3 x lag x the local voxel step on "
+            << std::setprecision(4) << 100 * worst.withinBound << " % of region voxels (worst frame; worst error / bound "
+            << std::setprecision(2) << worst.worstOverBound << ", / the range of its 26 neighbours " << worst.worstOverRange << ")\n"
+            << std::setprecision(2) << "  settled frame: " << r.settled.dirtyBricks << " bricks, " << (haveTs ? r.settleMs : r.settleWall)
+            << " ms; equals the whole redo: " << (r.identical ? "yes" : "NO") << "; the moved box equals a whole redo at its own threshold: "
+            << (r.boxIdentical ? "yes" : "NO") << "\n  frame wall time (interpolation + resampling, submitted and waited for): dirty bricks " << kw
+            << " ms, moved box " << bw << " ms, whole volume " << ww << " ms\n  interpolation of " << bench.sc.meshes.fine.nodes.size() << " fine nodes: GPU "
+            << rc.gpuInterp << " ms, CPU float reference " << rc.cpuInterp << " ms, CoarseModel::reconstruct " << rc.cpuReconstruct
+            << " ms\n  resampling the region: GPU " << rc.gpuRegion << " ms (" << rc.gpuRegionWall << " ms wall), CPU reference " << rc.cpuRaster
+            << " ms: " << rc.cpuRaster / (haveTs ? rc.gpuRegion : rc.gpuRegionWall) << "x; within 1 HU on " << std::setprecision(4)
+            << 100.0 * rc.withinFraction << " % of voxels\n"
+            << std::setprecision(2) << "  whole deformation frame: coarse solve " << median(solveMs) << " ms (CPU, worker thread) + " << run.state.bytes() / 1024.0
+            << " KB upload + GPU " << kw << " ms\n";
+}
+
+// The scene's settings from the command line.
+SimSettings deformBenchSettings(const Args& args) {
+  SimSettings s;
+  s.coarseTets = int(args.integer("--coarse-tets", 6000, 6, 2000000));
+  s.fineTets = int(args.integer("--fine-tets", 300000, 6, 20000000));
+  if (s.fineTets < s.coarseTets) throw UsageError("--fine-tets must be at least --coarse-tets");
+  s.paddingMm = args.number("--padding-mm", 40.0, 0.0, 1e4);
+  regionOption(args, "--region", s);
+  s.element = coarseElementOption(args, "--coarse-element");
+  return s;
 }
 
 }  // namespace
@@ -262,25 +389,19 @@ int cmdBenchDeform(const Words& words) {
     usageStream(args) << kBenchDeformHelp;
     return args.help() ? 0 : 2;
   }
-  const bool quiet = args.flag("--quiet");
-  const ProgressFn progress = quiet ? ProgressFn{} : consoleProgress();
-  SimSettings s;
-  s.coarseTets = int(args.integer("--coarse-tets", 6000, 6, 2000000));
-  s.fineTets = int(args.integer("--fine-tets", 300000, 6, 20000000));
-  if (s.fineTets < s.coarseTets) throw UsageError("--fine-tets must be at least --coarse-tets");
-  s.paddingMm = args.number("--padding-mm", 40.0, 0.0, 1e4);
-  regionOption(args, "--region", s);
-  s.element = coarseElementOption(args, "--coarse-element");
-  const int frames = int(args.integer("--frames", 10, 1, 10000));
-  const double stepMm = args.number("--step-mm", 1.0, -100.0, 100.0);
-  const double stepDeg = args.number("--step-deg", 1.0, -90.0, 90.0);
-  const std::filesystem::path out = args.valueOr("--out", "bench-out");
-  std::filesystem::create_directories(out);
+  DragOptions o;
+  o.quiet = args.flag("--quiet");
+  const ProgressFn progress = o.quiet ? ProgressFn{} : consoleProgress();
+  const SimSettings s = deformBenchSettings(args);
+  o.frames = int(args.integer("--frames", 10, 1, 10000));
+  o.stepMm = args.number("--step-mm", 1.0, -100.0, 100.0);
+  o.stepDeg = args.number("--step-deg", 1.0, -90.0, 90.0);
+  o.out = args.valueOr("--out", "bench-out");
+  std::filesystem::create_directories(o.out);
 
   HandleScene loaded = handleSceneOptions(args, 1.75, progress);
   const Volume image = std::move(loaded.image);
   const SimHandle handle{std::move(loaded.handle), {}};
-
   auto t0 = std::chrono::steady_clock::now();
   const SimScene sc = buildSimScene(image, {handle}, s, progress);
   CoarseModel model(sc.meshes, sc.fineK, sc.constraints, progress, s.element);
@@ -292,7 +413,7 @@ int cmdBenchDeform(const Words& words) {
   vk::ContextOptions co;
   co.device = args.valueOr("--device", "");
   co.validation = args.flag("--validation");
-  co.verbose = !quiet;
+  co.verbose = !o.quiet;
   const vk::Context ctx(co);
   const fg::ImageDesc desc{std::uint32_t(g.dims.x()), std::uint32_t(g.dims.y()), std::uint32_t(g.dims.z()), fg::Format::R16Unorm};
   const VkImageUsageFlags usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
@@ -301,7 +422,8 @@ int cmdBenchDeform(const Words& words) {
   std::vector<std::uint8_t> ids(q.data.size(), 0);
   for (auto v : handle.voxels) ids[v] = 1;
   vk::uploadToImage(ctx, mask, ids.data(), ids.size(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  vk::DeformSetup setup;
+  DeformBench bench{ctx, image, q, sc, model, data, ids, volume, mask, {}, {}, {}};
+  vk::DeformSetup& setup = bench.setup;
   setup.interpolation = &data;
   setup.fineTets = &sc.meshes.fine.tets;
   setup.regionLo = sc.lo;
@@ -310,87 +432,26 @@ int cmdBenchDeform(const Words& words) {
   setup.worldToIndex = g.worldToIndex();
   setup.commitVoxels = args.number("--commit-voxels", 1e-3, 0.0, 10.0);
   setup.motionLagVoxels = args.number("--lag-voxels", 0.5, 0.0, 4.0);
-  const double tau = setup.motionLagVoxels;
+  if (!sc.constraints.slide.empty()) setup.rigidIds = {1};  // a sliding handle drawn where its pose puts it, as in the app
   vk::DeformSetup exactSetup = setup;
   exactSetup.commitVoxels = 0.0;  // the whole redo takes every node that moved at all: the exact state
   vk::GpuDeformer bricks(ctx, volume, mask, setup, 1), box(ctx, volume, mask, setup, 1), whole(ctx, volume, mask, exactSetup, 1);
-  Eigen::Vector3i rlo, rhi;
-  regionVoxelBox(g, sc.lo, sc.hi, rlo, rhi);
-  const std::uint64_t regionBox = std::uint64_t((rhi - rlo + Eigen::Vector3i::Ones()).prod());
+  regionVoxelBox(g, sc.lo, sc.hi, bench.rlo, bench.rhi);
+  const std::uint64_t regionBox = std::uint64_t((bench.rhi - bench.rlo + Eigen::Vector3i::Ones()).prod());
   std::cout << std::fixed << std::setprecision(1) << "volume " << g.dims.x() << "x" << g.dims.y() << "x" << g.dims.z() << " (" << g.voxelCount() / 1e6
             << " M voxels); region " << regionBox << " voxels; coarse " << sc.meshes.coarse.tets.size() << ", fine " << sc.meshes.fine.tets.size()
             << " tets, " << sc.meshes.fine.nodes.size() << " fine nodes; preprocessing " << tPre / 1e3 << " s; device " << ctx.properties().deviceName
             << (ctx.timestampPeriodNs() > 0 ? "" : " (no timestamps: wall times only)") << "\n";
 
-  DragRun run = runDrag(ctx, sc, model, bricks, box, whole, q, rlo, rhi, tau, frames, stepMm, stepDeg, out, quiet);
-  auto& [bricksMs, boxMs, wholeMs, bricksWall, boxWall, wholeWall, interpMs, solveMs, brickFrac, boxFrac, rmsHu, p99Hu] = run.series;
-  const LagError& worst = run.worst;
-  const CoarseFrameState& state = run.state;
-  const std::vector<RigidTransform>& T = run.T;
-  const std::vector<Eigen::Vector3d>& xc = run.xc;
-  auto timed = [&](vk::GpuDeformer& d, vk::Redo redo, double& wall) {
-    const auto t = std::chrono::steady_clock::now();
-    const auto st = d.runFrame(state, redo);
-    wall = since(t);
-    return st;
-  };
-  // Motion stops: one settled frame brings every brick to the exact state, equal to the whole redo.
-  double settleWall = 0;
-  const auto settled = timed(bricks, vk::Redo::Bricks, settleWall);
-  const double settleMs = passMs(settled.timings, kResamplePasses);
-  const bool identical = bricks.readVolume() == whole.readVolume() && bricks.readMask() == whole.readMask();
-  const bool boxIdentical = [&] {  // the moved box against a whole redo of the same positions (its own commit threshold)
-    const auto v = box.readVolume();
-    const auto m = box.readMask();
-    box.runFrame(state, vk::Redo::WholeVolume);
-    return v == box.readVolume() && m == box.readMask();
-  }();
-
-
-  // CPU references on the last frame: interpolation and the region's rasterization.
-  const RegionCheck rc = checkRegionAgainstCpu(ctx, volume, mask, setup, image, q, sc, model, data, state, T, xc);
-  const double cpuInterp = rc.cpuInterp, cpuReconstruct = rc.cpuReconstruct, cpuRaster = rc.cpuRaster, gpuRegionWall = rc.gpuRegionWall,
-               gpuRegion = rc.gpuRegion, gpuInterp = rc.gpuInterp;
+  Deformers d{bricks, box, whole};
+  const DragRun run = runDrag(bench, d, o);
+  const DeformBenchResult r = checkAfterDrag(bench, d, run);
   if (ctx.validationMessageCount()) throw Error("Vulkan validation messages were reported");
-
-  const double km = median(bricksMs), bm = median(boxMs), wm = median(wholeMs), kw = median(bricksWall), bw = median(boxWall), ww = median(wholeWall);
-  const bool haveTs = haveTsOf(ctx);
-  std::ofstream sum(out / "deform_summary.csv");
-  sum << "quantity,value\n"
-      << "voxels," << g.voxelCount() << "\nfine_tets," << sc.meshes.fine.tets.size() << "\nfine_nodes," << sc.meshes.fine.nodes.size()
-      << "\nupload_bytes_per_frame," << state.bytes() << "\nlag_voxels," << tau << "\nmedian_bricks_fraction," << median(brickFrac)
-      << "\nmedian_box_fraction," << median(boxFrac) << "\nmedian_dirty_resample_ms," << km << "\nmedian_box_resample_ms," << bm
-      << "\nmedian_whole_resample_ms," << wm << "\nwhole_over_dirty_gpu," << (km > 0 ? wm / km : 0) << "\nwhole_over_box_gpu," << (bm > 0 ? wm / bm : 0)
-      << "\nmedian_dirty_frame_wall_ms," << kw << "\nmedian_box_frame_wall_ms," << bw << "\nmedian_whole_frame_wall_ms," << ww
-      << "\nwhole_over_dirty_wall," << ww / kw << "\nwhole_over_box_wall," << ww / bw << "\nmotion_error_median_rms_hu," << median(rmsHu)
-      << "\nmotion_error_median_p99_hu," << median(p99Hu) << "\nmotion_error_max_hu," << worst.maxHu << "\nmotion_error_within_bound," << worst.withinBound
-      << "\nmotion_error_worst_over_bound," << worst.worstOverBound << "\nmotion_error_worst_over_neighbourhood_range," << worst.worstOverRange << "\nsettle_resample_ms," << (haveTs ? settleMs : settleWall)
-      << "\nsettle_dirty_bricks," << settled.dirtyBricks << "\ngpu_interpolate_ms," << gpuInterp << "\ncpu_interpolate_reference_ms," << cpuInterp
-      << "\ncpu_reconstruct_double_ms," << cpuReconstruct << "\ngpu_region_resample_ms," << gpuRegion << "\ngpu_region_frame_wall_ms," << gpuRegionWall
-      << "\ncpu_region_resample_ms," << cpuRaster << "\nmedian_coarse_solve_ms," << median(solveMs) << "\nmedian_interpolate_ms," << median(interpMs)
-      << "\ngpu_cpu_within_1hu," << rc.withinFraction << "\nsettled_equals_whole," << (identical ? 1 : 0) << "\nbox_equals_whole,"
-      << (boxIdentical ? 1 : 0) << "\n";
-  sum.close();
-  std::cout << std::setprecision(2) << "\nkidney drag, frames 2.." << frames << " (medians; " << (haveTs ? "GPU timestamps" : "wall") << "):\n"
-            << "  resampling: dirty bricks " << (haveTs ? km : kw) << " ms (" << std::setprecision(1) << 100 * median(brickFrac) << " % of the volume), moved box "
-            << std::setprecision(2) << (haveTs ? bm : bw) << " ms (" << std::setprecision(1) << 100 * median(boxFrac) << " %), whole volume "
-            << std::setprecision(2) << (haveTs ? wm : ww) << " ms: whole / dirty bricks " << (haveTs ? wm / km : ww / kw) << "x, whole / moved box "
-            << (haveTs ? wm / bm : ww / bw) << "x\n  during motion (lag <= " << tau << " voxel per axis) against the whole redo: RMS " << median(rmsHu)
-            << " HU, p99 " << median(p99Hu) << " HU (medians over frames), max " << worst.maxHu << " HU; within 3 x lag x the local voxel step on "
-            << std::setprecision(4) << 100 * worst.withinBound << " % of region voxels (worst frame; worst error / bound "
-            << std::setprecision(2) << worst.worstOverBound << ", / the range of its 26 neighbours " << worst.worstOverRange << ")\n"
-            << std::setprecision(2) << "  settled frame: " << settled.dirtyBricks << " bricks, " << (haveTs ? settleMs : settleWall)
-            << " ms; equals the whole redo: " << (identical ? "yes" : "NO") << "; the moved box equals a whole redo at its own threshold: "
-            << (boxIdentical ? "yes" : "NO") << "\n  frame wall time (interpolation + resampling, submitted and waited for): dirty bricks " << kw
-            << " ms, moved box " << bw << " ms, whole volume " << ww << " ms\n  interpolation of " << sc.meshes.fine.nodes.size() << " fine nodes: GPU "
-            << gpuInterp << " ms, CPU float reference " << cpuInterp << " ms, CoarseModel::reconstruct " << cpuReconstruct << " ms\n  resampling the region: GPU "
-            << gpuRegion << " ms (" << gpuRegionWall << " ms wall), CPU reference " << cpuRaster << " ms: " << cpuRaster / (haveTs ? gpuRegion : gpuRegionWall)
-            << "x; within 1 HU on " << std::setprecision(4) << 100.0 * rc.withinFraction << " % of voxels\n"
-            << std::setprecision(2) << "  whole deformation frame: coarse solve " << median(solveMs) << " ms (CPU, worker thread) + " << state.bytes() / 1024.0
-            << " KB upload + GPU " << kw << " ms\n";
-  writeDeformChart(out, haveTs);
-  std::cout << "wrote " << (out / "deform_frames.csv").string() << ", " << (out / "deform_summary.csv").string() << " and deform_frames.png\n";
-  return identical && boxIdentical ? 0 : 1;
+  writeDeformSummary(bench, run, r, o.out);
+  printDeformSummary(bench, run, r, o.frames);
+  writeDeformChart(o.out, haveTsOf(ctx));
+  std::cout << "wrote " << (o.out / "deform_frames.csv").string() << ", " << (o.out / "deform_summary.csv").string() << " and deform_frames.png\n";
+  return r.identical && r.boxIdentical ? 0 : 1;
 }
 
 }  // namespace handson::cli
