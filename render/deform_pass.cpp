@@ -2,6 +2,7 @@
 // in deform_interpolate_pass.cpp, deform_resample_pass.cpp and deform_strain_pass.cpp.
 #include "deform_pass.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -83,7 +84,8 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
                                       {gpu::kBindDeformBricksBox, kSsbo},
                                       {gpu::kBindDeformBricksFlags, kSsbo},
                                       {gpu::kBindDeformBricksList, kSsbo},
-                                      {gpu::kBindDeformBricksLag, kSsbo}}),
+                                      {gpu::kBindDeformBricksLag, kSsbo},
+                                      {gpu::kBindDeformBricksRigid, kSsbo}}),
                             8);
   args_ = ComputePipeline(
       ctx, shaders::deformArgs(),
@@ -163,6 +165,10 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   if (!(setup.commitVoxels >= 0.0) || !std::isfinite(setup.commitVoxels)) throw Error("deformation: the commit threshold must be a finite number >= 0");
   commit_ = float(setup.commitVoxels);
   rigidIds_ = setup.rigidIds;
+  rigidBoxes_ = setup.rigidRestBoxes;
+  if (rigidBoxes_.empty())  // the region's box: every brick a rigid handle could reach
+    rigidBoxes_.assign(rigidIds_.size(), {Eigen::Vector3i(p_.regionVoxLo.x, p_.regionVoxLo.y, p_.regionVoxLo.z),
+                                          Eigen::Vector3i(p_.regionVoxHi.x, p_.regionVoxHi.y, p_.regionVoxHi.z)});
   worldToIndex_ = setup.worldToIndex;
   const std::vector<std::uint32_t> noBricks(std::size_t(p_.bricks.w), 0u);
   brickFlags_ = uploaded(ctx, noBricks);
@@ -296,21 +302,45 @@ void GpuDeformer::setHandlePoses(const std::vector<Eigen::Matrix4f>& worldPoses)
   poses_ = worldPoses;
 }
 
-void GpuDeformer::writeRigidDraws(Slot& s) const {
+namespace {
+
+// A rigid handle's voxel box at rest (index space, widened by half a voxel) moved by two poses
+// (index space, rest -> current): the union of the moved boxes and the largest motion of a point
+// of the box along any axis (an affine displacement: largest at a corner).
+void movedBox(const std::array<Eigen::Vector3i, 2>& rest, const Eigen::Matrix4d& now, const Eigen::Matrix4d& before, gpu::RigidDraw& d) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e30), hi = -lo;
+  double motion = 0;
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector4d p((c & 1) ? rest[1].x() + 0.5 : rest[0].x() - 0.5, (c & 2) ? rest[1].y() + 0.5 : rest[0].y() - 0.5,
+                            (c & 4) ? rest[1].z() + 0.5 : rest[0].z() - 0.5, 1.0);
+    const Eigen::Vector3d a = (now * p).head<3>(), b = (before * p).head<3>();
+    lo = lo.cwiseMin(a).cwiseMin(b);
+    hi = hi.cwiseMax(a).cwiseMax(b);
+    motion = std::max(motion, (a - b).cwiseAbs().maxCoeff());
+  }
+  d.boxLo = glm::vec4(float(lo.x()), float(lo.y()), float(lo.z()), float(motion));
+  d.boxHi = glm::vec4(float(hi.x()), float(hi.y()), float(hi.z()), 0.0f);
+}
+
+// A world rigid pose as an index-space map (rest -> current) and its inverse.
+Eigen::Matrix4d indexPose(const Eigen::Matrix4f& T, const Eigen::Matrix4d& w2i) { return w2i * T.cast<double>() * w2i.inverse(); }
+
+}  // namespace
+
+void GpuDeformer::writeRigidDraws(Slot& s) {
   std::vector<gpu::RigidDraw> draws;
   if (poses_.size() == rigidIds_.size()) {
-    const Eigen::Matrix4d i2w = worldToIndex_.inverse();
+    if (lastPoses_.size() != poses_.size()) lastPoses_ = poses_;
     for (std::size_t h = 0; h < rigidIds_.size(); ++h) {
       if (rigidIds_[h] == 0) continue;
-      const Eigen::Matrix4d T = poses_[h].cast<double>();
-      Eigen::Matrix4d inv = Eigen::Matrix4d::Identity();  // world: current -> rest (a rigid pose)
-      inv.topLeftCorner<3, 3>() = T.topLeftCorner<3, 3>().transpose();
-      inv.topRightCorner<3, 1>() = -T.topLeftCorner<3, 3>().transpose() * T.topRightCorner<3, 1>();
+      const Eigen::Matrix4d now = indexPose(poses_[h], worldToIndex_), before = indexPose(lastPoses_[h], worldToIndex_);
       gpu::RigidDraw d{};
-      d.currentToRest = toGlm(worldToIndex_ * inv * i2w);
+      d.currentToRest = toGlm(now.inverse());
       d.id = glm::uvec4(rigidIds_[h], 0, 0, 0);
+      movedBox(rigidBoxes_[h], now, before, d);
       draws.push_back(d);
     }
+    lastPoses_ = poses_;
   }
   const VkDeviceSize bytes = 16 + std::max<std::size_t>(1, draws.size()) * sizeof(gpu::RigidDraw);
   if (!s.rigid || s.rigid->size() < bytes) s.rigid = std::make_unique<Buffer>(ctx_, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, Buffer::Memory::HostVisible);

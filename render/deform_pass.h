@@ -51,6 +51,9 @@ struct DeformSetup {
   /// mask when the resampling draws it where its pose puts it (a sliding handle), 0 when the fine
   /// tets draw it (a glued one); empty: none. Ids up to 255.
   std::vector<std::uint32_t> rigidIds;
+  /// Per handle (as rigidIds), the index box [lo, hi] of its voxels at rest: the bricks a rigid
+  /// handle's motion redoes (its rim may lie where no moved node is). Empty: the region's box.
+  std::vector<std::array<Eigen::Vector3i, 2>> rigidRestBoxes;
 };
 
 /// What a frame redoes.
@@ -180,8 +183,9 @@ class GpuDeformer {
   struct Slot {
     std::unique_ptr<Buffer> positions, rotations, handles, fine, rigid;
   };
-  /// Writes the slot's RigidDraws (the rigid handles at poses_, index space).
-  void writeRigidDraws(Slot& s) const;
+  /// Writes the slot's RigidDraws (the rigid handles at poses_, index space; their boxes' motion
+  /// since lastPoses_, which become poses_).
+  void writeRigidDraws(Slot& s);
   const Context& ctx_;
   const Image& source_;
   const Image& sourceMask_;
@@ -203,7 +207,9 @@ class GpuDeformer {
   std::uint32_t handles_ = 0;
   float commit_ = 1e-3f, motionLag_ = 0.5f;
   std::vector<std::uint32_t> rigidIds_;
-  std::vector<Eigen::Matrix4f> poses_;  ///< the handles' world poses the rigid handles are drawn at
+  std::vector<std::array<Eigen::Vector3i, 2>> rigidBoxes_;  ///< per handle: its voxels' index box at rest
+  std::vector<Eigen::Matrix4f> poses_;      ///< the handles' world poses the rigid handles are drawn at
+  std::vector<Eigen::Matrix4f> lastPoses_;  ///< those of the last frame written (the bricks' motion)
   Eigen::Matrix4d worldToIndex_ = Eigen::Matrix4d::Identity();
   struct Bound {
     fg::ResourceHandle params, nodeInfo, rest, blocks, elementCorners, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, affine, source, sourceMask,

@@ -60,6 +60,7 @@ void GpuDeformer::addRedoSelection(fg::FrameGraph& g, Redo redo) {
         "deform-bricks",
         [&](fg::PassBuilder& b) {
           b.read(hb.params, Access::StorageRead);
+          b.read(hb.rigid, Access::StorageRead);
           b.write(hb.brickFlags, Access::StorageReadWrite);
           b.write(hb.brickLag, Access::StorageReadWrite);
           b.write(hb.box, Access::StorageReadWrite);
@@ -74,6 +75,7 @@ void GpuDeformer::addRedoSelection(fg::FrameGraph& g, Redo redo) {
               .buffer(gpu::kBindDeformBricksFlags, kSsbo, x.buffer(hb.brickFlags).handle())
               .buffer(gpu::kBindDeformBricksList, kSsbo, x.buffer(hb.brickList).handle())
               .buffer(gpu::kBindDeformBricksLag, kSsbo, x.buffer(hb.brickLag).handle())
+              .buffer(gpu::kBindDeformBricksRigid, kSsbo, x.buffer(hb.rigid).handle())
               .push(ctx_, x.cmd(), bricks_);
           vkCmdPushConstants(x.cmd(), bricks_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
           vkCmdDispatch(x.cmd(), brickGroups, 1, 1);

@@ -89,6 +89,10 @@ ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc
     throw Error("deformation: " + std::to_string(setup.rigidIds.size()) + " rigid-draw ids for " + std::to_string(handles) + " handles");
   for (auto id : setup.rigidIds)
     if (id > 255) throw Error("deformation: a handle drawn rigidly has an id beyond the mask's 255");
+  if (!setup.rigidRestBoxes.empty() && setup.rigidRestBoxes.size() != setup.rigidIds.size())
+    throw Error("deformation: one rest box per handle drawn rigidly expected");
+  for (const auto& b : setup.rigidRestBoxes)
+    if ((b[0].array() > b[1].array()).any()) throw Error("deformation: a rigid handle's rest box is empty");
 
   const std::uint64_t maxGroups = ctx.properties().limits.maxComputeWorkGroupCount[0];
   if ((nodes + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups || (tetCount + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups)

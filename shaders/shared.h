@@ -213,6 +213,7 @@ HS_CONST kBindDeformBricksBox = 1;
 HS_CONST kBindDeformBricksFlags = 2;
 HS_CONST kBindDeformBricksList = 3;  // the dirty bricks' indices, box.bricks.y of them
 HS_CONST kBindDeformBricksLag = 4;   // float per brick: lag accumulated since it was last resampled
+HS_CONST kBindDeformBricksRigid = 5; // RigidDraws: the rigid handles' boxes and motions
 // deform_args.comp
 HS_CONST kBindDeformArgsParams = 0;
 HS_CONST kBindDeformArgsBox = 1;
@@ -282,9 +283,14 @@ struct DeformParams {
 // A handle drawn rigidly by the resampling (a sliding handle: its voxels are where its pose puts
 // them, not where the fine tets straddling its surface would): a voxel at index x whose rest voxel
 // currentToRest * x (rounded) has the handle's id takes the source there (sim/tet_raster.h, RigidDraw).
+// In brick mode the handle's voxels' index box at this frame's and the last frame's poses (their
+// union) marks the bricks it meets with the largest motion of a point of the box (boxLo.w), as a
+// moved tet does (deform_bricks.comp): the rim it draws may lie in bricks no moved node meets.
 struct RigidDraw {
   mat4 currentToRest;  // index space -> index space
   uvec4 id;            // x: the handle's id in the mask
+  vec4 boxLo;          // xyz: the union box, index space; w: its largest motion since the last frame (voxels, largest axis)
+  vec4 boxHi;          // xyz
 };
 
 // The box redone this frame (storage buffer, written by deform_bounds.comp, clamped by
@@ -300,7 +306,7 @@ struct DeformBox {
 #ifdef __cplusplus
 static_assert(sizeof(DeformParams) == 2 * 64 + 8 * 16, "DeformParams must match std140");
 static_assert(sizeof(DeformBox) == 64, "DeformBox must match std430");
-static_assert(sizeof(RigidDraw) == 80, "RigidDraw must match std430");
+static_assert(sizeof(RigidDraw) == 112, "RigidDraw must match std430");
 static_assert(sizeof(LiveMaskPush) == 32, "LiveMaskPush must match std430");
 static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
 static_assert(sizeof(MovingHandle) == 112, "MovingHandle must match std140");

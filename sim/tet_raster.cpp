@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
+#include <climits>
 #include <cmath>
 
 #include "sim/error.h"
@@ -63,6 +64,16 @@ std::vector<RigidDraw> rigidDraws(const VolumeGeometry& g, const std::vector<std
     out.push_back({std::uint8_t(ids[h]), w2i * inv * i2w});
   }
   return out;
+}
+
+std::array<Eigen::Vector3i, 2> voxelIndexBox(const VolumeGeometry& g, const std::vector<std::uint32_t>& voxels) {
+  std::array<Eigen::Vector3i, 2> b{Eigen::Vector3i::Constant(INT_MAX), Eigen::Vector3i::Constant(INT_MIN)};
+  for (std::uint32_t v : voxels) {
+    const Eigen::Vector3i p = g.voxelOf(v);
+    b[0] = b[0].cwiseMin(p);
+    b[1] = b[1].cwiseMax(p);
+  }
+  return b;
 }
 
 namespace {

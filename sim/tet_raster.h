@@ -13,6 +13,7 @@
 // voxels elsewhere is tissue that slid there: it takes the value of the voxel nearest to its rest
 // position outside those handles (within 2 voxels), mask 0.
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -46,6 +47,9 @@ struct RigidDraw {
 
 /// The draws of the handles whose mask ids are `ids[i]` (0: not drawn rigidly) at world poses T[i].
 std::vector<RigidDraw> rigidDraws(const VolumeGeometry& g, const std::vector<std::uint32_t>& ids, const std::vector<RigidTransform>& T);
+
+/// The index box [lo, hi] of voxels (linear indices on g); lo > hi when there are none.
+std::array<Eigen::Vector3i, 2> voxelIndexBox(const VolumeGeometry& g, const std::vector<std::uint32_t>& voxels);
 
 /// tetOf's value at a voxel a rigidly drawn handle took (no tet: no strain).
 constexpr std::int32_t kRigidVoxel = -2;

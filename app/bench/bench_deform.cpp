@@ -432,7 +432,10 @@ int cmdBenchDeform(const Words& words) {
   setup.worldToIndex = g.worldToIndex();
   setup.commitVoxels = args.number("--commit-voxels", 1e-3, 0.0, 10.0);
   setup.motionLagVoxels = args.number("--lag-voxels", 0.5, 0.0, 4.0);
-  if (!sc.constraints.slide.empty()) setup.rigidIds = {1};  // a sliding handle drawn where its pose puts it, as in the app
+  if (!sc.constraints.slide.empty()) {  // a sliding handle drawn where its pose puts it, as in the app
+    setup.rigidIds = {1};
+    setup.rigidRestBoxes = {voxelIndexBox(g, handle.voxels)};
+  }
   vk::DeformSetup exactSetup = setup;
   exactSetup.commitVoxels = 0.0;  // the whole redo takes every node that moved at all: the exact state
   vk::GpuDeformer bricks(ctx, volume, mask, setup, 1), box(ctx, volume, mask, setup, 1), whole(ctx, volume, mask, exactSetup, 1);

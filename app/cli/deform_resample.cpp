@@ -18,8 +18,10 @@ RigidHandles rigidHandlesOf(const Volume& image, const std::vector<SimHandle>& h
   for (const auto& n : sc.constraints.slide) r.ids[std::size_t(n.handle)] = std::uint32_t(n.handle + 1);
   if (std::all_of(r.ids.begin(), r.ids.end(), [](std::uint32_t id) { return id == 0; })) return {};
   r.mask.assign(image.voxelCount(), 0);
-  for (std::size_t h = 0; h < handles.size(); ++h)
+  for (std::size_t h = 0; h < handles.size(); ++h) {
     for (std::uint32_t v : handles[h].voxels) r.mask[v] = std::uint8_t(h + 1);
+    r.boxes.push_back(voxelIndexBox(image.geometry(), handles[h].voxels));
+  }
   return r;
 }
 
@@ -78,7 +80,10 @@ GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const Gpu
   setup.background = q.toNormalized(image.valueRange().first);  // as on the CPU path
   setup.worldToIndex = g.worldToIndex();
   setup.commitVoxels = 0.0;
-  if (rigid) setup.rigidIds = in.rigid->ids;
+  if (rigid) {
+    setup.rigidIds = in.rigid->ids;
+    setup.rigidRestBoxes = in.rigid->boxes;
+  }
   vk::GpuDeformer gpu(ctx, volume, mask, setup, 1);
   if (rigid) gpu.setHandlePoses(worldPoses(in.T));
   vk::DeformFrameStats st;

@@ -18,6 +18,7 @@ namespace handson::cli {
 struct RigidHandles {
   std::vector<std::uint8_t> mask;
   std::vector<std::uint32_t> ids;
+  std::vector<std::array<Eigen::Vector3i, 2>> boxes;  ///< each handle's voxels' index box
 };
 RigidHandles rigidHandlesOf(const Volume& image, const std::vector<SimHandle>& handles, const SimScene& scene);
 

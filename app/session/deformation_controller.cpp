@@ -112,6 +112,7 @@ void DeformationController::startBuild(const HandleSet& handles) {
   simIds_.clear();
   simActive_.clear();
   restBoxes_.clear();
+  restVoxelBoxes_.clear();
   restOutline_.clear();
   const VolumeGeometry& g = image_.geometry();
   for (int pass = 0; pass < 2; ++pass)  // active handles first, then fixed ones
@@ -130,6 +131,7 @@ void DeformationController::startBuild(const HandleSet& handles) {
         centres.push_back(w);
       }
       restBoxes_.push_back({lo, hi});
+      restVoxelBoxes_.push_back(voxelIndexBox(g, h.voxels));
       // Its outside, thinned to 4 mm: what must stay clear of a shaped region's held cells.
       HandlePoints outline = thinHandlePoints(centres, std::max(4.0, g.spacing.maxCoeff()));
       std::vector<Eigen::Vector3d> surface;
@@ -232,6 +234,7 @@ void DeformationController::adoptBuilt() {
   if (!m->scene.constraints.slide.empty()) {
     setup.rigidIds.assign(simIds_.size(), 0);
     for (const auto& n : m->scene.constraints.slide) setup.rigidIds[std::size_t(n.handle)] = std::uint32_t(simIds_[std::size_t(n.handle)]);
+    setup.rigidRestBoxes = restVoxelBoxes_;
   }
   try {
     renderer_.beginDeformation(setup);

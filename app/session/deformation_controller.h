@@ -6,6 +6,7 @@
 // handle poses in, newest coarse state out, a held pose settles) and every frame carries the newest
 // state to the renderer's deformation passes: the tissue around a moved handle deforms on screen.
 // The render loop never waits for the build or the solve.
+#include <array>
 #include <atomic>
 #include <memory>
 #include <mutex>
@@ -139,6 +140,7 @@ class DeformationController {
   std::vector<int> simIds_;  // handle ids in simulation order (active, then fixed)
   std::vector<bool> simActive_;
   std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> restBoxes_;  // world box of each simulated handle at rest
+  std::vector<std::array<Eigen::Vector3i, 2>> restVoxelBoxes_;         // index box of each simulated handle's voxels (rigid drawing)
   std::vector<std::vector<Eigen::Vector3d>> restOutline_;              // each simulated handle's outside at rest (4 mm points)
   std::thread builder_;
   std::shared_ptr<std::atomic<bool>> builderDone_;

@@ -3,6 +3,7 @@
 // with its right kidney as the handle (mask id kKidneyId) and a small coarse/fine scene around it,
 // built once; its images on the GPU; the deformer's set-up for it.
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "sim/phantom.h"
 #include "sim/quantized_volume.h"
 #include "sim/sim_scene.h"
+#include "sim/tet_raster.h"
 
 namespace handson::test {
 
@@ -56,6 +58,34 @@ inline const DeformFixture& deformFixture() {
     return x;
   }();
   return *f;
+}
+
+// The deform fixture's kidney with a sliding interface (its own scene and coarse model).
+struct SlidingScene {
+  SimScene scene;
+  std::unique_ptr<CoarseModel> model;
+  FineInterpolationData data;
+  std::array<Eigen::Vector3i, 2> kidneyBox;  ///< the kidney's voxels' index box (DeformSetup::rigidRestBoxes)
+};
+
+inline const SlidingScene& slidingScene() {
+  static const SlidingScene* s = [] {
+    const auto& f = deformFixture();
+    auto* x = new SlidingScene;
+    SimHandle h;
+    for (std::size_t i = 0; i < f.mask.size(); ++i)
+      if (f.mask[i] == kKidneyId) h.voxels.push_back(std::uint32_t(i));
+    SimSettings st;
+    st.coarseTets = 300;
+    st.fineTets = 300 * 64;
+    st.interface = SimSettings::Interface::Sliding;
+    x->scene = buildSimScene(f.phantom.ct, {h}, st);
+    x->model = std::make_unique<CoarseModel>(x->scene.meshes, x->scene.fineK, x->scene.constraints);
+    x->data = x->model->interpolationData();
+    x->kidneyBox = voxelIndexBox(f.phantom.ct.geometry(), h.voxels);
+    return x;
+  }();
+  return *s;
 }
 
 struct Images {

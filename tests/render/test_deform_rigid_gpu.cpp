@@ -23,32 +23,6 @@ using test::kKidneyId;
 
 namespace {
 
-// The deform fixture's kidney with a sliding interface (its own scene and coarse model).
-struct SlidingScene {
-  SimScene scene;
-  std::unique_ptr<CoarseModel> model;
-  FineInterpolationData data;
-};
-
-const SlidingScene& slidingScene() {
-  static const SlidingScene* s = [] {
-    const auto& f = test::deformFixture();
-    auto* x = new SlidingScene;
-    SimHandle h;
-    for (std::size_t i = 0; i < f.mask.size(); ++i)
-      if (f.mask[i] == kKidneyId) h.voxels.push_back(std::uint32_t(i));
-    SimSettings st;
-    st.coarseTets = 300;
-    st.fineTets = 300 * 64;
-    st.interface = SimSettings::Interface::Sliding;
-    x->scene = buildSimScene(f.phantom.ct, {h}, st);
-    x->model = std::make_unique<CoarseModel>(x->scene.meshes, x->scene.fineK, x->scene.constraints);
-    x->data = x->model->interpolationData();
-    return x;
-  }();
-  return *s;
-}
-
 std::vector<Eigen::Matrix4f> posesOf(const std::vector<RigidTransform>& T) {
   std::vector<Eigen::Matrix4f> out;
   for (const auto& t : T) {
@@ -83,7 +57,7 @@ class DeformRigidGpu : public test::GpuTest {};
 
 TEST_F(DeformRigidGpu, ASlidingHandleIsDrawnWhereItsPoseIsAsOnTheCpu) {
   const auto& f = test::deformFixture();
-  const SlidingScene& s = slidingScene();
+  const test::SlidingScene& s = test::slidingScene();
   ASSERT_FALSE(s.scene.constraints.slide.empty());
   const test::Images im = test::upload(f.q, f.mask);
   const std::vector<RigidTransform> T = {
@@ -95,7 +69,10 @@ TEST_F(DeformRigidGpu, ASlidingHandleIsDrawnWhereItsPoseIsAsOnTheCpu) {
   for (bool rigid : {false, true}) {
     SCOPED_TRACE(rigid ? "drawn rigidly" : "drawn by the tets");
     vk::DeformSetup setup = test::setupFor(f, s.data, s.scene.meshes.fine.tets, s.scene.lo, s.scene.hi);
-    if (rigid) setup.rigidIds = {kKidneyId};
+    if (rigid) {
+      setup.rigidIds = {kKidneyId};
+      setup.rigidRestBoxes = {s.kidneyBox};
+    }
     vk::GpuDeformer gpu(test::gpuContext(), im.volume, im.mask, setup);
     gpu.runFrame(state, vk::Redo::Region);
     // The CPU reference on the GPU's own fine positions.
@@ -129,7 +106,7 @@ TEST_F(DeformRigidGpu, ASlidingHandleIsDrawnWhereItsPoseIsAsOnTheCpu) {
 // handle took show no strain (its own, rigid), as the CPU's kRigidVoxel.
 TEST_F(DeformRigidGpu, FromPositionsTheRigidHandleTakesThePosesGivenAndShowsNoStrain) {
   const auto& f = test::deformFixture();
-  const SlidingScene& s = slidingScene();
+  const test::SlidingScene& s = test::slidingScene();
   const test::Images im = test::upload(f.q, f.mask);
   const std::vector<RigidTransform> T = {RigidTransform::about(s.scene.handleCentroid[0], Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0, 0, 8))};
   std::vector<Eigen::Vector3d> xc = s.model->restState();
@@ -137,6 +114,7 @@ TEST_F(DeformRigidGpu, FromPositionsTheRigidHandleTakesThePosesGivenAndShowsNoSt
   const std::vector<Eigen::Vector3d> x = s.model->reconstruct(T, xc);
   vk::DeformSetup setup = test::setupFor(f, s.data, s.scene.meshes.fine.tets, s.scene.lo, s.scene.hi);
   setup.rigidIds = {kKidneyId};
+  setup.rigidRestBoxes = {s.kidneyBox};
   const std::vector<float> limits = tetStrainLimits(s.scene.band, MaterialTable::ctDefault());
   setup.strainLimits = &limits;
   vk::GpuDeformer gpu(test::gpuContext(), im.volume, im.mask, setup);
@@ -156,4 +134,32 @@ TEST_F(DeformRigidGpu, FromPositionsTheRigidHandleTakesThePosesGivenAndShowsNoSt
       ASSERT_EQ(strain[i], 0.0f);
     }
   EXPECT_GT(kidney, 100u);
+}
+
+// The tissue at rest and the handle alone moved 3 voxels: no fine node moved, so no tet marks a
+// brick; the handle's own motion redoes the bricks its box meets, and the frame during motion draws
+// it as a whole redo does.
+TEST_F(DeformRigidGpu, ARigidHandlesOwnMotionRedoesTheBricksItMeets) {
+  const auto& f = test::deformFixture();
+  const test::SlidingScene& s = test::slidingScene();
+  const test::Images im = test::upload(f.q, f.mask);
+  vk::DeformSetup setup = test::setupFor(f, s.data, s.scene.meshes.fine.tets, s.scene.lo, s.scene.hi);
+  setup.rigidIds = {kKidneyId};
+  setup.rigidRestBoxes = {s.kidneyBox};
+  vk::DeformSetup exact = setup;
+  exact.commitVoxels = 0.0;
+  vk::GpuDeformer bricks(test::gpuContext(), im.volume, im.mask, setup), whole(test::gpuContext(), im.volume, im.mask, exact);
+  const Eigen::Matrix4d w2i = f.q.geometry.worldToIndex();
+  std::vector<Eigen::Vector4f> rest(s.scene.meshes.fine.nodes.size());
+  for (std::size_t i = 0; i < rest.size(); ++i) rest[i] = (w2i * s.scene.meshes.fine.nodes[i].homogeneous()).cast<float>();
+  bricks.setHandlePoses(posesOf({RigidTransform{}}));
+  bricks.runFrameFromPositions(rest, vk::Redo::Region);
+  RigidTransform moved;
+  moved.t = Eigen::Vector3d(0, 0, 12);  // 3 voxels of 4 mm
+  for (vk::GpuDeformer* d : {&bricks, &whole}) d->setHandlePoses(posesOf({moved}));
+  const auto st = bricks.runFrameFromPositions(rest, vk::Redo::BricksDuringMotion);
+  whole.runFrameFromPositions(rest, vk::Redo::Region);
+  EXPECT_GT(st.dirtyBricks, 0u);
+  EXPECT_EQ(bricks.readMask(), whole.readMask());
+  EXPECT_EQ(bricks.readVolume(), whole.readVolume());
 }
