@@ -221,24 +221,16 @@ Context::Context(const ContextOptions& options) {
   }
 }
 
-void Context::pickDevice(const ContextOptions& options) {
+// The devices this context can use: Vulkan 1.3, a queue family with compute (and graphics that
+// can present, with a window), push descriptors and the extensions asked for.
+std::vector<Context::DeviceCandidate> Context::usableDevices(const ContextOptions& options) const {
   std::uint32_t n = 0;
   check(vkEnumeratePhysicalDevices(instance_, &n, nullptr), "vkEnumeratePhysicalDevices");
   if (n == 0) throw Error("no Vulkan device found (on Debian: apt-get install mesa-vulkan-drivers for lavapipe)");
   std::vector<VkPhysicalDevice> devs(n);
   check(vkEnumeratePhysicalDevices(instance_, &n, devs.data()), "vkEnumeratePhysicalDevices");
 
-  std::string want = options.device;
-  if (want.empty())
-    if (const char* env = std::getenv("HANDSON_DEVICE")) want = env;
-
-  struct Candidate {
-    VkPhysicalDevice dev;
-    VkPhysicalDeviceProperties props;
-    std::uint32_t family;
-    int index;
-  };
-  std::vector<Candidate> usable;
+  std::vector<DeviceCandidate> usable;
   for (std::uint32_t i = 0; i < n; ++i) {
     VkPhysicalDeviceProperties p;
     vkGetPhysicalDeviceProperties(devs[i], &p);
@@ -269,9 +261,14 @@ void Context::pickDevice(const ContextOptions& options) {
     throw Error(surface_ ? "no Vulkan 1.3 device can present to this window with compute and VK_KHR_push_descriptor"
                          : "no Vulkan 1.3 device with compute and VK_KHR_push_descriptor was found");
 
-  const Candidate* chosen = nullptr;
+  return usable;
+}
+
+// The device asked for (`want`: "cpu", "gpu", an index or part of a name; empty: the best type).
+const Context::DeviceCandidate& Context::chooseDevice(const std::vector<DeviceCandidate>& usable, const std::string& want) {
+  const DeviceCandidate* chosen = nullptr;
   if (want.empty()) {
-    chosen = &*std::max_element(usable.begin(), usable.end(), [](const Candidate& a, const Candidate& b) {
+    chosen = &*std::max_element(usable.begin(), usable.end(), [](const DeviceCandidate& a, const DeviceCandidate& b) {
       return typeScore(a.props.deviceType) < typeScore(b.props.deviceType);
     });
   } else {
@@ -295,6 +292,15 @@ void Context::pickDevice(const ContextOptions& options) {
     }
   }
 
+  return *chosen;
+}
+
+void Context::pickDevice(const ContextOptions& options) {
+  std::string want = options.device;
+  if (want.empty())
+    if (const char* env = std::getenv("HANDSON_DEVICE")) want = env;
+  const std::vector<DeviceCandidate> usable = usableDevices(options);
+  const DeviceCandidate* chosen = &chooseDevice(usable, want);
   physical_ = chosen->dev;
   props_ = chosen->props;
   queueFamily_ = chosen->family;
@@ -310,6 +316,11 @@ void Context::pickDevice(const ContextOptions& options) {
   if (options.verbose)
     std::cerr << "Vulkan device: " << props_.deviceName << " (" << deviceTypeName(props_.deviceType) << ")\n";
 
+  createDevice(options);
+}
+
+// The logical device on physical_ with its queue, features, extensions and command pool.
+void Context::createDevice(const ContextOptions& options) {
   const float priority = 1.0f;
   VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
   qci.queueFamilyIndex = queueFamily_;

@@ -107,7 +107,16 @@ class Context {
   static VKAPI_ATTR VkBool32 VKAPI_CALL debugCallback(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
                                                       VkDebugUtilsMessageTypeFlagsEXT types,
                                                       const VkDebugUtilsMessengerCallbackDataEXT* data, void* user);
+  struct DeviceCandidate {
+    VkPhysicalDevice dev;
+    VkPhysicalDeviceProperties props;
+    std::uint32_t family;
+    int index;
+  };
   void pickDevice(const ContextOptions& options);
+  std::vector<DeviceCandidate> usableDevices(const ContextOptions& options) const;
+  static const DeviceCandidate& chooseDevice(const std::vector<DeviceCandidate>& usable, const std::string& want);
+  void createDevice(const ContextOptions& options);
   void parseFaults(const std::string& spec);
   void release();
 
