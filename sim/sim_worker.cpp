@@ -104,136 +104,172 @@ bool finite(const std::vector<RigidTransform>& T) {
 }
 }  // namespace
 
+// The worker's coarse state across inputs: the last state (the warm start), the last state a solve
+// accepted, and the poses it answered.
+struct SimWorker::RunState {
+  std::vector<Eigen::Vector3d> x, lastGood;
+  std::vector<RigidTransform> solved;
+};
+
+// One input being answered: its poses, its number and when its answer began.
+struct SimWorker::Input {
+  std::vector<RigidTransform> handles;
+  std::uint64_t number = 0;
+  std::chrono::steady_clock::time_point t0;
+};
+
+SimSnapshot SimWorker::snapshot(const Input& in, const std::vector<Eigen::Vector3d>& x, const CoarseSolveStats& st) const {
+  SimSnapshot s;
+  s.input = in.number;
+  s.stats = st;
+  s.coarse = x;
+  s.handles = in.handles;
+  if (options_.reconstructFine) s.fine = model_.reconstruct(in.handles, x);
+  if (options_.elementRotations) s.rotations = model_.elementRotations(x);
+  s.reactions = model_.handleReactions(in.handles, x);
+  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - in.t0).count();
+  return s;
+}
+
+// An input answered with an error: the last good state stands (settled: answered).
+SimSnapshot SimWorker::failed(const Input& in, RunState& r, const std::string& what) {
+  r.x = r.lastGood;
+  SimSnapshot s;
+  s.input = in.number;
+  s.error = what;
+  s.coarse = r.x;
+  s.settled = true;
+  return s;
+}
+
+bool SimWorker::newer() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stop_ || pending_.has_value();
+}
+
+std::optional<SimWorker::Input> SimWorker::nextInput() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  wake_.wait(lock, [&] { return stop_ || pending_.has_value(); });
+  if (stop_) return std::nullopt;
+  Input in;
+  in.handles = std::move(*pending_);
+  pending_.reset();
+  in.number = submitted_;
+  in.t0 = std::chrono::steady_clock::now();
+  return in;
+}
+
+// The coarse solve of an input, through the continuation's increments from the last poses solved;
+// published. Nullopt when stopping or when the input was refused (the error is published).
+std::optional<CoarseSolveStats> SimWorker::solveInput(const Input& in, RunState& r, std::vector<Eigen::Vector3d>& fine) {
+  CoarseSolveStats st;
+  SimSnapshot s;
+  try {
+    if (!finite(in.handles)) throw Error("simulation: a handle transform is not finite");
+    double solveMs = 0.0, boundaryMs = 0.0;  // over all increments
+    for (const auto& Tk : increments(r.solved, in.handles, options_.continuationMm, options_.continuationDeg)) {
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (stop_) return std::nullopt;  // shutting down: do not finish a long continuation
+      }
+      st = model_.solve(Tk, r.x, options_.coarseIterations);
+      solveMs += st.solveMs;
+      boundaryMs += st.boundaryMs;
+    }
+    st.solveMs = solveMs;
+    st.boundaryMs = boundaryMs;
+    s = snapshot(in, r.x, st);
+    s.settled = (st.converged || options_.idleIterations <= 0) && options_.refineSteps <= 0;
+    r.lastGood = r.x;
+    r.solved = in.handles;
+  } catch (const std::exception& e) {
+    publish(failed(in, r, e.what()));
+    return std::nullopt;
+  }
+  fine = s.fine;
+  publish(std::move(s));
+  return st;
+}
+
+// A held pose settles: more coarse iterations while nothing newer arrives, each published. False
+// when a solve failed (its error published).
+bool SimWorker::settle(const Input& in, RunState& r, CoarseSolveStats st, std::vector<Eigen::Vector3d>& fine) {
+  for (int done = 0; !st.converged && done < options_.idleIterations && !newer(); done += options_.coarseIterations) {
+    try {
+      st = model_.solve(in.handles, r.x, options_.coarseIterations);
+      r.lastGood = r.x;
+      SimSnapshot more = snapshot(in, r.x, st);
+      more.settled = (st.converged || done + options_.coarseIterations >= options_.idleIterations) && options_.refineSteps <= 0;
+      fine = more.fine;
+      publish(std::move(more));
+    } catch (const std::exception& e) {
+      publish(failed(in, r, e.what()));  // the last good state stays; this input is answered with the error
+      return false;
+    }
+  }
+  return true;
+}
+
+// The two-level refinement of a held pose from the coarse answer, each step published (the last
+// with its tissue-limit report after it) until a newer input arrives.
+void SimWorker::refine(const Input& in, const RunState& r, std::vector<Eigen::Vector3d> fine) {
+  if (fine.empty()) {
+    if (newer()) return;
+    fine = model_.reconstruct(in.handles, r.x);  // the refinement starts from the coarse answer
+  }
+  for (int step = 1; step <= options_.refineSteps; ++step) {
+    if (newer()) break;  // a newer input wins
+    SimSnapshot s;
+    s.input = in.number;
+    try {
+      const auto s0 = std::chrono::steady_clock::now();
+      refiner_.step(in.handles, r.x, fine, options_.refineIterations);
+      s.refineMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - s0).count();
+      s.refineStep = step;
+      s.coarse = r.x;
+      s.fine = fine;
+      s.handles = in.handles;
+      s.settled = step == options_.refineSteps;
+      if (options_.elementRotations) s.rotations = model_.elementRotations(r.x);
+      s.reactions = fineHandleReactions(model_.meshes().fine, fineK_, model_.constraints(), in.handles, fine);
+    } catch (const std::exception& e) {
+      SimSnapshot err;
+      err.input = in.number;
+      err.error = e.what();
+      err.coarse = r.x;
+      err.settled = true;
+      publish(std::move(err));
+      break;
+    }
+    s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - in.t0).count();
+    const bool report = s.settled && options_.tissueLimits && scene_;
+    std::optional<SimSnapshot> again;
+    if (report) again = s;  // the state is published at once; its report follows (publishWithLimits)
+    publish(std::move(s));
+    if (report && !newer()) publishWithLimits(std::move(*again), in.t0);
+  }
+}
+
 void SimWorker::run() {
   try {
     model_.prepareSolve();  // the solver's one-off set-up before the first pose, not inside its frame
   } catch (const std::exception&) {
     // Reported by the first solve, which tries again.
   }
-  std::vector<Eigen::Vector3d> x = model_.restState();  // warm start: the last coarse state
-  std::vector<Eigen::Vector3d> lastGood = x;
-  std::vector<RigidTransform> solved(std::size_t(model_.constraints().handleCount));  // at rest
-  auto snapshot = [&](std::uint64_t input, const std::vector<RigidTransform>& handles, const CoarseSolveStats& st, std::chrono::steady_clock::time_point t0) {
-    SimSnapshot s;
-    s.input = input;
-    s.stats = st;
-    s.coarse = x;
-    s.handles = handles;
-    if (options_.reconstructFine) s.fine = model_.reconstruct(handles, x);
-    if (options_.elementRotations) s.rotations = model_.elementRotations(x);
-    s.reactions = model_.handleReactions(handles, x);
-    s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return s;
-  };
-  auto newer = [&] {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return stop_ || pending_.has_value();
-  };
-  for (;;) {
-    std::vector<RigidTransform> handles;
-    std::uint64_t input = 0;
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [&] { return stop_ || pending_.has_value(); });
+  RunState r;
+  r.x = model_.restState();  // warm start: the last coarse state
+  r.lastGood = r.x;
+  r.solved.assign(std::size_t(model_.constraints().handleCount), RigidTransform{});  // at rest
+  while (const std::optional<Input> in = nextInput()) {
+    std::vector<Eigen::Vector3d> fine;
+    const std::optional<CoarseSolveStats> st = solveInput(*in, r, fine);
+    if (!st) {
+      std::lock_guard<std::mutex> lock(mutex_);
       if (stop_) return;
-      handles = std::move(*pending_);
-      pending_.reset();
-      input = submitted_;
+      continue;
     }
-    const auto t0 = std::chrono::steady_clock::now();
-    SimSnapshot s;
-    CoarseSolveStats st;
-    try {
-      if (!finite(handles)) throw Error("simulation: a handle transform is not finite");
-      double solveMs = 0.0, boundaryMs = 0.0;  // over all increments
-      for (const auto& Tk : increments(solved, handles, options_.continuationMm, options_.continuationDeg)) {
-        {
-          std::lock_guard<std::mutex> lock(mutex_);
-          if (stop_) return;  // shutting down: do not finish a long continuation
-        }
-        st = model_.solve(Tk, x, options_.coarseIterations);
-        solveMs += st.solveMs;
-        boundaryMs += st.boundaryMs;
-      }
-      st.solveMs = solveMs;
-      st.boundaryMs = boundaryMs;
-      s = snapshot(input, handles, st, t0);
-      s.settled = (st.converged || options_.idleIterations <= 0) && options_.refineSteps <= 0;
-      lastGood = x;
-      solved = handles;
-    } catch (const std::exception& e) {
-      x = lastGood;
-      s = SimSnapshot{};
-      s.input = input;
-      s.error = e.what();
-      s.coarse = x;
-      s.settled = true;  // answered: with an error
-      st = CoarseSolveStats{};
-    }
-    const bool ok = s.error.empty();
-    std::vector<Eigen::Vector3d> fine = s.fine;
-    publish(std::move(s));
-    if (!ok) continue;
-    // A held pose settles: more coarse iterations while nothing newer arrives.
-    bool failed = false;
-    for (int done = 0; !st.converged && done < options_.idleIterations && !newer(); done += options_.coarseIterations) {
-      try {
-        st = model_.solve(handles, x, options_.coarseIterations);
-        lastGood = x;
-        SimSnapshot more = snapshot(input, handles, st, t0);
-        more.settled = (st.converged || done + options_.coarseIterations >= options_.idleIterations) && options_.refineSteps <= 0;
-        fine = more.fine;
-        publish(std::move(more));
-      } catch (const std::exception& e) {
-        // The last good state stays; this input is answered (settled) with the error.
-        x = lastGood;
-        SimSnapshot err;
-        err.input = input;
-        err.error = e.what();
-        err.coarse = x;
-        err.settled = true;
-        publish(std::move(err));
-        failed = true;
-        break;
-      }
-    }
-    if (failed) continue;
-    if (options_.refineSteps <= 0) continue;
-    if (fine.empty()) {
-      if (newer()) continue;
-      fine = model_.reconstruct(handles, x);  // the refinement starts from the coarse answer
-    }
-    for (int step = 1; step <= options_.refineSteps; ++step) {
-      if (newer()) break;  // a newer input wins
-      SimSnapshot r;
-      r.input = input;
-      try {
-        const auto s0 = std::chrono::steady_clock::now();
-        refiner_.step(handles, x, fine, options_.refineIterations);
-        r.refineMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - s0).count();
-        r.refineStep = step;
-        r.coarse = x;
-        r.fine = fine;
-        r.handles = handles;
-        r.settled = step == options_.refineSteps;
-        if (options_.elementRotations) r.rotations = model_.elementRotations(x);
-        r.reactions = fineHandleReactions(model_.meshes().fine, fineK_, model_.constraints(), handles, fine);
-      } catch (const std::exception& e) {
-        r = SimSnapshot{};
-        r.input = input;
-        r.error = e.what();
-        r.coarse = x;
-        r.settled = true;
-        publish(std::move(r));
-        break;
-      }
-      r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      const bool report = r.settled && options_.tissueLimits && scene_;
-      std::optional<SimSnapshot> again;
-      if (report) again = r;  // the state is published at once; its report follows (publishWithLimits)
-      publish(std::move(r));
-      if (report && !newer()) publishWithLimits(std::move(*again), t0);
-    }
+    if (!settle(*in, r, *st, fine)) continue;
+    if (options_.refineSteps > 0) refine(*in, r, std::move(fine));
   }
 }
 

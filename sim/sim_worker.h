@@ -89,7 +89,16 @@ class SimWorker {
   std::optional<SimSnapshot> waitFor(std::uint64_t input, int refineStep = 0, double timeoutSeconds = 60.0);
 
  private:
+  struct RunState;
+  struct Input;
   void run();
+  std::optional<Input> nextInput();
+  bool newer();
+  std::optional<CoarseSolveStats> solveInput(const Input& in, RunState& r, std::vector<Eigen::Vector3d>& fine);
+  bool settle(const Input& in, RunState& r, CoarseSolveStats st, std::vector<Eigen::Vector3d>& fine);
+  void refine(const Input& in, const RunState& r, std::vector<Eigen::Vector3d> fine);
+  SimSnapshot snapshot(const Input& in, const std::vector<Eigen::Vector3d>& x, const CoarseSolveStats& st) const;
+  static SimSnapshot failed(const Input& in, RunState& r, const std::string& what);
   void publish(SimSnapshot s);
   /// The last refinement step's state again, with its tissue report (on a failure to compute it,
   /// nothing: the state stands as published).
