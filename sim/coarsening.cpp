@@ -116,148 +116,187 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
   reportProgress(progress, 1.0, "coarsening");
 }
 
+// What the elements' condensation shares: the fine stiffness, each element's fine tets, the sliding
+// interfaces' shares, and scratch (fine -> local node, per local node whether it touches tissue,
+// per fine node whether its reconstruction record is written).
+struct CoarseModel::ConformingBuild {
+  const std::vector<Mat12>& fineK;
+  const std::vector<std::vector<int>>& tetsOf;
+  SlideShares slide;
+  std::unordered_map<int, int> local;
+  std::vector<char> touches, recorded;
+};
+
+// One element's fine problem: its fine nodes (local order, corners first), their roles, the
+// stiffness K (3n' x 3n', n' = n + the sliding ghosts) and the shape functions Phi_c (3n' x 3nc)
+// and Phi_D (3n' x 3nD); after condenseInterior, H (3nI x 3nc) and G (3nI x 3nD) are the interior
+// nodes' rows of them.
+struct CoarseModel::ElementSystem {
+  std::vector<int> nodes;
+  ElementNodes roles;
+  Mat K, Phic, PhiD, H, G;
+};
+
 void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::vector<std::vector<int>>& tetsOf, const ProgressFn& progress) {
-  const TetMesh& C = meshes_.coarse;
-  const TetMesh& F = meshes_.fine;
-  const int nc = nc_;
   const std::size_t elementCount = tetsOf.size();
+  ConformingBuild b{fineK, tetsOf, slideShares(tetsOf, fineK), {}, {}, {}};
   // A fine node takes its position from one record; coarse nodes are their own (graded: a hanging
   // node also lies on a whole cell's face, and is condensed there as a face node, not recorded).
-  std::vector<char> boundaryDone(F.nodes.size(), 0);
-  for (const int f : nodeFine_) boundaryDone[std::size_t(f)] = 1;
-  const SlideShares slide = slideShares(tetsOf, fineK);
-  std::vector<char> touches;
+  b.recorded.assign(meshes_.fine.nodes.size(), 0);
+  for (const int f : nodeFine_) b.recorded[std::size_t(f)] = 1;
   elements_.resize(elementCount);
-  std::unordered_map<int, int> local;
   for (std::size_t e = 0; e < elementCount; ++e) {
     if (e % 256 == 0) reportProgress(progress, double(e) / double(elementCount), "coarsening");
     Element& el = elements_[e];
     if (kind_ == CoarseElement::Tet)
-      for (int c = 0; c < 4; ++c) el.node[std::size_t(c)] = C.tets[e][std::size_t(c)];
+      for (int c = 0; c < 4; ++c) el.node[std::size_t(c)] = meshes_.coarse.tets[e][std::size_t(c)];
     else if (graded_)
       el.node = leaves_[e].node;
     else
       el.node = meshes_.coarseGrid.cellNodes(int(e));
-    std::array<Eigen::Vector3d, 4> Xt;
-    if (kind_ == CoarseElement::Tet) Xt = cornersOf(C, int(e), C.nodes);
-    // Local nodes: the corners first.
-    local.clear();
-    std::vector<int> nodes;
-    for (int c = 0; c < nc; ++c) {
-      const int f = nodeFine_[std::size_t(el.node[std::size_t(c)])];
-      local.emplace(f, int(nodes.size()));
-      nodes.push_back(f);
-    }
-    for (int t : tetsOf[e])
-      for (int v : F.tets[std::size_t(t)])
-        if (local.emplace(v, int(nodes.size())).second) nodes.push_back(v);
-    const int n = int(nodes.size());
+    const std::vector<int> nodes = localNodes(int(e), el, b);
     if (std::all_of(nodes.begin(), nodes.end(), [&](int f) { return constraints_.fixed[std::size_t(f)] != 0; })) {
       // Held whole (outside a shaped region): no energy, its fine nodes at rest.
-      el.Kh = Mat::Zero(3 * nc, 3 * nc);
+      el.Kh = Mat::Zero(3 * nc_, 3 * nc_);
       finishElement(el);
       continue;
     }
-    // Sliding interfaces: the slide nodes touching tissue here; those on the element's faces are
-    // held to the surface exactly (roles.S), the others by their springs, each through a Dirichlet
-    // ghost node of the handle after the fine nodes.
-    const std::vector<int> candidates = slide.of(nodes, tetsOf[e], F, local, touches);
-    ElementNodes roles = classifyNodes(int(e), el, nodes, Xt, slide, touches);
-    std::vector<int> springs;
-    for (int s : candidates)
-      if (std::find(roles.S.begin(), roles.S.end(), local[constraints_.slide[std::size_t(s)].node]) == roles.S.end()) springs.push_back(s);
-    const int ng = n + int(springs.size() + roles.S.size());
-    Mat K = Mat::Zero(3 * ng, 3 * ng);
-    for (int t : tetsOf[e])
-      for (int a = 0; a < 4; ++a)
-        for (int b = 0; b < 4; ++b) {
-          const int la = local[F.tets[std::size_t(t)][std::size_t(a)]], lb = local[F.tets[std::size_t(t)][std::size_t(b)]];
-          K.block<3, 3>(3 * la, 3 * lb) += fineK[std::size_t(t)].block<3, 3>(3 * a, 3 * b);
-        }
-    for (std::size_t g = 0; g < springs.size(); ++g) addGhost(K, local[constraints_.slide[std::size_t(springs[g])].node], n + int(g), slide, springs[g], roles);
-    const std::size_t firstSurfaceGhost = roles.D.size();
-    for (std::size_t j = 0; j < roles.S.size(); ++j) {
-      const SlideNode& sn = constraints_.slide[std::size_t(slide.slideOf[std::size_t(nodes[std::size_t(roles.S[j])])])];
-      roles.addDirichlet(n + int(springs.size() + j), sn.handle, F.nodes[std::size_t(sn.node)]);
-    }
-    const std::vector<int>&Dn = roles.D, &Bn = roles.B, &In = roles.I;
-    const auto& Bw = roles.Bw;
-    const int nI = int(In.size()), nB = int(Bn.size()), nD = int(Dn.size());
-    auto rows = [&](const std::vector<int>& set, const Mat& M, int cols) {
-      Mat out(3 * Eigen::Index(set.size()), cols);
-      for (std::size_t i = 0; i < set.size(); ++i) out.middleRows(3 * Eigen::Index(i), 3) = M.middleRows(3 * set[i], 3);
-      return out;
-    };
-    // Phi_c (3n' x 3nc) and Phi_D (3n' x 3 nD), n' = n + the ghosts.
-    Mat Phic = Mat::Zero(3 * ng, 3 * nc), PhiD = Mat::Zero(3 * ng, 3 * nD);
-    for (int c = 0; c < nc; ++c) Phic.block<3, 3>(3 * c, 3 * c).setIdentity();
-    for (int i = 0; i < nB; ++i)
-      for (int c = 0; c < nc; ++c) Phic.block<3, 3>(3 * Bn[std::size_t(i)], 3 * c) = Bw[std::size_t(i)][c] * Eigen::Matrix3d::Identity();
-    for (int i = 0; i < nD; ++i) PhiD.block<3, 3>(3 * Dn[std::size_t(i)], 3 * i).setIdentity();
-    holdSurfaceSlides(roles, nodes, slide, firstSurfaceGhost, Phic, PhiD);
-    Mat H, G;
-    if (nI > 0) {
-      // K_I* Phi restricted: -K_II^{-1} (K_I,(c,b) Phi_c) and -K_II^{-1} K_ID.
-      Mat KI = rows(In, K, 3 * ng);  // 3nI x 3n'
-      Mat KII(3 * nI, 3 * nI);
-      for (int j = 0; j < nI; ++j) KII.middleCols(3 * j, 3) = KI.middleCols(3 * In[std::size_t(j)], 3);
-      const Eigen::LDLT<Mat> ldlt(KII);
-      if (ldlt.info() != Eigen::Success) throw Error("coarsening: singular interior stiffness in coarse element " + std::to_string(e));
-      // (No Dirichlet nodes: PhiD has no columns, and Eigen would offset a null pointer solving
-      // for an empty right-hand side.)
-      H = -ldlt.solve(KI * Phic);
-      G = nD > 0 ? Mat(-ldlt.solve(KI * PhiD)) : Mat(3 * nI, 0);
-      for (int i = 0; i < nI; ++i) {
-        Phic.middleRows(3 * In[std::size_t(i)], 3) = H.middleRows(3 * i, 3);
-        if (nD > 0) PhiD.middleRows(3 * In[std::size_t(i)], 3) = G.middleRows(3 * i, 3);
-      }
-    }
-    const Mat KPhic = K * Phic;
-    el.Kh = Phic.transpose() * KPhic;
+    ElementSystem sys = elementSystem(int(e), el, nodes, b);
+    condenseInterior(int(e), sys);
+    const Mat KPhic = sys.K * sys.Phic;
+    el.Kh = sys.Phic.transpose() * KPhic;
     finishElement(el);
-    // Handle blocks, per handle among the D nodes.
-    if (nD > 0) {
-      const Mat Khd = KPhic.transpose() * PhiD;  // 3nc x 3nD
-      for (int i = 0; i < nD; ++i) addHandleBlock(el, roles.Dhandle[std::size_t(i)], roles.DX[std::size_t(i)], Khd.middleCols(3 * i, 3));
-      // The handles' own condensed stiffness for their reactions: Q = (Phi_D U)^T K (Phi_D U),
-      // U (3nD x 12h) each D node's 12 unit motions in its handle's columns (el.handles order).
-      const int h = int(el.handles.size());
-      Mat U = Mat::Zero(3 * nD, 12 * h);
-      for (int i = 0; i < nD; ++i) {
-        const int hd = roles.Dhandle[std::size_t(i)];
-        const auto it = std::find_if(el.handles.begin(), el.handles.end(), [&](const HandleBlock& b) { return b.handle == hd; });
-        U.block<3, 12>(3 * i, 12 * int(it - el.handles.begin())) = unitMotions(roles.DX[std::size_t(i)]);
+    addHandleCoupling(el, sys, KPhic);
+    recordReconstruction(int(e), sys, b);
+  }
+}
+
+// Element e's fine nodes, corners first, and b.local mapping them to their local indices.
+std::vector<int> CoarseModel::localNodes(int e, const Element& el, ConformingBuild& b) const {
+  b.local.clear();
+  std::vector<int> nodes;
+  for (int c = 0; c < nc_; ++c) {
+    const int f = nodeFine_[std::size_t(el.node[std::size_t(c)])];
+    b.local.emplace(f, int(nodes.size()));
+    nodes.push_back(f);
+  }
+  for (int t : b.tetsOf[std::size_t(e)])
+    for (int v : meshes_.fine.tets[std::size_t(t)])
+      if (b.local.emplace(v, int(nodes.size())).second) nodes.push_back(v);
+  return nodes;
+}
+
+// The element's roles, stiffness and shape functions before condensation. Sliding interfaces: the
+// slide nodes touching tissue here; those on the element's faces are held to the surface exactly
+// (roles.S), the others by their springs, each through a Dirichlet ghost node of the handle after
+// the fine nodes.
+CoarseModel::ElementSystem CoarseModel::elementSystem(int e, const Element& el, const std::vector<int>& nodes, ConformingBuild& b) const {
+  const TetMesh& F = meshes_.fine;
+  const int nc = nc_, n = int(nodes.size());
+  std::array<Eigen::Vector3d, 4> Xt;
+  if (kind_ == CoarseElement::Tet) Xt = cornersOf(meshes_.coarse, e, meshes_.coarse.nodes);
+  ElementSystem sys;
+  sys.nodes = nodes;
+  const std::vector<int>& tets = b.tetsOf[std::size_t(e)];
+  const std::vector<int> candidates = b.slide.of(nodes, tets, F, b.local, b.touches);
+  sys.roles = classifyNodes(e, el, nodes, Xt, b.slide, b.touches);
+  ElementNodes& roles = sys.roles;
+  std::vector<int> springs;
+  for (int s : candidates)
+    if (std::find(roles.S.begin(), roles.S.end(), b.local[constraints_.slide[std::size_t(s)].node]) == roles.S.end()) springs.push_back(s);
+  const int ng = n + int(springs.size() + roles.S.size());
+  sys.K = Mat::Zero(3 * ng, 3 * ng);
+  for (int t : tets)
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) {
+        const int li = b.local[F.tets[std::size_t(t)][std::size_t(i)]], lj = b.local[F.tets[std::size_t(t)][std::size_t(j)]];
+        sys.K.block<3, 3>(3 * li, 3 * lj) += b.fineK[std::size_t(t)].block<3, 3>(3 * i, 3 * j);
       }
-      const Mat PU = PhiD * U;
-      el.Q = PU.transpose() * (K * PU);
-      el.Q = 0.5 * (el.Q + el.Q.transpose()).eval();
-    }
-    // Reconstruction data: slide nodes on faces (the first element's record) like interior nodes.
-    for (std::size_t j = 0; j < roles.S.size(); ++j) {
-      const int l = roles.S[j], f = nodes[std::size_t(l)];
-      if (boundaryDone[std::size_t(f)]) continue;
-      boundaryDone[std::size_t(f)] = 1;
-      InteriorNode in;
-      in.fine = f;
-      in.element = int(e);
-      in.H = Phic.middleRows(3 * l, 3);
-      for (int d = 0; d < nD; ++d) addInteriorHandleBlock(in, roles.Dhandle[std::size_t(d)], roles.DX[std::size_t(d)], PhiD.block<3, 3>(3 * l, 3 * d));
-      interior_.push_back(std::move(in));
-    }
-    for (int i = 0; i < nI; ++i) {
-      InteriorNode in;
-      in.fine = nodes[std::size_t(In[std::size_t(i)])];
-      in.element = int(e);
-      in.H = H.middleRows(3 * i, 3);
-      for (int d = 0; d < nD; ++d) addInteriorHandleBlock(in, roles.Dhandle[std::size_t(d)], roles.DX[std::size_t(d)], G.block<3, 3>(3 * i, 3 * d));
-      interior_.push_back(std::move(in));
-    }
-    for (int i = 0; i < nB; ++i) {
-      const int f = nodes[std::size_t(Bn[std::size_t(i)])];
-      if (boundaryDone[std::size_t(f)]) continue;
-      boundaryDone[std::size_t(f)] = 1;
-      boundary_.push_back({f, int(e), Bw[std::size_t(i)]});
-    }
+  for (std::size_t g = 0; g < springs.size(); ++g) addGhost(sys.K, b.local[constraints_.slide[std::size_t(springs[g])].node], n + int(g), b.slide, springs[g], roles);
+  const std::size_t firstSurfaceGhost = roles.D.size();
+  for (std::size_t j = 0; j < roles.S.size(); ++j) {
+    const SlideNode& sn = constraints_.slide[std::size_t(b.slide.slideOf[std::size_t(nodes[std::size_t(roles.S[j])])])];
+    roles.addDirichlet(n + int(springs.size() + j), sn.handle, F.nodes[std::size_t(sn.node)]);
+  }
+  const int nB = int(roles.B.size()), nD = int(roles.D.size());
+  sys.Phic = Mat::Zero(3 * ng, 3 * nc);
+  sys.PhiD = Mat::Zero(3 * ng, 3 * nD);
+  for (int c = 0; c < nc; ++c) sys.Phic.block<3, 3>(3 * c, 3 * c).setIdentity();
+  for (int i = 0; i < nB; ++i)
+    for (int c = 0; c < nc; ++c) sys.Phic.block<3, 3>(3 * roles.B[std::size_t(i)], 3 * c) = roles.Bw[std::size_t(i)][c] * Eigen::Matrix3d::Identity();
+  for (int i = 0; i < nD; ++i) sys.PhiD.block<3, 3>(3 * roles.D[std::size_t(i)], 3 * i).setIdentity();
+  holdSurfaceSlides(roles, nodes, b.slide, firstSurfaceGhost, sys.Phic, sys.PhiD);
+  return sys;
+}
+
+// The interior nodes condensed: their rows of Phi_c and Phi_D become H = -K_II^{-1} K_I* Phi_c and
+// G = -K_II^{-1} K_I* Phi_D (K_I*: the interior rows of K, 3nI x 3n').
+void CoarseModel::condenseInterior(int e, ElementSystem& sys) const {
+  const std::vector<int>& In = sys.roles.I;
+  const int nI = int(In.size()), nD = int(sys.roles.D.size());
+  if (nI == 0) return;
+  Mat KI(3 * nI, sys.K.cols());
+  for (int i = 0; i < nI; ++i) KI.middleRows(3 * Eigen::Index(i), 3) = sys.K.middleRows(3 * In[std::size_t(i)], 3);
+  Mat KII(3 * nI, 3 * nI);
+  for (int j = 0; j < nI; ++j) KII.middleCols(3 * j, 3) = KI.middleCols(3 * In[std::size_t(j)], 3);
+  const Eigen::LDLT<Mat> ldlt(KII);
+  if (ldlt.info() != Eigen::Success) throw Error("coarsening: singular interior stiffness in coarse element " + std::to_string(e));
+  // (No Dirichlet nodes: PhiD has no columns, and Eigen would offset a null pointer solving for an
+  // empty right-hand side.)
+  sys.H = -ldlt.solve(KI * sys.Phic);
+  sys.G = nD > 0 ? Mat(-ldlt.solve(KI * sys.PhiD)) : Mat(3 * nI, 0);
+  for (int i = 0; i < nI; ++i) {
+    sys.Phic.middleRows(3 * In[std::size_t(i)], 3) = sys.H.middleRows(3 * i, 3);
+    if (nD > 0) sys.PhiD.middleRows(3 * In[std::size_t(i)], 3) = sys.G.middleRows(3 * i, 3);
+  }
+}
+
+// The handle blocks, per handle among the D nodes, and the handles' own condensed stiffness for
+// their reactions: Q = (Phi_D U)^T K (Phi_D U), U (3nD x 12h) each D node's 12 unit motions in its
+// handle's columns (el.handles order).
+void CoarseModel::addHandleCoupling(Element& el, const ElementSystem& sys, const Mat& KPhic) const {
+  const ElementNodes& roles = sys.roles;
+  const int nD = int(roles.D.size());
+  if (nD == 0) return;
+  const Mat Khd = KPhic.transpose() * sys.PhiD;  // 3nc x 3nD
+  for (int i = 0; i < nD; ++i) addHandleBlock(el, roles.Dhandle[std::size_t(i)], roles.DX[std::size_t(i)], Khd.middleCols(3 * i, 3));
+  const int h = int(el.handles.size());
+  Mat U = Mat::Zero(3 * nD, 12 * h);
+  for (int i = 0; i < nD; ++i) {
+    const int hd = roles.Dhandle[std::size_t(i)];
+    const auto it = std::find_if(el.handles.begin(), el.handles.end(), [&](const HandleBlock& hb) { return hb.handle == hd; });
+    U.block<3, 12>(3 * i, 12 * int(it - el.handles.begin())) = unitMotions(roles.DX[std::size_t(i)]);
+  }
+  const Mat PU = sys.PhiD * U;
+  el.Q = PU.transpose() * (sys.K * PU);
+  el.Q = 0.5 * (el.Q + el.Q.transpose()).eval();
+}
+
+// The fine nodes' reconstruction records: slide nodes on faces (the first element's record) and
+// interior nodes from their shape-function rows, face nodes from the corners' weights.
+void CoarseModel::recordReconstruction(int e, const ElementSystem& sys, ConformingBuild& b) {
+  const ElementNodes& roles = sys.roles;
+  const int nD = int(roles.D.size());
+  auto record = [&](int f, const Mat& rowsC, const Mat& rowsD, int row) {
+    InteriorNode in;
+    in.fine = f;
+    in.element = e;
+    in.H = rowsC.middleRows(3 * row, 3);
+    for (int d = 0; d < nD; ++d) addInteriorHandleBlock(in, roles.Dhandle[std::size_t(d)], roles.DX[std::size_t(d)], rowsD.block<3, 3>(3 * row, 3 * d));
+    interior_.push_back(std::move(in));
+  };
+  for (const int l : roles.S) {
+    const int f = sys.nodes[std::size_t(l)];
+    if (b.recorded[std::size_t(f)]) continue;
+    b.recorded[std::size_t(f)] = 1;
+    record(f, sys.Phic, sys.PhiD, l);
+  }
+  for (std::size_t i = 0; i < roles.I.size(); ++i) record(sys.nodes[std::size_t(roles.I[i])], sys.H, sys.G, int(i));
+  for (std::size_t i = 0; i < roles.B.size(); ++i) {
+    const int f = sys.nodes[std::size_t(roles.B[i])];
+    if (b.recorded[std::size_t(f)]) continue;
+    b.recorded[std::size_t(f)] = 1;
+    boundary_.push_back({f, e, roles.Bw[i]});
   }
 }
 

@@ -180,6 +180,8 @@ class CoarseModel {
   SparseMatrix restStiffness();
   /// The per-element condensation of Tet and Cell elements (linear faces).
   void buildConforming(const std::vector<Mat12>& fineK, const std::vector<std::vector<int>>& tetsOf, const ProgressFn& progress);
+  struct ConformingBuild;
+  struct ElementSystem;
   /// Sets the Dirichlet coarse nodes of x and returns the convergence threshold (mm).
   double pinDirichlet(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, double tolerance) const;
   CoarseSolveStats solveAssembled(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tol);
@@ -304,6 +306,11 @@ class CoarseModel {
   /// are Dirichlet nodes of their handle).
   ElementNodes classifyNodes(int e, const Element& el, const std::vector<int>& nodes, const std::array<Eigen::Vector3d, 4>& Xt, const SlideShares& slide,
                              const std::vector<char>& touches) const;
+  std::vector<int> localNodes(int e, const Element& el, ConformingBuild& b) const;
+  ElementSystem elementSystem(int e, const Element& el, const std::vector<int>& nodes, ConformingBuild& b) const;
+  void condenseInterior(int e, ElementSystem& sys) const;
+  void addHandleCoupling(Element& el, const ElementSystem& sys, const Eigen::MatrixXd& KPhic) const;
+  void recordReconstruction(int e, const ElementSystem& sys, ConformingBuild& b);
   /// All corners with a weight in w are held (fixed).
   bool onHeldCorners(const Element& el, const Eigen::Matrix<double, 8, 1>& w) const;
   /// Symmetrizes el.Kh and derives KhX, the corners' offsets and fitInv.
