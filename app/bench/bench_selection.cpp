@@ -201,118 +201,110 @@ GrowTiming timeGrowth(vk::Context& ctx, const QuantizedVolume& q, const vk::Imag
 
 }  // namespace
 
-int cmdBenchSelection(const Words& words) {
-  Args args(words, {"--data", "--out", "--repeat", "--device", "--extents", "--criteria", "--fractions", "--statistics", "--bound"}, {"--quick", "--validation", "--sweep-only"});
-  if (args.help() || !args.positional().empty()) {
-    usageStream(args) << "usage: handson bench selection [--data DIR] [--out DIR] [--repeat N] [--criteria LIST] [--fractions LIST]\n"
-                         "                               [--extents MM,..] [--statistics robust|moments] [--bound path|ball]\n"
-                         "                               [--sweep-only] [--quick]\n"
-                         "  Region growing on labelled CT (default DIR ../shared/data: ircadb1.1 kidneys, artery, portal vein,\n"
-                         "  liver, venous system, spleen; totalseg-small kidneys, liver, spleen), seeds at each organ's deepest\n"
-                         "  typical voxel. Whole-organ Dice as the extent sweeps --fractions of the organ's radius (default\n"
-                         "  0.3,0.4,...,1.2) for each of --criteria (default paper,smoothed,core) -> selection_sweep.csv,\n"
-                         "  selection_dice.md and .png in --out (default bench-out); precision and recall at --extents (default\n"
-                         "  10,20,40 mm) -> selection_accuracy.csv, .md, .png; and grow update times of a ~120k-voxel liver\n"
-                         "  selection, smoothed and core: CPU reference, GPU sparse bricks, dense dispatch (median of N,\n"
-                         "  default 5) -> selection_timing.csv. --sweep-only stops after the Dice sweep. --statistics: how the\n"
-                         "  sweep's core and smoothed criteria refine their statistics (default robust; moments, the earlier\n"
-                         "  rule, to compare); --bound: how the extent bounds them (default path; ball, the earlier rule).\n";
-    return args.help() ? 0 : 2;
-  }
-  const std::string data = args.valueOr("--data", "../shared/data");
-  const std::filesystem::path out = args.valueOr("--out", "bench-out");
-  std::filesystem::create_directories(out);
-  const int repeat = int(args.integer("--repeat", args.flag("--quick") ? 3 : 5, 1, 1000));
-  const std::vector<double> extents = parseNumberList(args.valueOr("--extents", "10,20,40"), "--extents");
-  for (double e : extents)
-    if (!(e > 0.0 && e <= 200.0)) throw UsageError("--extents are millimetres in (0, 200]");
-  std::vector<Dataset> sets = {
-      {"ircadb1.1", data + "/ircadb1.1", {{3, "kidney_left"}, {4, "kidney_right"}, {9, "artery"}, {10, "portal_vein"}, {8, "liver"}, {11, "venous_system"}, {7, "spleen"}}},
-      {"totalseg-small", data + "/totalseg-small", {{2, "kidney_right"}, {3, "kidney_left"}, {5, "liver"}, {1, "spleen"}}}};
+namespace {
 
-  // Whole-organ Dice as the extent sweeps (the headline figures), then precision and recall at
-  // fixed extents.
+const char* const kBenchSelectionHelp =
+    "usage: handson bench selection [--data DIR] [--out DIR] [--repeat N] [--criteria LIST] [--fractions LIST]\n"
+    "                               [--extents MM,..] [--statistics robust|moments] [--bound path|ball]\n"
+    "                               [--sweep-only] [--quick]\n"
+    "  Region growing on labelled CT (default DIR ../shared/data: ircadb1.1 kidneys, artery, portal vein,\n"
+    "  liver, venous system, spleen; totalseg-small kidneys, liver, spleen), seeds at each organ's deepest\n"
+    "  typical voxel. Whole-organ Dice as the extent sweeps --fractions of the organ's radius (default\n"
+    "  0.3,0.4,...,1.2) for each of --criteria (default paper,smoothed,core) -> selection_sweep.csv,\n"
+    "  selection_dice.md and .png in --out (default bench-out); precision and recall at --extents (default\n"
+    "  10,20,40 mm) -> selection_accuracy.csv, .md, .png; and grow update times of a ~120k-voxel liver\n"
+    "  selection, smoothed and core: CPU reference, GPU sparse bricks, dense dispatch (median of N,\n"
+    "  default 5) -> selection_timing.csv. --sweep-only stops after the Dice sweep. --statistics: how the\n"
+    "  sweep's core and smoothed criteria refine their statistics (default robust; moments, the earlier\n"
+    "  rule, to compare); --bound: how the extent bounds them (default path; ball, the earlier rule).\n";
+
+// What `bench selection` was asked.
+struct SelectionBenchOptions {
+  std::string data;
+  std::filesystem::path out;
+  int repeat = 5;
+  std::vector<double> extents, fractions;
   std::vector<GrowCriterion> criteria;
+  RegionStatistics statistics = RegionStatistics::Robust;
+  GrowBound bound = GrowParams{}.bound;
+  bool sweepOnly = false;
+};
+
+SelectionBenchOptions parseSelectionBenchOptions(const Args& args) {
+  SelectionBenchOptions o;
+  o.data = args.valueOr("--data", "../shared/data");
+  o.out = args.valueOr("--out", "bench-out");
+  o.repeat = int(args.integer("--repeat", args.flag("--quick") ? 3 : 5, 1, 1000));
+  o.extents = parseNumberList(args.valueOr("--extents", "10,20,40"), "--extents");
+  for (double e : o.extents)
+    if (!(e > 0.0 && e <= 200.0)) throw UsageError("--extents are millimetres in (0, 200]");
   std::stringstream names(args.valueOr("--criteria", "paper,smoothed,core"));
   for (std::string w; std::getline(names, w, ',');) {
     GrowCriterion c;
     if (!parseGrowCriterion(w, c)) throw UsageError("--criteria: unknown criterion '" + w + "'");
-    criteria.push_back(c);
+    o.criteria.push_back(c);
   }
-  if (criteria.empty()) throw UsageError("--criteria names at least one criterion (core, smoothed, paper)");
-  RegionStatistics statistics = RegionStatistics::Robust;
-  if (!parseRegionStatistics(args.valueOr("--statistics", "robust"), statistics)) throw UsageError("--statistics must be robust or moments");
-  GrowBound bound = GrowParams{}.bound;
-  if (!parseGrowBound(args.valueOr("--bound", growBoundName(bound)), bound)) throw UsageError("--bound must be ball or path");
-  std::vector<double> fractions = parseNumberList(args.valueOr("--fractions", "0.3,0.4,0.5,0.6,0.7,0.8,0.9,1,1.1,1.2"), "--fractions");
-  for (double f : fractions)
+  if (o.criteria.empty()) throw UsageError("--criteria names at least one criterion (core, smoothed, paper)");
+  if (!parseRegionStatistics(args.valueOr("--statistics", "robust"), o.statistics)) throw UsageError("--statistics must be robust or moments");
+  if (!parseGrowBound(args.valueOr("--bound", growBoundName(o.bound)), o.bound)) throw UsageError("--bound must be ball or path");
+  o.fractions = parseNumberList(args.valueOr("--fractions", "0.3,0.4,0.5,0.6,0.7,0.8,0.9,1,1.1,1.2"), "--fractions");
+  for (double f : o.fractions)
     if (!(f > 0.0 && f <= 3.0)) throw UsageError("--fractions are fractions of the organ's radius in (0, 3]");
-  std::sort(fractions.begin(), fractions.end());
-  std::vector<OrganSweep> sweeps;
-  std::ofstream sweepCsv(out / "selection_sweep.csv");
-  sweepCsv << "dataset,organ,criterion,radius_mm,organ_voxels,fraction,extent_mm,selected,dice,precision,recall,grow_ms\n";
-  std::unique_ptr<Volume> ircadb;
-  std::ofstream csv(out / "selection_accuracy.csv");
-  csv << "dataset,organ,criterion,extent_mm,seed,selected,precision,recall\n";
-  std::ofstream md(out / "selection_accuracy.md");
-  std::ofstream chart(out / "selection_chart.csv");
-  md << "| dataset | organ | extent | paper precision | paper recall | smoothed precision | smoothed recall |\n|---|---|---|---|---|---|---|\n";
-  for (const auto& s : sets) {
-    if (!std::filesystem::exists(s.dir + "/ct.nii.gz")) {
-      std::cerr << "skipping " << s.name << ": " << s.dir << " not found\n";
-      continue;
-    }
-    const Volume ct = readNifti(s.dir + "/ct.nii.gz");
-    const Volume labels = readNifti(s.dir + "/labels.nii.gz");
-    std::cerr << s.name << ": sweeping " << s.organs.size() << " organs x " << criteria.size() << " criteria\n";
-    for (auto& w : sweepSelection(s.name, ct, labels, s.organs, fractions, criteria, true, statistics, bound)) {
-      std::cerr << "  " << w.organ << " " << sweepVariantName(w.criterion, w.rim) << ": best Dice " << std::fixed << std::setprecision(3)
-                << w.best().dice << " at " << std::setprecision(1) << w.best().fraction << "x, " << std::setprecision(3) << w.points.back().dice
-                << " at " << std::setprecision(1) << w.points.back().fraction << "x\n";
-      for (const auto& p : w.points)
-        sweepCsv << w.dataset << "," << w.organ << "," << sweepVariantName(w.criterion, w.rim) << "," << w.radiusMm << "," << w.organVoxels << ","
-                 << p.fraction << "," << p.extentMm << "," << p.selected << "," << p.dice << "," << p.precision << "," << p.recall << ","
-                 << p.milliseconds << "\n";
-      sweeps.push_back(std::move(w));
-    }
-    if (args.flag("--sweep-only")) continue;
-    const auto rows = evaluateSelection(s.name, ct, labels, s.organs, extents, {GrowCriterion::Paper, GrowCriterion::Smoothed});
-    for (const auto& r : rows)
-      csv << r.dataset << "," << r.organ << "," << growCriterionName(r.criterion) << "," << r.extentMm << "," << r.seed.x() << " " << r.seed.y()
-          << " " << r.seed.z() << "," << r.selected << "," << r.precision << "," << r.recall << "\n";
-    for (const auto& a : rows) {
-      if (a.criterion != GrowCriterion::Paper) continue;
-      for (const auto& b : rows)
-        if (b.criterion == GrowCriterion::Smoothed && b.organ == a.organ && b.extentMm == a.extentMm) {
-          md << std::fixed << std::setprecision(2) << "| " << a.dataset << " | " << a.organ << " | " << a.extentMm << " mm | " << a.precision
-             << " | " << a.recall << " | " << b.precision << " | " << b.recall << " |\n";
-          if (a.extentMm == 20.0)
-            chart << a.dataset << " " << a.organ << "," << a.precision << "," << b.precision << "," << a.recall << "," << b.recall << "\n";
-        }
-    }
-    if (s.name == "ircadb1.1") ircadb = std::make_unique<Volume>(ct);
-  }
-  csv.close();
-  md.close();
-  chart.close();
-  std::vector<Variant> variants;
-  for (GrowCriterion c : criteria) {
-    variants.emplace_back(c, false);
-    variants.emplace_back(c, true);
-  }
-  writeDice(sweeps, variants, out);
-  std::cout << "whole-organ Dice: " << (out / "selection_dice.md").string() << "\n" << std::ifstream(out / "selection_dice.md").rdbuf() << "\n";
-  if (args.flag("--sweep-only")) return 0;
-  writeChart(out / "selection_chart.csv", out / "selection_accuracy.png");
-  std::cout << "accuracy: " << (out / "selection_accuracy.md").string() << "\n" << std::ifstream(out / "selection_accuracy.md").rdbuf();
+  std::sort(o.fractions.begin(), o.fractions.end());
+  o.sweepOnly = args.flag("--sweep-only");
+  return o;
+}
 
-  // Timing: a liver selection of ~100k voxels grown from 20 to 25 mm (shrinking is a threshold).
-  if (!ircadb) return 0;
+// The benchmark's accuracy outputs, written as the datasets are measured.
+struct SelectionOutputs {
+  std::ofstream sweep, csv, md, chart;
+  explicit SelectionOutputs(const std::filesystem::path& out)
+      : sweep(out / "selection_sweep.csv"), csv(out / "selection_accuracy.csv"), md(out / "selection_accuracy.md"), chart(out / "selection_chart.csv") {
+    sweep << "dataset,organ,criterion,radius_mm,organ_voxels,fraction,extent_mm,selected,dice,precision,recall,grow_ms\n";
+    csv << "dataset,organ,criterion,extent_mm,seed,selected,precision,recall\n";
+    md << "| dataset | organ | extent | paper precision | paper recall | smoothed precision | smoothed recall |\n|---|---|---|---|---|---|---|\n";
+  }
+};
+
+// The Dice sweep of one dataset's organs, to the sweep CSV and `sweeps`.
+void sweepDataset(const Dataset& s, const Volume& ct, const Volume& labels, const SelectionBenchOptions& o, SelectionOutputs& w, std::vector<OrganSweep>& sweeps) {
+  std::cerr << s.name << ": sweeping " << s.organs.size() << " organs x " << o.criteria.size() << " criteria\n";
+  for (auto& sw : sweepSelection(s.name, ct, labels, s.organs, o.fractions, o.criteria, true, o.statistics, o.bound)) {
+    std::cerr << "  " << sw.organ << " " << sweepVariantName(sw.criterion, sw.rim) << ": best Dice " << std::fixed << std::setprecision(3)
+              << sw.best().dice << " at " << std::setprecision(1) << sw.best().fraction << "x, " << std::setprecision(3) << sw.points.back().dice
+              << " at " << std::setprecision(1) << sw.points.back().fraction << "x\n";
+    for (const auto& p : sw.points)
+      w.sweep << sw.dataset << "," << sw.organ << "," << sweepVariantName(sw.criterion, sw.rim) << "," << sw.radiusMm << "," << sw.organVoxels << ","
+              << p.fraction << "," << p.extentMm << "," << p.selected << "," << p.dice << "," << p.precision << "," << p.recall << "," << p.milliseconds << "\n";
+    sweeps.push_back(std::move(sw));
+  }
+}
+
+// Precision and recall of one dataset's organs at the fixed extents, paper against smoothed.
+void evaluateDataset(const Dataset& s, const Volume& ct, const Volume& labels, const SelectionBenchOptions& o, SelectionOutputs& w) {
+  const auto rows = evaluateSelection(s.name, ct, labels, s.organs, o.extents, {GrowCriterion::Paper, GrowCriterion::Smoothed});
+  for (const auto& r : rows)
+    w.csv << r.dataset << "," << r.organ << "," << growCriterionName(r.criterion) << "," << r.extentMm << "," << r.seed.x() << " " << r.seed.y() << " "
+          << r.seed.z() << "," << r.selected << "," << r.precision << "," << r.recall << "\n";
+  for (const auto& a : rows) {
+    if (a.criterion != GrowCriterion::Paper) continue;
+    for (const auto& b : rows)
+      if (b.criterion == GrowCriterion::Smoothed && b.organ == a.organ && b.extentMm == a.extentMm) {
+        w.md << std::fixed << std::setprecision(2) << "| " << a.dataset << " | " << a.organ << " | " << a.extentMm << " mm | " << a.precision << " | "
+             << a.recall << " | " << b.precision << " | " << b.recall << " |\n";
+        if (a.extentMm == 20.0) w.chart << a.dataset << " " << a.organ << "," << a.precision << "," << b.precision << "," << a.recall << "," << b.recall << "\n";
+      }
+  }
+}
+
+// Timing: a liver selection of ~100k voxels grown from 20 to 25 mm (shrinking is a threshold), on
+// the CPU and the GPU. Non-zero when the validation layer reported anything.
+int timeLiverGrowth(const Args& args, const Volume& ircadb, int repeat, const std::filesystem::path& out) {
   vk::ContextOptions co;
   co.device = args.valueOr("--device", "");
   co.validation = args.flag("--validation");
   vk::Context ctx(co);
-  const QuantizedVolume q = quantizeVolume(*ircadb);
+  const QuantizedVolume q = quantizeVolume(ircadb);
   std::ofstream tcsv(out / "selection_timing.csv");
   tcsv << "criterion,bound,method,update_ms\n";
   std::cout << "\ngrow update 20 -> 25 mm of a liver selection of ircadb1.1 on " << ctx.summary().name << " (median of " << repeat << ")\n";
@@ -339,6 +331,51 @@ int cmdBenchSelection(const Words& words) {
             << now.cpuMs / ball.cpuMs << "x, GPU sparse " << now.sparseMs / ball.sparseMs
             << "x\n  shrinking is a threshold on stored keys: no growth work\n";
   return ctx.validationMessageCount() ? 1 : 0;
+}
+
+}  // namespace
+
+int cmdBenchSelection(const Words& words) {
+  Args args(words, {"--data", "--out", "--repeat", "--device", "--extents", "--criteria", "--fractions", "--statistics", "--bound"}, {"--quick", "--validation", "--sweep-only"});
+  if (args.help() || !args.positional().empty()) {
+    usageStream(args) << kBenchSelectionHelp;
+    return args.help() ? 0 : 2;
+  }
+  const SelectionBenchOptions o = parseSelectionBenchOptions(args);
+  std::filesystem::create_directories(o.out);
+  const std::vector<Dataset> sets = {
+      {"ircadb1.1", o.data + "/ircadb1.1", {{3, "kidney_left"}, {4, "kidney_right"}, {9, "artery"}, {10, "portal_vein"}, {8, "liver"}, {11, "venous_system"}, {7, "spleen"}}},
+      {"totalseg-small", o.data + "/totalseg-small", {{2, "kidney_right"}, {3, "kidney_left"}, {5, "liver"}, {1, "spleen"}}}};
+  // Whole-organ Dice as the extent sweeps (the headline figures), then precision and recall at
+  // fixed extents.
+  std::vector<OrganSweep> sweeps;
+  std::unique_ptr<Volume> ircadb;
+  {
+    SelectionOutputs w(o.out);
+    for (const auto& s : sets) {
+      if (!std::filesystem::exists(s.dir + "/ct.nii.gz")) {
+        std::cerr << "skipping " << s.name << ": " << s.dir << " not found\n";
+        continue;
+      }
+      const Volume ct = readNifti(s.dir + "/ct.nii.gz");
+      const Volume labels = readNifti(s.dir + "/labels.nii.gz");
+      sweepDataset(s, ct, labels, o, w, sweeps);
+      if (o.sweepOnly) continue;
+      evaluateDataset(s, ct, labels, o, w);
+      if (s.name == "ircadb1.1") ircadb = std::make_unique<Volume>(ct);
+    }
+  }
+  std::vector<Variant> variants;
+  for (GrowCriterion c : o.criteria) {
+    variants.emplace_back(c, false);
+    variants.emplace_back(c, true);
+  }
+  writeDice(sweeps, variants, o.out);
+  std::cout << "whole-organ Dice: " << (o.out / "selection_dice.md").string() << "\n" << std::ifstream(o.out / "selection_dice.md").rdbuf() << "\n";
+  if (o.sweepOnly) return 0;
+  writeChart(o.out / "selection_chart.csv", o.out / "selection_accuracy.png");
+  std::cout << "accuracy: " << (o.out / "selection_accuracy.md").string() << "\n" << std::ifstream(o.out / "selection_accuracy.md").rdbuf();
+  return ircadb ? timeLiverGrowth(args, *ircadb, o.repeat, o.out) : 0;
 }
 
 }  // namespace handson::cli
