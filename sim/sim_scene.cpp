@@ -173,23 +173,25 @@ std::optional<SimSettings::Interface> parseInterface(const std::string& name) {
   return std::nullopt;
 }
 
-SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& s, const ProgressFn& progress) {
-  if (image.empty()) throw Error("simulation: empty image");
-  const VolumeGeometry& g = image.geometry();
-  const std::size_t nvox = image.voxelCount();
-  // The image's world box (voxel centres), axis-aligned.
-  Eigen::Vector3d imgLo = Eigen::Vector3d::Constant(1e300), imgHi = -imgLo;
+namespace {
+
+// The image's world box (voxel centres), axis-aligned.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> imageWorldBox(const VolumeGeometry& g) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
   for (int c = 0; c < 8; ++c) {
     const Eigen::Vector3d idx((c & 1) ? g.dims.x() - 1 : 0, (c & 2) ? g.dims.y() - 1 : 0, (c & 4) ? g.dims.z() - 1 : 0);
     const Eigen::Vector3d w = g.toWorld(idx);
-    imgLo = imgLo.cwiseMin(w);
-    imgHi = imgHi.cwiseMax(w);
+    lo = lo.cwiseMin(w);
+    hi = hi.cwiseMax(w);
   }
-  SimScene sc;
-  // The handles as thinned points at rest and at each pose they will reach (Region::Handles).
-  HandlePoints shape;
-  const bool shaped = s.region == SimSettings::Region::Handles && !s.wholeVolume && !handles.empty();
-  if (shaped) shape.bucketMm = std::max(1.0, g.spacing.maxCoeff());  // thick slices: one bucket a slice, so the outside is found
+  return {lo, hi};
+}
+
+// The handles' world box at rest and at every pose they will reach, each handle's centroid (into
+// sc), and with `shape` (Region::Handles) the handles as thinned points at rest and at those poses.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> handlesBox(const Volume& image, const std::vector<SimHandle>& handles, SimScene& sc, HandlePoints* shape) {
+  const VolumeGeometry& g = image.geometry();
+  const std::size_t nvox = image.voxelCount();
   std::vector<Eigen::Vector3d> handleWorld;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
   for (std::size_t h = 0; h < handles.size(); ++h) {
@@ -203,20 +205,20 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
       hlo = hlo.cwiseMin(w);
       hhi = hhi.cwiseMax(w);
       sum += w;
-      if (shaped) handleWorld.push_back(w);
+      if (shape) handleWorld.push_back(w);
     }
     lo = lo.cwiseMin(hlo);
     hi = hi.cwiseMax(hhi);
-    if (shaped) {
-      HandlePoints hp = thinHandlePoints(handleWorld, shape.bucketMm);
+    if (shape) {
+      HandlePoints hp = thinHandlePoints(handleWorld, shape->bucketMm);
       const std::size_t n = hp.point.size();
       for (const RigidTransform& T : handles[h].reach)
         for (std::size_t i = 0; i < n; ++i) {
           hp.point.push_back(T.apply(hp.point[i]));
           hp.surface.push_back(hp.surface[i]);
         }
-      shape.point.insert(shape.point.end(), hp.point.begin(), hp.point.end());
-      shape.surface.insert(shape.surface.end(), hp.surface.begin(), hp.surface.end());
+      shape->point.insert(shape->point.end(), hp.point.begin(), hp.point.end());
+      shape->surface.insert(shape->surface.end(), hp.surface.begin(), hp.surface.end());
     }
     for (const RigidTransform& T : handles[h].reach) {
       if (!T.R.allFinite() || !T.t.allFinite()) throw Error("simulation: a handle pose is not finite");
@@ -228,6 +230,52 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
     }
     sc.handleCentroid.push_back(sum / double(handles[h].voxels.size()));
   }
+  return {lo, hi};
+}
+
+// A shaped region spends the element budget on its own cells: the box's grid is made finer until
+// about coarseTets of its tets lie in cells near the handles (at most 8x the box's count).
+int shapedCoarseTets(const SimScene& sc, const SimSettings& s, const HandlePoints& shape) {
+  int coarseTets = s.coarseTets;
+  for (int pass = 0; pass < 2; ++pass) {
+    const std::vector<char> in = cellsNearPoints(coarseGridFor(sc.lo, sc.hi, coarseTets), shape, s.paddingMm);
+    const double share = std::max(0.125, double(std::count(in.begin(), in.end(), 1)) / double(in.size()));
+    coarseTets = int(std::clamp(std::lround(s.coarseTets / share), long(s.coarseTets), std::max(long(s.coarseTets), std::min(8L * s.coarseTets, 10'000'000L))));
+  }
+  return coarseTets;
+}
+
+// The nested (or image-adapted) meshes of the region with coarseTets coarse tets.
+void buildMeshes(SimScene& sc, const SimSettings& s, int coarseTets, const MaterialTable& table, const TissueMap& tissue, const ProgressFn& progress) {
+  const int finePer = std::max(1, s.fineTets / std::max(1, s.coarseTets));
+  if (s.fineMesh == SimSettings::FineMesh::ImageAdapted) {
+    if (s.element != CoarseElement::Cell) throw Error("simulation: the image-adapted fine mesh needs cell elements");
+    const auto youngsAt = [&](const Eigen::Vector3d& p) { return table.band(tissue.bandAt(p)).youngs; };
+    sc.meshes = buildImageAdaptedMeshes(sc.lo, sc.hi, coarseTets, finePer, youngsAt, s.adaptContrast, progress, &sc.adapted);
+  } else {
+    sc.meshes = buildNestedMeshes(sc.lo, sc.hi, coarseTets, finePer);
+  }
+}
+
+// A handle's nodes: those it moves rigidly (enclosed tissue included) and its sliding surface's.
+void countHandleNodes(SimScene& sc, std::size_t handleCount) {
+  sc.handleNodeCount.assign(handleCount, 0);
+  for (std::size_t n = 0; n < sc.meshes.fine.nodes.size(); ++n)
+    if (sc.constraints.handleOf[n] >= 0 && !sc.constraints.fixed[n]) ++sc.handleNodeCount[std::size_t(sc.constraints.handleOf[n])];
+  for (const SlideNode& sn : sc.constraints.slide) ++sc.handleNodeCount[std::size_t(sn.handle)];
+}
+
+}  // namespace
+
+SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& s, const ProgressFn& progress) {
+  if (image.empty()) throw Error("simulation: empty image");
+  const VolumeGeometry& g = image.geometry();
+  const auto [imgLo, imgHi] = imageWorldBox(g);
+  SimScene sc;
+  HandlePoints shape;
+  const bool shaped = s.region == SimSettings::Region::Handles && !s.wholeVolume && !handles.empty();
+  if (shaped) shape.bucketMm = std::max(1.0, g.spacing.maxCoeff());  // thick slices: one bucket a slice, so the outside is found
+  auto [lo, hi] = handlesBox(image, handles, sc, shaped ? &shape : nullptr);
   if (s.wholeVolume || handles.empty()) {
     lo = imgLo;
     hi = imgHi;
@@ -239,29 +287,15 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   if (((hi - lo).array() <= 0).any()) throw Error("simulation: the region of interest is empty (a flat image or handles on its edge)");
   sc.lo = lo;
   sc.hi = hi;
-  // A shaped region spends the element budget on its own cells: the box's grid is made finer until
-  // about coarseTets of its tets lie in cells near the handles (at most 8x the box's count).
-  int coarseTets = s.coarseTets;
-  if (shaped)
-    for (int pass = 0; pass < 2; ++pass) {
-      const std::vector<char> in = cellsNearPoints(coarseGridFor(lo, hi, coarseTets), shape, s.paddingMm);
-      const double share = std::max(0.125, double(std::count(in.begin(), in.end(), 1)) / double(in.size()));
-      coarseTets = int(std::clamp(std::lround(s.coarseTets / share), long(s.coarseTets), std::max(long(s.coarseTets), std::min(8L * s.coarseTets, 10'000'000L))));
-    }
-  const int finePer = std::max(1, s.fineTets / std::max(1, s.coarseTets));
+  const int coarseTets = shaped ? shapedCoarseTets(sc, s, shape) : s.coarseTets;
   // Memory before meshing: per fine tet its 12x12 stiffness, a Hessian in the refinement and the
   // assembly's slots (~2.7 KB), with 50 % for the rounding of the element counts.
-  checkAllocation(0, std::size_t(1.5 * double(std::max(double(finePer) * coarseTets, double(coarseTets))) * 2700.0), "the simulation meshes");
+  const double fineTets = double(std::max(1, s.fineTets / std::max(1, s.coarseTets))) * coarseTets;
+  checkAllocation(0, std::size_t(1.5 * std::max(fineTets, double(coarseTets)) * 2700.0), "the simulation meshes");
   reportProgress(progress, 0.0, "meshing");
   const MaterialTable table = s.materials.resolve(image);
   const TissueMap tissue(image, table, lo, hi, s.skeletonReachMm, s.bone == SimSettings::Bone::Anchored);
-  if (s.fineMesh == SimSettings::FineMesh::ImageAdapted) {
-    if (s.element != CoarseElement::Cell) throw Error("simulation: the image-adapted fine mesh needs cell elements");
-    const auto youngsAt = [&](const Eigen::Vector3d& p) { return table.band(tissue.bandAt(p)).youngs; };
-    sc.meshes = buildImageAdaptedMeshes(lo, hi, coarseTets, finePer, youngsAt, s.adaptContrast, progress, &sc.adapted);
-  } else {
-    sc.meshes = buildNestedMeshes(lo, hi, coarseTets, finePer);
-  }
+  buildMeshes(sc, s, coarseTets, table, tissue, progress);
   reportProgress(progress, 0.2, "materials");
   assignMaterials(sc, tissue);
   if (s.outer == SimSettings::Outer::Exterior && !sc.handleCentroid.empty()) applyExteriorLayer(sc);
@@ -271,11 +305,7 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   assignConstraints(sc, image, handles, s, tissue, shaped ? &holdsHandle : nullptr);
   if (shaped) holdCellsAwayFromHandles(sc, shape, holdsHandle, s.paddingMm);
   if (s.interface == SimSettings::Interface::Sliding && !handles.empty()) makeInterfacesSliding(sc, g, handles);
-  // A handle's nodes: those it moves rigidly (enclosed tissue included) and its sliding surface's.
-  sc.handleNodeCount.assign(handles.size(), 0);
-  for (std::size_t n = 0; n < sc.meshes.fine.nodes.size(); ++n)
-    if (sc.constraints.handleOf[n] >= 0 && !sc.constraints.fixed[n]) ++sc.handleNodeCount[std::size_t(sc.constraints.handleOf[n])];
-  for (const SlideNode& sn : sc.constraints.slide) ++sc.handleNodeCount[std::size_t(sn.handle)];
+  countHandleNodes(sc, handles.size());
   reportProgress(progress, 1.0, "scene");
   return sc;
 }
