@@ -104,6 +104,83 @@ int selectLabelled(const Args& args, const Volume& v, const Eigen::Vector3i& see
 
 }  // namespace
 
+namespace {
+
+// The region-growing parameters from the command line.
+GrowParams growParams(const Args& args) {
+  GrowParams p;
+  p.hMax = args.number("--hmax", 1.1, 1e-3, 1e3);
+  if (!parseGrowCriterion(args.valueOr("--criterion", "core"), p.criterion)) throw UsageError("--criterion must be core, smoothed or paper");
+  if (!parseRegionStatistics(args.valueOr("--statistics", "robust"), p.statistics)) throw UsageError("--statistics must be robust or moments");
+  if (!parseGrowBound(args.valueOr("--bound", growBoundName(p.bound)), p.bound)) throw UsageError("--bound must be ball or path");
+  p.boundaryRim = onOffOption(args, "--rim", true);
+  return p;
+}
+
+// A selection grown to an extent: its mask on the volume's grid and its voxel count.
+struct Grown {
+  std::vector<std::uint8_t> mask;
+  std::size_t count = 0;
+  double gpuRounds = 0;
+};
+
+// The selection grown on the GPU passes (their keys read back and bounded as the CPU's).
+Grown growOnGpu(const Args& args, const QuantizedVolume& q, const RegionGrower& grower, const Eigen::Vector3i& seed, double extent) {
+  const VolumeGeometry& g = q.geometry;
+  vk::ContextOptions co;
+  co.device = args.valueOr("--device", "");
+  co.validation = args.flag("--validation");
+  co.verbose = !args.flag("--quiet");
+  vk::Context ctx(co);
+  vk::Image volume(ctx, {std::uint32_t(g.dims.x()), std::uint32_t(g.dims.y()), std::uint32_t(g.dims.z()), fg::Format::R16Unorm},
+                   VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
+  vk::uploadToImage(ctx, volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  vk::Sampler sampler(ctx, false);
+  vk::GpuRegionGrower gpu(ctx, volume, sampler);
+  const Eigen::Vector3i r = growReach(grower.setup().criterion, grower.setup().bound, extent, g.spacing) + Eigen::Vector3i::Ones();
+  const Eigen::Vector3i boxLo = (seed - r).cwiseMax(Eigen::Vector3i::Zero());
+  const Eigen::Vector3i boxHi = (seed + r).cwiseMin(g.dims - Eigen::Vector3i::Ones());
+  const Eigen::Vector3i box = boxHi - boxLo + Eigen::Vector3i::Ones();
+  gpu.begin(grower.setup(), boxLo, box);
+  const std::uint32_t bound = grower.bound(extent);
+  Grown out;
+  out.gpuRounds = gpu.growTo(bound);
+  const auto keys = gpu.readKeys();
+  out.mask.assign(g.voxelCount(), 0);
+  for (int k = 0; k < box.z(); ++k)
+    for (int j = 0; j < box.y(); ++j)
+      for (int i = 0; i < box.x(); ++i)
+        if (keys[std::size_t(i) + std::size_t(box.x()) * (std::size_t(j) + std::size_t(box.y()) * std::size_t(k))] <= bound) {
+          out.mask[std::size_t(boxLo.x() + i) + std::size_t(g.dims.x()) * (std::size_t(boxLo.y() + j) + std::size_t(g.dims.y()) * std::size_t(boxLo.z() + k))] = 1;
+          ++out.count;
+        }
+  if (ctx.validationMessageCount()) throw Error("Vulkan validation messages were reported");
+  return out;
+}
+
+// The selection's boundary rim added; returns how many voxels it added.
+std::size_t addBoundaryRim(const RegionGrower& grower, Grown& grown) {
+  std::vector<std::uint32_t> voxels;
+  for (std::size_t i = 0; i < grown.mask.size(); ++i)
+    if (grown.mask[i]) voxels.push_back(std::uint32_t(i));
+  const std::vector<std::uint32_t> withRim = withBoundaryRim(grower, voxels);
+  for (std::uint32_t i : withRim) grown.mask[i] = 1;
+  grown.count = withRim.size();
+  return withRim.size() - voxels.size();
+}
+
+// A CT's seed in air or lung is refused: nothing to grab there.
+void checkSeedOnTissue(const Volume& v, const Eigen::Vector3i& seed) {
+  const float seedValue = v.value(seed.x(), seed.y(), seed.z());
+  if (v.valueRange().first <= -900.0f && seedValue < -400.0f) {
+    std::ostringstream msg;
+    msg << "the seed lies in air (" << seedValue << " HU): choose a point on tissue";
+    throw Error(msg.str());
+  }
+}
+
+}  // namespace
+
 int cmdSelect(const Words& words) {
   Args args(words, {"--frame", "--seed-voxel", "--seed-mm", "--extent-mm", "--hmax", "--criterion", "--statistics", "--bound", "--backend", "-o", "--device", "--labels", "--rim"},
             {"--validation", "--quiet"});
@@ -117,90 +194,38 @@ int cmdSelect(const Words& words) {
   if (labelled)
     for (const char* o : {"--extent-mm", "--hmax", "--criterion", "--statistics", "--bound", "--backend", "--device", "--rim"})
       if (args.value(o)) throw UsageError(std::string(o) + " is for region growing: --labels selects the labelled organ");
+  const ProgressFn progress = args.flag("--quiet") ? ProgressFn{} : consoleProgress();
   if (labelled) {
-    const Volume v = loadVolume(args.positional()[0], nullptr, args.flag("--quiet") ? ProgressFn{} : consoleProgress(), loadOptions(args));
+    const Volume v = loadVolume(args.positional()[0], nullptr, progress, loadOptions(args));
     return selectLabelled(args, v, seedVoxel(args, v.geometry()));
   }
   const double extent = args.number("--extent-mm", 0, -1e300, 1e300);
   if (!(extent > 0.0) || !std::isfinite(extent)) throw UsageError("--extent-mm must be a number > 0");
-  GrowParams p;
-  p.hMax = args.number("--hmax", 1.1, 1e-3, 1e3);
-  if (!parseGrowCriterion(args.valueOr("--criterion", "core"), p.criterion)) throw UsageError("--criterion must be core, smoothed or paper");
-  if (!parseRegionStatistics(args.valueOr("--statistics", "robust"), p.statistics)) throw UsageError("--statistics must be robust or moments");
-  if (!parseGrowBound(args.valueOr("--bound", growBoundName(p.bound)), p.bound)) throw UsageError("--bound must be ball or path");
-  p.boundaryRim = onOffOption(args, "--rim", true);
+  const GrowParams p = growParams(args);
   const std::string backend = args.valueOr("--backend", "cpu");
   if (backend != "cpu" && backend != "gpu") throw UsageError("--backend must be cpu or gpu");
-  const bool quiet = args.flag("--quiet");
-
-  const Volume v = loadVolume(args.positional()[0], nullptr, quiet ? ProgressFn{} : consoleProgress(), loadOptions(args));
+  const Volume v = loadVolume(args.positional()[0], nullptr, progress, loadOptions(args));
   const auto& g = v.geometry();
   const Eigen::Vector3i seed = seedVoxel(args, g);
-  const auto [lo, hi] = v.valueRange();
-  const float seedValue = v.value(seed.x(), seed.y(), seed.z());
-  if (lo <= -900.0f && seedValue < -400.0f) {  // CT: air and lung are nothing to grab
-    std::ostringstream msg;
-    msg << "the seed lies in air (" << seedValue << " HU): choose a point on tissue";
-    throw Error(msg.str());
-  }
-
+  checkSeedOnTissue(v, seed);
   const QuantizedVolume q = quantizeVolume(v);
   const auto t0 = std::chrono::steady_clock::now();
   RegionGrower grower(q, seed, p);
-  std::vector<std::uint8_t> mask;
-  std::size_t count = 0;
-  double gpuRounds = 0;
+  Grown grown;
   if (backend == "cpu") {
     grower.growTo(extent);
-    mask = grower.mask(extent);
-    count = grower.count(extent);
+    grown.mask = grower.mask(extent);
+    grown.count = grower.count(extent);
   } else {
-    vk::ContextOptions co;
-    co.device = args.valueOr("--device", "");
-    co.validation = args.flag("--validation");
-    co.verbose = !quiet;
-    vk::Context ctx(co);
-    vk::Image volume(ctx, {std::uint32_t(g.dims.x()), std::uint32_t(g.dims.y()), std::uint32_t(g.dims.z()), fg::Format::R16Unorm},
-                     VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
-    vk::uploadToImage(ctx, volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-    vk::Sampler sampler(ctx, false);
-    vk::GpuRegionGrower gpu(ctx, volume, sampler);
-    const Eigen::Vector3i r = growReach(grower.setup().criterion, grower.setup().bound, extent, g.spacing) + Eigen::Vector3i::Ones();
-    const Eigen::Vector3i boxLo = (seed - r).cwiseMax(Eigen::Vector3i::Zero());
-    const Eigen::Vector3i boxHi = (seed + r).cwiseMin(g.dims - Eigen::Vector3i::Ones());
-    const Eigen::Vector3i box = boxHi - boxLo + Eigen::Vector3i::Ones();
-    gpu.begin(grower.setup(), boxLo, box);
-    const std::uint32_t bound = grower.bound(extent);
-    gpuRounds = gpu.growTo(bound);
-    const auto keys = gpu.readKeys();
-    mask.assign(v.voxelCount(), 0);
-    for (int k = 0; k < box.z(); ++k)
-      for (int j = 0; j < box.y(); ++j)
-        for (int i = 0; i < box.x(); ++i)
-          if (keys[std::size_t(i) + std::size_t(box.x()) * (std::size_t(j) + std::size_t(box.y()) * std::size_t(k))] <= bound) {
-            mask[v.linearIndex(boxLo.x() + i, boxLo.y() + j, boxLo.z() + k)] = 1;
-            ++count;
-          }
-    if (ctx.validationMessageCount()) throw Error("Vulkan validation messages were reported");
+    grown = growOnGpu(args, q, grower, seed, extent);
   }
-  std::size_t rimCount = 0;
-  if (p.boundaryRim) {
-    std::vector<std::uint32_t> voxels;
-    for (std::size_t i = 0; i < mask.size(); ++i)
-      if (mask[i]) voxels.push_back(std::uint32_t(i));
-    const std::vector<std::uint32_t> withRim = withBoundaryRim(grower, voxels);
-    for (std::uint32_t i : withRim) mask[i] = 1;
-    rimCount = withRim.size() - voxels.size();
-    count = withRim.size();
-  }
+  const std::size_t rimCount = p.boundaryRim ? addBoundaryRim(grower, grown) : 0;
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  writeMask(g, mask, *args.value("-o"));
-  const double voxelMm3 = g.spacing.prod();
-  std::cout << std::fixed << std::setprecision(1) << "selected " << count << " voxels (" << count * voxelMm3 / 1000.0 << " ml) from seed ("
+  writeMask(g, grown.mask, *args.value("-o"));
+  std::cout << std::fixed << std::setprecision(1) << "selected " << grown.count << " voxels (" << grown.count * g.spacing.prod() / 1000.0 << " ml) from seed ("
             << seed.x() << ", " << seed.y() << ", " << seed.z() << "), criterion " << growCriterionName(grower.setup().criterion)
-            << (grower.setup().criterion != p.criterion ? " (the seed's structure is too thin for a core)" : "") << ", " << backend
-            << " in " << ms << " ms";
-  if (backend == "gpu") std::cout << " (" << gpuRounds << " rounds)";
+            << (grower.setup().criterion != p.criterion ? " (the seed's structure is too thin for a core)" : "") << ", " << backend << " in " << ms << " ms";
+  if (backend == "gpu") std::cout << " (" << grown.gpuRounds << " rounds)";
   if (p.boundaryRim) std::cout << "; " << rimCount << " of the voxels are its boundary rim";
   std::cout << "\nwrote " << *args.value("-o") << "\n";
   return 0;
