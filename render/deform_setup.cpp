@@ -23,12 +23,8 @@ glm::mat4 toGlm(const Eigen::Matrix4d& m) {
 
 namespace {
 
-}  // namespace
-
-ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc& sd, const fg::ImageDesc& md, const DeformSetup& setup) {
-  ValidatedDeformSetup out;
-  if (!setup.interpolation || !setup.fineTets) throw Error("deformation: no mesh data");
-  const FineInterpolationData& d = *setup.interpolation;
+// The device features the passes need: 16-bit storage images, subgroup arithmetic and ballot.
+void checkDevice(const Context& ctx) {
   if (!ctx.storageExtendedFormats())
     throw Error("deformation: this Vulkan device cannot write 16-bit storage images (shaderStorageImageExtendedFormats)");
   {
@@ -40,6 +36,53 @@ ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc
         !(sub.supportedOperations & VK_SUBGROUP_FEATURE_BALLOT_BIT))
       throw Error("deformation: this Vulkan device lacks subgroup arithmetic or ballot in compute shaders");
   }
+}
+
+// Each fine node's reconstruction record and handle blocks within range.
+void checkNodeRecords(const FineInterpolationData& d, std::size_t coarseNodes, std::size_t coarseElements) {
+  const std::size_t handles = d.handleCount;
+  for (const auto& n : d.node) {
+    const std::size_t hc = 3 * std::size_t(d.cornersPerElement);  // H blocks before the handle blocks
+    if (n[0] == FineInterpolationData::Interior && std::size_t(n[2]) + d.interiorBlocks(n[3]) <= d.blocks.size())
+      for (std::uint32_t k = 0; k < n[3]; ++k) {
+        const float hidx = d.blocks[std::size_t(n[2]) + hc + 13 * k].x();
+        // -1: the anchored skeleton (the identity, shaders/deform_interpolate.comp).
+        if (!(hidx == -1.0f || (hidx >= 0.0f && hidx < float(handles) && hidx == std::floor(hidx)))) throw Error("deformation: a handle block refers to a missing handle");
+      }
+    const bool ok = n[0] == FineInterpolationData::Rest || (n[0] == FineInterpolationData::Handle && n[1] < handles) ||
+                    (n[0] == FineInterpolationData::Corner && n[1] < coarseNodes) ||
+                    (n[0] == FineInterpolationData::Boundary && n[1] < coarseElements && std::size_t(n[2]) + d.cornersPerElement / 4 <= d.blocks.size()) ||
+                    (n[0] == FineInterpolationData::Interior && n[1] < coarseElements && std::size_t(n[2]) + d.interiorBlocks(n[3]) <= d.blocks.size());
+    if (!ok) throw Error("deformation: a fine node's reconstruction record is out of range");
+  }
+}
+
+// The per-tet strain limits and the rigidly drawn handles' ids and boxes.
+void checkLimitsAndRigidHandles(const DeformSetup& setup, std::size_t tetCount, std::size_t handles) {
+  if (setup.strainLimits) {
+    if (setup.strainLimits->size() != tetCount)
+      throw Error("deformation: " + std::to_string(setup.strainLimits->size()) + " strain limits for " + std::to_string(tetCount) + " fine tets");
+    for (float l : *setup.strainLimits)
+      if (!(l > 0.0f) && l != kRigidStrainLimit) throw Error("deformation: a strain limit is not a positive number (inf: none; -1: a sliding handle's own tet)");
+  }
+
+  if (!setup.rigidIds.empty() && handles != 0 && setup.rigidIds.size() != handles)
+    throw Error("deformation: " + std::to_string(setup.rigidIds.size()) + " rigid-draw ids for " + std::to_string(handles) + " handles");
+  for (auto id : setup.rigidIds)
+    if (id > 255) throw Error("deformation: a handle drawn rigidly has an id beyond the mask's 255");
+  if (!setup.rigidRestBoxes.empty() && setup.rigidRestBoxes.size() != setup.rigidIds.size())
+    throw Error("deformation: one rest box per handle drawn rigidly expected");
+  for (const auto& b : setup.rigidRestBoxes)
+    if ((b[0].array() > b[1].array()).any()) throw Error("deformation: a rigid handle's rest box is empty");
+}
+
+}  // namespace
+
+ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc& sd, const fg::ImageDesc& md, const DeformSetup& setup) {
+  ValidatedDeformSetup out;
+  if (!setup.interpolation || !setup.fineTets) throw Error("deformation: no mesh data");
+  const FineInterpolationData& d = *setup.interpolation;
+  checkDevice(ctx);
   if (sd.format != fg::Format::R16Unorm || md.format != fg::Format::R8Unorm || sd.width != md.width || sd.height != md.height || sd.depth != md.depth)
     throw Error("deformation: the source volume (R16) and mask (R8) must share one grid");
   const std::size_t nodes = d.node.size();
@@ -60,39 +103,12 @@ ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc
       out.tets[t][std::size_t(c)] = std::uint32_t(v);
     }
   static_assert(kRasterTolerance == 1e-5 && kRasterBoxMargin == 1e-4, "shaders/deform_claim.comp uses these numbers");
-  for (const auto& n : d.node) {
-    const std::size_t hc = 3 * std::size_t(d.cornersPerElement);  // H blocks before the handle blocks
-    if (n[0] == FineInterpolationData::Interior && std::size_t(n[2]) + d.interiorBlocks(n[3]) <= d.blocks.size())
-      for (std::uint32_t k = 0; k < n[3]; ++k) {
-        const float hidx = d.blocks[std::size_t(n[2]) + hc + 13 * k].x();
-        // -1: the anchored skeleton (the identity, shaders/deform_interpolate.comp).
-        if (!(hidx == -1.0f || (hidx >= 0.0f && hidx < float(handles) && hidx == std::floor(hidx)))) throw Error("deformation: a handle block refers to a missing handle");
-      }
-    const bool ok = n[0] == FineInterpolationData::Rest || (n[0] == FineInterpolationData::Handle && n[1] < handles) ||
-                    (n[0] == FineInterpolationData::Corner && n[1] < coarseNodes) ||
-                    (n[0] == FineInterpolationData::Boundary && n[1] < coarseElements && std::size_t(n[2]) + d.cornersPerElement / 4 <= d.blocks.size()) ||
-                    (n[0] == FineInterpolationData::Interior && n[1] < coarseElements && std::size_t(n[2]) + d.interiorBlocks(n[3]) <= d.blocks.size());
-    if (!ok) throw Error("deformation: a fine node's reconstruction record is out of range");
-  }
+  checkNodeRecords(d, coarseNodes, coarseElements);
   for (const auto& t : d.elementCorners)
     for (auto v : t)
       if (v >= coarseNodes) throw Error("deformation: a coarse element refers to a missing node");
 
-  if (setup.strainLimits) {
-    if (setup.strainLimits->size() != tetCount)
-      throw Error("deformation: " + std::to_string(setup.strainLimits->size()) + " strain limits for " + std::to_string(tetCount) + " fine tets");
-    for (float l : *setup.strainLimits)
-      if (!(l > 0.0f) && l != kRigidStrainLimit) throw Error("deformation: a strain limit is not a positive number (inf: none; -1: a sliding handle's own tet)");
-  }
-
-  if (!setup.rigidIds.empty() && handles != 0 && setup.rigidIds.size() != handles)
-    throw Error("deformation: " + std::to_string(setup.rigidIds.size()) + " rigid-draw ids for " + std::to_string(handles) + " handles");
-  for (auto id : setup.rigidIds)
-    if (id > 255) throw Error("deformation: a handle drawn rigidly has an id beyond the mask's 255");
-  if (!setup.rigidRestBoxes.empty() && setup.rigidRestBoxes.size() != setup.rigidIds.size())
-    throw Error("deformation: one rest box per handle drawn rigidly expected");
-  for (const auto& b : setup.rigidRestBoxes)
-    if ((b[0].array() > b[1].array()).any()) throw Error("deformation: a rigid handle's rest box is empty");
+  checkLimitsAndRigidHandles(setup, tetCount, handles);
 
   const std::uint64_t maxGroups = ctx.properties().limits.maxComputeWorkGroupCount[0];
   if ((nodes + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups || (tetCount + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X > maxGroups)
