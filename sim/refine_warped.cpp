@@ -132,30 +132,34 @@ Eigen::Matrix3d edges(const std::array<int, 4>& tet, const Field& p) {
 
 }  // namespace
 
-double FineRefiner::stepWarped(const Springs& springs, const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
-  if (!warped_) throw Error("refiner: the matrix-free methods need the fine materials");
+// Sums the per-thread node buffers into out (zero at Dirichlet nodes), split over nodes.
+void FineRefiner::sumThreadBuffers(Field& out) const {
+  const Warped& w = *warped_;
+  const std::size_t n = free_.size();
+  const int T = w.threads;
+  out.resize(n);
+  parallelChunks(n, T, [&](std::size_t b, std::size_t e, int) {
+    for (std::size_t i = b; i < e; ++i) {
+      Eigen::Vector3d s = Eigen::Vector3d::Zero();
+      for (int t = 0; t < T; ++t) s += w.vec[std::size_t(t)][i];
+      out[i] = free_[i] ? s : Eigen::Vector3d::Zero();
+    }
+  });
+}
+
+// The linearization at x: each tet's rotation (warm-started, kept in w.R and w.q), the residual r
+// (free nodes) and the Jacobi blocks' diagonal (3x3 per node, summed over the threads); returns
+// the energy at x.
+double FineRefiner::linearizeWarped(const Field& x, Field& r, std::vector<Eigen::Matrix3d>& diag) const {
   const Warped& w = *warped_;
   const TetMesh& F = coarse_.meshes().fine;
   const std::size_t n = F.nodes.size(), nt = F.tets.size();
   const int T = w.threads;
-  projectOntoSpringPlanes(springs, x);
-  // Sums the per-thread node buffers into out (zero at Dirichlet nodes), split over nodes.
-  auto reduce = [&](Field& out) {
-    out.resize(n);
-    parallelChunks(n, T, [&](std::size_t b, std::size_t e, int) {
-      for (std::size_t i = b; i < e; ++i) {
-        Eigen::Vector3d s = Eigen::Vector3d::Zero();
-        for (int t = 0; t < T; ++t) s += w.vec[std::size_t(t)][i];
-        out[i] = free_[i] ? s : Eigen::Vector3d::Zero();
-      }
-    });
-  };
-  // Rotations, residual, diagonal blocks and energy at x.
   std::vector<double> energyOf(std::size_t(T), 0.0);
   parallelChunks(nt, T, [&](std::size_t b, std::size_t e, int c) {
-    Field& r = w.vec[std::size_t(c)];
+    Field& rc = w.vec[std::size_t(c)];
     auto& d = w.diag[std::size_t(c)];
-    r.assign(n, Eigen::Vector3d::Zero());
+    rc.assign(n, Eigen::Vector3d::Zero());
     d.assign(n, Eigen::Matrix3d::Zero());
     double energy = 0;
     for (std::size_t t = b; t < e; ++t) {
@@ -171,7 +175,7 @@ double FineRefiner::stepWarped(const Springs& springs, const std::vector<Eigen::
       eps.diagonal().array() -= 1.0;
       const double tr = eps.trace();
       energy += w.V[t] * (0.5 * w.lambda[t] * tr * tr + w.mu[t] * eps.squaredNorm());
-      scatter(tet, -w.V[t] * (R * stress(eps, w.lambda[t], w.mu[t])) * w.G[t].transpose(), r);
+      scatter(tet, -w.V[t] * (R * stress(eps, w.lambda[t], w.mu[t])) * w.G[t].transpose(), rc);
       if (w.twist) w.L[t] = twistOperator(S, w.lambda[t], w.mu[t]);
       for (int a = 0; a < 4; ++a) {
         const Eigen::Vector3d g = a == 0 ? Eigen::Vector3d(-w.G[t].colwise().sum().transpose()) : Eigen::Vector3d(w.G[t].row(a - 1).transpose());
@@ -187,26 +191,66 @@ double FineRefiner::stepWarped(const Springs& springs, const std::vector<Eigen::
   });
   double e0 = 0;
   for (double v : energyOf) e0 += v;
-  Field r;
-  reduce(r);
-  removeNormalParts(springs, r);
-  std::vector<Eigen::Matrix3d> diag(n, Eigen::Matrix3d::Zero());
+  sumThreadBuffers(r);
+  diag.assign(n, Eigen::Matrix3d::Zero());
   for (std::size_t i = 0; i < n; ++i)
     for (int t = 0; t < T; ++t) diag[i] += w.diag[std::size_t(t)][i];
+  return e0;
+}
+
+// The warped stiffness (with the twist term) at the rotations linearizeWarped kept, applied to p.
+void FineRefiner::applyWarped(const Field& p, Field& out) const {
+  const Warped& w = *warped_;
+  const TetMesh& F = coarse_.meshes().fine;
+  const std::size_t n = F.nodes.size();
+  parallelChunks(F.tets.size(), w.threads, [&](std::size_t b, std::size_t e, int c) {
+    Field& y = w.vec[std::size_t(c)];
+    y.assign(n, Eigen::Vector3d::Zero());
+    for (std::size_t t = b; t < e; ++t) {
+      if (w.V[t] == 0) continue;
+      const Eigen::Matrix3d S = w.R[t].transpose() * (edges(F.tets[t], p) * w.G[t]);
+      Eigen::Matrix3d M = stress(0.5 * (S + S.transpose()), w.lambda[t], w.mu[t]);
+      if (w.twist) M += crossMatrix(w.L[t] * axialOfSkew(S));
+      scatter(F.tets[t], w.V[t] * (w.R[t] * M) * w.G[t].transpose(), y);
+    }
+  });
+  sumThreadBuffers(out);
+}
+
+// The corotational energy at trial positions (rotations warm-started from x's, not kept).
+double FineRefiner::warpedEnergy(const Field& pos) const {
+  const Warped& w = *warped_;
+  const TetMesh& F = coarse_.meshes().fine;
+  std::vector<double> part(std::size_t(w.threads), 0.0);
+  parallelChunks(F.tets.size(), w.threads, [&](std::size_t b, std::size_t e, int c) {
+    double s = 0;
+    for (std::size_t t = b; t < e; ++t) {
+      if (w.V[t] == 0) continue;
+      const Eigen::Matrix3d Ft = edges(F.tets[t], pos) * w.G[t];
+      Eigen::Quaterniond q = w.q[t];  // a trial: the warm start stays with x
+      const Eigen::Matrix3d S = polarRotationWarm(Ft, q, 1e-5).transpose() * Ft;
+      Eigen::Matrix3d eps = 0.5 * (S + S.transpose());
+      eps.diagonal().array() -= 1.0;
+      const double tr = eps.trace();
+      s += w.V[t] * (0.5 * w.lambda[t] * tr * tr + w.mu[t] * eps.squaredNorm());
+    }
+    part[std::size_t(c)] = s;
+  });
+  double s = 0;
+  for (double v : part) s += v;
+  return s;
+}
+
+double FineRefiner::stepWarped(const Springs& springs, const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
+  if (!warped_) throw Error("refiner: the matrix-free methods need the fine materials");
+  projectOntoSpringPlanes(springs, x);
+  Field r;
+  std::vector<Eigen::Matrix3d> diag;
+  const double e0 = linearizeWarped(x, r, diag);
+  removeNormalParts(springs, r);
   const std::vector<Eigen::Matrix3d> dinv = refine::jacobiInverse(diag, free_);
   auto applyK = [&](const Field& p, Field& out) {
-    parallelChunks(nt, T, [&](std::size_t b, std::size_t e, int c) {
-      Field& y = w.vec[std::size_t(c)];
-      y.assign(n, Eigen::Vector3d::Zero());
-      for (std::size_t t = b; t < e; ++t) {
-        if (w.V[t] == 0) continue;
-        const Eigen::Matrix3d S = w.R[t].transpose() * (edges(F.tets[t], p) * w.G[t]);
-        Eigen::Matrix3d M = stress(0.5 * (S + S.transpose()), w.lambda[t], w.mu[t]);
-        if (w.twist) M += crossMatrix(w.L[t] * axialOfSkew(S));
-        scatter(F.tets[t], w.V[t] * (w.R[t] * M) * w.G[t].transpose(), y);
-      }
-    });
-    reduce(out);
+    applyWarped(p, out);
     removeNormalParts(springs, out);
   };
   const std::vector<Eigen::Matrix3d> Rc = coarse_.elementRotations(xc);
@@ -214,29 +258,9 @@ double FineRefiner::stepWarped(const Springs& springs, const std::vector<Eigen::
     refine::twoLevelPrecondition(coarse_, Rc, dinv, free_, res, z);
     removeNormalParts(springs, z);
   };
-  auto energyAt = [&](const Field& pos) {
-    std::vector<double> part(std::size_t(T), 0.0);
-    parallelChunks(nt, T, [&](std::size_t b, std::size_t e, int c) {
-      double s = 0;
-      for (std::size_t t = b; t < e; ++t) {
-        if (w.V[t] == 0) continue;
-        const Eigen::Matrix3d Ft = edges(F.tets[t], pos) * w.G[t];
-        Eigen::Quaterniond q = w.q[t];  // a trial: the warm start stays with x
-        const Eigen::Matrix3d S = polarRotationWarm(Ft, q, 1e-5).transpose() * Ft;
-        Eigen::Matrix3d eps = 0.5 * (S + S.transpose());
-        eps.diagonal().array() -= 1.0;
-        const double tr = eps.trace();
-        s += w.V[t] * (0.5 * w.lambda[t] * tr * tr + w.mu[t] * eps.squaredNorm());
-      }
-      part[std::size_t(c)] = s;
-    });
-    double s = 0;
-    for (double v : part) s += v;
-    return s;
-  };
   Field dx;
   const double reduction = refine::pcg(r, free_, iterations, applyK, precondition, dx);
-  refine::backtrack(x, dx, free_, e0, energyAt);
+  refine::backtrack(x, dx, free_, e0, [&](const Field& pos) { return warpedEnergy(pos); });
   return reduction;
 }
 

@@ -63,6 +63,11 @@ class FineRefiner {
   double stepProjected(const Springs& springs, const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
   double stepWarped(const Springs& springs, const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const;
   struct Warped;  // the matrix-free methods' per-tet data and buffers (sim/refine_warped.cpp)
+  using Field = std::vector<Eigen::Vector3d>;
+  void sumThreadBuffers(Field& out) const;
+  double linearizeWarped(const Field& x, Field& r, std::vector<Eigen::Matrix3d>& diag) const;
+  void applyWarped(const Field& p, Field& out) const;
+  double warpedEnergy(const Field& pos) const;
 
   const CoarseModel& coarse_;
   const std::vector<Mat12>& K_;
