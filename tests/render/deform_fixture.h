@@ -3,6 +3,7 @@
 // with its right kidney as the handle (mask id kKidneyId) and a small coarse/fine scene around it,
 // built once; its images on the GPU; the deformer's set-up for it.
 #include <Eigen/Core>
+#include <Eigen/LU>
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -113,6 +114,15 @@ inline vk::DeformSetup setupFor(const DeformFixture& f, const FineInterpolationD
   s.background = f.q.toNormalized(f.backgroundHu);
   s.worldToIndex = f.q.geometry.worldToIndex();
   return s;
+}
+
+// The deformer's fine node positions read back, in world space (for the CPU references).
+inline std::vector<Eigen::Vector3d> worldPositions(const DeformFixture& f, const vk::GpuDeformer& gpu) {
+  const auto pos = gpu.readPositions();
+  const Eigen::Matrix4d i2w = f.q.geometry.worldToIndex().inverse();
+  std::vector<Eigen::Vector3d> world(pos.size());
+  for (std::size_t i = 0; i < pos.size(); ++i) world[i] = (i2w * pos[i].cast<double>()).head<3>();
+  return world;
 }
 
 }  // namespace handson::test

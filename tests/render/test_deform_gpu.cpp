@@ -57,10 +57,7 @@ struct Agreement {
 // GPU images against the CPU reference run on the GPU's own fine node positions.
 Agreement compareWithReference(const Fixture& f, const vk::GpuDeformer& gpu, const TetMesh& mesh, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
                                RasterStats* cpuStats = nullptr) {
-  const auto pos = gpu.readPositions();
-  const Eigen::Matrix4d i2w = f.q.geometry.worldToIndex().inverse();
-  std::vector<Eigen::Vector3d> world(pos.size());
-  for (std::size_t i = 0; i < pos.size(); ++i) world[i] = (i2w * pos[i].cast<double>()).head<3>();
+  const std::vector<Eigen::Vector3d> world = test::worldPositions(f, gpu);
   Volume out;
   std::vector<std::uint8_t> outMask;
   const RasterStats st = rasterizeDeformed(f.phantom.ct, mesh, world, lo, hi, f.backgroundHu, out, &f.mask, &outMask);

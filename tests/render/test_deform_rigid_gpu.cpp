@@ -76,10 +76,7 @@ TEST_F(DeformRigidGpu, ASlidingHandleIsDrawnWhereItsPoseIsAsOnTheCpu) {
     vk::GpuDeformer gpu(test::gpuContext(), im.volume, im.mask, setup);
     gpu.runFrame(state, vk::Redo::Region);
     // The CPU reference on the GPU's own fine positions.
-    const auto pos = gpu.readPositions();
-    const Eigen::Matrix4d i2w = f.q.geometry.worldToIndex().inverse();
-    std::vector<Eigen::Vector3d> world(pos.size());
-    for (std::size_t i = 0; i < pos.size(); ++i) world[i] = (i2w * pos[i].cast<double>()).head<3>();
+    const std::vector<Eigen::Vector3d> world = test::worldPositions(f, gpu);
     Volume out;
     std::vector<std::uint8_t> outMask;
     RasterOptions o{&f.mask, &outMask, UINT64_MAX, nullptr, rigid ? rigidDraws(f.q.geometry, {kKidneyId}, T) : std::vector<RigidDraw>{}};
