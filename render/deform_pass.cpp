@@ -9,7 +9,9 @@
 
 #include "deform_descriptors.h"
 #include "deform_setup.h"
+#include "render/render_params.h"
 #include "shaders/spirv.h"
+#include "sim/tet_raster.h"
 #include "sim/error.h"
 #include "vk_context.h"
 
@@ -49,8 +51,6 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
     : ctx_(ctx), source_(source), sourceMask_(sourceMask), nearest_(ctx, false), slots_(std::max<std::uint32_t>(1, framesInFlight)) {
   const ValidatedDeformSetup valid = validateDeformSetup(ctx, source.desc(), sourceMask.desc(), setup);
   const FineInterpolationData& d = *setup.interpolation;
-  const fg::ImageDesc sd = source.desc();
-  const fg::ImageDesc md = sourceMask.desc();
   nodes_ = d.node.size();
   tets_ = setup.fineTets->size();
   coarseNodes_ = d.coarseRest.size();
@@ -58,6 +58,13 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   handles_ = d.handleCount;
   p_ = valid.params;
 
+  createPipelines();
+  uploadStaticData(setup, valid);
+}
+
+// The passes' pipelines and their bindings.
+void GpuDeformer::createPipelines() {
+  const Context& ctx = ctx_;
   interpolate_ = ComputePipeline(ctx, shaders::deformInterpolate(),
                                  bindings({{gpu::kBindDeformInterpolateParams, kParams},
                                            {gpu::kBindDeformInterpolateNodes, kSsbo},
@@ -140,6 +147,15 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
                                             {gpu::kBindDeformStrainRasterBrickList, kSsbo}}),
                                   0);
 
+}
+
+// The static data on the device (parameters, mesh records, rest positions, tets, limits), the
+// per-frame buffers and the deformed images (copies of the sources).
+void GpuDeformer::uploadStaticData(const DeformSetup& setup, const ValidatedDeformSetup& valid) {
+  const Context& ctx = ctx_;
+  const FineInterpolationData& d = *setup.interpolation;
+  const fg::ImageDesc sd = source_.desc();
+  const fg::ImageDesc md = sourceMask_.desc();
   params_ = Buffer(ctx, sizeof(gpu::DeformParams), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::Device);
   if (!(setup.motionLagVoxels >= 0.0) || !(setup.motionLagVoxels <= 4.0))
     throw Error("deformation: the lag allowed during motion must be between 0 and 4 voxels");
@@ -322,9 +338,6 @@ void movedBox(const std::array<Eigen::Vector3i, 2>& rest, const Eigen::Matrix4d&
   d.boxHi = glm::vec4(float(hi.x()), float(hi.y()), float(hi.z()), 0.0f);
 }
 
-// A world rigid pose as an index-space map (rest -> current) and its inverse.
-Eigen::Matrix4d indexPose(const Eigen::Matrix4f& T, const Eigen::Matrix4d& w2i) { return w2i * T.cast<double>() * w2i.inverse(); }
-
 }  // namespace
 
 void GpuDeformer::writeRigidDraws(Slot& s) {
@@ -333,7 +346,8 @@ void GpuDeformer::writeRigidDraws(Slot& s) {
     if (lastPoses_.size() != poses_.size()) lastPoses_ = poses_;
     for (std::size_t h = 0; h < rigidIds_.size(); ++h) {
       if (rigidIds_[h] == 0) continue;
-      const Eigen::Matrix4d now = indexPose(poses_[h], worldToIndex_), before = indexPose(lastPoses_[h], worldToIndex_);
+      const Eigen::Matrix4d now = indexSpacePose(poses_[h].cast<double>(), worldToIndex_);
+      const Eigen::Matrix4d before = indexSpacePose(lastPoses_[h].cast<double>(), worldToIndex_);
       gpu::RigidDraw d{};
       d.currentToRest = toGlm(now.inverse());
       d.id = glm::uvec4(rigidIds_[h], 0, 0, 0);

@@ -22,6 +22,7 @@
 namespace handson::vk {
 
 class Context;
+struct ValidatedDeformSetup;
 
 /// The static inputs, from the simulation scene.
 struct DeformSetup {
@@ -166,6 +167,8 @@ class GpuDeformer {
   std::size_t fineTetCount() const { return tets_; }
 
  private:
+  void createPipelines();
+  void uploadStaticData(const DeformSetup& setup, const ValidatedDeformSetup& valid);
   void importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState, fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {},
                        const Outputs& outputs = {});
   Outputs addResamplePasses(fg::FrameGraph& g, Redo redo);

@@ -7,19 +7,13 @@
 #include <cmath>
 #include <string>
 
+#include "render/render_params.h"
 #include "sim/error.h"
 #include "sim/tet_raster.h"
 #include "sim/tissue_limits.h"
 #include "vk_context.h"
 
 namespace handson::vk {
-
-glm::mat4 toGlm(const Eigen::Matrix4d& m) {
-  glm::mat4 g;
-  for (int c = 0; c < 4; ++c)
-    for (int r = 0; r < 4; ++r) g[c][r] = float(m(r, c));
-  return g;
-}
 
 namespace {
 

@@ -20,9 +20,6 @@ struct ValidatedDeformSetup {
   std::uint64_t ownerBytes = 0;                    ///< the owner buffer: one uint per voxel of the region's box
 };
 
-/// An Eigen matrix as glm's (column-major), in float.
-glm::mat4 toGlm(const Eigen::Matrix4d& m);
-
 /// Checks `setup` against the device and the source volume and mask descriptions; throws Error with
 /// the first problem: no mesh data, a device without 16-bit storage images or subgroup arithmetic,
 /// volume (R16) and mask (R8) not on one grid, empty or inconsistent counts, a tet, a fine node's

@@ -12,14 +12,12 @@
 
 namespace handson {
 
-namespace {
 glm::mat4 toGlm(const Eigen::Matrix4d& m) {
   glm::mat4 out;
   for (int c = 0; c < 4; ++c)
     for (int r = 0; r < 4; ++r) out[c][r] = float(m(r, c));
   return out;
 }
-}  // namespace
 
 namespace {
 

@@ -25,6 +25,9 @@ struct ClipRegion {
 };
 /// "X0,Y0,Z0,X1,Y1,Z1" (finite, each low coordinate below the high one): sets the box and returns
 /// "", else returns why not and leaves `clip` unchanged.
+/// An Eigen matrix as glm's (column-major), in float.
+glm::mat4 toGlm(const Eigen::Matrix4d& m);
+
 std::string parseClipBox(const std::string& text, ClipRegion& clip);
 /// "NX,NY,NZ,D" (finite, a non-zero normal): sets the plane and returns "", else returns why not.
 std::string parseClipPlane(const std::string& text, ClipRegion& clip);

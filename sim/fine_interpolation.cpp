@@ -30,10 +30,7 @@ CoarseFrameState packFrameState(const std::vector<Eigen::Vector3d>& x, const std
   }
   for (const auto& h : handles) {
     if (!h.R.allFinite() || !h.t.allFinite()) throw Error("deformation state: a handle transform is not finite");
-    Eigen::Matrix4f m = Eigen::Matrix4f::Identity();
-    m.topLeftCorner<3, 3>() = h.R.cast<float>();
-    m.topRightCorner<3, 1>() = h.t.cast<float>();
-    s.handles.push_back(m);
+    s.handles.push_back(h.matrix().cast<float>());
   }
   return s;
 }

@@ -144,10 +144,7 @@ StaticSolveResult solveStaticNeoHookean(const TetMesh& mesh, const std::vector<N
         if (dof[i] >= 0) trial[i] = res.x[i] + alpha * dx.segment<3>(dof[i]);
       accepted = totalEnergy(mesh, tets, opt.springs, trial) <= e0 + 1e-4 * alpha * slope;
     }
-    double update = 0.0;
-    if (accepted)
-      for (std::size_t i = 0; i < n; ++i)
-        if (dof[i] >= 0) update = std::max(update, (trial[i] - res.x[i]).norm());
+    const double update = accepted ? free.largestUpdate(trial, res.x) : 0.0;
     if (accepted) res.x.swap(trial);
     res.iterations = it + 1;
     res.lastUpdate = update;

@@ -15,6 +15,13 @@ struct RigidTransform {
   Eigen::Vector3d apply(const Eigen::Vector3d& X) const { return R * X + t; }
   /// The rest point Rᵀ (x - t) of a moved point x (the inverse of apply).
   Eigen::Vector3d toRest(const Eigen::Vector3d& x) const { return R.transpose() * (x - t); }
+  /// The homogeneous 4x4 matrix of apply (rest -> moved).
+  Eigen::Matrix4d matrix() const {
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    m.topLeftCorner<3, 3>() = R;
+    m.topRightCorner<3, 1>() = t;
+    return m;
+  }
   /// Within 1e-12 of the identity (Frobenius norm of R - I, length of t).
   bool isIdentity() const { return (R - Eigen::Matrix3d::Identity()).norm() < 1e-12 && t.norm() < 1e-12; }
   /// Rotation by a rotation vector (radians, axis * angle) about `pivot`, then a translation.

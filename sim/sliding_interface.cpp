@@ -8,6 +8,12 @@
 
 namespace handson {
 
+std::vector<char> slidingHandles(const std::vector<SlideNode>& slide, std::size_t handleCount) {
+  std::vector<char> out(handleCount, 0);
+  for (const SlideNode& n : slide) out.at(std::size_t(n.handle)) = 1;
+  return out;
+}
+
 std::vector<NormalSpring> slideSprings(const TetMesh& fine, const std::vector<SlideNode>& slide, const std::vector<RigidTransform>& handles) {
   std::vector<NormalSpring> out;
   out.reserve(slide.size());

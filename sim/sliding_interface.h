@@ -49,6 +49,9 @@ struct NormalSpring {
 
 /// The slide nodes' springs at the handles' poses (world frame). Throws handson::Error when a slide
 /// node names a handle `handles` does not have.
+/// Per handle (handleCount of them), whether it slides: whether any slide node is its.
+std::vector<char> slidingHandles(const std::vector<SlideNode>& slide, std::size_t handleCount);
+
 std::vector<NormalSpring> slideSprings(const TetMesh& fine, const std::vector<SlideNode>& slide, const std::vector<RigidTransform>& handles);
 
 /// f_i -= k n (n . (x_i - a)) for every spring (the springs' forces on the nodes, added to f).

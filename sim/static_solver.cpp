@@ -221,9 +221,7 @@ StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, 
         if (dof[i] >= 0) trial[i] = res.x[i] + alpha * dx.segment<3>(dof[i]);
       if (energy(trial) <= e0 + 1e-4 * alpha * slope) break;
     }
-    double update = 0.0;
-    for (std::size_t i = 0; i < n; ++i)
-      if (dof[i] >= 0) update = std::max(update, (trial[i] - res.x[i]).norm());
+    const double update = free.largestUpdate(trial, res.x);
     res.x.swap(trial);
     if (!std::isfinite(update)) throw Error("static solve: diverged (non-finite update)");
     res.iterations = it + 1;

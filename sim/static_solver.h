@@ -1,5 +1,6 @@
 #pragma once
 // Assembly and the static solve of the fine corotational model (the accuracy reference).
+#include <algorithm>
 #include <Eigen/Core>
 #include <memory>
 #include <vector>
@@ -82,6 +83,13 @@ struct FreeDofs {
   std::vector<int> dof;
   int count = 0;
   double motion = 0.0;
+  /// The largest distance between a and b over the free nodes (a Newton step's update).
+  double largestUpdate(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b) const {
+    double u = 0.0;
+    for (std::size_t i = 0; i < dof.size(); ++i)
+      if (dof[i] >= 0) u = std::max(u, (a[i] - b[i]).norm());
+    return u;
+  }
 };
 FreeDofs freeDofs(const TetMesh& mesh, const std::vector<char>& fixed, const std::vector<Eigen::Vector3d>& x0, const std::vector<NormalSpring>& springs,
                   const char* solve);

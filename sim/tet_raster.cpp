@@ -53,15 +53,12 @@ std::size_t takeRegionFromQuantized(Volume& image, const QuantizedVolume& q, con
 
 std::vector<RigidDraw> rigidDraws(const VolumeGeometry& g, const std::vector<std::uint32_t>& ids, const std::vector<RigidTransform>& T) {
   if (ids.size() != T.size()) throw Error("rasterization: one pose per handle drawn rigidly expected");
-  const Eigen::Matrix4d w2i = g.worldToIndex(), i2w = g.indexToWorld();
+  const Eigen::Matrix4d w2i = g.worldToIndex();
   std::vector<RigidDraw> out;
   for (std::size_t h = 0; h < ids.size(); ++h) {
     if (ids[h] == 0) continue;
     if (ids[h] > 255) throw Error("rasterization: a handle id beyond the mask's 255");
-    Eigen::Matrix4d inv = Eigen::Matrix4d::Identity();  // world: current -> rest
-    inv.topLeftCorner<3, 3>() = T[h].R.transpose();
-    inv.topRightCorner<3, 1>() = -T[h].R.transpose() * T[h].t;
-    out.push_back({std::uint8_t(ids[h]), w2i * inv * i2w});
+    out.push_back({std::uint8_t(ids[h]), indexSpacePose(T[h].matrix(), w2i).inverse()});
   }
   return out;
 }

@@ -13,6 +13,7 @@
 // voxels elsewhere is tissue that slid there: it takes the value of the voxel nearest to its rest
 // position outside those handles (within 2 voxels), mask 0.
 #include <Eigen/Core>
+#include <Eigen/LU>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -45,6 +46,11 @@ struct RigidDraw {
   Eigen::Matrix4d currentToRest = Eigen::Matrix4d::Identity();  ///< index space -> index space
 };
 
+/// A world pose (rest -> moved, homogeneous) in voxel index space: w2i T w2i^-1.
+inline Eigen::Matrix4d indexSpacePose(const Eigen::Matrix4d& worldPose, const Eigen::Matrix4d& worldToIndex) {
+  return worldToIndex * worldPose * worldToIndex.inverse();
+}
+
 /// The draws of the handles whose mask ids are `ids[i]` (0: not drawn rigidly) at world poses T[i].
 std::vector<RigidDraw> rigidDraws(const VolumeGeometry& g, const std::vector<std::uint32_t>& ids, const std::vector<RigidTransform>& T);
 
@@ -70,13 +76,7 @@ std::uint64_t defaultMaxTetVoxels(const TetMesh& mesh, const Eigen::Matrix4d& wo
 /// filled at rest (cleared to `background` before rasterizing). `tetOf` (optional): per voxel of the
 /// grid, the tet that wrote it, -1 where none did (outside the region, or uncovered).
 RasterStats rasterizeDeformed(const Volume& source, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& regionLo,
-                              const Eigen::Vector3d& regionHi, float background, Volume& out, const RasterOptions& options);
-inline RasterStats rasterizeDeformed(const Volume& source, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& regionLo,
-                                     const Eigen::Vector3d& regionHi, float background, Volume& out, const std::vector<std::uint8_t>* restMask = nullptr,
-                                     std::vector<std::uint8_t>* outMask = nullptr, std::uint64_t maxTetVoxels = UINT64_MAX,
-                                     std::vector<std::int32_t>* tetOf = nullptr) {
-  return rasterizeDeformed(source, mesh, deformed, regionLo, regionHi, background, out, RasterOptions{restMask, outMask, maxTetVoxels, tetOf, {}});
-}
+                              const Eigen::Vector3d& regionHi, float background, Volume& out, const RasterOptions& options = {});
 
 /// The voxel index box [lo, hi] (inclusive, clamped to the grid) of the voxels whose centres lie in
 /// the world box [regionLo, regionHi] up to 1e-3 mm; empty (lo > hi) when none.

@@ -344,15 +344,16 @@ int cmdDeform(const Words& words) {
   hideRigidStrain(strain, tetStrainLimits(sc.band, r.settings.materials));  // a sliding handle's own tets: not shown
   // A sliding handle is drawn where its pose puts it, not smeared by the tets straddling its surface.
   const RigidHandles rigid = rigidHandlesOf(image, handles, sc);
-  RasterOptions raster = rasterOptions(image, sc, rigid, d.T);
-  std::vector<std::int32_t> tetOf;
+  const RasterOptions raster = rasterOptions(image, sc, rigid, d.T);
+  std::vector<std::int32_t> tetOf;  // which tet drew each voxel (the CPU resampling, for the strain)
   const bool wantStrain = args.value("--strain-out").has_value();
-  if (wantStrain && r.backend == "cpu") raster.tetOf = &tetOf;
-  const DeformImage im = resampleDeform(args, r, image, d, rigid, raster);
-  raster.tetOf = nullptr;
+  RasterOptions resampling = raster;
+  if (wantStrain && r.backend == "cpu") resampling.tetOf = &tetOf;
+  const DeformImage im = resampleDeform(args, r, image, d, rigid, resampling);
   writeVolume(im.out, *args.value("-o"));
   if (wantStrain) {
-    writeStrain(*args.value("--strain-out"), image, sc, d.x, strain, tetOf, raster);
+    if (tetOf.empty()) tetOf = voxelTets(image, sc, d.x, raster);  // the GPU resampled: which tet drew each voxel, on the CPU
+    writeVolume(strainVolume(image.geometry(), tetOf, strain), *args.value("--strain-out"));
     std::cout << "wrote " << *args.value("--strain-out") << "\n";
   }
   printDeformSummary(r, d, im, movedHandleLimits(sc, strain, r.settings.materials), *args.value("-o"));

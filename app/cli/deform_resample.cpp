@@ -2,21 +2,20 @@
 
 #include <algorithm>
 
-#include "app/io/volume_io.h"
 #include "render/deform_pass.h"
 #include "render/vk_resources.h"
 #include "sim/error.h"
 #include "sim/fine_interpolation.h"
 #include "sim/quantized_volume.h"
-#include "sim/strain.h"
+#include "sim/sliding_interface.h"
 
 namespace handson::cli {
 
 RigidHandles rigidHandlesOf(const Volume& image, const std::vector<SimHandle>& handles, const SimScene& sc) {
   RigidHandles r;
-  r.ids.assign(handles.size(), 0);
-  for (const auto& n : sc.constraints.slide) r.ids[std::size_t(n.handle)] = std::uint32_t(n.handle + 1);
-  if (std::all_of(r.ids.begin(), r.ids.end(), [](std::uint32_t id) { return id == 0; })) return {};
+  const std::vector<char> slides = slidingHandles(sc.constraints.slide, handles.size());
+  if (std::none_of(slides.begin(), slides.end(), [](char s) { return s != 0; })) return {};
+  for (std::size_t h = 0; h < handles.size(); ++h) r.ids.push_back(slides[h] ? std::uint32_t(h + 1) : 0);
   r.mask.assign(image.voxelCount(), 0);
   for (std::size_t h = 0; h < handles.size(); ++h) {
     for (std::uint32_t v : handles[h].voxels) r.mask[v] = std::uint8_t(h + 1);
@@ -38,12 +37,7 @@ namespace {
 
 std::vector<Eigen::Matrix4f> worldPoses(const std::vector<RigidTransform>& T) {
   std::vector<Eigen::Matrix4f> out;
-  for (const auto& t : T) {
-    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-    m.topLeftCorner<3, 3>() = t.R;
-    m.topRightCorner<3, 1>() = t.t;
-    out.push_back(m.cast<float>());
-  }
+  for (const auto& t : T) out.push_back(t.matrix().cast<float>());
   return out;
 }
 
@@ -109,14 +103,12 @@ GpuResample resampleOnNewDevice(const vk::ContextOptions& co, const Volume& imag
   return r;
 }
 
-void writeStrain(const std::string& path, const Volume& image, const SimScene& sc, const std::vector<Eigen::Vector3d>& x, const std::vector<float>& strain,
-                 std::vector<std::int32_t>& tetOf, RasterOptions raster) {
-  if (tetOf.empty()) {
-    Volume unused;
-    raster.tetOf = &tetOf;
-    rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, unused, raster);
-  }
-  writeVolume(strainVolume(image.geometry(), tetOf, strain), path);
+std::vector<std::int32_t> voxelTets(const Volume& image, const SimScene& sc, const std::vector<Eigen::Vector3d>& x, RasterOptions raster) {
+  std::vector<std::int32_t> tetOf;
+  Volume unused;
+  raster.tetOf = &tetOf;
+  rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, unused, raster);
+  return tetOf;
 }
 
 }  // namespace handson::cli

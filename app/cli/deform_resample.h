@@ -46,9 +46,8 @@ struct GpuResample {
 /// The GPU passes on a device of their own (any validation message is an error).
 GpuResample resampleOnNewDevice(const vk::ContextOptions& options, const Volume& image, const GpuResampleInput& in);
 
-/// Writes the strain on the input's grid. `tetOf`: which tet covers each voxel, from the CPU
-/// resampling; empty after the GPU one (then rasterized here with `raster`).
-void writeStrain(const std::string& path, const Volume& image, const SimScene& scene, const std::vector<Eigen::Vector3d>& x, const std::vector<float>& strain,
-                 std::vector<std::int32_t>& tetOf, RasterOptions raster);
+/// Which tet covers each voxel of the image at fine positions x (-1 none, kRigidVoxel a rigid
+/// handle's): the CPU rasterization with `raster`, for the strain volume after a GPU resampling.
+std::vector<std::int32_t> voxelTets(const Volume& image, const SimScene& scene, const std::vector<Eigen::Vector3d>& x, RasterOptions raster);
 
 }  // namespace handson::cli

@@ -17,6 +17,7 @@
 #include "sim/fine_interpolation.h"
 #include "sim/quantized_volume.h"
 #include "sim/region_shape.h"
+#include "sim/sliding_interface.h"
 #include "sim/scene_cache.h"
 #include "sim/strain.h"
 #include "sim/tet_raster.h"
@@ -232,8 +233,8 @@ void DeformationController::adoptBuilt() {
   // Handles that slide are drawn where their poses put them (the tets straddling their surfaces
   // slide with the tissue); glued ones by their tets.
   if (!m->scene.constraints.slide.empty()) {
-    setup.rigidIds.assign(simIds_.size(), 0);
-    for (const auto& n : m->scene.constraints.slide) setup.rigidIds[std::size_t(n.handle)] = std::uint32_t(simIds_[std::size_t(n.handle)]);
+    const std::vector<char> slides = slidingHandles(m->scene.constraints.slide, simIds_.size());
+    for (std::size_t h = 0; h < simIds_.size(); ++h) setup.rigidIds.push_back(slides[h] ? std::uint32_t(simIds_[h]) : 0);
     setup.rigidRestBoxes = restVoxelBoxes_;
   }
   try {
@@ -404,8 +405,8 @@ bool DeformationController::exportMeshAndStrain(const std::string& meshPath, con
   writeVtu(meshPath, sc.meshes.fine, a);
   std::vector<std::int32_t> tetOf;
   Volume unused;
-  rasterizeDeformed(image_, sc.meshes.fine, x, sc.lo, sc.hi, 0.0f, unused, nullptr, nullptr,
-                    defaultMaxTetVoxels(sc.meshes.fine, image_.geometry().worldToIndex()), &tetOf);
+  rasterizeDeformed(image_, sc.meshes.fine, x, sc.lo, sc.hi, 0.0f, unused,
+                    {nullptr, nullptr, defaultMaxTetVoxels(sc.meshes.fine, image_.geometry().worldToIndex()), &tetOf, {}});
   writeVolume(strainVolume(image_.geometry(), tetOf, strain), strainPath);
   return true;
 }

@@ -60,7 +60,7 @@ Agreement compareWithReference(const Fixture& f, const vk::GpuDeformer& gpu, con
   const std::vector<Eigen::Vector3d> world = test::worldPositions(f, gpu);
   Volume out;
   std::vector<std::uint8_t> outMask;
-  const RasterStats st = rasterizeDeformed(f.phantom.ct, mesh, world, lo, hi, f.backgroundHu, out, &f.mask, &outMask);
+  const RasterStats st = rasterizeDeformed(f.phantom.ct, mesh, world, lo, hi, f.backgroundHu, out, {&f.mask, &outMask, UINT64_MAX, nullptr, {}});
   if (cpuStats) *cpuStats = st;
   const auto vol = gpu.readVolume();
   const auto msk = gpu.readMask();
@@ -538,8 +538,8 @@ TEST_F(DeformGpu, ATornStateIsDrawnWithoutItsStretchedTetsAsOnTheCpu) {
   const auto st = gpu.runFrame(idx);
   EXPECT_GT(st.skippedTets, 0u);
   Volume out;
-  const RasterStats cpu = rasterizeDeformed(f.phantom.ct, mesh, world, f.scene.lo, f.scene.hi, f.backgroundHu, out, nullptr, nullptr,
-                                            defaultMaxTetVoxels(mesh, w2i));
+  const RasterStats cpu = rasterizeDeformed(f.phantom.ct, mesh, world, f.scene.lo, f.scene.hi, f.backgroundHu, out,
+                                            {nullptr, nullptr, defaultMaxTetVoxels(mesh, w2i), nullptr, {}});
   EXPECT_EQ(cpu.skipped, st.skippedTets);
   const auto vol = gpu.readVolume();
   std::size_t within = 0;

@@ -25,12 +25,7 @@ namespace {
 
 std::vector<Eigen::Matrix4f> posesOf(const std::vector<RigidTransform>& T) {
   std::vector<Eigen::Matrix4f> out;
-  for (const auto& t : T) {
-    Eigen::Matrix4f m = Eigen::Matrix4f::Identity();
-    m.topLeftCorner<3, 3>() = t.R.cast<float>();
-    m.topRightCorner<3, 1>() = t.t.cast<float>();
-    out.push_back(m);
-  }
+  for (const auto& t : T) out.push_back(t.matrix().cast<float>());
   return out;
 }
 
