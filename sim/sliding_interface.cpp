@@ -4,6 +4,7 @@
 #include <cmath>
 #include <string>
 
+#include "sim/distance_transform.h"
 #include "sim/error.h"
 
 namespace handson {
@@ -119,10 +120,25 @@ InterfaceNodes findInterfaceNodes(const TetMesh& fine, const std::vector<int>& c
   return out;
 }
 
+namespace {
+
+std::size_t boxIndex(const HandleMask& m, const Eigen::Vector3i& l) {
+  return std::size_t(l.x()) + std::size_t(m.dims.x()) * (std::size_t(l.y()) + std::size_t(m.dims.y()) * std::size_t(l.z()));
+}
+
+}  // namespace
+
 bool HandleMask::contains(const Eigen::Vector3i& v) const {
   const Eigen::Vector3i l = v - lo;
   if ((l.array() < 0).any() || (l.array() >= dims.array()).any()) return false;
-  return inside[std::size_t(l.x()) + std::size_t(dims.x()) * (std::size_t(l.y()) + std::size_t(dims.y()) * std::size_t(l.z()))] != 0;
+  return inside[boxIndex(*this, l)] != 0;
+}
+
+double HandleMask::depthAt(const VolumeGeometry& grid, const Eigen::Vector3d& p) const {
+  const Eigen::Vector3i l = grid.toIndex(p).array().round().cast<int>().matrix() - lo;
+  if ((l.array() < 0).any() || (l.array() >= dims.array()).any()) return 0.0;
+  // The surface lies half a voxel beyond the last voxel inside (whose distance is one voxel).
+  return std::max(0.0, double(depthMm[boxIndex(*this, l)]) - 0.5 * grid.spacing.minCoeff());
 }
 
 HandleMask handleMask(const VolumeGeometry& grid, const std::vector<std::uint32_t>& voxels) {
@@ -135,19 +151,24 @@ HandleMask handleMask(const VolumeGeometry& grid, const std::vector<std::uint32_
     lo = lo.cwiseMin(i);
     hi = hi.cwiseMax(i);
   }
-  m.lo = lo;
-  m.dims = hi - lo + Eigen::Vector3i::Ones();
+  // One voxel of margin: the box's rim is outside, so every depth is measured to the mask's surface.
+  m.lo = lo - Eigen::Vector3i::Ones();
+  m.dims = hi - lo + Eigen::Vector3i::Constant(3);
   m.inside.assign(std::size_t(m.dims.x()) * std::size_t(m.dims.y()) * std::size_t(m.dims.z()), 0);
   for (std::uint32_t v : voxels) {
-    const Eigen::Vector3i l = grid.voxelOf(v) - lo;
-    m.inside[std::size_t(l.x()) + std::size_t(m.dims.x()) * (std::size_t(l.y()) + std::size_t(m.dims.y()) * std::size_t(l.z()))] = 1;
+    m.inside[boxIndex(m, grid.voxelOf(v) - m.lo)] = 1;
     m.centroid += grid.toWorld(grid.voxelOf(v).cast<double>());
   }
   m.centroid /= double(voxels.size());
+  m.depthMm = squaredDistanceToOutside(m.inside, m.dims, grid.spacing);
+  for (float& d : m.depthMm) d = std::sqrt(d);
   return m;
 }
 
 Eigen::Vector3d maskNormal(const VolumeGeometry& grid, const HandleMask& mask, const Eigen::Vector3d& p, double radiusMm) {
+  // A point below the surface (a slide node of a coarse mesh can lie a tet deep) reaches as far past
+  // the surface as one on it: the neighbourhood's centroid then still lies along the normal.
+  radiusMm += mask.depthAt(grid, p);
   const Eigen::Vector3d q = grid.toIndex(p);
   const Eigen::Matrix3d step = grid.direction * grid.spacing.asDiagonal();  // world offset of one index step per axis
   Eigen::Vector3i a, b;

@@ -80,19 +80,23 @@ struct InterfaceNodes {
 };
 InterfaceNodes findInterfaceNodes(const TetMesh& fine, const std::vector<int>& claimed, const std::vector<char>& fixed);
 
-/// A handle's voxels as a mask over their index box (what maskNormal reads).
+/// A handle's voxels as a mask over their index box grown by one voxel (what maskNormal reads).
 struct HandleMask {
   Eigen::Vector3i lo = Eigen::Vector3i::Zero(), dims = Eigen::Vector3i::Zero();
   std::vector<std::uint8_t> inside;  ///< per voxel of the box, x fastest
+  std::vector<float> depthMm;        ///< per voxel of the box: distance (mm) to the nearest voxel outside the mask, 0 outside
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  ///< world centroid of the voxels
   bool contains(const Eigen::Vector3i& v) const;
+  /// The depth of p's nearest voxel below the mask's surface (mm; 0 outside the mask).
+  double depthAt(const VolumeGeometry& grid, const Eigen::Vector3d& p) const;
 };
 /// Throws handson::Error for an empty list or a voxel outside `grid`.
 HandleMask handleMask(const VolumeGeometry& grid, const std::vector<std::uint32_t>& voxels);
 
 /// The outward unit normal of a handle's mask at a point p (world mm): the direction from the
-/// centroid of the mask's voxel centres within `radiusMm` of p to p (for a flat face, 3/8 of the
-/// radius behind it; on a sphere of radius a, exactly radial). Falls back to the direction from the
+/// centroid of the mask's voxel centres within rho = `radiusMm` + p's depth below the surface of p
+/// to p (for a flat face exactly its normal at any depth: the neighbourhood always reaches `radiusMm`
+/// past the surface; on a sphere of radius a, exactly radial). Falls back to the direction from the
 /// mask's centroid when the neighbourhood's centroid is p itself; always a unit vector.
 Eigen::Vector3d maskNormal(const VolumeGeometry& grid, const HandleMask& mask, const Eigen::Vector3d& p, double radiusMm);
 

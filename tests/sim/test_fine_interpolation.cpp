@@ -19,7 +19,7 @@ struct Scene {
   SimScene scene;
 };
 
-Scene kidneyScene() {
+Scene kidneyScene(SimSettings::Interface interface = SimSettings::Interface::Sliding) {
   PhantomOptions po;
   po.spacingMm = 4.0;
   Scene s{makePhantom(po), {}};
@@ -30,6 +30,7 @@ Scene kidneyScene() {
   SimSettings set;
   set.coarseTets = 300;
   set.fineTets = 300 * 64;
+  set.interface = interface;
   s.scene = buildSimScene(s.phantom.ct, {h}, set);
   return s;
 }
@@ -80,7 +81,8 @@ TEST_P(FineInterpolationKinds, PackedFloatReferenceEqualsTheModelsReconstruction
 
 TEST(FineInterpolation, GradedCellsPackLikeTheirReconstruction) {
   // Hanging nodes are coarse nodes like any other (their positions in the state), never face records.
-  const Scene s = kidneyScene();
+  // (Graded cells are glued-only.)
+  const Scene s = kidneyScene(SimSettings::Interface::Glued);
   CoarseModel model(s.scene.meshes, s.scene.fineK, s.scene.constraints, {}, CoarseElement::Cell, CoarseGrading{0.0});
   ASSERT_GT(model.hangingNodeCount(), 0u);
   expectPackedEqualsReconstruction(s, model, 64u * 1024u);
