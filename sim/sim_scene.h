@@ -34,10 +34,10 @@ struct SimSettings {
   /// (Handles: the box's far corners held at rest).
   enum class Region : std::uint8_t { Box, Handles } region = Region::Box;
   /// The coarse model's elements (CoarseModel; sim/coarsening.h): grid cells by default, measured
-  /// more accurate than the spec's coarse tets on the same coarse nodes (README, `bench sim`).
+  /// more accurate than the spec's coarse tets on the same coarse nodes (docs/simulation-model.md, `bench sim`).
   CoarseElement element = CoarseElement::Cell;
   /// How the coarse model iterates (CoarseModel::setSolver): the matrix-free PCG by default, the
-  /// assembled warped-stiffness solve as the measured baseline (README, `bench sim`).
+  /// assembled warped-stiffness solve as the measured baseline (docs/simulation-model.md, `bench sim`).
   CoarseSolver coarseSolver = CoarseSolver::Pcg;
   /// Graded cells near the handles (CoarseGrading; a named option, not the default: measured more
   /// accurate at several times the frame, docs/simulation-model.md). Graded models are not cached.

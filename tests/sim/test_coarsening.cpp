@@ -56,7 +56,7 @@ TEST(Coarsening, KidneyMoved10mmAndRotated30DegMatchesTheFineReference) {
   std::printf("handle motion %.2f mm; coarsened: RMS %.4f max %.4f L2 %.4f; plain: RMS %.4f max %.4f L2 %.4f\n", ec.handleMotionMm, ec.rmsOfMotion,
               ec.maxOfMotion, ec.relativeL2, ep.rmsOfMotion, ep.maxOfMotion, ep.relativeL2);
   // The condensed coarse model alone is no better than plain coarse FEM on this scene (bone at
-  // 15 GPa next to 3-8 kPa soft tissue locks its linear element boundaries; see README): measured,
+  // 15 GPa next to 3-8 kPa soft tissue locks its linear element boundaries; docs/simulation-model.md): measured,
   // not asserted beyond sanity. The two-level refinement is what meets the accuracy bounds.
   EXPECT_LT(ec.rmsOfMotion, 0.6);
   // The linearizations from the coarse answer: the analytic matrix-free one (the default), the

@@ -596,7 +596,7 @@ TEST(Replay, AScenarioScriptRunsOnAnotherVolumeAndExportsTheDeformedVolume) {
   // The kidney script on a volume it was not recorded on (a phantom with another noise seed, read
   // from a file): the touches land on the kidney there too, the simulation deforms the tissue and
   // the export is the deformed volume on that volume's grid. (Other voxel sizes are not yet robust:
-  // the pinch's seed snapping works in voxels; see README.)
+  // the pinch's seed snapping works in voxels.)
   const fs::path dir = fs::temp_directory_path() / ("handson_othervol_" + std::to_string(getpid()));
   fs::create_directories(dir);
   std::string out;
