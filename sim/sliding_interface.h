@@ -47,11 +47,11 @@ struct NormalSpring {
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ(), anchor = Eigen::Vector3d::Zero();
 };
 
-/// The slide nodes' springs at the handles' poses (world frame). Throws handson::Error when a slide
-/// node names a handle `handles` does not have.
 /// Per handle (handleCount of them), whether it slides: whether any slide node is its.
 std::vector<char> slidingHandles(const std::vector<SlideNode>& slide, std::size_t handleCount);
 
+/// The slide nodes' springs at the handles' poses (world frame). Throws handson::Error when a slide
+/// node names a handle `handles` does not have.
 std::vector<NormalSpring> slideSprings(const TetMesh& fine, const std::vector<SlideNode>& slide, const std::vector<RigidTransform>& handles);
 
 /// f_i -= k n (n . (x_i - a)) for every spring (the springs' forces on the nodes, added to f).

@@ -132,97 +132,123 @@ void addSpringBlocks(BlockAssembler& assembler, const TetMesh& mesh, const std::
   }
 }
 
+namespace {
+
+// The fixed inputs of one static solve, shared by its iterations' parts.
+struct StaticProblem {
+  const TetMesh& mesh;
+  const std::vector<Mat12>& K;  ///< rest stiffness per tet
+  const StaticSolveOptions& opt;
+  const FreeDofs& free;
+  double energy(const std::vector<Eigen::Vector3d>& x) const { return elasticEnergy(mesh, K, x) + springEnergy(opt.springs, x); }
+};
+
+// The corotational forces at x into rhs (3 per free dof: -grad E) and, with `stiffness`, each tet's
+// warped stiffness (or its Newton Hessian, projected when `project`) into it.
+void addTetForces(const StaticProblem& p, const std::vector<Eigen::Vector3d>& x, Eigen::VectorXd& rhs, BlockAssembler* stiffness, bool project) {
+  const TetMesh& mesh = p.mesh;
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    const auto X = corners(mesh, int(t), mesh.nodes), xt = corners(mesh, int(t), x);
+    const Eigen::Matrix3d Rt = polarRotation(deformationGradient(X, xt));
+    Vec12 local;
+    for (int i = 0; i < 4; ++i) local.segment<3>(3 * i) = Rt.transpose() * xt[std::size_t(i)] - X[std::size_t(i)];
+    const Vec12 kl = p.K[t] * local;
+    for (int i = 0; i < 4; ++i) {
+      const int d = p.free.dof[std::size_t(mesh.tets[t][std::size_t(i)])];
+      if (d >= 0) rhs.segment<3>(d) -= Rt * kl.segment<3>(3 * i);
+    }
+    if (!stiffness) continue;
+    if (p.opt.newton) {
+      stiffness->add(int(t), corotationalHessian(p.K[t], X, xt, project));
+    } else {
+      const Mat12 B = blockRotation(Rt);
+      stiffness->add(int(t), B * p.K[t] * B.transpose());
+    }
+  }
+}
+
+// The springs' forces at x into rhs; `scratch` (one vector per node, zero on return) sums a node's
+// springs so a node with two is added once.
+void addSpringForcesTo(const StaticProblem& p, const std::vector<Eigen::Vector3d>& x, Eigen::VectorXd& rhs, std::vector<Eigen::Vector3d>& scratch) {
+  if (p.opt.springs.empty()) return;
+  std::fill(scratch.begin(), scratch.end(), Eigen::Vector3d::Zero());
+  addSpringForces(p.opt.springs, x, scratch);
+  for (const NormalSpring& s : p.opt.springs) {
+    rhs.segment<3>(p.free.dof[std::size_t(s.node)]) += scratch[std::size_t(s.node)];
+    scratch[std::size_t(s.node)].setZero();
+  }
+}
+
+// Factorizes the assembled stiffness (springs added); a Newton Hessian that is not positive definite
+// is reassembled with every tet's Hessian projected and factorized again. Throws when that fails too.
+void factorize(const StaticProblem& p, const std::vector<Eigen::Vector3d>& x, BlockAssembler& asmb, DirectSolver& solver, bool& analyzed) {
+  addSpringBlocks(asmb, p.mesh, p.opt.springs);
+  if (!analyzed) {
+    solver.analyzePattern(asmb.matrix());
+    analyzed = true;
+  }
+  solver.factorize(asmb.matrix());
+  if (solver.info() != Eigen::Success && p.opt.newton) {
+    asmb.zero();
+    for (std::size_t t = 0; t < p.mesh.tets.size(); ++t) asmb.add(int(t), corotationalHessian(p.K[t], corners(p.mesh, int(t), p.mesh.nodes), corners(p.mesh, int(t), x), true));
+    addSpringBlocks(asmb, p.mesh, p.opt.springs);
+    solver.factorize(asmb.matrix());
+  }
+  if (solver.info() != Eigen::Success) throw Error("static solve: the stiffness matrix is not positive definite (a free part of the mesh with no Dirichlet node, or degenerate elements)");
+}
+
+// Backtracking on the energy along dx from x (a descent direction: dx = K(R)^-1 f with K(R)
+// positive definite and f = rhs = -grad E), so elements flipping in and out of inversion cannot make
+// the iteration cycle. Returns the accepted positions.
+std::vector<Eigen::Vector3d> lineSearch(const StaticProblem& p, const std::vector<Eigen::Vector3d>& x, const Eigen::VectorXd& dx, const Eigen::VectorXd& rhs) {
+  const double e0 = p.energy(x);
+  const double slope = -rhs.dot(dx);  // directional derivative of E along dx
+  double alpha = 1.0;
+  std::vector<Eigen::Vector3d> trial = x;
+  for (int ls = 0; ls < 12; ++ls, alpha *= 0.5) {
+    for (std::size_t i = 0; i < x.size(); ++i)
+      if (const int d = p.free.dof[i]; d >= 0) trial[i] = x[i] + alpha * dx.segment<3>(d);
+    if (p.energy(trial) <= e0 + 1e-4 * alpha * slope) break;
+  }
+  return trial;
+}
+
+}  // namespace
+
 StaticSolveResult solveStatic(const TetMesh& mesh, const std::vector<Mat12>& K, const std::vector<char>& fixed,
                               const std::vector<Eigen::Vector3d>& x0, const StaticSolveOptions& opt) {
   const std::size_t n = mesh.nodes.size();
   if (K.size() != mesh.tets.size() || fixed.size() != n || x0.size() != n) throw Error("static solve: inconsistent sizes");
   if (std::none_of(fixed.begin(), fixed.end(), [](char c) { return c != 0; })) throw Error("static solve: no Dirichlet nodes, the system is singular");
   const FreeDofs free = freeDofs(mesh, fixed, x0, opt.springs, "static solve");
-  const std::vector<int>& dof = free.dof;
-  const int dofs = free.count;
   StaticSolveResult res;
   res.x = x0;
-  if (dofs == 0) {
+  if (free.count == 0) {
     res.converged = true;
     return res;
   }
+  const StaticProblem problem{mesh, K, opt, free};
   const double tol = opt.tolerance * std::max(free.motion, 1e-9);
   BlockAssembler asmb = tetAndSpringAssembler(mesh, opt.springs, free);
-  auto addSprings = [&] { addSpringBlocks(asmb, mesh, opt.springs); };
   DirectSolver solver;
   solver.cholmod().print = 0;  // an indefinite Hessian is expected (then projected), not an error to print
-  bool analyzed = false;
+  bool analyzed = false, refactor = true;
   double prevUpdate = std::numeric_limits<double>::infinity();
-  bool refactor = true;
-  bool project = false;  // the exact Hessian first; projected per element if it is not positive definite
-  Eigen::VectorXd rhs(dofs);
-  auto energy = [&](const std::vector<Eigen::Vector3d>& x) { return elasticEnergy(mesh, K, x) + springEnergy(opt.springs, x); };
+  Eigen::VectorXd rhs(free.count);
   std::vector<Eigen::Vector3d> springForce(n);
   for (int it = 0; it < opt.maxIterations; ++it) {
-    // Forces (and, when refactorizing, the warped stiffness) at the current positions.
+    // Forces (and, when refactorizing, the warped stiffness: the exact Hessian first) at x.
     rhs.setZero();
-    project = false;
     if (refactor) asmb.zero();
-    for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-      const auto X = corners(mesh, int(t), mesh.nodes), x = corners(mesh, int(t), res.x);
-      const Eigen::Matrix3d Rt = polarRotation(deformationGradient(X, x));
-      Vec12 local;
-      for (int i = 0; i < 4; ++i) local.segment<3>(3 * i) = Rt.transpose() * x[std::size_t(i)] - X[std::size_t(i)];
-      const Vec12 kl = K[t] * local;
-      for (int i = 0; i < 4; ++i) {
-        const int d = dof[std::size_t(mesh.tets[t][std::size_t(i)])];
-        if (d >= 0) rhs.segment<3>(d) -= Rt * kl.segment<3>(3 * i);
-      }
-      if (refactor) {
-        if (opt.newton) {
-          asmb.add(int(t), corotationalHessian(K[t], X, x, project));
-        } else {
-          const Mat12 B = blockRotation(Rt);
-          asmb.add(int(t), B * K[t] * B.transpose());
-        }
-      }
-    }
-    if (!opt.springs.empty()) {
-      std::fill(springForce.begin(), springForce.end(), Eigen::Vector3d::Zero());
-      addSpringForces(opt.springs, res.x, springForce);
-      for (const NormalSpring& s : opt.springs) {  // a node with two springs: its sum, once
-        rhs.segment<3>(dof[std::size_t(s.node)]) += springForce[std::size_t(s.node)];
-        springForce[std::size_t(s.node)].setZero();
-      }
-    }
+    addTetForces(problem, res.x, rhs, refactor ? &asmb : nullptr, false);
+    addSpringForcesTo(problem, res.x, rhs, springForce);
     if (refactor) {
-      addSprings();
-      if (!analyzed) {
-        solver.analyzePattern(asmb.matrix());
-        analyzed = true;
-      }
-      solver.factorize(asmb.matrix());
-      if (solver.info() != Eigen::Success && opt.newton && !project) {
-        // Not positive definite: this iteration (and the next ones) with projected element Hessians.
-        project = true;
-        asmb.zero();
-        for (std::size_t t = 0; t < mesh.tets.size(); ++t) asmb.add(int(t), corotationalHessian(K[t], corners(mesh, int(t), mesh.nodes), corners(mesh, int(t), res.x), true));
-        addSprings();
-        solver.factorize(asmb.matrix());
-      }
-      if (solver.info() != Eigen::Success) throw Error("static solve: the stiffness matrix is not positive definite (a free part of the mesh with no Dirichlet node, or degenerate elements)");
+      factorize(problem, res.x, asmb, solver, analyzed);
       ++res.factorizations;
     }
-    const Eigen::VectorXd dx = solver.solve(rhs);
-    // Backtracking on the elastic energy along dx (a descent direction: dx = K(R)^-1 f with K(R)
-    // positive definite and f = -grad E), so elements flipping in and out of inversion cannot make
-    // the iteration cycle.
-    const double e0 = energy(res.x);
-    const double slope = -rhs.dot(dx);  // directional derivative of E along dx
-    double alpha = 1.0;
-    std::vector<Eigen::Vector3d> trial = res.x;
-    for (int ls = 0; ls < 12; ++ls, alpha *= 0.5) {
-      for (std::size_t i = 0; i < n; ++i)
-        if (dof[i] >= 0) trial[i] = res.x[i] + alpha * dx.segment<3>(dof[i]);
-      if (energy(trial) <= e0 + 1e-4 * alpha * slope) break;
-    }
-    const double update = free.largestUpdate(trial, res.x);
-    res.x.swap(trial);
+    std::vector<Eigen::Vector3d> next = lineSearch(problem, res.x, solver.solve(rhs), rhs);
+    const double update = free.largestUpdate(next, res.x);
+    res.x.swap(next);
     if (!std::isfinite(update)) throw Error("static solve: diverged (non-finite update)");
     res.iterations = it + 1;
     res.lastUpdate = update;

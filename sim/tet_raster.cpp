@@ -137,8 +137,11 @@ class VoxelSource {
 
 }  // namespace
 
-RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& lo,
-                              const Eigen::Vector3d& hi, float background, Volume& out, const RasterOptions& options) {
+RasterStats rasterizeDeformed(const Volume& src, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const RasterRegion& region,
+                              Volume& out, const RasterOptions& options) {
+  const Eigen::Vector3d& lo = region.lo;
+  const Eigen::Vector3d& hi = region.hi;
+  const float background = region.background;
   if (deformed.size() != mesh.nodes.size()) throw Error("rasterization: one deformed position per node expected");
   for (const auto& p : deformed)
     if (!p.allFinite()) throw Error("rasterization: a deformed node position is not finite");

@@ -72,11 +72,18 @@ struct RasterOptions {
 /// The default cap on a tet's voxel range: 64 times the largest rest tet's (at least 4096).
 std::uint64_t defaultMaxTetVoxels(const TetMesh& mesh, const Eigen::Matrix4d& worldToIndex);
 
-/// `out` gets the deformed image on the source's grid. `regionLo`/`regionHi`: the world box the mesh
-/// filled at rest (cleared to `background` before rasterizing). `tetOf` (optional): per voxel of the
-/// grid, the tet that wrote it, -1 where none did (outside the region, or uncovered).
-RasterStats rasterizeDeformed(const Volume& source, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const Eigen::Vector3d& regionLo,
-                              const Eigen::Vector3d& regionHi, float background, Volume& out, const RasterOptions& options = {});
+/// The world box [lo, hi] the mesh filled at rest, and the value its voxels are cleared to before
+/// rasterizing.
+struct RasterRegion {
+  Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Zero();
+  float background = 0.0f;
+};
+
+/// `out` gets the deformed image on the source's grid, the region's voxels drawn from the mesh at its
+/// deformed positions. `options.tetOf` (optional): per voxel of the grid, the tet that wrote it, -1
+/// where none did (outside the region, or uncovered).
+RasterStats rasterizeDeformed(const Volume& source, const TetMesh& mesh, const std::vector<Eigen::Vector3d>& deformed, const RasterRegion& region,
+                              Volume& out, const RasterOptions& options = {});
 
 /// The voxel index box [lo, hi] (inclusive, clamped to the grid) of the voxels whose centres lie in
 /// the world box [regionLo, regionHi] up to 1e-3 mm; empty (lo > hi) when none.

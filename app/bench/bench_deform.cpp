@@ -126,7 +126,7 @@ RegionCheck checkRegionAgainstCpu(const DeformBench& bench, const CoarseFrameSta
     ro.restMask = &bench.ids;
     ro.rigid = rigidDraws(g, bench.setup.rigidIds, T);
   }
-  rasterizeDeformed(image, sc.meshes.fine, world, sc.lo, sc.hi, image.valueRange().first, cpuOut, ro);
+  rasterizeDeformed(image, sc.meshes.fine, world, {sc.lo, sc.hi, image.valueRange().first}, cpuOut, ro);
   r.cpuRaster = since(t0);
   vk::GpuDeformer region(bench.ctx, bench.volume, bench.mask, bench.setup, 1);
   t0 = std::chrono::steady_clock::now();

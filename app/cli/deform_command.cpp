@@ -274,7 +274,7 @@ DeformImage resampleDeform(const Args& args, const DeformRequest& r, const Volum
   const auto t0 = std::chrono::steady_clock::now();
   const SimScene& sc = d.scene;
   if (r.backend == "cpu") {
-    const auto rs = rasterizeDeformed(image, sc.meshes.fine, d.x, sc.lo, sc.hi, image.valueRange().first, im.out, raster);
+    const auto rs = rasterizeDeformed(image, sc.meshes.fine, d.x, {sc.lo, sc.hi, image.valueRange().first}, im.out, raster);
     im.regionVoxels = rs.regionVoxels;
     im.covered = rs.covered;
   } else {

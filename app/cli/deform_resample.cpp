@@ -107,7 +107,7 @@ std::vector<std::int32_t> voxelTets(const Volume& image, const SimScene& sc, con
   std::vector<std::int32_t> tetOf;
   Volume unused;
   raster.tetOf = &tetOf;
-  rasterizeDeformed(image, sc.meshes.fine, x, sc.lo, sc.hi, image.valueRange().first, unused, raster);
+  rasterizeDeformed(image, sc.meshes.fine, x, {sc.lo, sc.hi, image.valueRange().first}, unused, raster);
   return tetOf;
 }
 

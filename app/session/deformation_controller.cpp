@@ -405,7 +405,7 @@ bool DeformationController::exportMeshAndStrain(const std::string& meshPath, con
   writeVtu(meshPath, sc.meshes.fine, a);
   std::vector<std::int32_t> tetOf;
   Volume unused;
-  rasterizeDeformed(image_, sc.meshes.fine, x, sc.lo, sc.hi, 0.0f, unused,
+  rasterizeDeformed(image_, sc.meshes.fine, x, {sc.lo, sc.hi, 0.0f}, unused,
                     {nullptr, nullptr, defaultMaxTetVoxels(sc.meshes.fine, image_.geometry().worldToIndex()), &tetOf, {}});
   writeVolume(strainVolume(image_.geometry(), tetOf, strain), strainPath);
   return true;

@@ -60,7 +60,7 @@ Agreement compareWithReference(const Fixture& f, const vk::GpuDeformer& gpu, con
   const std::vector<Eigen::Vector3d> world = test::worldPositions(f, gpu);
   Volume out;
   std::vector<std::uint8_t> outMask;
-  const RasterStats st = rasterizeDeformed(f.phantom.ct, mesh, world, lo, hi, f.backgroundHu, out, {&f.mask, &outMask, UINT64_MAX, nullptr, {}});
+  const RasterStats st = rasterizeDeformed(f.phantom.ct, mesh, world, {lo, hi, f.backgroundHu}, out, {&f.mask, &outMask, UINT64_MAX, nullptr, {}});
   if (cpuStats) *cpuStats = st;
   const auto vol = gpu.readVolume();
   const auto msk = gpu.readMask();
@@ -124,7 +124,7 @@ TEST_F(DeformGpu, ZeroMotionReproducesTheInputWithinOneHu) {
   EXPECT_EQ(msk, f.mask);
   // No cracks: every region voxel covered, as on the CPU.
   Volume out;
-  const RasterStats cpu = rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, f.scene.meshes.fine.nodes, f.scene.lo, f.scene.hi, f.backgroundHu, out);
+  const RasterStats cpu = rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, f.scene.meshes.fine.nodes, {f.scene.lo, f.scene.hi, f.backgroundHu}, out);
   EXPECT_EQ(cpu.covered, cpu.regionVoxels);
   EXPECT_EQ(stats.coveredVoxels, cpu.regionVoxels);
 }
@@ -378,7 +378,7 @@ FrameResult expectRefinedStateDrawnLikeAWholeRegionRedo(VolumeRenderer& renderer
   fresh.runFrame(idx);
   EXPECT_EQ(shown, fresh.readVolume()) << "the moved box of the refined state equals a whole-region redo";
   Volume out;
-  rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, fine, f.scene.lo, f.scene.hi, f.backgroundHu, out);
+  rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, fine, {f.scene.lo, f.scene.hi, f.backgroundHu}, out);
   std::size_t within = 0;
   for (std::size_t i = 0; i < shown.size(); ++i) within += std::abs(f.q.toValue(shown[i] / 65535.0f) - out.value(i)) <= 1.0f ? 1 : 0;
   EXPECT_GE(double(within) / double(shown.size()), 0.999);
@@ -538,7 +538,7 @@ TEST_F(DeformGpu, ATornStateIsDrawnWithoutItsStretchedTetsAsOnTheCpu) {
   const auto st = gpu.runFrame(idx);
   EXPECT_GT(st.skippedTets, 0u);
   Volume out;
-  const RasterStats cpu = rasterizeDeformed(f.phantom.ct, mesh, world, f.scene.lo, f.scene.hi, f.backgroundHu, out,
+  const RasterStats cpu = rasterizeDeformed(f.phantom.ct, mesh, world, {f.scene.lo, f.scene.hi, f.backgroundHu}, out,
                                             {nullptr, nullptr, defaultMaxTetVoxels(mesh, w2i), nullptr, {}});
   EXPECT_EQ(cpu.skipped, st.skippedTets);
   const auto vol = gpu.readVolume();

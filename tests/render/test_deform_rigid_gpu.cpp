@@ -75,7 +75,7 @@ TEST_F(DeformRigidGpu, ASlidingHandleIsDrawnWhereItsPoseIsAsOnTheCpu) {
     Volume out;
     std::vector<std::uint8_t> outMask;
     RasterOptions o{&f.mask, &outMask, UINT64_MAX, nullptr, rigid ? rigidDraws(f.q.geometry, {kKidneyId}, T) : std::vector<RigidDraw>{}};
-    rasterizeDeformed(f.phantom.ct, s.scene.meshes.fine, world, s.scene.lo, s.scene.hi, f.backgroundHu, out, o);
+    rasterizeDeformed(f.phantom.ct, s.scene.meshes.fine, world, {s.scene.lo, s.scene.hi, f.backgroundHu}, out, o);
     const auto vol = gpu.readVolume();
     const auto msk = gpu.readMask();
     std::size_t within = 0, same = 0;

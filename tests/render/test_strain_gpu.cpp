@@ -60,7 +60,7 @@ class StrainGpu : public test::GpuTest {
     if (cpuVolume) {
       Volume deformed;
       std::vector<std::int32_t> tetOf;
-      rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, back, f.scene.lo, f.scene.hi, f.backgroundHu, deformed, {nullptr, nullptr, UINT64_MAX, &tetOf, {}});
+      rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, back, {f.scene.lo, f.scene.hi, f.backgroundHu}, deformed, {nullptr, nullptr, UINT64_MAX, &tetOf, {}});
       *cpuVolume = strainVolume(f.phantom.ct.geometry(), tetOf, cpu);
     }
   }
@@ -259,7 +259,7 @@ TEST_F(StrainGpu, TheStrainOverLimitVolumeAndItsHighlightMatchTheirCpuReferences
   const std::vector<float> gpuRatio = renderer.deformer()->readStrainOverLimitVolume();
   Volume deformed;
   std::vector<std::int32_t> tetOf;
-  rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, back, f.scene.lo, f.scene.hi, f.backgroundHu, deformed, {nullptr, nullptr, UINT64_MAX, &tetOf, {}});
+  rasterizeDeformed(f.phantom.ct, f.scene.meshes.fine, back, {f.scene.lo, f.scene.hi, f.backgroundHu}, deformed, {nullptr, nullptr, UINT64_MAX, &tetOf, {}});
   const std::vector<float> cpuStrain = tetStrain(f.scene.meshes.fine, back);
   const Volume cpuRatio = strainOverLimitVolume(f.phantom.ct.geometry(), tetOf, cpuStrain, limits);
   const Volume cpuStrainVolume = strainVolume(f.phantom.ct.geometry(), tetOf, cpuStrain);

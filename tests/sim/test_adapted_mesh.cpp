@@ -222,7 +222,7 @@ TEST(AdaptedMesh, PhantomSceneRunsTheCoarseModelAndResamplesWithoutCracks) {
   for (std::size_t n = 0; n < x.size(); ++n) worst = std::max(worst, (x[n] - sc.meshes.fine.nodes[n]).norm());
   EXPECT_LT(worst, 1e-9) << "mm";
   Volume out;
-  const RasterStats rs = rasterizeDeformed(p.ct, sc.meshes.fine, x, sc.lo, sc.hi, -1000.0f, out);
+  const RasterStats rs = rasterizeDeformed(p.ct, sc.meshes.fine, x, {sc.lo, sc.hi, -1000.0f}, out);
   std::size_t differ = 0, inRegionVoxels = 0;
   const VolumeGeometry& g = p.ct.geometry();
   for (int k = 0; k < g.dims.z(); ++k)

@@ -64,7 +64,7 @@ TEST(Strain, OnTheImageGridTheStrainIsWhereTheTissueIsAndZeroOutside) {
   const auto x = mapped(nm.fine, A, Eigen::Vector3d(-4, 0, 0));  // centre 20 stays
   std::vector<std::int32_t> tetOf;
   Volume out;
-  const RasterStats st = rasterizeDeformed(image, nm.fine, x, {10, 10, 10}, {30, 30, 30}, 0.0f, out, {nullptr, nullptr, UINT64_MAX, &tetOf, {}});
+  const RasterStats st = rasterizeDeformed(image, nm.fine, x, {{10, 10, 10}, {30, 30, 30}, 0.0f}, out, {nullptr, nullptr, UINT64_MAX, &tetOf, {}});
   const Volume s = strainVolume(g, tetOf, tetStrain(nm.fine, x));
   EXPECT_EQ(s.type(), ScalarType::Float32);
   std::size_t covered = 0, outside = 0;

@@ -32,7 +32,7 @@ TEST(TetRaster, ZeroMotionReproducesTheImage) {
   const KuhnGrid grid({-30, -20, -10}, {5, 5, 5}, {8, 7, 6});
   const TetMesh m = grid.mesh();
   Volume out;
-  const auto st = rasterizeDeformed(src, m, m.nodes, {-30, -20, -10}, {10, 15, 20}, -1000.0f, out);
+  const auto st = rasterizeDeformed(src, m, m.nodes, {{-30, -20, -10}, {10, 15, 20}, -1000.0f}, out);
   EXPECT_EQ(st.covered, st.regionVoxels);
   EXPECT_GT(st.regionVoxels, 5000u);
   double err = 0;
@@ -50,7 +50,7 @@ TEST(TetRaster, AffineMotionMatchesAnalyticWarpingAndLeavesNoCracks) {
   std::vector<Eigen::Vector3d> x(m.nodes.size());
   for (std::size_t i = 0; i < x.size(); ++i) x[i] = c + A * (m.nodes[i] - c) + t;
   Volume out;
-  const auto st = rasterizeDeformed(src, m, x, {-30, -20, -10}, {10, 15, 20}, -1000.0f, out);
+  const auto st = rasterizeDeformed(src, m, x, {{-30, -20, -10}, {10, 15, 20}, -1000.0f}, out);
   const auto& g = src.geometry();
   const Eigen::Matrix3d Ainv = A.inverse();
   std::size_t inside = 0;
@@ -91,12 +91,12 @@ TEST(TetRaster, SmoothDeformationWithFixedBoundaryCoversTheRegionExactly) {
     p += Eigen::Vector3d(4, -3, 2) * bump;
   }
   Volume out;
-  const auto st = rasterizeDeformed(src, m, x, {-30, -20, -10}, {10, 15, 20}, -1000.0f, out);
+  const auto st = rasterizeDeformed(src, m, x, {{-30, -20, -10}, {10, 15, 20}, -1000.0f}, out);
   EXPECT_EQ(st.covered, st.regionVoxels) << "no cracks: every region voxel is covered";
   for (std::size_t i = 0; i < out.voxelCount(); ++i) ASSERT_NE(out.value(i), -1000.0f);
-  EXPECT_THROW(rasterizeDeformed(src, m, std::vector<Eigen::Vector3d>(3), {-30, -20, -10}, {10, 15, 20}, 0.0f, out), Error);
+  EXPECT_THROW(rasterizeDeformed(src, m, std::vector<Eigen::Vector3d>(3), {{-30, -20, -10}, {10, 15, 20}, 0.0f}, out), Error);
   x[5].x() = std::nan("");
-  EXPECT_THROW(rasterizeDeformed(src, m, x, {-30, -20, -10}, {10, 15, 20}, 0.0f, out), Error);
+  EXPECT_THROW(rasterizeDeformed(src, m, x, {{-30, -20, -10}, {10, 15, 20}, 0.0f}, out), Error);
 }
 
 namespace {
@@ -147,7 +147,7 @@ TEST(TetRaster, AHandleDrawnRigidlyIsWhereItsPoseIsAndTheRimItLeftIsTissue) {
   std::vector<std::uint8_t> outMask;
   std::vector<std::int32_t> tetOf;
   RasterOptions o{&mask, &outMask, UINT64_MAX, &tetOf, rigidDraws(g, {5}, {T})};
-  const auto st = rasterizeDeformed(src, m, m.nodes, {-30, -20, -10}, {10, 15, 20}, -1000.0f, out, o);
+  const auto st = rasterizeDeformed(src, m, m.nodes, {{-30, -20, -10}, {10, 15, 20}, -1000.0f}, out, o);
   EXPECT_EQ(st.covered, st.regionVoxels);
   std::size_t drawn = 0, rim = 0;
   for (int k = 0; k < g.dims.z(); ++k)
@@ -181,10 +181,10 @@ TEST(TetRaster, HandlesDrawnRigidlyNeedTheMaskAndAnId) {
   const KuhnGrid grid({-30, -20, -10}, {5, 5, 5}, {8, 7, 6});
   const TetMesh m = grid.mesh();
   Volume out;
-  EXPECT_THROW(rasterizeDeformed(src, m, m.nodes, {-30, -20, -10}, {10, 15, 20}, 0.0f, out, RasterOptions{nullptr, nullptr, UINT64_MAX, nullptr, {RigidDraw{5}}}),
+  EXPECT_THROW(rasterizeDeformed(src, m, m.nodes, {{-30, -20, -10}, {10, 15, 20}, 0.0f}, out, RasterOptions{nullptr, nullptr, UINT64_MAX, nullptr, {RigidDraw{5}}}),
                Error);
   const auto mask = ballMask(src);
-  EXPECT_THROW(rasterizeDeformed(src, m, m.nodes, {-30, -20, -10}, {10, 15, 20}, 0.0f, out, RasterOptions{&mask, nullptr, UINT64_MAX, nullptr, {RigidDraw{0}}}),
+  EXPECT_THROW(rasterizeDeformed(src, m, m.nodes, {{-30, -20, -10}, {10, 15, 20}, 0.0f}, out, RasterOptions{&mask, nullptr, UINT64_MAX, nullptr, {RigidDraw{0}}}),
                Error);
   EXPECT_THROW(rigidDraws(src.geometry(), {5, 6}, {RigidTransform{}}), Error);
   EXPECT_THROW(rigidDraws(src.geometry(), {300}, {RigidTransform{}}), Error);
