@@ -182,10 +182,19 @@ Context::Context(const ContextOptions& options) {
   std::vector<const char*> layers;
   std::vector<const char*> exts;
   for (const auto& e : options.instanceExtensions) exts.push_back(e.c_str());
+  syncValidation_ = validation_ && options.syncValidation && !envFlag("HANDSON_NO_SYNC_VALIDATION");
+  gpuAssisted_ = validation_ && (options.gpuAssistedValidation || envFlag("HANDSON_GPU_VALIDATION"));
+  std::vector<VkValidationFeatureEnableEXT> enables;
+  if (syncValidation_) enables.push_back(VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT);
+  if (gpuAssisted_) {
+    enables.push_back(VK_VALIDATION_FEATURE_ENABLE_GPU_ASSISTED_EXT);
+    enables.push_back(VK_VALIDATION_FEATURE_ENABLE_GPU_ASSISTED_RESERVE_BINDING_SLOT_EXT);
+  }
   if (validation_) {
     layers.push_back("VK_LAYER_KHRONOS_validation");
     exts.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
   }
+  if (!enables.empty()) exts.push_back(VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME);
   VkDebugUtilsMessengerCreateInfoEXT dbg{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
   dbg.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
   dbg.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
@@ -199,7 +208,12 @@ Context::Context(const ContextOptions& options) {
   ci.ppEnabledLayerNames = layers.data();
   ci.enabledExtensionCount = std::uint32_t(exts.size());
   ci.ppEnabledExtensionNames = exts.data();
-  if (validation_) ci.pNext = &dbg;
+  // Synchronization and GPU-assisted validation ride on the messenger's chain: features -> debug info.
+  VkValidationFeaturesEXT features{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+  features.enabledValidationFeatureCount = std::uint32_t(enables.size());
+  features.pEnabledValidationFeatures = enables.data();
+  features.pNext = &dbg;
+  if (validation_) ci.pNext = enables.empty() ? static_cast<const void*>(&dbg) : static_cast<const void*>(&features);
   VkResult r = vkCreateInstance(&ci, nullptr, &instance_);
   if (r == VK_ERROR_INCOMPATIBLE_DRIVER || r == VK_ERROR_INITIALIZATION_FAILED)
     throw Error("no Vulkan 1.3 driver found (on Debian: apt-get install mesa-vulkan-drivers for the CPU driver lavapipe)");

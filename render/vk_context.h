@@ -22,6 +22,15 @@ struct ContextOptions {
   bool validation = false;
   /// Fail if validation was requested but the layer is missing (tests want this).
   bool requireValidation = false;
+  /// With validation on, also its synchronization validation (VK_EXT_validation_features): missing
+  /// or wrong barriers between commands are reported as SYNC- hazards. It tracks the command stream on
+  /// the CPU, so it finds on lavapipe the hazards a discrete GPU would show as corrupt frames. Off by
+  /// HANDSON_NO_SYNC_VALIDATION=1 (it slows recording).
+  bool syncValidation = true;
+  /// With validation on, also GPU-assisted validation: shaders instrumented to report out-of-bounds
+  /// descriptor and buffer accesses. Default: off unless HANDSON_GPU_VALIDATION=1 (it slows every
+  /// dispatch; the tests run it as their own ctest label).
+  bool gpuAssistedValidation = false;
   /// Device choice: "" = automatic (discrete > integrated > virtual > CPU), "gpu" = any non-CPU
   /// device, "cpu" = a CPU implementation (lavapipe), a number = index in enumeration order, or
   /// any other text = a substring of the device name. The HANDSON_DEVICE environment variable
@@ -73,6 +82,10 @@ class Context {
   const VkPhysicalDeviceProperties& properties() const { return props_; }
   const DeviceSummary& summary() const { return summary_; }
   bool validationEnabled() const { return validation_; }
+  /// Whether synchronization validation runs (validation on, ContextOptions::syncValidation).
+  bool syncValidationEnabled() const { return syncValidation_; }
+  /// Whether GPU-assisted validation runs (validation on, ContextOptions::gpuAssistedValidation).
+  bool gpuAssistedValidationEnabled() const { return gpuAssisted_; }
   /// Nanoseconds per timestamp tick, 0 if the queue has no timestamps.
   double timestampPeriodNs() const { return timestampPeriod_; }
   /// shaderStorageImageExtendedFormats (r16 / r8 storage images) is supported and enabled.
@@ -132,6 +145,8 @@ class Context {
   VkPhysicalDeviceMemoryProperties memProps_{};
   DeviceSummary summary_{};
   bool validation_ = false;
+  bool syncValidation_ = false;
+  bool gpuAssisted_ = false;
   double timestampPeriod_ = 0.0;
   bool storageExtendedFormats_ = false;
   bool presentWait_ = false;

@@ -24,8 +24,11 @@ VkAccess toVk(fg::Access a) {
     case Access::StorageReadWrite:
       return {VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT};
     case Access::UniformRead: return {VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_UNIFORM_READ_BIT};
-    case Access::TransferSrc: return {VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT};
-    case Access::TransferDst: return {VK_PIPELINE_STAGE_2_COPY_BIT | VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT};
+    // Every transfer command: copies, clears and the window's blits (a copy stage alone left the
+    // blit to the swapchain unordered after the barrier: synchronization validation's
+    // SYNC-HAZARD-READ-AFTER-WRITE, a torn picture on a GPU that overlaps them).
+    case Access::TransferSrc: return {VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT};
+    case Access::TransferDst: return {VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT};
     case Access::HostRead: return {VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT};
     case Access::HostWrite: return {VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_WRITE_BIT};
     case Access::ColorAttachmentWrite:
@@ -245,8 +248,12 @@ void GraphExecutor::recordBarriers(const std::vector<fg::Barrier>& list) {
   vkCmdPipelineBarrier2(cmd(), &dep);
 }
 
-void GraphExecutor::barriers(const std::vector<fg::Barrier>& list) { recordBarriers(list); }
-void GraphExecutor::finalBarriers(const std::vector<fg::Barrier>& list) { recordBarriers(list); }
+void GraphExecutor::barriers(const std::vector<fg::Barrier>& list) {
+  if (!dropBarriers_) recordBarriers(list);
+}
+void GraphExecutor::finalBarriers(const std::vector<fg::Barrier>& list) {
+  if (!dropBarriers_) recordBarriers(list);
+}
 
 void GraphExecutor::submit(VkSemaphore wait, VkPipelineStageFlags2 waitStage, VkSemaphore signal) {
   if (!recording_) throw Error("GraphExecutor: submit() without beginFrame()");

@@ -65,6 +65,10 @@ class GraphExecutor final : public fg::Executor {
   /// The graph this frame executes (needed to map handles to descriptions in barriers).
   void setGraph(const fg::FrameGraph* graph) { graph_ = graph; }
 
+  /// Test only: records no barriers (the graph's still computed), so the tests' positive control
+  /// can show that synchronization validation reports a missing one. Never set by the app.
+  void dropBarriersForTest(bool drop) { dropBarriers_ = drop; }
+
  private:
   struct Slot {
     VkCommandBuffer cmd = VK_NULL_HANDLE;
@@ -87,6 +91,7 @@ class GraphExecutor final : public fg::Executor {
   std::uint32_t lastSubmitted_ = UINT32_MAX;
   std::uint32_t maxPasses_;
   bool recording_ = false;
+  bool dropBarriers_ = false;
   const fg::FrameGraph* graph_ = nullptr;
   std::map<std::uint32_t, const Image*> images_;
   std::map<std::uint32_t, VkImage> rawImages_;

@@ -15,7 +15,7 @@
 #include "app/io/forces_json.h"
 #include "app/io/nifti_io.h"
 #include "app/io/volume_io.h"
-#include "app/io/vtu_io.h"
+#include "app/io/fine_mesh_vtu.h"
 #include "app/session/console.h"
 #include "render/deform_pass.h"
 #include "render/vk_context.h"
@@ -99,28 +99,11 @@ const char* const kDeformHelp =
     "                          the handle; --refine-steps 2 gives the fine model's within about 5 %)\n"
     "  --mesh-out MESH.vtu     the fine mesh for ParaView: rest positions, point data displacement and\n"
     "                          dirichlet, cell data youngs_modulus, poisson_ratio, coarse_element (the\n"
-    "                          coarse model's element: grid cell or coarse tet), strain\n"
+    "                          coarse model's element: grid cell or coarse tet), strain and\n"
+    "                          strain_over_limit (strain / the tissue's limit; 0 where it has none)\n"
     "  --quiet                 no progress output\n";
 
 double seconds(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
-
-// The fine mesh for ParaView: displacement and Dirichlet roles per node; material, coarse element
-// and strain per tet.
-void writeMesh(const std::string& path, const SimScene& sc, const std::vector<Eigen::Vector3d>& x, const std::vector<float>& strain, CoarseElement element) {
-  std::vector<Eigen::Vector3d> disp(x.size());
-  std::vector<double> dir(x.size()), coarseEl(sc.meshes.fine.tets.size()), strainD(strain.begin(), strain.end());
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    disp[i] = x[i] - sc.meshes.fine.nodes[i];
-    dir[i] = (sc.constraints.fixed[i] || sc.constraints.handleOf[i] >= 0) ? 1.0 : 0.0;
-  }
-  // The coarse model's element of each fine tet (a grid cell or a coarse tet, --coarse-element).
-  for (std::size_t t = 0; t < coarseEl.size(); ++t) coarseEl[t] = element == CoarseElement::Cell ? sc.meshes.fineParent[t] / 6 : sc.meshes.fineParent[t];
-  VtuArrays a;
-  a.pointVectors = {{"displacement", &disp}};
-  a.pointScalars = {{"dirichlet", &dir}};
-  a.cellScalars = {{"youngs_modulus", &sc.youngs}, {"poisson_ratio", &sc.poisson}, {"coarse_element", &coarseEl}, {"strain", &strainD}};
-  writeVtu(path, sc.meshes.fine, a);
-}
 
 // The scene's one-line summary: region, meshes, handle nodes (and the simulated cells of a shaped region).
 void printScene(const SimScene& sc) {
@@ -311,6 +294,14 @@ void printDeformSummary(const DeformRequest& r, const DeformSolution& d, const D
             << outPath << "\n";
 }
 
+// The fine mesh for ParaView (app/io/fine_mesh_vtu.h), each tet's coarse element a grid cell or a coarse tet.
+void writeMesh(const std::string& path, const SimScene& sc, const std::vector<Eigen::Vector3d>& x, const std::vector<float>& strain, const DeformRequest& r) {
+  std::vector<double> coarseEl(sc.meshes.fine.tets.size());
+  const bool cells = r.settings.element == CoarseElement::Cell;
+  for (std::size_t t = 0; t < coarseEl.size(); ++t) coarseEl[t] = cells ? sc.meshes.fineParent[t] / 6 : sc.meshes.fineParent[t];
+  writeFineMeshVtu(path, {sc, x, strain, tetStrainLimits(sc.band, r.settings.materials), coarseEl});
+}
+
 // --forces-out: the reactions of the model that was solved: the coarse model's own, or the fine
 // tets' at the fine or refined positions.
 void writeForces(const std::string& path, const DeformRequest& r, const DeformSolution& d) {
@@ -363,7 +354,7 @@ int cmdDeform(const Words& words) {
     std::cout << "wrote " << *fo << "\n";
   }
   if (auto mo = args.value("--mesh-out")) {
-    writeMesh(*mo, sc, d.x, strain, r.settings.element);
+    writeMesh(*mo, sc, d.x, strain, r);
     std::cout << "wrote " << *mo << "\n";
   }
   return 0;

@@ -1,7 +1,7 @@
 #include "deformation_controller.h"
 
 #include "app/io/volume_io.h"
-#include "app/io/vtu_io.h"
+#include "app/io/fine_mesh_vtu.h"
 
 #include <Eigen/Geometry>
 
@@ -391,18 +391,9 @@ bool DeformationController::exportMeshAndStrain(const std::string& meshPath, con
   if (x.empty()) return false;
   std::vector<float> strain = tetStrain(sc.meshes.fine, x);
   hideRigidStrain(strain, tetStrainLimits(sc.band, options_.sim.materials));
-  std::vector<Eigen::Vector3d> disp(x.size());
-  std::vector<double> dir(x.size()), element(sc.meshes.fine.tets.size()), strainD(strain.begin(), strain.end());
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    disp[i] = x[i] - sc.meshes.fine.nodes[i];
-    dir[i] = (sc.constraints.fixed[i] || sc.constraints.handleOf[i] >= 0) ? 1.0 : 0.0;
-  }
+  std::vector<double> element(sc.meshes.fine.tets.size());
   for (std::size_t t = 0; t < element.size(); ++t) element[t] = model_->model->elementOfFineTet(t);
-  VtuArrays a;
-  a.pointVectors = {{"displacement", &disp}};
-  a.pointScalars = {{"dirichlet", &dir}};
-  a.cellScalars = {{"youngs_modulus", &sc.youngs}, {"poisson_ratio", &sc.poisson}, {"coarse_element", &element}, {"strain", &strainD}};
-  writeVtu(meshPath, sc.meshes.fine, a);
+  writeFineMeshVtu(meshPath, {sc, x, strain, tetStrainLimits(sc.band, options_.sim.materials), element});
   std::vector<std::int32_t> tetOf;
   Volume unused;
   rasterizeDeformed(image_, sc.meshes.fine, x, {sc.lo, sc.hi, 0.0f}, unused,

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include "app/io/nifti_io.h"
@@ -366,8 +367,17 @@ TEST_F(Cli, DeformMovesTheHandleRegionOnlyAndWritesAMeshForParaView) {
   std::ifstream vtu(p("mesh.vtu"));
   const std::string text((std::istreambuf_iterator<char>(vtu)), {});
   for (const char* name : {"UnstructuredGrid", "Name=\"displacement\"", "Name=\"dirichlet\"", "Name=\"youngs_modulus\"", "Name=\"poisson_ratio\"",
-                           "Name=\"coarse_element\""})
+                           "Name=\"coarse_element\"", "Name=\"strain\"", "Name=\"strain_over_limit\""})
     EXPECT_NE(text.find(name), std::string::npos) << name;
+  {
+    // The last model's mesh: its strain over the limit passes 1 where the tissue past it was reported.
+    const auto at = text.find("Name=\"strain_over_limit\"");
+    ASSERT_NE(at, std::string::npos);
+    std::istringstream values(text.substr(text.find('>', at) + 1, text.find("</DataArray>", at) - text.find('>', at) - 1));
+    double worst = 0.0, v = 0.0;
+    while (values >> v) worst = std::max(worst, v);
+    EXPECT_GT(worst, 1.0) << "the mesh's tissue past its limit, as the summary reported it";
+  }
 
   // Bad input: a usage error (2) or a clear failure (1), never a crash.
   EXPECT_EQ(runHandson("deform " + p("ct.nii.gz") + " --handle " + p("labels.nii.gz") + " -o " + p("x.nii.gz")).status, 2);
