@@ -1,7 +1,10 @@
 #include "frame_graph.h"
 
+#include <cstdlib>
+#include <cstring>
 #include <sstream>
 
+#include "graph_check.h"
 #include "sim/error.h"
 
 namespace handson::fg {
@@ -271,6 +274,24 @@ void FrameGraph::compile() {
   endState_.assign(resources_.size(), Access::None);
   for (std::size_t i = 0; i < resources_.size(); ++i) endState_[i] = track[i].last;
   compiledOk_ = true;
+  if (checkBarriersOnCompile()) {
+    const std::vector<std::string> problems = barrierProblems(traceOf(*this));
+    if (!problems.empty())
+      throw Error("frame graph: its barriers leave a use uncovered: " + problems.front() +
+                  (problems.size() > 1 ? " (and " + std::to_string(problems.size() - 1) + " more)" : std::string()));
+  }
+}
+
+bool checkBarriersOnCompile() {
+#ifndef NDEBUG
+  return true;
+#else
+  static const bool on = [] {
+    const char* v = std::getenv("HANDSON_CHECK_GRAPH");
+    return v && std::strcmp(v, "1") == 0;
+  }();
+  return on;
+#endif
 }
 
 void FrameGraph::execute(Executor& executor) {

@@ -111,8 +111,16 @@ class Executor {
 
 class FrameGraph;
 
+/// Whether compile() checks its barriers (graph_check.h): debug builds, or HANDSON_CHECK_GRAPH=1.
+bool checkBarriersOnCompile();
+
 class PassBuilder {
  public:
+  /// One declared use of a resource by a pass.
+  struct Use {
+    ResourceHandle resource;
+    Access access;
+  };
   /// Declares a read; returns the same handle for chaining.
   ResourceHandle read(ResourceHandle h, Access a);
   /// Declares a write (StorageWrite, StorageReadWrite, TransferDst, HostWrite).
@@ -122,10 +130,6 @@ class PassBuilder {
 
  private:
   friend class FrameGraph;
-  struct Use {
-    ResourceHandle resource;
-    Access access;
-  };
   FrameGraph* graph_ = nullptr;
   std::vector<Use> uses_;
   bool sideEffect_ = false;
@@ -148,6 +152,8 @@ class FrameGraph {
 
   /// Culls, orders and computes barriers. Throws handson::Error on misuse (unknown handle, a
   /// transient resource read before anything wrote it, a read-only access declared as a write).
+  /// In debug builds and with HANDSON_CHECK_GRAPH=1 (the tests) the barriers are then checked by
+  /// an independent walk (graph_check.h), and a use they leave uncovered throws.
   void compile();
   /// Runs the compiled passes on `executor`. compile() must have been called.
   void execute(Executor& executor);
@@ -162,7 +168,10 @@ class FrameGraph {
   bool isCulled(std::uint32_t passIndex) const;
   const std::string& passName(std::uint32_t passIndex) const { return passes_.at(passIndex).name; }
   const ResourceInfo& resource(ResourceHandle h) const;
+  std::size_t resourceCount() const { return resources_.size(); }
   std::size_t passCount() const { return passes_.size(); }
+  /// The resources a pass declared, in declaration order.
+  const std::vector<PassBuilder::Use>& passUses(std::uint32_t passIndex) const { return passes_.at(passIndex).uses; }
   /// Access state of a resource after the last executed frame (for imported resources: feed it
   /// back as currentAccess when importing next frame).
   Access stateAfterFrame(ResourceHandle h) const;

@@ -4,6 +4,7 @@
 // list-valued property, so every variable after the first was silently dropped.)
 //   HANDSON_VALIDATION=1   the Khronos validation layer in every Vulkan context (tests fail on any message)
 //   HANDSON_CACHE_DIR      the build tree's test-cache/, never the user's preprocessing cache
+//   HANDSON_CHECK_GRAPH=1  every frame graph's barriers checked when it compiles (render/graph_check.h)
 // Under the sanitizers (HANDSON_SANITIZE), binaries that load a Vulkan driver run without
 // LeakSanitizer: lavapipe and the validation layer leak on unload from modules already unmapped (no
 // frames to suppress by name). Vulkan objects are still checked: the validation layer reports any we
@@ -43,6 +44,7 @@ void appendOption(const char* name, const std::string& option) {
 int main(int argc, char** argv) {
   setenv("HANDSON_VALIDATION", "1", 1);
   setenv("HANDSON_CACHE_DIR", HANDSON_TEST_CACHE_DIR, 1);
+  setenv("HANDSON_CHECK_GRAPH", "1", 1);
 #if defined(HANDSON_TEST_SANITIZED)
   // For the processes the tests start (the sanitized `handson` binary loads a Vulkan driver).
   appendOption("ASAN_OPTIONS", "detect_leaks=0");
