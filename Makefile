@@ -1,9 +1,10 @@
 # Set-up and everyday commands. Works on a fresh Debian 12 machine as root (or with sudo):
 #   make run    install what is missing, build, run the main job
 #   make test   install what is missing, build, run the test suite
-# Other targets: deps, build, bench, asan-test (the suite under ASan+UBSan, clang), fuzz (FUZZ_SECONDS
-# per fuzzer, default 60), core-test (sim/ and interaction/ alone: no Vulkan, SDL2 or GDCM needed),
-# clean. WERROR=ON makes every compiler warning an error (CI sets it).
+# Other targets: deps, build, bench, gpu-check (a GPU machine's one command), asan-test (the suite
+# under ASan+UBSan, clang), fuzz (FUZZ_SECONDS per fuzzer, default 60), core-test (sim/ and
+# interaction/ alone: no Vulkan, SDL2 or GDCM needed), clean. WERROR=ON makes every compiler warning
+# an error (CI sets it).
 
 PACKAGES := build-essential cmake ninja-build pkg-config \
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslc \
@@ -17,7 +18,7 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 JOBS ?= 2
 WERROR ?= OFF
 
-.PHONY: deps fuzz-deps build run test bench asan-test fuzz core-test clean external-data
+.PHONY: deps fuzz-deps build run test bench gpu-check asan-test fuzz core-test clean external-data
 
 deps:
 	@missing=$$(for p in $(PACKAGES); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q 'install ok installed' || echo $$p; done); \
@@ -56,6 +57,11 @@ external-data:
 
 bench: build
 	./build/app/handson bench $(BENCH_ARGS)
+
+# On a machine with a Vulkan GPU: the GPU tests on it, the benchmark suite (--quick) and a live drag,
+# one report in gpu-check-out/gpu-check.md (.ci/gpu-check; it refuses without a GPU).
+gpu-check: build
+	.ci/gpu-check --no-build $(GPU_CHECK_ARGS)
 
 # The sanitizer build (clang, AddressSanitizer + UndefinedBehaviorSanitizer, libFuzzer coverage):
 # the whole test suite under the sanitizers, and the fuzzers.

@@ -86,8 +86,8 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
   if (kind_ == CoarseElement::Tet && !meshes.regularFine)
     throw Error("coarsening: tet elements need the regular fine mesh (an image-adapted one is nested in cells, not tets)");
   if (grading.graded() && !cons.slide.empty())
-    throw Error("coarsening: graded cells are not available with a sliding interface (their coarse answer was measured wrong: 12 mm of "
-                "motion for a 6 mm move of the phantom's kidney); use the glued interface with them");
+    throw Error("coarsening: graded cells are not available with a sliding interface (their converged coarse force was measured at "
+                "0.55-0.69x the refined one for a 6 mm move of the phantom's kidney); use the glued interface with them");
   // The outer boundary wins over a handle on it: those nodes stay fixed.
   for (std::size_t i = 0; i < F.nodes.size(); ++i)
     if (constraints_.fixed[i]) constraints_.handleOf[i] = -1;

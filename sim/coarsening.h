@@ -62,6 +62,11 @@ struct CoarseSolveStats {
   double backSolveMs = 0.0; ///< triangular solves with the factor
 };
 
+/// The iteration cap of a one-off coarse answer (`deform`, the benchmarks), against a frame's few
+/// iterations: such an answer is iterated to convergence (the phantom's kidney moved 10 mm, sliding:
+/// 24 iterations; 50 had been the cap, and before the damping's recovery, coarse_pcg.cpp, it took 526).
+constexpr int kOneOffSolveIterations = 5000;
+
 enum class CoarseElement { Tet = 0, Cell = 1 };
 const char* coarseElementName(CoarseElement e);
 
@@ -232,6 +237,7 @@ class CoarseModel {
     Eigen::Matrix<double, 8, 1> N;  ///< weights of the element's corners (first n)
   };
   Eigen::Matrix3d elementRotation(int e, const std::vector<Eigen::Vector3d>& x) const;
+  std::vector<char> interfaceElement_;
   /// An element's condensed load in the frame R (sim/handle_reaction.cpp): corner displacements d
   /// (3n), handle motion parameters p (12h), corner forces K_h d + sum_a [A_a B_a] p_a (3n), and per
   /// handle the gradient g_a against its 12 motion parameters.

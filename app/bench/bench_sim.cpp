@@ -174,7 +174,7 @@ ShapedRun measureShapedRegion(const Volume& image, const SimHandle& handle, SimS
   CoarseModel model(shaped.meshes, shaped.fineK, shaped.constraints, c.progress, CoarseElement::Cell);
   std::vector<Eigen::Vector3d> x;
   r.drag = dragRun(model, CoarseSolver::Pcg, c, x);
-  model.solve(c.T, x, 500);
+  model.solve(c.T, x, kOneOffSolveIterations);
   r.error = compareDeformation(box, c.T, sampleDeformation(shaped, model.reconstruct(c.T, x), box.meshes.fine.nodes), c.fine);
   return r;
 }
@@ -334,7 +334,7 @@ Measured measureCoarse(const BenchCase& c, CoarseElement kind) {
     m.model->solve(c.T, xb, 2000, 1e-10);
   }
   m.drag = dragRun(*m.model, CoarseSolver::Pcg, c, m.xc);
-  m.conv = m.model->solve(c.T, m.xc, 500);  // the coarse model's own converged answer
+  m.conv = m.model->solve(c.T, m.xc, kOneOffSolveIterations);  // the coarse model's own converged answer
   if (kind == CoarseElement::Cell) {
     // Both solvers to 1e-10 of the motion: how far apart their answers are.
     auto xp = m.xc;

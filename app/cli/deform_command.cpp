@@ -233,7 +233,13 @@ DeformSolution solveDeform(const DeformRequest& r, const Volume& image, const st
   } else {
     CoarseModel& m = *d.model;
     d.xc = m.restState();
-    for (int k = 1; k <= d.steps; ++k) m.solve(transformsAt(double(k) / d.steps), d.xc, 50);
+    // To convergence, not a frame's budget (kOneOffSolveIterations); a solve that stops short says so.
+    for (int k = 1; k <= d.steps; ++k) {
+      const CoarseSolveStats st = m.solve(transformsAt(double(k) / d.steps), d.xc, kOneOffSolveIterations);
+      if (!st.converged)
+        std::cerr << "warning: the coarse model did not converge in " << st.iterations << " iterations (last update " << st.lastUpdate
+                  << " mm): its answer is approximate\n";
+    }
     d.x = m.reconstruct(d.T, d.xc);
     if (r.refineSteps > 0) {
       FineRefiner refiner(m, sc.fineK, sc.youngs, sc.poisson);
