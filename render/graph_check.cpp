@@ -61,7 +61,7 @@ class Checker {
     std::vector<PassBuilder::Use> finals;
     for (std::uint32_t i = 0; i < trace_.resources.size(); ++i) {
       const ResourceInfo& r = trace_.resources[i];
-      if (r.exported && r.finalAccess != Access::None && (r.imported || touched(i))) finals.push_back({ResourceHandle{i}, r.finalAccess});
+      if (r.exported && r.finalAccess != Access::None && (r.imported || !state_[i].since.empty())) finals.push_back({ResourceHandle{i}, r.finalAccess});
     }
     step("(end of frame)", trace_.finalBarriers, finals, false);
     return problems_;
@@ -69,12 +69,6 @@ class Checker {
 
  private:
   bool isImage(std::size_t r) const { return trace_.resources[r].kind == ResourceKind::Image; }
-  bool touched(std::uint32_t r) const {
-    for (const auto& s : trace_.steps)
-      for (const auto& u : s.uses)
-        if (u.resource.id == r) return true;
-    return false;
-  }
 
   void problem(const std::string& pass, std::size_t r, const std::string& what) {
     problems_.push_back("pass '" + pass + "', '" + trace_.resources[r].name + "': " + what);

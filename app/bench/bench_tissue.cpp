@@ -93,7 +93,7 @@ void sweep(const SimScene& sc, const SimSettings& s, const Sweep& w, std::ostrea
   std::ostringstream refinedRows;  // after the coarse rows: each series' rows together (the chart's lines)
   for (double m : w.motions) {
     const std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], Eigen::Vector3d::Zero(), m * d.unit)};
-    model.solve(T, xc, kOneOffSolveIterations);  // to convergence (the sliding springs slow it: coarsening.h)
+    model.solve(T, xc, kOneOffSolveIterations);  // to convergence, not a frame's budget
     std::vector<Eigen::Vector3d> x = model.reconstruct(T, xc);
     const Row coarse = measure(sc, s.materials, nearest, x, model.handleReactions(T, xc)[0].forceN.norm());
     for (int k = 0; k < w.refineSteps; ++k) refiner.step(T, xc, x, 10);

@@ -301,11 +301,11 @@ void printDeformSummary(const DeformRequest& r, const DeformSolution& d, const D
 }
 
 // The fine mesh for ParaView (app/io/fine_mesh_vtu.h), each tet's coarse element a grid cell or a coarse tet.
-void writeMesh(const std::string& path, const SimScene& sc, const std::vector<Eigen::Vector3d>& x, const std::vector<float>& strain, const DeformRequest& r) {
+void writeMesh(const std::string& path, const DeformSolution& d, const std::vector<float>& strain, const std::vector<float>& limits, CoarseElement element) {
+  const SimScene& sc = d.scene;
   std::vector<double> coarseEl(sc.meshes.fine.tets.size());
-  const bool cells = r.settings.element == CoarseElement::Cell;
-  for (std::size_t t = 0; t < coarseEl.size(); ++t) coarseEl[t] = cells ? sc.meshes.fineParent[t] / 6 : sc.meshes.fineParent[t];
-  writeFineMeshVtu(path, {sc, x, strain, tetStrainLimits(sc.band, r.settings.materials), coarseEl});
+  for (std::size_t t = 0; t < coarseEl.size(); ++t) coarseEl[t] = element == CoarseElement::Cell ? sc.meshes.fineParent[t] / 6 : sc.meshes.fineParent[t];
+  writeFineMeshVtu(path, {sc, d.x, strain, limits, coarseEl});
 }
 
 // --forces-out: the reactions of the model that was solved: the coarse model's own, or the fine
@@ -339,7 +339,8 @@ int cmdDeform(const Words& words) {
   const DeformSolution d = solveDeform(r, image, handles, progress);
   const SimScene& sc = d.scene;
   std::vector<float> strain = tetStrain(sc.meshes.fine, d.x);
-  hideRigidStrain(strain, tetStrainLimits(sc.band, r.settings.materials));  // a sliding handle's own tets: not shown
+  const std::vector<float> limits = tetStrainLimits(sc.band, r.settings.materials);
+  hideRigidStrain(strain, limits);  // a sliding handle's own tets: not shown
   // A sliding handle is drawn where its pose puts it, not smeared by the tets straddling its surface.
   const RigidHandles rigid = rigidHandlesOf(image, handles, sc);
   const RasterOptions raster = rasterOptions(image, sc, rigid, d.T);
@@ -360,7 +361,7 @@ int cmdDeform(const Words& words) {
     std::cout << "wrote " << *fo << "\n";
   }
   if (auto mo = args.value("--mesh-out")) {
-    writeMesh(*mo, sc, d.x, strain, r);
+    writeMesh(*mo, d, strain, limits, r.settings.element);
     std::cout << "wrote " << *mo << "\n";
   }
   return 0;

@@ -390,10 +390,11 @@ bool DeformationController::exportMeshAndStrain(const std::string& meshPath, con
   const auto x = drawnFinePositions();
   if (x.empty()) return false;
   std::vector<float> strain = tetStrain(sc.meshes.fine, x);
-  hideRigidStrain(strain, tetStrainLimits(sc.band, options_.sim.materials));
+  const std::vector<float> limits = tetStrainLimits(sc.band, options_.sim.materials);
+  hideRigidStrain(strain, limits);
   std::vector<double> element(sc.meshes.fine.tets.size());
   for (std::size_t t = 0; t < element.size(); ++t) element[t] = model_->model->elementOfFineTet(t);
-  writeFineMeshVtu(meshPath, {sc, x, strain, tetStrainLimits(sc.band, options_.sim.materials), element});
+  writeFineMeshVtu(meshPath, {sc, x, strain, limits, element});
   std::vector<std::int32_t> tetOf;
   Volume unused;
   rasterizeDeformed(image_, sc.meshes.fine, x, {sc.lo, sc.hi, 0.0f}, unused,
