@@ -121,7 +121,7 @@ void CoarseModel::expandHanging(std::vector<Eigen::Vector3d>& x) const {
   }
 }
 
-SparseMatrix CoarseModel::restStiffness() {
+SparseMatrix CoarseModel::warpedStiffness(const std::vector<Eigen::Matrix3d>* R) const {
   // Corner c of an element maps to the free dofs {(d, w)}: itself, or a hanging node's free masters.
   std::vector<std::pair<int, double>> da, db;
   auto dofsOf = [&](int v, std::vector<std::pair<int, double>>& out) {
@@ -132,7 +132,13 @@ SparseMatrix CoarseModel::restStiffness() {
         if (dof_[std::size_t(m)] >= 0) out.push_back({dof_[std::size_t(m)], w});
   };
   std::vector<Eigen::Triplet<double>> triplets;
-  for (const Element& el : elements_)
+  Eigen::MatrixXd K;
+  for (std::size_t e = 0; e < elements_.size(); ++e) {
+    const Element& el = elements_[e];
+    K = el.Kh;
+    if (R)
+      for (int a = 0; a < nc_; ++a)
+        for (int b = 0; b < nc_; ++b) K.block<3, 3>(3 * a, 3 * b) = (*R)[e] * el.Kh.block<3, 3>(3 * a, 3 * b) * (*R)[e].transpose();
     for (int a = 0; a < nc_; ++a) {
       dofsOf(el.node[std::size_t(a)], da);
       for (int b = 0; b < nc_; ++b) {
@@ -140,9 +146,10 @@ SparseMatrix CoarseModel::restStiffness() {
         for (const auto& [i, wi] : da)
           for (const auto& [j, wj] : db)
             for (int r = 0; r < 3; ++r)
-              for (int c = 0; c < 3; ++c) triplets.emplace_back(i + r, j + c, wi * wj * el.Kh(3 * a + r, 3 * b + c));
+              for (int c = 0; c < 3; ++c) triplets.emplace_back(i + r, j + c, wi * wj * K(3 * a + r, 3 * b + c));
       }
     }
+  }
   SparseMatrix A(dofCount_, dofCount_);
   A.setFromTriplets(triplets.begin(), triplets.end());
   return A;

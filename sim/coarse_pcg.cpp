@@ -9,12 +9,21 @@
 // Here, per iteration:
 //  1. R_e by polarRotationWarm (Newton on the rotation, warm-started from the last iteration's);
 //  2. r = f(x), element by element with fixed-size K_h blocks (no assembly);
-//  3. m conjugate-gradient iterations on A(R) d = r from d = 0, with products A(R) p element by
-//     element, preconditioned by M^-1 = Rn A_0^-1 Rn^T: A_0 = sum_e K_h (the rest stiffness over the
-//     free dofs, factorized once by sparse Cholesky), Rn = diag of per-node rotations (the
-//     normalized sum of the node's element quaternions). If every R_e were one R, A(R) = Rn A_0 Rn^T exactly;
-//     with rotations varying smoothly over the mesh M stays close to A(R), and nothing is ever
-//     refactorized while the tissue turns.
+//  3. m conjugate-gradient iterations on A(R) d = r from d = 0 (PcgOptions::cgIterations, default
+//     2; m = 1 carries its direction across iterations instead), with products A(R) p element by
+//     element, preconditioned by M^-1 = Rn A(Q)^-1 Rn^T: A(Q) = sum_e Q_e K_h Q_e^T over the free
+//     dofs at reference rotations Q_e (first the rest, Q = I: A_0), factorized by sparse Cholesky;
+//     Rn = diag of per-node rotations relative to Q (the normalized sum of the node's elements'
+//     R_e Q_e^T as quaternions). If every R_e Q_e^T were one rotation, M = A(R)^-1 exactly; with
+//     rotations varying smoothly over the mesh M stays close to A(R).
+//  4. In a call's later iterations (from PcgOptions::refreshFromIteration on), once an element has
+//     turned more than the refresh angle from its Q_e, Q takes this iteration's rotations and A(Q)
+//     is refactorized (the pattern is the rest's; ~27 ms at the default 2,199 dofs). A sliding
+//     interface needs it most: its normal springs, 100x the tissue's stiffness, are condensed into
+//     elements that turn with the organ while the tissue beside them does not, so the per-node
+//     rotations cannot map A_0 onto A(R) there (the phantom's sliding kidney moved 10 mm and turned
+//     30 degrees from rest: 143 iterations with A_0 throughout, 81 refreshed). A frame's three
+//     iterations never refactorize: a refresh costs as much as ~9 of them.
 // Graded cells: a hanging corner (x_h = sum_m w_m x_m) gathers its masters' free dofs and scatters
 // its force to them with the same weights (P^T f with P the constraint's prolongation), and x is
 // re-expanded after every update.
@@ -51,6 +60,7 @@ void CoarseModel::preparePcg(CoarseSolveStats& st) {
     Eigen::Map<Eigen::MatrixXf>(&w->khf[e * std::size_t(m * m)], m, m) = elements_[e].Kh.cast<float>();
   w->elementR.assign(elements_.size(), Eigen::Matrix3d::Identity());
   w->elementQ.assign(elements_.size(), Eigen::Quaterniond::Identity());
+  w->refQ = w->elementQ;
   // An element whose corners are all held (a shaped region's outside, sim/region_shape.h) adds
   // nothing to a free dof's residual or product.
   // Graded: an element with a hanging corner takes the slower gather and scatter through masters.
@@ -83,7 +93,7 @@ void CoarseModel::preparePcg(CoarseSolveStats& st) {
   // A_0 = sum_e K_h over the free dofs, factorized once.
   const auto t0 = std::chrono::steady_clock::now();
   if (graded_) {
-    w->rest.compute(restStiffness());
+    w->rest.compute(restStiffness());  // the pattern analysed here serves every refresh
   } else {
     assembler_->zero();
     for (std::size_t e = 0; e < elements_.size(); ++e) assembler_->add(int(e), elements_[e].Kh);
@@ -99,6 +109,7 @@ void CoarseModel::preparePcg(CoarseSolveStats& st) {
 template <int N>
 void CoarseModel::pcgRotations(const std::vector<Eigen::Vector3d>& x, bool nodes) {
   PcgWorkspace& w = *pcg_;
+  double nearest = 1.0;  // the smallest |q_e . refQ_e|: cos of half the largest turn from the reference
   for (const int ei : w.active) {
     const auto e = std::size_t(ei);
     const Element& el = elements_[e];
@@ -108,15 +119,23 @@ void CoarseModel::pcgRotations(const std::vector<Eigen::Vector3d>& x, bool nodes
     // One Newton step a call when the rotation moved less than 1e-3 rad: it keeps converging with
     // x (quadratically), and is exact at the fixed point.
     w.elementR[e] = polarRotationWarm(S * el.fitInv, w.elementQ[e], 1e-3);
+    nearest = std::min(nearest, std::abs(w.elementQ[e].coeffs().dot(w.refQ[e].coeffs())));
   }
-  if (!nodes) return;
-  // Rn: the normalized sum of the node's element quaternions (signs aligned with the first): the
-  // rotation "between" them, all the preconditioner needs.
+  w.drift = 2.0 * std::acos(std::clamp(nearest, 0.0, 1.0));
+  if (nodes) pcgNodeRotations();
+}
+
+void CoarseModel::pcgNodeRotations() {
+  PcgWorkspace& w = *pcg_;
+  // Rn: the normalized sum of the node's elements' rotations since the reference, R_e Q_e^T as
+  // quaternions (signs aligned with the first): the rotation "between" them, all the
+  // preconditioner needs.
+  auto turned = [&w](int e) -> Eigen::Vector4d { return (w.elementQ[std::size_t(e)] * w.refQ[std::size_t(e)].conjugate()).coeffs(); };
   for (std::size_t i = 0; i < w.freeNode.size(); ++i) {
-    const Eigen::Vector4d first = w.elementQ[std::size_t(w.adjElement[std::size_t(w.adjStart[i])])].coeffs();
+    const Eigen::Vector4d first = turned(w.adjElement[std::size_t(w.adjStart[i])]);
     Eigen::Vector4d sum = Eigen::Vector4d::Zero();
     for (int k = w.adjStart[i]; k < w.adjStart[i + 1]; ++k) {
-      const Eigen::Vector4d q = w.elementQ[std::size_t(w.adjElement[std::size_t(k)])].coeffs();
+      const Eigen::Vector4d q = turned(w.adjElement[std::size_t(k)]);
       sum += q.dot(first) < 0 ? Eigen::Vector4d(-q) : q;
     }
     const double n = sum.norm();
@@ -202,6 +221,35 @@ void CoarseModel::pcgPrecondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) 
   for (std::size_t i = 0; i < w.nodeR.size(); ++i) z.segment<3>(3 * Eigen::Index(i)).noalias() = w.nodeR[i] * w.tmp.segment<3>(3 * Eigen::Index(i));
 }
 
+// The preconditioner's reference becomes the current rotations: A(Q) refactorized with the rest's
+// pattern (assembled like the rest stiffness, each element block turned: Q_e K_h Q_e^T).
+void CoarseModel::pcgRefresh(CoarseSolveStats& st) {
+  PcgWorkspace& w = *pcg_;
+  const auto t0 = std::chrono::steady_clock::now();
+  if (graded_) {
+    w.rest.factorize(warpedStiffness(&w.elementR));
+  } else {
+    assembler_->zero();
+    MatE Ae(3 * nc_, 3 * nc_);
+    for (std::size_t e = 0; e < elements_.size(); ++e) {
+      const Eigen::Matrix3d& Q = w.elementR[e];
+      for (int a = 0; a < nc_; ++a)
+        for (int b = 0; b < nc_; ++b) Ae.block<3, 3>(3 * a, 3 * b).noalias() = Q * elements_[e].Kh.block<3, 3>(3 * a, 3 * b) * Q.transpose();
+      assembler_->add(int(e), Ae);
+    }
+    w.rest.factorize(assembler_->matrix());
+  }
+  // A turned sum of positive semidefinite blocks with the rest's Dirichlet nodes is positive definite
+  // whenever A_0 is (a null vector would be a rigid motion of every element); rounding aside.
+  if (w.rest.info() != Eigen::Success) throw Error("coarse solve: the turned stiffness is not positive definite");
+  st.factorMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  ++st.factorizations;
+  w.refQ = w.elementQ;
+  w.drift = 0.0;
+  w.rzLast = 0.0;  // the carried direction was conjugate under the old preconditioner: restart
+  pcgNodeRotations();
+}
+
 CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tol) {
   using Clock = std::chrono::steady_clock;
   auto ms = [](Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); };
@@ -209,6 +257,7 @@ CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handle
   preparePcg(st);
   PcgWorkspace& w = *pcg_;
   const bool cell = nc_ == 8;
+  const PcgOptions& o = pcgOptions_;
   double update0 = 0.0, relax = 1.0;
   for (int it = 0; it < maxIterations; ++it) {
     auto t0 = Clock::now();
@@ -216,13 +265,14 @@ CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handle
     if (cell) pcgRotations<8>(x, it == 0);
     else pcgRotations<4>(x, it == 0);
     st.rotationMs += ms(t0);
+    if (it >= o.refreshFromIteration && o.refreshDeg > 0.0 && w.drift > o.refreshDeg * M_PI / 180.0) pcgRefresh(st);
     t0 = Clock::now();
     double boundary = 0.0;
     if (cell) pcgResidual<8>(handles, x, w.r, boundary);
     else pcgResidual<4>(handles, x, w.r, boundary);
     st.boundaryMs += boundary;
     st.productMs += ms(t0) - boundary;
-    // Conjugate gradients on A(R) d = r from d = 0, pcgIterations_ of them. With one a iteration
+    // Conjugate gradients on A(R) d = r from d = 0, o.cgIterations of them. With one a iteration
     // the directions are carried over the call's iterations instead (nonlinear conjugate gradients,
     // Polak-Ribiere+: beta = max(0, z_k . (r_k - r_k-1) / z_k-1 . r_k-1)): within a frame the problem
     // is nearly linear, so three such iterations do about what three linear CG iterations would.
@@ -233,13 +283,13 @@ CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handle
     st.backSolveMs += ms(t0);
     double rz = w.res.dot(w.z);
     const double rzOuter = rz;
-    if (pcgIterations_ == 1 && it > 0 && w.rzLast > 0) {
+    if (o.cgIterations == 1 && it > 0 && w.rzLast > 0) {
       const double beta = std::max(0.0, (rz - w.z.dot(w.rLast)) / w.rzLast);
       w.p = w.z + beta * w.pLast;
     } else {
       w.p = w.z;
     }
-    for (int j = 0; j < pcgIterations_ && rz > 0; ++j) {
+    for (int j = 0; j < o.cgIterations && rz > 0; ++j) {
       t0 = Clock::now();
       if (cell) pcgProduct<8>(w.p, w.q);
       else pcgProduct<4>(w.p, w.q);
@@ -249,7 +299,7 @@ CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handle
       const double alpha = w.res.dot(w.p) / pq;  // = rz / pq for the linear iterations
       w.d.noalias() += alpha * w.p;
       ++st.pcgIterations;
-      if (j + 1 == pcgIterations_) break;
+      if (j + 1 == o.cgIterations) break;
       w.res.noalias() -= alpha * w.q;
       t0 = Clock::now();
       pcgPrecondition(w.res, w.z);

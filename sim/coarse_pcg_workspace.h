@@ -17,9 +17,12 @@ struct CoarseModel::PcgWorkspace {
   std::vector<Eigen::Quaterniond> elementQ;      ///< R_e as the polar iteration's warm start
   std::vector<int> freeNode;                     ///< coarse node of free node i (dof 3i)
   std::vector<int> adjStart, adjElement;         ///< free node i's elements: adjElement[adjStart[i] .. adjStart[i+1])
-  std::vector<Eigen::Matrix3d> nodeR;            ///< Rn per free node
-  /// Cholesky factor of A_0, factorized once: CHOLMOD's supernodal solve (sim/sparse_direct.h), measured
-  /// 0.23 ms a back-solve against 0.35 ms with Eigen's simplicial factor (2,022 dofs, nnz(L) 278k).
+  std::vector<Eigen::Matrix3d> nodeR;            ///< Rn per free node, relative to refQ
+  std::vector<Eigen::Quaterniond> refQ;          ///< the reference rotations the factor was taken at (rest: identity)
+  double drift = 0;                              ///< the largest angle of an active element's R_e from its refQ (rad)
+  /// Cholesky factor of A(refQ) (first A_0, the rest stiffness; the pattern analysed once): CHOLMOD's
+  /// supernodal solve (sim/sparse_direct.h), measured 0.23 ms a back-solve against 0.35 ms with
+  /// Eigen's simplicial factor (2,022 dofs, nnz(L) 278k).
   DirectSolver rest;
   Eigen::VectorXd r, d, res, z, p, q, tmp;
   Eigen::VectorXd rLast, pLast;  ///< the last iteration's residual and direction (one CG step an iteration)

@@ -61,9 +61,11 @@ const char* coarseElementName(CoarseElement e) {
 }
 const char* coarseSolverName(CoarseSolver s) { return s == CoarseSolver::Assembled ? "assembled" : "pcg"; }
 
-void CoarseModel::setPcgIterations(int n) {
-  if (n < 1 || n > 16) throw Error("coarse solve: 1 to 16 conjugate-gradient iterations an iteration");
-  pcgIterations_ = n;
+void CoarseModel::setPcgOptions(const PcgOptions& o) {
+  if (o.cgIterations < 1 || o.cgIterations > 16) throw Error("coarse solve: 1 to 16 conjugate-gradient iterations an iteration");
+  if (!(o.refreshDeg >= 0.0 && o.refreshDeg <= 180.0)) throw Error("coarse solve: the preconditioner's refresh angle must be 0 (never) to 180 degrees");
+  if (o.refreshFromIteration < 0) throw Error("coarse solve: the preconditioner's refresh cannot start before a call's first iteration");
+  pcgOptions_ = o;
 }
 
 int CoarseModel::elementOfFineTet(std::size_t t) const {

@@ -67,6 +67,26 @@ struct CoarseSolveStats {
 /// 24 iterations; 50 had been the cap, and before the damping's recovery, coarse_pcg.cpp, it took 526).
 constexpr int kOneOffSolveIterations = 5000;
 
+/// How the Pcg solve iterates (docs/simulation.md, "pcg"; the defaults measured in results.md,
+/// 2026-12-06, the second entry: a sliding kidney dragged 10 mm and turned 30 degrees in ten frames of
+/// three iterations ends 5.2 % of its largest motion from converged with these, 46 % with one
+/// nonlinear CG step an iteration, the earlier default; the frame 1.4x as long).
+struct PcgOptions {
+  /// Conjugate-gradient iterations on A(R) d = r per solve() iteration, restarted from d = 0 each
+  /// time (1-16). 1 instead carries the directions over a call's iterations (nonlinear conjugate
+  /// gradients): cheaper per iteration, and it stalls where element rotations vary sharply (a
+  /// sliding interface).
+  int cgIterations = 2;
+  /// Refactorize the preconditioner at the current element rotations once an element has turned
+  /// more than this from the rotations it was factorized at (degrees, 0-180; 0: never, the rest
+  /// factor throughout).
+  double refreshDeg = 10.0;
+  /// ... and only from this iteration of a solve() call on (0-based): a frame's three iterations
+  /// never pay for a factorization (~27 ms at the default mesh), a longer solve does (the phantom's
+  /// sliding kidney from rest: 81 iterations against 143 with the rest factor throughout).
+  int refreshFromIteration = 3;
+};
+
 enum class CoarseElement { Tet = 0, Cell = 1 };
 const char* coarseElementName(CoarseElement e);
 
@@ -75,11 +95,13 @@ const char* coarseElementName(CoarseElement e);
 ///  - Assembled (the baseline, kept for comparison): every iteration assembles the warped stiffness
 ///    sum R K_h R^T into a sparse matrix and steps x += A_f^-1 (b(R) - A(R) x), with A_f a Cholesky
 ///    factor of that matrix refactorized every third call and whenever the updates stop halving.
-///  - Pcg (the default): no assembly and no refactorization. Each iteration takes the element
-///    rotations by a warm-started Newton polar iteration, the residual element by element with
-///    fixed-size blocks, then a few conjugate-gradient iterations on A(R) d = r, matrix-free,
-///    preconditioned by the rest stiffness's Cholesky factor turned by per-node rotations
-///    (Rn A_0^-1 Rn^T: exact when all elements turn alike).
+///  - Pcg (the default): no assembly. Each iteration takes the element rotations by a warm-started
+///    Newton polar iteration, the residual element by element with fixed-size blocks, then a few
+///    conjugate-gradient iterations on A(R) d = r, matrix-free, preconditioned by a Cholesky factor
+///    of the warped stiffness at reference rotations turned by per-node rotations relative to them
+///    (exact when all elements turned alike since). The reference is the rest until an element has
+///    turned more than the refresh angle from it in a call's later iterations (PcgOptions), then
+///    the rotations of that iteration, refactorized.
 enum class CoarseSolver { Assembled, Pcg };
 const char* coarseSolverName(CoarseSolver s);
 
@@ -118,9 +140,9 @@ class CoarseModel {
   /// Builds what solve() needs (Pcg: the rest stiffness's Cholesky factor, ~40 ms at 2,000 dofs)
   /// now rather than in the first call; solve() does it itself otherwise. Throws handson::Error.
   void prepareSolve();
-  /// Pcg: conjugate-gradient iterations per solve() iteration (1-16). The default, 1, carries the
-  /// directions over the call's iterations (nonlinear conjugate gradients); more restart each one.
-  void setPcgIterations(int n);
+  /// How the Pcg solve iterates. Throws handson::Error on a value out of its range.
+  void setPcgOptions(const PcgOptions& o);
+  const PcgOptions& pcgOptions() const { return pcgOptions_; }
   std::size_t elementCount() const { return elements_.size(); }
   /// Corners per element: 4 (Tet) or 8 (Cell).
   int cornersPerElement() const { return kind_ == CoarseElement::Tet ? 4 : 8; }
@@ -163,8 +185,8 @@ class CoarseModel {
   Eigen::VectorXd restrictToCoarse(const std::vector<Eigen::Vector3d>& r, const std::vector<Eigen::Matrix3d>& R) const;
   /// P c, added to out (per fine node).
   void prolongAdd(const Eigen::VectorXd& c, const std::vector<Eigen::Matrix3d>& R, std::vector<Eigen::Vector3d>& out) const;
-  /// A_c^-1 b with the coarse matrix of the last solve() iteration (Pcg: its preconditioner,
-  /// Rn A_0^-1 Rn^T at the last solve's rotations).
+  /// A_c^-1 b with the coarse matrix of the last solve() iteration (Pcg: its preconditioner, the
+  /// factor at its reference rotations turned by the last solve's node rotations).
   Eigen::VectorXd coarseSolve(const Eigen::VectorXd& b) const;
   /// Coarse nodes held by Dirichlet conditions: -2 fixed at rest, k >= 0 moved by handle k, -1 free,
   /// -3 hanging (graded: follows the whole cell it lies on).
@@ -182,7 +204,9 @@ class CoarseModel {
   /// Hanging nodes take their masters' weighted positions.
   void expandHanging(std::vector<Eigen::Vector3d>& x) const;
   /// The rest stiffness sum_e K_h over the free dofs, hanging corners through their masters.
-  SparseMatrix restStiffness();
+  SparseMatrix restStiffness() const { return warpedStiffness(nullptr); }
+  /// sum_e R_e K_h R_e^T over the free dofs (hanging corners through their masters); R null: the rest.
+  SparseMatrix warpedStiffness(const std::vector<Eigen::Matrix3d>* R) const;
   /// The per-element condensation of Tet and Cell elements (linear faces).
   void buildConforming(const std::vector<Mat12>& fineK, const std::vector<std::vector<int>>& tetsOf, const ProgressFn& progress);
   struct ConformingBuild;
@@ -200,6 +224,8 @@ class CoarseModel {
   void pcgResidual(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x, Eigen::VectorXd& r, double& boundaryMs) const;
   template <int N>
   void pcgProduct(const Eigen::VectorXd& p, Eigen::VectorXd& out) const;
+  void pcgNodeRotations();
+  void pcgRefresh(CoarseSolveStats& st);
   void pcgPrecondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) const;
   bool pcgReady() const;
   // Per-frame temporaries on the stack (at most 24 rows); stored blocks sized to the element kind
@@ -358,7 +384,7 @@ class CoarseModel {
   bool analyzed_ = false, factorized_ = false;
   int callsSinceFactorization_ = 0;
   CoarseSolver solverKind_ = CoarseSolver::Pcg;
-  int pcgIterations_ = 1;
+  PcgOptions pcgOptions_;
   std::unique_ptr<PcgWorkspace> pcg_;
 };
 

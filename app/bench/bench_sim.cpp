@@ -115,13 +115,15 @@ std::vector<double> compareRefinements(const BenchCase& c, const CoarseModel& mo
 // model's state in xc.
 struct Drag {
   double frame = 0;        // median frame (ms)
+  double meanFrame = 0;    // mean frame (ms): a preconditioner refresh's factorization lands in a few frames
   CoarseSolveStats mean;   // per frame, averaged over the drag: the breakdown
   double lag = 0;          // after the drag: largest coarse node distance to the converged state / motion
 };
-Drag dragRun(CoarseModel& model, CoarseSolver solver, const BenchCase& c, std::vector<Eigen::Vector3d>& xc) {
+Drag dragRun(CoarseModel& model, CoarseSolver solver, const BenchCase& c, std::vector<Eigen::Vector3d>& xc, const PcgOptions& pcg = {}) {
   const Eigen::Vector3d& centre = c.sc.handleCentroid[0];
   const Eigen::Vector3d &rv = c.rv, &tv = c.tv;
   model.setSolver(solver);
+  model.setPcgOptions(pcg);
   model.prepareSolve();  // one-off set-up (pcg: the rest factorization), part of the preprocessing
   Drag d;
   std::vector<double> frameMs;
@@ -141,9 +143,11 @@ Drag dragRun(CoarseModel& model, CoarseSolver solver, const BenchCase& c, std::v
   }
   std::sort(frameMs.begin(), frameMs.end());
   d.frame = frameMs[frameMs.size() / 2];
+  for (const double f : frameMs) d.meanFrame += f / double(frameMs.size());
   auto xconv = xc;
   model.solve({RigidTransform::about(centre, rv, tv)}, xconv, 2000, 1e-10);
   for (std::size_t v = 0; v < xc.size(); ++v) d.lag = std::max(d.lag, (xc[v] - xconv[v]).norm() / c.motion);
+  model.setPcgOptions({});
   return d;
 }
 
@@ -224,7 +228,8 @@ void writeAccuracyHeader(std::ostream& acc, int refineSteps) {
          "graded_split_cells,graded_elements,graded_hanging_nodes,frame_ms_graded,frame_lag_graded,graded_iterations_to_converge,rms_graded,max_graded,"
          "coarsening_s_tet,frame_ms_tet,rms_coarse_tet,max_coarse_tet,rms_plain,max_plain,frame_ms_assembled,frame_speedup,frame_lag,frame_lag_assembled,"
          "solver_difference,rotation_ms,products_ms,factor_ms,backsolve_ms,boundary_ms,pcg_per_frame,rotation_ms_assembled,assembly_ms_assembled,"
-         "factor_ms_assembled,backsolve_ms_assembled,boundary_ms_assembled,factorizations_per_frame_assembled";
+         "factor_ms_assembled,backsolve_ms_assembled,boundary_ms_assembled,factorizations_per_frame_assembled,frame_mean_ms,factorizations_per_frame,"
+         "frame_ms_pcg_earlier,frame_mean_ms_pcg_earlier,frame_lag_pcg_earlier,pcg_earlier_iterations_to_converge";
   for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k;
   for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k << "_warped";
   for (int k = 1; k <= refineSteps; ++k) acc << ",rms_refined_" << k << "_projected";
@@ -317,6 +322,8 @@ struct Measured {
   std::vector<Eigen::Vector3d> xc;
   double coarsening = 0;
   Drag drag, baseline;     // the default solver (pcg) and the assembled one (cells only)
+  Drag earlier;            // pcg as it was: one nonlinear CG step an iteration, the rest factor throughout (cells only)
+  int earlierIterations = 0;  // its iterations from rest to converged (-1: not converged)
   CoarseSolveStats conv;
   double solverDiff = 0;   // the two solvers' converged states: largest difference / motion
   DeformationError error;
@@ -333,7 +340,20 @@ Measured measureCoarse(const BenchCase& c, CoarseElement kind) {
     m.baseline = dragRun(*m.model, CoarseSolver::Assembled, c, xb);
     m.model->solve(c.T, xb, 2000, 1e-10);
   }
+  if (kind == CoarseElement::Cell) {
+    PcgOptions earlier;
+    earlier.cgIterations = 1;
+    earlier.refreshDeg = 0.0;
+    std::vector<Eigen::Vector3d> xr;
+    m.earlier = dragRun(*m.model, CoarseSolver::Pcg, c, xr, earlier);
+    xr = m.model->restState();
+    m.model->setPcgOptions(earlier);
+    const CoarseSolveStats st = m.model->solve(c.T, xr, kOneOffSolveIterations);
+    m.earlierIterations = st.converged ? st.iterations : -1;
+    m.model->setPcgOptions({});
+  }
   m.drag = dragRun(*m.model, CoarseSolver::Pcg, c, m.xc);
+  m.xc = m.model->restState();  // converged from rest, as the rest factor's count above
   m.conv = m.model->solve(c.T, m.xc, kOneOffSolveIterations);  // the coarse model's own converged answer
   if (kind == CoarseElement::Cell) {
     // Both solvers to 1e-10 of the motion: how far apart their answers are.
@@ -371,6 +391,9 @@ void writeLevel(const BenchCase& c, const Level& l, bool operatingPoint, BenchCs
   csv.acc << "," << a.frame << "," << a.frame / frame << "," << cell.drag.lag << "," << a.lag << "," << cell.solverDiff << "," << b.rotationMs << ","
           << b.productMs << "," << b.factorMs << "," << b.backSolveMs << "," << b.boundaryMs << "," << b.pcgIterations / 30.0 << "," << a.mean.rotationMs << ","
           << a.mean.productMs << "," << a.mean.factorMs << "," << a.mean.backSolveMs << "," << a.mean.boundaryMs << "," << a.mean.factorizations / 30.0;
+  const Drag& pe = cell.earlier;
+  csv.acc << "," << cell.drag.meanFrame << "," << b.factorizations / 30.0 << "," << pe.frame << "," << pe.meanFrame << "," << pe.lag << ","
+          << cell.earlierIterations;
   const auto n = sc.meshes.coarse.tets.size();
   std::ostream& trade = csv.trade;
   trade << "coarsened-cells," << n << "," << frame * 1e-3 << "," << ec.rmsOfMotion << "\n";
@@ -401,6 +424,10 @@ void printLevel(const BenchCase& c, const Level& l) {
             << ", factorization " << b.factorMs << ", back-solves " << b.backSolveMs << ", boundary " << b.boundaryMs << " ms, "
             << b.pcgIterations / 30.0 << " CG iterations; assembled: rotations " << a.mean.rotationMs << ", assembly " << a.mean.productMs
             << ", factorization " << a.mean.factorMs << ", back-solves " << a.mean.backSolveMs << ", boundary " << a.mean.boundaryMs << " ms\n"
+            << "  pcg: " << std::setprecision(3) << b.factorizations / 30.0 << " factorizations a frame, mean frame " << cell.drag.meanFrame
+            << " ms; as it was (one nonlinear CG step an iteration, the rest factor throughout): frame " << cell.earlier.frame << " ms (mean "
+            << cell.earlier.meanFrame << "), after the drag " << std::setprecision(6) << cell.earlier.lag << " of the motion from converged, from rest "
+            << cell.earlierIterations << " iterations to converge\n"
             << std::setprecision(6) << "  after the drag, distance to the converged state / motion: pcg " << cell.drag.lag << ", assembled " << a.lag
             << "; converged states differ by " << std::setprecision(2) << std::scientific << cell.solverDiff << std::fixed << " of the motion\n"
             << std::setprecision(4) << "  RMS / max of the handle's motion (" << std::setprecision(2) << ec.handleMotionMm << " mm): coarsened (cells) "

@@ -1,5 +1,6 @@
 // The coarse model's matrix-free PCG solve against the assembled one (the baseline): the same fixed
-// point, the preconditioner exact at rest, and the cost it claims (no refactorization).
+// point, the preconditioner exact at rest, the cost it claims (a refactorization only when the
+// tissue has turned), and a sliding drag that keeps up.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -72,7 +73,9 @@ TEST_P(CoarsePcgKinds, ConvergesToTheAssembledSolvesAnswer) {
   // Both stop within 1e-10 of the motion of their common fixed point; the bound leaves room for the
   // linear convergence of the last steps (the update underestimates the remaining error).
   EXPECT_LT(largestDistance(xa, xp), 1e-6 * motion);
-  EXPECT_EQ(sp.factorizations, 1) << "the rest stiffness, once";
+  // The rest stiffness, then a refresh per 10 degrees an element turned (the pose turns 30).
+  EXPECT_GE(sp.factorizations, 1);
+  EXPECT_LE(sp.factorizations, 5);
   // Held there, the next call is converged at once and factorizes nothing.
   const auto again = pcg.solve(T, xp, 10, 1e-6);
   EXPECT_TRUE(again.converged);
@@ -86,7 +89,9 @@ TEST_P(CoarsePcgKinds, NearRestOneIterationSolvesTheLinearProblem) {
   const KidneyScene k(600);
   const auto T = k.pose(1.0, 1e-3, 3e-3);
   CoarseModel pcg(k.sc.meshes, k.sc.fineK, k.sc.constraints, {}, GetParam());
-  pcg.setPcgIterations(1);
+  PcgOptions one;
+  one.cgIterations = 1;
+  pcg.setPcgOptions(one);
   auto x1 = pcg.restState(), xc = pcg.restState();
   pcg.solve(T, x1, 1, 0.0);
   CoarseModel ref(k.sc.meshes, k.sc.fineK, k.sc.constraints, {}, GetParam());
@@ -112,7 +117,7 @@ TEST(CoarsePcg, ADragWarmStartedThreeIterationsAFrameTracksTheConvergedPoses) {
     const auto st = pcg.solve(T, xp, 3);
     pcgFactorizations += st.factorizations;
     EXPECT_EQ(st.iterations, 3);
-    EXPECT_EQ(st.pcgIterations, 3) << "one CG step an iteration (the default)";
+    EXPECT_EQ(st.pcgIterations, 6) << "two CG steps an iteration (the default)";
     EXPECT_LE(st.rotationMs + st.productMs + st.backSolveMs + st.factorMs + st.boundaryMs, st.solveMs * 1.001 + 1e-3);
     ASSERT_TRUE(ref.solve(T, xr, 500, 1e-9).converged);
     const double motion = handleMotion(ref, xr);
@@ -120,9 +125,10 @@ TEST(CoarsePcg, ADragWarmStartedThreeIterationsAFrameTracksTheConvergedPoses) {
     worstP = std::max(worstP, largestDistance(xp, xr) / motion);
   }
   std::printf("10-frame drag, 3 iterations a frame: worst distance to the converged pose / motion: assembled %.4f, pcg %.4f\n", worstA, worstP);
-  EXPECT_EQ(pcgFactorizations, 1) << "the rest stiffness on the first frame, nothing after";
+  EXPECT_EQ(pcgFactorizations, 1) << "the rest stiffness on the first frame; a frame's three iterations never refactorize";
   // Each frame moves the handle by a tenth of the motion; measured: the assembled solve (a fresh
-  // factorization on this small mesh, nearly Newton) 1e-4 of the motion behind, pcg 1.6e-3. Bound:
+  // factorization on this small mesh, nearly Newton) 1e-4 of the motion behind, pcg 1e-4 (4.0e-3
+  // with one nonlinear CG step an iteration, the earlier default). Bound:
   // within a hundredth of the motion (a tenth of a frame's step).
   EXPECT_LT(worstP, 0.01);
   EXPECT_LT(worstA, 0.01);
@@ -131,8 +137,9 @@ TEST(CoarsePcg, ADragWarmStartedThreeIterationsAFrameTracksTheConvergedPoses) {
 TEST(CoarsePcg, RefusesABadIterationCountAndNonFiniteHandles) {
   const KidneyScene k(200);
   CoarseModel m(k.sc.meshes, k.sc.fineK, k.sc.constraints);
-  EXPECT_THROW(m.setPcgIterations(0), Error);
-  EXPECT_THROW(m.setPcgIterations(17), Error);
+  for (const auto& bad : {PcgOptions{0, 10.0, 3}, PcgOptions{17, 10.0, 3}, PcgOptions{2, -1.0, 3}, PcgOptions{2, 181.0, 3},
+                          PcgOptions{2, std::nan(""), 3}, PcgOptions{2, 10.0, -1}})
+    EXPECT_THROW(m.setPcgOptions(bad), Error);
   auto x = m.restState();
   auto T = k.pose(1.0);
   T[0].t.x() = std::nan("");
@@ -146,7 +153,9 @@ TEST(CoarsePcg, ASlidingSolveFromRestConvergesWithoutItsDampingStalling) {
   // alternate (a long step, then one about as long), so a damping that never recovered left every
   // step at 1/64 within 15 iterations and the solve crawled. The sliding kidney (1,500 coarse tets,
   // 64 fine a coarse tet) moved 10 mm and turned 30 degrees from rest: 510 iterations without the
-  // recovery, 37 with it (at 8 fine a coarse tet: 574 and 188); the bound is 100.
+  // recovery, 37 with it (at 8 fine a coarse tet: 574 and 188), both with the rest factor
+  // throughout, one nonlinear CG step an iteration; with two restarted CG steps an iteration and the
+  // preconditioner's refreshes (the defaults) 13. The bound is 100.
   const KidneyScene k(1500, 64);
   ASSERT_FALSE(k.sc.constraints.slide.empty()) << "the default interface slides";
   CoarseModel pcg(k.sc.meshes, k.sc.fineK, k.sc.constraints);
@@ -155,4 +164,53 @@ TEST(CoarsePcg, ASlidingSolveFromRestConvergesWithoutItsDampingStalling) {
   std::printf("sliding, from rest: %d iterations\n", st.iterations);
   ASSERT_TRUE(st.converged);
   EXPECT_LT(st.iterations, 100);
+}
+
+TEST(CoarsePcg, ASlidingDragKeepsUpWithItsConvergedPoses) {
+  // A sliding interface's normal springs (100x the tissue) are condensed into elements that turn
+  // with the organ while the tissue beside them does not: element rotations vary sharply there, and
+  // one nonlinear CG step an iteration (the earlier default) fell behind a drag at the app's three
+  // iterations a frame. Two restarted CG steps an iteration keep up. The sliding kidney (1,440
+  // coarse tets, 92k fine) dragged 10 mm and turned 30 degrees in ten frames; the largest coarse
+  // node's distance to the converged pose over the largest motion, measured: earlier 0.177, now
+  // 0.030. Bounds: now within 5 %; the earlier way beyond 10 % (the scene shows the fault, or the
+  // test could not tell).
+  const KidneyScene k(1500, 64);
+  ASSERT_FALSE(k.sc.constraints.slide.empty()) << "the default interface slides";
+  CoarseModel ref(k.sc.meshes, k.sc.fineK, k.sc.constraints);
+  auto xr = ref.restState();
+  ASSERT_TRUE(ref.solve(k.pose(1.0), xr, 5000, 1e-10).converged);
+  const double motion = handleMotion(ref, xr);
+  auto lagAfterDrag = [&](const PcgOptions& o) {
+    CoarseModel m(k.sc.meshes, k.sc.fineK, k.sc.constraints);
+    m.setPcgOptions(o);
+    auto x = m.restState();
+    for (int f = 1; f <= 10; ++f) m.solve(k.pose(f / 10.0), x, 3);
+    return largestDistance(x, xr) / motion;
+  };
+  const double earlier = lagAfterDrag(PcgOptions{1, 0.0, 3}), now = lagAfterDrag(PcgOptions{});
+  std::printf("sliding drag, after 10 frames of 3 iterations: earlier %.4f of the motion, now %.4f\n", earlier, now);
+  EXPECT_LT(now, 0.05);
+  EXPECT_GT(earlier, 0.10);
+}
+
+TEST(CoarsePcg, ALongSolveRefreshesItsPreconditionerAndKeepsItsFixedPoint) {
+  // From rest, the sliding kidney moved 10 mm and turned 30 degrees: the refreshes (from a call's
+  // fourth iteration, once an element turned 10 degrees from the factor's rotations) cut the
+  // iterations; the answer is the same fixed point. Measured: 22 iterations (2 factorizations)
+  // against 34 with the rest factor throughout.
+  const KidneyScene k(1500, 64);
+  PcgOptions restOnly;
+  restOnly.refreshDeg = 0.0;
+  CoarseModel refreshed(k.sc.meshes, k.sc.fineK, k.sc.constraints), rest(k.sc.meshes, k.sc.fineK, k.sc.constraints);
+  rest.setPcgOptions(restOnly);
+  auto x = refreshed.restState(), xr = rest.restState();
+  const auto a = refreshed.solve(k.pose(1.0), x, 5000, 1e-11), b = rest.solve(k.pose(1.0), xr, 5000, 1e-11);
+  std::printf("from rest: refreshed %d iterations (%d factorizations), rest factor %d (%d)\n", a.iterations, a.factorizations, b.iterations, b.factorizations);
+  ASSERT_TRUE(a.converged);
+  ASSERT_TRUE(b.converged);
+  EXPECT_GT(a.factorizations, 1);
+  EXPECT_EQ(b.factorizations, 1);
+  EXPECT_LT(a.iterations, b.iterations);
+  EXPECT_LT(largestDistance(x, xr), 1e-7 * handleMotion(rest, xr));
 }
