@@ -35,6 +35,7 @@ Ui::Ui(SDL_Window* window, const vk::Context& ctx, const vk::Swapchain& swapchai
   style.ItemSpacing = ImVec2(10, 10);
   style.TouchExtraPadding = ImVec2(4, 4);
   style.ScaleAllSizes(scale_);
+  baseStyle_ = style;
   ImFontConfig font;
   font.SizePixels = 20.0f * scale_;
   io.Fonts->AddFontDefault(&font);
@@ -165,9 +166,28 @@ void Ui::modeOptions(const UiStatus& st, const std::function<void(const char*, c
   }
 }
 
+void Ui::fitToWindow() {
+  ImGuiIO& io = ImGui::GetIO();
+  const float shorter = std::min(io.DisplaySize.x, io.DisplaySize.y) / scale_;  // in points at 100 %
+  if (!(shorter > 0.0f)) return;
+  fit_ = std::clamp(shorter / 800.0f, 0.7f, 1.0f);
+  ImGui::GetStyle() = baseStyle_;
+  ImGui::GetStyle().ScaleAllSizes(fit_);
+  io.FontGlobalScale = fit_;
+  if (!folded_) {
+    // The first window size sets the folds: below a 1400-point width the view's actions fold; the
+    // presets and the overlay's details start folded (one tap opens them).
+    actionsOpen_ = io.DisplaySize.x / scale_ >= 1400.0f;
+    presetsOpen_ = false;
+    infoOpen_ = false;
+    folded_ = true;
+  }
+}
+
 void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& actions) {
   ImGui_ImplVulkan_NewFrame();
   ImGui_ImplSDL2_NewFrame();
+  fitToWindow();
   ImGui::NewFrame();
   pixelsPerPoint_ = ImGui::GetIO().DisplayFramebufferScale.x > 0 ? ImGui::GetIO().DisplayFramebufferScale.x : 1.0f;
   panels_.clear();
@@ -183,8 +203,10 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
     e.value = value;
     actions.push_back(e);
   };
-  const float s = scale_;
-  const ImVec2 button(std::max(kMinTarget, 150.0f) * s, std::max(kMinTarget, 56.0f) * s);
+  const float s = scale_, f = fit_;
+  const ImVec2 button(std::max(kMinTarget, 150.0f * f) * s, std::max(kMinTarget, 56.0f * f) * s);
+  // A button as wide as its label (at least a touch target): what lets the bar fit small windows.
+  auto labelButton = [&](const char* label) { return ImVec2(std::max(kMinTarget * s, ImGui::CalcTextSize(label).x + 24.0f * s * f), button.y); };
   const ImGuiWindowFlags panel = ImGuiWindowFlags_NoTitleBar | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoMove |
                                  ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoFocusOnAppearing;
 
@@ -192,40 +214,44 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   ImGui::SetNextWindowPos(ImVec2(10 * s, 10 * s));
   ImGui::SetNextWindowBgAlpha(0.75f);
   ImGui::Begin("modes", nullptr, panel);
-  // Five modes on the first row (narrower buttons, still touch-sized), the view's actions below.
-  // Mode buttons as wide as their labels (at least a touch target), so that the bar fits small windows.
-  auto modeButton = [&](const char* label) {
-    return ImVec2(std::max(kMinTarget * s, ImGui::CalcTextSize(label).x + 24.0f * s), button.y);
-  };
+  // Five modes on the first row (narrower buttons, still touch-sized) and the fold of the view's
+  // actions, which are below it.
   for (const char* m : {"navigate", "select", "manipulate", "clip", "window"}) {
     const bool active = st.mode == m;
     if (active) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
     char label[32];
     std::snprintf(label, sizeof(label), "%c%s", m[0] - 32, m + 1);
-    if (ImGui::Button(label, modeButton(label)) && !active) action("set-mode", m);
+    if (ImGui::Button(label, labelButton(label)) && !active) action("set-mode", m);
     if (active) ImGui::PopStyleColor();
     ImGui::SameLine();
   }
-  ImGui::NewLine();
-  if (ImGui::Button("Reset view", button)) action("reset-camera", "");
-  ImGui::SameLine();
-  if (ImGui::Button("Export", button)) action("export", "");
-  ImGui::SameLine();
-  if (st.strainOverlay) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.85f, 0.35f, 0.10f, 1.0f));
-  if (ImGui::Button("Strain", button)) action("toggle-strain", "");
-  if (st.strainOverlay) ImGui::PopStyleColor();
-  ImGui::SameLine();
-  if (st.limitHighlight) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.75f, 0.10f, 0.70f, 1.0f));
-  if (ImGui::Button("Limits", button)) action("toggle-limits", "");
-  if (st.limitHighlight) ImGui::PopStyleColor();
-  ImGui::SameLine();
-  // The handles' interface with the tissue: the button names the current one, a tap switches.
-  if (ImGui::Button(st.sliding ? "Sliding" : "Glued", button)) action("set-interface", st.sliding ? "glued" : "sliding");
-  if (st.hasLabels) {
+  if (ImGui::Button(actionsOpen_ ? "Less" : "More", labelButton("More"))) actionsOpen_ = !actionsOpen_;
+  if (actionsOpen_) {
+    if (ImGui::Button("Reset view", labelButton("Reset view"))) action("reset-camera", "");
     ImGui::SameLine();
-    if (st.labelTint) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.25f, 0.60f, 0.35f, 1.0f));
-    if (ImGui::Button("Labels", button)) action("toggle-labels", "");
-    if (st.labelTint) ImGui::PopStyleColor();
+    if (ImGui::Button("Export", labelButton("Export"))) action("export", "");
+    ImGui::SameLine();
+    if (st.strainOverlay) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.85f, 0.35f, 0.10f, 1.0f));
+    if (ImGui::Button("Strain", labelButton("Strain"))) action("toggle-strain", "");
+    if (st.strainOverlay) ImGui::PopStyleColor();
+    ImGui::SameLine();
+    if (st.limitHighlight) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.75f, 0.10f, 0.70f, 1.0f));
+    if (ImGui::Button("Limits", labelButton("Limits"))) action("toggle-limits", "");
+    if (st.limitHighlight) ImGui::PopStyleColor();
+    ImGui::SameLine();
+    // The handles' interface with the tissue: the button names the current one, a tap switches.
+    if (ImGui::Button(st.sliding ? "Sliding" : "Glued", labelButton("Sliding"))) action("set-interface", st.sliding ? "glued" : "sliding");
+    if (st.hasLabels) {
+      ImGui::SameLine();
+      if (st.labelTint) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.25f, 0.60f, 0.35f, 1.0f));
+      if (ImGui::Button("Labels", labelButton("Labels"))) action("toggle-labels", "");
+      if (st.labelTint) ImGui::PopStyleColor();
+    }
+    ImGui::SameLine();
+    if (infoOpen_) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
+    const bool info = ImGui::Button("Info", labelButton("Info"));
+    if (infoOpen_) ImGui::PopStyleColor();
+    if (info) infoOpen_ = !infoOpen_;
   }
   modeOptions(st, action, button.x, button.y);
   remember();
@@ -240,14 +266,17 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   ImGui::SetNextWindowBgAlpha(0.75f);
   ImGui::Begin("presets", nullptr, panel);
   ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 1.3f * button.x);  // hints wrap at the buttons' width
-  ImGui::TextUnformatted("Transfer function");
-  for (const auto& p : transferFunctionPresetNames()) {
-    const bool active = st.preset == p;
-    if (active) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
-    if (ImGui::Button(p.c_str(), ImVec2(std::max(button.x, ImGui::CalcTextSize(p.c_str()).x + 24.0f * s), button.y)) && !active)
-      action("set-preset", p);
-    if (active) ImGui::PopStyleColor();
-  }
+  // The presets fold under their header, which names the one in use.
+  const std::string header = presetsOpen_ ? std::string("Presets -") : "Preset: " + st.preset + " +";
+  if (ImGui::Button(header.c_str(), labelButton(header.c_str()))) presetsOpen_ = !presetsOpen_;
+  if (presetsOpen_)
+    for (const auto& p : transferFunctionPresetNames()) {
+      const bool active = st.preset == p;
+      if (active) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
+      if (ImGui::Button(p.c_str(), ImVec2(std::max(button.x, ImGui::CalcTextSize(p.c_str()).x + 24.0f * s * f), button.y)) && !active)
+        action("set-preset", p);
+      if (active) ImGui::PopStyleColor();
+    }
   ImGui::Separator();
   ImGui::TextUnformatted("Handles");
   if (st.liveVoxels) ImGui::TextColored(ImVec4(0.3f, 1.0f, 0.4f, 1.0f), "selecting: %zu voxels", st.liveVoxels);
@@ -262,9 +291,9 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
     ImGui::PopStyleColor();
   }
   if (!st.exported.empty()) ImGui::TextWrapped("%s", st.exported.c_str());
-  if (st.handles.empty()) ImGui::TextDisabled("none: pinch an organ in Select mode");
+  if (st.handles.empty()) ImGui::TextDisabled("none: pinch an organ (Select)");
   else if (st.picked.size() < 2) ImGui::TextDisabled("tap two handles to unite or subtract them");
-  const ImVec2 small(std::max(kMinTarget, 64.0f) * s, kMinTarget * s);
+  const ImVec2 small(std::max(kMinTarget, 64.0f * f) * s, kMinTarget * s);
   for (const auto& h : st.handles) {
     ImGui::PushID(h.id);
     const bool isPicked = std::find(st.picked.begin(), st.picked.end(), h.id) != st.picked.end();
@@ -288,13 +317,15 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
     if (ImGui::Button(("#" + std::to_string(a) + " - #" + std::to_string(b)).c_str(), button))
       action("handle-difference", std::to_string(a) + "," + std::to_string(b));
   }
-  ImGui::BeginDisabled(!st.canUndo);
-  if (ImGui::Button("Undo", small)) action("undo", "");
-  ImGui::EndDisabled();
-  ImGui::SameLine();
-  ImGui::BeginDisabled(!st.canRedo);
-  if (ImGui::Button("Redo", small)) action("redo", "");
-  ImGui::EndDisabled();
+  if (st.canUndo || st.canRedo) {  // with nothing to undo or redo they take no room
+    ImGui::BeginDisabled(!st.canUndo);
+    if (ImGui::Button("Undo", small)) action("undo", "");
+    ImGui::EndDisabled();
+    ImGui::SameLine();
+    ImGui::BeginDisabled(!st.canRedo);
+    if (ImGui::Button("Redo", small)) action("redo", "");
+    ImGui::EndDisabled();
+  }
   ImGui::PopTextWrapPos();
   panelHeight_ = ImGui::GetWindowSize().y;
   remember();
@@ -309,17 +340,18 @@ void Ui::timingOverlay(const UiStatus& st, float left, float bottom, int panelFl
   ImGui::SetNextWindowPos(ImVec2(left, bottom), ImGuiCond_Always, ImVec2(0.0f, 1.0f));
   ImGui::SetNextWindowBgAlpha(0.55f);
   ImGui::Begin("timing", nullptr, panelFlags | ImGuiWindowFlags_NoInputs);
-  ImGui::Text("%.1f fps   CPU %.1f ms   raymarch %.1f ms", st.fps, st.cpuFrameMs, st.gpuRaymarchMs);
+  // Fixed widths: the auto-sized overlay takes its size from the last frame's text.
+  ImGui::Text("%5.1f fps   CPU %5.1f ms   raymarch %6.1f ms", st.fps, st.cpuFrameMs, st.gpuRaymarchMs);
   if (st.latencyMs >= 0) ImGui::Text("input to present %.1f ms", st.latencyMs);
   if (st.displayLatencyMs >= 0) ImGui::Text("input to display %.1f ms", st.displayLatencyMs);
-  ImGui::Text("%s   %dx%d   fingers %d", st.device.c_str(), st.renderWidth, st.renderHeight, st.fingers);
+  if (infoOpen_) ImGui::Text("%s   %dx%d   fingers %d", st.device.c_str(), st.renderWidth, st.renderHeight, st.fingers);
   // The frame budget's indicator, on a line of its own from the start (the panels are measured
   // once, for the first view's framing): amber while the frame is reduced.
   const bool reduced = st.qualityScale != 1.0 || st.qualityStep != 1.0;
   ImGui::TextColored(reduced ? ImVec4(1.0f, 0.75f, 0.25f, 1.0f) : ImGui::GetStyleColorVec4(ImGuiCol_Text), "quality: resolution %3.0f %%, step %.1fx", 100.0 * st.qualityScale,
                      st.qualityStep);
-  if (st.stillPhases > 0) ImGui::Text("still frame: %d of %d jitter phases", st.stillPhases, st.stillPhasesTotal);
-  if (!st.selectionBackend.empty()) ImGui::TextUnformatted(st.selectionBackend.c_str());
+  if (infoOpen_ && st.stillPhases > 0) ImGui::Text("still frame: %d of %d jitter phases", st.stillPhases, st.stillPhasesTotal);
+  if (infoOpen_ && !st.selectionBackend.empty()) ImGui::TextUnformatted(st.selectionBackend.c_str());
   overlay_ = Rect{ImGui::GetWindowPos().x, ImGui::GetWindowPos().y, ImGui::GetWindowPos().x + ImGui::GetWindowSize().x,
                   ImGui::GetWindowPos().y + ImGui::GetWindowSize().y};
   ImGui::End();

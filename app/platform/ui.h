@@ -1,9 +1,14 @@
 #pragma once
 // The touch UI (Dear ImGui, Debian's libimgui-dev with its SDL2 and Vulkan backends): a mode bar,
-// transfer-function presets, a frame-time overlay and the (for now empty) handle list. Every
-// target is at least 48 px at 100 % scale and grows with the display scale. UI actions come out
-// as script events, so they are recorded and replayed like touches.
+// transfer-function presets, a frame-time overlay and the handle list. Every target is at least
+// 48 px at 100 % scale and grows with the display scale; text and spacing shrink with a small
+// window (down to 0.7 below an 800-point shorter side). The panels fold: the view's actions behind
+// "More", the presets behind their header, the overlay's details behind "Info" — folded by default
+// in a small window, so that the panels leave the picture (docs/touch-app.md, "The panels"). UI
+// actions come out as script events, so they are recorded and replayed like touches; folding is
+// the view's own and is not recorded.
 #include <SDL2/SDL.h>
+#include <imgui.h>
 #include <vulkan/vulkan.h>
 
 #include <array>
@@ -88,6 +93,8 @@ class Ui {
   void strainColourBar(const UiStatus& st, const std::function<void()>& remember);
   void timingOverlay(const UiStatus& st, float left, float bottom, int panelFlags);
   void modeOptions(const UiStatus& st, const std::function<void(const char*, const std::string&)>& action, float buttonWidth, float buttonHeight);
+  /// Sets this frame's text and spacing scale from the window's size (and the folds, once).
+  void fitToWindow();
 
   const vk::Context& ctx_;
   VkRenderPass renderPass_;
@@ -95,6 +102,10 @@ class Ui {
   float scale_;
   float pixelsPerPoint_ = 1.0f;
   float panelHeight_ = 0.0f;  ///< the right panel's height as last drawn (it is centred by it)
+  ImGuiStyle baseStyle_;      ///< the style at the display scale, before fitting to the window
+  float fit_ = 1.0f;          ///< text and spacing scale for the window's size (0.7-1)
+  bool folded_ = false;       ///< the panels' folds have been set for the first window size
+  bool actionsOpen_ = true, presetsOpen_ = true, infoOpen_ = true;
   struct Rect {
     float x0, y0, x1, y1;
   };

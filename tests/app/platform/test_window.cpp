@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <tuple>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -338,4 +340,33 @@ TEST_F(Window, TheTimingLogSaysWhetherItMeasuredWhenEachFrameWasShown) {
     EXPECT_GE(shown, 3) << "most frames' display times came back";
   }
   fs::remove(csvPath);
+}
+
+TEST_F(Window, ThePanelsLeaveThePictureAtATouchTablesSizeAndInASmallWindow) {
+  // The panels (the frame-time overlay included) as first laid out, folded as a new window folds
+  // them: at 1280x800 they cover at most 15 % of the window, at 512x512 at most 25 %, and never its
+  // centre, where the organ is framed. Measured: 11.7 % and 23.8 % (before the folds: ~35 % and most
+  // of the 512 px window).
+  for (const auto& [w, h, most] : {std::tuple{1280, 800, 0.15}, std::tuple{512, 512, 0.25}}) {
+    SCOPED_TRACE(std::to_string(w) + "x" + std::to_string(h));
+    ViewerOptions o = smallWindow();
+    o.width = w;
+    o.height = h;
+    o.frames = 3;
+    Viewer v(o);
+    while (v.step()) {
+    }
+    const Viewport vp = v.drawableSize();
+    const auto panels = v.uiPanels();
+    ASSERT_GE(panels.size(), 3u) << "the mode bar, the presets and handles, the overlay";
+    std::vector<char> covered(std::size_t(vp.width) * std::size_t(vp.height), 0);
+    for (const auto& p : panels)
+      for (int y = std::max(0, int(p[1])); y < std::min(vp.height, int(std::ceil(p[3]))); ++y)
+        for (int x = std::max(0, int(p[0])); x < std::min(vp.width, int(std::ceil(p[2]))); ++x) covered[std::size_t(y) * std::size_t(vp.width) + std::size_t(x)] = 1;
+    const double share = double(std::count(covered.begin(), covered.end(), 1)) / double(covered.size());
+    std::printf("%dx%d: the panels cover %.1f %% of the window\n", w, h, 100.0 * share);
+    EXPECT_LE(share, most);
+    EXPECT_FALSE(covered[std::size_t(vp.height / 2) * std::size_t(vp.width) + std::size_t(vp.width / 2)]) << "the centre";
+    EXPECT_EQ(v.finish(), 0);
+  }
 }
