@@ -195,6 +195,9 @@ struct Viewer::Impl {
   /// The panel's status from the session, the controllers and the simulation's failures.
   void updateStatus();
   void frameInFreeArea(const Viewport& vp);
+  /// A played script's start, as `replay` sets it: its preset, free area, camera and mode (applied
+  /// at once, before the frame's touches).
+  void startPlay(double t);
   /// The display times of presented frames (VK_KHR_present_wait) into the timing log.
   void takeDisplayTimes() {
     for (const auto& shown : swapchain->takeShown())
@@ -223,6 +226,7 @@ int Viewer::finish() { return impl_->finish(); }
 Session& Viewer::session() { return *impl_->session; }
 std::uint64_t Viewer::frames() const { return impl_->frameNo; }
 std::vector<std::array<double, 4>> Viewer::uiPanels() const { return impl_->ui->panelRects(); }
+const HandleSet& Viewer::handles() const { return impl_->selection->handles(); }
 Viewport Viewer::drawableSize() const { return {std::max(impl_->dw, 1), std::max(impl_->dh, 1)}; }
 SDL_Window* Viewer::window() const { return impl_->window.w; }
 
@@ -340,16 +344,20 @@ void Viewer::Impl::pollInput(const Viewport& vp, std::vector<TouchEvent>& touche
     }
     input->translate(e, t, vp, [this](double x, double y) { return ui->covers(x, y); }, touches);
   }
-  // A played script's events arrive as a user's would: at their time since the first frame,
-  // scaled from the script's viewport to the window's.
+  // A played script's events arrive as a user's would: at their time since the first frame, mapped
+  // from the script's viewport to the window's so that they land on the same anatomy: the camera's
+  // field of view is vertical, so a point keeps its place relative to the centre in units of the
+  // view's height, whatever the window's size and aspect (scaled by the heights' ratio about the
+  // centres; the gestures' own scales are per viewport height too).
   if (play) {
     const double now = seconds(Clock::now(), t0);
-    const glm::dvec2 k(double(vp.width) / play->viewport.width, double(vp.height) / play->viewport.height);
+    const double k = double(vp.height) / play->viewport.height;
+    const glm::dvec2 centre(0.5 * vp.width, 0.5 * vp.height), scriptCentre(0.5 * play->viewport.width, 0.5 * play->viewport.height);
     while (playNext < play->events.size() && playStart + play->events[playNext].t <= now) {
       ScriptEvent pe = play->events[playNext++];
       pe.t += playStart;
       if (pe.isTouch) {
-        pe.touch.px *= k;
+        pe.touch.px = centre + (pe.touch.px - scriptCentre) * k;
         pe.touch.time = pe.t;
         touches.push_back(pe.touch);
       } else {
@@ -358,13 +366,9 @@ void Viewer::Impl::pollInput(const Viewport& vp, std::vector<TouchEvent>& touche
     }
     if (playNext >= play->events.size() && now > playStart + play->duration() + 0.5) {
       if (++playRound < o.playRepeat) {
-        playNext = 0;  // play it again from here, from the default view
+        playNext = 0;  // play it again from here, from the script's start
         playStart = now;
-        ScriptEvent reset;
-        reset.t = now;
-        reset.isTouch = false;
-        reset.action = "reset-camera";
-        actions.push_back(reset);
+        startPlay(now);
       } else if (o.frames <= 0) {
         running = false;
       }
@@ -408,6 +412,20 @@ void Viewer::Impl::updateStatus() {
   if (!rescueNote.empty()) status.simulation += "; " + rescueNote;
   status.liveVoxels = selection->liveVoxelCount();
   status.liveOnGpuMm = selection->liveOnGpu() ? selection->pinch().extentMm() : -1.0;
+}
+
+void Viewer::Impl::startPlay(double t) {
+  if (play->freeArea) session->setFreeArea(*play->freeArea);  // reset-camera frames where the recording app did
+  if (play->camera) play->camera->applyTo(session->camera());
+  else session->resetCamera();
+  if (!play->preset.empty()) session->apply(uiEvent(t, "set-preset", play->preset));
+  session->apply(uiEvent(t, "set-mode", play->mode));
+  // Before anything is recorded the start is the recording's header (as the played script has it),
+  // not events; a repeat's start is recorded as events.
+  if (frameNo == 0) {
+    const SessionScript header = session->script();
+    session->startRecording(header);
+  }
 }
 
 // The first frame's view: the volume framed in the part of the window the panels leave free (they
@@ -462,6 +480,7 @@ bool Viewer::Impl::step() {
     std::vector<ScriptEvent> actions;
     const Viewport vp{int(swapchain->extent().width), int(swapchain->extent().height)};
     pollInput(vp, touches, actions);
+    if (frameNo == 0 && play) startPlay(playStart);  // recorded before the script's first event
     if (frameNo == 0 && !play) {
       // Before any touch is applied (a finger already down would be cancelled by the reframing):
       // lay the UI out twice (ImGui sizes an auto-resized panel from its content at the end of a

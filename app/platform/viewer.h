@@ -59,6 +59,8 @@ class Viewer {
   /// Writes the screenshot, recording and timing log; returns the exit status.
   int finish();
   Session& session();
+  /// The handles the session has made (selections, their status and poses).
+  const HandleSet& handles() const;
   std::uint64_t frames() const;
   SDL_Window* window() const;
   /// The UI's panels as last drawn (drawable pixels x0, y0, x1, y1) and the drawable size.
