@@ -1,6 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// Strain per fine tet (docs/simulation-model.md, "Strain"): the largest principal stretch minus one,
+// Strain per fine tet (docs/simulation-outputs.md, "Strain"): the largest principal stretch minus one,
 // sigma_max(F) - 1, of the deformation gradient F = D_s D_m^-1 (3 x 3) in world millimetres. D_m:
 // the rest edge matrix (columns X_i - X_0, world); D_s: the current one, from the fine positions in
 // voxel index space taken to world by the linear part A of indexToWorld (D_s = A [p_i - p_0]).

@@ -1,5 +1,5 @@
 #pragma once
-// A synthetic scene for stability sweeps (docs/simulation-model.md, "Stability") and their tests: a
+// A synthetic scene for stability sweeps (docs/simulation-outputs.md, "Stability") and their tests: a
 // 60 x 40 x 40 mm box of 3 kPa tissue (nu 0.45) with fixed outer faces, a slab y in (24, 30) mm
 // `contrast` times stiffer, and ball-shaped rigid handles.
 #include <functional>

@@ -12,7 +12,7 @@
 // (x_D = R_k X_D + t_k; moments about the world origin), and the handle's coarse corners receive
 // their rows of -R_e (K_h d + h_e) with moments x_c x f_c. No fine work: a pass over the elements.
 // R_e is not the solve's corner-fit rotation but the element's moment-free frame, where E_e is
-// stationary (stationaryRotation; docs/simulation-model.md, "Reaction force and torque").
+// stationary (stationaryRotation; docs/simulation-outputs.md, "Reaction force and torque").
 #include "sim/handle_reaction.h"
 
 #include <algorithm>

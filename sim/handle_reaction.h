@@ -1,6 +1,6 @@
 #pragma once
 // What the tissue does to a handle: the resultant force and torque of the elastic forces on its
-// nodes (docs/simulation-model.md, "Reaction force and torque").
+// nodes (docs/simulation-outputs.md, "Reaction force and torque").
 //
 // Units: positions in the image's millimetres and moduli in pascals make K u pascal-square
 // millimetres (1e-6 N); forces are reported in newtons and torques in newton-millimetres, about the
@@ -22,7 +22,7 @@ struct HandleReaction {
 };
 
 /// "tissue force 0.42 N, torque 3.1 N mm" for status lines; a coarse model's reaction is marked
-/// approximate (docs/simulation-model.md: 1.2-2x the fine model's on the kidneys measured).
+/// approximate (docs/simulation-outputs.md: 1.2-2x the fine model's on the kidneys measured).
 std::string formatReaction(const HandleReaction& r, bool coarse = false);
 
 /// The rest centroid of each handle's fine nodes (fixed nodes left out).

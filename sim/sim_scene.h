@@ -47,7 +47,7 @@ struct SimSettings {
   enum class FineMesh { Regular, ImageAdapted } fineMesh = FineMesh::Regular;
   double adaptContrast = 10.0;  ///< image-adapted: a Young's modulus jump of this factor adds points
   MaterialTable materials = MaterialTable::ctDefault();
-  /// Which fine nodes a handle moves rigidly (docs/simulation-model.md, "What a handle holds"):
+  /// Which fine nodes a handle moves rigidly (docs/tissue-physics.md, "What a handle holds"):
   /// Inside (default): the nodes whose nearest voxel is one of the handle's, so the handle holds what
   /// was selected and converges to its shape as the mesh is refined; a handle no node lands in (thinner
   /// than the fine mesh) falls back to Tets. Tets (the earlier rule): every node of each fine tet

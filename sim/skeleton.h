@@ -1,6 +1,6 @@
 #pragma once
 // The tissue at a point of the image, with bone told from contrast-enhanced soft tissue
-// (docs/simulation-model.md, "Bone and the skeleton").
+// (docs/tissue-physics.md, "Bone and the skeleton").
 //
 // A CT's values cannot tell spongy bone (150-700 HU) from contrast-enhanced blood and organs (a
 // venous-phase kidney is ~200 HU, an aorta ~180 HU), but anatomy can: spongy bone lies inside compact

@@ -1,5 +1,5 @@
 #pragma once
-// What the tissue feels, per fine tet (docs/simulation-model.md, "Strain"): the largest principal
+// What the tissue feels, per fine tet (docs/simulation-outputs.md, "Strain"): the largest principal
 // stretch minus one, max_i sigma_i(F) - 1, of the deformation gradient F = D_s D_m^-1 (3 x 3; D_s,
 // D_m: the current and rest edge matrices of the tet, columns x_i - x_0 and X_i - X_0). Rotation-
 // free (a rigid motion gives 0; the singular values of F do not see R), 0.01 for a 1 % stretch,

@@ -1,5 +1,5 @@
 #pragma once
-// Tissue past its limit (docs/simulation-model.md, "Tissue limits"): each fine tet's strain (the
+// Tissue past its limit (docs/simulation-outputs.md, "Tissue limits"): each fine tet's strain (the
 // largest principal stretch - 1, sim/strain.h) against the strain limit of its material band (the
 // band at its centroid, SimScene::band; the limits come from the material table), and the handle
 // whose motion each such tet is put down to: the moving handle nearest to it along the fine mesh's

@@ -1,4 +1,4 @@
-// `handson bench stability`: where the simulation's methods fail (docs/simulation-model.md,
+// `handson bench stability`: where the simulation's methods fail (docs/simulation-outputs.md,
 // "Stability"), on the synthetic box scene (sim/box_scene.h): a ball handle rotated by growing angles in one
 // step and with the app's continuation (increments of at most 30 degrees), and a stiff slab beside
 // the handle at growing stiffness contrast. Per method: finite, converged, inverted fine tets,

@@ -1,4 +1,4 @@
-// Where methods fail (docs/simulation-model.md, "Stability"): large rotations, extreme stiffness
+// Where methods fail (docs/simulation-outputs.md, "Stability"): large rotations, extreme stiffness
 // contrast, handles against the fixed boundary and against a fixed handle. The models must stay
 // finite, converge or report it, and count inverted elements rather than hide them.
 #include <gtest/gtest.h>
