@@ -27,13 +27,17 @@ std::optional<RigidTransform> HandleManipulator::move(const std::vector<std::pai
   const Eigen::Vector3d eye(e.x, e.y, e.z);
   const double tanHalf = std::tan(0.5 * camera.fovY);
   GestureProblem p;
-  p.projection << 1.0 / (tanHalf * aspect), 0, 0, 0, 1.0 / tanHalf, 0;
+  // Residuals in units of the view's height on both axes (NDC x scaled by the aspect): the fit
+  // weighs a pixel alike across and up the screen, so the answer does not depend on the window's
+  // aspect (in NDC a pixel across counted 1/aspect of one up, and a played session moved the
+  // kidney 3.7 mm differently in depth at 1280x800 than at 512x512).
+  p.projection << 1.0 / tanHalf, 0, 0, 0, 1.0 / tanHalf, 0;
   p.locks = locks;
   for (const auto& [id, rest] : anchors_) {
     const auto it = std::find_if(fingers.begin(), fingers.end(), [id = id](const auto& fp) { return fp.first == id; });
     if (it == fingers.end()) return fail("an anchored finger is missing: re-anchor first");
     p.points.push_back(B.transpose() * (pose.apply(rest) - eye));
-    p.targets.emplace_back(it->second.x, it->second.y);
+    p.targets.emplace_back(it->second.x * aspect, it->second.y);
   }
   const RigidIncrement inc = solveLinearizedSubsteps(p);
   if (!inc.ok) return fail(inc.reason);

@@ -415,6 +415,7 @@ void Viewer::Impl::updateStatus() {
 }
 
 void Viewer::Impl::startPlay(double t) {
+  session->setFramingViewport(play->viewport);  // a reset-camera in the script frames as it did there
   if (play->freeArea) session->setFreeArea(*play->freeArea);  // reset-camera frames where the recording app did
   if (play->camera) play->camera->applyTo(session->camera());
   else session->resetCamera();

@@ -21,7 +21,7 @@ Session::Session(const VolumeGeometry& geometry, const Viewport& viewport, std::
 }
 
 void Session::resetCamera() {
-  const Viewport& vp = gestures_.viewport();
+  const Viewport& vp = framingViewport_ ? *framingViewport_ : gestures_.viewport();
   const double az = glm::radians(kDefaultAzimuthDeg), el = glm::radians(kDefaultElevationDeg);
   camera_ = freeArea_.whole() ? OrbitCamera::framing(geometry_, az, el, double(vp.width) / double(vp.height))
                               : OrbitCamera::framingIn(geometry_, az, el, vp.width, vp.height, freeArea_);

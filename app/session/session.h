@@ -31,6 +31,9 @@ class Session {
   const ScreenArea& freeArea() const { return freeArea_; }
   /// The default framing; before any event is recorded, it also becomes the recording's start.
   void resetCamera();
+  /// Frames (reset-camera) as a view of this size would (a played script's viewport, so that its
+  /// camera resets as where it was recorded whatever the window's aspect); unset: the viewport.
+  void setFramingViewport(const std::optional<Viewport>& v) { framingViewport_ = v; }
 
   OrbitCamera& camera() { return camera_; }
   const OrbitCamera& camera() const { return camera_; }
@@ -82,6 +85,7 @@ class Session {
   Clip clip_;
   WindowLevel window_;
   ScreenArea freeArea_;
+  std::optional<Viewport> framingViewport_;
   /// A Clip or Window mode drag in progress (app/session/session_view_gestures.cpp).
   struct ViewDrag {
     enum class Kind { None, Face, Plane, Window } kind = Kind::None;
