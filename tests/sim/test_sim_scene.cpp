@@ -175,7 +175,8 @@ TEST(SimScene, TheExteriorLayerMakesTheForceOfAGluedBallThatOfAnUnboundedMedium)
   // radius between a - h/2 and a for fine tets of edge h ~ 2.7 mm), so within 20 % (measured below).
   // Measured 1.16x at a padding of 2 radii, 1.04x at 4: the layer stands for the exterior of a
   // sphere, and at 2 radii the box's corners are far from one; kept within 20 % and 10 %, and 15 %
-  // of each other (the kidney's force changes by 3 % from 40 to 80 mm: docs/tissue-physics.md). With
+  // of each other (the glued kidney's force changes by 0.04 % from 40 to 80 mm at equal tet size:
+  // docs/results.md, "Glued across meshes"). With
   // walls held at the region's faces the force is twice the closed form (measured 1.97x).
   const double G = 6000.0 / 2.9, closed = 24.0 * M_PI * G * 8e-3 * 1e-3 * 0.55 / 2.3;
   const double near = forceOfBallInSoftTissue(16.0, SimSettings::Outer::Exterior, 1600);
