@@ -53,7 +53,9 @@ std::optional<RigidTransform> HandleManipulator::move(const std::vector<std::pai
 }
 
 std::optional<Eigen::Vector3d> contactOnHandle(const VolumeGeometry& g, const std::vector<std::uint8_t>& mask, int id, const RigidTransform& pose,
-                                               const Eigen::Vector3d& eye, const Eigen::Vector3d& picked, double windowMm) {
+                                               const ContactRay& r) {
+  const Eigen::Vector3d &eye = r.eye, &picked = r.picked;
+  const double windowMm = r.windowMm;
   const Eigen::Vector3d ray = picked - eye;
   const double len = ray.norm();
   if (!eye.allFinite() || !picked.allFinite() || !(len > 0.0) || !std::isfinite(len) || !(windowMm >= 0.0) || !std::isfinite(windowMm) ||

@@ -48,7 +48,11 @@ class HandleManipulator {
 /// handles' ids at rest, on `geometry`'s grid, x fastest). nullopt when no such point lies in the
 /// window, and for bad input (a non-finite point, eye == picked, a mask that does not fit the grid,
 /// a negative or non-finite window).
+struct ContactRay {
+  Eigen::Vector3d eye, picked;  ///< the finger's ray from the eye through the picked point (world mm)
+  double windowMm = 0.0;        ///< how far before and behind the pick to look
+};
 std::optional<Eigen::Vector3d> contactOnHandle(const VolumeGeometry& geometry, const std::vector<std::uint8_t>& mask, int id, const RigidTransform& pose,
-                                               const Eigen::Vector3d& eye, const Eigen::Vector3d& picked, double windowMm);
+                                               const ContactRay& ray);
 
 }  // namespace handson

@@ -90,20 +90,40 @@ void CoarseModel::preparePcg(CoarseSolveStats& st) {
     for (int c = 0; c < nc_; ++c)
       if (const int d = dof_[std::size_t(elements_[e].node[std::size_t(c)])]; d >= 0) w->adjElement[std::size_t(count[std::size_t(d / 3)]++)] = int(e);
   w->nodeR.assign(w->freeNode.size(), Eigen::Matrix3d::Identity());
-  // A_0 = sum_e K_h over the free dofs, factorized once.
+  pcg_ = std::move(w);
+  pcgFactorize(nullptr, st);  // A_0 = sum_e K_h over the free dofs; its pattern serves every refresh
+  pcg_->ready = true;
+}
+
+// The preconditioner's factor of sum_e Q_e K_h Q_e^T over the free dofs (Q null: the rest, A_0,
+// whose pattern is analysed then; a refresh only refactorizes). The uniform grid assembles into its
+// fixed pattern; graded cells gather hanging corners through their masters.
+void CoarseModel::pcgFactorize(const std::vector<Eigen::Matrix3d>* Q, CoarseSolveStats& st) {
+  PcgWorkspace& w = *pcg_;
   const auto t0 = std::chrono::steady_clock::now();
-  if (graded_) {
-    w->rest.compute(restStiffness());  // the pattern analysed here serves every refresh
-  } else {
+  const SparseMatrix graded = graded_ ? warpedStiffness(Q) : SparseMatrix();
+  if (!graded_) {
     assembler_->zero();
-    for (std::size_t e = 0; e < elements_.size(); ++e) assembler_->add(int(e), elements_[e].Kh);
-    w->rest.compute(assembler_->matrix());
+    MatE Ae(3 * nc_, 3 * nc_);
+    for (std::size_t e = 0; e < elements_.size(); ++e) {
+      if (!Q) {
+        assembler_->add(int(e), elements_[e].Kh);
+        continue;
+      }
+      const Eigen::Matrix3d& R = (*Q)[e];
+      for (int a = 0; a < nc_; ++a)
+        for (int b = 0; b < nc_; ++b) Ae.block<3, 3>(3 * a, 3 * b).noalias() = R * elements_[e].Kh.block<3, 3>(3 * a, 3 * b) * R.transpose();
+      assembler_->add(int(e), Ae);
+    }
   }
-  if (w->rest.info() != Eigen::Success) throw Error("coarse solve: the rest stiffness is not positive definite");
+  const SparseMatrix& A = graded_ ? graded : assembler_->matrix();
+  if (Q) w.rest.factorize(A);
+  else w.rest.compute(A);
+  // A turned sum of positive semidefinite blocks with the rest's Dirichlet nodes is positive definite
+  // whenever A_0 is (a null vector would be a rigid motion of every element); rounding aside.
+  if (w.rest.info() != Eigen::Success) throw Error(Q ? "coarse solve: the turned stiffness is not positive definite" : "coarse solve: the rest stiffness is not positive definite");
   st.factorMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   ++st.factorizations;
-  w->ready = true;
-  pcg_ = std::move(w);
 }
 
 template <int N>
@@ -222,28 +242,10 @@ void CoarseModel::pcgPrecondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) 
 }
 
 // The preconditioner's reference becomes the current rotations: A(Q) refactorized with the rest's
-// pattern (assembled like the rest stiffness, each element block turned: Q_e K_h Q_e^T).
+// pattern.
 void CoarseModel::pcgRefresh(CoarseSolveStats& st) {
   PcgWorkspace& w = *pcg_;
-  const auto t0 = std::chrono::steady_clock::now();
-  if (graded_) {
-    w.rest.factorize(warpedStiffness(&w.elementR));
-  } else {
-    assembler_->zero();
-    MatE Ae(3 * nc_, 3 * nc_);
-    for (std::size_t e = 0; e < elements_.size(); ++e) {
-      const Eigen::Matrix3d& Q = w.elementR[e];
-      for (int a = 0; a < nc_; ++a)
-        for (int b = 0; b < nc_; ++b) Ae.block<3, 3>(3 * a, 3 * b).noalias() = Q * elements_[e].Kh.block<3, 3>(3 * a, 3 * b) * Q.transpose();
-      assembler_->add(int(e), Ae);
-    }
-    w.rest.factorize(assembler_->matrix());
-  }
-  // A turned sum of positive semidefinite blocks with the rest's Dirichlet nodes is positive definite
-  // whenever A_0 is (a null vector would be a rigid motion of every element); rounding aside.
-  if (w.rest.info() != Eigen::Success) throw Error("coarse solve: the turned stiffness is not positive definite");
-  st.factorMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  ++st.factorizations;
+  pcgFactorize(&w.elementR, st);
   w.refQ = w.elementQ;
   w.drift = 0.0;
   w.rzLast = 0.0;  // the carried direction was conjugate under the old preconditioner: restart

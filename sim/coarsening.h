@@ -226,6 +226,7 @@ class CoarseModel {
   void pcgProduct(const Eigen::VectorXd& p, Eigen::VectorXd& out) const;
   void pcgNodeRotations();
   void pcgRefresh(CoarseSolveStats& st);
+  void pcgFactorize(const std::vector<Eigen::Matrix3d>* Q, CoarseSolveStats& st);
   void pcgPrecondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) const;
   bool pcgReady() const;
   // Per-frame temporaries on the stack (at most 24 rows); stored blocks sized to the element kind

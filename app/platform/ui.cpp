@@ -100,7 +100,7 @@ void Ui::swapchainRecreated(const vk::Swapchain& swapchain) {
 // The strain overlay's colour bar, bottom left: the raymarch's ramp (shaders/raymarch.comp,
 // strainTint) from the strain where colour starts to where it is full; and the limit highlight's
 // colour (limitTint) with what it means.
-void Ui::strainColourBar(const UiStatus& st, const std::function<void()>& remember) {
+void Ui::strainColourBar(const UiStatus& st, const Remember& remember) {
   const float s = scale_;
   const ImVec2 display = ImGui::GetIO().DisplaySize;
   ImGui::SetNextWindowPos(ImVec2(10 * s, display.y - 10 * s), ImGuiCond_Always, ImVec2(0.0f, 1.0f));
@@ -133,7 +133,7 @@ void Ui::strainColourBar(const UiStatus& st, const std::function<void()>& rememb
 
 // The current mode's own controls under the mode bar: Clip's and Window's hints and reset buttons,
 // Manipulate's axis locks.
-void Ui::modeOptions(const UiStatus& st, const std::function<void(const char*, const std::string&)>& action, float buttonWidth, float buttonHeight) {
+void Ui::modeOptions(const UiStatus& st, const Action& action, float buttonWidth, float buttonHeight) {
   const ImVec2 button(buttonWidth, buttonHeight);
   if (st.mode == "clip") {
     ImGui::NewLine();
@@ -184,6 +184,26 @@ void Ui::fitToWindow() {
   }
 }
 
+namespace {
+const ImVec4 kOn(0.20f, 0.45f, 0.85f, 1.0f);  // a button whose state is on (the mode, the preset, a fold)
+constexpr ImGuiWindowFlags kPanel = ImGuiWindowFlags_NoTitleBar | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoMove |
+                                    ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoFocusOnAppearing;
+// A button drawn in `colour` while `on`; true when tapped.
+bool colouredButton(const char* label, ImVec2 size, bool on, const ImVec4& colour = kOn) {
+  if (on) ImGui::PushStyleColor(ImGuiCol_Button, colour);
+  const bool tapped = ImGui::Button(label, size);
+  if (on) ImGui::PopStyleColor();
+  return tapped;
+}
+}  // namespace
+
+ImVec2 Ui::buttonSize() const { return ImVec2(std::max(kMinTarget, 150.0f * fit_) * scale_, std::max(kMinTarget, 56.0f * fit_) * scale_); }
+
+// A button as wide as its label (at least a touch target): what lets the bar fit small windows.
+ImVec2 Ui::labelButton(const char* label) const {
+  return ImVec2(std::max(kMinTarget * scale_, ImGui::CalcTextSize(label).x + 24.0f * scale_ * fit_), buttonSize().y);
+}
+
 void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& actions) {
   ImGui_ImplVulkan_NewFrame();
   ImGui_ImplSDL2_NewFrame();
@@ -191,38 +211,30 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   ImGui::NewFrame();
   pixelsPerPoint_ = ImGui::GetIO().DisplayFramebufferScale.x > 0 ? ImGui::GetIO().DisplayFramebufferScale.x : 1.0f;
   panels_.clear();
-  auto remember = [&] {
+  const Remember remember = [&] {
     const ImVec2 p = ImGui::GetWindowPos(), sz = ImGui::GetWindowSize();
     panels_.push_back({p.x, p.y, p.x + sz.x, p.y + sz.y});
   };
-  auto action = [&](const char* name, const std::string& value) {
-    ScriptEvent e;
-    e.t = time;
-    e.isTouch = false;
-    e.action = name;
-    e.value = value;
-    actions.push_back(e);
-  };
-  const float s = scale_, f = fit_;
-  const ImVec2 button(std::max(kMinTarget, 150.0f * f) * s, std::max(kMinTarget, 56.0f * f) * s);
-  // A button as wide as its label (at least a touch target): what lets the bar fit small windows.
-  auto labelButton = [&](const char* label) { return ImVec2(std::max(kMinTarget * s, ImGui::CalcTextSize(label).x + 24.0f * s * f), button.y); };
-  const ImGuiWindowFlags panel = ImGuiWindowFlags_NoTitleBar | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoMove |
-                                 ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoFocusOnAppearing;
+  const Action action = [&](const char* name, const std::string& value) { actions.push_back(uiEvent(time, name, value)); };
+  const float barBottom = modeBar(st, action, remember);
+  if (st.strainOverlay || st.limitHighlight) strainColourBar(st, remember);
+  presetsAndHandles(st, action, remember, barBottom);
+  timingOverlay(st, 10 * scale_, ImGui::GetIO().DisplaySize.y - 10 * scale_, kPanel);
+  ImGui::Render();
+}
 
-  // Mode bar, top left.
+// Mode bar, top left: five modes on the first row (narrower buttons, still touch-sized) and the fold
+// of the view's actions, which are below it. Returns its bottom edge.
+float Ui::modeBar(const UiStatus& st, const Action& action, const Remember& remember) {
+  const float s = scale_;
   ImGui::SetNextWindowPos(ImVec2(10 * s, 10 * s));
   ImGui::SetNextWindowBgAlpha(0.75f);
-  ImGui::Begin("modes", nullptr, panel);
-  // Five modes on the first row (narrower buttons, still touch-sized) and the fold of the view's
-  // actions, which are below it.
+  ImGui::Begin("modes", nullptr, kPanel);
   for (const char* m : {"navigate", "select", "manipulate", "clip", "window"}) {
     const bool active = st.mode == m;
-    if (active) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
     char label[32];
     std::snprintf(label, sizeof(label), "%c%s", m[0] - 32, m + 1);
-    if (ImGui::Button(label, labelButton(label)) && !active) action("set-mode", m);
-    if (active) ImGui::PopStyleColor();
+    if (colouredButton(label, labelButton(label), active) && !active) action("set-mode", m);
     ImGui::SameLine();
   }
   if (ImGui::Button(actionsOpen_ ? "Less" : "More", labelButton("More"))) actionsOpen_ = !actionsOpen_;
@@ -231,40 +243,35 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
     ImGui::SameLine();
     if (ImGui::Button("Export", labelButton("Export"))) action("export", "");
     ImGui::SameLine();
-    if (st.strainOverlay) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.85f, 0.35f, 0.10f, 1.0f));
-    if (ImGui::Button("Strain", labelButton("Strain"))) action("toggle-strain", "");
-    if (st.strainOverlay) ImGui::PopStyleColor();
+    if (colouredButton("Strain", labelButton("Strain"), st.strainOverlay, ImVec4(0.85f, 0.35f, 0.10f, 1.0f))) action("toggle-strain", "");
     ImGui::SameLine();
-    if (st.limitHighlight) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.75f, 0.10f, 0.70f, 1.0f));
-    if (ImGui::Button("Limits", labelButton("Limits"))) action("toggle-limits", "");
-    if (st.limitHighlight) ImGui::PopStyleColor();
+    if (colouredButton("Limits", labelButton("Limits"), st.limitHighlight, ImVec4(0.75f, 0.10f, 0.70f, 1.0f))) action("toggle-limits", "");
     ImGui::SameLine();
     // The handles' interface with the tissue: the button names the current one, a tap switches.
     if (ImGui::Button(st.sliding ? "Sliding" : "Glued", labelButton("Sliding"))) action("set-interface", st.sliding ? "glued" : "sliding");
     if (st.hasLabels) {
       ImGui::SameLine();
-      if (st.labelTint) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.25f, 0.60f, 0.35f, 1.0f));
-      if (ImGui::Button("Labels", labelButton("Labels"))) action("toggle-labels", "");
-      if (st.labelTint) ImGui::PopStyleColor();
+      if (colouredButton("Labels", labelButton("Labels"), st.labelTint, ImVec4(0.25f, 0.60f, 0.35f, 1.0f))) action("toggle-labels", "");
     }
     ImGui::SameLine();
-    if (infoOpen_) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
-    const bool info = ImGui::Button("Info", labelButton("Info"));
-    if (infoOpen_) ImGui::PopStyleColor();
-    if (info) infoOpen_ = !infoOpen_;
+    if (colouredButton("Info", labelButton("Info"), infoOpen_)) infoOpen_ = !infoOpen_;
   }
+  const ImVec2 button = buttonSize();
   modeOptions(st, action, button.x, button.y);
   remember();
-  const float barBottom = ImGui::GetWindowPos().y + ImGui::GetWindowSize().y;
+  const float bottom = ImGui::GetWindowPos().y + ImGui::GetWindowSize().y;
   ImGui::End();
-  if (st.strainOverlay || st.limitHighlight) strainColourBar(st, remember);
+  return bottom;
+}
 
-  // Transfer-function presets and the handle list, right side: centred, but never over the mode bar.
-  const ImVec2 display = ImGui::GetIO().DisplaySize;
+// Transfer-function presets and the handle list, right side: centred, but never over the mode bar.
+void Ui::presetsAndHandles(const UiStatus& st, const Action& action, const Remember& remember, float barBottom) {
+  const float s = scale_;
+  const ImVec2 button = buttonSize(), display = ImGui::GetIO().DisplaySize;
   const float panelHeight = panelHeight_ > 0.0f ? panelHeight_ : 0.6f * display.y;
   ImGui::SetNextWindowPos(ImVec2(display.x - 10 * s, std::max(0.5f * (display.y - panelHeight), barBottom + 10 * s)), ImGuiCond_Always, ImVec2(1.0f, 0.0f));
   ImGui::SetNextWindowBgAlpha(0.75f);
-  ImGui::Begin("presets", nullptr, panel);
+  ImGui::Begin("presets", nullptr, kPanel);
   ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 1.3f * button.x);  // hints wrap at the buttons' width
   // The presets fold under their header, which names the one in use.
   const std::string header = presetsOpen_ ? std::string("Presets -") : "Preset: " + st.preset + " +";
@@ -272,12 +279,21 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   if (presetsOpen_)
     for (const auto& p : transferFunctionPresetNames()) {
       const bool active = st.preset == p;
-      if (active) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
-      if (ImGui::Button(p.c_str(), ImVec2(std::max(button.x, ImGui::CalcTextSize(p.c_str()).x + 24.0f * s * f), button.y)) && !active)
-        action("set-preset", p);
-      if (active) ImGui::PopStyleColor();
+      if (colouredButton(p.c_str(), ImVec2(std::max(button.x, labelButton(p.c_str()).x), button.y), active) && !active) action("set-preset", p);
     }
   ImGui::Separator();
+  handleList(st, action);
+  ImGui::PopTextWrapPos();
+  panelHeight_ = ImGui::GetWindowSize().y;
+  remember();
+  ImGui::End();
+}
+
+// The handle list under the presets: what is being selected, the simulation's and the tissue
+// limits' state, each handle's status buttons, union and difference of the two picked, undo.
+void Ui::handleList(const UiStatus& st, const Action& action) {
+  const float s = scale_;
+  const ImVec2 button = buttonSize(), small(std::max(kMinTarget, 64.0f * fit_) * s, kMinTarget * s);
   ImGui::TextUnformatted("Handles");
   if (st.liveVoxels) ImGui::TextColored(ImVec4(0.3f, 1.0f, 0.4f, 1.0f), "selecting: %zu voxels", st.liveVoxels);
   if (st.liveOnGpuMm >= 0) ImGui::TextColored(ImVec4(0.3f, 1.0f, 0.4f, 1.0f), "selecting on the GPU: %.0f mm", st.liveOnGpuMm);
@@ -293,7 +309,6 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   if (!st.exported.empty()) ImGui::TextWrapped("%s", st.exported.c_str());
   if (st.handles.empty()) ImGui::TextDisabled("none: pinch an organ (Select)");
   else if (st.picked.size() < 2) ImGui::TextDisabled("tap two handles to unite or subtract them");
-  const ImVec2 small(std::max(kMinTarget, 64.0f * f) * s, kMinTarget * s);
   for (const auto& h : st.handles) {
     ImGui::PushID(h.id);
     const bool isPicked = std::find(st.picked.begin(), st.picked.end(), h.id) != st.picked.end();
@@ -301,21 +316,21 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
     if (!h.reaction.empty()) ImGui::TextUnformatted(h.reaction.c_str());
     for (const char* stName : {"active", "fixed", "idle"}) {
       const bool on = h.status == stName;
-      if (on) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.20f, 0.45f, 0.85f, 1.0f));
       const char label[2] = {char(stName[0] - 32), 0};
-      if (ImGui::Button(label, small) && !on) action("handle-status", std::to_string(h.id) + ":" + stName);
-      if (on) ImGui::PopStyleColor();
+      if (colouredButton(label, small, on) && !on) action("handle-status", std::to_string(h.id) + ":" + stName);
       ImGui::SameLine();
     }
     if (ImGui::Button("Del", small)) action("handle-delete", std::to_string(h.id));
     ImGui::PopID();
   }
   if (st.picked.size() == 2) {
-    const int a = st.picked[0], b = st.picked[1];
-    if (ImGui::Button(("#" + std::to_string(a) + " + #" + std::to_string(b)).c_str(), button)) action("handle-union", std::to_string(a) + "," + std::to_string(b));
+    char unite[32], subtract[32], pair[32];
+    std::snprintf(unite, sizeof(unite), "#%d + #%d", st.picked[0], st.picked[1]);
+    std::snprintf(subtract, sizeof(subtract), "#%d - #%d", st.picked[0], st.picked[1]);
+    std::snprintf(pair, sizeof(pair), "%d,%d", st.picked[0], st.picked[1]);
+    if (ImGui::Button(unite, button)) action("handle-union", pair);
     ImGui::SameLine();
-    if (ImGui::Button(("#" + std::to_string(a) + " - #" + std::to_string(b)).c_str(), button))
-      action("handle-difference", std::to_string(a) + "," + std::to_string(b));
+    if (ImGui::Button(subtract, button)) action("handle-difference", pair);
   }
   if (st.canUndo || st.canRedo) {  // with nothing to undo or redo they take no room
     ImGui::BeginDisabled(!st.canUndo);
@@ -326,13 +341,6 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
     if (ImGui::Button("Redo", small)) action("redo", "");
     ImGui::EndDisabled();
   }
-  ImGui::PopTextWrapPos();
-  panelHeight_ = ImGui::GetWindowSize().y;
-  remember();
-  ImGui::End();
-
-  timingOverlay(st, 10 * s, display.y - 10 * s, panel);
-  ImGui::Render();
 }
 
 // Frame-time overlay, bottom left: times, device, the frame budget's quality, where pinches grow.

@@ -90,9 +90,16 @@ class Ui {
   static constexpr float kMinTarget = 48.0f;  ///< smallest touch target, pixels at 100 %
 
  private:
-  void strainColourBar(const UiStatus& st, const std::function<void()>& remember);
+  using Action = std::function<void(const char*, const std::string&)>;  ///< a UI action (name, value) for the session
+  using Remember = std::function<void()>;                              ///< notes the current panel's rectangle
+  float modeBar(const UiStatus& st, const Action& action, const Remember& remember);
+  void presetsAndHandles(const UiStatus& st, const Action& action, const Remember& remember, float barBottom);
+  void handleList(const UiStatus& st, const Action& action);
+  void strainColourBar(const UiStatus& st, const Remember& remember);
   void timingOverlay(const UiStatus& st, float left, float bottom, int panelFlags);
-  void modeOptions(const UiStatus& st, const std::function<void(const char*, const std::string&)>& action, float buttonWidth, float buttonHeight);
+  void modeOptions(const UiStatus& st, const Action& action, float buttonWidth, float buttonHeight);
+  ImVec2 buttonSize() const;                    ///< a full-width touch button at this frame's fit
+  ImVec2 labelButton(const char* label) const;  ///< a button as wide as its label (at least a touch target)
   /// Sets this frame's text and spacing scale from the window's size (and the folds, once).
   void fitToWindow();
 

@@ -198,6 +198,8 @@ struct Viewer::Impl {
   /// A played script's start, as `replay` sets it: its preset, free area, camera and mode (applied
   /// at once, before the frame's touches).
   void startPlay(double t);
+  bool windowReady();
+  void takeCompletedFrames();
   /// The display times of presented frames (VK_KHR_present_wait) into the timing log.
   void takeDisplayTimes() {
     for (const auto& shown : swapchain->takeShown())
@@ -440,6 +442,51 @@ void Viewer::Impl::frameInFreeArea(const Viewport& vp) {
   session->resetCamera();
 }
 
+// A minimized window waits; a resized one gets its swapchain anew. False: no frame this step.
+bool Viewer::Impl::windowReady() {
+  if (minimized) {
+    SDL_WaitEventTimeout(nullptr, 100);
+    SDL_Event e;
+    while (SDL_PollEvent(&e))
+      if (e.type == SDL_QUIT) running = false;
+      else if (e.type == SDL_WINDOWEVENT && (e.window.event == SDL_WINDOWEVENT_RESTORED || e.window.event == SDL_WINDOWEVENT_SIZE_CHANGED))
+        resized = true;
+    SDL_Vulkan_GetDrawableSize(window.w, &dw, &dh);
+    minimized = !swapchain->recreate({std::uint32_t(std::max(dw, 0)), std::uint32_t(std::max(dh, 0))});
+    if (!minimized) ui->swapchainRecreated(*swapchain);
+    return false;
+  }
+  if (resized) {
+    SDL_Vulkan_GetDrawableSize(window.w, &dw, &dh);
+    minimized = !swapchain->recreate({std::uint32_t(std::max(dw, 0)), std::uint32_t(std::max(dh, 0))});
+    if (!minimized) ui->swapchainRecreated(*swapchain);
+    session->setViewport({std::max(dw, 1), std::max(dh, 1)});
+    resized = false;
+    if (minimized) return false;
+  }
+  return true;
+}
+
+// Finished frames: the driver's bookkeeping, a pending export written once its frame is done, and
+// the passes' GPU times into the log and the overlay.
+void Viewer::Impl::takeCompletedFrames() {
+  for (const auto& r : renderer->takeCompleted()) {
+    driver->completed(r);
+    if (exportFrame != 0 && r.frame == exportFrame) {
+      renderer->waitLast();  // the frames after it are done too: the volume and mesh are read at rest
+      status.exported = exporter->write(*session, selection->handles(), selection->picked(), *deform, r);
+      if (!o.quiet) std::cerr << status.exported << "\n";
+      exportFrame = 0;
+    }
+    std::vector<std::pair<std::string, double>> passes;
+    for (const auto& p : r.timings) {
+      passes.emplace_back(p.name, p.gpuMs);
+      if (p.name == "raymarch") status.gpuRaymarchMs = p.gpuMs;
+    }
+    log.setGpuTimes(r.frame, passes);
+  }
+}
+
 bool Viewer::Impl::step() {
   if (!running || (o.frames > 0 && int(frameNo) >= o.frames)) return false;
   if (frameNo == 0) playStart = seconds(Clock::now(), t0);
@@ -449,26 +496,7 @@ bool Viewer::Impl::step() {
     const auto frameStart = Clock::now();
     ft.cpuStart = seconds(frameStart, t0);
     double wait = 0.0;
-    if (minimized) {
-      SDL_WaitEventTimeout(nullptr, 100);
-      SDL_Event e;
-      while (SDL_PollEvent(&e))
-        if (e.type == SDL_QUIT) running = false;
-        else if (e.type == SDL_WINDOWEVENT && (e.window.event == SDL_WINDOWEVENT_RESTORED || e.window.event == SDL_WINDOWEVENT_SIZE_CHANGED))
-          resized = true;
-      SDL_Vulkan_GetDrawableSize(window.w, &dw, &dh);
-      minimized = !swapchain->recreate({std::uint32_t(std::max(dw, 0)), std::uint32_t(std::max(dh, 0))});
-      if (!minimized) ui->swapchainRecreated(*swapchain);
-      return true;
-    }
-    if (resized) {
-      SDL_Vulkan_GetDrawableSize(window.w, &dw, &dh);
-      minimized = !swapchain->recreate({std::uint32_t(std::max(dw, 0)), std::uint32_t(std::max(dh, 0))});
-      if (!minimized) ui->swapchainRecreated(*swapchain);
-      session->setViewport({std::max(dw, 1), std::max(dh, 1)});
-      resized = false;
-      if (minimized) return true;
-    }
+    if (!windowReady()) return true;
     // Acquire first, then sample input as late as possible before recording.
     const auto a0 = Clock::now();
     auto frame = swapchain->acquire();
@@ -542,21 +570,7 @@ bool Viewer::Impl::step() {
     ft.present = seconds(Clock::now(), t0);
     wait += seconds(Clock::now(), p0);
     ft.waitMs = wait * 1e3;
-    for (const auto& r : renderer->takeCompleted()) {
-      driver->completed(r);
-      if (exportFrame != 0 && r.frame == exportFrame) {
-        renderer->waitLast();  // the frames after it are done too: the volume and mesh are read at rest
-        status.exported = exporter->write(*session, selection->handles(), selection->picked(), *deform, r);
-        if (!o.quiet) std::cerr << status.exported << "\n";
-        exportFrame = 0;
-      }
-      std::vector<std::pair<std::string, double>> passes;
-      for (const auto& p : r.timings) {
-        passes.emplace_back(p.name, p.gpuMs);
-        if (p.name == "raymarch") status.gpuRaymarchMs = p.gpuMs;
-      }
-      log.setGpuTimes(r.frame, passes);
-    }
+    takeCompletedFrames();
     status.cpuFrameMs = (ft.cpuEnd - ft.cpuStart) * 1e3;
     status.fps = lastFrameEnd > 0 ? 1.0 / std::max(1e-6, ft.present - lastFrameEnd) : 0.0;
     status.latencyMs = ft.latencyMs() >= 0 ? ft.latencyMs() : status.latencyMs;

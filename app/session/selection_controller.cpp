@@ -297,7 +297,7 @@ void SelectionController::onFrameResult(const FrameResult& r) {
       const glm::dvec3 e = session_.camera().eye();
       const double window = std::max(blurMm_, 2.0 * volume_.geometry.spacing.maxCoeff());
       for (auto& a : anchors)
-        if (const auto c = contactOnHandle(volume_.geometry, mask_, target, h->pose, Eigen::Vector3d(e.x, e.y, e.z), a.world, window)) a.world = *c;
+        if (const auto c = contactOnHandle(volume_.geometry, mask_, target, h->pose, {Eigen::Vector3d(e.x, e.y, e.z), a.world, window})) a.world = *c;
     }
     if (target && !anchors.empty() && session_.gestures().input().fingers().size() == grabRequest_.size()) {
       manipulated_ = target;

@@ -95,19 +95,19 @@ TEST(HandleManipulator, AFingerAnchorsOnTheHandlesOwnVoxelsNearThePickedSurface)
   const Eigen::Vector3d dir = Eigen::Vector3d(1, 2, -0.5).normalized();
   const Eigen::Vector3d eye = moved - 300.0 * dir, surface = moved - 6.0 * dir;
   for (double off : {-4.0, -1.0, 0.0, 2.5, 4.0}) {
-    const auto c = contactOnHandle(g, mask, 3, pose, eye, surface + off * dir, 5.0);
+    const auto c = contactOnHandle(g, mask, 3, pose, {eye, surface + off * dir, 5.0});
     ASSERT_TRUE(c.has_value()) << off;
     // The first sample whose nearest voxel is in the ball: within a voxel's half-diagonal (0.87)
     // plus a half step of the true surface, and never behind it by more than that.
     EXPECT_NEAR((*c - eye).dot(dir), (surface - eye).dot(dir), 0.87 + 0.5) << off;
     EXPECT_LT((*c - moved).cross(dir).norm(), 1e-9) << "on the finger's ray";
   }
-  EXPECT_FALSE(contactOnHandle(g, mask, 3, pose, eye, surface - 8.0 * dir, 5.0)) << "the handle lies beyond the window";
-  EXPECT_FALSE(contactOnHandle(g, mask, 4, pose, eye, surface, 5.0)) << "another handle's id";
+  EXPECT_FALSE(contactOnHandle(g, mask, 3, pose, {eye, surface - 8.0 * dir, 5.0})) << "the handle lies beyond the window";
+  EXPECT_FALSE(contactOnHandle(g, mask, 4, pose, {eye, surface, 5.0})) << "another handle's id";
   const Eigen::Vector3d side = moved + 10.0 * dir.cross(Eigen::Vector3d::UnitZ()).normalized();
-  EXPECT_FALSE(contactOnHandle(g, mask, 3, pose, side - 300.0 * dir, side, 5.0)) << "a ray beside the ball";
-  EXPECT_FALSE(contactOnHandle(g, mask, 3, pose, surface, surface, 5.0)) << "eye on the pick";
-  EXPECT_FALSE(contactOnHandle(g, mask, 3, pose, eye, Eigen::Vector3d(std::nan(""), 0, 0), 5.0));
-  EXPECT_FALSE(contactOnHandle(g, mask, 3, pose, eye, surface, -1.0));
-  EXPECT_FALSE(contactOnHandle(g, std::vector<std::uint8_t>(10, 3), 3, pose, eye, surface, 5.0)) << "a mask that does not fit the grid";
+  EXPECT_FALSE(contactOnHandle(g, mask, 3, pose, {side - 300.0 * dir, side, 5.0})) << "a ray beside the ball";
+  EXPECT_FALSE(contactOnHandle(g, mask, 3, pose, {surface, surface, 5.0})) << "eye on the pick";
+  EXPECT_FALSE(contactOnHandle(g, mask, 3, pose, {eye, Eigen::Vector3d(std::nan(""), 0, 0), 5.0}));
+  EXPECT_FALSE(contactOnHandle(g, mask, 3, pose, {eye, surface, -1.0}));
+  EXPECT_FALSE(contactOnHandle(g, std::vector<std::uint8_t>(10, 3), 3, pose, {eye, surface, 5.0})) << "a mask that does not fit the grid";
 }
