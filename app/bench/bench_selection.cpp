@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "app/bench/bench.h"
+#include "app/bench/bench_selection_gestures.h"
 #include "app/cli/args.h"
 #include "app/io/nifti_io.h"
 #include "app/tools/selection_eval.h"
@@ -207,6 +208,7 @@ const char* const kBenchSelectionHelp =
     "usage: handson bench selection [--data DIR] [--out DIR] [--repeat N] [--criteria LIST] [--fractions LIST]\n"
     "                               [--extents MM,..] [--statistics robust|moments] [--bound path|ball]\n"
     "                               [--sweep-only] [--quick]\n"
+    "       handson bench selection --protocol gestures [--data DIR] [--out DIR] [--gestures N]\n"
     "  Region growing on labelled CT (default DIR ../shared/data: ircadb1.1 kidneys, artery, portal vein,\n"
     "  liver, venous system, spleen; totalseg-small kidneys, liver, spleen), seeds at each organ's deepest\n"
     "  typical voxel. Whole-organ Dice as the extent sweeps --fractions of the organ's radius (default\n"
@@ -216,7 +218,12 @@ const char* const kBenchSelectionHelp =
     "  selection, smoothed and core: CPU reference, GPU sparse bricks, dense dispatch (median of N,\n"
     "  default 5) -> selection_timing.csv. --sweep-only stops after the Dice sweep. --statistics: how the\n"
     "  sweep's core and smoothed criteria refine their statistics (default robust; moments, the earlier\n"
-    "  rule, to compare); --bound: how the extent bounds them (default path; ball, the earlier rule).\n";
+    "  rule, to compare); --bound: how the extent bounds them (default path; ball, the earlier rule).\n"
+    "  --protocol gestures: a simulated user instead (the interactive-segmentation challenges' protocol):\n"
+    "  a first pinch at each organ's deepest voxel spread to its radius, then corrections, each a pinch at\n"
+    "  the deepest voxel of the largest error region (missed organ: united; leaked tissue: subtracted)\n"
+    "  spread to that region's radius, through the app's pinch, union and difference; N gestures in all\n"
+    "  (default 10) -> selection_gestures.csv, .md and .png.\n";
 
 // What `bench selection` was asked.
 struct SelectionBenchOptions {
@@ -336,11 +343,17 @@ int timeLiverGrowth(const Args& args, const Volume& ircadb, int repeat, const st
 }  // namespace
 
 int cmdBenchSelection(const Words& words) {
-  Args args(words, {"--data", "--out", "--repeat", "--device", "--extents", "--criteria", "--fractions", "--statistics", "--bound"}, {"--quick", "--validation", "--sweep-only"});
+  Args args(words, {"--data", "--out", "--repeat", "--device", "--extents", "--criteria", "--fractions", "--statistics", "--bound", "--protocol", "--gestures"},
+            {"--quick", "--validation", "--sweep-only"});
   if (args.help() || !args.positional().empty()) {
     usageStream(args) << kBenchSelectionHelp;
     return args.help() ? 0 : 2;
   }
+  const std::string protocol = args.valueOr("--protocol", "sweep");
+  if (protocol != "sweep" && protocol != "gestures") throw UsageError("--protocol must be sweep or gestures");
+  if (protocol == "gestures")
+    return benchSelectionGestures(args.valueOr("--data", "../shared/data"), args.valueOr("--out", "bench-out"), int(args.integer("--gestures", 10, 1, 100)));
+  if (args.value("--gestures")) throw UsageError("--gestures is for --protocol gestures");
   const SelectionBenchOptions o = parseSelectionBenchOptions(args);
   std::filesystem::create_directories(o.out);
   const std::vector<Dataset> sets = {

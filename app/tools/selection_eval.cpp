@@ -57,6 +57,17 @@ Eigen::Vector3i deepestVoxel(const Volume& labels, int label, const Volume& ct) 
   return bestVoxel;
 }
 
+std::pair<double, std::size_t> organRadiusMm(const Volume& labels, int label, const Eigen::Vector3i& seed) {
+  const auto& g = labels.geometry();
+  std::vector<double> dist;
+  for (std::size_t v = 0; v < labels.voxelCount(); ++v)
+    if (labels.value(v) == float(label)) dist.push_back((g.voxelOf(v) - seed).cast<double>().cwiseProduct(g.spacing).norm());
+  if (dist.empty()) return {0.0, 0};
+  const std::size_t at95 = std::min(dist.size() - 1, std::size_t(std::ceil(0.95 * double(dist.size()))) - 1);
+  std::nth_element(dist.begin(), dist.begin() + std::ptrdiff_t(at95), dist.end());
+  return {std::max(dist[at95], g.spacing.minCoeff()), dist.size()};
+}
+
 std::vector<SelectionAccuracy> evaluateSelection(const std::string& dataset, const Volume& ct, const Volume& labels,
                                                  const std::vector<OrganLabel>& organs, const std::vector<double>& extentsMm,
                                                  const std::vector<GrowCriterion>& criteria, double hMax) {
@@ -121,33 +132,25 @@ std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume&
   if (fractions.empty() || !std::is_sorted(fractions.begin(), fractions.end()))
     throw Error("selection accuracy: the extent fractions must be a non-empty increasing list");
   const QuantizedVolume q = quantizeVolume(ct);
-  const auto& g = ct.geometry();
   std::vector<OrganSweep> out;
   for (const auto& organ : organs) {
     const Eigen::Vector3i seed = deepestVoxel(labels, organ.label, ct);
     if (seed.x() < 0) continue;
-    // The organ's radius from the seed: 95th percentile of its voxels' distances.
-    std::vector<double> dist;
-    for (std::size_t v = 0; v < labels.voxelCount(); ++v)
-      if (labels.value(v) == float(organ.label))
-        dist.push_back((g.voxelOf(v) - seed).cast<double>().cwiseProduct(g.spacing).norm());
-    const std::size_t at95 = std::min(dist.size() - 1, std::size_t(std::ceil(0.95 * double(dist.size()))) - 1);
-    std::nth_element(dist.begin(), dist.begin() + std::ptrdiff_t(at95), dist.end());
-    const double radius = std::max(dist[at95], g.spacing.minCoeff());
+    const auto [radius, organVoxels] = organRadiusMm(labels, organ.label, seed);
     for (GrowCriterion c : criteria) {
       GrowParams p;
       p.criterion = c;
       p.statistics = statistics;
       p.bound = bound;
       RegionGrower grower(q, seed, p);
-      OrganSweep s{dataset, organ.name, c, false, seed, radius, dist.size(), {}};
-      OrganSweep r{dataset, organ.name, c, true, seed, radius, dist.size(), {}};
+      OrganSweep s{dataset, organ.name, c, false, seed, radius, organVoxels, {}};
+      OrganSweep r{dataset, organ.name, c, true, seed, radius, organVoxels, {}};
       auto point = [&](double f, double extent, const std::vector<std::uint32_t>& voxels, double ms) {
         std::size_t hit = 0;
         for (std::uint32_t v : voxels) hit += labels.value(v) == float(organ.label);
         const std::size_t selected = voxels.size();
-        const double dice = 2.0 * double(hit) / double(selected + dist.size());
-        return SweepPoint{f, extent, selected, dice, selected ? double(hit) / double(selected) : 0.0, double(hit) / double(dist.size()), ms};
+        const double dice = 2.0 * double(hit) / double(selected + organVoxels);
+        return SweepPoint{f, extent, selected, dice, selected ? double(hit) / double(selected) : 0.0, double(hit) / double(organVoxels), ms};
       };
       for (double f : fractions) {
         const double extent = f * radius;

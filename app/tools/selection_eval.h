@@ -4,6 +4,7 @@
 // voxels; recall = selected organ voxels inside the extent's ball / organ voxels inside that ball.
 #include <cstddef>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "interaction/region_grow.h"
@@ -59,6 +60,10 @@ std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume&
                                        RegionStatistics statistics = RegionStatistics::Robust, GrowBound bound = GrowParams{}.bound);
 /// "core", "core+rim", ...
 std::string sweepVariantName(GrowCriterion c, bool rim);
+
+/// The organ's radius from a seed: the 95th percentile of its voxels' distances (mm) from it, at
+/// least the smallest spacing; and its voxel count (0, radius 0: no such label).
+std::pair<double, std::size_t> organRadiusMm(const Volume& labels, int label, const Eigen::Vector3i& seed);
 
 /// The voxel of `label` farthest (in mm) from any voxel of another label, among those whose 3x3x3
 /// mean CT value lies within the organ's interquartile range (label maps include tissue that is

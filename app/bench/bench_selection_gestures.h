@@ -1,0 +1,13 @@
+#pragma once
+// `handson bench selection --protocol gestures` (bench_selection_gestures.cpp).
+#include <filesystem>
+#include <string>
+
+namespace handson::cli {
+
+/// Runs the simulated user's gestures on the labelled organs of the CTs under `dataDir`
+/// (ircadb1.1, totalseg-small; a missing one is skipped) and writes selection_gestures.csv, .md and
+/// .png to `out`. `gestures`: the first pinch and up to gestures - 1 corrections.
+int benchSelectionGestures(const std::string& dataDir, const std::filesystem::path& out, int gestures);
+
+}  // namespace handson::cli

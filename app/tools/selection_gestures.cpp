@@ -1,0 +1,251 @@
+#include "selection_gestures.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+
+#include "interaction/camera.h"
+#include "interaction/handles.h"
+#include "interaction/selection.h"
+#include "interaction/touch.h"
+#include "sim/distance_transform.h"
+
+namespace handson {
+
+namespace {
+
+// A box of the volume's grid (inclusive corners) and its own x-fastest indexing.
+struct Box {
+  Eigen::Vector3i lo, hi;
+  Eigen::Vector3i dims() const { return hi - lo + Eigen::Vector3i::Ones(); }
+  std::size_t size() const { return std::size_t(dims().prod()); }
+  std::size_t index(const Eigen::Vector3i& v) const {
+    const Eigen::Vector3i d = dims(), r = v - lo;
+    return std::size_t(r.x()) + std::size_t(d.x()) * (std::size_t(r.y()) + std::size_t(d.y()) * std::size_t(r.z()));
+  }
+  bool contains(const Eigen::Vector3i& v) const { return (v.array() >= lo.array()).all() && (v.array() <= hi.array()).all(); }
+};
+
+// The bounding box of voxels (linear indices on g), grown by `margin` voxels (not clamped).
+Box boundingBox(const std::vector<std::uint32_t>& voxels, const VolumeGeometry& g, int margin) {
+  Box b{Eigen::Vector3i::Constant(1 << 30), Eigen::Vector3i::Constant(-(1 << 30))};
+  for (std::uint32_t v : voxels) {
+    const Eigen::Vector3i p = g.voxelOf(v);
+    b.lo = b.lo.cwiseMin(p);
+    b.hi = b.hi.cwiseMax(p);
+  }
+  b.lo.array() -= margin;
+  b.hi.array() += margin;
+  return b;
+}
+
+double percentile95(std::vector<double> d) {
+  const std::size_t at = std::min(d.size() - 1, std::size_t(std::ceil(0.95 * double(d.size()))) - 1);
+  std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(at), d.end());
+  return d[at];
+}
+
+// The 26-connected components of the voxels of `box` whose `kind` is `want`, each visited once
+// (`seen` marks them); calls `component` with each one's voxels (linear indices on g).
+template <class Fn>
+void eachComponent(const Box& box, const VolumeGeometry& g, const std::vector<std::uint8_t>& kind, std::uint8_t want, std::vector<std::uint8_t>& seen, Fn&& component) {
+  const Eigen::Vector3i d = box.dims();
+  std::vector<std::size_t> stack;
+  for (std::size_t start = 0; start < box.size(); ++start) {
+    if (kind[start] != want || seen[start]) continue;
+    std::vector<std::uint32_t> voxels;
+    seen[start] = 1;
+    stack.assign(1, start);
+    while (!stack.empty()) {
+      const std::size_t i = stack.back();
+      stack.pop_back();
+      const Eigen::Vector3i p(int(i % std::size_t(d.x())), int(i / std::size_t(d.x()) % std::size_t(d.y())), int(i / (std::size_t(d.x()) * std::size_t(d.y()))));
+      voxels.push_back(std::uint32_t(linearIndex(g, box.lo + p)));
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const Eigen::Vector3i q = p + Eigen::Vector3i(dx, dy, dz);
+            if ((q.array() < 0).any() || (q.array() >= d.array()).any()) continue;
+            const std::size_t j = std::size_t(q.x()) + std::size_t(d.x()) * (std::size_t(q.y()) + std::size_t(d.y()) * std::size_t(q.z()));
+            if (kind[j] == want && !seen[j]) {
+              seen[j] = 1;
+              stack.push_back(j);
+            }
+          }
+    }
+    component(std::move(voxels));
+  }
+}
+
+// One pinch of the app's (interaction/selection.h): two fingers land about `target`, their
+// depth-picks on either side of it, spread so that the app's extent is `spreadMm`; one lifts.
+// Returns the finished selection (with its boundary rim when the rules say so).
+std::vector<std::uint32_t> appPinch(PinchSelection& pinch, const VolumeGeometry& g, const Eigen::Vector3i& target, double spreadMm) {
+  const Eigen::Vector3d w = g.toWorld(target.cast<double>());
+  OrbitCamera camera;
+  camera.target = glm::dvec3(w.x(), w.y(), w.z());
+  camera.distance = 500.0;
+  const Viewport viewport{1000, 1000};
+  const double spreadPx = spreadMm / camera.pixelSizeAt(camera.distance, viewport.height);
+  const std::array<glm::dvec2, 2> at{viewport.center() - glm::dvec2(0.5 * spreadPx, 0.0), viewport.center() + glm::dvec2(0.5 * spreadPx, 0.0)};
+  TouchInput input;
+  input.setViewport(viewport);
+  auto touch = [&](TouchPhase phase, int finger) {
+    const TouchEvent e{phase, finger, at[std::size_t(finger)], 1.0, 0.0};
+    input.apply(e);
+    pinch.onTouch(e, input, camera, viewport);
+  };
+  touch(TouchPhase::Down, 0);
+  touch(TouchPhase::Down, 1);
+  pinch.takePickRequest();
+  const glm::dvec3 side = camera.right() * 0.5;  // picks 1 mm apart, their midpoint the target
+  pinch.onPicks({camera.target - side, camera.target + side}, camera, viewport);
+  touch(TouchPhase::Up, 1);
+  touch(TouchPhase::Up, 0);
+  auto done = pinch.takeFinished();
+  return done ? std::move(*done) : std::vector<std::uint32_t>{};
+}
+
+// Dice, precision and recall of a selection (ascending voxels) against the organ's mask.
+void score(const std::vector<std::uint32_t>& selection, const std::vector<std::uint8_t>& organ, std::size_t organVoxels, GestureStep& s) {
+  std::size_t hit = 0;
+  for (std::uint32_t v : selection) hit += organ[v] != 0;
+  s.selected = selection.size();
+  s.dice = 2.0 * double(hit) / double(selection.size() + organVoxels);
+  s.precision = selection.empty() ? 0.0 : double(hit) / double(selection.size());
+  s.recall = double(hit) / double(organVoxels);
+}
+
+// A correction through the app's handle edits: the pinch becomes a handle (claiming its voxels
+// from the selection, as every new handle does), then selection := selection ∪ pinch, or
+// selection := selection \ pinch and the pinch's handle deleted. A difference that would leave
+// nothing is refused by the app: undone here, as the user would. Returns the selection's id.
+int applyCorrection(HandleSet& handles, int selection, std::vector<std::uint32_t> pinch, bool add, bool& refused) {
+  const int b = handles.add(std::move(pinch));
+  refused = b == 0;
+  if (refused) return selection;
+  if (add) {
+    if (!handles.find(selection)) return b;  // the pinch took all of it: the union is the pinch
+    handles.unite(selection, b);
+    return selection;
+  }
+  if (!handles.find(selection) || !handles.subtract(selection, b)) {
+    handles.undo();
+    refused = true;
+    return selection;
+  }
+  handles.remove(b);
+  return selection;
+}
+
+}  // namespace
+
+const char* gestureKindName(GestureKind k) {
+  switch (k) {
+    case GestureKind::First: return "first";
+    case GestureKind::Add: return "add";
+    case GestureKind::Remove: return "remove";
+  }
+  return "?";
+}
+
+GestureTarget gestureTarget(std::vector<std::uint32_t> voxels, const VolumeGeometry& g) {
+  GestureTarget t;
+  if (voxels.empty()) return t;
+  std::sort(voxels.begin(), voxels.end());
+  // The distance transform on the region's box with a margin of one voxel outside it.
+  const Box box = boundingBox(voxels, g, 1);
+  std::vector<std::uint8_t> inside(box.size(), 0);
+  for (std::uint32_t v : voxels) inside[box.index(g.voxelOf(v))] = 1;
+  const std::vector<float> d2 = squaredDistanceToOutside(inside, box.dims(), g.spacing);
+  float best = -1.0f;
+  for (std::uint32_t v : voxels) {  // ascending: the lowest index wins ties
+    const float d = d2[box.index(g.voxelOf(v))];
+    if (d > best) {
+      best = d;
+      t.deepest = g.voxelOf(v);
+    }
+  }
+  t.depthMm = std::sqrt(double(best));
+  std::vector<double> dist;
+  dist.reserve(voxels.size());
+  for (std::uint32_t v : voxels) dist.push_back((g.voxelOf(v) - t.deepest).cast<double>().cwiseProduct(g.spacing).norm());
+  t.spreadMm = std::max(percentile95(std::move(dist)), g.spacing.minCoeff());
+  t.voxels = std::move(voxels);
+  return t;
+}
+
+ErrorRegion largestErrorRegion(const std::vector<std::uint8_t>& organ, const std::vector<std::uint8_t>& selected, const VolumeGeometry& g) {
+  // Error kinds on the box of the organ and the selection: 1 missed, 2 leaked, 0 right.
+  std::vector<std::uint32_t> either;
+  for (std::size_t v = 0; v < organ.size(); ++v)
+    if (organ[v] || selected[v]) either.push_back(std::uint32_t(v));
+  ErrorRegion out;
+  if (either.empty()) return out;
+  const Box box = boundingBox(either, g, 0);
+  std::vector<std::uint8_t> kind(box.size(), 0), seen(box.size(), 0);
+  for (std::uint32_t v : either)
+    if (bool(organ[v]) != bool(selected[v])) kind[box.index(g.voxelOf(v))] = organ[v] ? 1 : 2;
+  std::vector<std::uint32_t> largest;
+  for (const std::uint8_t want : {std::uint8_t(1), std::uint8_t(2)})
+    eachComponent(box, g, kind, want, seen, [&](std::vector<std::uint32_t> c) {
+      if (c.size() > largest.size()) {
+        largest = std::move(c);
+        out.missed = want == 1;
+      }
+    });
+  out.target = gestureTarget(std::move(largest), g);
+  return out;
+}
+
+OrganGestures runGestureProtocol(const std::string& dataset, const Volume& ct, const QuantizedVolume& q, const Volume& labels,
+                                 const OrganLabel& organ, const GestureProtocol& protocol) {
+  const VolumeGeometry& g = q.geometry;
+  OrganGestures out{dataset, organ.name, 0, {}};
+  const Eigen::Vector3i first = deepestVoxel(labels, organ.label, ct);
+  if (first.x() < 0) return out;
+  std::vector<std::uint8_t> organMask(labels.voxelCount(), 0);
+  for (std::size_t v = 0; v < labels.voxelCount(); ++v) organMask[v] = labels.value(v) == float(organ.label);
+  const auto [radius, organVoxels] = organRadiusMm(labels, organ.label, first);
+  out.organVoxels = organVoxels;
+  PinchSelection pinch(q, protocol.params);
+  HandleSet handles;
+  int selection = 0;
+  std::vector<std::uint8_t> selectedMask(organMask.size(), 0);
+  for (int n = 1; n <= protocol.gestures; ++n) {
+    GestureStep s;
+    s.gesture = n;
+    const auto t0 = std::chrono::steady_clock::now();
+    if (n == 1) {
+      s.target = first;
+      s.spreadMm = radius;
+      s.regionVoxels = organVoxels;
+      std::vector<std::uint32_t> voxels = appPinch(pinch, g, first, radius);
+      s.pinchVoxels = voxels.size();
+      selection = handles.add(std::move(voxels));
+      s.refused = selection == 0;
+    } else {
+      const ErrorRegion e = largestErrorRegion(organMask, selectedMask, g);
+      if (e.target.voxels.empty()) break;  // the selection is the organ
+      s.kind = e.missed ? GestureKind::Add : GestureKind::Remove;
+      s.target = e.target.deepest;
+      s.spreadMm = e.target.spreadMm;
+      s.regionVoxels = e.target.voxels.size();
+      std::vector<std::uint32_t> voxels = appPinch(pinch, g, s.target, s.spreadMm);
+      s.pinchVoxels = voxels.size();
+      selection = applyCorrection(handles, selection, std::move(voxels), e.missed, s.refused);
+    }
+    s.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const Handle* h = handles.find(selection);
+    const std::vector<std::uint32_t> none;
+    const std::vector<std::uint32_t>& voxels = h ? h->voxels : none;
+    std::fill(selectedMask.begin(), selectedMask.end(), 0);
+    for (std::uint32_t v : voxels) selectedMask[v] = 1;
+    score(voxels, organMask, organVoxels, s);
+    out.steps.push_back(s);
+  }
+  return out;
+}
+
+}  // namespace handson
