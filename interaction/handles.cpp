@@ -24,6 +24,7 @@ bool parseHandleStatus(const std::string& s, HandleStatus& out) {
 }
 
 void HandleSet::snapshot() {
+  ++edits_;
   undo_.push_back(handles_);
   if (undo_.size() > 64) undo_.erase(undo_.begin());
   redo_.clear();
@@ -41,27 +42,41 @@ const Handle* HandleSet::find(int id) const {
   return nullptr;
 }
 
-int HandleSet::add(std::vector<std::uint32_t> voxels) {
+template <class Pred> void HandleSet::erase(Pred gone) {
+  std::vector<int> ids;
+  for (const auto& h : handles_)
+    if (gone(h)) ids.push_back(h.id);
+  handles_.erase(std::remove_if(handles_.begin(), handles_.end(), gone), handles_.end());
+  for (auto& h : handles_)
+    h.claims.erase(std::remove_if(h.claims.begin(), h.claims.end(), [&](const Claim& c) { return std::count(ids.begin(), ids.end(), c.from) > 0; }),
+                   h.claims.end());
+}
+
+int HandleSet::add(std::vector<std::uint32_t> voxels, std::uint32_t seed) {
   if (voxels.empty() || int(handles_.size()) >= kMaxHandles) return 0;
   int id = 1;
   while (find(id)) ++id;
   std::sort(voxels.begin(), voxels.end());
   voxels.erase(std::unique(voxels.begin(), voxels.end()), voxels.end());
   snapshot();
+  std::vector<Claim> claims;
   for (auto& h : handles_) {  // the last claimer wins
-    std::vector<std::uint32_t> rest;
+    std::vector<std::uint32_t> rest, taken;
     std::set_difference(h.voxels.begin(), h.voxels.end(), voxels.begin(), voxels.end(), std::back_inserter(rest));
+    std::set_intersection(h.voxels.begin(), h.voxels.end(), voxels.begin(), voxels.end(), std::back_inserter(taken));
+    if (!taken.empty()) claims.push_back({h.id, std::move(taken)});
     h.voxels = std::move(rest);
   }
-  handles_.erase(std::remove_if(handles_.begin(), handles_.end(), [](const Handle& h) { return h.voxels.empty(); }), handles_.end());
-  handles_.push_back({id, HandleStatus::Active, std::move(voxels)});
+  erase([](const Handle& h) { return h.voxels.empty(); });
+  handles_.push_back({id, HandleStatus::Active, std::move(voxels), RigidTransform{}, seed, {}});
+  handles_.back().claims = std::move(claims);
   return id;
 }
 
 bool HandleSet::remove(int id) {
   if (!find(id)) return false;
   snapshot();
-  handles_.erase(std::remove_if(handles_.begin(), handles_.end(), [id](const Handle& h) { return h.id == id; }), handles_.end());
+  erase([id](const Handle& h) { return h.id == id; });
   return true;
 }
 
@@ -81,7 +96,7 @@ bool HandleSet::unite(int a, int b) {
   std::vector<std::uint32_t> all;
   std::set_union(ha->voxels.begin(), ha->voxels.end(), hb->voxels.begin(), hb->voxels.end(), std::back_inserter(all));
   ha->voxels = std::move(all);
-  handles_.erase(std::remove_if(handles_.begin(), handles_.end(), [b](const Handle& h) { return h.id == b; }), handles_.end());
+  erase([b](const Handle& h) { return h.id == b; });
   return true;
 }
 
@@ -92,6 +107,61 @@ bool HandleSet::subtract(int a, int b) {
   if (rest.empty()) return false;
   snapshot();
   get(a)->voxels = std::move(rest);
+  return true;
+}
+
+bool HandleSet::unite(int a, int b, const std::vector<std::uint32_t>& part) {
+  if (a == b || !find(a) || !find(b)) return false;
+  snapshot();
+  const Handle hb = *find(b);
+  std::vector<std::uint32_t> kept;
+  std::set_intersection(part.begin(), part.end(), hb.voxels.begin(), hb.voxels.end(), std::back_inserter(kept));
+  auto gain = [](Handle& h, const std::vector<std::uint32_t>& voxels) {
+    std::vector<std::uint32_t> u;
+    std::set_union(h.voxels.begin(), h.voxels.end(), voxels.begin(), voxels.end(), std::back_inserter(u));
+    h.voxels = std::move(u);
+  };
+  for (const Claim& c : hb.claims)
+    if (Handle* h = get(c.from)) {
+      std::vector<std::uint32_t> back;
+      std::set_difference(c.voxels.begin(), c.voxels.end(), kept.begin(), kept.end(), std::back_inserter(back));
+      gain(*h, back);
+    }
+  gain(*get(a), kept);
+  erase([b](const Handle& h) { return h.id == b; });
+  return true;
+}
+
+std::vector<std::uint32_t> HandleSet::voxelsBeforeClaim(int a, int b) const {
+  const Handle* ha = find(a);
+  const Handle* hb = find(b);
+  if (!ha) return {};
+  std::vector<std::uint32_t> all = ha->voxels;
+  if (hb)
+    for (const Claim& c : hb->claims)
+      if (c.from == a) {
+        std::vector<std::uint32_t> u;
+        std::set_union(all.begin(), all.end(), c.voxels.begin(), c.voxels.end(), std::back_inserter(u));
+        all = std::move(u);
+      }
+  return all;
+}
+
+bool HandleSet::subtract(int a, int b, const std::vector<std::uint32_t>& cut) {
+  if (a == b || !find(a) || !find(b)) return false;
+  const std::vector<std::uint32_t> before = voxelsBeforeClaim(a, b);
+  const std::vector<std::uint32_t>& vb = find(b)->voxels;
+  std::vector<std::uint32_t> taken, rest, bRest;
+  std::set_intersection(cut.begin(), cut.end(), vb.begin(), vb.end(), std::back_inserter(taken));
+  std::set_difference(before.begin(), before.end(), taken.begin(), taken.end(), std::back_inserter(rest));
+  if (rest.empty()) return false;
+  std::set_difference(vb.begin(), vb.end(), rest.begin(), rest.end(), std::back_inserter(bRest));
+  snapshot();
+  Handle* hb = get(b);
+  hb->claims.erase(std::remove_if(hb->claims.begin(), hb->claims.end(), [a](const Claim& c) { return c.from == a; }), hb->claims.end());
+  hb->voxels = std::move(bRest);
+  get(a)->voxels = std::move(rest);
+  erase([](const Handle& h) { return h.voxels.empty(); });
   return true;
 }
 
@@ -107,6 +177,22 @@ bool HandleSet::undo() {
   redo_.push_back(handles_);
   handles_ = std::move(undo_.back());
   undo_.pop_back();
+  return true;
+}
+
+void HandleSet::squashSince(std::uint64_t count) {
+  // Each snapshot holds the state before its edit: keeping the group's first undoes them all.
+  const std::uint64_t n = edits_ > count ? edits_ - count : 0;
+  if (n < 2 || undo_.empty()) return;
+  const std::size_t drop = std::min<std::size_t>(std::size_t(n - 1), undo_.size() - 1);
+  undo_.erase(undo_.end() - std::ptrdiff_t(drop), undo_.end());
+}
+
+bool HandleSet::revert() {
+  if (undo_.empty()) return false;
+  handles_ = std::move(undo_.back());
+  undo_.pop_back();
+  --edits_;
   return true;
 }
 

@@ -40,25 +40,43 @@ void PinchSelection::onTouch(const TouchEvent& e, const TouchInput& input, const
     case State::WaitingForPicks:
     case State::Growing: {
       const bool bothDown = input.find(fingerA_) && input.find(fingerB_);
-      if (!bothDown) {  // a finger lifted: the selection ends
-        if (state_ == State::Growing && grower_) {
-          std::optional<std::vector<std::uint32_t>> voxels;
-          if (growingOn_) onEngine([&voxels](GrowthEngine& g) { voxels = g.finish(); });
-          finished_ = voxels ? std::move(*voxels) : liveVoxels();  // liveVoxels: the CPU's, also after a fallback
-          std::sort(finished_->begin(), finished_->end());  // the same handle whichever engine grew it
-          if (params_.boundaryRim) *finished_ = withBoundaryRim(*grower_, *finished_);
-          changed_ = true;
-        }
-        growingOn_ = nullptr;
-        grower_.reset();
-        state_ = State::Idle;
-        requestPending_ = false;
+      if (!bothDown && state_ == State::WaitingForPicks && e.phase == TouchPhase::Up) {
+        // A finger lifted before the depth-picks came back (a quick pinch, slow frames): the
+        // selection ends as soon as they do, at the fingers' last spread. (A cancel ends it now.)
+        liftedBeforePicks_ = true;
         break;
       }
-      if (state_ == State::Growing && e.phase == TouchPhase::Move) updateExtent(input);
+      if (!bothDown) {  // a finger lifted: the selection ends
+        finish();
+        break;
+      }
+      if (e.phase != TouchPhase::Move) break;
+      if (state_ == State::Growing) {
+        updateExtent(input);
+      } else {  // the spread the selection will start from when the picks come back
+        pickA_ = input.find(fingerA_)->px;
+        pickB_ = input.find(fingerB_)->px;
+      }
       break;
     }
   }
+}
+
+void PinchSelection::finish() {
+  if (state_ == State::Growing && grower_) {
+    std::optional<std::vector<std::uint32_t>> voxels;
+    if (growingOn_) onEngine([&voxels](GrowthEngine& g) { voxels = g.finish(); });
+    finished_ = voxels ? std::move(*voxels) : liveVoxels();  // liveVoxels: the CPU's, also after a fallback
+    std::sort(finished_->begin(), finished_->end());  // the same handle whichever engine grew it
+    if (params_.boundaryRim) *finished_ = withBoundaryRim(*grower_, *finished_);
+    finishedSeed_ = std::uint32_t(linearIndex(volume_.geometry, grower_->setup().seed));
+    changed_ = true;
+  }
+  growingOn_ = nullptr;
+  grower_.reset();
+  state_ = State::Idle;
+  requestPending_ = false;
+  liftedBeforePicks_ = false;
 }
 
 std::vector<glm::dvec2> PinchSelection::takePickRequest() {
@@ -69,6 +87,7 @@ std::vector<glm::dvec2> PinchSelection::takePickRequest() {
 
 void PinchSelection::onPicks(const std::vector<std::optional<glm::dvec3>>& world, const OrbitCamera& camera, const Viewport& viewport) {
   if (state_ != State::WaitingForPicks) return;
+  const bool lifted = std::exchange(liftedBeforePicks_, false);
   if (world.size() != 2 || !world[0] || !world[1]) {
     feedback_ = "Pinch on visible anatomy: a finger was not on the volume";
     state_ = State::Idle;
@@ -113,6 +132,7 @@ void PinchSelection::onPicks(const std::vector<std::optional<glm::dvec3>>& world
     grower_->growTo(extent_);
   }
   changed_ = true;
+  if (lifted) finish();
 }
 
 void PinchSelection::updateExtent(const TouchInput& input) {

@@ -60,6 +60,8 @@ class PinchSelection {
   /// boundary rim when GrowParams::boundaryRim (withBoundaryRim; the live voxels before the lift
   /// are the grown ones alone). Taken once.
   std::optional<std::vector<std::uint32_t>> takeFinished();
+  /// The voxel the last finished selection grew from (linear index; HandleSet's seed of its handle).
+  std::uint32_t finishedSeed() const { return finishedSeed_; }
   /// A user-facing message about the last pinch ("" if none), e.g. a refusal.
   const std::string& feedback() const { return feedback_; }
   bool changed() { return std::exchange(changed_, false); }
@@ -71,6 +73,8 @@ class PinchSelection {
 
  private:
   void updateExtent(const TouchInput& input);
+  /// Ends the selection: the finished voxels (Growing) or nothing, and back to Idle.
+  void finish();
   /// Runs `call` on the engine; if it throws, the pinch goes on with the CPU reference.
   template <class Call> void onEngine(Call&& call);
   const QuantizedVolume& volume_;
@@ -85,6 +89,8 @@ class PinchSelection {
   GrowthEngine* engine_ = nullptr;
   GrowthEngine* growingOn_ = nullptr;  // the engine of the pinch now growing (nullptr: the CPU)
   std::optional<std::vector<std::uint32_t>> finished_;
+  std::uint32_t finishedSeed_ = 0xffffffffu;
+  bool liftedBeforePicks_ = false;  ///< a finger lifted while the picks were on their way
   std::string feedback_;
   bool changed_ = false;
 };

@@ -78,4 +78,28 @@ std::vector<float> squaredDistanceToOutside(const std::vector<std::uint8_t>& ins
   return out;
 }
 
+RegionDistance regionDistance(const std::vector<std::uint32_t>& region, const VolumeGeometry& g) {
+  Eigen::Vector3i lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max()), hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
+  for (std::uint32_t v : region) {
+    lo = lo.cwiseMin(g.voxelOf(v));
+    hi = hi.cwiseMax(g.voxelOf(v));
+  }
+  RegionDistance d{lo - Eigen::Vector3i::Ones(), hi - lo + Eigen::Vector3i::Constant(3), {}};
+  std::vector<std::uint8_t> inside(std::size_t(d.dims.prod()), 0);
+  for (std::uint32_t v : region) inside[d.index(g.voxelOf(v))] = 1;
+  d.d2 = squaredDistanceToOutside(inside, d.dims, g.spacing);
+  return d;
+}
+
+std::uint32_t deepestVoxelOf(const std::vector<std::uint32_t>& region, const RegionDistance& d, const VolumeGeometry& g) {
+  std::uint32_t best = region.front();
+  float bestD = -1.0f;
+  for (std::uint32_t v : region)
+    if (d.at(g, v) > bestD) {
+      bestD = d.at(g, v);
+      best = v;
+    }
+  return best;
+}
+
 }  // namespace handson

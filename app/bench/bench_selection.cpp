@@ -208,7 +208,7 @@ const char* const kBenchSelectionHelp =
     "usage: handson bench selection [--data DIR] [--out DIR] [--repeat N] [--criteria LIST] [--fractions LIST]\n"
     "                               [--extents MM,..] [--statistics robust|moments] [--bound path|ball]\n"
     "                               [--sweep-only] [--quick]\n"
-    "       handson bench selection --protocol gestures [--data DIR] [--out DIR] [--gestures N]\n"
+    "       handson bench selection --protocol gestures [--data DIR] [--out DIR] [--gestures N] [--corrections neck|grown]\n"
     "  Region growing on labelled CT (default DIR ../shared/data: ircadb1.1 kidneys, artery, portal vein,\n"
     "  liver, venous system, spleen; totalseg-small kidneys, liver, spleen), seeds at each organ's deepest\n"
     "  typical voxel. Whole-organ Dice as the extent sweeps --fractions of the organ's radius (default\n"
@@ -223,7 +223,8 @@ const char* const kBenchSelectionHelp =
     "  a first pinch at each organ's deepest voxel spread to its radius, then corrections, each a pinch at\n"
     "  the deepest voxel of the largest error region (missed organ: united; leaked tissue: subtracted)\n"
     "  spread to that region's radius, through the app's pinch, union and difference; N gestures in all\n"
-    "  (default 10) -> selection_gestures.csv, .md and .png.\n";
+    "  (default 10) -> selection_gestures.csv, .md and .png. --corrections: the app's rule for a union\n"
+    "  and a difference (default neck; grown, the earlier rule, to compare).\n";
 
 // What `bench selection` was asked.
 struct SelectionBenchOptions {
@@ -343,7 +344,7 @@ int timeLiverGrowth(const Args& args, const Volume& ircadb, int repeat, const st
 }  // namespace
 
 int cmdBenchSelection(const Words& words) {
-  Args args(words, {"--data", "--out", "--repeat", "--device", "--extents", "--criteria", "--fractions", "--statistics", "--bound", "--protocol", "--gestures"},
+  Args args(words, {"--data", "--out", "--repeat", "--device", "--extents", "--criteria", "--fractions", "--statistics", "--bound", "--protocol", "--gestures", "--corrections"},
             {"--quick", "--validation", "--sweep-only"});
   if (args.help() || !args.positional().empty()) {
     usageStream(args) << kBenchSelectionHelp;
@@ -351,9 +352,15 @@ int cmdBenchSelection(const Words& words) {
   }
   const std::string protocol = args.valueOr("--protocol", "sweep");
   if (protocol != "sweep" && protocol != "gestures") throw UsageError("--protocol must be sweep or gestures");
-  if (protocol == "gestures")
-    return benchSelectionGestures(args.valueOr("--data", "../shared/data"), args.valueOr("--out", "bench-out"), int(args.integer("--gestures", 10, 1, 100)));
-  if (args.value("--gestures")) throw UsageError("--gestures is for --protocol gestures");
+  if (protocol == "gestures") {
+    GestureProtocol p;
+    p.gestures = int(args.integer("--gestures", 10, 1, 100));
+    if (!parseCorrectionRule(args.valueOr("--corrections", correctionRuleName(p.corrections)), p.corrections))
+      throw UsageError("--corrections must be neck or grown");
+    return benchSelectionGestures(args.valueOr("--data", "../shared/data"), args.valueOr("--out", "bench-out"), p);
+  }
+  for (const char* o : {"--gestures", "--corrections"})
+    if (args.value(o)) throw UsageError(std::string(o) + " is for --protocol gestures");
   const SelectionBenchOptions o = parseSelectionBenchOptions(args);
   std::filesystem::create_directories(o.out);
   const std::vector<Dataset> sets = {

@@ -59,6 +59,10 @@ const char* const kViewHelp =
     "  --selection-bound path|ball  how far the fingers' spread lets a selection grow: path (default:\n"
     "                          that far along paths through the organ) or ball (the earlier rule: inside\n"
     "                          the ball of that radius about the seed)\n"
+    "  --selection-corrections neck|grown  what a pinch united with or subtracted from a handle adds or\n"
+    "                          takes: neck (default: a difference the part beyond the handle's narrowest\n"
+    "                          neck between the two seeds, a union the pinch's lobe its seed lies in) or\n"
+    "                          grown (the earlier rule: all the pinch grew)\n"
     "  --device NAME, --validation, --quiet, --print-camera\n";
 
 const char* const kReplayHelp =
@@ -79,6 +83,8 @@ const char* const kReplayHelp =
     "  --selection-backend auto|gpu|cpu  where a pinch's selection grows (as in view; the same voxels)\n"
     "  --selection-rim on|off  a finished pinch's selection ends with its boundary rim (as in view)\n"
     "  --selection-bound path|ball  how far the fingers' spread lets a selection grow (as in view)\n"
+    "  --selection-corrections neck|grown  what a pinch united with or subtracted from a handle adds or\n"
+    "                          takes (as in view)\n"
     "  --device NAME, --validation, --quiet, --print-camera, --print-handles\n";
 
 const char* const kSimHelp =
@@ -134,6 +140,12 @@ SelectionBackend selectionBackendOption(const Args& args) {
   return b;
 }
 
+CorrectionRule selectionCorrectionsOption(const Args& args) {
+  CorrectionRule r = CorrectionRule::Neck;
+  if (!parseCorrectionRule(args.valueOr("--selection-corrections", correctionRuleName(r)), r)) throw UsageError("--selection-corrections must be neck or grown");
+  return r;
+}
+
 GrowBound selectionBoundOption(const Args& args) {
   GrowBound b = GrowParams{}.bound;
   if (!parseGrowBound(args.valueOr("--selection-bound", growBoundName(b)), b)) throw UsageError("--selection-bound must be path or ball");
@@ -187,13 +199,14 @@ int cmdView(const Words& words) {
   o.selectionBackend = selectionBackendOption(args);
   o.selectionRim = onOffOption(args, "--selection-rim", true);
   o.selectionBound = selectionBoundOption(args);
+  o.selectionCorrections = selectionCorrectionsOption(args);
   o.sim = simOptions(args, 2);
   if (!displayAvailable()) throw Error("no display available (DISPLAY and WAYLAND_DISPLAY are unset): use 'handson replay' to run headless");
   return runViewer(o);
 }
 
 int cmdReplay(const Words& words) {
-  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--frame-budget-ms", "--size", "--device", "--export", "--export-dir", "--export-format", "--labels", "--selection-backend", "--selection-rim", "--selection-bound"},
+  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--frame-budget-ms", "--size", "--device", "--export", "--export-dir", "--export-format", "--labels", "--selection-backend", "--selection-rim", "--selection-bound", "--selection-corrections"},
                  kSimOptions),
             {"--validation", "--quiet", "--print-camera", "--print-handles"});
   if (args.help() || args.positional().size() > 1) {
@@ -217,6 +230,7 @@ int cmdReplay(const Words& words) {
   o.selectionBackend = selectionBackendOption(args);
   o.selectionRim = onOffOption(args, "--selection-rim", true);
   o.selectionBound = selectionBoundOption(args);
+  o.selectionCorrections = selectionCorrectionsOption(args);
   o.exportPath = args.valueOr("--export", "");
   o.exportDir = args.valueOr("--export-dir", o.exportDir);
   o.exportExtension = exportVolumeExtension(args);

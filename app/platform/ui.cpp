@@ -150,6 +150,19 @@ void Ui::modeOptions(const UiStatus& st, const Action& action, float buttonWidth
     ImGui::PopTextWrapPos();
     if (!st.window.identity() && ImGui::Button("Reset window", button)) action("reset-window", "");
   }
+  if (st.mode == "select") {
+    // What the next pinches do: a new handle, or a correction of the handle tapped last (else the newest).
+    ImGui::NewLine();
+    const std::pair<const char*, const char*> ops[] = {{"new", "New handle"}, {"add", "Add to handle"}, {"remove", "Remove from handle"}};
+    for (const auto& [op, label] : ops) {
+      const bool on = st.pinchOp == op;
+      if (on) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.85f, 0.45f, 0.20f, 1.0f));
+      if (ImGui::Button(label, ImVec2(button.x * 1.4f, button.y))) action("pinch-op", op);
+      if (on) ImGui::PopStyleColor();
+      ImGui::SameLine();
+    }
+    ImGui::NewLine();
+  }
   if (st.mode == "manipulate") {
     // Axis locks for the manipulation (the finger count chooses the rest).
     ImGui::NewLine();

@@ -50,6 +50,7 @@ struct UiStatus {
   double liveOnGpuMm = -1.0;   ///< the extent of a selection being pinched on the GPU (< 0: none)
   std::string selectionBackend;  ///< where pinches grow, and why (app/session/selection_backend.h)
   unsigned locks = 0;          ///< manipulation locks (GestureLock bits)
+  std::string pinchOp = "new"; ///< what a pinch does in Select mode: new, add or remove
   bool strainOverlay = false;  ///< the strain overlay is on: its colour bar shows
   bool limitHighlight = false; ///< tissue past its strain limit is highlighted: the bar's key shows
   bool hasLabels = false;      ///< a label map is loaded: the Labels button shows

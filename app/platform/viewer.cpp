@@ -305,6 +305,7 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
   grow.boundaryRim = o.selectionRim;
   grow.bound = o.selectionBound;
   selection = std::make_unique<SelectionController>(q, *session, *renderer, grow, o.selectionBackend);
+  selection->setCorrectionRule(o.selectionCorrections);
   if (!o.quiet) std::cerr << selection->backend().status << "\n";
   status.selectionBackend = selection->backend().status;
   selection->setLabels(labels.get());
@@ -389,6 +390,7 @@ void Viewer::Impl::updateStatus() {
       if (row.id == id) row.reaction = formatReaction(r, deform->shownRefineStep() == 0);
   status.picked = selection->picked();
   status.locks = selection->locks();
+  status.pinchOp = pinchOpName(selection->pinchOp());
   status.strainOverlay = session->strainOverlay();
   status.limitHighlight = session->limitHighlight();
   status.hasLabels = labels != nullptr;
@@ -402,6 +404,7 @@ void Viewer::Impl::updateStatus() {
   status.canRedo = selection->handles().canRedo();
   status.feedback = !selection->pinch().feedback().empty() ? selection->pinch().feedback()
                     : !selection->labelNote().empty()     ? selection->labelNote()
+                    : !selection->correctionNote().empty() ? selection->correctionNote()
                                                           : selection->manipulationNote();
   status.simulation = deform->status();
   status.tissueLimits = deform->shownTissueLimits();

@@ -9,6 +9,7 @@
 #include "app/session/deformation_controller.h"
 #include "app/session/selection_backend.h"
 #include "interaction/region_grow.h"
+#include "interaction/selection_edit.h"
 #include "interaction/touch.h"
 
 struct SDL_Window;
@@ -33,6 +34,7 @@ struct ViewerOptions {
   SelectionBackend selectionBackend = SelectionBackend::Auto;  ///< where pinches grow (app/session/selection_backend.h)
   bool selectionRim = true;  ///< finished pinches end with their boundary rim (GrowParams::boundaryRim)
   GrowBound selectionBound = GrowParams{}.bound;  ///< how the fingers' extent bounds growth (GrowParams::bound)
+  CorrectionRule selectionCorrections = CorrectionRule::Neck;  ///< handle-union and handle-difference (interaction/selection_edit.h)
   std::string device;
   bool validation = false;
   int framesInFlight = 2;   ///< 1 lowers latency, 2 keeps the GPU busy while the CPU records

@@ -188,6 +188,7 @@ int runReplay(const ReplayOptions& o) {
   grow.boundaryRim = o.selectionRim;
   grow.bound = o.selectionBound;
   SelectionController selection(q, session, renderer, grow, o.selectionBackend);
+  selection.setCorrectionRule(o.selectionCorrections);
   if (!o.quiet) std::cerr << selection.backend().status << "\n";
   if (labels) {
     selection.setLabels(&*labels);

@@ -10,6 +10,7 @@
 #include "app/session/deformation_controller.h"
 #include "app/session/selection_backend.h"
 #include "interaction/region_grow.h"
+#include "interaction/selection_edit.h"
 
 #include "app/session/session_script.h"
 
@@ -23,6 +24,7 @@ struct ReplayOptions {
   SelectionBackend selectionBackend = SelectionBackend::Auto;  ///< where pinches grow (app/session/selection_backend.h)
   bool selectionRim = true;  ///< finished pinches end with their boundary rim (GrowParams::boundaryRim)
   GrowBound selectionBound = GrowParams{}.bound;  ///< how the fingers' extent bounds growth (GrowParams::bound)
+  CorrectionRule selectionCorrections = CorrectionRule::Neck;  ///< handle-union and handle-difference (interaction/selection_edit.h)
   std::string framesOut;   ///< directory for frame_NNNNN.png (created); empty: no PNGs
   std::string timings;     ///< timing log CSV
   double fps = 30.0;       ///< frames per second of script time

@@ -64,7 +64,8 @@ void SelectionController::refreshLive() {
   live_ = pinch_.state() == PinchSelection::State::Growing ? pinch_.liveVoxels() : std::vector<std::uint32_t>{};
   if (auto done = pinch_.takeFinished()) {
     const auto before = handles_.handles();
-    handles_.add(std::move(*done));
+    const int target = pinchOp_ == PinchOp::New ? 0 : correctionTarget();
+    correctionNote_ = applyPinch(handles_, std::move(*done), pinch_.finishedSeed(), pinchOp_, target, corrections_, volume_.geometry).refusal;
     old.insert(old.end(), live_.begin(), live_.end());
     const auto changed = HandleSet::changedVoxels(before, handles_.handles());
     old.insert(old.end(), changed.begin(), changed.end());
@@ -175,11 +176,17 @@ bool SelectionController::labelHandle(const std::string& value) {
     labelNote_ = "No labelled organ there";
     return false;
   }
-  if (handles_.add(labelComponent(*labels_, v)) == 0) {
+  if (handles_.add(labelComponent(*labels_, v), std::uint32_t(linearIndex(labels_->geometry, v))) == 0) {
     labelNote_ = "No handle left for that organ";
     return false;
   }
   return true;
+}
+
+int SelectionController::correctionTarget() const {
+  for (auto it = picked_.rbegin(); it != picked_.rend(); ++it)
+    if (handles_.find(*it)) return *it;
+  return handles_.handles().empty() ? 0 : handles_.handles().back().id;
 }
 
 bool SelectionController::applyUi(const ScriptEvent& e) {
@@ -210,7 +217,13 @@ bool SelectionController::applyUi(const ScriptEvent& e) {
     }
   } else if (e.action == "handle-union" || e.action == "handle-difference") {
     int a = 0, b = 0;
-    ok = ids(a, b) && (e.action == "handle-union" ? handles_.unite(a, b) : handles_.subtract(a, b));
+    ok = ids(a, b) && (e.action == "handle-union" ? uniteHandle(handles_, a, b, corrections_, volume_.geometry)
+                                                          : subtractHandle(handles_, a, b, corrections_, volume_.geometry));
+  } else if (e.action == "pinch-op") {
+    PinchOp op;
+    if (!parsePinchOp(e.value, op)) return false;
+    pinchOp_ = op;
+    return true;
   } else if (e.action == "label-handle") {
     ok = labelHandle(e.value);
   } else if (e.action == "toggle-lock") {

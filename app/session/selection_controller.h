@@ -5,7 +5,8 @@
 // box is uploaded inside the next frame; handle edits come in as UI actions (recorded and replayed
 // like touches):
 //   handle-status "ID:active|fixed|idle", handle-delete "ID", handle-union "A,B" (A := A ∪ B),
-//   handle-difference "A,B" (A := A \ B), undo, redo, toggle-lock "z-translation|z-rotation|xy-translation",
+//   handle-difference "A,B" (A := A \ B), pinch-op "new|add|remove" (what the next pinches do:
+//   a new handle, or a correction of the handle tapped last, else the newest), undo, redo, toggle-lock "z-translation|z-rotation|xy-translation",
 //   label-handle "I,J,K" (with a label map: the labelled organ at voxel I,J,K becomes a handle - what
 //   a tap on an organ that is no handle yet does in select mode).
 #include <memory>
@@ -20,6 +21,7 @@
 #include "interaction/label_map.h"
 #include "interaction/manipulation.h"
 #include "interaction/selection.h"
+#include "interaction/selection_edit.h"
 #include "render/render_params.h"
 #include "render/volume_renderer.h"
 
@@ -46,6 +48,13 @@ class SelectionController {
   /// Organ labels on the volume's grid (owned by the caller, kept alive while this controller is):
   /// taps and "label-handle" actions then make labelled organs handles. nullptr: none.
   void setLabels(const LabelMap* labels) { labels_ = labels; }
+  /// What handle-union and handle-difference, and pinches that add or remove, take of a correction
+  /// pinch (interaction/selection_edit.h; default Neck).
+  void setCorrectionRule(CorrectionRule r) { corrections_ = r; }
+  /// What a finished pinch does (the "pinch-op" action; New by default).
+  PinchOp pinchOp() const { return pinchOp_; }
+  /// Why the last correction pinch was refused ("" if it was not).
+  const std::string& correctionNote() const { return correctionNote_; }
   /// Why the last label-handle action was refused ("" if it was not).
   const std::string& labelNote() const { return labelNote_; }
 
@@ -124,6 +133,11 @@ class SelectionController {
   bool tapSpoiled_ = false;
   std::vector<int> picked_;
   const LabelMap* labels_ = nullptr;
+  CorrectionRule corrections_ = CorrectionRule::Neck;
+  PinchOp pinchOp_ = PinchOp::New;
+  std::string correctionNote_;
+  /// The handle a correction pinch edits: the one tapped last, else the newest (0: none).
+  int correctionTarget() const;
   std::string labelNote_;
   StageTimes stages_;
   SelectionBackendChoice backend_;

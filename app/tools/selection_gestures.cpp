@@ -24,19 +24,16 @@ struct Box {
     const Eigen::Vector3i d = dims(), r = v - lo;
     return std::size_t(r.x()) + std::size_t(d.x()) * (std::size_t(r.y()) + std::size_t(d.y()) * std::size_t(r.z()));
   }
-  bool contains(const Eigen::Vector3i& v) const { return (v.array() >= lo.array()).all() && (v.array() <= hi.array()).all(); }
 };
 
-// The bounding box of voxels (linear indices on g), grown by `margin` voxels (not clamped).
-Box boundingBox(const std::vector<std::uint32_t>& voxels, const VolumeGeometry& g, int margin) {
+// The bounding box of voxels (linear indices on g).
+Box boundingBox(const std::vector<std::uint32_t>& voxels, const VolumeGeometry& g) {
   Box b{Eigen::Vector3i::Constant(1 << 30), Eigen::Vector3i::Constant(-(1 << 30))};
   for (std::uint32_t v : voxels) {
     const Eigen::Vector3i p = g.voxelOf(v);
     b.lo = b.lo.cwiseMin(p);
     b.hi = b.hi.cwiseMax(p);
   }
-  b.lo.array() -= margin;
-  b.hi.array() += margin;
   return b;
 }
 
@@ -80,8 +77,12 @@ void eachComponent(const Box& box, const VolumeGeometry& g, const std::vector<st
 
 // One pinch of the app's (interaction/selection.h): two fingers land about `target`, their
 // depth-picks on either side of it, spread so that the app's extent is `spreadMm`; one lifts.
-// Returns the finished selection (with its boundary rim when the rules say so).
-std::vector<std::uint32_t> appPinch(PinchSelection& pinch, const VolumeGeometry& g, const Eigen::Vector3i& target, double spreadMm) {
+// Returns the finished selection (with its boundary rim when the rules say so) and its seed.
+struct Pinched {
+  std::vector<std::uint32_t> voxels;
+  std::uint32_t seed = kNoSeed;
+};
+Pinched appPinch(PinchSelection& pinch, const VolumeGeometry& g, const Eigen::Vector3i& target, double spreadMm) {
   const Eigen::Vector3d w = g.toWorld(target.cast<double>());
   OrbitCamera camera;
   camera.target = glm::dvec3(w.x(), w.y(), w.z());
@@ -104,7 +105,8 @@ std::vector<std::uint32_t> appPinch(PinchSelection& pinch, const VolumeGeometry&
   touch(TouchPhase::Up, 1);
   touch(TouchPhase::Up, 0);
   auto done = pinch.takeFinished();
-  return done ? std::move(*done) : std::vector<std::uint32_t>{};
+  if (!done) return {};
+  return {std::move(*done), pinch.finishedSeed()};
 }
 
 // Dice, precision and recall of a selection (ascending voxels) against the organ's mask.
@@ -115,28 +117,6 @@ void score(const std::vector<std::uint32_t>& selection, const std::vector<std::u
   s.dice = 2.0 * double(hit) / double(selection.size() + organVoxels);
   s.precision = selection.empty() ? 0.0 : double(hit) / double(selection.size());
   s.recall = double(hit) / double(organVoxels);
-}
-
-// A correction through the app's handle edits: the pinch becomes a handle (claiming its voxels
-// from the selection, as every new handle does), then selection := selection ∪ pinch, or
-// selection := selection \ pinch and the pinch's handle deleted. A difference that would leave
-// nothing is refused by the app: undone here, as the user would. Returns the selection's id.
-int applyCorrection(HandleSet& handles, int selection, std::vector<std::uint32_t> pinch, bool add, bool& refused) {
-  const int b = handles.add(std::move(pinch));
-  refused = b == 0;
-  if (refused) return selection;
-  if (add) {
-    if (!handles.find(selection)) return b;  // the pinch took all of it: the union is the pinch
-    handles.unite(selection, b);
-    return selection;
-  }
-  if (!handles.find(selection) || !handles.subtract(selection, b)) {
-    handles.undo();
-    refused = true;
-    return selection;
-  }
-  handles.remove(b);
-  return selection;
 }
 
 }  // namespace
@@ -154,20 +134,10 @@ GestureTarget gestureTarget(std::vector<std::uint32_t> voxels, const VolumeGeome
   GestureTarget t;
   if (voxels.empty()) return t;
   std::sort(voxels.begin(), voxels.end());
-  // The distance transform on the region's box with a margin of one voxel outside it.
-  const Box box = boundingBox(voxels, g, 1);
-  std::vector<std::uint8_t> inside(box.size(), 0);
-  for (std::uint32_t v : voxels) inside[box.index(g.voxelOf(v))] = 1;
-  const std::vector<float> d2 = squaredDistanceToOutside(inside, box.dims(), g.spacing);
-  float best = -1.0f;
-  for (std::uint32_t v : voxels) {  // ascending: the lowest index wins ties
-    const float d = d2[box.index(g.voxelOf(v))];
-    if (d > best) {
-      best = d;
-      t.deepest = g.voxelOf(v);
-    }
-  }
-  t.depthMm = std::sqrt(double(best));
+  const RegionDistance d = regionDistance(voxels, g);
+  const std::uint32_t deepest = deepestVoxelOf(voxels, d, g);  // ascending: the lowest index on ties
+  t.deepest = g.voxelOf(deepest);
+  t.depthMm = std::sqrt(double(d.at(g, deepest)));
   std::vector<double> dist;
   dist.reserve(voxels.size());
   for (std::uint32_t v : voxels) dist.push_back((g.voxelOf(v) - t.deepest).cast<double>().cwiseProduct(g.spacing).norm());
@@ -183,7 +153,7 @@ ErrorRegion largestErrorRegion(const std::vector<std::uint8_t>& organ, const std
     if (organ[v] || selected[v]) either.push_back(std::uint32_t(v));
   ErrorRegion out;
   if (either.empty()) return out;
-  const Box box = boundingBox(either, g, 0);
+  const Box box = boundingBox(either, g);
   std::vector<std::uint8_t> kind(box.size(), 0), seen(box.size(), 0);
   for (std::uint32_t v : either)
     if (bool(organ[v]) != bool(selected[v])) kind[box.index(g.voxelOf(v))] = organ[v] ? 1 : 2;
@@ -221,9 +191,9 @@ OrganGestures runGestureProtocol(const std::string& dataset, const Volume& ct, c
       s.target = first;
       s.spreadMm = radius;
       s.regionVoxels = organVoxels;
-      std::vector<std::uint32_t> voxels = appPinch(pinch, g, first, radius);
-      s.pinchVoxels = voxels.size();
-      selection = handles.add(std::move(voxels));
+      Pinched p = appPinch(pinch, g, first, radius);
+      s.pinchVoxels = p.voxels.size();
+      selection = applyPinch(handles, std::move(p.voxels), p.seed, PinchOp::New, 0, protocol.corrections, g).handle;
       s.refused = selection == 0;
     } else {
       const ErrorRegion e = largestErrorRegion(organMask, selectedMask, g);
@@ -232,9 +202,13 @@ OrganGestures runGestureProtocol(const std::string& dataset, const Volume& ct, c
       s.target = e.target.deepest;
       s.spreadMm = e.target.spreadMm;
       s.regionVoxels = e.target.voxels.size();
-      std::vector<std::uint32_t> voxels = appPinch(pinch, g, s.target, s.spreadMm);
-      s.pinchVoxels = voxels.size();
-      selection = applyCorrection(handles, selection, std::move(voxels), e.missed, s.refused);
+      Pinched p = appPinch(pinch, g, s.target, s.spreadMm);
+      s.pinchVoxels = p.voxels.size();
+      const auto t1 = std::chrono::steady_clock::now();
+      const PinchEdit edit = applyPinch(handles, std::move(p.voxels), p.seed, e.missed ? PinchOp::Add : PinchOp::Remove, selection, protocol.corrections, g);
+      s.refused = edit.handle == 0;
+      if (edit.handle) selection = edit.handle;
+      s.editMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
     }
     s.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const Handle* h = handles.find(selection);

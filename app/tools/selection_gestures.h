@@ -4,8 +4,9 @@
 // to its radius, then each correction at the deepest voxel of the largest error region - missed
 // organ: a pinch united with the selection; leaked tissue: a pinch subtracted from it - spread to
 // that region's radius. Every pinch runs the app's own PinchSelection (its seed snapping, its extent
-// from the fingers' spread, its boundary rim) and every correction the app's HandleSet union and
-// difference, so the figures are the app's. Design: docs/region-growing.md ("Corrections").
+// from the fingers' spread, its boundary rim) and every correction the app's Add or Remove pinch
+// (interaction/selection_edit.h: applyPinch), so the figures are the app's. Design:
+// docs/selection-corrections.md.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -15,6 +16,7 @@
 
 #include "app/tools/selection_eval.h"
 #include "interaction/region_grow.h"
+#include "interaction/selection_edit.h"
 #include "sim/quantized_volume.h"
 #include "sim/volume.h"
 
@@ -55,7 +57,9 @@ struct GestureStep {
   std::size_t pinchVoxels = 0;   ///< what the pinch grew
   bool refused = false;          ///< the app refused the edit (a difference that would leave nothing)
   std::size_t selected = 0;
-  double dice = 0.0, precision = 0.0, recall = 0.0, milliseconds = 0.0;
+  double dice = 0.0, precision = 0.0, recall = 0.0;
+  double milliseconds = 0.0;  ///< the gesture: the pinch's growth and the handle edit
+  double editMs = 0.0;        ///< the handle edit alone (union or difference)
 };
 
 struct OrganGestures {
@@ -67,6 +71,7 @@ struct OrganGestures {
 struct GestureProtocol {
   int gestures = 10;  ///< the first pinch and up to gestures - 1 corrections
   GrowParams params;  ///< the app's pinch rules
+  CorrectionRule corrections = CorrectionRule::Neck;  ///< the app's rule for handle-union and handle-difference
 };
 
 /// Runs the protocol on one labelled organ (labels on the CT's grid; `q` the CT quantized as the

@@ -138,6 +138,41 @@ TEST(PinchSelection, GrowsFromTheMidpointAndEndsWhenAFingerLifts) {
   EXPECT_FALSE(sel.takeFinished().has_value());
 }
 
+TEST(PinchSelection, AFingerLiftedBeforeThePicksReturnEndsTheSelectionWhenTheyDo) {
+  // A quick pinch on slow frames: down, spread, up, and only then the depth-picks. The selection
+  // grows at the fingers' last spread and ends at once, as if the picks had come first.
+  PinchRig quickRig, slowRig, cancelRig;  // each its own touch input
+  const Eigen::Vector3d k = quickRig.ph.geometry.kidneyRightCenter;
+  const std::vector<std::optional<glm::dvec3>> picks{glm::dvec3(k.x() + 20, k.y() - 3, k.z()), glm::dvec3(k.x() + 20, k.y() + 3, k.z())};
+  PinchSelection quick(quickRig.q, GrowParams{}), slow(slowRig.q, GrowParams{}), cancelled(cancelRig.q, GrowParams{});
+  for (auto [rig, s] : {std::pair{&quickRig, &quick}, std::pair{&slowRig, &slow}, std::pair{&cancelRig, &cancelled}}) {
+    rig->feed(*s, TouchPhase::Down, 1, 200, 270);
+    rig->feed(*s, TouchPhase::Down, 2, 220, 270);
+    ASSERT_EQ(s->takePickRequest().size(), 2u);
+  }
+  // The reference: picks first, then the spread and the lift.
+  slow.onPicks(picks, slowRig.cam, slowRig.vp);
+  slowRig.feed(slow, TouchPhase::Move, 2, 240, 270);
+  slowRig.feed(slow, TouchPhase::Up, 1, 200, 270);
+  // The quick pinch: the spread and the lift first.
+  quickRig.feed(quick, TouchPhase::Move, 2, 240, 270);
+  quickRig.feed(quick, TouchPhase::Up, 1, 200, 270);
+  EXPECT_EQ(quick.state(), PinchSelection::State::WaitingForPicks);
+  EXPECT_FALSE(quick.takeFinished().has_value());
+  quick.onPicks(picks, quickRig.cam, quickRig.vp);
+  EXPECT_EQ(quick.state(), PinchSelection::State::Idle);
+  const auto a = quick.takeFinished(), b = slow.takeFinished();
+  ASSERT_TRUE(a.has_value());
+  ASSERT_TRUE(b.has_value());
+  EXPECT_EQ(*a, *b);
+  EXPECT_EQ(quick.finishedSeed(), slow.finishedSeed());
+  // A cancel while the picks are on their way ends the pinch with nothing.
+  cancelRig.feed(cancelled, TouchPhase::Cancel, 1, 200, 270);
+  EXPECT_EQ(cancelled.state(), PinchSelection::State::Idle);
+  cancelled.onPicks(picks, cancelRig.cam, cancelRig.vp);
+  EXPECT_FALSE(cancelled.takeFinished().has_value());
+}
+
 // A growth engine that records what the pinch asks of it and answers with the reference's voxels
 // in reverse order (the pinch hands them on sorted).
 class RecordingEngine : public GrowthEngine {

@@ -450,6 +450,10 @@ TEST_F(Cli, SimulationOptionsAreCheckedBeforeAnyWork) {
       {"bench mesh --regular-list 0", 2},
       {"bench stability --angles 400", 2},
       {"bench selection --extents 0", 2},
+      {"bench selection --protocol clicks", 2},
+      {"bench selection --gestures 5", 2},
+      {"bench selection --protocol gestures --corrections loose", 2},
+      {"bench selection --protocol gestures --gestures 0", 2},
       {"bench --smoke --quick --out /tmp/handson-never-written", 2},
       {"deform /nonexistent.nii.gz --handle x.nii.gz --translate-mm 1,0,0 -o y.nii.gz --backend gpu", 1},
   };

@@ -157,6 +157,55 @@ TEST(Replay, PinchInSelectModeMakesAHandleAndHandleEditsReplay) {
   fs::remove_all(dir);
 }
 
+TEST(Replay, InSelectModeAPinchAddsToOrRemovesFromTheHandleTappedLastAsOneUndoStep) {
+  // The kidney pinched (a new handle), then "pinch-op add" and a second pinch on it: still one
+  // handle, grown; "pinch-op new" and a third pinch: a second handle; an undo after an added pinch
+  // takes the whole correction back. The phantom's kidney seen from its side, as in
+  // select-kidney-pinch.json.
+  const fs::path dir = fs::temp_directory_path() / ("handson_pinch_op_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  auto pinch = [](double t, int id, int x, int y) {
+    std::ostringstream e;
+    e << "{\"t\": " << t << ", \"touch\": \"down\", \"id\": " << id << ", \"x\": " << x - 5 << ", \"y\": " << y << "},\n"
+      << "{\"t\": " << t << ", \"touch\": \"down\", \"id\": " << id + 1 << ", \"x\": " << x + 5 << ", \"y\": " << y << "},\n"
+      << "{\"t\": " << t + 0.2 << ", \"touch\": \"move\", \"id\": " << id << ", \"x\": " << x - 12 << ", \"y\": " << y << "},\n"
+      << "{\"t\": " << t + 0.2 << ", \"touch\": \"move\", \"id\": " << id + 1 << ", \"x\": " << x + 12 << ", \"y\": " << y << "},\n"
+      << "{\"t\": " << t + 0.4 << ", \"touch\": \"up\", \"id\": " << id + 1 << ", \"x\": " << x + 12 << ", \"y\": " << y << "},\n"
+      << "{\"t\": " << t + 0.4 << ", \"touch\": \"up\", \"id\": " << id << ", \"x\": " << x - 12 << ", \"y\": " << y << "}";
+    return e.str();
+  };
+  auto script = [&](const std::string& name, const std::string& events) {
+    std::ofstream(dir / name) << "{\"format\": \"handson-session\", \"version\": 1, \"volume\": {\"source\": \"phantom\"}, \"viewport\": [512, 512],\n"
+                                 "\"preset\": \"ct-abdomen\", \"mode\": \"select\",\n"
+                                 "\"camera\": {\"target\": [0, 0, 0], \"distance\": 910, \"azimuth_deg\": 90, \"elevation_deg\": 0, \"roll_deg\": 0, \"fov_deg\": 35},\n"
+                                 "\"events\": [\n"
+                              << events << "\n]}\n";
+    std::string out;
+    EXPECT_EQ(run("replay " + (dir / name).string() + " --fps 10 --size 128x128 --quiet --print-handles --sim off", &out), 0) << out;
+    return out;
+  };
+  auto voxels = [](const std::string& out, int id) -> long {  // "handle ID <status> N voxels ..."
+    const auto at = out.find("handle " + std::to_string(id) + " ");
+    if (at == std::string::npos) return -1;
+    const auto end = out.find(" voxels", at);
+    const auto start = out.rfind(' ', end - 1) + 1;
+    return std::stol(out.substr(start, end - start));
+  };
+  const std::string one = script("one.json", pinch(0.0, 1, 202, 270));
+  const std::string added = script("added.json", pinch(0.0, 1, 202, 270) + ",\n{\"t\": 0.6, \"ui\": \"pinch-op\", \"value\": \"add\"},\n" + pinch(0.8, 3, 202, 290));
+  const std::string both = script("both.json", pinch(0.0, 1, 202, 270) + ",\n{\"t\": 0.6, \"ui\": \"pinch-op\", \"value\": \"add\"},\n" + pinch(0.8, 3, 202, 290) +
+                                                   ",\n{\"t\": 1.4, \"ui\": \"pinch-op\", \"value\": \"new\"},\n" + pinch(1.6, 5, 202, 250));
+  const std::string undone = script("undone.json", pinch(0.0, 1, 202, 270) + ",\n{\"t\": 0.6, \"ui\": \"pinch-op\", \"value\": \"add\"},\n" + pinch(0.8, 3, 202, 290) +
+                                                       ",\n{\"t\": 1.4, \"ui\": \"undo\"}");
+  ASSERT_GT(voxels(one, 1), 0) << one;
+  EXPECT_GT(voxels(added, 1), voxels(one, 1)) << added;
+  EXPECT_EQ(voxels(added, 2), -1) << added;
+  EXPECT_GT(voxels(both, 2), 0) << both;
+  EXPECT_EQ(voxels(undone, 1), voxels(one, 1)) << undone;
+  EXPECT_EQ(voxels(undone, 2), -1) << undone;
+  fs::remove_all(dir);
+}
+
 TEST(Replay, APinchGrownOnTheGpuMakesTheSameHandleAsOnTheCpuAndTheChoiceIsReported) {
   // The kidney pinch with its growth forced onto the GPU pass (rounds inside the frames, the live
   // selection painted into the mask on the GPU, the voxels read back when a finger lifts) and onto
@@ -226,6 +275,8 @@ TEST(Replay, APinchGrownOnTheGpuMakesTheSameHandleAsOnTheCpuAndTheChoiceIsReport
   EXPECT_EQ(run("replay " + script.string() + " --selection-rim maybe", &out), 2);
   EXPECT_EQ(run("replay " + script.string() + " --selection-bound sphere", &out), 2);
   EXPECT_NE(out.find("--selection-bound"), std::string::npos) << out;
+  EXPECT_EQ(run("replay " + script.string() + " --selection-corrections loose", &out), 2);
+  EXPECT_NE(out.find("--selection-corrections"), std::string::npos) << out;
   fs::remove_all(dir);
 }
 
