@@ -26,7 +26,12 @@ bool parseHandleStatus(const std::string& s, HandleStatus& out) {
 void HandleSet::snapshot() {
   ++edits_;
   undo_.push_back(handles_);
-  if (undo_.size() > 64) undo_.erase(undo_.begin());
+  trimmed_.reset();
+  if (undo_.size() > 64) {
+    trimmed_ = std::move(undo_.front());
+    undo_.erase(undo_.begin());
+  }
+  clearedRedo_ = std::move(redo_);
   redo_.clear();
 }
 
@@ -68,9 +73,25 @@ int HandleSet::add(std::vector<std::uint32_t> voxels, std::uint32_t seed) {
     h.voxels = std::move(rest);
   }
   erase([](const Handle& h) { return h.voxels.empty(); });
+  claims.erase(std::remove_if(claims.begin(), claims.end(), [&](const Claim& c) { return !find(c.from); }), claims.end());  // ids are reused
   handles_.push_back({id, HandleStatus::Active, std::move(voxels), RigidTransform{}, seed, {}});
   handles_.back().claims = std::move(claims);
   return id;
+}
+
+bool HandleSet::release(int b) {
+  if (!find(b)) return false;
+  snapshot();
+  const Handle hb = *find(b);
+  for (const Claim& c : hb.claims)
+    if (Handle* h = get(c.from)) {
+      std::vector<std::uint32_t> held, u;
+      std::set_intersection(c.voxels.begin(), c.voxels.end(), hb.voxels.begin(), hb.voxels.end(), std::back_inserter(held));
+      std::set_union(h->voxels.begin(), h->voxels.end(), held.begin(), held.end(), std::back_inserter(u));
+      h->voxels = std::move(u);
+    }
+  erase([b](const Handle& h) { return h.id == b; });
+  return true;
 }
 
 bool HandleSet::remove(int id) {
@@ -123,8 +144,9 @@ bool HandleSet::unite(int a, int b, const std::vector<std::uint32_t>& part) {
   };
   for (const Claim& c : hb.claims)
     if (Handle* h = get(c.from)) {
-      std::vector<std::uint32_t> back;
-      std::set_difference(c.voxels.begin(), c.voxels.end(), kept.begin(), kept.end(), std::back_inserter(back));
+      std::vector<std::uint32_t> held, back;  // what b still holds of the claim (a later handle may have taken some)
+      std::set_intersection(c.voxels.begin(), c.voxels.end(), hb.voxels.begin(), hb.voxels.end(), std::back_inserter(held));
+      std::set_difference(held.begin(), held.end(), kept.begin(), kept.end(), std::back_inserter(back));
       gain(*h, back);
     }
   gain(*get(a), kept);
@@ -140,8 +162,9 @@ std::vector<std::uint32_t> HandleSet::voxelsBeforeClaim(int a, int b) const {
   if (hb)
     for (const Claim& c : hb->claims)
       if (c.from == a) {
-        std::vector<std::uint32_t> u;
-        std::set_union(all.begin(), all.end(), c.voxels.begin(), c.voxels.end(), std::back_inserter(u));
+        std::vector<std::uint32_t> held, u;  // what b still holds of its claim on a
+        std::set_intersection(c.voxels.begin(), c.voxels.end(), hb->voxels.begin(), hb->voxels.end(), std::back_inserter(held));
+        std::set_union(all.begin(), all.end(), held.begin(), held.end(), std::back_inserter(u));
         all = std::move(u);
       }
   return all;
@@ -193,6 +216,11 @@ bool HandleSet::revert() {
   handles_ = std::move(undo_.back());
   undo_.pop_back();
   --edits_;
+  // The history as it was before that edit: its redo steps, and the oldest undo step it trimmed.
+  redo_ = std::move(clearedRedo_);
+  clearedRedo_.clear();
+  if (trimmed_) undo_.insert(undo_.begin(), std::move(*trimmed_));
+  trimmed_.reset();
   return true;
 }
 

@@ -7,6 +7,7 @@
 #include <glm/glm.hpp>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,8 @@ class HandleSet {
   /// refused (no voxels, or no free id).
   int add(std::vector<std::uint32_t> voxels, std::uint32_t seed = kNoSeed);
   bool remove(int id);
+  /// Removes b and gives what it still holds of its claims back to the handles it took them from.
+  bool release(int b);
   bool setStatus(int id, HandleStatus s);
   /// a := a ∪ b, b removed. False if either is missing or a == b.
   bool unite(int a, int b);
@@ -68,7 +71,8 @@ class HandleSet {
   /// makes them one undo step.
   std::uint64_t editCount() const { return edits_; }
   void squashSince(std::uint64_t count);
-  /// Takes back the last edit without a redo step (an edit its caller refuses once made).
+  /// Takes back the last edit without a redo step (an edit its caller refuses once made), the undo
+  /// and redo history as they were before it.
   bool revert();
   bool canUndo() const { return !undo_.empty(); }
   bool canRedo() const { return !redo_.empty(); }
@@ -89,6 +93,9 @@ class HandleSet {
   std::vector<Handle> handles_;
   std::vector<std::vector<Handle>> undo_, redo_;
   std::uint64_t edits_ = 0;
+  // What the last snapshot cleared or trimmed, for revert().
+  std::vector<std::vector<Handle>> clearedRedo_;
+  std::optional<std::vector<Handle>> trimmed_;
 };
 
 }  // namespace handson

@@ -40,9 +40,10 @@ void PinchSelection::onTouch(const TouchEvent& e, const TouchInput& input, const
     case State::WaitingForPicks:
     case State::Growing: {
       const bool bothDown = input.find(fingerA_) && input.find(fingerB_);
-      if (!bothDown && state_ == State::WaitingForPicks && e.phase == TouchPhase::Up) {
+      if (!bothDown && state_ == State::WaitingForPicks && e.phase != TouchPhase::Cancel) {
         // A finger lifted before the depth-picks came back (a quick pinch, slow frames): the
-        // selection ends as soon as they do, at the fingers' last spread. (A cancel ends it now.)
+        // selection ends as soon as they do, at the fingers' last spread, whatever the other
+        // finger does meanwhile. (A cancel ends it now.)
         liftedBeforePicks_ = true;
         break;
       }

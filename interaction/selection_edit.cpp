@@ -164,7 +164,7 @@ PinchEdit applyPinch(HandleSet& handles, std::vector<std::uint32_t> voxels, std:
     if (handles.find(target)) uniteHandle(handles, target, b, rule, g);
     else out.handle = b;  // the pinch took all of the target: the union is the pinch
   } else if (handles.find(target) && subtractHandle(handles, target, b, rule, g)) {
-    if (handles.find(b)) handles.remove(b);
+    handles.release(b);  // what the pinch took from other handles goes back to them
   } else {
     handles.revert();
     return {0, "Nothing removed: the pinch would take all of the handle, or none of it lies beyond a neck from the pinch"};

@@ -85,7 +85,7 @@ RegionDistance regionDistance(const std::vector<std::uint32_t>& region, const Vo
     hi = hi.cwiseMax(g.voxelOf(v));
   }
   RegionDistance d{lo - Eigen::Vector3i::Ones(), hi - lo + Eigen::Vector3i::Constant(3), {}};
-  std::vector<std::uint8_t> inside(std::size_t(d.dims.prod()), 0);
+  std::vector<std::uint8_t> inside(std::size_t(d.dims.x()) * std::size_t(d.dims.y()) * std::size_t(d.dims.z()), 0);
   for (std::uint32_t v : region) inside[d.index(g.voxelOf(v))] = 1;
   d.d2 = squaredDistanceToOutside(inside, d.dims, g.spacing);
   return d;

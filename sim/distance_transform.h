@@ -28,7 +28,8 @@ struct RegionDistance {
 };
 /// `region` must not be empty.
 RegionDistance regionDistance(const std::vector<std::uint32_t>& region, const VolumeGeometry& g);
-/// The region's deepest voxel: the largest distance to its outside, the first of `region` on ties.
+/// The region's deepest voxel: the largest distance to its outside, the first of `region` on ties
+/// (`region` not empty).
 std::uint32_t deepestVoxelOf(const std::vector<std::uint32_t>& region, const RegionDistance& d, const VolumeGeometry& g);
 
 }  // namespace handson

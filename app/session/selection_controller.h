@@ -4,9 +4,12 @@
 // live selection and the handles are painted into a CPU copy of the handle-id mask whose changed
 // box is uploaded inside the next frame; handle edits come in as UI actions (recorded and replayed
 // like touches):
-//   handle-status "ID:active|fixed|idle", handle-delete "ID", handle-union "A,B" (A := A ∪ B),
-//   handle-difference "A,B" (A := A \ B), pinch-op "new|add|remove" (what the next pinches do:
-//   a new handle, or a correction of the handle tapped last, else the newest), undo, redo, toggle-lock "z-translation|z-rotation|xy-translation",
+//   handle-status "ID:active|fixed|idle", handle-delete "ID", handle-union "A,B" (A := A ∪ B) and
+//   handle-difference "A,B" (A := A \ B), both under the correction rule (interaction/
+//   selection_edit.h: with neck, the default, a union adds B's lobe its seed lies in and a
+//   difference takes B's part beyond A's narrowest neck), pinch-op "new|add|remove" (what the next
+//   pinches do: a new handle, or a correction of the handle tapped last, else the newest), undo,
+//   redo, toggle-lock "z-translation|z-rotation|xy-translation",
 //   label-handle "I,J,K" (with a label map: the labelled organ at voxel I,J,K becomes a handle - what
 //   a tap on an organ that is no handle yet does in select mode).
 #include <memory>

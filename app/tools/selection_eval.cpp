@@ -136,7 +136,9 @@ std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume&
   for (const auto& organ : organs) {
     const Eigen::Vector3i seed = deepestVoxel(labels, organ.label, ct);
     if (seed.x() < 0) continue;
-    const auto [radius, organVoxels] = organRadiusMm(labels, organ.label, seed);
+    const auto radiusAndCount = organRadiusMm(labels, organ.label, seed);
+    const double radius = radiusAndCount.first;
+    const std::size_t organVoxels = radiusAndCount.second;  // (a named variable: lambdas below capture it)
     for (GrowCriterion c : criteria) {
       GrowParams p;
       p.criterion = c;

@@ -177,7 +177,9 @@ OrganGestures runGestureProtocol(const std::string& dataset, const Volume& ct, c
   if (first.x() < 0) return out;
   std::vector<std::uint8_t> organMask(labels.voxelCount(), 0);
   for (std::size_t v = 0; v < labels.voxelCount(); ++v) organMask[v] = labels.value(v) == float(organ.label);
-  const auto [radius, organVoxels] = organRadiusMm(labels, organ.label, first);
+  const auto radiusAndCount = organRadiusMm(labels, organ.label, first);
+  const double radius = radiusAndCount.first;
+  const std::size_t organVoxels = radiusAndCount.second;
   out.organVoxels = organVoxels;
   PinchSelection pinch(q, protocol.params);
   HandleSet handles;

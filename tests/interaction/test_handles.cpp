@@ -157,6 +157,7 @@ TEST(PinchSelection, AFingerLiftedBeforeThePicksReturnEndsTheSelectionWhenTheyDo
   // The quick pinch: the spread and the lift first.
   quickRig.feed(quick, TouchPhase::Move, 2, 240, 270);
   quickRig.feed(quick, TouchPhase::Up, 1, 200, 270);
+  quickRig.feed(quick, TouchPhase::Move, 2, 260, 270);  // the other finger drifts on: it ended at the lift
   EXPECT_EQ(quick.state(), PinchSelection::State::WaitingForPicks);
   EXPECT_FALSE(quick.takeFinished().has_value());
   quick.onPicks(picks, quickRig.cam, quickRig.vp);

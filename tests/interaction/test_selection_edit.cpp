@@ -218,18 +218,17 @@ TEST(SelectionEdit, APinchThatAddsOrRemovesIsOneUndoStepAndARefusedOneChangesNot
   EXPECT_GE(h.find(1)->voxels.size(), organ.size());
   EXPECT_TRUE(h.undo());
   EXPECT_EQ(h.find(1)->voxels, d.all);
-  EXPECT_TRUE(h.redo());
   // A removal whose seed lies in the handle's own lobe takes nothing: refused, nothing changed,
-  // and no redo step.
-  const auto before = h.find(1)->voxels;
-  EXPECT_TRUE(h.undo());
-  EXPECT_TRUE(h.redo());  // the redo stack is now empty
+  // the undone removal still there to redo.
   const PinchEdit refused = applyPinch(h, organ, d.at(12, 20, 20), PinchOp::Remove, 1, CorrectionRule::Neck, d.g);
   EXPECT_EQ(refused.handle, 0);
   EXPECT_FALSE(refused.refusal.empty());
-  EXPECT_EQ(h.find(1)->voxels, before);
+  EXPECT_EQ(h.find(1)->voxels, d.all);
   EXPECT_EQ(h.handles().size(), 1u);
-  EXPECT_FALSE(h.canRedo());
+  ASSERT_TRUE(h.canRedo());
+  EXPECT_TRUE(h.redo());
+  const auto before = h.find(1)->voxels;
+  EXPECT_LT(before.size(), d.all.size());
   // Add the leak back: one handle, one undo step.
   const PinchEdit added = applyPinch(h, pinch, d.at(30, 20, 20), PinchOp::Add, 1, CorrectionRule::Grown, d.g);
   EXPECT_EQ(added.handle, 1);
@@ -238,6 +237,36 @@ TEST(SelectionEdit, APinchThatAddsOrRemovesIsOneUndoStepAndARefusedOneChangesNot
   EXPECT_EQ(h.find(1)->voxels, before);
   // A correction with no such target makes a new handle.
   EXPECT_EQ(applyPinch(h, pinch, d.at(30, 20, 20), PinchOp::Add, 7, CorrectionRule::Neck, d.g).handle, 2);
+}
+
+TEST(SelectionEdit, ClaimsGiveBackOnlyWhatTheClaimerStillHoldsToHandlesThatStillExist) {
+  // A new handle that empties another: its claim on it is dropped (the id is reused next).
+  HandleSet h;
+  const int a = h.add({1, 2});
+  const int b = h.add({1, 2, 3});
+  ASSERT_EQ(h.find(a), nullptr);
+  const int c = h.add({7});
+  ASSERT_EQ(c, a);
+  EXPECT_EQ(h.voxelsBeforeClaim(c, b), (std::vector<std::uint32_t>{7}));
+  // A claim partly taken on by a third handle: only what the claimer still holds goes back, and
+  // every voxel stays in one handle.
+  HandleSet k;
+  const int x = k.add({1, 2, 3});
+  const int y = k.add({3, 4});
+  const int z = k.add({3});
+  EXPECT_EQ(k.voxelsBeforeClaim(x, y), (std::vector<std::uint32_t>{1, 2}));
+  ASSERT_TRUE(k.unite(x, y, {4}));
+  EXPECT_EQ(k.find(x)->voxels, (std::vector<std::uint32_t>{1, 2, 4}));
+  EXPECT_EQ(k.find(z)->voxels, (std::vector<std::uint32_t>{3}));
+  // Released, a pinch gives back what it took from every handle.
+  HandleSet r;
+  const int p = r.add({1, 2, 3});
+  const int q = r.add({10, 11});
+  const int pinch = r.add({3, 10, 20});
+  ASSERT_TRUE(r.release(pinch));
+  EXPECT_EQ(r.find(p)->voxels, (std::vector<std::uint32_t>{1, 2, 3}));
+  EXPECT_EQ(r.find(q)->voxels, (std::vector<std::uint32_t>{10, 11}));
+  EXPECT_EQ(r.find(pinch), nullptr);
 }
 
 TEST(SelectionEdit, ClaimsAreForgottenWithTheHandleTheyWereTakenFrom) {
