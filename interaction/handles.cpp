@@ -23,6 +23,21 @@ bool parseHandleStatus(const std::string& s, HandleStatus& out) {
   return false;
 }
 
+namespace {
+// h.voxels := h.voxels ∪ voxels (both sorted).
+void gain(Handle& h, const std::vector<std::uint32_t>& voxels) {
+  std::vector<std::uint32_t> u;
+  std::set_union(h.voxels.begin(), h.voxels.end(), voxels.begin(), voxels.end(), std::back_inserter(u));
+  h.voxels = std::move(u);
+}
+// What b still holds of a claim it made (a later handle may have taken some of it on).
+std::vector<std::uint32_t> held(const Claim& c, const Handle& b) {
+  std::vector<std::uint32_t> out;
+  std::set_intersection(c.voxels.begin(), c.voxels.end(), b.voxels.begin(), b.voxels.end(), std::back_inserter(out));
+  return out;
+}
+}  // namespace
+
 void HandleSet::snapshot() {
   ++edits_;
   undo_.push_back(handles_);
@@ -84,12 +99,7 @@ bool HandleSet::release(int b) {
   snapshot();
   const Handle hb = *find(b);
   for (const Claim& c : hb.claims)
-    if (Handle* h = get(c.from)) {
-      std::vector<std::uint32_t> held, u;
-      std::set_intersection(c.voxels.begin(), c.voxels.end(), hb.voxels.begin(), hb.voxels.end(), std::back_inserter(held));
-      std::set_union(h->voxels.begin(), h->voxels.end(), held.begin(), held.end(), std::back_inserter(u));
-      h->voxels = std::move(u);
-    }
+    if (Handle* h = get(c.from)) gain(*h, held(c, hb));
   erase([b](const Handle& h) { return h.id == b; });
   return true;
 }
@@ -110,15 +120,8 @@ bool HandleSet::setStatus(int id, HandleStatus s) {
 }
 
 bool HandleSet::unite(int a, int b) {
-  if (a == b || !find(a) || !find(b)) return false;
-  snapshot();
-  Handle* ha = get(a);
   const Handle* hb = find(b);
-  std::vector<std::uint32_t> all;
-  std::set_union(ha->voxels.begin(), ha->voxels.end(), hb->voxels.begin(), hb->voxels.end(), std::back_inserter(all));
-  ha->voxels = std::move(all);
-  erase([b](const Handle& h) { return h.id == b; });
-  return true;
+  return hb && unite(a, b, std::vector<std::uint32_t>(hb->voxels));  // all of b: nothing goes back
 }
 
 bool HandleSet::subtract(int a, int b) {
@@ -137,16 +140,11 @@ bool HandleSet::unite(int a, int b, const std::vector<std::uint32_t>& part) {
   const Handle hb = *find(b);
   std::vector<std::uint32_t> kept;
   std::set_intersection(part.begin(), part.end(), hb.voxels.begin(), hb.voxels.end(), std::back_inserter(kept));
-  auto gain = [](Handle& h, const std::vector<std::uint32_t>& voxels) {
-    std::vector<std::uint32_t> u;
-    std::set_union(h.voxels.begin(), h.voxels.end(), voxels.begin(), voxels.end(), std::back_inserter(u));
-    h.voxels = std::move(u);
-  };
   for (const Claim& c : hb.claims)
     if (Handle* h = get(c.from)) {
-      std::vector<std::uint32_t> held, back;  // what b still holds of the claim (a later handle may have taken some)
-      std::set_intersection(c.voxels.begin(), c.voxels.end(), hb.voxels.begin(), hb.voxels.end(), std::back_inserter(held));
-      std::set_difference(held.begin(), held.end(), kept.begin(), kept.end(), std::back_inserter(back));
+      const std::vector<std::uint32_t> still = held(c, hb);
+      std::vector<std::uint32_t> back;
+      std::set_difference(still.begin(), still.end(), kept.begin(), kept.end(), std::back_inserter(back));
       gain(*h, back);
     }
   gain(*get(a), kept);
@@ -158,16 +156,11 @@ std::vector<std::uint32_t> HandleSet::voxelsBeforeClaim(int a, int b) const {
   const Handle* ha = find(a);
   const Handle* hb = find(b);
   if (!ha) return {};
-  std::vector<std::uint32_t> all = ha->voxels;
+  Handle before{a, ha->status, ha->voxels, {}, kNoSeed, {}};
   if (hb)
     for (const Claim& c : hb->claims)
-      if (c.from == a) {
-        std::vector<std::uint32_t> held, u;  // what b still holds of its claim on a
-        std::set_intersection(c.voxels.begin(), c.voxels.end(), hb->voxels.begin(), hb->voxels.end(), std::back_inserter(held));
-        std::set_union(all.begin(), all.end(), held.begin(), held.end(), std::back_inserter(u));
-        all = std::move(u);
-      }
-  return all;
+      if (c.from == a) gain(before, held(c, *hb));
+  return before.voxels;
 }
 
 bool HandleSet::subtract(int a, int b, const std::vector<std::uint32_t>& cut) {

@@ -152,8 +152,8 @@ bool parsePinchOp(const std::string& s, PinchOp& out) {
   return false;
 }
 
-PinchEdit applyPinch(HandleSet& handles, std::vector<std::uint32_t> voxels, std::uint32_t seed, PinchOp op, int target, CorrectionRule rule,
-                     const VolumeGeometry& g) {
+PinchEdit applyPinch(HandleSet& handles, std::vector<std::uint32_t> voxels, std::uint32_t seed, const PinchRequest& request, const VolumeGeometry& g) {
+  const auto [op, target, rule] = request;
   const bool correct = op != PinchOp::New && handles.find(target);
   const std::uint64_t start = handles.editCount();
   const int b = handles.add(std::move(voxels), seed);

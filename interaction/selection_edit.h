@@ -63,12 +63,18 @@ struct PinchEdit {
   std::string refusal;  ///< why it was refused ("" if it was not)
 };
 
+/// What a finished pinch is to do: its op, the handle a correction edits, and the rule.
+struct PinchRequest {
+  PinchOp op = PinchOp::New;
+  int target = 0;
+  CorrectionRule rule = CorrectionRule::Neck;
+};
+
 /// Applies a finished pinch (its voxels and seed) to the handles: with New, or a target that does
-/// not exist, a new handle; with Add or Remove a correction of `target` - the pinch made a handle
-/// (claiming its voxels), then uniteHandle, or subtractHandle and the pinch's handle deleted - as
+/// not exist, a new handle; with Add or Remove a correction of the target - the pinch made a handle
+/// (claiming its voxels), then uniteHandle, or subtractHandle and the pinch's handle released - as
 /// one undo step. A refused correction leaves the handles as they were, with no redo step.
-PinchEdit applyPinch(HandleSet& handles, std::vector<std::uint32_t> voxels, std::uint32_t seed, PinchOp op, int target, CorrectionRule rule,
-                     const VolumeGeometry& g);
+PinchEdit applyPinch(HandleSet& handles, std::vector<std::uint32_t> voxels, std::uint32_t seed, const PinchRequest& request, const VolumeGeometry& g);
 
 /// a := a ∪ b under `rule` (one undo step; b removed; refusals as HandleSet::unite). With Neck only
 /// b's voxels on its seed's side of b's narrowest neck between the top its seed climbs to and b's

@@ -131,6 +131,20 @@ void Ui::strainColourBar(const UiStatus& st, const Remember& remember) {
   ImGui::End();
 }
 
+namespace {
+const ImVec4 kOn(0.20f, 0.45f, 0.85f, 1.0f);  // a button whose state is on (the mode, the preset, a fold)
+const ImVec4 kOptionOn(0.85f, 0.45f, 0.20f, 1.0f);  // a mode's option that is on (a lock, what a pinch does)
+constexpr ImGuiWindowFlags kPanel = ImGuiWindowFlags_NoTitleBar | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoMove |
+                                    ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoFocusOnAppearing;
+// A button drawn in `colour` while `on`; true when tapped.
+bool colouredButton(const char* label, ImVec2 size, bool on, const ImVec4& colour = kOn) {
+  if (on) ImGui::PushStyleColor(ImGuiCol_Button, colour);
+  const bool tapped = ImGui::Button(label, size);
+  if (on) ImGui::PopStyleColor();
+  return tapped;
+}
+}  // namespace
+
 // The current mode's own controls under the mode bar: Clip's and Window's hints and reset buttons,
 // Manipulate's axis locks.
 void Ui::modeOptions(const UiStatus& st, const Action& action, float buttonWidth, float buttonHeight) {
@@ -155,10 +169,7 @@ void Ui::modeOptions(const UiStatus& st, const Action& action, float buttonWidth
     ImGui::NewLine();
     const std::pair<const char*, const char*> ops[] = {{"new", "New handle"}, {"add", "Add to handle"}, {"remove", "Remove from handle"}};
     for (const auto& [op, label] : ops) {
-      const bool on = st.pinchOp == op;
-      if (on) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.85f, 0.45f, 0.20f, 1.0f));
-      if (ImGui::Button(label, ImVec2(button.x * 1.4f, button.y))) action("pinch-op", op);
-      if (on) ImGui::PopStyleColor();
+      if (colouredButton(label, ImVec2(button.x * 1.4f, button.y), st.pinchOp == op, kOptionOn)) action("pinch-op", op);
       ImGui::SameLine();
     }
     ImGui::NewLine();
@@ -168,11 +179,8 @@ void Ui::modeOptions(const UiStatus& st, const Action& action, float buttonWidth
     ImGui::NewLine();
     const std::pair<unsigned, const char*> locks[] = {{1u, "z-translation"}, {2u, "z-rotation"}, {4u, "xy-translation"}};
     for (const auto& [bit, name] : locks) {
-      const bool on = (st.locks & bit) != 0;
-      if (on) ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.85f, 0.45f, 0.20f, 1.0f));
       const std::string label = std::string("Lock ") + name;
-      if (ImGui::Button(label.c_str(), ImVec2(button.x * 1.4f, button.y))) action("toggle-lock", name);
-      if (on) ImGui::PopStyleColor();
+      if (colouredButton(label.c_str(), ImVec2(button.x * 1.4f, button.y), (st.locks & bit) != 0, kOptionOn)) action("toggle-lock", name);
       ImGui::SameLine();
     }
     ImGui::NewLine();
@@ -196,19 +204,6 @@ void Ui::fitToWindow() {
     folded_ = true;
   }
 }
-
-namespace {
-const ImVec4 kOn(0.20f, 0.45f, 0.85f, 1.0f);  // a button whose state is on (the mode, the preset, a fold)
-constexpr ImGuiWindowFlags kPanel = ImGuiWindowFlags_NoTitleBar | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoMove |
-                                    ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoFocusOnAppearing;
-// A button drawn in `colour` while `on`; true when tapped.
-bool colouredButton(const char* label, ImVec2 size, bool on, const ImVec4& colour = kOn) {
-  if (on) ImGui::PushStyleColor(ImGuiCol_Button, colour);
-  const bool tapped = ImGui::Button(label, size);
-  if (on) ImGui::PopStyleColor();
-  return tapped;
-}
-}  // namespace
 
 ImVec2 Ui::buttonSize() const { return ImVec2(std::max(kMinTarget, 150.0f * fit_) * scale_, std::max(kMinTarget, 56.0f * fit_) * scale_); }
 

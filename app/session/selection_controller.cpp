@@ -65,7 +65,7 @@ void SelectionController::refreshLive() {
   if (auto done = pinch_.takeFinished()) {
     const auto before = handles_.handles();
     const int target = pinchOp_ == PinchOp::New ? 0 : correctionTarget();
-    correctionNote_ = applyPinch(handles_, std::move(*done), pinch_.finishedSeed(), pinchOp_, target, corrections_, volume_.geometry).refusal;
+    correctionNote_ = applyPinch(handles_, std::move(*done), pinch_.finishedSeed(), {pinchOp_, target, corrections_}, volume_.geometry).refusal;
     picked_.erase(std::remove_if(picked_.begin(), picked_.end(), [&](int id) { return !handles_.find(id); }), picked_.end());
     old.insert(old.end(), live_.begin(), live_.end());
     const auto changed = HandleSet::changedVoxels(before, handles_.handles());

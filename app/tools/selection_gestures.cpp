@@ -195,7 +195,7 @@ OrganGestures runGestureProtocol(const std::string& dataset, const Volume& ct, c
       s.regionVoxels = organVoxels;
       Pinched p = appPinch(pinch, g, first, radius);
       s.pinchVoxels = p.voxels.size();
-      selection = applyPinch(handles, std::move(p.voxels), p.seed, PinchOp::New, 0, protocol.corrections, g).handle;
+      selection = applyPinch(handles, std::move(p.voxels), p.seed, {PinchOp::New, 0, protocol.corrections}, g).handle;
       s.refused = selection == 0;
     } else {
       const ErrorRegion e = largestErrorRegion(organMask, selectedMask, g);
@@ -207,7 +207,7 @@ OrganGestures runGestureProtocol(const std::string& dataset, const Volume& ct, c
       Pinched p = appPinch(pinch, g, s.target, s.spreadMm);
       s.pinchVoxels = p.voxels.size();
       const auto t1 = std::chrono::steady_clock::now();
-      const PinchEdit edit = applyPinch(handles, std::move(p.voxels), p.seed, e.missed ? PinchOp::Add : PinchOp::Remove, selection, protocol.corrections, g);
+      const PinchEdit edit = applyPinch(handles, std::move(p.voxels), p.seed, {e.missed ? PinchOp::Add : PinchOp::Remove, selection, protocol.corrections}, g);
       s.refused = edit.handle == 0;
       if (edit.handle) selection = edit.handle;
       s.editMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();

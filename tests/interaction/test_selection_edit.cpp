@@ -207,10 +207,10 @@ TEST(SelectionEdit, APinchThatAddsOrRemovesIsOneUndoStepAndARefusedOneChangesNot
   const auto organ = voxelsWhere(d.g, Dumbbell::organ);
   const auto pinch = voxelsWhere(d.g, [](const Eigen::Vector3d& p) { return Dumbbell::bridge(p) || Dumbbell::leak(p); });
   HandleSet h;
-  const PinchEdit first = applyPinch(h, d.all, d.at(12, 20, 20), PinchOp::New, 0, CorrectionRule::Neck, d.g);
+  const PinchEdit first = applyPinch(h, d.all, d.at(12, 20, 20), {PinchOp::New, 0, CorrectionRule::Neck}, d.g);
   ASSERT_EQ(first.handle, 1);
   // Remove the leak and the bridge's far half: one handle left, one undo step back to the whole.
-  const PinchEdit removed = applyPinch(h, pinch, d.at(30, 20, 20), PinchOp::Remove, first.handle, CorrectionRule::Neck, d.g);
+  const PinchEdit removed = applyPinch(h, pinch, d.at(30, 20, 20), {PinchOp::Remove, first.handle, CorrectionRule::Neck}, d.g);
   EXPECT_EQ(removed.handle, first.handle);
   EXPECT_TRUE(removed.refusal.empty());
   ASSERT_EQ(h.handles().size(), 1u);
@@ -220,7 +220,7 @@ TEST(SelectionEdit, APinchThatAddsOrRemovesIsOneUndoStepAndARefusedOneChangesNot
   EXPECT_EQ(h.find(1)->voxels, d.all);
   // A removal whose seed lies in the handle's own lobe takes nothing: refused, nothing changed,
   // the undone removal still there to redo.
-  const PinchEdit refused = applyPinch(h, organ, d.at(12, 20, 20), PinchOp::Remove, 1, CorrectionRule::Neck, d.g);
+  const PinchEdit refused = applyPinch(h, organ, d.at(12, 20, 20), {PinchOp::Remove, 1, CorrectionRule::Neck}, d.g);
   EXPECT_EQ(refused.handle, 0);
   EXPECT_FALSE(refused.refusal.empty());
   EXPECT_EQ(h.find(1)->voxels, d.all);
@@ -230,13 +230,13 @@ TEST(SelectionEdit, APinchThatAddsOrRemovesIsOneUndoStepAndARefusedOneChangesNot
   const auto before = h.find(1)->voxels;
   EXPECT_LT(before.size(), d.all.size());
   // Add the leak back: one handle, one undo step.
-  const PinchEdit added = applyPinch(h, pinch, d.at(30, 20, 20), PinchOp::Add, 1, CorrectionRule::Grown, d.g);
+  const PinchEdit added = applyPinch(h, pinch, d.at(30, 20, 20), {PinchOp::Add, 1, CorrectionRule::Grown}, d.g);
   EXPECT_EQ(added.handle, 1);
   EXPECT_EQ(h.find(1)->voxels, d.all);
   EXPECT_TRUE(h.undo());
   EXPECT_EQ(h.find(1)->voxels, before);
   // A correction with no such target makes a new handle.
-  EXPECT_EQ(applyPinch(h, pinch, d.at(30, 20, 20), PinchOp::Add, 7, CorrectionRule::Neck, d.g).handle, 2);
+  EXPECT_EQ(applyPinch(h, pinch, d.at(30, 20, 20), {PinchOp::Add, 7, CorrectionRule::Neck}, d.g).handle, 2);
 }
 
 TEST(SelectionEdit, ClaimsGiveBackOnlyWhatTheClaimerStillHoldsToHandlesThatStillExist) {
