@@ -1,5 +1,7 @@
 #include "camera.h"
 
+#include "interaction/camera_framing.h"
+
 #include <array>
 #include <limits>
 #include <optional>
@@ -93,58 +95,18 @@ std::array<glm::dvec3, 8> volumeBoxCorners(const VolumeGeometry& geometry) {
   return corners;
 }
 
-namespace {
-
-/// The pixel bounding box (lo, hi) of the corners seen by c in a w x h view; false when a corner
-/// lies behind the near plane.
-bool projectedBox(const OrbitCamera& c, const std::array<glm::dvec3, 8>& corners, int w, int h, glm::dvec2& lo, glm::dvec2& hi) {
-  const glm::dmat4 pv = glm::dmat4(c.projection(double(w) / double(h))) * glm::dmat4(c.view());
-  lo = glm::dvec2(std::numeric_limits<double>::infinity());
-  hi = -lo;
-  for (const glm::dvec3& p : corners) {
-    const glm::dvec4 q = pv * glm::dvec4(p, 1.0);
-    if (!(q.w > c.nearPlane)) return false;
-    const glm::dvec2 px((q.x / q.w + 1.0) * 0.5 * w, (q.y / q.w + 1.0) * 0.5 * h);
-    lo = glm::min(lo, px);
-    hi = glm::max(hi, px);
-  }
-  return true;
-}
-
-}  // namespace
-
 std::optional<std::array<double, 4>> projectedVolumeBox(const OrbitCamera& camera, const VolumeGeometry& geometry, int width, int height) {
-  glm::dvec2 lo, hi;
-  if (!projectedBox(camera, volumeBoxCorners(geometry), std::max(width, 1), std::max(height, 1), lo, hi)) return std::nullopt;
-  return std::array<double, 4>{lo.x, lo.y, hi.x, hi.y};
+  const std::array<glm::dvec3, 8> corners = volumeBoxCorners(geometry);
+  return projectedPointsBox(camera, std::vector<glm::dvec3>(corners.begin(), corners.end()), width, height);
 }
 
 OrbitCamera OrbitCamera::framingIn(const VolumeGeometry& geometry, double azimuth, double elevation, int width, int height,
                                    const ScreenArea& area, double fill) {
   const int w = std::max(width, 1), h = std::max(height, 1);
-  OrbitCamera c = framing(geometry, azimuth, elevation, double(w) / double(h));
+  const OrbitCamera c = framing(geometry, azimuth, elevation, double(w) / double(h));
   if (!area.valid() || !(fill > 0.0 && fill <= 1.0)) return c;
   const std::array<glm::dvec3, 8> corners = volumeBoxCorners(geometry);
-  const glm::dvec2 want((area.x1 - area.x0) * w * fill, (area.y1 - area.y0) * h * fill);
-  const glm::dvec2 centre(0.5 * (area.x0 + area.x1) * w, 0.5 * (area.y0 + area.y1) * h);
-  for (int round = 0; round < 60; ++round) {
-    glm::dvec2 lo, hi;
-    if (!projectedBox(c, corners, w, h, lo, hi)) {
-      c.distance *= 1.5;  // a corner behind the eye: back off and try again
-    } else {
-      const double k = std::max((hi.x - lo.x) / want.x, (hi.y - lo.y) / want.y);
-      const glm::dvec2 off = centre - 0.5 * (lo + hi);  // where the box's centre must move on screen
-      const double pix = c.pixelSizeAt(c.distance, h);
-      // Content moves right when the target moves left, down when the target moves up.
-      c.target += -c.right() * (off.x * pix) + c.up() * (off.y * pix);
-      c.distance *= std::clamp(k, 0.5, 2.0);
-      if (std::abs(k - 1.0) < 1e-4 && glm::length(off) < 1e-4 * h) break;
-    }
-    c.nearPlane = std::max(1e-3, 0.01 * c.distance);
-    c.farPlane = c.distance + 2.0 * geometry.diagonalMm();
-  }
-  c.maxDistance = std::max(c.maxDistance, 2.0 * c.distance);
-  return c;
+  return fitPointsFrom(c, std::vector<glm::dvec3>(corners.begin(), corners.end()), FramingView{w, h, area, fill, geometry.diagonalMm()});
 }
 
 ScreenArea largestFreeArea(int width, int height, const std::vector<std::array<double, 4>>& obstacles, double aspect, double marginPx) {

@@ -95,6 +95,8 @@ TransferFunction transferFunctionPreset(const std::string& name) {
                  {300, {1.0f, 0.55f, 0.45f, 0.4f}},
                  {500, {1.0f, 0.95f, 0.88f, 0.8f}},
                  {3071, {1.0f, 1.0f, 1.0f, 0.95f}}};
+    // Drawn for the portal-venous phase: enhanced liver and spleen at 100-120 HU.
+    tf.tissuePeak = 110.0f;
   } else if (name == "ct-soft-tissue") {
     // Without contrast, kidneys (~30 HU), spleen (~45), muscle (~50) and liver (~60) lie within a
     // few tens of HU: fat (-100) is clear, soft tissue from 0 to 90 HU is a visible translucent
@@ -110,6 +112,8 @@ TransferFunction transferFunctionPreset(const std::string& name) {
                  {200, {0.95f, 0.90f, 0.80f, 0.02f}},
                  {400, {1.0f, 0.97f, 0.92f, 0.12f}},
                  {3071, {1, 1, 1, 0.25f}}};
+    // Drawn for an unenhanced abdomen: kidney, spleen, muscle and liver at 30-60 HU.
+    tf.tissuePeak = 45.0f;
   } else if (name == "ct-bone") {
     tf.points = {{-1024, {0, 0, 0, 0}}, {150, {0, 0, 0, 0}}, {250, {0.9f, 0.8f, 0.65f, 0.3f}}, {700, {1, 0.97f, 0.9f, 0.9f}},
                  {3071, {1, 1, 1, 1}}};

@@ -5,6 +5,7 @@
 // preset defined on percentiles. Any of them can be windowed (level, window, opacity) by touch.
 // Opacities are per millimetre of ray (the raymarch corrects them for its step).
 #include <glm/glm.hpp>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,9 @@ struct TransferFunction {
   std::string name;
   bool relative = false;  ///< values are fractions of the volume's [1st, 99th] percentile range
   std::vector<TfPoint> points;  ///< sorted by value; constant extension outside
+  /// The soft tissue the preset was drawn to show: its peak (image units); the automatic window
+  /// (render/auto_window.h) moves it onto a region's. NaN: none.
+  float tissuePeak = std::nanf("");
 
   /// Colour and opacity at an image value (linear between points).
   glm::vec4 evaluate(float value) const;

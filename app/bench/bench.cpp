@@ -58,6 +58,7 @@ int cmdBench(const Words& words) {
   if (!words.empty() && words[0] == "stability") return cmdBenchStability(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "tissue") return cmdBenchTissue(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "hyperelastic") return cmdBenchHyperelastic(Words(words.begin() + 1, words.end()));
+  if (!words.empty() && words[0] == "visibility") return cmdBenchVisibility(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "raymarch") return benchRaymarch(Words(words.begin() + 1, words.end()));
   // The suite: `handson bench --out DIR [--quick]` (the raymarch benchmark writes --csv, not --out).
   if (std::find(words.begin(), words.end(), "--out") != words.end() || std::find(words.begin(), words.end(), "--quick") != words.end())

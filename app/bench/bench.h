@@ -14,6 +14,7 @@ int cmdBenchMesh(const Words& args);
 int cmdBenchStability(const Words& args);
 int cmdBenchTissue(const Words& args);
 int cmdBenchHyperelastic(const Words& args);
+int cmdBenchVisibility(const Words& args);
 int cmdBenchSuite(const Words& args);
 
 }  // namespace handson::cli

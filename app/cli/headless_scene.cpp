@@ -4,6 +4,8 @@
 #include <iostream>
 
 #include "app/io/volume_io.h"
+#include "app/session/clip_framing.h"
+#include "render/auto_window.h"
 #include "app/session/console.h"
 #include "sim/error.h"
 #include "sim/phantom.h"
@@ -17,10 +19,13 @@ const char* const kRenderOptionsHelp =
     "  --preset NAME            transfer function: ct-abdomen, ct-soft-tissue, ct-bone, mri (default: by value range)\n"
     "  --tf FILE                transfer function file: lines 'value r g b a' (opacity per mm)\n"
     "  --camera AZ,EL[,DIST[,ROLL]]  orbit camera in degrees around the volume centre; DIST in mm\n"
-    "                           (0 or omitted: fit the volume); azimuth 0 = anterior view\n"
+    "                           (0 or omitted: fit the volume, or what a clip leaves of it);\n"
+    "                           azimuth 0 = anterior view\n"
     "  --step F                 ray step as a fraction of the smallest voxel spacing (default 0.5)\n"
     "  --clip-box X0,Y0,Z0,X1,Y1,Z1   draw and pick only inside this box (RAS mm)\n"
-    "  --clip-plane NX,NY,NZ,D  draw and pick only where NX*x + NY*y + NZ*z >= D (RAS mm)\n"
+    "  --clip-plane NX,NY,NZ,D  draw and pick only where NX*x + NY*y + NZ*z >= D (RAS mm); with a clip\n"
+    "                           the preset's window follows the clipped region's soft tissue\n"
+    "  --no-auto-window         keep the preset's own window with a clip\n"
     "  --voxels N               resample the volume to about N voxels first\n"
     "  --device NAME            Vulkan device: gpu, cpu, an index or a name substring\n"
     "                           (default: discrete > integrated > CPU; env HANDSON_DEVICE)\n"
@@ -42,6 +47,22 @@ gpu::RenderParams HeadlessScene::params(std::uint32_t pickCount) const {
   const glm::dvec3 eye = camera.eye();
   return makeRenderParams(volume.geometry(), camera.view(), camera.projection(aspect), glm::vec3(eye), settings, pickCount);
 }
+
+namespace {
+
+/// A clipped view's preset windowed onto the clipped region's soft tissue (render/auto_window.h).
+void applyAutoWindow(HeadlessScene& s, bool quiet) {
+  const auto peak = softTissuePeak(s.volume, s.settings.clip);
+  const auto shift = peak ? autoWindowShift(s.tf, *peak) : std::nullopt;
+  if (!shift) return;
+  s.tf = s.tf.windowed(1.0, *shift, 1.0);
+  s.windowShift = *shift;
+  if (!quiet)
+    std::cerr << "automatic window: the clipped region's soft tissue peaks at " << peak->value << " +- " << peak->halfWidth << " (" << s.tf.name
+              << ": level " << (*shift >= 0 ? "+" : "") << *shift << ")\n";
+}
+
+}  // namespace
 
 HeadlessScene openHeadlessScene(const std::string& path, const cli::Args& args) {
   HeadlessScene s;
@@ -73,6 +94,7 @@ HeadlessScene openHeadlessScene(const std::string& path, const cli::Args& args) 
     s.tf = loadTransferFunction(*tfPath);
   } else {
     s.tf = transferFunctionPreset(args.valueOr("--preset", defaultPresetFor(s.volume)));
+    if ((s.settings.clip.box || s.settings.clip.plane) && !args.flag("--no-auto-window")) applyAutoWindow(s, quiet);
   }
 
   const double aspect = double(s.settings.width) / double(s.settings.height);
@@ -93,6 +115,11 @@ HeadlessScene openHeadlessScene(const std::string& path, const cli::Args& args) 
     s.camera.farPlane = dist + 2.0 * s.volume.geometry().diagonalMm();
   }
   s.camera.roll = glm::radians(roll);
+  // A clip without a camera distance frames what it leaves: the clipped part of the volume fills
+  // the view (OrbitCamera's direction and roll kept).
+  if (dist <= 0.0)
+    if (const auto framed = frameClip(s.camera, s.volume.geometry(), s.settings.clip, FramingView{s.settings.width, s.settings.height}))
+      s.camera = *framed;
 
   vk::ContextOptions opts;
   opts.validation = args.flag("--validation");

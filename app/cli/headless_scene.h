@@ -18,7 +18,8 @@ namespace handson {
 /// Options every rendering command accepts.
 inline const std::vector<std::string> kRenderValueOptions = {"--frame", "--size", "--preset", "--tf", "--camera", "--device", "--step", "--voxels",
                                                              "--clip-box", "--clip-plane", "--jitter-phases"};
-inline const std::vector<std::string> kRenderFlagOptions = {"--validation", "--no-skip", "--no-early-termination", "--no-shading", "--no-jitter", "--quiet"};
+inline const std::vector<std::string> kRenderFlagOptions = {"--validation", "--no-skip", "--no-early-termination", "--no-shading", "--no-jitter", "--quiet",
+                                                           "--no-auto-window"};
 extern const char* const kRenderOptionsHelp;
 
 struct HeadlessScene {
@@ -30,6 +31,7 @@ struct HeadlessScene {
   RenderSettings settings;
   int jitterPhases = kStillJitterPhases;  ///< --jitter-phases: a still image averages this many jitter phases
   OrbitCamera camera;
+  double windowShift = 0.0;  ///< the automatic window's level shift (render/auto_window.h; 0: none)
   std::unique_ptr<vk::Context> context;
   std::unique_ptr<VolumeRenderer> renderer;
 

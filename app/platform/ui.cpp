@@ -155,6 +155,10 @@ void Ui::modeOptions(const UiStatus& st, const Action& action, float buttonWidth
     ImGui::TextUnformatted("Drag from a box face's middle to move it; drag elsewhere to cut through the point under the finger (up: deeper)");
     ImGui::PopTextWrapPos();
     if (st.clipped && ImGui::Button("Clear clip", button)) action("clear-clip", "");
+    if (st.clipped) ImGui::SameLine();
+    if (st.clipped && ImGui::Button("Frame clip", button)) action("frame-clip", "");
+    if (st.canGoBack) ImGui::SameLine();
+    if (st.canGoBack && ImGui::Button("Previous view", button)) action("camera-back", "");
   }
   if (st.mode == "window") {
     ImGui::NewLine();
@@ -163,6 +167,8 @@ void Ui::modeOptions(const UiStatus& st, const Action& action, float buttonWidth
                        st.window.scale, st.window.shift, st.window.opacity);
     ImGui::PopTextWrapPos();
     if (!st.window.identity() && ImGui::Button("Reset window", button)) action("reset-window", "");
+    if (!st.window.identity()) ImGui::SameLine();
+    if (ImGui::Button("Auto window", button)) action("auto-window", "");
   }
   if (st.mode == "select") {
     // What the next pinches do: a new handle, or a correction of the handle tapped last (else the newest).

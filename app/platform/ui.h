@@ -56,7 +56,8 @@ struct UiStatus {
   bool hasLabels = false;      ///< a label map is loaded: the Labels button shows
   bool sliding = false;        ///< the handles' interface with the tissue is sliding (else glued)
   bool labelTint = false;      ///< ... and its tint is on
-  bool clipped = false;        ///< a clip box or plane is on (Clip mode shows "Clear clip")
+  bool clipped = false;        ///< a clip box or plane is on (Clip mode shows "Clear clip" and "Frame clip")
+  bool canGoBack = false;      ///< a framing can be undone (Clip mode shows "Previous view")
   WindowLevel window;          ///< the preset's window (Window mode shows it and "Reset window")
   float strainFrom = 0.0f, strainTo = 0.30f;  ///< the overlay's range (RenderSettings)
 };

@@ -198,6 +198,7 @@ struct Viewer::Impl {
   /// A played script's start, as `replay` sets it: its preset, free area, camera and mode (applied
   /// at once, before the frame's touches).
   void startPlay(double t);
+  void followClip(double now);
   bool windowReady();
   void takeCompletedFrames();
   /// The display times of presented frames (VK_KHR_present_wait) into the timing log.
@@ -397,6 +398,7 @@ void Viewer::Impl::updateStatus() {
   status.sliding = deform->interface() == SimSettings::Interface::Sliding;
   status.labelTint = session->labelTint();
   status.clipped = session->clip().box || session->clip().plane;
+  status.canGoBack = session->canGoBack();
   status.window = session->window();
   status.strainFrom = RenderSettings{}.strainFrom;
   status.strainTo = RenderSettings{}.strainTo;
@@ -419,7 +421,19 @@ void Viewer::Impl::updateStatus() {
   status.liveOnGpuMm = selection->liveOnGpu() ? selection->pinch().extentMm() : -1.0;
 }
 
+// A Clip-mode drag that changed the clip frames it and, unless the window was set by hand, fits
+// the window to it (recorded, so a replay does the same; a played script carries its own); then the
+// camera where a framing in progress has it now.
+void Viewer::Impl::followClip(double now) {
+  if (session->takeClipSettled() && !play) {
+    session->apply(uiEvent(now, "frame-clip"));
+    if (session->windowFollowsRegion()) session->apply(uiEvent(now, "auto-window"));
+  }
+  session->advance(now);
+}
+
 void Viewer::Impl::startPlay(double t) {
+  session->stopFraming();  // a repeat starts as the script did
   session->setFramingViewport(play->viewport);  // a reset-camera in the script frames as it did there
   if (play->freeArea) session->setFreeArea(*play->freeArea);  // reset-camera frames where the recording app did
   if (play->camera) play->camera->applyTo(session->camera());
@@ -535,6 +549,7 @@ bool Viewer::Impl::step() {
     updateStatus();
     ui->build(status, seconds(Clock::now(), t0), actions);
     for (const auto& a : actions) session->apply(a);
+    followClip(seconds(Clock::now(), t0));
     driver->refreshTransferFunction();
 
     status.renderWidth = std::max(1, int(std::lround(vp.width * scale)));

@@ -1,5 +1,6 @@
 #include "app/session/frame_driver.h"
 
+#include "render/auto_window.h"
 #include "render/transfer_function.h"
 
 #include <algorithm>
@@ -10,10 +11,21 @@
 namespace handson {
 
 bool FrameDriver::applyUi(const ScriptEvent& e) {
+  if (e.action == "auto-window") return applyAutoWindow();
   if (e.action != "set-interface") return false;
   const auto i = parseInterface(e.value);
   if (!i) return false;  // refused: an unknown interface
   deform_.setInterface(*i);
+  return true;
+}
+
+bool FrameDriver::applyAutoWindow() {
+  // The preset's ramps on the soft tissue of what the clip leaves (the whole volume without one);
+  // refused where there is none (too few soft-tissue voxels) or the preset has no reference.
+  const auto peak = softTissuePeak(volume_, session_.clip());
+  const auto shift = peak ? autoWindowShift(transferFunctionPreset(session_.preset()), *peak) : std::nullopt;
+  if (!shift) return false;
+  session_.setAutomaticWindow(WindowLevel{1.0, *shift, session_.window().opacity});
   return true;
 }
 

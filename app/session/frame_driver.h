@@ -30,7 +30,9 @@ class FrameDriver {
     session_.addUiExtension([this](const ScriptEvent& e) { return applyUi(e); });
   }
 
-  /// The simulation's UI actions: "set-interface" sliding|glued (DeformationController::setInterface).
+  /// The UI actions that need the volume or the simulation: "set-interface" sliding|glued
+  /// (DeformationController::setInterface) and "auto-window" (the session's window fitted to the
+  /// soft tissue of what the clip leaves: render/auto_window.h; refused where there is none).
   bool applyUi(const ScriptEvent& e);
   /// The session's transfer function, when an applied event changed its preset.
   void refreshTransferFunction();
@@ -70,6 +72,7 @@ class FrameDriver {
   void completed(const FrameResult& result);
 
  private:
+  bool applyAutoWindow();
   const Volume& volume_;
   const QuantizedVolume& q_;
   Session& session_;

@@ -33,6 +33,15 @@
 namespace handson {
 
 namespace {
+
+// Through the last event, plus one; a camera still moving then (a framing) adds the frames it
+// takes to settle, so that the replay ends where the session comes to rest.
+int framesToRest(const SessionScript& script, double fps) {
+  double end = script.duration();
+  for (const ScriptEvent& e : script.events)
+    if (!e.isTouch && (e.action == "frame-clip" || e.action == "camera-back")) end = std::max(end, e.t + Session::kFramingSeconds);
+  return int(std::floor(end * fps)) + 2;
+}
 using Clock = std::chrono::steady_clock;
 double seconds(Clock::time_point t, Clock::time_point t0) { return std::chrono::duration<double>(t - t0).count(); }
 
@@ -217,7 +226,7 @@ int runReplay(const ReplayOptions& o) {
   }
 
   if (o.frames < 0) throw Error("the number of frames must not be negative");
-  const int frames = o.frames > 0 ? o.frames : int(std::floor(script.duration() * o.fps)) + 2;  // through the last event, plus one
+  const int frames = o.frames > 0 ? o.frames : framesToRest(script, o.fps);
   std::size_t next = 0, refused = 0;
   LatencyLog log(o.timings.empty() ? kSummaryFrames : 0);  // bounded unless the whole log is to be written
   log.setNotes(kReplayLogNotes);
@@ -245,6 +254,7 @@ int runReplay(const ReplayOptions& o) {
         ft.inputLast = now;
         ++ft.inputCount;
       }
+      session.advance(frameTime);  // a framing's camera move, on the script's clock
       driver.refreshTransferFunction();
       FrameRequest req = driver.request(vp, vp.width, vp.height);
       req.readbackImage = !o.framesOut.empty() || exporter.pending();

@@ -21,6 +21,7 @@ Session::Session(const VolumeGeometry& geometry, const Viewport& viewport, std::
 }
 
 void Session::resetCamera() {
+  move_.reset();
   const Viewport& vp = framingViewport_ ? *framingViewport_ : gestures_.viewport();
   const double az = glm::radians(kDefaultAzimuthDeg), el = glm::radians(kDefaultElevationDeg);
   camera_ = freeArea_.whole() ? OrbitCamera::framing(geometry_, az, el, double(vp.width) / double(vp.height))
@@ -61,8 +62,12 @@ bool parseWindow(const std::string& value, WindowLevel& w) {
 }  // namespace
 
 bool Session::apply(const ScriptEvent& e) {
+  // A framing in progress is where it is at the event's time (not at the last frame's): a finger
+  // stops it there, a new framing starts from there, live and in a replay alike.
+  if (move_) advance(e.t);
   bool ok = true;
   if (e.isTouch) {
+    move_.reset();  // a finger stops a framing where it is: the gesture acts on the camera shown
     ok = gestures_.handle(e.touch);
   } else if (e.action == "set-mode") {
     InteractionMode m;
@@ -74,17 +79,27 @@ bool Session::apply(const ScriptEvent& e) {
     if (ok && e.value != preset_) {
       preset_ = e.value;
       window_ = {};
+      windowAuto_ = false;
       presetChanged_ = true;
     }
   } else if (e.action == "set-window" || e.action == "reset-window") {
     WindowLevel w;
     ok = e.action == "reset-window" || parseWindow(e.value, w);
+    if (ok) windowAuto_ = false;
     if (ok && !(w == window_)) {
       window_ = w;
       presetChanged_ = true;
     }
   } else if (e.action == "reset-camera") {
     resetCamera();
+  } else if (e.action == "frame-clip") {
+    const Viewport& vp = framingViewport_ ? *framingViewport_ : gestures_.viewport();
+    const std::optional<OrbitCamera> to = frameClip(camera_, geometry_, clip_, FramingView{vp.width, vp.height, freeArea_});
+    const OrbitCamera before = camera_;
+    ok = frameTo(to, e.t);
+    if (ok) beforeFraming_ = before;
+  } else if (e.action == "camera-back") {
+    ok = frameTo(std::exchange(beforeFraming_, std::nullopt), e.t);
   } else if (e.action == "toggle-strain") {
     strainOverlay_ = !strainOverlay_;
   } else if (e.action == "toggle-limits") {
@@ -103,6 +118,30 @@ bool Session::apply(const ScriptEvent& e) {
   }
   if (ok && recording_) script_.events.push_back(e);
   return ok;
+}
+
+void Session::setAutomaticWindow(const WindowLevel& w) {
+  if (!(w == window_)) presetChanged_ = true;
+  window_ = w;
+  windowAuto_ = true;
+}
+
+bool Session::frameTo(std::optional<OrbitCamera> to, double t) {
+  if (!to) return false;
+  gestures_.cancel();
+  move_ = CameraMove{camera_, *to, t, kFramingSeconds};
+  return true;
+}
+
+void Session::stopFraming() {
+  move_.reset();
+  beforeFraming_.reset();
+}
+
+void Session::advance(double t) {
+  if (!move_) return;
+  camera_ = move_->at(t);
+  if (move_->done(t)) move_.reset();
 }
 
 void Session::startRecording(const SessionScript& header) {

@@ -9,7 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "app/session/clip_framing.h"
 #include "app/session/session_script.h"
+#include "interaction/camera_framing.h"
 #include "interaction/gesture.h"
 #include "interaction/view_adjust.h"
 #include "render/render_params.h"
@@ -35,6 +37,24 @@ class Session {
   /// camera resets as where it was recorded whatever the window's aspect); unset: the viewport.
   void setFramingViewport(const std::optional<Viewport>& v) { framingViewport_ = v; }
 
+  /// Framing the clip: the "frame-clip" action moves the camera (its direction kept) so that the
+  /// volume's clipped part fills the free area (refused when nothing is clipped or nothing is
+  /// left), "camera-back" returns to the camera before the last framing (refused when there is
+  /// none). Both move it over kFramingSeconds from the event's time, as advance() is called: a
+  /// touch stops the move where it is, reset-camera ends it.
+  static constexpr double kFramingSeconds = 0.35;
+  /// The camera at time t (the clock of the events: a replay's frame times, the window's seconds):
+  /// called before each frame.
+  void advance(double t);
+  bool cameraMoving() const { return move_.has_value(); }
+  /// No framing in progress and none to go back from (a played script's start).
+  void stopFraming();
+  bool canGoBack() const { return beforeFraming_.has_value(); }
+  /// True once after a Clip-mode drag that changed the clip has ended (its plane's pick landed):
+  /// the live window then frames the clip with a recorded "frame-clip" (a replay plays the
+  /// recorded action instead).
+  bool takeClipSettled() { return std::exchange(clipSettled_, false); }
+
   OrbitCamera& camera() { return camera_; }
   const OrbitCamera& camera() const { return camera_; }
   GestureRecognizer& gestures() { return gestures_; }
@@ -42,6 +62,12 @@ class Session {
   /// The preset's window, level and opacity (the "set-window" action "SCALE,SHIFT,OPACITY",
   /// "reset-window", and the Window mode's drags; a new preset starts from the identity).
   const WindowLevel& window() const { return window_; }
+  /// The automatic window (the "auto-window" action, which the frame driver answers with the
+  /// region's soft-tissue peak: render/auto_window.h): set here, it follows the region until the
+  /// window is set by hand (a Window-mode drag, set-window) or the preset changes.
+  void setAutomaticWindow(const WindowLevel& w);
+  /// The window is the preset's own or automatic: a framing of the clip may fit it to the region.
+  bool windowFollowsRegion() const { return window_.identity() || windowAuto_; }
   /// True once after the preset or its window changed (the renderer re-uploads the table).
   bool takePresetChanged() { return std::exchange(presetChanged_, false); }
   /// The strain overlay (the "toggle-strain" action): tissue coloured by its strain while deforming.
@@ -84,8 +110,14 @@ class Session {
   bool labelTint_ = false;
   Clip clip_;
   WindowLevel window_;
+  bool windowAuto_ = false;
   ScreenArea freeArea_;
   std::optional<Viewport> framingViewport_;
+  std::optional<CameraMove> move_;            ///< a framing in progress
+  std::optional<OrbitCamera> beforeFraming_;  ///< where "camera-back" returns
+  bool clipSettled_ = false;
+  bool frameTo(std::optional<OrbitCamera> to, double t);
+  ClipRegion dragStartClip_;                  ///< the clip when the Clip-mode drag began
   /// A Clip or Window mode drag in progress (app/session/session_view_gestures.cpp).
   struct ViewDrag {
     enum class Kind { None, Face, Plane, Window } kind = Kind::None;
@@ -102,6 +134,7 @@ class Session {
   void onClipTouch(const TouchEvent& e, const TouchInput& input);
   void onWindowTouch(const TouchEvent& e, const TouchInput& input);
   void applyPlaneDrag();
+  void endClipDrag();
   bool recording_ = false;
   SessionScript script_;
   std::vector<std::function<bool(const ScriptEvent&)>> uiExtensions_;

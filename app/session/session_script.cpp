@@ -156,7 +156,8 @@ SessionScript parseSessionScript(const std::string& text, const std::string& nam
       } else {
         static const char* const kActions[] = {"set-preset", "reset-camera", "handle-status", "handle-delete", "handle-union",
                                                 "handle-difference", "undo", "redo", "toggle-lock", "toggle-strain", "toggle-limits", "export", "label-handle",
-                                                "toggle-labels", "set-clip-box", "set-clip-plane", "clear-clip", "set-window", "reset-window", "pinch-op"};
+                                                "toggle-labels", "set-clip-box", "set-clip-plane", "clear-clip", "set-window", "reset-window", "pinch-op",
+                                                "frame-clip", "camera-back", "auto-window"};
         if (ev.action == "set-interface" && !parseInterface(ev.value)) p.fail(where + ": the interface must be sliding or glued, not \"" + ev.value + "\"");
         if (ev.action != "set-interface" && std::find(std::begin(kActions), std::end(kActions), ev.action) == std::end(kActions))
           p.fail(where + ": unknown UI action \"" + ev.action + "\"");

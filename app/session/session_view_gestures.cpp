@@ -18,6 +18,7 @@ void Session::onClipTouch(const TouchEvent& e, const TouchInput& input) {
     drag_ = {};
     drag_.finger = e.id;
     drag_.startPx = e.px;
+    dragStartClip_ = clip_;
     if (clip_.box) {
       drag_.lo = glm::dvec3(clip_.lo);
       drag_.hi = glm::dvec3(clip_.hi);
@@ -53,7 +54,12 @@ void Session::onClipTouch(const TouchEvent& e, const TouchInput& input) {
     }
   }
   if ((e.phase == TouchPhase::Up || e.phase == TouchPhase::Cancel) && input.fingers().empty() && !drag_.pickWanted && !drag_.pickPending)
-    drag_.kind = ViewDrag::Kind::None;
+    endClipDrag();
+}
+
+void Session::endClipDrag() {
+  drag_.kind = ViewDrag::Kind::None;
+  if (!(clip_ == dragStartClip_)) clipSettled_ = true;
 }
 
 void Session::applyPlaneDrag() {
@@ -75,7 +81,7 @@ void Session::clipPicked(const std::optional<glm::dvec3>& world) {
   drag_.pickPending = false;
   drag_.plane = viewPlaneThrough(camera_, world.value_or(camera_.target));
   applyPlaneDrag();
-  if (gestures_.input().fingers().empty()) drag_.kind = ViewDrag::Kind::None;
+  if (gestures_.input().fingers().empty()) endClipDrag();
 }
 
 void Session::onWindowTouch(const TouchEvent& e, const TouchInput& input) {
@@ -106,6 +112,7 @@ void Session::onWindowTouch(const TouchEvent& e, const TouchInput& input) {
   const WindowLevel w = windowLevelDrag(drag_.window, centroid() - drag_.startPx, ratio, gestures_.viewport(), drag_.width);
   if (!(w == window_)) {
     window_ = w;
+    windowAuto_ = false;  // set by hand: it stays where the fingers put it
     presetChanged_ = true;
   }
 }

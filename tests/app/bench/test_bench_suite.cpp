@@ -143,3 +143,38 @@ TEST_F(Bench, TheHyperelasticBenchmarkComparesTheTwoFineReferences) {
   }
   EXPECT_GT(rows[1][2], rows[0][2]);
 }
+
+TEST_F(Bench, TheVisibilityBenchmarkMeasuresEachOrgansHitsAndColourDifference) {
+  // `handson bench visibility` on the phantom (no shared data given): its kidneys and liver, a 96 px
+  // view and a 24 x 24 grid: one row each with the figures, consistent (the organ's hits
+  // among the hits, among the grid points), the anterior liver seen, a picture per organ; a grid
+  // finer than the view is refused.
+  const std::string dir = (scratch / "visibility").string();
+  const CliRun r = runHandson("bench visibility --out " + dir + " --data /nonexistent --size 96 --grid 24", 300);
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream csv(dir + "/visibility.csv");
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "volume,organ,label,preset,azimuth_deg,window_shift,grid_points,hits,organ_hits,organ_share,delta_e");
+  std::map<std::string, std::vector<std::string>> rows;
+  while (std::getline(csv, line)) {
+    std::stringstream ss(line);
+    std::vector<std::string> c;
+    for (std::string cell; std::getline(ss, cell, ',');) c.push_back(cell);
+    ASSERT_EQ(c.size(), 11u) << line;
+    EXPECT_EQ(c[0], "phantom");
+    EXPECT_EQ(c[6], "576");
+    const int hits = std::stoi(c[7]), organ = std::stoi(c[8]);
+    EXPECT_LE(organ, hits) << line;
+    EXPECT_LE(hits, 576) << line;
+    EXPECT_NEAR(std::stod(c[9]), organ / 576.0, 1e-4) << line;
+    EXPECT_GE(std::stod(c[10]), 0.0) << line;
+    EXPECT_TRUE(std::isfinite(std::stod(c[10]))) << line;
+    EXPECT_TRUE(std::filesystem::exists(dir + "/visibility_phantom_" + c[1] + ".png")) << c[1];
+    rows[c[1]] = c;
+  }
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_GT(std::stoi(rows["liver"][8]), 50) << "the liver lies under the anterior wall";
+  EXPECT_EQ(rows["liver"][4], "0");
+  EXPECT_EQ(runHandson("bench visibility --out " + dir + " --data /nonexistent --size 96 --grid 200").status, 2);
+}

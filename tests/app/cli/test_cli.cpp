@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 
 #include <array>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -204,6 +205,30 @@ TEST_F(Cli, RenderClipsAndRefusesMalformedClipValues) {
   const auto a = handson::readPng(p("plain.png"), w, h), b = handson::readPng(p("plane.png"), w, h), c = handson::readPng(p("box.png"), w, h);
   EXPECT_NE(a, b);
   EXPECT_NE(a, c);
+  // Without a camera distance the clip is framed: what it leaves of the volume spans at least 60 %
+  // of the view's shorter side (measured: the rows and columns holding anything drawn, against the
+  // background in the corner), more than the same box seen from 600 mm.
+  ASSERT_EQ(runHandson("render --size 64x48 --quiet --camera 90,0,600 -o " + p("box-far.png") + " --clip-box -40,-120,-200,40,-30,200").status, 0);
+  ASSERT_EQ(runHandson("render --size 64x48 --quiet --camera 90,0 -o " + p("box-framed.png") + " --clip-box -40,-120,-200,40,-30,200").status, 0);
+  auto drawnSpan = [&](const std::string& file) {
+    int pw = 0, ph = 0;
+    const auto px = handson::readPng(file, pw, ph);
+    int x0 = pw, x1 = -1, y0 = ph, y1 = -1;
+    for (int y = 0; y < ph; ++y)
+      for (int x = 0; x < pw; ++x) {
+        int diff = 0;
+        for (int k = 0; k < 3; ++k) diff += std::abs(int(px[std::size_t(4 * (y * pw + x) + k)]) - int(px[std::size_t(k)]));
+        if (diff <= 12) continue;
+        x0 = std::min(x0, x);
+        x1 = std::max(x1, x);
+        y0 = std::min(y0, y);
+        y1 = std::max(y1, y);
+      }
+    return std::max(x1 - x0 + 1, y1 - y0 + 1);
+  };
+  const int framed = drawnSpan(p("box-framed.png")), far = drawnSpan(p("box-far.png"));
+  EXPECT_GE(framed, int(0.6 * 48)) << far;
+  EXPECT_GT(framed, far + 8);
   for (const char* bad : {"--clip-box 1,2,3", "--clip-box 10,0,0,0,1,1", "--clip-box 0,0,0,1,1,nan", "--clip-plane 0,0,0,5", "--clip-plane 1,0,0"}) {
     r = runHandson(common + p("bad.png") + " " + bad);
     EXPECT_EQ(r.status, 2) << bad << "\n" << r.output;
