@@ -25,7 +25,7 @@ float sampleOffset(const gpu::RenderParams& P, int x, int y) {
 
 struct Sampler {
   const QuantizedVolume& v;
-  const std::vector<glm::vec4>& lut;
+  const TfTable& lut;
   const std::vector<std::uint32_t>& occ;
   const gpu::RenderParams& P;
   const std::vector<std::uint8_t>* mask;
@@ -119,11 +119,28 @@ struct Sampler {
         }
     return acc;
   }
-  glm::vec4 transfer(float val) const {
+  // As march_common.glsl's transferRow, transfer, transfer2 and transferAt (the table's gradient
+  // axis, gradientTop, is what the renderer puts in RenderParams.tfGradient.x).
+  glm::vec4 transferRow(std::uint32_t row, float val) const {
     const float x = std::clamp(val, 0.0f, 1.0f) * float(gpu::kTfEntries - 1);
     const int i0 = int(std::floor(x));
     const int i1 = std::min(i0 + 1, int(gpu::kTfEntries) - 1);
-    return glm::mix(lut[std::size_t(i0)], lut[std::size_t(i1)], x - float(i0));
+    const std::size_t base = std::size_t(row) * gpu::kTfEntries;
+    return glm::mix(lut.entries[base + std::size_t(i0)], lut.entries[base + std::size_t(i1)], x - float(i0));
+  }
+  glm::vec4 transfer(float val) const { return transferRow(0, val); }
+  glm::vec4 transfer2(float val, float g) const {
+    const float y = std::clamp(g / lut.gradientTop, 0.0f, 1.0f) * float(gpu::kTfGradientRows - 1);
+    const std::uint32_t r0 = std::uint32_t(std::floor(y));
+    const std::uint32_t r1 = std::min(r0 + 1u, gpu::kTfGradientRows - 1u);
+    return glm::mix(transferRow(r0, val), transferRow(r1, val), y - float(r0));
+  }
+  glm::vec3 worldGradient(glm::vec3 idx) const { return glm::transpose(glm::mat3(P.worldToIndex)) * gradientIndex(idx); }
+  bool transparentAtAnyGradient(float val) const { return transferRow(gpu::kTfGradientRows, val).a <= 0.0f; }
+  glm::vec4 transferAt(glm::vec3 idx, float val) const {
+    if (!(lut.gradientTop > 0.0f)) return transfer(val);
+    if (transparentAtAnyGradient(val)) return glm::vec4(0.0f);
+    return transfer2(val, glm::length(worldGradient(idx)));
   }
   bool setupRay(glm::vec2 ndc, glm::vec3& originW, glm::vec3& dirW, float& t0, float& t1) const {
     const glm::vec4 nearH = P.invViewProj * glm::vec4(ndc, 0.0f, 1.0f);
@@ -205,7 +222,6 @@ struct Sampler {
     if (setupRay(ndc, originW, dirW, t0, t1)) {
       const glm::vec3 o = glm::vec3(P.worldToIndex * glm::vec4(originW, 1.0f));
       const glm::vec3 d = glm::mat3(P.worldToIndex) * dirW;
-      const glm::mat3 gradToWorld = glm::transpose(glm::mat3(P.worldToIndex));
       const float step = P.quality.x > 0.0f ? P.march.x * P.quality.x : P.march.x;
       std::uint32_t n = 0, taken = 0;
       float occupiedUntil = -1.0f;
@@ -219,7 +235,10 @@ struct Sampler {
         std::uint32_t id = 0;
         const float value = materialAt(idx, id);
         if (value < 0.0f) continue;
-        const glm::vec4 s = transfer(value);
+        const bool overGradient = lut.gradientTop > 0.0f;  // the gradient once, for the table and the shading
+        if (overGradient && transparentAtAnyGradient(value)) continue;
+        glm::vec3 g = overGradient ? worldGradient(idx) : glm::vec3(0.0f);
+        const glm::vec4 s = overGradient ? transfer2(value, glm::length(g)) : transfer(value);
         if (s.a <= 0.0f) continue;
         const float a = correctedAlpha(s.a, step);
         glm::vec3 c(s);
@@ -228,7 +247,7 @@ struct Sampler {
         if (flags & gpu::kFlagStrainOverlay) c = strainTint(c, idx);
         if (flags & gpu::kFlagLimitHighlight) c = limitTint(c, idx);
         if (flags & gpu::kFlagShading) {
-          const glm::vec3 g = gradToWorld * gradientIndex(idx);
+          if (!overGradient) g = worldGradient(idx);
           const float gl = glm::length(g);
           if (gl > 1e-6f) {
             const float ndl = std::abs(glm::dot(g / gl, dirW));
@@ -269,7 +288,7 @@ struct Sampler {
       std::uint32_t id = 0;
       const float value = materialAt(idx, id);
       if (value < 0.0f) continue;
-      const glm::vec4 s = transfer(value);
+      const glm::vec4 s = transferAt(idx, value);
       if (s.a <= 0.0f) continue;
       const float before = alpha;
       alpha += (1.0f - alpha) * correctedAlpha(s.a, step);
@@ -285,7 +304,7 @@ struct Sampler {
             if (u >= reach) break;
             std::uint32_t hid = 0;
             const float hv = materialAt(o + u * d, hid);
-            if (hid != 0 && hv >= 0.0f && transfer(hv).a > 0.0f) {
+            if (hid != 0 && hv >= 0.0f && transferAt(o + u * d, hv).a > 0.0f) {
               r.voxel.w = int(hid);
               break;
             }

@@ -8,13 +8,14 @@
 #include <vector>
 
 #include "shaders/shared.h"
+#include "tf_table.h"
 #include "volume_texture.h"
 
 namespace handson {
 
 struct ReferenceScene {
   const QuantizedVolume* volume = nullptr;
-  const std::vector<glm::vec4>* lut = nullptr;
+  const TfTable* lut = nullptr;
   const std::vector<std::uint32_t>* occupancy = nullptr;
   const std::vector<std::uint8_t>* mask = nullptr;         ///< handle ids on the volume grid (null: none)
   const std::vector<glm::vec4>* handleTints = nullptr;     ///< gpu::kMaxHandleIds entries

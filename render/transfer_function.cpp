@@ -26,18 +26,66 @@ glm::vec4 TransferFunction::evaluate(float value) const {
   return points.back().rgba;
 }
 
-std::vector<glm::vec4> TransferFunction::lookupTable(const QuantizedVolume& volume) const {
+namespace {
+
+// The gradient axis at a magnitude: opacity factor (x) and tint (y..: rgb, weight), linear between
+// points, constant beyond.
+struct GradientSample {
+  float opacity = 1.0f;
+  glm::vec4 tint{0.0f};
+};
+
+GradientSample gradientAt(const std::vector<TfGradientPoint>& g, float magnitude) {
+  if (g.empty()) return {};
+  if (!(magnitude > g.front().magnitude)) return {g.front().opacity, g.front().tint};
+  if (magnitude >= g.back().magnitude) return {g.back().opacity, g.back().tint};
+  for (std::size_t i = 1; i < g.size(); ++i) {
+    if (magnitude > g[i].magnitude) continue;
+    const float span = g[i].magnitude - g[i - 1].magnitude;
+    const float t = span > 0.0f ? (magnitude - g[i - 1].magnitude) / span : 1.0f;
+    return {g[i - 1].opacity + t * (g[i].opacity - g[i - 1].opacity), glm::mix(g[i - 1].tint, g[i].tint, t)};
+  }
+  return {g.back().opacity, g.back().tint};
+}
+
+}  // namespace
+
+glm::vec4 TransferFunction::evaluate(float value, float gradientMagnitude) const {
+  glm::vec4 c = evaluate(value);
+  if (gradient.empty()) return c;
+  const GradientSample s = gradientAt(gradient, gradientMagnitude);
+  const glm::vec3 rgb = glm::mix(glm::vec3(c), glm::vec3(s.tint), std::clamp(s.tint.a, 0.0f, 1.0f));
+  return {rgb, std::min(1.0f, c.a * std::max(s.opacity, 0.0f))};
+}
+
+// Table entry (row r, column i) = evaluate(value of column i, magnitude of row r), both in the
+// function's own units (a relative function's values and magnitudes are fractions of the volume's
+// [p1, p99] range). The row axis in the shader's units: normalized value (0..1 over the volume's
+// window) per mm, so gradientTop = the last point's magnitude in image units / (hi - lo).
+TfTable TransferFunction::lookupTable(const QuantizedVolume& volume) const {
   float base = 0.0f, scale = 1.0f;
   if (relative) {
     base = volume.percentile(0.01);
     scale = std::max(volume.percentile(0.99) - base, 1e-6f);
   }
-  std::vector<glm::vec4> lut(gpu::kTfEntries);
-  for (std::uint32_t i = 0; i < gpu::kTfEntries; ++i) {
-    const float v = volume.toValue(float(i) / float(gpu::kTfEntries - 1));
-    lut[i] = glm::clamp(evaluate(relative ? (v - base) / scale : v), glm::vec4(0.0f), glm::vec4(1.0f));
+  TfTable t;
+  const float top = gradient.empty() ? 0.0f : gradient.back().magnitude;
+  t.rows = top > 0.0f ? gpu::kTfGradientRows : 1u;
+  t.gradientTop = t.rows > 1 ? top * scale / std::max(volume.hi - volume.lo, 1e-6f) : 0.0f;
+  t.entries.assign(std::size_t(t.storedRows()) * gpu::kTfEntries, glm::vec4(0.0f));
+  for (std::uint32_t r = 0; r < t.rows; ++r) {
+    const float g = t.rows > 1 ? top * float(r) / float(t.rows - 1) : 0.0f;
+    for (std::uint32_t i = 0; i < gpu::kTfEntries; ++i) {
+      const float v = volume.toValue(float(i) / float(gpu::kTfEntries - 1));
+      glm::vec4& e = t.entries[std::size_t(r) * gpu::kTfEntries + i];
+      e = glm::clamp(evaluate(relative ? (v - base) / scale : v, g), glm::vec4(0.0f), glm::vec4(1.0f));
+      if (t.rows > 1) {
+        glm::vec4& envelope = t.entries[std::size_t(t.rows) * gpu::kTfEntries + i];
+        envelope = glm::max(envelope, e);
+      }
+    }
   }
-  return lut;
+  return t;
 }
 
 float TransferFunction::visibleFrom() const {
@@ -74,8 +122,37 @@ TransferFunction TransferFunction::windowed(double scale, double shift, double o
     p.value = float(a + (double(p.value) - a) * scale + shift);
     p.rgba.a = float(std::min(1.0, double(p.rgba.a) * opacity));
   }
+  for (auto& g : tf.gradient) g.magnitude = float(double(g.magnitude) * scale);
   return tf;
 }
+
+namespace {
+
+// Organs told apart: soft tissues a few tens of HU apart (unenhanced kidney ~30, spleen ~45, muscle
+// ~50, liver ~60) get hues around the colour circle - a step of 15 HU is a step of hue (CIELAB
+// differences of 30-60 between neighbours) - fat clear, bone a thin white. The gradient axis makes
+// boundaries (organ against fat: 50-100 HU/mm; the CT's noise alone gives 10-20 HU/mm) more opaque
+// and darkens them a little, and interiors more transparent, so each organ's surface reads as one
+// outline. Drawn for an unenhanced abdomen (peak 45 HU); the automatic window moves it onto a
+// region's own soft-tissue peak, contrast or not.
+void ctOrgans(TransferFunction& tf) {
+  tf.points = {{-1024, {0, 0, 0, 0}},
+               {-30, {0, 0, 0, 0}},
+               {0, {0.55f, 0.65f, 0.90f, 0.0f}},
+               {15, {0.20f, 0.50f, 0.90f, 0.05f}},
+               {30, {0.20f, 0.80f, 0.55f, 0.07f}},
+               {45, {0.95f, 0.85f, 0.20f, 0.08f}},
+               {60, {0.95f, 0.45f, 0.10f, 0.09f}},
+               {75, {0.85f, 0.15f, 0.30f, 0.08f}},
+               {100, {0.60f, 0.25f, 0.75f, 0.04f}},
+               {200, {0.95f, 0.90f, 0.85f, 0.02f}},
+               {400, {1.0f, 0.97f, 0.92f, 0.12f}},
+               {3071, {1, 1, 1, 0.25f}}};
+  tf.gradient = {{0.0f, 0.6f, {0, 0, 0, 0}}, {20.0f, 0.8f, {0, 0, 0, 0}}, {60.0f, 1.8f, {0.12f, 0.08f, 0.08f, 0.35f}}};
+  tf.tissuePeak = 45.0f;
+}
+
+}  // namespace
 
 TransferFunction transferFunctionPreset(const std::string& name) {
   TransferFunction tf;
@@ -114,6 +191,8 @@ TransferFunction transferFunctionPreset(const std::string& name) {
                  {3071, {1, 1, 1, 0.25f}}};
     // Drawn for an unenhanced abdomen: kidney, spleen, muscle and liver at 30-60 HU.
     tf.tissuePeak = 45.0f;
+  } else if (name == "ct-organs") {
+    ctOrgans(tf);
   } else if (name == "ct-bone") {
     tf.points = {{-1024, {0, 0, 0, 0}}, {150, {0, 0, 0, 0}}, {250, {0.9f, 0.8f, 0.65f, 0.3f}}, {700, {1, 0.97f, 0.9f, 0.9f}},
                  {3071, {1, 1, 1, 1}}};
@@ -132,7 +211,7 @@ TransferFunction transferFunctionPreset(const std::string& name) {
   return tf;
 }
 
-std::vector<std::string> transferFunctionPresetNames() { return {"ct-abdomen", "ct-soft-tissue", "ct-bone", "mri"}; }
+std::vector<std::string> transferFunctionPresetNames() { return {"ct-abdomen", "ct-soft-tissue", "ct-organs", "ct-bone", "mri"}; }
 
 std::string defaultPresetFor(const Volume& v) {
   const auto [lo, hi] = v.valueRange();
@@ -145,6 +224,19 @@ TransferFunction thresholdTransferFunction(float threshold) {
   tf.points = {{threshold - 1e-3f, {0, 0, 0, 0}}, {threshold, {1, 1, 1, 1}}};
   return tf;
 }
+
+namespace {
+
+// One "gradient magnitude opacity r g b w" line (after the word "gradient").
+TfGradientPoint parseGradientLine(std::istringstream& ls, const std::string& where) {
+  TfGradientPoint g{};
+  if (!(ls >> g.magnitude >> g.opacity >> g.tint.r >> g.tint.g >> g.tint.b >> g.tint.a) || !std::isfinite(g.magnitude) ||
+      !(g.magnitude >= 0.0f) || !(g.opacity >= 0.0f) || !std::isfinite(g.opacity))
+    throw Error(where + ": expected 'gradient magnitude opacity r g b w' (magnitude and opacity >= 0)");
+  return g;
+}
+
+}  // namespace
 
 TransferFunction loadTransferFunction(const std::string& path) {
   std::ifstream in(path);
@@ -159,20 +251,25 @@ TransferFunction loadTransferFunction(const std::string& path) {
     std::istringstream ls(line);
     std::string first;
     if (!(ls >> first)) continue;
+    const std::string where = path + ":" + std::to_string(lineNo);
     if (first == "relative") {
       tf.relative = true;
+      continue;
+    }
+    if (first == "gradient") {
+      const TfGradientPoint g = parseGradientLine(ls, where);
+      if (!tf.gradient.empty() && g.magnitude < tf.gradient.back().magnitude) throw Error(where + ": gradient magnitudes must be increasing");
+      tf.gradient.push_back(g);
       continue;
     }
     TfPoint p{};
     try {
       p.value = std::stof(first);
     } catch (...) {
-      throw Error(path + ":" + std::to_string(lineNo) + ": expected 'value r g b a'");
+      throw Error(where + ": expected 'value r g b a'");
     }
-    if (!(ls >> p.rgba.r >> p.rgba.g >> p.rgba.b >> p.rgba.a) || !std::isfinite(p.value))
-      throw Error(path + ":" + std::to_string(lineNo) + ": expected 'value r g b a'");
-    if (!tf.points.empty() && p.value < tf.points.back().value)
-      throw Error(path + ":" + std::to_string(lineNo) + ": values must be increasing");
+    if (!(ls >> p.rgba.r >> p.rgba.g >> p.rgba.b >> p.rgba.a) || !std::isfinite(p.value)) throw Error(where + ": expected 'value r g b a'");
+    if (!tf.points.empty() && p.value < tf.points.back().value) throw Error(where + ": values must be increasing");
     tf.points.push_back(p);
   }
   if (tf.points.empty()) throw Error("transfer function file '" + path + "' has no points");

@@ -147,18 +147,17 @@ void VolumeRenderer::setVolume(const QuantizedVolume& volume, const ProgressFn& 
   reportProgress(progress, 1.0, "volume ready");
 }
 
-void VolumeRenderer::setTransferFunction(const std::vector<glm::vec4>& lut) {
+void VolumeRenderer::setTransferFunction(const TfTable& lut) {
   ++contentVersion_;  // a still frame's sum starts anew
   if (!hasVolume_) throw Error("renderer: setVolume() must come before setTransferFunction()");
-  if (lut.size() != gpu::kTfEntries) throw Error("renderer: transfer function table has the wrong size");
+  if (!lut.valid()) throw Error("renderer: transfer function table has the wrong shape");
   executor_.waitLastFrame();
-  std::vector<float> alpha(lut.size());
-  for (std::size_t i = 0; i < lut.size(); ++i) alpha[i] = lut[i].a;
-  occupancy_ = brickOccupancy(bricks_, alpha);
+  occupancy_ = brickOccupancy(bricks_, lut.maxAlpha());
   lut_ = lut;
   const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-  tf_ = Buffer(ctx_, lut.size() * sizeof(glm::vec4), usage, Buffer::Memory::Device);
-  vk::uploadToBuffer(ctx_, tf_, lut.data(), lut.size() * sizeof(glm::vec4));
+  const std::size_t bytes = lut.entries.size() * sizeof(glm::vec4);
+  tf_ = Buffer(ctx_, bytes, usage, Buffer::Memory::Device);
+  vk::uploadToBuffer(ctx_, tf_, lut.entries.data(), bytes);
   hasTf_ = true;
   uploadOccupancy();
 }
@@ -485,6 +484,7 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
     in.overLimit = g.importImage("no-strain-over-limit", noOverLimit_.desc(), fg::Access::Sampled);
     params.control.x &= ~gpu::kFlagLimitHighlight;  // not deforming, or no limits: nothing to highlight
   }
+  params.tfGradient = glm::vec4(lut_.gradientTop, 0.0f, 0.0f, 0.0f);  // the table's, whatever the request said
   // A still frame's running sum (kFlagAccumulate), at the frame's size; a new one starts a new sum.
   sumStillFrame(req, params);
   const bool accumulate = (params.control.x & gpu::kFlagAccumulate) != 0;

@@ -15,6 +15,7 @@
 #include "deform_pass.h"
 #include "live_selection.h"
 #include "shaders/shared.h"
+#include "tf_table.h"
 #include "sim/progress.h"
 #include "vk_graph_executor.h"
 #include "vk_resources.h"
@@ -80,8 +81,9 @@ class VolumeRenderer {
 
   /// Uploads the volume and computes its brick grid on the GPU (read back for occupancy updates).
   void setVolume(const QuantizedVolume& volume, const ProgressFn& progress = {});
-  /// Uploads a lookup table (gpu::kTfEntries entries) and the brick occupancy it implies.
-  void setTransferFunction(const std::vector<glm::vec4>& lut);
+  /// Uploads a lookup table and the brick occupancy it implies. Throws handson::Error on a table
+  /// whose shape is not one the passes read (TfTable::valid).
+  void setTransferFunction(const TfTable& lut);
   /// Tint per handle id (gpu::kMaxHandleIds entries: rgb, weight; id 0 unused).
   void setHandleTints(const std::vector<glm::vec4>& tints);
   /// Organ labels on the volume's grid for the label tint (gpu::kFlagLabelTint; uploaded now,
@@ -149,7 +151,7 @@ class VolumeRenderer {
   /// Brick occupancy as uploaded (while deforming, the region's bricks count as occupied).
   const std::vector<std::uint32_t>& occupancy() const { return uploadedOccupancy_; }
   /// The lookup table last set (empty before setTransferFunction).
-  const std::vector<glm::vec4>& transferFunction() const { return lut_; }
+  const TfTable& transferFunction() const { return lut_; }
   const vk::Context& context() const { return ctx_; }
 
  private:
@@ -181,7 +183,7 @@ class VolumeRenderer {
   const vk::Context& ctx_;
   vk::GraphExecutor executor_;
   vk::RaymarchPass raymarch_;
-  std::vector<glm::vec4> lut_;
+  TfTable lut_;
   vk::PickPass pick_;
   vk::BrickPass brick_;
   vk::Sampler linear_, nearest_;

@@ -48,12 +48,49 @@ float materialAt(vec3 idx, out uint id) {
   return v;
 }
 
-// Transfer function: linear interpolation between lookup entries.
-vec4 transfer(float v) {
+// Transfer function over value: linear interpolation between the entries of row `row`.
+vec4 transferRow(uint row, float v) {
   float x = clamp(v, 0.0, 1.0) * float(kTfEntries - 1);
   int i0 = int(floor(x));
   int i1 = min(i0 + 1, int(kTfEntries) - 1);
-  return mix(tf[i0], tf[i1], x - float(i0));
+  uint base = row * kTfEntries;
+  return mix(tf[base + uint(i0)], tf[base + uint(i1)], x - float(i0));
+}
+
+// Transfer function over value alone (the first row).
+vec4 transfer(float v) { return transferRow(0u, v); }
+
+// Over value and gradient magnitude g (normalized value per mm; P.tfGradient.x > 0): bilinear
+// between the rows around g / P.tfGradient.x * (kTfGradientRows - 1).
+vec4 transfer2(float v, float g) {
+  float y = clamp(g / P.tfGradient.x, 0.0, 1.0) * float(kTfGradientRows - 1);
+  uint r0 = uint(floor(y));
+  uint r1 = min(r0 + 1u, kTfGradientRows - 1u);
+  return mix(transferRow(r0, v), transferRow(r1, v), y - float(r0));
+}
+
+// Central differences of the value at a continuous index (normalized value per voxel step).
+vec3 gradientIndex(vec3 idx) {
+  return 0.5 * vec3(sampleVolume(idx + vec3(1, 0, 0)) - sampleVolume(idx - vec3(1, 0, 0)),
+                    sampleVolume(idx + vec3(0, 1, 0)) - sampleVolume(idx - vec3(0, 1, 0)),
+                    sampleVolume(idx + vec3(0, 0, 1)) - sampleVolume(idx - vec3(0, 0, 1)));
+}
+
+// The gradient in world units (normalized value per mm): the index gradient through the transpose
+// of worldToIndex's linear part.
+vec3 worldGradient(vec3 idx) { return transpose(mat3(P.worldToIndex)) * gradientIndex(idx); }
+
+// Whether a sample of this value is transparent whatever its gradient: the envelope row (the rows'
+// largest entries) is. Exact: bilinear weights are >= 0, so every row is transparent there too.
+bool transparentAtAnyGradient(float v) { return transferRow(kTfGradientRows, v).a <= 0.0; }
+
+// The transfer function at a sample of known value: over value and the gradient's magnitude there
+// when the table has that axis (the volume as it is at idx: a moved handle's gradient is taken
+// where it is drawn, as the shading takes it), else over value.
+vec4 transferAt(vec3 idx, float value) {
+  if (P.tfGradient.x <= 0.0) return transfer(value);
+  if (transparentAtAnyGradient(value)) return vec4(0.0);
+  return transfer2(value, length(worldGradient(idx)));
 }
 
 // Clipping (kFlagClipBox, kFlagClipPlane): the ray's [t0, t1] narrowed to the world box and to the

@@ -45,7 +45,7 @@ void main() {
       uint id;
       float value = materialAt(idx, id);
       if (value < 0.0) continue;
-      vec4 s = transfer(value);
+      vec4 s = transferAt(idx, value);
       if (s.a <= 0.0) continue;
       float before = alpha;
       alpha += (1.0 - alpha) * correctedAlpha(s.a, step);
@@ -62,7 +62,7 @@ void main() {
             if (u >= reach) break;
             uint hid;
             float hv = materialAt(o + u * d, hid);
-            if (hid != 0u && hv >= 0.0 && transfer(hv).a > 0.0) {
+            if (hid != 0u && hv >= 0.0 && transferAt(o + u * d, hv).a > 0.0) {
               r.voxel.w = int(hid);
               break;
             }

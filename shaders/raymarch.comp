@@ -55,12 +55,6 @@ vec3 limitTint(vec3 c, vec3 idx) {
   return mix(c, vec3(HANDSON_LIMIT_COLOUR), HANDSON_LIMIT_WEIGHT);
 }
 
-vec3 gradientIndex(vec3 idx) {
-  return 0.5 * vec3(sampleVolume(idx + vec3(1, 0, 0)) - sampleVolume(idx - vec3(1, 0, 0)),
-                    sampleVolume(idx + vec3(0, 1, 0)) - sampleVolume(idx - vec3(0, 1, 0)),
-                    sampleVolume(idx + vec3(0, 0, 1)) - sampleVolume(idx - vec3(0, 0, 1)));
-}
-
 void main() {
   ivec2 px = ivec2(gl_GlobalInvocationID.xy);
   int width = P.dims.w, height = P.brickDims.w;
@@ -79,7 +73,6 @@ void main() {
   if (setupRay(ndc, originW, dirW, t0, t1)) {
     vec3 o = (P.worldToIndex * vec4(originW, 1.0)).xyz;
     vec3 d = mat3(P.worldToIndex) * dirW;
-    mat3 gradToWorld = transpose(mat3(P.worldToIndex));
     // The frame budget's step (1: the full-quality step; unset, 0, is taken as 1).
     float step = P.quality.x > 0.0 ? P.march.x * P.quality.x : P.march.x;
     uint maxSteps = P.control.z;
@@ -109,7 +102,11 @@ void main() {
       uint id;
       float value = materialAt(idx, id);
       if (value < 0.0) continue;  // the place a moved handle left
-      vec4 s = transfer(value);
+      // The gradient, when the transfer function or the shading needs it (once for both).
+      bool overGradient = P.tfGradient.x > 0.0;
+      if (overGradient && transparentAtAnyGradient(value)) continue;
+      vec3 g = overGradient ? worldGradient(idx) : vec3(0.0);
+      vec4 s = overGradient ? transfer2(value, length(g)) : transfer(value);
       if (s.a <= 0.0) continue;
       float a = correctedAlpha(s.a, step);
       vec3 c = s.rgb;
@@ -118,7 +115,7 @@ void main() {
       if ((flags & kFlagStrainOverlay) != 0u) c = strainTint(c, idx);
       if ((flags & kFlagLimitHighlight) != 0u) c = limitTint(c, idx);
       if ((flags & kFlagShading) != 0u) {
-        vec3 g = gradToWorld * gradientIndex(idx);
+        if (!overGradient) g = worldGradient(idx);
         float gl = length(g);
         if (gl > 1e-6) {
           vec3 nrm = g / gl;

@@ -45,8 +45,12 @@ HS_CONST kBrickSize = 8;
 HS_CONST kBindBrickMinmaxVolume = 0;
 HS_CONST kBindBrickMinmaxOut = 1;
 
-// Transfer-function lookup table: kTfEntries RGBA entries spanning the volume's value window.
+// Transfer-function lookup table: kTfEntries RGBA entries spanning the volume's value window, one
+// row over value alone, or kTfGradientRows rows (row-major: row r at the gradient magnitude
+// r / (kTfGradientRows - 1) of RenderParams.tfGradient.x) over value and gradient magnitude and
+// then their envelope, the rows' largest entries (render/tf_table.h).
 HS_CONST kTfEntries = 4096;
+HS_CONST kTfGradientRows = 16;
 
 // Picking: when the surface a ray stops at is not a handle's, a handle met just behind it (within
 // kPickHandleReachVoxels voxels or kPickHandleReachMm along the ray, whichever is longer) is the one
@@ -70,7 +74,7 @@ HS_CONST kFlagAccumulate = 512u;  // raymarch: a still frame's running sum in kB
 // Bindings of the raymarch and pick passes (one push-descriptor set).
 HS_CONST kBindParams = 0;     // RenderParams (read-only storage buffer)
 HS_CONST kBindVolume = 1;     // sampler3D, R16_UNORM, normalized value window
-HS_CONST kBindTf = 2;         // storage buffer vec4[kTfEntries]
+HS_CONST kBindTf = 2;         // storage buffer vec4[kTfEntries * rows] (rows: 1 or kTfGradientRows + 1)
 HS_CONST kBindOccupancy = 3;  // storage buffer uint[brick count], 1 = brick may be visible
 HS_CONST kBindOutput = 4;     // raymarch: rgba8 storage image; pick: storage buffer PickResult[]
 HS_CONST kBindPickInput = 5;  // pick: storage buffer vec4[] (xy = NDC point)
@@ -118,6 +122,8 @@ struct RenderParams {
   vec4 background;    // rgba composited behind the volume
   vec4 light;         // x = ambient, y = diffuse, z = specular, w = shininess
   uvec4 control;      // x = flags, y = pick count, z = max steps, w = moving handle count
+  vec4 tfGradient;    // x = the gradient magnitude (normalized value per mm) of the transfer function's last
+                      // row; 0: its table is over value alone (one row, no gradient computed for it)
   vec4 strain;        // overlay: x = strain where the colour starts, y = where it is full, z = its weight there
   vec4 clipMin;       // xyz: the clip box's low corner (world mm; kFlagClipBox)
   vec4 clipMax;       // xyz: its high corner
@@ -310,7 +316,7 @@ static_assert(sizeof(RigidDraw) == 112, "RigidDraw must match std430");
 static_assert(sizeof(LiveMaskPush) == 32, "LiveMaskPush must match std430");
 static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
 static_assert(sizeof(MovingHandle) == 112, "MovingHandle must match std140");
-static_assert(sizeof(RenderParams) == 3 * 64 + 12 * 16 + 8 * 112, "RenderParams must match std140");
+static_assert(sizeof(RenderParams) == 3 * 64 + 13 * 16 + 8 * 112, "RenderParams must match std140");
 static_assert(sizeof(PickResult) == 32, "PickResult must match std430");
 }  // namespace handson::gpu
 #endif

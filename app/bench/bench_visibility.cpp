@@ -64,6 +64,7 @@ struct VisibilityOptions {
   int size = 384, grid = 48;
   double marginMm = 15.0;
   bool autoWindow = true;
+  std::string preset;  ///< empty: each volume's default
   std::string out;
 };
 
@@ -84,6 +85,7 @@ VisibilityRow measure(const VisibilityCase& c, const Volume& labels, const Visib
   Words words{"--size", std::to_string(size) + "x" + std::to_string(size), "--camera", cam.str(), "--clip-box", clip.str(), "--quiet"};
   if (!c.ctPath.empty()) words.insert(words.begin(), c.ctPath);
   if (!o.autoWindow) words.push_back("--no-auto-window");
+  if (!o.preset.empty()) words.insert(words.end(), {"--preset", o.preset});
   const Args args(words, kRenderValueOptions, kRenderFlagOptions);
   HeadlessScene scene = openHeadlessScene(c.ctPath, args);
   row.preset = scene.tf.name;
@@ -137,15 +139,17 @@ void writeRows(const std::vector<VisibilityRow>& rows, const std::string& out, i
 }  // namespace
 
 int cmdBenchVisibility(const Words& words) {
-  Args args(words, {"--out", "--data", "--size", "--grid", "--margin-mm"}, {"--no-auto-window"});
+  Args args(words, {"--out", "--data", "--size", "--grid", "--margin-mm", "--preset"}, {"--no-auto-window"});
   if (args.help() || !args.value("--out") || !args.positional().empty()) {
-    usageStream(args) << "usage: handson bench visibility --out DIR [--data DIR] [--size N] [--grid G] [--margin-mm M] [--no-auto-window]\n"
+    usageStream(args) << "usage: handson bench visibility --out DIR [--data DIR] [--size N] [--grid G] [--margin-mm M] [--preset NAME]\n"
+                         "                               [--no-auto-window]\n"
                          "  How well each organ is seen and picked with the defaults: its label box +- M mm (default 15) as a clip\n"
                          "  box, framed from the side of the body it is nearest, the default preset (its window fitted to the clip);\n"
                          "  an N x N still frame (default 384) and depth picks on a G x G grid (default 48): the grid points that hit\n"
                          "  anything and the organ, and the mean CIELAB dE between the organ's and the other hit pixels. The kidneys,\n"
                          "  spleen and liver of DIR/ircadb1.1 and DIR/totalseg-small (default ../shared/data), else the phantom's.\n"
-                         "  --no-auto-window keeps the preset's own window (the baseline). Writes DIR/visibility.csv, visibility.md\n"
+                         "  --preset NAME measures another preset; --no-auto-window keeps the preset's own window (the baseline).\n"
+                         "  Writes DIR/visibility.csv, visibility.md\n"
                          "  and visibility_VOLUME_ORGAN.png.\n";
     return args.help() ? 0 : 2;
   }
@@ -156,6 +160,8 @@ int cmdBenchVisibility(const Words& words) {
   if (o.grid > o.size) throw UsageError("--grid must not exceed --size");
   o.marginMm = args.number("--margin-mm", 15.0, 0.0, 500.0);
   o.autoWindow = !args.flag("--no-auto-window");
+  o.preset = args.valueOr("--preset", "");
+  if (!o.preset.empty()) (void)transferFunctionPreset(o.preset);  // an unknown name: the list, before any work
   std::filesystem::create_directories(o.out);
   std::vector<VisibilityRow> rows;
   for (const VisibilityCase& c : visibilityCases(args.valueOr("--data", "../shared/data"))) {

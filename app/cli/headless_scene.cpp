@@ -16,8 +16,10 @@ namespace handson {
 const char* const kRenderOptionsHelp =
     "  --frame N                the volume of a 4D NIfTI image to load (default 0)\n"
     "  --size WxH               output size in pixels (default 512x512)\n"
-    "  --preset NAME            transfer function: ct-abdomen, ct-soft-tissue, ct-bone, mri (default: by value range)\n"
-    "  --tf FILE                transfer function file: lines 'value r g b a' (opacity per mm)\n"
+    "  --preset NAME            transfer function: ct-abdomen, ct-soft-tissue, ct-organs (over value and gradient\n"
+    "                           magnitude), ct-bone, mri (default: by value range)\n"
+    "  --tf FILE                transfer function file: lines 'value r g b a' (opacity per mm), optionally lines\n"
+    "                           'gradient G opacity r g b w' (G in value units per mm: opacity factor, tint)\n"
     "  --camera AZ,EL[,DIST[,ROLL]]  orbit camera in degrees around the volume centre; DIST in mm\n"
     "                           (0 or omitted: fit the volume, or what a clip leaves of it);\n"
     "                           azimuth 0 = anterior view\n"

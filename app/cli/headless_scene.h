@@ -27,7 +27,7 @@ struct HeadlessScene {
   std::string source;  ///< path, or "built-in phantom"
   QuantizedVolume quantized;
   TransferFunction tf;
-  std::vector<glm::vec4> lut;
+  TfTable lut;
   RenderSettings settings;
   int jitterPhases = kStillJitterPhases;  ///< --jitter-phases: a still image averages this many jitter phases
   OrbitCamera camera;

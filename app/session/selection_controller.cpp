@@ -128,7 +128,7 @@ void SelectionController::manipulate(const TouchEvent& e, const TouchInput& inpu
 }
 
 bool SelectionController::onActiveHandle(glm::dvec2 px) const {
-  if (!haveParams_ || renderer_.transferFunction().empty()) return false;
+  if (!haveParams_ || renderer_.transferFunction().entries.empty()) return false;
   const bool any = std::any_of(handles_.handles().begin(), handles_.handles().end(), [](const Handle& h) { return h.status == HandleStatus::Active; });
   if (!any) return false;
   const ReferenceScene scene{&volume_, &renderer_.transferFunction(), &renderer_.occupancy(), &mask_, nullptr};

@@ -60,9 +60,7 @@ double angleBetweenDeg(double a, double b) {
 CpuPicker::CpuPicker(const Volume& ct, const std::string& preset)
     : ct_(ct), preset_(preset.empty() ? defaultPresetFor(ct) : preset), q_(quantizeVolume(ct)) {
   lut_ = transferFunctionPreset(preset_).lookupTable(q_);
-  std::vector<float> alpha(lut_.size());
-  for (std::size_t i = 0; i < lut_.size(); ++i) alpha[i] = lut_[i].a;
-  occupancy_ = brickOccupancy(computeBrickGrid(q_), alpha);
+  occupancy_ = brickOccupancy(computeBrickGrid(q_), lut_.maxAlpha());
 }
 
 std::vector<gpu::PickResult> CpuPicker::pick(const OrbitCamera& cam, const Viewport& vp, const std::vector<glm::dvec2>& pixels,

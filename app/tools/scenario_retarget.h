@@ -43,7 +43,7 @@ class CpuPicker {
   const Volume& ct_;
   std::string preset_;
   QuantizedVolume q_;
-  std::vector<glm::vec4> lut_;
+  TfTable lut_;
   std::vector<std::uint32_t> occupancy_;
   ClipRegion clip_;
 };

@@ -39,12 +39,60 @@ TEST(TransferFunction, LookupTableSpansTheVolumeWindow) {
   EXPECT_EQ(q.hi, 1999.0f);
   const TransferFunction tf = transferFunctionPreset("ct-bone");
   const auto lut = tf.lookupTable(q);
-  ASSERT_EQ(lut.size(), gpu::kTfEntries);
+  ASSERT_EQ(lut.entries.size(), gpu::kTfEntries);
+  EXPECT_EQ(lut.rows, 1u);
+  EXPECT_EQ(lut.gradientTop, 0.0f);
+  EXPECT_TRUE(lut.valid());
   for (std::uint32_t i = 0; i < gpu::kTfEntries; i += 97) {
     const float value = q.toValue(float(i) / float(gpu::kTfEntries - 1));
-    EXPECT_NEAR(lut[i].a, tf.evaluate(value).a, 1e-6f);
+    EXPECT_NEAR(lut.entries[i].a, tf.evaluate(value).a, 1e-6f);
   }
   EXPECT_THROW(transferFunctionPreset("nope"), Error);
+}
+
+TEST(TransferFunction, TheGradientAxisScalesOpacityAndTintsBoundaries) {
+  // By hand: value 50 HU (rgb 0.5, 0.5, 0.5, a 0.2), gradient points (0: x0.5, no tint), (40: x2,
+  // black at weight 0.5): at g = 20 the factor is 1.25 and the tint black at weight 0.25.
+  TransferFunction tf;
+  tf.points = {{0, {0.5f, 0.5f, 0.5f, 0.2f}}, {100, {0.5f, 0.5f, 0.5f, 0.2f}}};
+  tf.gradient = {{0.0f, 0.5f, {0, 0, 0, 0}}, {40.0f, 2.0f, {0, 0, 0, 0.5f}}};
+  EXPECT_NEAR(tf.evaluate(50, 20).a, 0.25f, 1e-6f);
+  EXPECT_NEAR(tf.evaluate(50, 20).r, 0.5f * 0.75f, 1e-6f);
+  EXPECT_NEAR(tf.evaluate(50, 0).a, 0.1f, 1e-6f);
+  EXPECT_NEAR(tf.evaluate(50, 400).a, 0.4f, 1e-6f);  // constant beyond the last point
+  EXPECT_NEAR(tf.evaluate(50, 400).g, 0.25f, 1e-6f);
+  // The table: kTfGradientRows rows, row r at r / (rows - 1) of the last magnitude (40 HU/mm), in
+  // normalized value per mm over the volume's window.
+  const QuantizedVolume q = quantizeVolume(ramp());
+  const TfTable t = tf.lookupTable(q);
+  ASSERT_TRUE(t.valid());
+  ASSERT_EQ(t.rows, gpu::kTfGradientRows);
+  EXPECT_NEAR(t.gradientTop, 40.0f / (q.hi - q.lo), 1e-9f);
+  for (std::uint32_t r = 0; r < t.rows; r += 5)
+    for (std::uint32_t i = 0; i < gpu::kTfEntries; i += 331) {
+      const glm::vec4 want = tf.evaluate(q.toValue(float(i) / float(gpu::kTfEntries - 1)), 40.0f * float(r) / float(t.rows - 1));
+      const glm::vec4 got = t.entries[std::size_t(r) * gpu::kTfEntries + i];
+      for (int c = 0; c < 4; ++c) EXPECT_NEAR(got[c], want[c], 1e-6f) << r << " " << i;
+    }
+  EXPECT_NEAR(t.maxAlpha()[gpu::kTfEntries / 3], 0.4f, 1e-6f);  // the last row's, at a value inside [0, 100]
+  // The envelope row after the rows: each value's largest entry over them, channel by channel.
+  ASSERT_EQ(t.entries.size(), std::size_t(gpu::kTfGradientRows + 1) * gpu::kTfEntries);
+  for (std::uint32_t i = 0; i < gpu::kTfEntries; i += 173) {
+    glm::vec4 m(0.0f);
+    for (std::uint32_t r = 0; r < t.rows; ++r) m = glm::max(m, t.entries[std::size_t(r) * gpu::kTfEntries + i]);
+    EXPECT_EQ(t.entries[std::size_t(t.rows) * gpu::kTfEntries + i], m) << i;
+  }
+  // Windowing stretches the gradient axis with the values: exact, as for the values.
+  const double s = 1.6, shift = 30.0;
+  const TransferFunction w = tf.windowed(s, shift, 1.0);
+  const float a = tf.visibleFrom();
+  for (float g : {0.0f, 7.0f, 25.0f, 90.0f}) {
+    const glm::vec4 want = tf.evaluate(50, g), got = w.evaluate(float(a + (50 - a) * s + shift), float(g * s));
+    for (int c = 0; c < 4; ++c) EXPECT_NEAR(got[c], want[c], 1e-5f) << g;
+  }
+  // ct-organs has the axis; the other presets do not (their tables keep one row).
+  EXPECT_FALSE(transferFunctionPreset("ct-organs").gradient.empty());
+  EXPECT_EQ(transferFunctionPreset("ct-abdomen").lookupTable(q).rows, 1u);
 }
 
 TEST(TransferFunction, QuantizationIsExactForInt16) {
@@ -76,8 +124,7 @@ TEST(BrickGrid, OccupancyMatchesBruteForce) {
   }
   // A table opaque only above 1500 HU: occupied bricks are exactly those whose max reaches it.
   const auto lut = thresholdTransferFunction(1500.0f).lookupTable(q);
-  std::vector<float> alpha(lut.size());
-  for (std::size_t i = 0; i < lut.size(); ++i) alpha[i] = lut[i].a;
+  const std::vector<float> alpha = lut.maxAlpha();
   const auto occ = brickOccupancy(g, alpha);
   for (std::size_t b = 0; b < g.count(); ++b) {
     bool any = false;
@@ -103,6 +150,16 @@ TEST(TransferFunction, FileFormatAndErrors) {
   std::ofstream(bad) << "abc\n";
   EXPECT_THROW(loadTransferFunction(bad.string()), Error);
   EXPECT_THROW(loadTransferFunction((dir / "missing.tf").string()), Error);
+  // Gradient lines: "gradient magnitude opacity r g b w", increasing, magnitude and opacity >= 0.
+  std::ofstream(good) << "-100 0 0 0 0\n150 1 0.2 0.2 0.3\ngradient 0 0.5 0 0 0 0\ngradient 40 2 0.1 0.1 0.1 0.4\n";
+  const TransferFunction twoD = loadTransferFunction(good.string());
+  ASSERT_EQ(twoD.gradient.size(), 2u);
+  EXPECT_NEAR(twoD.gradient[1].tint.a, 0.4f, 1e-6f);
+  for (const char* text : {"0 0 0 0 0\ngradient 10 1 0 0 0 0\ngradient 5 1 0 0 0 0\n", "0 0 0 0 0\ngradient -1 1 0 0 0 0\n",
+                           "0 0 0 0 0\ngradient 1 nan 0 0 0 0\n", "0 0 0 0 0\ngradient 1 1 0 0\n"}) {
+    std::ofstream(bad) << text;
+    EXPECT_THROW(loadTransferFunction(bad.string()), Error) << text;
+  }
   std::filesystem::remove_all(dir);
 }
 

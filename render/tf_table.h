@@ -1,0 +1,40 @@
+#pragma once
+// A transfer function sampled for one volume (render/transfer_function.h makes it): what the
+// renderer uploads to kBindTf and the CPU reference (render/raymarch_reference.h) reads.
+#include <glm/glm.hpp>
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
+#include "shaders/shared.h"
+
+namespace handson {
+
+struct TfTable {
+  /// Row-major rows of gpu::kTfEntries RGBA (0..1): column i at the volume's normalized value
+  /// i / (kTfEntries - 1); row r < rows at the gradient magnitude r / (rows - 1) * gradientTop.
+  /// With a gradient axis one more row follows, the envelope: at each value the largest of the
+  /// rows' entries, channel by channel, which lets a pass skip a sample without computing its
+  /// gradient (all rows are transparent where the envelope is, bilinear weights being >= 0).
+  std::vector<glm::vec4> entries;
+  std::uint32_t rows = 1;    ///< 1 (over value alone) or gpu::kTfGradientRows (value x gradient magnitude)
+  float gradientTop = 0.0f;  ///< the last row's gradient magnitude, normalized value per mm (0 with one row)
+
+  /// Rows stored: rows, and the envelope with a gradient axis.
+  std::uint32_t storedRows() const { return rows > 1 ? rows + 1 : rows; }
+  /// Whether the shape is one the passes read: rows 1 with gradientTop 0, or kTfGradientRows with
+  /// gradientTop > 0 (finite), and storedRows() * kTfEntries entries.
+  bool valid() const {
+    const bool shape = (rows == 1 && gradientTop == 0.0f) || (rows == gpu::kTfGradientRows && gradientTop > 0.0f && gradientTop < 1e30f);
+    return shape && entries.size() == std::size_t(storedRows()) * gpu::kTfEntries;
+  }
+  /// The largest opacity at each value over the rows (gpu::kTfEntries): what empty-space skipping needs.
+  std::vector<float> maxAlpha() const {
+    std::vector<float> a(gpu::kTfEntries, 0.0f);
+    for (std::size_t k = 0; k < std::min<std::size_t>(entries.size(), std::size_t(rows) * gpu::kTfEntries); ++k)
+      a[k % gpu::kTfEntries] = std::max(a[k % gpu::kTfEntries], entries[k].a);
+    return a;
+  }
+};
+
+}  // namespace handson
