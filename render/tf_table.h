@@ -4,6 +4,7 @@
 #include <glm/glm.hpp>
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "shaders/shared.h"
@@ -23,9 +24,11 @@ struct TfTable {
   /// Rows stored: rows, and the envelope with a gradient axis.
   std::uint32_t storedRows() const { return rows > 1 ? rows + 1 : rows; }
   /// Whether the shape is one the passes read: rows 1 with gradientTop 0, or kTfGradientRows with
-  /// gradientTop > 0 (finite), and storedRows() * kTfEntries entries.
+  /// gradientTop a normal positive float below 1e30, and storedRows() * kTfEntries entries.
   bool valid() const {
-    const bool shape = (rows == 1 && gradientTop == 0.0f) || (rows == gpu::kTfGradientRows && gradientTop > 0.0f && gradientTop < 1e30f);
+    // A normal float (not a denormal a GPU may flush to 0, which would read as "one row").
+    const bool shape = (rows == 1 && gradientTop == 0.0f) ||
+                       (rows == gpu::kTfGradientRows && gradientTop >= std::numeric_limits<float>::min() && gradientTop < 1e30f);
     return shape && entries.size() == std::size_t(storedRows()) * gpu::kTfEntries;
   }
   /// The largest opacity at each value over the rows (gpu::kTfEntries): what empty-space skipping needs.

@@ -230,9 +230,11 @@ namespace {
 // One "gradient magnitude opacity r g b w" line (after the word "gradient").
 TfGradientPoint parseGradientLine(std::istringstream& ls, const std::string& where) {
   TfGradientPoint g{};
-  if (!(ls >> g.magnitude >> g.opacity >> g.tint.r >> g.tint.g >> g.tint.b >> g.tint.a) || !std::isfinite(g.magnitude) ||
-      !(g.magnitude >= 0.0f) || !(g.opacity >= 0.0f) || !std::isfinite(g.opacity))
-    throw Error(where + ": expected 'gradient magnitude opacity r g b w' (magnitude and opacity >= 0)");
+  // Bounds: a gradient past 1e6 value units per mm is no image's (CT's steepest, air against bone,
+  // is a few thousand HU/mm), and the table's top must stay a normal float in the shaders' units.
+  if (!(ls >> g.magnitude >> g.opacity >> g.tint.r >> g.tint.g >> g.tint.b >> g.tint.a) || !(g.magnitude >= 0.0f) ||
+      !(g.magnitude <= 1e6f) || !(g.opacity >= 0.0f) || !std::isfinite(g.opacity))
+    throw Error(where + ": expected 'gradient magnitude opacity r g b w' (magnitude 0..1e6 and opacity >= 0)");
   return g;
 }
 
@@ -258,7 +260,7 @@ TransferFunction loadTransferFunction(const std::string& path) {
     }
     if (first == "gradient") {
       const TfGradientPoint g = parseGradientLine(ls, where);
-      if (!tf.gradient.empty() && g.magnitude < tf.gradient.back().magnitude) throw Error(where + ": gradient magnitudes must be increasing");
+      if (!tf.gradient.empty() && g.magnitude < tf.gradient.back().magnitude) throw Error(where + ": gradient magnitudes must not decrease");
       tf.gradient.push_back(g);
       continue;
     }

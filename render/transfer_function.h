@@ -1,6 +1,6 @@
 #pragma once
 // Transfer functions: piecewise-linear colour and opacity over image values, sampled into a lookup
-// table (gpu::kTfEntries entries) spanning the volume's value window. Presets for CT (abdomen soft
+// table (render/tf_table.h: gpu::kTfEntries entries a row) spanning the volume's value window. Presets for CT (abdomen soft
 // tissue with contrast-enhanced vessels, soft tissue without contrast, bone, organs told apart) and
 // a generic MRI preset defined on percentiles. Any of them can be windowed (level, window, opacity)
 // by touch. Opacities are per millimetre of ray (the raymarch corrects them for its step).

@@ -122,6 +122,19 @@ TEST_F(GpuPasses, RaymarchMatchesCpuReference) {
 
 TEST_F(GpuPasses, EmptySpaceSkippingChangesNothingButWork) {
   Scene& s = scene();
+  // Over value and gradient magnitude too: the bricks' occupancy takes each value's largest opacity
+  // over the rows, and a sample transparent at every gradient is skipped before its gradient.
+  useTf(s, transferFunctionPreset("ct-organs"));
+  {
+    RenderSettings rs;
+    rs.width = rs.height = 64;
+    rs.earlyTermination = false;
+    const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), glm::radians(60.0), glm::radians(-20.0));
+    rs.emptySpaceSkipping = false;
+    const FrameResult plain = renderGpu(s, paramsFor(s, cam, rs));
+    rs.emptySpaceSkipping = true;
+    EXPECT_EQ(compare(plain.rgba, renderGpu(s, paramsFor(s, cam, rs)).rgba).maxDiff, 0) << "ct-organs";
+  }
   useTf(s, transferFunctionPreset("ct-bone"));
   RenderSettings rs;
   rs.width = rs.height = 80;

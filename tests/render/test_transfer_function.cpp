@@ -74,7 +74,8 @@ TEST(TransferFunction, TheGradientAxisScalesOpacityAndTintsBoundaries) {
       const glm::vec4 got = t.entries[std::size_t(r) * gpu::kTfEntries + i];
       for (int c = 0; c < 4; ++c) EXPECT_NEAR(got[c], want[c], 1e-6f) << r << " " << i;
     }
-  EXPECT_NEAR(t.maxAlpha()[gpu::kTfEntries / 3], 0.4f, 1e-6f);  // the last row's, at a value inside [0, 100]
+  const std::uint32_t inside = std::uint32_t(std::lround(q.toNormalized(50.0f) * float(gpu::kTfEntries - 1)));
+  EXPECT_NEAR(t.maxAlpha()[inside], 0.4f, 1e-6f);  // the last row's (0.2 x 2), at a value of about 50 HU
   // The envelope row after the rows: each value's largest entry over them, channel by channel.
   ASSERT_EQ(t.entries.size(), std::size_t(gpu::kTfGradientRows + 1) * gpu::kTfEntries);
   for (std::uint32_t i = 0; i < gpu::kTfEntries; i += 173) {
@@ -156,7 +157,7 @@ TEST(TransferFunction, FileFormatAndErrors) {
   ASSERT_EQ(twoD.gradient.size(), 2u);
   EXPECT_NEAR(twoD.gradient[1].tint.a, 0.4f, 1e-6f);
   for (const char* text : {"0 0 0 0 0\ngradient 10 1 0 0 0 0\ngradient 5 1 0 0 0 0\n", "0 0 0 0 0\ngradient -1 1 0 0 0 0\n",
-                           "0 0 0 0 0\ngradient 1 nan 0 0 0 0\n", "0 0 0 0 0\ngradient 1 1 0 0\n"}) {
+                           "0 0 0 0 0\ngradient 1 nan 0 0 0 0\n", "0 0 0 0 0\ngradient 1 1 0 0\n", "0 0 0 0 0\ngradient 1e36 1 0 0 0 0\n"}) {
     std::ofstream(bad) << text;
     EXPECT_THROW(loadTransferFunction(bad.string()), Error) << text;
   }
