@@ -100,13 +100,12 @@ std::optional<std::array<double, 4>> projectedVolumeBox(const OrbitCamera& camer
   return projectedPointsBox(camera, std::vector<glm::dvec3>(corners.begin(), corners.end()), width, height);
 }
 
-OrbitCamera OrbitCamera::framingIn(const VolumeGeometry& geometry, double azimuth, double elevation, int width, int height,
-                                   const ScreenArea& area, double fill) {
-  const int w = std::max(width, 1), h = std::max(height, 1);
+OrbitCamera OrbitCamera::framingIn(const VolumeGeometry& geometry, double azimuth, double elevation, const FramingView& view) {
+  const int w = std::max(view.width, 1), h = std::max(view.height, 1);
   const OrbitCamera c = framing(geometry, azimuth, elevation, double(w) / double(h));
-  if (!area.valid() || !(fill > 0.0 && fill <= 1.0)) return c;
+  if (!view.area.valid() || !(view.fill > 0.0 && view.fill <= 1.0)) return c;
   const std::array<glm::dvec3, 8> corners = volumeBoxCorners(geometry);
-  return fitPointsFrom(c, std::vector<glm::dvec3>(corners.begin(), corners.end()), FramingView{w, h, area, fill, geometry.diagonalMm()});
+  return fitPointsFrom(c, std::vector<glm::dvec3>(corners.begin(), corners.end()), FramingView{w, h, view.area, view.fill, geometry.diagonalMm()});
 }
 
 ScreenArea largestFreeArea(int width, int height, const std::vector<std::array<double, 4>>& obstacles, double aspect, double marginPx) {

@@ -22,6 +22,14 @@ struct ScreenArea {
   bool operator==(const ScreenArea&) const = default;
 };
 
+/// What a framing needs besides what it frames: the view's size and the part of it to fill.
+struct FramingView {
+  int width = 512, height = 512;
+  ScreenArea area;      ///< the part of the view the panels leave free (the whole view by default)
+  double fill = 0.92;   ///< the share of the area's tighter dimension the framed box fills
+  double sceneDiagonalMm = 0.0;  ///< the volume's diagonal: the far plane reaches past it
+};
+
 /// The 8 corners of a volume's box (voxel edges included; an oblique grid's are not axis-aligned), world mm.
 std::array<glm::dvec3, 8> volumeBoxCorners(const VolumeGeometry& geometry);
 
@@ -71,11 +79,11 @@ struct OrbitCamera {
   static OrbitCamera framing(const VolumeGeometry& geometry, double azimuth = 0.0, double elevation = 0.0, double aspect = 1.0);
   /// Frames a volume in part of a width x height view: the same direction, the target and distance
   /// chosen so that the projection of the volume's box (its 8 corners, voxel edges included) is
-  /// centred in `area` and fills `fill` of it in its tighter dimension. Perspective makes this a
+  /// centred in the view's area and fills `fill` of it in its tighter dimension (the view's
+  /// sceneDiagonalMm is the geometry's). Perspective makes this a
   /// fixed point: the distance is scaled by the box's size over the wanted size and the target moved
   /// by the box centre's offset until both change by less than 1e-4 (at most 60 rounds).
-  static OrbitCamera framingIn(const VolumeGeometry& geometry, double azimuth, double elevation, int width, int height,
-                               const ScreenArea& area, double fill = 0.92);
+  static OrbitCamera framingIn(const VolumeGeometry& geometry, double azimuth, double elevation, const FramingView& view);
 
   double minDistance = 1.0, maxDistance = 1e5;
 };

@@ -46,9 +46,9 @@ std::vector<HalfSpace> boxHalfSpaces(const glm::dvec3& lo, const glm::dvec3& hi)
 std::vector<glm::dvec3> clippedVolumeCorners(const VolumeGeometry& geometry, const std::vector<HalfSpace>& cuts) {
   // In index space the volume's box is axis-aligned (-0.5 .. dims - 0.5) and a world half-space
   // n.x >= d, with x = A i + b (A 3x3, b 3x1: the index-to-world map), is (A^T n).i >= d - n.b.
-  const Eigen::Vector3d b = geometry.toWorld(Eigen::Vector3d::Zero());
-  Eigen::Matrix3d A;
-  for (int k = 0; k < 3; ++k) A.col(k) = geometry.toWorld(Eigen::Vector3d::Unit(k)) - b;
+  const Eigen::Matrix4d indexToWorld = geometry.indexToWorld();
+  const Eigen::Matrix3d A = indexToWorld.block<3, 3>(0, 0);
+  const Eigen::Vector3d b = indexToWorld.block<3, 1>(0, 3);
   struct Plane {
     Eigen::Vector3d n;
     double d;

@@ -31,14 +31,6 @@ std::vector<HalfSpace> boxHalfSpaces(const glm::dvec3& lo, const glm::dvec3& hi)
 /// the volume is left. A cut whose normal is zero or not finite is ignored.
 std::vector<glm::dvec3> clippedVolumeCorners(const VolumeGeometry& geometry, const std::vector<HalfSpace>& cuts);
 
-/// What framePoints needs besides the points: the view's size and the part of it to fill.
-struct FramingView {
-  int width = 512, height = 512;
-  ScreenArea area;      ///< the part of the view the panels leave free (the whole view by default)
-  double fill = 0.92;   ///< the share of the area's tighter dimension the points' box fills
-  double sceneDiagonalMm = 0.0;  ///< the volume's diagonal: the far plane reaches past it
-};
-
 /// `from` turned towards nothing new (its azimuth, elevation, roll and field of view kept) with its
 /// target and distance chosen so that the points' projected bounding box is centred in the view's
 /// area and fills `fill` of it in its tighter dimension. `from` unchanged when points is empty or

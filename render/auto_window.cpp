@@ -67,9 +67,9 @@ std::optional<TissuePeak> softTissuePeak(const Volume& volume, const ClipRegion&
   std::vector<double> hist(std::size_t((kHi - kLo) / kBin), 0.0);
   std::size_t samples = 0;
   // The index-to-world map x = A i + b (A 3x3, b 3x1), once: the clip test's position per sample.
-  const Eigen::Vector3d b = volume.geometry().toWorld(Eigen::Vector3d::Zero());
-  Eigen::Matrix3d A;
-  for (int c = 0; c < 3; ++c) A.col(c) = volume.geometry().toWorld(Eigen::Vector3d::Unit(c)) - b;
+  const Eigen::Matrix4d indexToWorld = volume.geometry().indexToWorld();
+  const Eigen::Matrix3d A = indexToWorld.block<3, 3>(0, 0);
+  const Eigen::Vector3d b = indexToWorld.block<3, 1>(0, 3);
   for (int k = lo[2]; k <= hi[2]; k += stride)
     for (int j = lo[1]; j <= hi[1]; j += stride)
       for (int i = lo[0]; i <= hi[0]; i += stride) {
@@ -101,6 +101,13 @@ std::optional<TissuePeak> softTissuePeak(const Volume& volume, const ClipRegion&
 std::optional<double> autoWindowShift(const TransferFunction& tf, const TissuePeak& peak) {
   if (tf.relative || !std::isfinite(tf.tissuePeak)) return std::nullopt;
   return peak.value - double(tf.tissuePeak);
+}
+
+std::optional<AutoWindow> autoWindowFor(const Volume& volume, const TransferFunction& tf, const ClipRegion& clip) {
+  const auto peak = softTissuePeak(volume, clip);
+  const auto shift = peak ? autoWindowShift(tf, *peak) : std::nullopt;
+  if (!shift) return std::nullopt;
+  return AutoWindow{*peak, *shift};
 }
 
 }  // namespace handson

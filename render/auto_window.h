@@ -36,6 +36,14 @@ std::optional<TissuePeak> softTissuePeak(const Volume& volume, const ClipRegion&
 /// reference (a relative preset, one loaded from a file, the bone preset).
 std::optional<double> autoWindowShift(const TransferFunction& tf, const TissuePeak& peak);
 
+/// The automatic window for tf on what the clip leaves: the region's peak and the shift that puts
+/// tf's reference on it; nullopt where either is missing (above).
+struct AutoWindow {
+  TissuePeak peak;
+  double shift = 0.0;
+};
+std::optional<AutoWindow> autoWindowFor(const Volume& volume, const TransferFunction& tf, const ClipRegion& clip);
+
 /// Whether a world point (RAS mm) lies in what the clip keeps (inside the box, on the plane's kept side).
 bool clipKeeps(const ClipRegion& clip, const glm::dvec3& world);
 

@@ -31,11 +31,12 @@ struct TfTable {
                        (rows == gpu::kTfGradientRows && gradientTop >= std::numeric_limits<float>::min() && gradientTop < 1e30f);
     return shape && entries.size() == std::size_t(storedRows()) * gpu::kTfEntries;
   }
-  /// The largest opacity at each value over the rows (gpu::kTfEntries): what empty-space skipping needs.
+  /// The largest opacity at each value over the rows (gpu::kTfEntries): what empty-space skipping
+  /// needs; the envelope's with a gradient axis, the one row's without.
   std::vector<float> maxAlpha() const {
     std::vector<float> a(gpu::kTfEntries, 0.0f);
-    for (std::size_t k = 0; k < std::min<std::size_t>(entries.size(), std::size_t(rows) * gpu::kTfEntries); ++k)
-      a[k % gpu::kTfEntries] = std::max(a[k % gpu::kTfEntries], entries[k].a);
+    const std::size_t base = std::size_t(storedRows() - 1) * gpu::kTfEntries;
+    for (std::size_t i = 0; i < a.size() && base + i < entries.size(); ++i) a[i] = entries[base + i].a;
     return a;
   }
 };

@@ -48,14 +48,17 @@ GradientSample gradientAt(const std::vector<TfGradientPoint>& g, float magnitude
   return {g.back().opacity, g.back().tint};
 }
 
+// The value's colour c modulated by the gradient axis' sample s (the header's formula).
+glm::vec4 withGradient(const glm::vec4& c, const GradientSample& s) {
+  const glm::vec3 rgb = glm::mix(glm::vec3(c), glm::vec3(s.tint), std::clamp(s.tint.a, 0.0f, 1.0f));
+  return {rgb, std::min(1.0f, c.a * std::max(s.opacity, 0.0f))};
+}
+
 }  // namespace
 
 glm::vec4 TransferFunction::evaluate(float value, float gradientMagnitude) const {
-  glm::vec4 c = evaluate(value);
-  if (gradient.empty()) return c;
-  const GradientSample s = gradientAt(gradient, gradientMagnitude);
-  const glm::vec3 rgb = glm::mix(glm::vec3(c), glm::vec3(s.tint), std::clamp(s.tint.a, 0.0f, 1.0f));
-  return {rgb, std::min(1.0f, c.a * std::max(s.opacity, 0.0f))};
+  const glm::vec4 c = evaluate(value);
+  return gradient.empty() ? c : withGradient(c, gradientAt(gradient, gradientMagnitude));
 }
 
 // Table entry (row r, column i) = evaluate(value of column i, magnitude of row r), both in the
@@ -73,12 +76,18 @@ TfTable TransferFunction::lookupTable(const QuantizedVolume& volume) const {
   t.rows = top > 0.0f ? gpu::kTfGradientRows : 1u;
   t.gradientTop = t.rows > 1 ? top * scale / std::max(volume.hi - volume.lo, 1e-6f) : 0.0f;
   t.entries.assign(std::size_t(t.storedRows()) * gpu::kTfEntries, glm::vec4(0.0f));
+  // The value curve once per column, the gradient curve once per row.
+  std::vector<glm::vec4> byValue(gpu::kTfEntries);
+  for (std::uint32_t i = 0; i < gpu::kTfEntries; ++i) {
+    const float v = volume.toValue(float(i) / float(gpu::kTfEntries - 1));
+    byValue[i] = evaluate(relative ? (v - base) / scale : v);
+  }
   for (std::uint32_t r = 0; r < t.rows; ++r) {
     const float g = t.rows > 1 ? top * float(r) / float(t.rows - 1) : 0.0f;
+    const GradientSample s = gradientAt(gradient, g);
     for (std::uint32_t i = 0; i < gpu::kTfEntries; ++i) {
-      const float v = volume.toValue(float(i) / float(gpu::kTfEntries - 1));
       glm::vec4& e = t.entries[std::size_t(r) * gpu::kTfEntries + i];
-      e = glm::clamp(evaluate(relative ? (v - base) / scale : v, g), glm::vec4(0.0f), glm::vec4(1.0f));
+      e = glm::clamp(gradient.empty() ? byValue[i] : withGradient(byValue[i], s), glm::vec4(0.0f), glm::vec4(1.0f));
       if (t.rows > 1) {
         glm::vec4& envelope = t.entries[std::size_t(t.rows) * gpu::kTfEntries + i];
         envelope = glm::max(envelope, e);

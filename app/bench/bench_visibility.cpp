@@ -68,8 +68,15 @@ struct VisibilityOptions {
   std::string out;
 };
 
+// A case's CT and labels, read once for all of its volume's organs.
+struct LoadedVolume {
+  std::string name;
+  Volume ct, labels;
+};
+
 // One organ: the scene as `render`/`pick` open it, the still frame, the grid's picks.
-VisibilityRow measure(const VisibilityCase& c, const Volume& labels, const VisibilityOptions& o) {
+VisibilityRow measure(const VisibilityCase& c, const LoadedVolume& loaded, const VisibilityOptions& o) {
+  const Volume& labels = loaded.labels;
   const int size = o.size, grid = o.grid;
   const auto box = labelBox(labels, c.label);
   if (!box) throw Error("bench visibility: no voxel of label " + std::to_string(c.label) + " in " + c.volume);
@@ -78,8 +85,7 @@ VisibilityRow measure(const VisibilityCase& c, const Volume& labels, const Visib
   std::ostringstream clip;
   clip << std::setprecision(9) << lo.x() << "," << lo.y() << "," << lo.z() << "," << hi.x() << "," << hi.y() << "," << hi.z();
   // The side is chosen on the CT's own values: the scene's volume below (the phantom: its CT).
-  const Volume ct = c.ctPath.empty() ? makePhantom().ct : readNifti(c.ctPath);
-  row.azimuth = nearestSideAzimuth(ct, 0.5 * (box->lo + box->hi));
+  row.azimuth = nearestSideAzimuth(loaded.ct, 0.5 * (box->lo + box->hi));
   std::ostringstream cam;
   cam << row.azimuth << ",0";
   Words words{"--size", std::to_string(size) + "x" + std::to_string(size), "--camera", cam.str(), "--clip-box", clip.str(), "--quiet"};
@@ -164,9 +170,17 @@ int cmdBenchVisibility(const Words& words) {
   if (!o.preset.empty()) (void)transferFunctionPreset(o.preset);  // an unknown name: the list, before any work
   std::filesystem::create_directories(o.out);
   std::vector<VisibilityRow> rows;
+  LoadedVolume loaded;
   for (const VisibilityCase& c : visibilityCases(args.valueOr("--data", "../shared/data"))) {
-    const Volume labels = c.ctPath.empty() ? makePhantom().labels : readNifti(labelsPathOf(c));
-    rows.push_back(measure(c, labels, o));
+    if (loaded.name != c.volume) {
+      if (c.ctPath.empty()) {
+        Phantom p = makePhantom();
+        loaded = {c.volume, std::move(p.ct), std::move(p.labels)};
+      } else {
+        loaded = {c.volume, readNifti(c.ctPath), readNifti(labelsPathOf(c))};
+      }
+    }
+    rows.push_back(measure(c, loaded, o));
     std::cerr << "bench visibility: " << c.volume << " " << c.organ << ": " << rows.back().organHits << " of " << rows.back().grid << " grid points on the organ\n";
   }
   writeRows(rows, o.out, o.size);

@@ -55,14 +55,13 @@ namespace {
 
 /// A clipped view's preset windowed onto the clipped region's soft tissue (render/auto_window.h).
 void applyAutoWindow(HeadlessScene& s, bool quiet) {
-  const auto peak = softTissuePeak(s.volume, s.settings.clip);
-  const auto shift = peak ? autoWindowShift(s.tf, *peak) : std::nullopt;
-  if (!shift) return;
-  s.tf = s.tf.windowed(1.0, *shift, 1.0);
-  s.windowShift = *shift;
+  const auto w = autoWindowFor(s.volume, s.tf, s.settings.clip);
+  if (!w) return;
+  s.tf = s.tf.windowed(1.0, w->shift, 1.0);
+  s.windowShift = w->shift;
   if (!quiet)
-    std::cerr << "automatic window: the clipped region's soft tissue peaks at " << peak->value << " +- " << peak->halfWidth << " (" << s.tf.name
-              << ": level " << (*shift >= 0 ? "+" : "") << *shift << ")\n";
+    std::cerr << "automatic window: the clipped region's soft tissue peaks at " << w->peak.value << " +- " << w->peak.halfWidth << " (" << s.tf.name
+              << ": level " << (w->shift >= 0 ? "+" : "") << w->shift << ")\n";
 }
 
 }  // namespace

@@ -22,10 +22,9 @@ bool FrameDriver::applyUi(const ScriptEvent& e) {
 bool FrameDriver::applyAutoWindow() {
   // The preset's ramps on the soft tissue of what the clip leaves (the whole volume without one);
   // refused where there is none (too few soft-tissue voxels) or the preset has no reference.
-  const auto peak = softTissuePeak(volume_, session_.clip());
-  const auto shift = peak ? autoWindowShift(transferFunctionPreset(session_.preset()), *peak) : std::nullopt;
-  if (!shift) return false;
-  session_.setAutomaticWindow(WindowLevel{1.0, *shift, session_.window().opacity});
+  const auto w = autoWindowFor(volume_, transferFunctionPreset(session_.preset()), session_.clip());
+  if (!w) return false;
+  session_.setAutomaticWindow(WindowLevel{1.0, w->shift, session_.window().opacity});
   return true;
 }
 

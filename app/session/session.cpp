@@ -25,7 +25,7 @@ void Session::resetCamera() {
   const Viewport& vp = framingViewport_ ? *framingViewport_ : gestures_.viewport();
   const double az = glm::radians(kDefaultAzimuthDeg), el = glm::radians(kDefaultElevationDeg);
   camera_ = freeArea_.whole() ? OrbitCamera::framing(geometry_, az, el, double(vp.width) / double(vp.height))
-                              : OrbitCamera::framingIn(geometry_, az, el, vp.width, vp.height, freeArea_);
+                              : OrbitCamera::framingIn(geometry_, az, el, FramingView{vp.width, vp.height, freeArea_});
   gestures_.cancel();
   if (recording_ && script_.events.empty()) script_.camera = CameraState::from(camera_);
 }

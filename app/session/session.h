@@ -117,7 +117,6 @@ class Session {
   std::optional<OrbitCamera> beforeFraming_;  ///< where "camera-back" returns
   bool clipSettled_ = false;
   bool frameTo(std::optional<OrbitCamera> to, double t);
-  ClipRegion dragStartClip_;                  ///< the clip when the Clip-mode drag began
   /// A Clip or Window mode drag in progress (app/session/session_view_gestures.cpp).
   struct ViewDrag {
     enum class Kind { None, Face, Plane, Window } kind = Kind::None;
@@ -125,6 +124,7 @@ class Session {
     glm::dvec2 startPx{0.0}, deltaPx{0.0};
     BoxFace face;
     glm::dvec3 lo{0.0}, hi{0.0};           ///< the box at the drag's start
+    ClipRegion startClip;                   ///< the whole clip at the drag's start (a change frames it)
     std::optional<ClipPlaneDrag> plane;     ///< the plane at the drag's start (after the pick)
     bool pickWanted = false, pickPending = false;
     WindowLevel window;                     ///< the window at the drag's (or finger count's) start

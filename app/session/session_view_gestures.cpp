@@ -18,7 +18,7 @@ void Session::onClipTouch(const TouchEvent& e, const TouchInput& input) {
     drag_ = {};
     drag_.finger = e.id;
     drag_.startPx = e.px;
-    dragStartClip_ = clip_;
+    drag_.startClip = clip_;
     if (clip_.box) {
       drag_.lo = glm::dvec3(clip_.lo);
       drag_.hi = glm::dvec3(clip_.hi);
@@ -59,7 +59,7 @@ void Session::onClipTouch(const TouchEvent& e, const TouchInput& input) {
 
 void Session::endClipDrag() {
   drag_.kind = ViewDrag::Kind::None;
-  if (!(clip_ == dragStartClip_)) clipSettled_ = true;
+  if (!(clip_ == drag_.startClip)) clipSettled_ = true;
 }
 
 void Session::applyPlaneDrag() {

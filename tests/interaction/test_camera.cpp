@@ -87,7 +87,7 @@ TEST(OrbitCamera, FramingInPartOfTheViewCentresTheBoxThereAndFillsIt) {
   g.direction = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   const ScreenArea area{0.02, 0.2, 0.65, 0.85};
   const int w = 1200, h = 760;
-  const OrbitCamera c = OrbitCamera::framingIn(g, 0.4, 0.25, w, h, area);
+  const OrbitCamera c = OrbitCamera::framingIn(g, 0.4, 0.25, FramingView{w, h, area});
   EXPECT_NEAR(c.azimuth, 0.4, 1e-12);
   EXPECT_NEAR(c.elevation, 0.25, 1e-12);
   const auto b = projectedVolumeBox(c, g, w, h);
@@ -97,7 +97,7 @@ TEST(OrbitCamera, FramingInPartOfTheViewCentresTheBoxThereAndFillsIt) {
   const double fill = std::max(((*b)[2] - (*b)[0]) / ((area.x1 - area.x0) * w), ((*b)[3] - (*b)[1]) / ((area.y1 - area.y0) * h));
   EXPECT_NEAR(fill, 0.92, 1e-3);
   // The whole view, or a degenerate area, is the classic framing.
-  EXPECT_EQ(OrbitCamera::framingIn(g, 0.4, 0.25, w, h, ScreenArea{0.5, 0.5, 0.5, 0.9}).distance, OrbitCamera::framing(g, 0.4, 0.25, double(w) / h).distance);
+  EXPECT_EQ(OrbitCamera::framingIn(g, 0.4, 0.25, FramingView{w, h, ScreenArea{0.5, 0.5, 0.5, 0.9}}).distance, OrbitCamera::framing(g, 0.4, 0.25, double(w) / h).distance);
 }
 
 TEST(OrbitCamera, TheLargestFreeAreaAvoidsEveryPanelAndBeatsABruteForceSearch) {

@@ -450,7 +450,8 @@ TEST(Replay, ResetCameraFramesTheVolumeInTheRecordedFreeArea) {
             7)
       << out;
   const handson::OrbitCamera want = handson::OrbitCamera::framingIn(handson::makePhantom().ct.geometry(), glm::radians(handson::kDefaultAzimuthDeg),
-                                                                    glm::radians(handson::kDefaultElevationDeg), 640, 400, {0.02, 0.3, 0.6, 0.97});
+                                                                    glm::radians(handson::kDefaultElevationDeg),
+                                                                    handson::FramingView{640, 400, {0.02, 0.3, 0.6, 0.97}});
   EXPECT_NEAR(dist, want.distance, 1e-3 * want.distance);
   EXPECT_NEAR(x, want.target.x, 0.05);
   EXPECT_NEAR(y, want.target.y, 0.05);
