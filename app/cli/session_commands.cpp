@@ -50,6 +50,8 @@ const char* const kViewHelp =
     "  --timings LOG.csv       per-frame latency log (input, CPU, GPU passes, submit, present)\n"
     "  --play SCRIPT.json      feed a session script in as live input, in real time; exits after it\n"
     "  --play-repeat N         play it N times in a row, resetting the view in between (default 1)\n"
+    "  --play-wait on|off      a played script's clock stops while the simulation builds (default on:\n"
+    "                          as a user waits for 'building' to end; off: every event at its time)\n"
     "  --labels LABELS         organ labels (0 = background; another grid of the same space is resampled):\n"
     "                          in select mode a tap on an organ makes its labelled component a handle\n"
     "  --selection-backend B   where a pinch's selection grows: auto (default: the GPU pass on a GPU,\n"
@@ -162,7 +164,7 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 int cmdView(const Words& words) {
   Args args(words,
             with({"--frame", "--size", "--present-mode", "--render-scale", "--frame-budget-ms", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
-                  "--frames-in-flight", "--play-repeat", "--export-dir", "--export-format", "--labels", "--selection-backend", "--selection-rim",
+                  "--frames-in-flight", "--play-repeat", "--play-wait", "--export-dir", "--export-format", "--labels", "--selection-backend", "--selection-rim",
                   "--selection-bound"},
                  kSimOptions),
             {"--validation", "--quiet", "--print-camera"});
@@ -191,6 +193,7 @@ int cmdView(const Words& words) {
   o.play = args.valueOr("--play", "");
   o.framesInFlight = int(args.integer("--frames-in-flight", 2, 1, 3));
   o.playRepeat = int(args.integer("--play-repeat", 1, 1, 100000));
+  o.playWaitsForSimulation = onOffOption(args, "--play-wait", true);
   o.device = args.valueOr("--device", "");
   o.validation = args.flag("--validation");
   o.quiet = args.flag("--quiet");

@@ -3,6 +3,7 @@
 #include <SDL2/SDL.h>
 #include <SDL2/SDL_vulkan.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -185,6 +186,8 @@ struct Viewer::Impl {
   std::optional<SessionScript> play;  // --play: a script fed in as live input
   std::size_t playNext = 0;
   double playStart = 0.0;
+  double playClock = 0.0;  // when the played script's clock was last read
+  int playPollsSinceBuild = 2;  // input polls since one saw the simulation building
   int playRound = 0;
 
   explicit Impl(const ViewerOptions& opts);
@@ -355,6 +358,14 @@ void Viewer::Impl::pollInput(const Viewport& vp, std::vector<TouchEvent>& touche
   // centres; the gestures' own scales are per viewport height too).
   if (play) {
     const double now = seconds(Clock::now(), t0);
+    // While the simulation of the script's handles builds, its clock stops (a user waits for
+    // "building" to end before dragging; replay waits likewise), so the drags meet the model.
+    // It stays stopped from the last frame (whose events may have started the build) until the
+    // first frame drawn with the model has been shown (the user sees the end of the build then).
+    const bool building = o.playWaitsForSimulation && deform->state() == DeformationController::State::Building;
+    if (building || playPollsSinceBuild < 2) playStart += now - playClock;
+    playClock = now;
+    playPollsSinceBuild = building ? 0 : std::min(playPollsSinceBuild + 1, 2);
     const double k = double(vp.height) / play->viewport.height;
     const glm::dvec2 centre(0.5 * vp.width, 0.5 * vp.height), scriptCentre(0.5 * play->viewport.width, 0.5 * play->viewport.height);
     while (playNext < play->events.size() && playStart + play->events[playNext].t <= now) {
@@ -366,6 +377,7 @@ void Viewer::Impl::pollInput(const Viewport& vp, std::vector<TouchEvent>& touche
         touches.push_back(pe.touch);
       } else {
         actions.push_back(pe);
+        break;  // the next events in a later frame: after this one's effects (a handle made active starts its build)
       }
     }
     if (playNext >= play->events.size() && now > playStart + play->duration() + 0.5) {
@@ -506,7 +518,7 @@ void Viewer::Impl::takeCompletedFrames() {
 
 bool Viewer::Impl::step() {
   if (!running || (o.frames > 0 && int(frameNo) >= o.frames)) return false;
-  if (frameNo == 0) playStart = seconds(Clock::now(), t0);
+  if (frameNo == 0) playStart = playClock = seconds(Clock::now(), t0);
   {
     FrameTiming ft;
     ft.frame = frameNo + 1;

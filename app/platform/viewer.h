@@ -28,6 +28,10 @@ struct ViewerOptions {
   std::string exportExtension = ".nii.gz";  ///< the Export button's volumes: ".nii.gz", ".nrrd" or ".mha"
   std::string play;         ///< a session script fed in as live input, in real time (latency studies)
   int playRepeat = 1;       ///< times to play it
+  /// A played script's clock stops while the simulation of its handles builds, as a user waits for
+  /// the handle panel's "building" to end before dragging (replay waits likewise); false: every
+  /// event at its recorded time, a drag then landing before the model exists.
+  bool playWaitsForSimulation = true;
   std::string timings;      ///< latency log CSV
   std::string preset;       ///< empty: by the volume's values
   std::string labels;       ///< organ labels for taps in select mode (empty: none)

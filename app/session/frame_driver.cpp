@@ -89,7 +89,11 @@ FrameQuality FrameDriver::applyFrameBudget(FrameRequest& request, bool eventsApp
   const bool sameParams = hasLastParams_ && std::memcmp(&p, &lastParams_, sizeof(p)) == 0;
   lastParams_ = p;
   hasLastParams_ = true;
-  const bool changing = eventsApplied || !sameParams || std::exchange(tfChanged_, false) || request.maskUpload || request.deform || request.deformFine;
+  // A finger still down is part of a gesture in progress (a held drag, a rebuild waited for with
+  // the organ held): its frames stay within the budget, as an interaction's frames do until the
+  // button is released in desktop viewers; the still frames' refinement starts when the fingers lift.
+  const bool touching = !session_.gestures().input().fingers().empty();
+  const bool changing = eventsApplied || touching || !sameParams || std::exchange(tfChanged_, false) || request.maskUpload || request.deform || request.deformFine;
   nextQuality_ = budget_.next(changing);
   if (fullQuality) nextQuality_ = FrameQuality{};
   // Full quality: a still picture sums the jitter phases (the renderer sees when it changes; the

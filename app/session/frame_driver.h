@@ -41,7 +41,7 @@ class FrameDriver {
   const FrameBudget& frameBudget() const { return budget_; }
   /// The budget's quality for this frame, applied to a request made, attached and ready to submit:
   /// its raymarch size scaled (its full size is the request's) and its step. The picture counts as
-  /// changing when `eventsApplied` (input or UI actions this frame), its parameters differ from the
+  /// changing when `eventsApplied` (input or UI actions this frame), a finger is down, its parameters differ from the
   /// last frame's (camera, clip, overlays, moved handles), the transfer function changed or it
   /// carries a new simulation state or mask. Off: the request as it is.
   /// `fullQuality`: this frame at full quality whatever the budget says (an export's image).

@@ -450,3 +450,69 @@ TEST_F(Window, APlayedScriptStartsFromItsCameraAndModeAndLandsOnTheSameAnatomyAt
     }
   }
 }
+
+namespace {
+// Each timing-log row's input count and sim_state.
+std::vector<std::pair<int, std::string>> inputAndSimState(const fs::path& csv) {
+  std::ifstream in(csv);
+  std::string line;
+  std::vector<std::string> names;
+  std::vector<std::pair<int, std::string>> rows;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> cells;
+    std::stringstream s(line);
+    for (std::string c; std::getline(s, c, ',');) cells.push_back(c);
+    if (names.empty()) {
+      names = cells;
+      continue;
+    }
+    const auto col = [&](const char* n) { return std::size_t(std::find(names.begin(), names.end(), n) - names.begin()); };
+    if (col("input_count") < cells.size() && col("sim_state") < cells.size()) rows.emplace_back(std::stoi(cells[col("input_count")]), cells[col("sim_state")]);
+  }
+  return rows;
+}
+}  // namespace
+
+TEST_F(Window, APlayedDragWaitsForTheSimulationToBuildAndMovesTheTissue) {
+  // The kidney script pinches at 0-0.6 s, makes the handle active at 0.8 and drags from 1.0 s; the
+  // model builds after the handle becomes active, and the drag (40 mm: past half the padding) makes
+  // it rebuild around the moved kidney. With the script's clock stopped while the simulation builds
+  // (until the first frame drawn with the model), the drag's input frames meet a model, and the
+  // played pose is replay's. Before: every drag frame had sim_state "building" and the tissue did
+  // not deform while the organ moved; with this test's model and the clock running regardless
+  // (--play-wait off), 7 of the drag's 14 input frames were. A small model (3,000 coarse, 81,000
+  // fine tets) keeps the builds short (under a second each).
+  const fs::path script = fs::path(HANDSON_SOURCE_DIR) / "assets/gestures/kidney-translate-two-fingers.json";
+  const PlayedHandle replayed = replayedHandle(script);
+  ASSERT_GT(replayed.voxels, 0u);
+  const fs::path log = fs::temp_directory_path() / ("handson_played_drag_" + std::to_string(getpid()) + ".csv");
+  ViewerOptions o = smallWindow();
+  o.width = o.height = 512;
+  o.play = script.string();
+  o.timings = log.string();
+  o.sim.sim.coarseTets = 3000;
+  o.sim.sim.fineTets = 81000;
+  o.sim.refineSteps = 0;
+  o.exportDir = (fs::temp_directory_path() / ("handson_played_drag_" + std::to_string(getpid()))).string();
+  {
+    Viewer v(o);
+    while (v.step()) {
+    }
+    ASSERT_EQ(v.handles().handles().size(), 1u);
+    const Handle& handle = v.handles().handles().front();
+    EXPECT_NEAR(double(handle.voxels.size()), double(replayed.voxels), 0.02 * double(replayed.voxels));
+    EXPECT_LT((handle.pose.t - replayed.t).norm(), 2.0) << "the played drag ends where replay's does";
+    EXPECT_EQ(v.finish(), 0);
+  }
+  int withModel = 0, building = 0;
+  for (const auto& [inputs, state] : inputAndSimState(log))
+    if (inputs > 0 && state != "off" && state != "") (state == "building" ? building : withModel) += 1;
+  std::printf("drag input frames: %d with the model, %d while it (re)built\n", withModel, building);
+  EXPECT_GE(withModel, 3) << "the drag met the model";
+  // A frame whose own events start a build logs "building" (the pinch's last frame, which makes
+  // the handle, and the move that takes the kidney out of the region); the next ones wait.
+  EXPECT_LE(building, 2);
+  fs::remove(log);
+  fs::remove_all(o.exportDir);
+}

@@ -1068,3 +1068,43 @@ TEST(Replay, WithAFrameBudgetChangingFramesAreReducedAndTheStillFrameIsTheFullQu
   EXPECT_EQ(phases[25], 8.0);
   fs::remove_all(dir);
 }
+
+TEST(Replay, WithAFrameBudgetAFingerHeldStillKeepsTheFramesWithinItUntilItLifts) {
+  // An orbit drag over 0.2 s, the finger then held still for a second and lifted at 1.2 s: while
+  // it is down the frames stay at the level the budget affords (here the cheapest: nothing fits in
+  // 1 µs), as an interaction's frames do until release; the still frames' refinement starts when
+  // it lifts. Before, a held finger's frames refined a level a frame (a full-quality frame takes
+  // seconds on lavapipe, and the next move waited for it).
+  const fs::path dir = freshDir("budget_held");
+  std::ofstream(dir / "held.json") << R"({"format": "handson-session", "version": 1, "volume": {"source": "phantom"},
+    "viewport": [64, 64], "preset": "ct-abdomen", "mode": "navigate",
+    "camera": {"target": [0, 0, 0], "distance": 910, "azimuth_deg": 90, "elevation_deg": 0, "roll_deg": 0, "fov_deg": 35},
+    "events": [{"t": 0.0, "touch": "down", "id": 1, "x": 26, "y": 32},
+               {"t": 0.1, "touch": "move", "id": 1, "x": 30, "y": 32},
+               {"t": 0.2, "touch": "move", "id": 1, "x": 34, "y": 32},
+               {"t": 1.2, "touch": "up", "id": 1, "x": 34, "y": 32},
+               {"t": 2.6, "ui": "set-mode", "value": "navigate"}]})";
+  std::string out;
+  ASSERT_EQ(run("replay " + (dir / "held.json").string() + " --fps 10 --quiet --sim off --frame-budget-ms 0.001 --timings " + (dir / "t.csv").string(), &out), 0)
+      << out;
+  std::istringstream csv(slurp(dir / "t.csv"));
+  std::string line;
+  do std::getline(csv, line);
+  while (line.rfind("# ", 0) == 0);
+  std::vector<std::string> header;
+  for (std::stringstream hs(line); std::getline(hs, line, ',');) header.push_back(line);
+  const auto col = std::size_t(std::find(header.begin(), header.end(), "quality_scale") - header.begin());
+  ASSERT_LT(col, header.size());
+  std::vector<double> scale;
+  while (std::getline(csv, line)) {
+    std::vector<std::string> f;
+    for (std::stringstream ls(line); std::getline(ls, line, ',');) f.push_back(line);
+    ASSERT_GT(f.size(), col);
+    scale.push_back(std::stod(f[col]));
+  }
+  ASSERT_GE(scale.size(), 25u);
+  for (std::size_t k = 0; k <= 12; ++k) EXPECT_EQ(scale[k], 0.125) << "frame " << k << " (" << 0.1 * double(k) << " s): the finger is down";
+  EXPECT_GT(scale[14], 0.125) << "lifted at 1.2 s: refining";
+  EXPECT_EQ(scale[24], 1.0) << "ten levels after the lift: full quality";
+  fs::remove_all(dir);
+}
