@@ -21,8 +21,8 @@ float GpuDeformer::commitFor(Redo redo) const {
 using deform::kParams;
 using deform::kSsbo;
 
-GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slot, const CoarseFrameState& state, Redo redo, fg::ResourceHandle sourceVolume,
-                                            fg::ResourceHandle sourceMask, const Outputs& outputs) {
+GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, const CoarseFrameState& state, Redo redo, const FrameImports& at) {
+  const std::uint32_t slot = at.slot;
   if (slot >= slots_.size()) throw Error("deformation: frame slot out of range");
   if (state.positions.size() != coarseNodes_ || state.rotations.size() != coarseElements_ || state.handles.size() != handles_)
     throw Error("deformation: the coarse state does not match the mesh");
@@ -39,7 +39,7 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slo
   hostBuffer(s.handles, state.handles.data(), state.handles.size() * 64);
   if (!rigidIds_.empty()) poses_ = state.handles;  // the rigid handles drawn at the state's poses
 
-  importResources(g, slot, true, sourceVolume, sourceMask, outputs);
+  importResources(g, true, at);
   using fg::Access;
   const Bound hb = h_;
   const std::uint32_t nodeGroups = std::uint32_t((nodes_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
@@ -73,8 +73,8 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, std::uint32_t slo
   return addResamplePasses(g, redo);
 }
 
-GpuDeformer::Outputs GpuDeformer::addPassesFromPositions(fg::FrameGraph& g, std::uint32_t slot, const std::vector<Eigen::Vector4f>& positions, Redo redo,
-                                                         fg::ResourceHandle sourceVolume, fg::ResourceHandle sourceMask, const Outputs& outputs) {
+GpuDeformer::Outputs GpuDeformer::addPassesFromPositions(fg::FrameGraph& g, const std::vector<Eigen::Vector4f>& positions, Redo redo, const FrameImports& at) {
+  const std::uint32_t slot = at.slot;
   if (slot >= slots_.size()) throw Error("deformation: frame slot out of range");
   if (positions.size() != nodes_) throw Error("deformation: one position per fine node expected");
   for (const auto& p : positions)
@@ -84,7 +84,7 @@ GpuDeformer::Outputs GpuDeformer::addPassesFromPositions(fg::FrameGraph& g, std:
   if (!s.fine || s.fine->size() < bytes) s.fine = std::make_unique<Buffer>(ctx_, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, Buffer::Memory::HostVisible);
   std::memcpy(s.fine->mapped(), positions.data(), bytes);
   s.fine->flush();
-  importResources(g, slot, false, sourceVolume, sourceMask, outputs);
+  importResources(g, false, at);
   using fg::Access;
   h_.fineUpload = g.importBuffer("fine-positions-upload", {s.fine->size()}, Access::HostWrite);
   const Bound hb = h_;

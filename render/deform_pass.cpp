@@ -219,8 +219,10 @@ GpuDeformer::~GpuDeformer() {
   }
 }
 
-void GpuDeformer::importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState, fg::ResourceHandle sourceVolume, fg::ResourceHandle sourceMask,
-                                  const Outputs& outputs) {
+void GpuDeformer::importResources(fg::FrameGraph& g, bool withState, const FrameImports& at) {
+  const std::uint32_t slot = at.slot;
+  const fg::ResourceHandle sourceVolume = at.sourceVolume, sourceMask = at.sourceMask;
+  const Outputs& outputs = at.outputs;
   using fg::Access;
   Bound& h = h_;
   h = Bound{};
@@ -365,16 +367,16 @@ void GpuDeformer::writeRigidDraws(Slot& s) {
 }
 
 DeformFrameStats GpuDeformer::runFrame(const CoarseFrameState& state, Redo redo) {
-  return runOwn([&](fg::FrameGraph& g) { addPasses(g, 0, state, redo); });
+  return runOwn([&](fg::FrameGraph& g) { addPasses(g, state, redo); });
 }
 
 DeformFrameStats GpuDeformer::runFrameFromPositions(const std::vector<Eigen::Vector4f>& indexPositions, Redo redo) {
-  return runOwn([&](fg::FrameGraph& g) { addPassesFromPositions(g, 0, indexPositions, redo); });
+  return runOwn([&](fg::FrameGraph& g) { addPassesFromPositions(g, indexPositions, redo); });
 }
 
 DeformFrameStats GpuDeformer::settle(const CoarseFrameState& state, bool withStrain) {
   return runOwn([&](fg::FrameGraph& g) {
-    addPasses(g, 0, state, Redo::Bricks);
+    addPasses(g, state, Redo::Bricks);
     if (withStrain) addStrainPass(g);
   });
 }
@@ -387,7 +389,7 @@ DeformFrameStats GpuDeformer::runFrame(const std::vector<Eigen::Vector4f>& index
   uploadToBuffer(ctx_, pos_, indexPositions.data(), nodes_ * 16);
   uploadToBuffer(ctx_, prev_, indexPositions.data(), nodes_ * 16);
   return runOwn([&](fg::FrameGraph& g) {
-    importResources(g, 0, false);
+    importResources(g, false);
     addResamplePasses(g, Redo::Region);
   });
 }

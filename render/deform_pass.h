@@ -95,17 +95,21 @@ class GpuDeformer {
     fg::ResourceHandle volume, mask;  ///< deformed images, left in Access::Sampled
   };
   const Image& maskImage() const { return mask_; }
-  /// Adds one frame's passes. `slot`: the executor's frame slot (per-slot upload buffers).
-  /// `sourceVolume` / `sourceMask`: the graph's handles of the source images when the caller
-  /// imported them already (so its own passes on them are ordered with ours); else imported here.
-  /// `outputs`: the deformed images' handles when importOutputs() gave them already this frame.
-  Outputs addPasses(fg::FrameGraph& graph, std::uint32_t slot, const CoarseFrameState& state, Redo redo = Redo::Moved,
-                    fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {}, const Outputs& outputs = {});
+  /// Where a frame's passes go in the caller's graph.
+  struct FrameImports {
+    std::uint32_t slot;  ///< the executor's frame slot (per-slot upload buffers; {} gives 0)
+    /// The graph's handles of the source images when the caller imported them already (so its own
+    /// passes on them are ordered with ours); else imported here.
+    fg::ResourceHandle sourceVolume, sourceMask;
+    Outputs outputs;  ///< the deformed images' handles when importOutputs() gave them already this frame
+  };
+  /// Adds one frame's passes.
+  Outputs addPasses(fg::FrameGraph& graph, const CoarseFrameState& state, Redo redo = Redo::Moved, const FrameImports& at = {});
   /// Adds one frame's passes from fine node positions computed elsewhere (voxel index space: the
   /// two-level refinement of a held pose), uploaded through the slot's buffer; with Redo::Moved or Redo::Bricks only
   /// the moved box or the bricks whose tissue moved are redone. Megabytes, not kilobytes: for the occasional refined state, not every frame.
-  Outputs addPassesFromPositions(fg::FrameGraph& graph, std::uint32_t slot, const std::vector<Eigen::Vector4f>& indexPositions, Redo redo = Redo::Moved,
-                                 fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {}, const Outputs& outputs = {});
+  Outputs addPassesFromPositions(fg::FrameGraph& graph, const std::vector<Eigen::Vector4f>& indexPositions, Redo redo = Redo::Moved,
+                                 const FrameImports& at = {});
   /// Adds the strain passes: per fine tet, the largest principal stretch - 1 of its deformation
   /// gradient at the fine positions this frame's addPasses / addPassesFromPositions computed
   /// (deform_strain.comp), and the strain volume on the deformed volume's grid, redone over the same
@@ -169,8 +173,7 @@ class GpuDeformer {
  private:
   void createPipelines();
   void uploadStaticData(const DeformSetup& setup, const ValidatedDeformSetup& valid);
-  void importResources(fg::FrameGraph& g, std::uint32_t slot, bool withState, fg::ResourceHandle sourceVolume = {}, fg::ResourceHandle sourceMask = {},
-                       const Outputs& outputs = {});
+  void importResources(fg::FrameGraph& g, bool withState, const FrameImports& at = {});
   Outputs addResamplePasses(fg::FrameGraph& g, Redo redo);
   void addResetPass(fg::FrameGraph& g, Redo redo);
   void addArgsPass(fg::FrameGraph& g, Redo redo);

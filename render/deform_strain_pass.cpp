@@ -107,7 +107,7 @@ std::vector<float> GpuDeformer::readStrain() const {
 
 std::vector<float> GpuDeformer::runStrain(const std::vector<Eigen::Vector4f>& indexPositions) {
   runOwn([&](fg::FrameGraph& g) {
-    addPassesFromPositions(g, 0, indexPositions, Redo::Region);
+    addPassesFromPositions(g, indexPositions, Redo::Region);
     addStrainPass(g);
   });
   return readStrain();

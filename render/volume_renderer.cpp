@@ -302,35 +302,55 @@ void VolumeRenderer::harvest(std::uint32_t slot, std::vector<FrameResult>& out) 
 
 namespace {
 
-/// Copies a box of ids (rows of rowTexels bytes in `src`) into the handle-id mask and, while
-/// deforming, into the deformed mask: outside the simulated region the ids hold at once; inside it
-/// the region's redo carries them through the deformation.
-void addMaskCopy(fg::FrameGraph& g, const char* name, fg::ResourceHandle src, const Eigen::Vector3i& mn, const Eigen::Vector3i& dm,
-                 std::uint32_t rowTexels, fg::ResourceHandle mask, fg::ResourceHandle deformedMask) {
+/// A box of ids to copy into the handle-id mask: rows of rowTexels texels (0: the box's width) in `src`.
+struct MaskCopy {
+  const char* name;
+  fg::ResourceHandle src;
+  Eigen::Vector3i min, dims;
+  std::uint32_t rowTexels = 0;
+};
+
+/// Copies a box of ids into the handle-id mask and, while deforming, into the deformed mask:
+/// outside the simulated region the ids hold at once; inside it the region's redo carries them
+/// through the deformation.
+void addMaskCopy(fg::FrameGraph& g, const MaskCopy& c, fg::ResourceHandle mask, fg::ResourceHandle deformedMask) {
   g.addPass(
-      name,
+      c.name,
       [&](fg::PassBuilder& b) {
-        b.read(src, fg::Access::TransferSrc);
+        b.read(c.src, fg::Access::TransferSrc);
         b.write(mask, fg::Access::TransferDst);
         if (deformedMask.valid()) b.write(deformedMask, fg::Access::TransferDst);
       },
-      [src, mn, dm, rowTexels, mask, deformedMask](fg::Executor& e) {
+      [c, mask, deformedMask](fg::Executor& e) {
         auto& x = vk::vulkanExecutor(e);
         VkBufferImageCopy r{};
-        r.bufferRowLength = rowTexels;
+        r.bufferRowLength = c.rowTexels;
         r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-        r.imageOffset = {mn.x(), mn.y(), mn.z()};
-        r.imageExtent = {std::uint32_t(dm.x()), std::uint32_t(dm.y()), std::uint32_t(dm.z())};
-        vkCmdCopyBufferToImage(x.cmd(), x.buffer(src).handle(), x.image(mask).handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
+        r.imageOffset = {c.min.x(), c.min.y(), c.min.z()};
+        r.imageExtent = {std::uint32_t(c.dims.x()), std::uint32_t(c.dims.y()), std::uint32_t(c.dims.z())};
+        vkCmdCopyBufferToImage(x.cmd(), x.buffer(c.src).handle(), x.image(mask).handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
         if (deformedMask.valid())
-          vkCmdCopyBufferToImage(x.cmd(), x.buffer(src).handle(), x.image(deformedMask).handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
+          vkCmdCopyBufferToImage(x.cmd(), x.buffer(c.src).handle(), x.image(deformedMask).handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &r);
       });
 }
 
 }  // namespace
 
-VolumeRenderer::MaskBox VolumeRenderer::addMaskWrites(fg::FrameGraph& g, const FrameRequest& req, Slot& s, fg::ResourceHandle mask,
-                                                      fg::ResourceHandle deformedMask, fg::ResourceHandle volume, fg::ResourceHandle& staging) {
+// One frame's graph and what submit() binds to it.
+struct VolumeRenderer::FrameBuild {
+  fg::FrameGraph g;
+  vk::MarchInputs in;                 ///< what the raymarch and picking read (the deformed images while deforming)
+  vk::GpuDeformer::Outputs deformed;  ///< the deformed images, while deforming
+  fg::ResourceHandle sourceVolume, sourceMask;  ///< the source images, bound to the renderer's own
+  fg::ResourceHandle maskStaging, imageHost, pickIn, pickHost;  ///< per-slot buffers, where used
+  bool ownStrain = false, ownOverLimit = false;  ///< the overlays' stand-ins are bound
+  vk::Image* accum = nullptr;         ///< the still frame's sum, or its 1x1 stand-in
+  fg::Access* accumAccess = nullptr;  ///< how it was last used
+};
+
+VolumeRenderer::MaskBox VolumeRenderer::addMaskWrites(FrameBuild& f, const FrameRequest& req, Slot& s) {
+  fg::FrameGraph& g = f.g;
+  const fg::ResourceHandle mask = f.in.mask, deformedMask = f.deformed.mask;
   MaskBox box;
   auto cover = [&box](const Eigen::Vector3i& mn, const Eigen::Vector3i& dm) {
     const Eigen::Vector3i hi = mn + dm - Eigen::Vector3i::Ones();
@@ -346,14 +366,14 @@ VolumeRenderer::MaskBox VolumeRenderer::addMaskWrites(fg::FrameGraph& g, const F
     ensureBuffer(s.maskStaging, up.ids.size(), VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
     std::memcpy(s.maskStaging->mapped(), up.ids.data(), up.ids.size());
     s.maskStaging->flush();
-    staging = g.importBuffer("mask-staging", {s.maskStaging->size()}, fg::Access::HostWrite);
-    addMaskCopy(g, "mask-upload", staging, up.min, up.dims, 0, mask, deformedMask);
+    f.maskStaging = g.importBuffer("mask-staging", {s.maskStaging->size()}, fg::Access::HostWrite);
+    addMaskCopy(g, {"mask-upload", f.maskStaging, up.min, up.dims}, mask, deformedMask);
     cover(up.min, up.dims);
   }
   // The live selection's rounds and paint (after the upload: its base holds the uploaded ids).
   if (live_)
-    if (const auto paint = live_->addPasses(g, volume)) {
-      addMaskCopy(g, "live-mask-copy", paint->ids, paint->min, paint->dims, paint->rowTexels, mask, deformedMask);
+    if (const auto paint = live_->addPasses(g, f.in.volume)) {
+      addMaskCopy(g, {"live-mask-copy", paint->ids, paint->min, paint->dims, paint->rowTexels}, mask, deformedMask);
       cover(paint->min, paint->dims);
     }
   return box;
@@ -362,8 +382,11 @@ VolumeRenderer::MaskBox VolumeRenderer::addMaskWrites(fg::FrameGraph& g, const F
 // The deformation: new coarse state (or a mask change to carry over) -> its passes, whose outputs
 // the raymarch and picking read (`in`); otherwise the deformed images as they are. With the strain
 // overlay or the limit highlight, the strain passes after them (or the strain volumes as they are).
-void VolumeRenderer::addDeformation(fg::FrameGraph& g, const FrameRequest& req, const MaskBox& maskWritten, bool wantStrain,
-                                    const vk::GpuDeformer::Outputs& deformed, vk::MarchInputs& in) {
+void VolumeRenderer::addDeformation(FrameBuild& f, const FrameRequest& req, const MaskBox& maskWritten, bool wantStrain) {
+  fg::FrameGraph& g = f.g;
+  vk::MarchInputs& in = f.in;
+  const vk::GpuDeformer::Outputs& deformed = f.deformed;
+  const vk::GpuDeformer::FrameImports at{executor_.slot(), in.volume, in.mask, deformed};
   if (req.deform) lastDeform_ = *req.deform;
   bool uploadInRegion = false;
   if (maskWritten) {
@@ -376,7 +399,7 @@ void VolumeRenderer::addDeformation(fg::FrameGraph& g, const FrameRequest& req, 
   bool passes = false;
   if (req.deformFine) {
     if (lastDeform_) deformer_->setHandlePoses(lastDeform_->handles);  // the refined state's poses
-    deformer_->addPassesFromPositions(g, executor_.slot(), *req.deformFine, whole ? vk::Redo::Region : vk::Redo::Bricks, in.volume, in.mask, deformed);
+    deformer_->addPassesFromPositions(g, *req.deformFine, whole ? vk::Redo::Region : vk::Redo::Bricks, at);
     deformFirst_ = false;
     deformLagging_ = false;  // refined positions are drawn as they are
     passes = true;
@@ -385,7 +408,7 @@ void VolumeRenderer::addDeformation(fg::FrameGraph& g, const FrameRequest& req, 
     // first frame without a new state (or one asked to be exact) brings every brick to the exact state.
     const bool moving = req.deform && !req.deformExact;
     const vk::Redo redo = whole ? vk::Redo::Region : moving ? vk::Redo::BricksDuringMotion : vk::Redo::Bricks;
-    deformer_->addPasses(g, executor_.slot(), *lastDeform_, redo, in.volume, in.mask, deformed);
+    deformer_->addPasses(g, *lastDeform_, redo, at);
     if (!req.deform) ++contentVersion_;  // the settled picture differs: a still frame's sum starts anew
     deformFirst_ = false;
     deformLagging_ = redo != vk::Redo::Bricks;  // a region redo takes nodes at commitVoxels: settled next
@@ -433,6 +456,104 @@ void VolumeRenderer::sumStillFrame(const FrameRequest& req, gpu::RenderParams& p
   stillShown_ = still_.count;
 }
 
+
+void VolumeRenderer::importInputs(FrameBuild& f) {
+  fg::FrameGraph& g = f.g;
+  vk::MarchInputs& in = f.in;
+  in.params = g.importBuffer("params", {sizeof(gpu::RenderParams)}, fg::Access::HostWrite);
+  in.volume = g.importImage("volume", volume_.desc(), fg::Access::Sampled);
+  in.tf = g.importBuffer("transfer-function", {tf_.size()}, fg::Access::StorageRead);
+  in.occupancy = g.importBuffer("occupancy", {occupancyBuffer_.size()}, fg::Access::StorageRead);
+  in.mask = g.importImage("handle-mask", mask_.desc(), fg::Access::Sampled);
+  in.handles = g.importBuffer("handle-tints", {handleTints_.size()}, fg::Access::StorageRead);
+  in.jitter = g.importBuffer("jitter-tile", {jitter_.size()}, fg::Access::StorageRead);
+  // While deforming, the deformed images are what the raymarch and picking read.
+  if (deformer_) f.deformed = deformer_->importOutputs(g);
+}
+
+void VolumeRenderer::addOverlayInputs(FrameBuild& f, gpu::RenderParams& params) {
+  vk::MarchInputs& in = f.in;
+  in.labels = f.g.importImage("labels", labels_.desc(), fg::Access::Sampled);
+  if (!hasLabels_ || !(in.volume == f.sourceVolume)) params.control.x &= ~gpu::kFlagLabelTint;  // none, or deformed anatomy shown
+  f.ownStrain = !in.strain.valid();
+  if (f.ownStrain) {
+    in.strain = f.g.importImage("no-strain", noStrain_.desc(), fg::Access::Sampled);
+    params.control.x &= ~gpu::kFlagStrainOverlay;  // nothing to show (not deforming): no overlay
+  }
+  f.ownOverLimit = !in.overLimit.valid();
+  if (f.ownOverLimit) {
+    in.overLimit = f.g.importImage("no-strain-over-limit", noOverLimit_.desc(), fg::Access::Sampled);
+    params.control.x &= ~gpu::kFlagLimitHighlight;  // not deforming, or no limits: nothing to highlight
+  }
+}
+
+void VolumeRenderer::addAccumulation(FrameBuild& f, const FrameRequest& req, gpu::RenderParams& params) {
+  const std::uint32_t w = std::uint32_t(params.dims.w), h = std::uint32_t(params.brickDims.w);
+  sumStillFrame(req, params);
+  const bool accumulate = (params.control.x & gpu::kFlagAccumulate) != 0;
+  if (accumulate && (!accum_.handle() || accum_.desc().width != w || accum_.desc().height != h)) {
+    if (accum_.handle()) vkDeviceWaitIdle(ctx_.device());  // frames in flight may still use the old one (a resize: rare)
+    accum_ = vk::Image(ctx_, {w, h, 1, fg::Format::Rgba32Sfloat}, VK_IMAGE_USAGE_STORAGE_BIT);
+    accumAccess_ = fg::Access::None;
+    params.quality.z = params.quality.w = 0.0f;  // nothing summed in it yet: this phase starts the sum
+  }
+  f.accum = accumulate ? &accum_ : &noAccum_;
+  f.accumAccess = accumulate ? &accumAccess_ : &noAccumAccess_;
+  f.in.accum = f.g.importImage(accumulate ? "accumulation" : "no-accumulation", f.accum->desc(), *f.accumAccess);
+}
+
+void VolumeRenderer::addReadbacks(FrameBuild& f, const FrameRequest& req, Slot& s, fg::ResourceHandle color) {
+  fg::FrameGraph& g = f.g;
+  s.width = req.params.dims.w;
+  s.height = req.params.brickDims.w;
+  s.wantImage = req.readbackImage;
+  if (req.readbackImage) {
+    ensureBuffer(s.imageReadback, VkDeviceSize(s.width) * VkDeviceSize(s.height) * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+    f.imageHost = g.importBuffer("image-readback", {s.imageReadback->size()}, fg::Access::None);
+    vk::addReadbackPass(g, "image-readback", color, f.imageHost);
+  } else if (!req.extension) {
+    g.exportResource(color, fg::Access::TransferSrc);
+  }
+  if (req.extension) req.extension->addPasses(g, color);
+  s.pickCount = req.pickPoints.size();
+  if (req.pickPoints.empty()) return;
+  const std::uint32_t n = std::uint32_t(req.pickPoints.size());
+  ensureBuffer(s.pickPoints, n * sizeof(glm::vec4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  ensureBuffer(s.pickReadback, n * sizeof(gpu::PickResult), VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  auto* pts = static_cast<glm::vec4*>(s.pickPoints->mapped());
+  for (std::uint32_t i = 0; i < n; ++i) pts[i] = glm::vec4(req.pickPoints[i], 0.0f, 0.0f);
+  s.pickPoints->flush();
+  f.pickIn = g.importBuffer("pick-points", {s.pickPoints->size()}, fg::Access::HostWrite);
+  const fg::ResourceHandle pickOut = g.createBuffer("pick-results", {n * sizeof(gpu::PickResult)});
+  f.pickHost = g.importBuffer("pick-readback", {s.pickReadback->size()}, fg::Access::None);
+  pick_.add(g, f.in, f.pickIn, pickOut, n, linear_);
+  vk::addReadbackPass(g, "pick-readback", pickOut, f.pickHost);
+}
+
+void VolumeRenderer::bindFrame(FrameBuild& f, const FrameRequest& req, Slot& s, bool liveRan) {
+  executor_.bindBuffer(f.in.params, *s.params);
+  executor_.bindImage(f.sourceVolume, volume_);
+  executor_.bindBuffer(f.in.tf, tf_);
+  executor_.bindBuffer(f.in.occupancy, occupancyBuffer_);
+  executor_.bindImage(f.sourceMask, mask_);
+  if (f.ownStrain) executor_.bindImage(f.in.strain, noStrain_);
+  if (f.ownOverLimit) executor_.bindImage(f.in.overLimit, noOverLimit_);
+  executor_.bindImage(f.in.labels, labels_);
+  if (deformer_) deformer_->bind(executor_);
+  if (liveRan) live_->bind(executor_);
+  executor_.bindBuffer(f.in.handles, handleTints_);
+  executor_.bindBuffer(f.in.jitter, jitter_);
+  executor_.bindImage(f.in.accum, *f.accum);
+  *f.accumAccess = fg::Access::StorageReadWrite;
+  if (f.maskStaging.valid()) executor_.bindBuffer(f.maskStaging, *s.maskStaging);
+  if (f.imageHost.valid()) executor_.bindBuffer(f.imageHost, *s.imageReadback);
+  if (f.pickIn.valid()) {
+    executor_.bindBuffer(f.pickIn, *s.pickPoints);
+    executor_.bindBuffer(f.pickHost, *s.pickReadback);
+  }
+  if (req.extension) req.extension->bind(executor_);
+}
+
 std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   if (!hasVolume_ || !hasTf_) throw Error("renderer: no volume or transfer function");
   const int w = req.params.dims.w, h = req.params.brickDims.w;
@@ -441,123 +562,43 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   executor_.beginFrame();  // waits only for the frame that last used this slot
   harvest(executor_.slot(), completed_);
   Slot& s = slots_[executor_.slot()];
-
-  const VkBufferUsageFlags hostUsage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
   ensureBuffer(s.params, sizeof(gpu::RenderParams), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);  // not uniform: see deform_descriptors.h
   gpu::RenderParams params = req.params;
   params.control.y = std::uint32_t(req.pickPoints.size());  // written below, once the overlay is known
 
-  fg::FrameGraph g;
-  const fg::ImageDesc volDesc = volume_.desc();
-  vk::MarchInputs in;
-  in.params = g.importBuffer("params", {sizeof(gpu::RenderParams)}, fg::Access::HostWrite);
-  in.volume = g.importImage("volume", volDesc, fg::Access::Sampled);
-  in.tf = g.importBuffer("transfer-function", {tf_.size()}, fg::Access::StorageRead);
-  in.occupancy = g.importBuffer("occupancy", {occupancyBuffer_.size()}, fg::Access::StorageRead);
-  in.mask = g.importImage("handle-mask", mask_.desc(), fg::Access::Sampled);
-  in.handles = g.importBuffer("handle-tints", {handleTints_.size()}, fg::Access::StorageRead);
-  in.jitter = g.importBuffer("jitter-tile", {jitter_.size()}, fg::Access::StorageRead);
-  // While deforming, the deformed images are what the raymarch and picking read.
-  vk::GpuDeformer::Outputs deformed;
-  if (deformer_) deformed = deformer_->importOutputs(g);
+  FrameBuild f;
+  importInputs(f);
   // A frame carrying the live selection's growth waits for the last one that did.
   if (live_ && live_->inFlight()) {
     executor_.waitSlot(liveSlot_);
     live_->frameDone();
   }
-  fg::ResourceHandle maskStaging;
-  const MaskBox maskWritten = addMaskWrites(g, req, s, in.mask, deformed.mask, in.volume, maskStaging);
+  const MaskBox maskWritten = addMaskWrites(f, req, s);
+  f.sourceVolume = f.in.volume;
+  f.sourceMask = f.in.mask;
+  if (maskWritten) f.g.exportResource(f.sourceMask, fg::Access::Sampled);  // whoever reads it, it ends the frame sampled
+  if (maskWritten) ++contentVersion_;                                     // a still frame's sum starts anew
   // The deformed images (and strain) the raymarch and picking read, while deforming.
-  const fg::ResourceHandle sourceVolume = in.volume, sourceMask = in.mask;
-  if (maskWritten) g.exportResource(sourceMask, fg::Access::Sampled);  // whoever reads it, it ends the frame sampled
-  if (maskWritten) ++contentVersion_;                                 // a still frame's sum starts anew
-  if (deformer_) addDeformation(g, req, maskWritten, (params.control.x & (gpu::kFlagStrainOverlay | gpu::kFlagLimitHighlight)) != 0, deformed, in);
-  in.labels = g.importImage("labels", labels_.desc(), fg::Access::Sampled);
-  if (!hasLabels_ || !(in.volume == sourceVolume)) params.control.x &= ~gpu::kFlagLabelTint;  // none, or deformed anatomy shown
-  const bool ownStrain = !in.strain.valid();
-  if (ownStrain) {
-    in.strain = g.importImage("no-strain", noStrain_.desc(), fg::Access::Sampled);
-    params.control.x &= ~gpu::kFlagStrainOverlay;  // nothing to show (not deforming): no overlay
-  }
-  const bool ownOverLimit = !in.overLimit.valid();
-  if (ownOverLimit) {
-    in.overLimit = g.importImage("no-strain-over-limit", noOverLimit_.desc(), fg::Access::Sampled);
-    params.control.x &= ~gpu::kFlagLimitHighlight;  // not deforming, or no limits: nothing to highlight
-  }
+  if (deformer_) addDeformation(f, req, maskWritten, (params.control.x & (gpu::kFlagStrainOverlay | gpu::kFlagLimitHighlight)) != 0);
+  addOverlayInputs(f, params);
   params.tfGradient = glm::vec4(lut_.gradientTop, 0.0f, 0.0f, 0.0f);  // the table's, whatever the request said
-  // A still frame's running sum (kFlagAccumulate), at the frame's size; a new one starts a new sum.
-  sumStillFrame(req, params);
-  const bool accumulate = (params.control.x & gpu::kFlagAccumulate) != 0;
-  if (accumulate && (!accum_.handle() || accum_.desc().width != std::uint32_t(w) || accum_.desc().height != std::uint32_t(h))) {
-    if (accum_.handle()) vkDeviceWaitIdle(ctx_.device());  // frames in flight may still use the old one (a resize: rare)
-    accum_ = vk::Image(ctx_, {std::uint32_t(w), std::uint32_t(h), 1, fg::Format::Rgba32Sfloat}, VK_IMAGE_USAGE_STORAGE_BIT);
-    accumAccess_ = fg::Access::None;
-    params.quality.z = params.quality.w = 0.0f;  // nothing summed in it yet: this phase starts the sum
-  }
-  vk::Image& accumImage = accumulate ? accum_ : noAccum_;
-  fg::Access& accumAccess = accumulate ? accumAccess_ : noAccumAccess_;
-  in.accum = g.importImage(accumulate ? "accumulation" : "no-accumulation", accumImage.desc(), accumAccess);
+  addAccumulation(f, req, params);  // a still frame's running sum, at the frame's size; a new one starts a new sum
   std::memcpy(s.params->mapped(), &params, sizeof(params));
   s.params->flush();
-  auto color = g.createImage("color", {std::uint32_t(w), std::uint32_t(h), 1, fg::Format::Rgba8Unorm});
-  raymarch_.add(g, in, color, linear_, nearest_, accumulate && params.quality.w > 0.5f);
+  const fg::ResourceHandle color = f.g.createImage("color", {std::uint32_t(w), std::uint32_t(h), 1, fg::Format::Rgba8Unorm});
+  raymarch_.add(f.g, f.in, color, linear_, nearest_, (params.control.x & gpu::kFlagAccumulate) != 0 && params.quality.w > 0.5f);
+  addReadbacks(f, req, s, color);
 
-  fg::ResourceHandle imageHost, pickIn, pickOut, pickHost;
-  s.width = w;
-  s.height = h;
-  s.wantImage = req.readbackImage;
-  if (req.readbackImage) {
-    ensureBuffer(s.imageReadback, VkDeviceSize(w) * h * 4, hostUsage);
-    imageHost = g.importBuffer("image-readback", {s.imageReadback->size()}, fg::Access::None);
-    vk::addReadbackPass(g, "image-readback", color, imageHost);
-  } else if (!req.extension) {
-    g.exportResource(color, fg::Access::TransferSrc);
-  }
-  if (req.extension) req.extension->addPasses(g, color);
-  s.pickCount = req.pickPoints.size();
-  if (!req.pickPoints.empty()) {
-    const std::uint32_t n = std::uint32_t(req.pickPoints.size());
-    ensureBuffer(s.pickPoints, n * sizeof(glm::vec4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-    ensureBuffer(s.pickReadback, n * sizeof(gpu::PickResult), hostUsage);
-    auto* pts = static_cast<glm::vec4*>(s.pickPoints->mapped());
-    for (std::uint32_t i = 0; i < n; ++i) pts[i] = glm::vec4(req.pickPoints[i], 0.0f, 0.0f);
-    s.pickPoints->flush();
-    pickIn = g.importBuffer("pick-points", {s.pickPoints->size()}, fg::Access::HostWrite);
-    pickOut = g.createBuffer("pick-results", {n * sizeof(gpu::PickResult)});
-    pickHost = g.importBuffer("pick-readback", {s.pickReadback->size()}, fg::Access::None);
-    pick_.add(g, in, pickIn, pickOut, n, linear_);
-    vk::addReadbackPass(g, "pick-readback", pickOut, pickHost);
-  }
-  g.compile();
-  executor_.setGraph(&g);
-  executor_.bindBuffer(in.params, *s.params);
-  executor_.bindImage(sourceVolume, volume_);
-  executor_.bindBuffer(in.tf, tf_);
-  executor_.bindBuffer(in.occupancy, occupancyBuffer_);
-  executor_.bindImage(sourceMask, mask_);
-  if (ownStrain) executor_.bindImage(in.strain, noStrain_);
-  if (ownOverLimit) executor_.bindImage(in.overLimit, noOverLimit_);
-  executor_.bindImage(in.labels, labels_);
-  if (deformer_) deformer_->bind(executor_);
+  f.g.compile();
+  executor_.setGraph(&f.g);
   const bool liveRan = live_ && live_->inFlight();  // its passes are in this frame
-  if (liveRan) live_->bind(executor_);
-  executor_.bindBuffer(in.handles, handleTints_);
-  executor_.bindBuffer(in.jitter, jitter_);
-  executor_.bindImage(in.accum, accumImage);
-  accumAccess = fg::Access::StorageReadWrite;
-  if (maskStaging.valid()) executor_.bindBuffer(maskStaging, *s.maskStaging);
-  if (imageHost.valid()) executor_.bindBuffer(imageHost, *s.imageReadback);
-  if (pickIn.valid()) {
-    executor_.bindBuffer(pickIn, *s.pickPoints);
-    executor_.bindBuffer(pickHost, *s.pickReadback);
-  }
-  if (req.extension) req.extension->bind(executor_);
-  g.execute(executor_);
+  bindFrame(f, req, s, liveRan);
+  f.g.execute(executor_);
   executor_.setGraph(nullptr);
   if (req.extension) executor_.submit(req.extension->waitSemaphore, req.extension->waitStage, req.extension->signalSemaphore);
   else executor_.submit();
   if (liveRan) {
-    live_->submitted(g);
+    live_->submitted(f.g);
     liveSlot_ = executor_.slot();
   }
   s.frame = nextFrame_++;

@@ -171,12 +171,23 @@ class VolumeRenderer {
   void sumStillFrame(const FrameRequest& req, gpu::RenderParams& params);
   /// A box of the handle-id mask written this frame: first voxel, last voxel (inclusive).
   using MaskBox = std::optional<std::pair<Eigen::Vector3i, Eigen::Vector3i>>;
+  struct FrameBuild;  // one frame's graph and what submit() binds to it (volume_renderer.cpp)
+  /// The raymarch's and picking's imported inputs, and the deformed images while deforming.
+  void importInputs(FrameBuild& f);
   /// The frame's writes into the handle-id mask (and the deformed one): the request's upload, then
   /// the live selection's paint. Returns the box they cover (nullopt: none).
-  MaskBox addMaskWrites(fg::FrameGraph& g, const FrameRequest& req, Slot& s, fg::ResourceHandle mask, fg::ResourceHandle deformedMask,
-                        fg::ResourceHandle volume, fg::ResourceHandle& staging);
-  void addDeformation(fg::FrameGraph& g, const FrameRequest& req, const MaskBox& maskWritten, bool wantStrain,
-                      const vk::GpuDeformer::Outputs& deformed, vk::MarchInputs& in);
+  MaskBox addMaskWrites(FrameBuild& f, const FrameRequest& req, Slot& s);
+  /// The deformation's passes; the raymarch and picking then read the deformed images (and strain).
+  void addDeformation(FrameBuild& f, const FrameRequest& req, const MaskBox& maskWritten, bool wantStrain);
+  /// The overlays' inputs (labels, strain, strain over its limit): stand-ins, their flags cleared,
+  /// where the frame has none.
+  void addOverlayInputs(FrameBuild& f, gpu::RenderParams& params);
+  /// The still frame's running sum (kFlagAccumulate) at the frame's size (params: its phase).
+  void addAccumulation(FrameBuild& f, const FrameRequest& req, gpu::RenderParams& params);
+  /// The image's read-back (or the extension's passes on it) and the picks.
+  void addReadbacks(FrameBuild& f, const FrameRequest& req, Slot& s, fg::ResourceHandle color);
+  /// Binds every imported resource of the compiled frame to the executor.
+  void bindFrame(FrameBuild& f, const FrameRequest& req, Slot& s, bool liveRan);
   /// Waits for every frame in flight (and takes the live selection's growth state from them).
   void waitFramesInFlight();
 
