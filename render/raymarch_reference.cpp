@@ -198,18 +198,30 @@ struct Sampler {
                             sample(idx + glm::vec3(0, 0, 1)) - sample(idx - glm::vec3(0, 0, 1)));
   }
 
-  // Advances sample counter n past an empty brick; returns true if the sample at n must be skipped.
-  // Advances sample counter n past an empty brick; returns true if the sample at n must be
-  // skipped. For an occupied brick, sets occupiedUntil to the ray distance where it is left.
-  bool skip(glm::vec3 o, glm::vec3 d, float t0, float step, float offset, glm::vec3 idx, std::uint32_t& n, float& occupiedUntil) const {
+  // A ray's samples in index space: sample n at o + (t0 + (n + offset) step) d.
+  struct RaySamples {
+    glm::vec3 o, d;
+    float t0, step, offset;
+    float at(std::uint32_t n) const { return t0 + (float(n) + offset) * step; }
+  };
+  // Where a ray is: its next sample and the distance up to which its current brick is occupied.
+  struct RayCursor {
+    std::uint32_t n = 0;
+    float occupiedUntil = -1.0f;
+  };
+
+  // Advances the cursor's sample past an empty brick; returns true if the sample at `idx` (the
+  // cursor's) must be skipped. For an occupied brick, sets occupiedUntil to the ray distance where
+  // it is left.
+  bool skip(const RaySamples& r, glm::vec3 idx, RayCursor& c) const {
     glm::ivec3 brick;
     const bool occupied = brickOccupied(idx, brick);
-    const float te = brickExit(o, d, brick);
+    const float te = brickExit(r.o, r.d, brick);
     if (occupied) {
-      occupiedUntil = te;
+      c.occupiedUntil = te;
       return false;
     }
-    n = std::max(n + 1u, std::uint32_t(std::ceil((te - t0) / step - offset)));
+    c.n = std::max(c.n + 1u, std::uint32_t(std::ceil((te - r.t0) / r.step - r.offset)));
     return true;
   }
 
@@ -223,15 +235,16 @@ struct Sampler {
       const glm::vec3 o = glm::vec3(P.worldToIndex * glm::vec4(originW, 1.0f));
       const glm::vec3 d = glm::mat3(P.worldToIndex) * dirW;
       const float step = P.quality.x > 0.0f ? P.march.x * P.quality.x : P.march.x;
-      std::uint32_t n = 0, taken = 0;
-      float occupiedUntil = -1.0f;
+      const RaySamples ray{o, d, t0, step, offset};
+      RayCursor cur;
+      std::uint32_t taken = 0;
       while (taken < P.control.z) {
-        const float t = t0 + (float(n) + offset) * step;
+        const float t = ray.at(cur.n);
         if (t >= t1) break;
         const glm::vec3 idx = o + t * d;
         ++taken;
-        if ((flags & gpu::kFlagEmptySpaceSkipping) && t >= occupiedUntil && skip(o, d, t0, step, offset, idx, n, occupiedUntil)) continue;
-        ++n;
+        if ((flags & gpu::kFlagEmptySpaceSkipping) && t >= cur.occupiedUntil && skip(ray, idx, cur)) continue;
+        ++cur.n;
         std::uint32_t id = 0;
         const float value = materialAt(idx, id);
         if (value < 0.0f) continue;
@@ -276,15 +289,16 @@ struct Sampler {
     const glm::vec3 d = glm::mat3(P.worldToIndex) * dirW;
     const float step = P.march.x;
     float alpha = 0.0f;
-    std::uint32_t n = 0, taken = 0;
-    float occupiedUntil = -1.0f;
+    const RaySamples ray{o, d, t0, step, 0.5f};
+    RayCursor cur;
+    std::uint32_t taken = 0;
     while (taken < P.control.z) {
-      const float t = t0 + (float(n) + 0.5f) * step;
+      const float t = ray.at(cur.n);
       if (t >= t1) break;
       const glm::vec3 idx = o + t * d;
       ++taken;
-      if (t >= occupiedUntil && skip(o, d, t0, step, 0.5f, idx, n, occupiedUntil)) continue;
-      ++n;
+      if (t >= cur.occupiedUntil && skip(ray, idx, cur)) continue;
+      ++cur.n;
       std::uint32_t id = 0;
       const float value = materialAt(idx, id);
       if (value < 0.0f) continue;
