@@ -163,154 +163,221 @@ const std::vector<std::string> kReplayLogNotes = {
     "headless replay: input times are when each scripted event was applied; no window, so present_s is when the frame's results were "
     "read back and displayed_s is -1"};
 
-int runReplay(const ReplayOptions& o) {
-  checkReplayOptions(o);
-  SessionScript script = o.scriptData ? *o.scriptData : o.script.empty() ? builtInDemoScript() : readSessionScript(o.script);
-  const ProgressFn progress = o.quiet ? ProgressFn{} : consoleProgress();
+namespace {
 
-  Volume volume = loadReplayVolume(o, script, progress);
-  const std::optional<LabelMap> labels = o.labels.empty() ? std::nullopt : std::optional<LabelMap>(loadLabelMap(o.labels, volume.geometry()));
+// One headless replay: the volume, the GPU, the session and its controllers, set up in the order
+// the window's are; then a frame per script step.
+class ReplayRun {
+ public:
+  explicit ReplayRun(const ReplayOptions& o);
+  /// Plays the frames; the exit status (non-zero: a non-finite state or a validation message).
+  int run();
 
+ private:
+  void setUpSession();
+  void setUpControllers();
+  /// The script's events due by `frameTime`, applied (refusals counted and told).
+  void applyDueEvents(double frameTime, FrameTiming& ft);
+  /// Frame k: events, the request with the simulation, selection and budget, submitted and waited for.
+  void frame(int k);
+  /// Records the frame's GPU results and writes what was asked of it.
+  void finishFrame(int k, const FrameResult& r, FrameTiming& ft);
+  int report() const;
+  std::string rescue() { return saveRecovery(*session_, selection_->handles(), selection_->picked(), volume_.dims(), o_.exportDir); }
+
+  const ReplayOptions& o_;
+  SessionScript script_;
+  ProgressFn progress_;
+  Volume volume_;
+  std::optional<LabelMap> labels_;
+  Viewport vp_;
+  glm::dvec2 touchScale_{1.0, 1.0};
+  std::unique_ptr<vk::Context> ctx_;
+  std::unique_ptr<QuantizedVolume> q_;
+  std::unique_ptr<VolumeRenderer> renderer_;
+  std::unique_ptr<Session> session_;
+  std::unique_ptr<SelectionController> selection_;
+  std::unique_ptr<DeformationController> deform_;
+  std::unique_ptr<FrameDriver> driver_;
+  std::unique_ptr<SessionExport> exporter_;
+  std::string simStatus_;
+  int frames_ = 0;
+  std::size_t next_ = 0, refused_ = 0;
+  LatencyLog log_;
+  Clock::time_point t0_;
+};
+
+ReplayRun::ReplayRun(const ReplayOptions& o)
+    : o_(o),
+      script_((checkReplayOptions(o), o.scriptData ? *o.scriptData : o.script.empty() ? builtInDemoScript() : readSessionScript(o.script))),
+      progress_(o.quiet ? ProgressFn{} : consoleProgress()),
+      log_(o.timings.empty() ? kSummaryFrames : 0) {  // bounded unless the whole log is to be written
+  volume_ = loadReplayVolume(o, script_, progress_);
+  if (!o.labels.empty()) labels_ = loadLabelMap(o.labels, volume_.geometry());
   // Output size; touches recorded in the script's viewport are scaled to it.
-  Viewport vp = script.viewport;
-  if (o.width > 0 && o.height > 0) vp = {o.width, o.height};
-  const glm::dvec2 touchScale(double(vp.width) / script.viewport.width, double(vp.height) / script.viewport.height);
-
+  vp_ = script_.viewport;
+  if (o.width > 0 && o.height > 0) vp_ = {o.width, o.height};
+  touchScale_ = glm::dvec2(double(vp_.width) / script_.viewport.width, double(vp_.height) / script_.viewport.height);
   vk::ContextOptions co;
   co.validation = o.validation;
   co.device = o.device;
   co.verbose = !o.quiet;
-  vk::Context ctx(co);
-  const QuantizedVolume q = quantizeVolume(volume);
-  VolumeRenderer renderer(ctx);
-  renderer.setVolume(q, progress);
-
-  Session session(volume.geometry(), vp, script.preset.empty() ? defaultPresetFor(volume) : script.preset);
-  if (script.freeArea) {
-    session.setFreeArea(*script.freeArea);  // reset-camera frames where the recording app did
-    if (!script.camera) session.resetCamera();
-  }
-  if (script.camera) script.camera->applyTo(session.camera());
-  session.apply(ScriptEvent{0.0, false, {}, "set-mode", script.mode});
-  renderer.setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(q));
-  GrowParams grow;
-  grow.boundaryRim = o.selectionRim;
-  grow.bound = o.selectionBound;
-  SelectionController selection(q, session, renderer, grow, o.selectionBackend);
-  selection.setCorrectionRule(o.selectionCorrections);
-  if (!o.quiet) std::cerr << selection.backend().status << "\n";
-  if (labels) {
-    selection.setLabels(&*labels);
-    renderer.setLabels(labels->labels);
-    session.setLabelTint(true);
-  }
-  DeformationController deform(volume, q, renderer, o.sim);
-  FrameDriver driver(volume, q, session, renderer, selection, deform);
-  driver.setFrameBudget(o.frameBudgetMs);
-  // Everything applied is recorded: an "export" action writes the session so far as a script.
-  {
-    SessionScript header = script;
-    if (!o.volume.empty()) {
-      header.volumeSource = o.volume == "phantom" ? "phantom" : "file";
-      header.volumePath = o.volume == "phantom" ? "" : o.volume;
-    }
-    session.startRecording(header);
-  }
-  SessionExport exporter(o.exportDir, volume, o.exportExtension);
-  session.addUiExtension([&](const ScriptEvent& e) { return exporter.onUi(e); });
-  std::string simStatus;
+  ctx_ = std::make_unique<vk::Context>(co);
+  q_ = std::make_unique<QuantizedVolume>(quantizeVolume(volume_));
+  renderer_ = std::make_unique<VolumeRenderer>(*ctx_);
+  renderer_->setVolume(*q_, progress_);
+  setUpSession();
+  setUpControllers();
   if (!o.framesOut.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(o.framesOut, ec);
     if (ec || !std::filesystem::is_directory(o.framesOut)) throw Error("cannot create the frames directory '" + o.framesOut + "'");
   }
-
   if (o.frames < 0) throw Error("the number of frames must not be negative");
-  const int frames = o.frames > 0 ? o.frames : framesToRest(script, o.fps);
-  std::size_t next = 0, refused = 0;
-  LatencyLog log(o.timings.empty() ? kSummaryFrames : 0);  // bounded unless the whole log is to be written
-  log.setNotes(kReplayLogNotes);
+  frames_ = o.frames > 0 ? o.frames : framesToRest(script_, o.fps);
+  log_.setNotes(kReplayLogNotes);
+}
+
+void ReplayRun::setUpSession() {
+  session_ = std::make_unique<Session>(volume_.geometry(), vp_, script_.preset.empty() ? defaultPresetFor(volume_) : script_.preset);
+  Session& session = *session_;
+  if (script_.freeArea) {
+    session.setFreeArea(*script_.freeArea);  // reset-camera frames where the recording app did
+    if (!script_.camera) session.resetCamera();
+  }
+  if (script_.camera) script_.camera->applyTo(session.camera());
+  session.apply(ScriptEvent{0.0, false, {}, "set-mode", script_.mode});
+  renderer_->setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(*q_));
+}
+
+void ReplayRun::setUpControllers() {
+  GrowParams grow;
+  grow.boundaryRim = o_.selectionRim;
+  grow.bound = o_.selectionBound;
+  selection_ = std::make_unique<SelectionController>(*q_, *session_, *renderer_, grow, o_.selectionBackend);
+  selection_->setCorrectionRule(o_.selectionCorrections);
+  if (!o_.quiet) std::cerr << selection_->backend().status << "\n";
+  if (labels_) {
+    selection_->setLabels(&*labels_);
+    renderer_->setLabels(labels_->labels);
+    session_->setLabelTint(true);
+  }
+  deform_ = std::make_unique<DeformationController>(volume_, *q_, *renderer_, o_.sim);
+  driver_ = std::make_unique<FrameDriver>(volume_, *q_, *session_, *renderer_, *selection_, *deform_);
+  driver_->setFrameBudget(o_.frameBudgetMs);
+  // Everything applied is recorded: an "export" action writes the session so far as a script.
+  SessionScript header = script_;
+  if (!o_.volume.empty()) {
+    header.volumeSource = o_.volume == "phantom" ? "phantom" : "file";
+    header.volumePath = o_.volume == "phantom" ? "" : o_.volume;
+  }
+  session_->startRecording(header);
+  exporter_ = std::make_unique<SessionExport>(o_.exportDir, volume_, o_.exportExtension);
+  session_->addUiExtension([this](const ScriptEvent& e) { return exporter_->onUi(e); });
+}
+
+void ReplayRun::applyDueEvents(double frameTime, FrameTiming& ft) {
+  while (next_ < script_.events.size() && script_.events[next_].t <= frameTime) {
+    ScriptEvent e = script_.events[next_++];
+    e.touch.px *= touchScale_;
+    const double now = seconds(Clock::now(), t0_);
+    if (!session_->apply(e)) {
+      ++refused_;
+      if (!o_.quiet)
+        std::cerr << "refused at t=" << e.t << " s: "
+                  << (e.isTouch ? "touch " + std::string(touchPhaseName(e.touch.phase)) + " id " + std::to_string(e.touch.id) : e.action + " " + e.value)
+                  << "\n";
+    }
+    if (ft.inputFirst < 0) ft.inputFirst = now;
+    ft.inputLast = now;
+    ++ft.inputCount;
+  }
+}
+
+void ReplayRun::frame(int k) {
+  const double frameTime = k / o_.fps;
+  FrameTiming ft;
+  ft.cpuStart = seconds(Clock::now(), t0_);
+  applyDueEvents(frameTime, ft);
+  session_->advance(frameTime);  // a framing's camera move, on the script's clock
+  FrameDriver& driver = *driver_;
+  driver.refreshTransferFunction();
+  FrameRequest req = driver.request(vp_, vp_.width, vp_.height);
+  req.readbackImage = !o_.framesOut.empty() || exporter_->pending();
+  driver.attachSimulation(req, true);
+  if (const std::string st = deform_->status(); !o_.quiet && st != simStatus_) {
+    simStatus_ = st;
+    if (!st.empty()) std::cerr << st << "\n";
+  }
+  // The simulation refused a pose, stopped without converging or failed to build: the
+  // session goes on (the last good state shows), and what was done so far is saved.
+  if (driver.newFailure()) std::cerr << "warning: " << deform_->status() << "\n  " << rescue() << "\n";
+  driver.attachSelection(req, vp_, ft);
+  const FrameQuality quality = driver.applyFrameBudget(req, ft.inputCount > 0, exporter_->pending());
+  ft.qualityScale = quality.scale;
+  ft.qualityStep = quality.stepScale;
+  ft.cpuEnd = seconds(Clock::now(), t0_);
+  driver.submit(req);
+  ft.stillPhases = driver.stillPhases();
+  ft.submit = seconds(Clock::now(), t0_);
+  const auto w0 = Clock::now();
+  const FrameResult r = renderer_->waitLast();
+  ft.waitMs = seconds(Clock::now(), w0) * 1e3;
+  finishFrame(k, r, ft);
+}
+
+void ReplayRun::finishFrame(int k, const FrameResult& r, FrameTiming& ft) {
+  const auto w0 = Clock::now();
+  for (const auto& older : renderer_->takeCompleted()) driver_->completed(older);
+  driver_->completed(r);
+  if (exporter_->pending()) std::cout << exporter_->write(*session_, selection_->handles(), selection_->picked(), *deform_, r) << "\n";
+  ft.present = seconds(Clock::now(), t0_);
+  ft.waitMs += seconds(Clock::now(), w0) * 1e3;
+  ft.frame = r.frame;
+  for (const auto& p : r.timings) ft.gpuMs.emplace_back(p.name, p.gpuMs);
+  driver_->recordSimulation(ft);
+  if (!o_.framesOut.empty()) writeFrame(o_.framesOut, k, r, vp_);
+  log_.add(ft);
+  if (o_.afterFrame) o_.afterFrame(k, frames_, ctx_->validationMessageCount());
+  reportProgress(progress_, double(k + 1) / frames_, "replaying");
+}
+
+int ReplayRun::run() {
   // A failure under the session (a Vulkan allocation, a lost device, running out of memory) ends
   // the replay with the session so far saved beside the exports.
-  auto rescue = [&] { return saveRecovery(session, selection.handles(), selection.picked(), volume.dims(), o.exportDir); };
   try {
-    const auto t0 = Clock::now();
-    for (int k = 0; k < frames; ++k) {
-      const double frameTime = k / o.fps;
-      FrameTiming ft;
-      ft.cpuStart = seconds(Clock::now(), t0);
-      while (next < script.events.size() && script.events[next].t <= frameTime) {
-        ScriptEvent e = script.events[next++];
-        e.touch.px *= touchScale;
-        const double now = seconds(Clock::now(), t0);
-        if (!session.apply(e)) {
-          ++refused;
-          if (!o.quiet)
-            std::cerr << "refused at t=" << e.t << " s: "
-                      << (e.isTouch ? "touch " + std::string(touchPhaseName(e.touch.phase)) + " id " + std::to_string(e.touch.id) : e.action + " " + e.value)
-                      << "\n";
-        }
-        if (ft.inputFirst < 0) ft.inputFirst = now;
-        ft.inputLast = now;
-        ++ft.inputCount;
-      }
-      session.advance(frameTime);  // a framing's camera move, on the script's clock
-      driver.refreshTransferFunction();
-      FrameRequest req = driver.request(vp, vp.width, vp.height);
-      req.readbackImage = !o.framesOut.empty() || exporter.pending();
-      driver.attachSimulation(req, true);
-      if (const std::string st = deform.status(); !o.quiet && st != simStatus) {
-        simStatus = st;
-        if (!st.empty()) std::cerr << st << "\n";
-      }
-      // The simulation refused a pose, stopped without converging or failed to build: the
-      // session goes on (the last good state shows), and what was done so far is saved.
-      if (driver.newFailure()) std::cerr << "warning: " << deform.status() << "\n  " << rescue() << "\n";
-      driver.attachSelection(req, vp, ft);
-      const FrameQuality quality = driver.applyFrameBudget(req, ft.inputCount > 0, exporter.pending());
-      ft.qualityScale = quality.scale;
-      ft.qualityStep = quality.stepScale;
-      ft.cpuEnd = seconds(Clock::now(), t0);
-      driver.submit(req);
-      ft.stillPhases = driver.stillPhases();
-      ft.submit = seconds(Clock::now(), t0);
-      const auto w0 = Clock::now();
-      const FrameResult r = renderer.waitLast();
-      for (const auto& older : renderer.takeCompleted()) driver.completed(older);
-      driver.completed(r);
-      if (exporter.pending()) std::cout << exporter.write(session, selection.handles(), selection.picked(), deform, r) << "\n";
-      ft.present = seconds(Clock::now(), t0);
-      ft.waitMs = seconds(Clock::now(), w0) * 1e3;
-      ft.frame = r.frame;
-      for (const auto& p : r.timings) ft.gpuMs.emplace_back(p.name, p.gpuMs);
-      driver.recordSimulation(ft);
-      if (!o.framesOut.empty()) writeFrame(o.framesOut, k, r, vp);
-      log.add(ft);
-      if (o.afterFrame) o.afterFrame(k, frames, ctx.validationMessageCount());
-      reportProgress(progress, double(k + 1) / frames, "replaying");
-    }
-    if (!o.timings.empty()) log.writeCsv(o.timings);
-    if (!o.exportPath.empty()) writeDeformedVolume(deform, volume, o.exportPath);  // every frame was waited for above
+    t0_ = Clock::now();
+    for (int k = 0; k < frames_; ++k) frame(k);
+    if (!o_.timings.empty()) log_.writeCsv(o_.timings);
+    if (!o_.exportPath.empty()) writeDeformedVolume(*deform_, volume_, o_.exportPath);  // every frame was waited for above
   } catch (const std::bad_alloc&) {
     throw Error("out of memory during the replay; " + rescue());
   } catch (const std::exception& e) {
     throw Error(std::string(e.what()) + "; " + rescue());
   }
-  if (!o.quiet) {
-    std::cerr << "replayed " << script.events.size() << " events";
-    if (refused) std::cerr << " (" << refused << " refused)";
-    std::cerr << " in " << frames << " frames at " << o.fps << " fps on " << ctx.summary().name << "\n" << log.summary() << "\n";
+  return report();
+}
+
+int ReplayRun::report() const {
+  if (!o_.quiet) {
+    std::cerr << "replayed " << script_.events.size() << " events";
+    if (refused_) std::cerr << " (" << refused_ << " refused)";
+    std::cerr << " in " << frames_ << " frames at " << o_.fps << " fps on " << ctx_->summary().name << "\n" << log_.summary() << "\n";
   }
-  if (!o.framesOut.empty()) std::cout << "wrote " << frames << " frames to " << o.framesOut << "\n";
-  if (o.printCamera) std::cout << describeCamera(session.camera()) << "\n";
-  if (o.printHandles) printSessionState(selection, session, volume);
+  if (!o_.framesOut.empty()) std::cout << "wrote " << frames_ << " frames to " << o_.framesOut << "\n";
+  if (o_.printCamera) std::cout << describeCamera(session_->camera()) << "\n";
+  if (o_.printHandles) printSessionState(*selection_, *session_, volume_);
   // Whatever came in, no state may hold a non-finite number.
-  if (!stateIsFinite(session, selection)) return 1;
-  if (ctx.validationMessageCount() > 0) {
-    std::cerr << "error: " << ctx.validationMessageCount() << " Vulkan validation message(s)\n";
+  if (!stateIsFinite(*session_, *selection_)) return 1;
+  if (ctx_->validationMessageCount() > 0) {
+    std::cerr << "error: " << ctx_->validationMessageCount() << " Vulkan validation message(s)\n";
     return 1;
   }
   return 0;
 }
+
+}  // namespace
+
+int runReplay(const ReplayOptions& o) { return ReplayRun(o).run(); }
 
 }  // namespace handson
