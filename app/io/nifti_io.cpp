@@ -648,63 +648,141 @@ std::int64_t checkDimensions(HeaderInfo& h, std::int64_t frame, const std::strin
   return frames;
 }
 
+// The header as read: its fields, the byte order, and where its data may start.
+struct ParsedHeader {
+  HeaderInfo h;
+  bool swap = false;     ///< the file's byte order is the other one
+  bool twoFile = false;  ///< a .hdr/.img pair: the data are in the .img
+  std::size_t headerBytes = 0, minDataStart = 0;
+};
+
+// sizeof_hdr tells the version and the byte order; then the rest of the NIfTI-1 or -2 header.
+ParsedHeader readHeader(InputFile& in, const std::string& path) {
+  std::int32_t sizeofHdr = 0;
+  in.readExact(&sizeofHdr, sizeof sizeofHdr, "NIfTI header");
+  ParsedHeader p;
+  if (sizeofHdr == 348 || byteSwapped(sizeofHdr) == 348) {
+    p.swap = sizeofHdr != 348;
+    Nifti1Header raw;
+    std::memcpy(&raw, &sizeofHdr, sizeof sizeofHdr);
+    readRestOfHeader(in, path, reinterpret_cast<unsigned char*>(&raw), sizeof raw, "NIfTI-1");
+    p.twoFile = std::memcmp(raw.magic, "ni1\0", 4) == 0;
+    if (!p.twoFile && std::memcmp(raw.magic, "n+1\0", 4) != 0)
+      readFail(path, "not a NIfTI-1 file (bad magic; Analyze 7.5 headers are not supported)");
+    p.h = decodeHeader(raw, p.swap, 1);
+    p.headerBytes = sizeof raw;
+    p.minDataStart = kNifti1DataStart;
+  } else if (sizeofHdr == 540 || byteSwapped(sizeofHdr) == 540) {
+    p.swap = sizeofHdr != 540;
+    Nifti2Header raw;
+    std::memcpy(&raw, &sizeofHdr, sizeof sizeofHdr);
+    readRestOfHeader(in, path, reinterpret_cast<unsigned char*>(&raw), sizeof raw, "NIfTI-2");
+    p.twoFile = std::memcmp(raw.magic, "ni2\0\r\n\032\n", 8) == 0;
+    if (!p.twoFile && std::memcmp(raw.magic, "n+2\0\r\n\032\n", 8) != 0) readFail(path, "not a NIfTI-2 file (bad magic)");
+    p.h = decodeHeader(raw, p.swap, 2);
+    p.headerBytes = sizeof raw;
+    p.minDataStart = kNifti2DataStart;
+  } else {
+    readFail(path, "not a NIfTI file (header size field is " + std::to_string(sizeofHdr) + ", expected 348 or 540)");
+  }
+  return p;
+}
+
+// Where the image data lie: every volume's bytes from `start` to `end`, the chosen one's from frameStart.
+struct DataRange {
+  std::size_t start = 0, bytes = 0, frameStart = 0;  ///< bytes: one volume's
+  double end = 0.0;                                   ///< (double: a header's sizes may overflow)
+};
+
+DataRange dataRange(const ParsedHeader& p, std::size_t volumeBytes, std::int64_t frames, std::int64_t frame, const std::string& path) {
+  const HeaderInfo& h = p.h;
+  if (!std::isfinite(h.voxOffset) || h.voxOffset < 0.0 || h.voxOffset > 1e15)
+    readFail(path, "invalid data offset vox_offset = " + formatNumber(h.voxOffset));
+  DataRange r;
+  r.start = p.twoFile ? static_cast<std::size_t>(h.voxOffset) : std::max(static_cast<std::size_t>(h.voxOffset), p.minDataStart);
+  r.bytes = volumeBytes;
+  r.end = static_cast<double>(r.start) + static_cast<double>(frames) * static_cast<double>(volumeBytes);
+  r.frameStart = r.start + static_cast<std::size_t>(frame) * volumeBytes;
+  return r;
+}
+
+// Every volume must be in the file (the chosen one is read); deflate cannot expand data by more
+// than about 1032:1, which bounds what a .gz can hold.
+void checkFileHoldsData(const InputFile& data, const DataRange& r, bool twoFile, const std::string& dataPath) {
+  if (!data.compressed() && static_cast<double>(data.fileSize()) < r.end) {
+    std::ostringstream msg;
+    msg << "file is truncated: the header describes " << std::setprecision(15) << r.end - double(r.start) << " bytes of image data ending at byte "
+        << r.end << ", but " << (twoFile ? "the image file" : "the file") << " has only " << data.fileSize() << " bytes";
+    readFail(dataPath, msg.str());
+  }
+  if (data.compressed() && r.end > static_cast<double>(data.fileSize()) * 1040.0 + 65536.0) {
+    std::ostringstream msg;
+    msg << "file is truncated: the header describes " << std::setprecision(15) << r.end - double(r.start)
+        << " bytes of image data, more than the " << data.fileSize() << "-byte compressed file can contain";
+    readFail(dataPath, msg.str());
+  }
+}
+
+Scaling scalingOf(const HeaderInfo& h) {
+  Scaling scaling;
+  if (std::isfinite(h.slope) && h.slope != 0.0) {
+    scaling.slope = h.slope;
+    scaling.inter = std::isfinite(h.inter) ? h.inter : 0.0;
+    scaling.apply = !(scaling.slope == 1.0 && scaling.inter == 0.0);
+  }
+  return scaling;
+}
+
+// How one volume's voxels are read and turned into a Volume.
+struct VoxelRead {
+  const ParsedHeader& header;
+  const VolumeGeometry& geometry;
+  Scaling scaling;
+  bool checkEnd = false;  ///< gzip: its trailer checked after them (the last volume)
+};
+
+// Types Volume stores as-is are read straight into the volume; the rest go through a raw buffer.
+Volume readVoxels(InputFile& data, const VoxelRead& v, const std::string& path) {
+  const HeaderInfo& h = v.header.h;
+  const std::size_t n = v.geometry.voxelCount(), elementSize = datatypeSize(h.datatype), dataBytes = n * elementSize;
+  const bool direct = (h.datatype == kDtUInt8 && !v.scaling.apply) || (h.datatype == kDtInt16 && !v.scaling.apply) || h.datatype == kDtFloat32;
+  try {
+    checkAllocation(n, direct ? dataBytes : dataBytes + n * sizeof(float), "image data");
+  } catch (const Error& e) {
+    readFail(path, e.what());
+  }
+  if (!direct) {
+    auto raw = std::make_unique_for_overwrite<std::byte[]>(dataBytes);
+    data.readExact(raw.get(), dataBytes, "image data");
+    if (v.checkEnd) data.checkEnd();
+    return convertRaw(h.datatype, raw.get(), v.geometry, v.header.swap, v.scaling);
+  }
+  const ScalarType type = h.datatype == kDtUInt8 ? ScalarType::UInt8 : h.datatype == kDtInt16 ? ScalarType::Int16 : ScalarType::Float32;
+  Volume volume(v.geometry, type);
+  data.readExact(volume.bytes(), dataBytes, "image data");
+  if (v.checkEnd) data.checkEnd();
+  if (v.header.swap && elementSize > 1) swapBuffer(volume.bytes(), n, elementSize);
+  if (v.scaling.apply) {  // float32 only
+    float* d = volume.data<float>();
+    for (std::size_t i = 0; i < n; ++i) d[i] = toFloat(double(d[i]) * v.scaling.slope + v.scaling.inter);
+  }
+  return volume;
+}
+
 Volume readNiftiImpl(const std::string& givenPath, const NiftiReadOptions& options, NiftiInfo* info) {
   // An .img (or .img.gz) given for a two-file pair: the header is its .hdr.
   std::string path = givenPath;
   if (const std::string hdr = companionFile(givenPath, ".img", ".hdr"); !hdr.empty()) path = hdr;
   InputFile in(path);
-
-  // --- header: sizeof_hdr tells the version and the byte order.
-  std::int32_t sizeofHdr = 0;
-  in.readExact(&sizeofHdr, sizeof sizeofHdr, "NIfTI header");
-  int version = 0;
-  bool swap = false;
-  if (sizeofHdr == 348 || byteSwapped(sizeofHdr) == 348) {
-    version = 1;
-    swap = sizeofHdr != 348;
-  } else if (sizeofHdr == 540 || byteSwapped(sizeofHdr) == 540) {
-    version = 2;
-    swap = sizeofHdr != 540;
-  } else {
-    readFail(path, "not a NIfTI file (header size field is " + std::to_string(sizeofHdr) + ", expected 348 or 540)");
-  }
-
-  HeaderInfo h;
-  std::size_t headerBytes = 0;
-  std::size_t minDataStart = 0;
-  bool twoFile = false;
-  if (version == 1) {
-    Nifti1Header raw;
-    std::memcpy(&raw, &sizeofHdr, sizeof sizeofHdr);
-    readRestOfHeader(in, path, reinterpret_cast<unsigned char*>(&raw), sizeof raw, "NIfTI-1");
-    twoFile = std::memcmp(raw.magic, "ni1\0", 4) == 0;
-    if (!twoFile && std::memcmp(raw.magic, "n+1\0", 4) != 0)
-      readFail(path, "not a NIfTI-1 file (bad magic; Analyze 7.5 headers are not supported)");
-    h = decodeHeader(raw, swap, 1);
-    headerBytes = sizeof raw;
-    minDataStart = kNifti1DataStart;
-  } else {
-    Nifti2Header raw;
-    std::memcpy(&raw, &sizeofHdr, sizeof sizeofHdr);
-    readRestOfHeader(in, path, reinterpret_cast<unsigned char*>(&raw), sizeof raw, "NIfTI-2");
-    twoFile = std::memcmp(raw.magic, "ni2\0\r\n\032\n", 8) == 0;
-    if (!twoFile && std::memcmp(raw.magic, "n+2\0\r\n\032\n", 8) != 0) readFail(path, "not a NIfTI-2 file (bad magic)");
-    h = decodeHeader(raw, swap, 2);
-    headerBytes = sizeof raw;
-    minDataStart = kNifti2DataStart;
-  }
+  ParsedHeader p = readHeader(in, path);
+  HeaderInfo& h = p.h;  // checkDimensions completes its dims
 
   // --- dimensions: one 3D volume (1D and 2D images are one voxel thick); dims 4 to 7 count volumes.
-  const std::int64_t rank = h.dim[0];
   const std::int64_t frames = checkDimensions(h, options.frame, path);
   const Eigen::Vector3i dims(static_cast<int>(h.dim[1]), static_cast<int>(h.dim[2]), static_cast<int>(h.dim[3]));
-
-  // --- voxel type.
   const std::size_t elementSize = datatypeSize(h.datatype);
   if (elementSize == 0)
-    readFail(path, "unsupported voxel type (" + unsupportedDatatypeName(h.datatype) +
-                       "); only scalar integer and floating-point images are supported");
-
+    readFail(path, "unsupported voxel type (" + unsupportedDatatypeName(h.datatype) + "); only scalar integer and floating-point images are supported");
   // --- geometry (validates dims, voxel count, spacing and direction before any allocation).
   const VolumeGeometry geometry = decodeGeometry(h, dims, path);
 
@@ -712,87 +790,24 @@ Volume readNiftiImpl(const std::string& givenPath, const NiftiReadOptions& optio
   // .img beside the .hdr, from vox_offset (usually 0).
   std::optional<InputFile> imgFile;
   std::string dataPath = path;
-  if (twoFile) {
+  if (p.twoFile) {
     dataPath = companionFile(path, ".hdr", ".img");
     if (dataPath.empty())
-      readFail(path, "is the header of a two-file NIfTI pair, but its image file (" +
-                         std::filesystem::path(path).stem().string() + ".img or .img.gz) is not beside it");
+      readFail(path, "is the header of a two-file NIfTI pair, but its image file (" + std::filesystem::path(path).stem().string() +
+                         ".img or .img.gz) is not beside it");
     imgFile.emplace(dataPath);
   }
-  InputFile& data = twoFile ? *imgFile : in;
-  if (!std::isfinite(h.voxOffset) || h.voxOffset < 0.0 || h.voxOffset > 1e15)
-    readFail(path, "invalid data offset vox_offset = " + formatNumber(h.voxOffset));
-  const std::size_t dataStart = twoFile ? static_cast<std::size_t>(h.voxOffset) : std::max(static_cast<std::size_t>(h.voxOffset), minDataStart);
-  const std::size_t n = geometry.voxelCount();  // <= kMaxVoxels after validate()
-  const std::size_t dataBytes = n * elementSize;
-  // Every volume must be in the file; the chosen one is read.
-  const double allBytes = static_cast<double>(dataStart) + static_cast<double>(frames) * static_cast<double>(dataBytes);
-  const std::size_t frameStart = dataStart + static_cast<std::size_t>(options.frame) * dataBytes;
-  if (!data.compressed() && static_cast<double>(data.fileSize()) < allBytes) {
-    std::ostringstream msg;
-    msg << "file is truncated: the header describes " << std::setprecision(15) << allBytes - double(dataStart)
-        << " bytes of image data ending at byte " << allBytes << ", but " << (twoFile ? "the image file" : "the file") << " has only "
-        << data.fileSize() << " bytes";
-    readFail(dataPath, msg.str());
-  }
-  // Deflate cannot expand data by more than about 1032:1, which bounds what a .gz can hold.
-  if (data.compressed() && allBytes > static_cast<double>(data.fileSize()) * 1040.0 + 65536.0) {
-    std::ostringstream msg;
-    msg << "file is truncated: the header describes " << std::setprecision(15) << allBytes - double(dataStart)
-        << " bytes of image data, more than the " << data.fileSize() << "-byte compressed file can contain";
-    readFail(dataPath, msg.str());
-  }
-
-  // --- scaling.
-  Scaling scaling;
-  if (std::isfinite(h.slope) && h.slope != 0.0) {
-    scaling.slope = h.slope;
-    scaling.inter = std::isfinite(h.inter) ? h.inter : 0.0;
-    scaling.apply = !(scaling.slope == 1.0 && scaling.inter == 0.0);
-  }
+  InputFile& data = p.twoFile ? *imgFile : in;
+  const DataRange range = dataRange(p, geometry.voxelCount() * elementSize, frames, options.frame, path);  // voxels <= kMaxVoxels after validate()
+  checkFileHoldsData(data, range, p.twoFile, dataPath);
   if (info) {
     info->frames = frames;
-    info->rank = int(rank);
-    info->twoFile = twoFile;
+    info->rank = int(h.dim[0]);
+    info->twoFile = p.twoFile;
     info->dataPath = dataPath;
   }
-
-  data.skip(frameStart - (twoFile ? 0 : headerBytes), options.frame > 0 ? "the volumes before the one asked for" : "header extensions");
-  const bool checkEnd = options.frame == frames - 1;  // gzip: its trailer checked when the last volume is read
-
-  // Types Volume stores as-is are read straight into the volume; the rest go through a raw buffer.
-  const bool direct = (h.datatype == kDtUInt8 && !scaling.apply) || (h.datatype == kDtInt16 && !scaling.apply) ||
-                      h.datatype == kDtFloat32;
-  const std::string what = "image data";
-  if (direct) {
-    const ScalarType type = h.datatype == kDtUInt8   ? ScalarType::UInt8
-                            : h.datatype == kDtInt16 ? ScalarType::Int16
-                                                     : ScalarType::Float32;
-    try {
-      checkAllocation(n, dataBytes, what);
-    } catch (const Error& e) {
-      readFail(path, e.what());
-    }
-    Volume volume(geometry, type);
-    data.readExact(volume.bytes(), dataBytes, "image data");
-    if (checkEnd) data.checkEnd();
-    if (swap && elementSize > 1) swapBuffer(volume.bytes(), n, elementSize);
-    if (scaling.apply) {  // float32 only
-      float* d = volume.data<float>();
-      for (std::size_t i = 0; i < n; ++i) d[i] = toFloat(double(d[i]) * scaling.slope + scaling.inter);
-    }
-    return volume;
-  }
-
-  try {
-    checkAllocation(n, dataBytes + n * sizeof(float), what);
-  } catch (const Error& e) {
-    readFail(path, e.what());
-  }
-  auto raw = std::make_unique_for_overwrite<std::byte[]>(dataBytes);
-  data.readExact(raw.get(), dataBytes, "image data");
-  if (checkEnd) data.checkEnd();
-  return convertRaw(h.datatype, raw.get(), geometry, swap, scaling);
+  data.skip(range.frameStart - (p.twoFile ? 0 : p.headerBytes), options.frame > 0 ? "the volumes before the one asked for" : "header extensions");
+  return readVoxels(data, {p, geometry, scalingOf(h), options.frame == frames - 1}, path);
 }
 
 // ------------------------------------------------------------------------------------------------
