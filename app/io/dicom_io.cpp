@@ -222,10 +222,20 @@ bool convertSlice(const char* buffer, std::size_t count, double slope, double in
 // header that says signed, was decoded as unsigned: its values are sign-extended from BitsStored bits (-2000 HU read as 6192 is
 // -2000 again). Negative decoded values under a header that says unsigned are taken modulo 2^bits.
 // Values outside the BitsStored range (files whose BitsStored is too small) are left alone.
-// Returns the type to read the (rewritten) buffer as; unchanged when codec and header agree.
+// Returns the type to read the rewritten buffer as; nullopt when codec and header agree.
+template <class T>
+constexpr gdcm::PixelFormat::ScalarType pixelTypeOf() {
+  using PF = gdcm::PixelFormat;
+  if constexpr (std::is_same_v<T, std::int8_t>) return PF::INT8;
+  else if constexpr (std::is_same_v<T, std::uint8_t>) return PF::UINT8;
+  else if constexpr (std::is_same_v<T, std::int16_t>) return PF::INT16;
+  else if constexpr (std::is_same_v<T, std::uint16_t>) return PF::UINT16;
+  else if constexpr (std::is_same_v<T, std::int32_t>) return PF::INT32;
+  else return PF::UINT32;
+}
+
 template <class T, class Signed, class Unsigned>
-gdcm::PixelFormat::ScalarType fixSignedness(char* buffer, std::size_t count, bool headerSigned, int bits, gdcm::PixelFormat::ScalarType type,
-                                            gdcm::PixelFormat::ScalarType signedType, gdcm::PixelFormat::ScalarType unsignedType, bool& changed) {
+std::optional<gdcm::PixelFormat::ScalarType> fixSignedness(char* buffer, std::size_t count, bool headerSigned, int bits) {
   bits = std::clamp(bits, 2, int(8 * sizeof(T)));
   std::int64_t lo = std::numeric_limits<std::int64_t>::max(), hi = std::numeric_limits<std::int64_t>::min();
   for (std::size_t n = 0; n < count; ++n) {
@@ -242,8 +252,7 @@ gdcm::PixelFormat::ScalarType fixSignedness(char* buffer, std::size_t count, boo
       const Signed v = Signed(std::int64_t(raw) >= half ? std::int64_t(raw) - span : std::int64_t(raw));
       std::memcpy(buffer + n * sizeof(T), &v, sizeof(T));
     }
-    changed = true;
-    return signedType;
+    return pixelTypeOf<Signed>();
   }
   if (!headerSigned && lo < 0 && lo >= -half && hi < half) {
     for (std::size_t n = 0; n < count; ++n) {
@@ -252,24 +261,26 @@ gdcm::PixelFormat::ScalarType fixSignedness(char* buffer, std::size_t count, boo
       const Unsigned v = Unsigned(std::int64_t(raw) < 0 ? std::int64_t(raw) + span : std::int64_t(raw));
       std::memcpy(buffer + n * sizeof(T), &v, sizeof(T));
     }
-    changed = true;
-    return unsignedType;
+    return pixelTypeOf<Unsigned>();
   }
-  return type;
+  return std::nullopt;
 }
 
 gdcm::PixelFormat::ScalarType applyHeaderSignedness(gdcm::PixelFormat::ScalarType type, char* buffer, std::size_t count, bool headerSigned,
                                                     int bits, bool& changed) {
   using PF = gdcm::PixelFormat;
+  std::optional<PF::ScalarType> fixed;
   switch (type) {
-    case PF::UINT8: return fixSignedness<std::uint8_t, std::int8_t, std::uint8_t>(buffer, count, headerSigned, bits, type, PF::INT8, PF::UINT8, changed);
-    case PF::INT8: return fixSignedness<std::int8_t, std::int8_t, std::uint8_t>(buffer, count, headerSigned, bits, type, PF::INT8, PF::UINT8, changed);
-    case PF::UINT16: return fixSignedness<std::uint16_t, std::int16_t, std::uint16_t>(buffer, count, headerSigned, bits, type, PF::INT16, PF::UINT16, changed);
-    case PF::INT16: return fixSignedness<std::int16_t, std::int16_t, std::uint16_t>(buffer, count, headerSigned, bits, type, PF::INT16, PF::UINT16, changed);
-    case PF::UINT32: return fixSignedness<std::uint32_t, std::int32_t, std::uint32_t>(buffer, count, headerSigned, bits, type, PF::INT32, PF::UINT32, changed);
-    case PF::INT32: return fixSignedness<std::int32_t, std::int32_t, std::uint32_t>(buffer, count, headerSigned, bits, type, PF::INT32, PF::UINT32, changed);
-    default: return type;
+    case PF::UINT8: fixed = fixSignedness<std::uint8_t, std::int8_t, std::uint8_t>(buffer, count, headerSigned, bits); break;
+    case PF::INT8: fixed = fixSignedness<std::int8_t, std::int8_t, std::uint8_t>(buffer, count, headerSigned, bits); break;
+    case PF::UINT16: fixed = fixSignedness<std::uint16_t, std::int16_t, std::uint16_t>(buffer, count, headerSigned, bits); break;
+    case PF::INT16: fixed = fixSignedness<std::int16_t, std::int16_t, std::uint16_t>(buffer, count, headerSigned, bits); break;
+    case PF::UINT32: fixed = fixSignedness<std::uint32_t, std::int32_t, std::uint32_t>(buffer, count, headerSigned, bits); break;
+    case PF::INT32: fixed = fixSignedness<std::int32_t, std::int32_t, std::uint32_t>(buffer, count, headerSigned, bits); break;
+    default: break;
   }
+  if (fixed) changed = true;
+  return fixed.value_or(type);
 }
 
 template <class Out>
@@ -873,11 +884,35 @@ void sortSlicesAlong(std::vector<SliceHeader>& slices, const Eigen::Vector3d& no
   }
 }
 
+// What a directory's read looks for, and where its warnings go.
+struct DicomSource {
+  const std::string& directory;
+  const std::string& seriesOf;  ///< one file given: its series is wanted (else empty)
+  DicomReadReport& report;
+};
+
+// The files that are sound DICOM (those holding pixel data marked), and how many are not DICOM.
+struct DicomCandidates {
+  std::vector<std::string> files;
+  std::set<std::string> withPixelData;
+  int skipped = 0;
+};
+
+// The image files' headers by SeriesInstanceUID, and each series' description.
+struct SeriesGroups {
+  std::map<std::string, std::vector<SliceHeader>> bySeries;
+  std::map<std::string, std::string> descriptions;
+};
+
 // Each file's structure walked before GDCM parses it (GDCM aborts on some truncated headers): the
-// DICOM files go to `candidates` (those with pixel data also to `withPixelData`), the rest count as
-// skipped. A damaged file is refused - unless one file was given (`seriesOf`) and it is another.
-void checkStructures(const std::vector<std::string>& files, const std::string& seriesOf, const std::string& directory, DicomReadReport& report,
-                     std::vector<std::string>& candidates, std::set<std::string>& withPixelData, int& skipped) {
+// DICOM files are the candidates (those with pixel data marked), the rest count as skipped. A damaged file is refused - unless one file was given (`seriesOf`) and it is another.
+DicomCandidates checkStructures(const std::vector<std::string>& files, const DicomSource& src) {
+  DicomCandidates c;
+  const std::string &seriesOf = src.seriesOf, &directory = src.directory;
+  DicomReadReport& report = src.report;
+  std::vector<std::string>& candidates = c.files;
+  std::set<std::string>& withPixelData = c.withPixelData;
+  int& skipped = c.skipped;
   for (std::size_t f = 0; f < files.size(); ++f) {
     DicomStructureCheck check(files[f]);
     switch (check.run()) {
@@ -898,6 +933,7 @@ void checkStructures(const std::vector<std::string>& files, const std::string& s
                     "); remove or replace it");
     }
   }
+  return c;
 }
 
 // The header of one image file as the scanner read it (rows and columns present), checked for what
@@ -961,9 +997,11 @@ SliceHeader sliceHeaderOf(const gdcm::Scanner& scanner, const std::string& f, co
 // The scanned image files grouped by SeriesInstanceUID (with each series' description), their
 // headers checked; non-images count as skipped. One file given (`seriesOf`): files of other series
 // this reader cannot take are left out with a warning; the given file's own series must be sound.
-void groupBySeries(const gdcm::Scanner& scanner, const std::vector<std::string>& candidates, const std::set<std::string>& withPixelData,
-                   const std::string& seriesOf, DicomReadReport& report, int& skipped, std::map<std::string, std::vector<SliceHeader>>& bySeries,
-                   std::map<std::string, std::string>& descriptions) {
+SeriesGroups groupBySeries(const gdcm::Scanner& scanner, DicomCandidates& c, const DicomSource& src) {
+  SeriesGroups groups;
+  const std::vector<std::string>& candidates = c.files;
+  const std::string& seriesOf = src.seriesOf;
+  int& skipped = c.skipped;
   std::optional<std::string> wantedUid;  // the series of the file given, if one was
   if (!seriesOf.empty())
     for (const std::string& f : candidates)
@@ -979,15 +1017,16 @@ void groupBySeries(const gdcm::Scanner& scanner, const std::vector<std::string>&
       continue;
     }
     try {
-      SliceHeader h = sliceHeaderOf(scanner, f, rowsText, colsText, withPixelData.count(f) > 0);
-      if (!descriptions.count(h.seriesUid)) descriptions[h.seriesUid] = tagText(scanner, f, kSeriesDescription);
-      bySeries[h.seriesUid].push_back(std::move(h));
+      SliceHeader h = sliceHeaderOf(scanner, f, rowsText, colsText, c.withPixelData.count(f) > 0);
+      if (!groups.descriptions.count(h.seriesUid)) groups.descriptions[h.seriesUid] = tagText(scanner, f, kSeriesDescription);
+      groups.bySeries[h.seriesUid].push_back(std::move(h));
     } catch (const Error& e) {
       if (!wantedUid || tagText(scanner, f, kSeriesInstanceUid) == *wantedUid) throw;
-      report.warnings.push_back(std::string(e.what()) + " (another series than the file's: left out)");
+      src.report.warnings.push_back(std::string(e.what()) + " (another series than the file's: left out)");
       continue;
     }
   }
+  return groups;
 }
 
 // The slices' pixel data, read by GDCM one file at a time, signedness as the header says, rescaled
@@ -1069,139 +1108,134 @@ Volume readPixels(const std::vector<SliceHeader>& slices, const VolumeGeometry& 
   return volume;
 }
 
-Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress,
-                                 const std::string& seriesOf) {
-  DicomReadReport report;
+// The directory's files; refuses a missing path, a file given for the directory, an empty one.
+DirectoryListing listDicomDirectory(const std::string& directory) {
   std::error_code ec;
   const fs::file_status st = fs::status(directory, ec);
   if (directory.empty() || ec || !fs::exists(st)) throw Error("DICOM directory '" + directory + "' does not exist");
   if (!fs::is_directory(st))
-    throw Error("'" + directory +
-                "' is not a directory: give the directory that holds the DICOM series' slice files, not a single file");
-
-  reportProgress(progress, 0.0, "scanning DICOM directory");
-  const DirectoryListing listing = listDirectory(directory);
-  const std::vector<std::string>& files = listing.files;
-  if (files.empty())
+    throw Error("'" + directory + "' is not a directory: give the directory that holds the DICOM series' slice files, not a single file");
+  DirectoryListing listing = listDirectory(directory);
+  if (listing.files.empty())
     throw Error("DICOM directory '" + directory + "' holds no files: no DICOM images found" + subdirectoryHint(listing));
+  return listing;
+}
 
-  // --- Check each file's structure first: GDCM aborts on some truncated headers.
-  std::vector<std::string> candidates;
-  std::set<std::string> withPixelData;
-  int skipped = 0;
-  checkStructures(files, seriesOf, directory, report, candidates, withPixelData, skipped);
-  if (candidates.empty()) {
-    std::ostringstream msg;
-    msg << "no DICOM images found in '" << directory << "' (" << files.size() << " file"
-        << (files.size() == 1 ? "" : "s") << " checked, none is a DICOM file)" << subdirectoryHint(listing);
-    throw Error(msg.str());
-  }
+[[noreturn]] void noImagesFound(const std::string& directory, const DirectoryListing& listing, const char* why) {
+  std::ostringstream msg;
+  msg << "no DICOM images found in '" << directory << "' (" << listing.files.size() << " file" << (listing.files.size() == 1 ? "" : "s")
+      << " checked, " << why << ")" << subdirectoryHint(listing);
+  throw Error(msg.str());
+}
 
-  GdcmTraceCapture quiet;
-
-  // --- Scan headers and group the image files by series.
-  gdcm::Scanner scanner;
-  for (const gdcm::Tag& t : {kSeriesInstanceUid, kSeriesDescription, kSopInstanceUid, kImagePosition,
-                             kImageOrientation, kRows, kColumns, kPixelSpacing, kNumberOfFrames, kSliceThickness,
-                             kSpacingBetweenSlices, kPhotometric, kSamplesPerPixel, kBitsAllocated, kBitsStored, kHighBit,
-                             kPixelRepresentation, kRecognitionCode})
-    scanner.AddTag(t);
-  scanner.Scan(candidates);
-
-  std::map<std::string, std::vector<SliceHeader>> bySeries;
-  std::map<std::string, std::string> descriptions;
-  groupBySeries(scanner, candidates, withPixelData, seriesOf, report, skipped, bySeries, descriptions);
-  if (bySeries.empty()) {
-    std::ostringstream msg;
-    msg << "no DICOM images found in '" << directory << "' (" << files.size() << " file"
-        << (files.size() == 1 ? "" : "s") << " checked, none is a readable DICOM image)" << subdirectoryHint(listing);
-    throw Error(msg.str());
-  }
-
-  chooseSeries(bySeries, descriptions, seriesOf, directory, report);
-  if (skipped > 0)
-    report.warnings.push_back(std::to_string(skipped) + " file" + (skipped == 1 ? "" : "s") + " in '" + directory +
-                              "' ignored: not DICOM images");
-
-  std::vector<SliceHeader> slices = std::move(bySeries[report.chosen.seriesInstanceUid]);
-
-  // --- Check the slices agree on size, pixel spacing and orientation.
-  const SliceHeader ref = slices.front();  // a copy: `slices` is rebuilt below
-  checkSlicesAgree(slices, directory);
-
-  // Pixel spacing: DICOM gives "row spacing \ column spacing".
+// The pixel grid's in-plane frame: spacing (DICOM gives "row spacing \ column spacing") and the
+// row and column directions, converted to RAS right away (dot and cross products are unaffected).
+struct InPlaneFrame {
   double rowSpacing = 1.0, columnSpacing = 1.0;
+  Eigen::Vector3d rowDir{-1, 0, 0}, colDir{0, -1, 0};  // RAS of LPS identity
+};
+
+InPlaneFrame inPlaneFrameOf(const SliceHeader& ref, std::size_t slices, const std::string& directory, DicomReadReport& report) {
+  InPlaneFrame f;
   if (ref.pixelSpacing && ref.pixelSpacing->size() == 2 && (*ref.pixelSpacing)[0] > 0 && (*ref.pixelSpacing)[1] > 0) {
-    rowSpacing = (*ref.pixelSpacing)[0];
-    columnSpacing = (*ref.pixelSpacing)[1];
+    f.rowSpacing = (*ref.pixelSpacing)[0];
+    f.columnSpacing = (*ref.pixelSpacing)[1];
   } else {
     report.warnings.push_back("DICOM series has no valid PixelSpacing (0028,0030); assuming 1 mm pixels");
   }
-
-  // Orientation (converted to RAS right away; dot and cross products are unaffected).
-  Eigen::Vector3d rowDir(-1, 0, 0), colDir(0, -1, 0);  // RAS of LPS identity
   if (ref.orientation && ref.orientation->size() == 6) {
     const auto& o = *ref.orientation;
     Eigen::Vector3d r = lpsToRas({o[0], o[1], o[2]}), c = lpsToRas({o[3], o[4], o[5]});
     if (r.norm() < 0.5 || c.norm() < 0.5 || std::abs(r.normalized().dot(c.normalized())) > 1e-2)
-      throw Error("DICOM ImageOrientationPatient of '" + fileName(ref.path) +
-                  "' is not a pair of perpendicular unit vectors");
-    rowDir = r.normalized();
-    colDir = c.normalized();
-  } else if (slices.size() > 1) {
-    throw Error("DICOM series in '" + directory +
-                "' has no valid ImageOrientationPatient (0020,0037): the slices cannot be placed in space");
+      throw Error("DICOM ImageOrientationPatient of '" + fileName(ref.path) + "' is not a pair of perpendicular unit vectors");
+    f.rowDir = r.normalized();
+    f.colDir = c.normalized();
+  } else if (slices > 1) {
+    throw Error("DICOM series in '" + directory + "' has no valid ImageOrientationPatient (0020,0037): the slices cannot be placed in space");
   } else {
     report.warnings.push_back("DICOM image has no valid ImageOrientationPatient; assuming axial orientation");
   }
-  const Eigen::Vector3d normal = rowDir.cross(colDir).normalized();
+  return f;
+}
 
-  // --- Sort by position along the normal.
+// A single slice's spacing along the normal: its SliceThickness, else SpacingBetweenSlices, else 1 mm.
+double singleSliceSpacing(const gdcm::Scanner& scanner, const SliceHeader& slice, DicomReadReport& report) {
+  const auto thick = parseNumbers(tagText(scanner, slice.path, kSliceThickness));
+  const auto between = parseNumbers(tagText(scanner, slice.path, kSpacingBetweenSlices));
+  double spacing = 1.0;
+  std::string source = "no slice thickness given; using 1 mm";
+  if (thick && thick->size() == 1 && (*thick)[0] > 0) {
+    spacing = (*thick)[0];
+    source = "using its SliceThickness " + formatMm(spacing) + " mm as the slice spacing";
+  } else if (between && between->size() == 1 && (*between)[0] > 0) {
+    spacing = (*between)[0];
+    source = "using its SpacingBetweenSlices " + formatMm(spacing) + " mm as the slice spacing";
+  }
+  report.sliceStepMm = report.minStepMm = report.maxStepMm = spacing;
+  report.warnings.push_back("DICOM series has a single slice; " + source);
+  return spacing;
+}
+
+// The chosen series' slices from the directory's files (structures checked, headers scanned,
+// grouped by series, one chosen).
+std::vector<SliceHeader> chosenSeriesSlices(const DirectoryListing& listing, gdcm::Scanner& scanner, const DicomSource& src) {
+  // --- Check each file's structure first: GDCM aborts on some truncated headers.
+  DicomCandidates candidates = checkStructures(listing.files, src);
+  if (candidates.files.empty()) noImagesFound(src.directory, listing, "none is a DICOM file");
+  // --- Scan headers and group the image files by series.
+  for (const gdcm::Tag& t : {kSeriesInstanceUid, kSeriesDescription, kSopInstanceUid, kImagePosition, kImageOrientation, kRows, kColumns,
+                             kPixelSpacing, kNumberOfFrames, kSliceThickness, kSpacingBetweenSlices, kPhotometric, kSamplesPerPixel,
+                             kBitsAllocated, kBitsStored, kHighBit, kPixelRepresentation, kRecognitionCode})
+    scanner.AddTag(t);
+  scanner.Scan(candidates.files);
+  SeriesGroups groups = groupBySeries(scanner, candidates, src);
+  if (groups.bySeries.empty()) noImagesFound(src.directory, listing, "none is a readable DICOM image");
+  chooseSeries(groups.bySeries, groups.descriptions, src.seriesOf, src.directory, src.report);
+  const int skipped = candidates.skipped;
+  if (skipped > 0)
+    src.report.warnings.push_back(std::to_string(skipped) + " file" + (skipped == 1 ? "" : "s") + " in '" + src.directory + "' ignored: not DICOM images");
+  return std::move(groups.bySeries[src.report.chosen.seriesInstanceUid]);
+}
+
+Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress,
+                                 const std::string& seriesOf) {
+  DicomReadReport report;
+  reportProgress(progress, 0.0, "scanning DICOM directory");
+  const DirectoryListing listing = listDicomDirectory(directory);
+  GdcmTraceCapture quiet;  // from here on GDCM's own messages are taken, not printed
+  gdcm::Scanner scanner;
+  std::vector<SliceHeader> slices = chosenSeriesSlices(listing, scanner, {directory, seriesOf, report});
+
+  // --- Check the slices agree on size, pixel spacing and orientation.
+  const SliceHeader ref = slices.front();  // a copy: `slices` is rebuilt below
+  checkSlicesAgree(slices, directory);
+  const InPlaneFrame frame = inPlaneFrameOf(ref, slices.size(), directory, report);
+  const Eigen::Vector3d normal = frame.rowDir.cross(frame.colDir).normalized();
+
+  // --- Sort by position along the normal; the slice spacing and the k axis.
   sortSlicesAlong(slices, normal, directory, report);
   std::vector<Eigen::Vector3d> positions;
   const int n = int(slices.size());
   for (const SliceHeader& h : slices) positions.push_back(lpsToRas({(*h.position)[0], (*h.position)[1], (*h.position)[2]}));
-
-  // --- Slice spacing and the k axis.
-  double kSpacing = 1.0;
-  double regularStep = 0.0;  // > 0: resample the slices onto this step along the normal (mm)
-  Eigen::Vector3d kDir = normal;
-  if (n > 1) {
-    const SliceAxis axis = sliceAxisOf(slices, positions, normal, std::min(rowSpacing, columnSpacing), directory, report);
-    kDir = axis.direction;
-    kSpacing = axis.spacing;
-    regularStep = axis.regularStep;
-  } else {
-    const auto thick = parseNumbers(tagText(scanner, slices[0].path, kSliceThickness));
-    const auto between = parseNumbers(tagText(scanner, slices[0].path, kSpacingBetweenSlices));
-    std::string source = "no slice thickness given; using 1 mm";
-    if (thick && thick->size() == 1 && (*thick)[0] > 0) {
-      kSpacing = (*thick)[0];
-      source = "using its SliceThickness " + formatMm(kSpacing) + " mm as the slice spacing";
-    } else if (between && between->size() == 1 && (*between)[0] > 0) {
-      kSpacing = (*between)[0];
-      source = "using its SpacingBetweenSlices " + formatMm(kSpacing) + " mm as the slice spacing";
-    }
-    report.sliceStepMm = report.minStepMm = report.maxStepMm = kSpacing;
-    report.warnings.push_back("DICOM series has a single slice; " + source);
-  }
+  SliceAxis axis{normal, 1.0, 0.0};  // regularStep > 0: resample the slices onto this step along the normal (mm)
+  if (n > 1) axis = sliceAxisOf(slices, positions, normal, std::min(frame.rowSpacing, frame.columnSpacing), directory, report);
+  else axis.spacing = singleSliceSpacing(scanner, slices[0], report);
   report.slices = n;
 
   VolumeGeometry geom;
   geom.dims = Eigen::Vector3i(ref.columns, ref.rows, n);
-  geom.spacing = Eigen::Vector3d(columnSpacing, rowSpacing, kSpacing);
+  geom.spacing = Eigen::Vector3d(frame.columnSpacing, frame.rowSpacing, axis.spacing);
   geom.origin = positions.front();
-  geom.direction.col(0) = rowDir;
-  geom.direction.col(1) = colDir;
-  geom.direction.col(2) = kDir;
+  geom.direction.col(0) = frame.rowDir;
+  geom.direction.col(1) = frame.colDir;
+  geom.direction.col(2) = axis.direction;
   geom.validate();
 
   Volume volume = readPixels(slices, geom, quiet, directory, report, progress);
-
-  if (regularStep > 0) {
+  if (axis.regularStep > 0) {
     std::vector<double> keys;
     for (const SliceHeader& h : slices) keys.push_back(h.key);
-    volume = regularizeSlices(volume, keys, regularStep);
+    volume = regularizeSlices(volume, keys, axis.regularStep);
   }
   report.slices = volume.dims().z();
   if (reportOut) *reportOut = std::move(report);
