@@ -25,9 +25,14 @@ struct AdaptedMeshStats {
   std::string firstFailure;         ///< TetGen's reason for the first such cell
 };
 
-/// `youngsAt(p)`: Young's modulus at world point p (> 0).
-NestedMeshes buildImageAdaptedMeshes(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int coarseTets, int finePerCoarse,
-                                     const std::function<double(const Eigen::Vector3d&)>& youngsAt, double contrast = 10.0,
-                                     const ProgressFn& progress = {}, AdaptedMeshStats* stats = nullptr);
+/// What to mesh: the box, its coarse and fine resolutions and the image's stiffness.
+struct AdaptedMeshSpec {
+  Eigen::Vector3d lo{0, 0, 0}, hi{0, 0, 0};
+  int coarseTets = 0, finePerCoarse = 0;  ///< as buildNestedMeshes
+  std::function<double(const Eigen::Vector3d&)> youngsAt;  ///< Young's modulus at world point p (> 0)
+  double contrast = 10.0;  ///< a jump of this factor or more between half-spacing neighbours adds a point
+};
+
+NestedMeshes buildImageAdaptedMeshes(const AdaptedMeshSpec& spec, const ProgressFn& progress = {}, AdaptedMeshStats* stats = nullptr);
 
 }  // namespace handson

@@ -251,7 +251,7 @@ void buildMeshes(SimScene& sc, const SimSettings& s, int coarseTets, const Mater
   if (s.fineMesh == SimSettings::FineMesh::ImageAdapted) {
     if (s.element != CoarseElement::Cell) throw Error("simulation: the image-adapted fine mesh needs cell elements");
     const auto youngsAt = [&](const Eigen::Vector3d& p) { return table.band(tissue.bandAt(p)).youngs; };
-    sc.meshes = buildImageAdaptedMeshes(sc.lo, sc.hi, coarseTets, finePer, youngsAt, s.adaptContrast, progress, &sc.adapted);
+    sc.meshes = buildImageAdaptedMeshes({sc.lo, sc.hi, coarseTets, finePer, youngsAt, s.adaptContrast}, progress, &sc.adapted);
   } else {
     sc.meshes = buildNestedMeshes(sc.lo, sc.hi, coarseTets, finePer);
   }

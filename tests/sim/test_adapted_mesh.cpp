@@ -119,7 +119,7 @@ double ballYoungs(const Eigen::Vector3d& p) { return (p - kBall).norm() < kRadiu
 
 TEST(AdaptedMesh, ConformsNestsInCellsAndAddsPointsOnlyAtTheStiffnessJump) {
   AdaptedMeshStats st;
-  const NestedMeshes nm = buildImageAdaptedMeshes(kLo, kHi, 400, 64, ballYoungs, 10.0, {}, &st);
+  const NestedMeshes nm = buildImageAdaptedMeshes({kLo, kHi, 400, 64, ballYoungs, 10.0}, {}, &st);
   const NestedMeshes reg = buildNestedMeshes(kLo, kHi, 400, 64);
   const TetMesh& F = nm.fine;
   EXPECT_FALSE(nm.regularFine);
@@ -189,12 +189,12 @@ TEST(AdaptedMesh, ConformsNestsInCellsAndAddsPointsOnlyAtTheStiffnessJump) {
 
 TEST(AdaptedMesh, HomogeneousMaterialGivesTheRegularMesh) {
   AdaptedMeshStats st;
-  const NestedMeshes nm = buildImageAdaptedMeshes(kLo, kHi, 400, 64, [](const Eigen::Vector3d&) { return 6.0; }, 10.0, {}, &st);
+  const NestedMeshes nm = buildImageAdaptedMeshes({kLo, kHi, 400, 64, [](const Eigen::Vector3d&) { return 6.0; }, 10.0}, {}, &st);
   const NestedMeshes reg = buildNestedMeshes(kLo, kHi, 400, 64);
   EXPECT_EQ(st.structurePoints, 0u);
   EXPECT_EQ(nm.fine.tets.size(), reg.fine.tets.size());
   EXPECT_EQ(nm.fine.nodes.size(), reg.fine.nodes.size());
-  EXPECT_THROW(buildImageAdaptedMeshes(kLo, kHi, 400, 64, ballYoungs, 0.5), Error);
+  EXPECT_THROW(buildImageAdaptedMeshes({kLo, kHi, 400, 64, ballYoungs, 0.5}), Error);
 }
 
 TEST(AdaptedMesh, PhantomSceneRunsTheCoarseModelAndResamplesWithoutCracks) {
