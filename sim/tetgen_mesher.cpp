@@ -18,24 +18,21 @@
 
 namespace handson {
 
-TetgenResult tetrahedralizeSurface(const std::vector<Eigen::Vector3d>& points, const std::vector<std::array<int, 3>>& triangles) {
-  TetgenResult r;
-  if (points.size() < 4 || triangles.size() < 4) {
-    r.message = "fewer than 4 points or 4 surface triangles";
-    return r;
-  }
+namespace {
+
+// Why the input cannot be meshed (empty: it can).
+std::string inputProblem(const std::vector<Eigen::Vector3d>& points, const std::vector<std::array<int, 3>>& triangles) {
+  if (points.size() < 4 || triangles.size() < 4) return "fewer than 4 points or 4 surface triangles";
   for (const auto& p : points)
-    if (!p.allFinite()) {
-      r.message = "a point is not finite";
-      return r;
-    }
+    if (!p.allFinite()) return "a point is not finite";
   for (const auto& t : triangles)
     for (int v : t)
-      if (v < 0 || std::size_t(v) >= points.size()) {
-        r.message = "a surface triangle refers to a missing point";
-        return r;
-      }
-  tetgenio in, out;
+      if (v < 0 || std::size_t(v) >= points.size()) return "a surface triangle refers to a missing point";
+  return {};
+}
+
+// The points and the surface triangles as TetGen's input (a piecewise linear complex).
+void fillInput(tetgenio& in, const std::vector<Eigen::Vector3d>& points, const std::vector<std::array<int, 3>>& triangles) {
   in.firstnumber = 0;
   in.numberofpoints = int(points.size());
   in.pointlist = new REAL[points.size() * 3];
@@ -53,69 +50,56 @@ TetgenResult tetrahedralizeSurface(const std::vector<Eigen::Vector3d>& points, c
     f.polygonlist[0].vertexlist = new int[3];
     for (int c = 0; c < 3; ++c) f.polygonlist[0].vertexlist[c] = triangles[i][std::size_t(c)];
   }
-  // TetGen 1.5's error path frees its mesh and throws, and the unwinding frees it again: any TetGen
-  // error would crash this process. So TetGen runs in a forked child that sends its tets back
-  // through a pipe; a child that crashes or fails is a status here. (A fork per call costs about a
-  // millisecond; each child also has its own copy of TetGen's global state, so threads may call this.)
-  std::string bytes;
-  ChildEnd end;
+}
+
+// In the child: TetGen on `in`, its answer as one frame [status i32][count i32][count tet corners i32]:
+// status 0 done, 1 TetGen failed, 2 it added points (indices would not be the input's).
+int tetrahedralizeInChild(tetgenio& in, ChildWriter& w) {
+  tetgenio out;
+  int status = 1;
+  std::vector<std::int32_t> msg;
   try {
-    end = runInChild(
-        [&](ChildWriter& w) {
-          int status = 1;
-          std::vector<std::int32_t> msg;
-          try {
-            char switches[] = "pYQJ";  // PLC, boundary unsplit, quiet, keep every input point (indices stable)
-            tetrahedralize(switches, &in, &out);
-            bool same = out.numberofpoints == in.numberofpoints && out.numberofcorners == 4;
-            for (int i = 0; same && i < 3 * in.numberofpoints; ++i) same = out.pointlist[i] == in.pointlist[i];
-            if (!same) status = 2;
-            else {
-              status = 0;
-              msg.assign(out.tetrahedronlist, out.tetrahedronlist + 4 * std::size_t(out.numberoftetrahedra));
-            }
-          } catch (...) {
-            status = 1;
-          }
-          const std::int32_t head[2] = {status, std::int32_t(msg.size())};
-          std::string frame(reinterpret_cast<const char*>(head), sizeof head);
-          frame.append(reinterpret_cast<const char*>(msg.data()), msg.size() * sizeof(std::int32_t));
-          return w.frame(0, frame) ? 0 : 3;
-        },
-        [&](ChildReader& reader) {
-          std::uint8_t kind = 0;
-          if (!reader.frame(kind, bytes)) bytes.clear();
-        },
-        0.0, "TetGen not run");
-  } catch (const Error& e) {  // no pipe, no child process
-    r.message = e.what();
-    return r;
+    char switches[] = "pYQJ";  // PLC, boundary unsplit, quiet, keep every input point (indices stable)
+    tetrahedralize(switches, &in, &out);
+    bool same = out.numberofpoints == in.numberofpoints && out.numberofcorners == 4;
+    for (int i = 0; same && i < 3 * in.numberofpoints; ++i) same = out.pointlist[i] == in.pointlist[i];
+    if (!same) {
+      status = 2;
+    } else {
+      status = 0;
+      msg.assign(out.tetrahedronlist, out.tetrahedronlist + 4 * std::size_t(out.numberoftetrahedra));
+    }
+  } catch (...) {
+    status = 1;
   }
+  const std::int32_t head[2] = {status, std::int32_t(msg.size())};
+  std::string frame(reinterpret_cast<const char*>(head), sizeof head);
+  frame.append(reinterpret_cast<const char*>(msg.data()), msg.size() * sizeof(std::int32_t));
+  return w.frame(0, frame) ? 0 : 3;
+}
+
+// The child's frame as tet corners; empty with `problem` set when it says TetGen did not mesh.
+std::vector<std::int32_t> decodeChildAnswer(const std::string& bytes, int exitCode, std::size_t points, std::string& problem) {
   std::int32_t head[2] = {-1, 0};
   if (bytes.size() >= sizeof head) std::memcpy(head, bytes.data(), sizeof head);
-  if (end.exitCode != 0 || bytes.size() < sizeof head) {
-    r.message = "TetGen failed (it stopped in its error path)";
-    return r;
-  }
-  if (head[0] == 1) {
-    r.message = "TetGen failed";
-    return r;
-  }
-  if (head[0] == 2) {
-    r.message = "TetGen needed extra points to keep the surface";
-    return r;
-  }
-  if (head[0] != 0 || head[1] <= 0 || head[1] % 4 != 0 || bytes.size() != sizeof head + std::size_t(head[1]) * sizeof(std::int32_t)) {
-    r.message = "TetGen returned no tets";
-    return r;
-  }
+  if (exitCode != 0 || bytes.size() < sizeof head) problem = "TetGen failed (it stopped in its error path)";
+  else if (head[0] == 1) problem = "TetGen failed";
+  else if (head[0] == 2) problem = "TetGen needed extra points to keep the surface";
+  else if (head[0] != 0 || head[1] <= 0 || head[1] % 4 != 0 || bytes.size() != sizeof head + std::size_t(head[1]) * sizeof(std::int32_t))
+    problem = "TetGen returned no tets";
+  if (!problem.empty()) return {};
   std::vector<std::int32_t> tl(static_cast<std::size_t>(head[1]));
   std::memcpy(tl.data(), bytes.data() + sizeof head, tl.size() * sizeof(std::int32_t));
   for (std::int32_t v : tl)
-    if (v < 0 || std::size_t(v) >= points.size()) {
-      r.message = "TetGen returned a tet with a missing point";
-      return r;
+    if (v < 0 || std::size_t(v) >= points) {
+      problem = "TetGen returned a tet with a missing point";
+      return {};
     }
+  return tl;
+}
+
+// The tets, each turned positive; false (r.message set, no tets) when one is flat.
+bool orientTets(const std::vector<Eigen::Vector3d>& points, const std::vector<std::int32_t>& tl, TetgenResult& r) {
   r.tets.resize(tl.size() / 4);
   for (std::size_t t = 0; t < r.tets.size(); ++t) {
     auto& tet = r.tets[t];
@@ -132,10 +116,40 @@ TetgenResult tetrahedralizeSurface(const std::vector<Eigen::Vector3d>& points, c
     if (!(det > 1e-12 * scale)) {
       r.message = "TetGen produced a flat tet";
       r.tets.clear();
-      return r;
+      return false;
     }
   }
-  r.ok = true;
+  return true;
+}
+
+}  // namespace
+
+TetgenResult tetrahedralizeSurface(const std::vector<Eigen::Vector3d>& points, const std::vector<std::array<int, 3>>& triangles) {
+  TetgenResult r;
+  r.message = inputProblem(points, triangles);
+  if (!r.message.empty()) return r;
+  tetgenio in;
+  fillInput(in, points, triangles);
+  // TetGen 1.5's error path frees its mesh and throws, and the unwinding frees it again: any TetGen
+  // error would crash this process. So TetGen runs in a forked child that sends its tets back
+  // through a pipe; a child that crashes or fails is a status here. (A fork per call costs about a
+  // millisecond; each child also has its own copy of TetGen's global state, so threads may call this.)
+  std::string bytes;
+  ChildEnd end;
+  try {
+    end = runInChild([&](ChildWriter& w) { return tetrahedralizeInChild(in, w); },
+                     [&](ChildReader& reader) {
+                       std::uint8_t kind = 0;
+                       if (!reader.frame(kind, bytes)) bytes.clear();
+                     },
+                     0.0, "TetGen not run");
+  } catch (const Error& e) {  // no pipe, no child process
+    r.message = e.what();
+    return r;
+  }
+  const std::vector<std::int32_t> tl = decodeChildAnswer(bytes, end.exitCode, points.size(), r.message);
+  if (!r.message.empty()) return r;
+  r.ok = orientTets(points, tl, r);
   return r;
 }
 
