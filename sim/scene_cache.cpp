@@ -248,8 +248,10 @@ std::unique_ptr<CoarseModel> loadSimulation(const std::filesystem::path& file, S
 }
 
 std::unique_ptr<CoarseModel> buildOrLoadSimulation(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& settings,
-                                                   const std::filesystem::path& cacheDir, SimScene& scene, const ProgressFn& progress,
-                                                   CacheOutcome* outcome, std::uint64_t maxCacheBytes) {
+                                                   SimScene& scene, const CacheUse& cache, const ProgressFn& progress) {
+  const std::filesystem::path& cacheDir = cache.dir;
+  CacheOutcome* outcome = cache.outcome;
+  const std::uint64_t maxCacheBytes = cache.maxBytes;
   CacheOutcome local;
   CacheOutcome& o = outcome ? *outcome : local;
   o = CacheOutcome{};

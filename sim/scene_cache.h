@@ -34,11 +34,17 @@ struct CacheOutcome {
   std::string note;  ///< a rebuilt corrupt entry, a failed save: said, never fatal
 };
 
-/// The scene and coarse model from `cacheDir` when there (progress "loading cached simulation"),
-/// else built (and saved there). `cacheDir` empty: no cache. `maxCacheBytes`: eviction cap.
+/// Where the preprocessing is cached, and what happened there.
+struct CacheUse {
+  std::filesystem::path dir;            ///< empty: no cache
+  CacheOutcome* outcome = nullptr;      ///< a hit, a note (none: not reported)
+  std::uint64_t maxBytes = 4ull << 30;  ///< eviction cap
+};
+
+/// The scene and coarse model from the cache when there (progress "loading cached simulation"),
+/// else built (and saved there).
 std::unique_ptr<CoarseModel> buildOrLoadSimulation(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& settings,
-                                                   const std::filesystem::path& cacheDir, SimScene& scene, const ProgressFn& progress = {},
-                                                   CacheOutcome* outcome = nullptr, std::uint64_t maxCacheBytes = 4ull << 30);
+                                                   SimScene& scene, const CacheUse& cache, const ProgressFn& progress = {});
 
 /// $HANDSON_CACHE_DIR, else $XDG_CACHE_HOME/handson, else $HOME/.cache/handson ("" if none is set).
 std::filesystem::path defaultSimulationCacheDir();

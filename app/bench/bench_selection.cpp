@@ -157,10 +157,21 @@ struct GrowTiming {
   double cpuMs = 0, sparseMs = 0, denseMs = 0;  // medians; denseMs 0 when not measured
 };
 
+// The volume on the CPU and on the GPU, for the growth timings.
+struct GrowthVolume {
+  vk::Context& ctx;
+  const QuantizedVolume& q;
+  const vk::Image& volume;
+  const vk::Sampler& sampler;
+};
+
 // A live update: the selection of a liver seed of ircadb1.1 grown from 20 to 25 mm, on the CPU
 // reference and the GPU pass (sparse bricks, and optionally the dense dispatch over the box).
-GrowTiming timeGrowth(vk::Context& ctx, const QuantizedVolume& q, const vk::Image& volume, const vk::Sampler& sampler, GrowCriterion criterion,
-                      GrowBound bound, int repeat, bool dense) {
+GrowTiming timeGrowth(const GrowthVolume& on, GrowCriterion criterion, GrowBound bound, int repeat, bool dense) {
+  vk::Context& ctx = on.ctx;
+  const QuantizedVolume& q = on.q;
+  const vk::Image& volume = on.volume;
+  const vk::Sampler& sampler = on.sampler;
   const Eigen::Vector3i seed(216, 150, 96);
   const double e1 = 20.0, e2 = 25.0;
   GrowParams p;
@@ -277,7 +288,7 @@ struct SelectionOutputs {
 // The Dice sweep of one dataset's organs, to the sweep CSV and `sweeps`.
 void sweepDataset(const Dataset& s, const Volume& ct, const Volume& labels, const SelectionBenchOptions& o, SelectionOutputs& w, std::vector<OrganSweep>& sweeps) {
   std::cerr << s.name << ": sweeping " << s.organs.size() << " organs x " << o.criteria.size() << " criteria\n";
-  for (auto& sw : sweepSelection(s.name, ct, labels, s.organs, o.fractions, o.criteria, true, o.statistics, o.bound)) {
+  for (auto& sw : sweepSelection({s.name, ct, labels, s.organs}, {o.fractions, o.criteria, true, o.statistics, o.bound})) {
     std::cerr << "  " << sw.organ << " " << sweepVariantName(sw.criterion, sw.rim) << ": best Dice " << std::fixed << std::setprecision(3)
               << sw.best().dice << " at " << std::setprecision(1) << sw.best().fraction << "x, " << std::setprecision(3) << sw.points.back().dice
               << " at " << std::setprecision(1) << sw.points.back().fraction << "x\n";
@@ -290,7 +301,7 @@ void sweepDataset(const Dataset& s, const Volume& ct, const Volume& labels, cons
 
 // Precision and recall of one dataset's organs at the fixed extents, paper against smoothed.
 void evaluateDataset(const Dataset& s, const Volume& ct, const Volume& labels, const SelectionBenchOptions& o, SelectionOutputs& w) {
-  const auto rows = evaluateSelection(s.name, ct, labels, s.organs, o.extents, {GrowCriterion::Paper, GrowCriterion::Smoothed});
+  const auto rows = evaluateSelection({s.name, ct, labels, s.organs}, o.extents, {GrowCriterion::Paper, GrowCriterion::Smoothed});
   for (const auto& r : rows)
     w.csv << r.dataset << "," << r.organ << "," << growCriterionName(r.criterion) << "," << r.extentMm << "," << r.seed.x() << " " << r.seed.y() << " "
           << r.seed.z() << "," << r.selected << "," << r.precision << "," << r.recall << "\n";
@@ -321,9 +332,10 @@ int timeLiverGrowth(const Args& args, const Volume& ircadb, int repeat, const st
                    VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, true);
   vk::uploadToImage(ctx, volume, q.data.data(), q.data.size() * 2, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   vk::Sampler sampler(ctx, false);
-  const GrowTiming base = timeGrowth(ctx, q, volume, sampler, GrowCriterion::Smoothed, GrowBound::Ball, repeat, false);
-  const GrowTiming ball = timeGrowth(ctx, q, volume, sampler, GrowParams{}.criterion, GrowBound::Ball, repeat, false);
-  const GrowTiming now = timeGrowth(ctx, q, volume, sampler, GrowParams{}.criterion, GrowParams{}.bound, repeat, true);
+  const GrowthVolume on{ctx, q, volume, sampler};
+  const GrowTiming base = timeGrowth(on, GrowCriterion::Smoothed, GrowBound::Ball, repeat, false);
+  const GrowTiming ball = timeGrowth(on, GrowParams{}.criterion, GrowBound::Ball, repeat, false);
+  const GrowTiming now = timeGrowth(on, GrowParams{}.criterion, GrowParams{}.bound, repeat, true);
   for (const GrowTiming* t : {&base, &ball, &now}) {
     const std::string name = std::string(growCriterionName(t->criterion)) + "," + growBoundName(t->bound);
     tcsv << name << ",cpu," << t->cpuMs << "\n" << name << ",gpu_sparse," << t->sparseMs << "\n";

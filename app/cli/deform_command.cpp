@@ -210,7 +210,7 @@ DeformSolution solveDeform(const DeformRequest& r, const Volume& image, const st
   // saved otherwise); the fine model needs only the scene.
   if (r.model == "coarse") {
     CacheOutcome co;
-    d.model = buildOrLoadSimulation(image, handles, r.settings, r.cacheDir, sc, progress, &co);
+    d.model = buildOrLoadSimulation(image, handles, r.settings, sc, {r.cacheDir, &co}, progress);
     if (co.hit) std::cout << "preprocessing loaded from the cache in " << r.cacheDir.string() << "\n";
     if (!co.note.empty()) std::cerr << "note: " << co.note << "\n";
   } else {

@@ -163,7 +163,7 @@ void DeformationController::startBuild(const HandleSet& handles) {
     };
     try {
       auto m = std::make_unique<Model>();
-      m->model = buildOrLoadSimulation(image_, sim, options_.sim, options_.cacheDir, m->scene, progress, &m->cache);
+      m->model = buildOrLoadSimulation(image_, sim, options_.sim, m->scene, {options_.cacheDir, &m->cache}, progress);
       m->data = m->model->interpolationData();
       m->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::lock_guard<std::mutex> lock(mutex_);

@@ -68,9 +68,11 @@ std::pair<double, std::size_t> organRadiusMm(const Volume& labels, int label, co
   return {std::max(dist[at95], g.spacing.minCoeff()), dist.size()};
 }
 
-std::vector<SelectionAccuracy> evaluateSelection(const std::string& dataset, const Volume& ct, const Volume& labels,
-                                                 const std::vector<OrganLabel>& organs, const std::vector<double>& extentsMm,
-                                                 const std::vector<GrowCriterion>& criteria, double hMax) {
+std::vector<SelectionAccuracy> evaluateSelection(const LabelledCt& data, const std::vector<double>& extentsMm, const std::vector<GrowCriterion>& criteria,
+                                                 double hMax) {
+  const std::string& dataset = data.dataset;
+  const Volume &ct = data.ct, &labels = data.labels;
+  const std::vector<OrganLabel>& organs = data.organs;
   if (ct.dims() != labels.dims()) throw Error("selection accuracy: the label map is not on the CT's grid");
   const QuantizedVolume q = quantizeVolume(ct);
   const auto& g = ct.geometry();
@@ -125,9 +127,15 @@ const SweepPoint& OrganSweep::best() const {
   return *std::max_element(points.begin(), points.end(), [](const SweepPoint& a, const SweepPoint& b) { return a.dice < b.dice; });
 }
 
-std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume& ct, const Volume& labels, const std::vector<OrganLabel>& organs,
-                                       const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria, bool rim,
-                                       RegionStatistics statistics, GrowBound bound) {
+std::vector<OrganSweep> sweepSelection(const LabelledCt& data, const SweepSettings& settings) {
+  const std::string& dataset = data.dataset;
+  const Volume &ct = data.ct, &labels = data.labels;
+  const std::vector<OrganLabel>& organs = data.organs;
+  const std::vector<double>& fractions = settings.fractions;
+  const std::vector<GrowCriterion>& criteria = settings.criteria;
+  const bool rim = settings.rim;
+  const RegionStatistics statistics = settings.statistics;
+  const GrowBound bound = settings.bound;
   if (ct.dims() != labels.dims()) throw Error("selection accuracy: the label map is not on the CT's grid");
   if (fractions.empty() || !std::is_sorted(fractions.begin(), fractions.end()))
     throw Error("selection accuracy: the extent fractions must be a non-empty increasing list");

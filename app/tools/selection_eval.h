@@ -26,12 +26,18 @@ struct SelectionAccuracy {
   double precision, recall, milliseconds;
 };
 
-/// Grows from the deepest typical voxel of each organ (labels on the CT's grid) for each extent and
-/// criterion, under the ball bound (recall is counted inside the extent's ball). Organs missing from
-/// the label map are skipped.
-std::vector<SelectionAccuracy> evaluateSelection(const std::string& dataset, const Volume& ct, const Volume& labels,
-                                                 const std::vector<OrganLabel>& organs, const std::vector<double>& extentsMm,
-                                                 const std::vector<GrowCriterion>& criteria, double hMax = 1.1);
+/// A labelled CT to measure on: its name, the CT, its label map (on the CT's grid) and the organs.
+struct LabelledCt {
+  std::string dataset;
+  const Volume& ct;
+  const Volume& labels;
+  const std::vector<OrganLabel>& organs;
+};
+
+/// Grows from the deepest typical voxel of each organ for each extent and criterion, under the ball
+/// bound (recall is counted inside the extent's ball). Organs missing from the label map are skipped.
+std::vector<SelectionAccuracy> evaluateSelection(const LabelledCt& data, const std::vector<double>& extentsMm, const std::vector<GrowCriterion>& criteria,
+                                                 double hMax = 1.1);
 
 /// Whole-organ accuracy of one criterion as the extent sweeps, as a user spreads the fingers: the
 /// extents are fractions of the organ's radius, the 95th percentile of its voxels' distances (mm)
@@ -51,13 +57,16 @@ struct OrganSweep {
   std::vector<SweepPoint> points;  // in the order of the fractions
   const SweepPoint& best() const;
 };
-/// Per criterion one sweep of the grown selections and, with `rim`, one of the same selections with
-/// their boundary rim (the grown ones are its baseline, from the same growth). `statistics`: how the
-/// smoothed criteria refine theirs (GrowParams::statistics); `bound`: how the extent bounds them
-/// (GrowParams::bound).
-std::vector<OrganSweep> sweepSelection(const std::string& dataset, const Volume& ct, const Volume& labels, const std::vector<OrganLabel>& organs,
-                                       const std::vector<double>& fractions, const std::vector<GrowCriterion>& criteria, bool rim = true,
-                                       RegionStatistics statistics = RegionStatistics::Robust, GrowBound bound = GrowParams{}.bound);
+/// What a sweep grows: per criterion one sweep of the grown selections and, with `rim`, one of the
+/// same selections with their boundary rim (the grown ones are its baseline, from the same growth).
+struct SweepSettings {
+  std::vector<double> fractions;  ///< of the organ's radius, increasing
+  std::vector<GrowCriterion> criteria;
+  bool rim = true;
+  RegionStatistics statistics = RegionStatistics::Robust;  ///< how the smoothed criteria refine theirs (GrowParams::statistics)
+  GrowBound bound = GrowParams{}.bound;                    ///< how the extent bounds them (GrowParams::bound)
+};
+std::vector<OrganSweep> sweepSelection(const LabelledCt& data, const SweepSettings& settings);
 /// "core", "core+rim", ...
 std::string sweepVariantName(GrowCriterion c, bool rim);
 

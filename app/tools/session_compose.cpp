@@ -84,9 +84,15 @@ struct Footprint {
   }
 };
 
-// With a handle mask, a hit's "label" is the handle id there instead (0: none).
-Footprint look(const CpuPicker& picker, const Volume& labels, const OrbitCamera& cam, const Viewport& vp, int step,
-               const std::vector<std::uint8_t>* handleMask = nullptr, const std::vector<MovingHandlePose>& moving = {}) {
+// The handles a footprint sees instead of the labels: their ids in the mask, drawn at their poses.
+struct HandleOverlay {
+  const std::vector<std::uint8_t>& mask;
+  std::vector<MovingHandlePose> moving;
+};
+
+// With handles, a hit's "label" is the handle id there instead (0: none).
+Footprint look(const CpuPicker& picker, const Volume& labels, const OrbitCamera& cam, const Viewport& vp, int step, const HandleOverlay* handles = nullptr) {
+  const std::vector<std::uint8_t>* handleMask = handles ? &handles->mask : nullptr;
   Footprint fp;
   fp.step = step;
   fp.nx = vp.width / step;
@@ -95,7 +101,7 @@ Footprint look(const CpuPicker& picker, const Volume& labels, const OrbitCamera&
   pixels.reserve(std::size_t(fp.nx) * std::size_t(fp.ny));
   for (int j = 0; j < fp.ny; ++j)
     for (int i = 0; i < fp.nx; ++i) pixels.push_back(fp.px(i, j));
-  const std::vector<gpu::PickResult> hits = picker.pick(cam, vp, pixels, handleMask, moving);
+  const std::vector<gpu::PickResult> hits = picker.pick(cam, vp, pixels, handleMask, handles ? handles->moving : std::vector<MovingHandlePose>{});
   fp.label.resize(pixels.size());
   fp.depth.resize(pixels.size());
   const glm::dvec3 eye = cam.eye(), fwd = cam.forward();
@@ -505,7 +511,10 @@ class Composer {
     if (!pose.isIdentity()) m.push_back(MovingHandlePose{1, pose, lo, hi});
     return m;
   }
-  Footprint seen(const RigidTransform& pose, int step) const { return look(picker, labels, cam, vp, step, &mask, drawn(pose)); }
+  Footprint seen(const RigidTransform& pose, int step) const {
+    const HandleOverlay handles{mask, drawn(pose)};
+    return look(picker, labels, cam, vp, step, &handles);
+  }
   // Fingers put down at frames[0] and moved through the later frames: the handle's new pose; how
   // many fingers landed on it goes to `anchored`.
   RigidTransform simulatePath(const RigidTransform& pose, const std::vector<std::vector<glm::dvec2>>& frames) {

@@ -88,12 +88,12 @@ TEST_P(SceneCacheKinds, ALoadedSceneAndModelAnswerBitForBitLikeTheBuiltOnes) {
   const fs::path dir = tempDir("handson_cache_roundtrip");
   SimScene built;
   CacheOutcome first;
-  auto m1 = buildOrLoadSimulation(in.phantom.ct, in.handles, s, dir, built, {}, &first);
+  auto m1 = buildOrLoadSimulation(in.phantom.ct, in.handles, s, built, {dir, &first});
   EXPECT_FALSE(first.hit);
   EXPECT_TRUE(first.note.empty()) << first.note;
   SimScene loaded;
   CacheOutcome second;
-  auto m2 = buildOrLoadSimulation(in.phantom.ct, in.handles, s, dir, loaded, {}, &second);
+  auto m2 = buildOrLoadSimulation(in.phantom.ct, in.handles, s, loaded, {dir, &second});
   EXPECT_TRUE(second.hit) << second.note;
   ASSERT_EQ(loaded.meshes.fine.nodes, built.meshes.fine.nodes);
   ASSERT_EQ(loaded.meshes.fine.tets, built.meshes.fine.tets);
@@ -162,7 +162,7 @@ TEST(SceneCache, AnyChangedInputMissesAndBadFilesAreRebuilt) {
   const fs::path dir = tempDir("handson_cache_bad");
   SimScene sc;
   CacheOutcome o;
-  auto reference = answer(*buildOrLoadSimulation(in.phantom.ct, in.handles, in.settings, dir, sc, {}, &o), sc);
+  auto reference = answer(*buildOrLoadSimulation(in.phantom.ct, in.handles, in.settings, sc, {dir, &o}), sc);
   const fs::path file = dir / (key + ".hsim");
   ASSERT_TRUE(fs::exists(file));
   const auto size = fs::file_size(file);
@@ -181,7 +181,7 @@ TEST(SceneCache, AnyChangedInputMissesAndBadFilesAreRebuilt) {
       f.write(&c, 1);
     }
     SimScene again;
-    auto m = buildOrLoadSimulation(in.phantom.ct, in.handles, in.settings, dir, again, {}, &o);
+    auto m = buildOrLoadSimulation(in.phantom.ct, in.handles, in.settings, again, {dir, &o});
     EXPECT_FALSE(o.hit);
     EXPECT_NE(o.note.find("unreadable"), std::string::npos) << o.note;
     EXPECT_EQ(answer(*m, again), reference);
@@ -190,7 +190,7 @@ TEST(SceneCache, AnyChangedInputMissesAndBadFilesAreRebuilt) {
   EXPECT_THROW(loadSimulation(dir / "missing.hsim", sc), Error);
   // An unwritable cache directory: built anyway, with a note.
   SimScene nowhere;
-  buildOrLoadSimulation(in.phantom.ct, in.handles, in.settings, "/proc/handson-no-such-dir", nowhere, {}, &o);
+  buildOrLoadSimulation(in.phantom.ct, in.handles, in.settings, nowhere, {"/proc/handson-no-such-dir", &o});
   EXPECT_FALSE(o.hit);
   EXPECT_NE(o.note.find("not cached"), std::string::npos) << o.note;
   fs::remove_all(dir);

@@ -21,7 +21,7 @@ void check(const Case& c) {
   if (!std::filesystem::exists(dir + "/ct.nii.gz")) GTEST_SKIP() << "no " << dir;
   const Volume ct = readNifti(dir + "/ct.nii.gz");
   const Volume labels = readNifti(dir + "/labels.nii.gz");
-  const auto rows = evaluateSelection(c.dir, ct, labels, c.organs, {20.0}, {GrowCriterion::Paper, GrowCriterion::Smoothed});
+  const auto rows = evaluateSelection({c.dir, ct, labels, c.organs}, {20.0}, {GrowCriterion::Paper, GrowCriterion::Smoothed});
   ASSERT_EQ(rows.size(), 2 * c.organs.size());
   double recall = 0;
   int n = 0;
@@ -60,7 +60,7 @@ void checkSweep(const char* dir, const std::vector<OrganLabel>& organs, double m
   if (!std::filesystem::exists(path + "/ct.nii.gz")) GTEST_SKIP() << "no " << path;
   const Volume ct = readNifti(path + "/ct.nii.gz");
   const Volume labels = readNifti(path + "/labels.nii.gz");
-  const auto sweeps = sweepSelection(dir, ct, labels, organs, {0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.2}, {GrowCriterion::Smoothed, GrowCriterion::Core});
+  const auto sweeps = sweepSelection({dir, ct, labels, organs}, {{0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.2}, {GrowCriterion::Smoothed, GrowCriterion::Core}});
   ASSERT_EQ(sweeps.size(), 4 * organs.size()) << "each criterion with and without the boundary rim";
   std::vector<double> gain, rimGain;
   for (const auto& core : sweeps) {
@@ -106,7 +106,7 @@ void checkRobustStatistics(const char* dir, const std::vector<OrganLabel>& organ
   const std::vector<double> fractions{0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.2};
   std::vector<double> best[2];
   for (RegionStatistics st : {RegionStatistics::Moments, RegionStatistics::Robust}) {
-    const auto sweeps = sweepSelection(dir, ct, labels, organs, fractions, {GrowCriterion::Core}, false, st, bound);
+    const auto sweeps = sweepSelection({dir, ct, labels, organs}, {fractions, {GrowCriterion::Core}, false, st, bound});
     ASSERT_EQ(sweeps.size(), organs.size());
     for (const auto& w : sweeps) best[int(st == RegionStatistics::Robust)].push_back(w.best().dice);
   }
@@ -167,7 +167,7 @@ TEST(SelectionAccuracy, ThePathBoundSelectsTheWholeOrganWithoutLeakingPastIt) {
     const Volume ct = readNifti(root + "/" + dir + "/ct.nii.gz");
     const Volume labels = readNifti(root + "/" + dir + "/labels.nii.gz");
     for (GrowBound b : {GrowBound::Ball, GrowBound::Path})
-      for (const auto& w : sweepSelection(dir, ct, labels, organs, fractions, {GrowCriterion::Core}, true, RegionStatistics::Robust, b)) {
+      for (const auto& w : sweepSelection({dir, ct, labels, organs}, {fractions, {GrowCriterion::Core}, true, RegionStatistics::Robust, b})) {
         if (!w.rim) continue;
         best[int(b == GrowBound::Path)].push_back(w.best().dice);
         kept[int(b == GrowBound::Path)].push_back(w.points.back().dice / w.best().dice);
