@@ -1,6 +1,7 @@
 #include "selection_controller.h"
 
 #include <algorithm>
+#include <utility>
 #include <sstream>
 
 #include "render/raymarch_reference.h"
@@ -99,8 +100,18 @@ void SelectionController::detectTap(const TouchEvent& e, const TouchInput& input
 }
 
 void SelectionController::manipulate(const TouchEvent& e, const TouchInput& input) {
-  const Viewport& vp = session_.gestures().viewport();
+  if (e.phase == TouchPhase::Down && input.fingers().size() == 1) {
+    gestureLast_.clear();
+    grabLifted_ = false;
+  }
+  auto last = std::find_if(gestureLast_.begin(), gestureLast_.end(), [&](const auto& f) { return f.first == e.id; });
+  if (last == gestureLast_.end()) gestureLast_.push_back({e.id, e.px});
+  else last->second = e.px;
   if (e.phase != TouchPhase::Move) {
+    if (!manipulator_.active() && (grabPending_ || grabFrame_)) {
+      unansweredFingerChange(e, input);
+      return;
+    }
     // The finger set changed: re-anchor on the fingers now down (their points are picked anew).
     manipulator_.release();
     grabRequest_.clear();
@@ -115,11 +126,38 @@ void SelectionController::manipulate(const TouchEvent& e, const TouchInput& inpu
     }
     return;
   }
+  std::vector<std::pair<std::int64_t, glm::dvec2>> px;
+  for (const auto& f : input.fingers()) px.push_back({f.id, f.px});
+  moveHandleTo(px);
+}
+
+void SelectionController::unansweredFingerChange(const TouchEvent& e, const TouchInput& input) {
+  // The grab's picks are not back, so the handle is still where the fingers came down: a finger
+  // added joins the grab where it came down; a finger lifted stays in it (the drag takes its point
+  // to where it lifted). Every finger lifted: the grab goes on and the drag is applied when its
+  // picks return (a quick drag on slow frames); cancelled: nothing moves.
+  if (e.phase == TouchPhase::Down) {
+    grabRequest_.push_back({e.id, e.px});
+    grabPending_ = true;
+    return;
+  }
+  if (!input.fingers().empty()) return;
+  grabLifted_ = e.phase == TouchPhase::Up;
+  if (grabLifted_) return;
+  grabRequest_.clear();
+  grabPending_ = false;
+  grabSent_.clear();
+  manipulated_ = 0;
+  grabUndoable_ = false;
+}
+
+void SelectionController::moveHandleTo(const std::vector<std::pair<std::int64_t, glm::dvec2>>& fingersPx) {
   if (!manipulator_.active() || !manipulated_) return;
   const Handle* h = handles_.find(manipulated_);
   if (!h) return;
+  const Viewport& vp = session_.gestures().viewport();
   std::vector<std::pair<std::int64_t, glm::dvec2>> ndc;
-  for (const auto& f : input.fingers()) ndc.push_back({f.id, vp.toNdc(f.px)});
+  for (const auto& [id, px] : fingersPx) ndc.push_back({id, vp.toNdc(px)});
   std::string why;
   const StageTimes::Scope t(stages_, "gesture-solve");
   const auto pose = manipulator_.move(ndc, h->pose, session_.camera(), double(vp.width) / vp.height, locks_, &why);
@@ -263,6 +301,8 @@ void SelectionController::prepareFrame(FrameRequest& req, const Viewport& vp) {
     for (const auto& [id, px] : grabRequest_) req.pickPoints.push_back(glm::vec2(vp.toNdc(px)));
     grabPending_ = false;
     grabInRequest_ = true;
+    grabSent_ = grabRequest_;
+    grabSentUndoable_ = grabUndoable_;
   }
   setMovingHandles(req.params, volume_.geometry, movingHandles());
   lastParams_ = req.params;  // the CPU grab probe sees moved handles where they are, either way
@@ -289,41 +329,61 @@ void SelectionController::submitted(std::uint64_t frame) {
   if (grabInRequest_) grabFrame_ = frame;
 }
 
-void SelectionController::onFrameResult(const FrameResult& r) {
-  if (grabFrame_ && r.frame == *grabFrame_) {
-    grabFrame_.reset();
-    // The handle under the fingers: the one already being moved if a finger is on it, else the
-    // first handle hit. Fingers on that handle anchor; the others ride along unanchored.
-    int target = 0;
-    for (std::size_t i = 0; i < grabRequest_.size() && grabOffset_ + i < r.picks.size(); ++i) {
-      const int id = r.picks[grabOffset_ + i].world.w > 0.5f ? r.picks[grabOffset_ + i].voxel.w : 0;
-      if (id > 0 && handles_.find(id) && (target == 0 || id == manipulated_)) target = id;
-    }
-    std::vector<FingerAnchor> anchors;
-    for (std::size_t i = 0; i < grabRequest_.size() && grabOffset_ + i < r.picks.size(); ++i) {
-      const auto& pk = r.picks[grabOffset_ + i];
-      if (target && pk.world.w > 0.5f && pk.voxel.w == target) anchors.push_back({grabRequest_[i].first, Eigen::Vector3d(pk.world.x, pk.world.y, pk.world.z)});
-    }
-    if (target && !rigidPreview_) {
-      // The frame showed the deformed volume: anchor on the handle's own voxels, within a fine tet
-      // (at least two voxels) of the picked surface.
-      const Handle* h = handles_.find(target);
-      const glm::dvec3 e = session_.camera().eye();
-      const double window = std::max(blurMm_, 2.0 * volume_.geometry.spacing.maxCoeff());
-      for (auto& a : anchors)
-        if (const auto c = contactOnHandle(volume_.geometry, mask_, target, h->pose, {Eigen::Vector3d(e.x, e.y, e.z), a.world, window})) a.world = *c;
-    }
-    if (target && !anchors.empty() && session_.gestures().input().fingers().size() == grabRequest_.size()) {
-      manipulated_ = target;
-      const Handle* h = handles_.find(target);
-      if (grabUndoable_) handles_.setPose(target, h->pose, true);  // one undo step per gesture
-      grabUndoable_ = false;
-      manipulator_.anchor(anchors, handles_.find(target)->pose);
-      manipulationNote_.clear();
-    } else if (!target) {
-      manipulationNote_ = "Touch a handle to move it";
-    }
+void SelectionController::onGrabResult(const FrameResult& r) {
+  grabFrame_.reset();
+  if (grabPending_) return;  // a finger came down since: the grab that includes it answers instead
+  const std::vector<std::pair<std::int64_t, glm::dvec2>> sent = std::exchange(grabSent_, {});
+  const bool lifted = std::exchange(grabLifted_, false);
+  // The handle under the fingers: the one already being moved if a finger is on it, else the
+  // first handle hit. Fingers on that handle anchor; the others ride along unanchored.
+  int target = 0;
+  for (std::size_t i = 0; i < sent.size() && grabOffset_ + i < r.picks.size(); ++i) {
+    const int id = r.picks[grabOffset_ + i].world.w > 0.5f ? r.picks[grabOffset_ + i].voxel.w : 0;
+    if (id > 0 && handles_.find(id) && (target == 0 || id == manipulated_)) target = id;
   }
+  std::vector<FingerAnchor> anchors;
+  for (std::size_t i = 0; i < sent.size() && grabOffset_ + i < r.picks.size(); ++i) {
+    const auto& pk = r.picks[grabOffset_ + i];
+    if (target && pk.world.w > 0.5f && pk.voxel.w == target) anchors.push_back({sent[i].first, Eigen::Vector3d(pk.world.x, pk.world.y, pk.world.z)});
+  }
+  if (target && !rigidPreview_) {
+    // The frame showed the deformed volume: anchor on the handle's own voxels, within a fine tet
+    // (at least two voxels) of the picked surface.
+    const Handle* h = handles_.find(target);
+    const glm::dvec3 e = session_.camera().eye();
+    const double window = std::max(blurMm_, 2.0 * volume_.geometry.spacing.maxCoeff());
+    for (auto& a : anchors)
+      if (const auto c = contactOnHandle(volume_.geometry, mask_, target, h->pose, {Eigen::Vector3d(e.x, e.y, e.z), a.world, window})) a.world = *c;
+  }
+  const TouchInput& input = session_.gestures().input();
+  const bool down = !input.fingers().empty();
+  if (target && !anchors.empty() && (down || lifted)) {
+    const Handle* h = handles_.find(target);
+    if (grabUndoable_ || grabSentUndoable_) handles_.setPose(target, h->pose, true);  // one undo step per gesture
+    grabUndoable_ = false;
+    manipulated_ = target;
+    manipulator_.anchor(anchors, handles_.find(target)->pose);
+    manipulationNote_.clear();
+    // The fingers may have moved (or lifted) since they came down: the handle catches up with
+    // them at once, each finger where it is now or where it lifted.
+    std::vector<std::pair<std::int64_t, glm::dvec2>> at;
+    for (const auto& [id, px] : sent) {
+      const auto now = std::find_if(input.fingers().begin(), input.fingers().end(), [id = id](const Finger& f) { return f.id == id; });
+      const auto gone = std::find_if(gestureLast_.begin(), gestureLast_.end(), [id = id](const auto& g) { return g.first == id; });
+      at.push_back({id, now != input.fingers().end() ? now->px : gone != gestureLast_.end() ? gone->second : px});
+    }
+    moveHandleTo(at);
+    if (!down) {  // lifted before the picks returned: the gesture ends here
+      manipulator_.release();
+      manipulated_ = 0;
+    }
+  } else if (!target) {
+    manipulationNote_ = "Touch a handle to move it";
+  }
+}
+
+void SelectionController::onFrameResult(const FrameResult& r) {
+  if (grabFrame_ && r.frame == *grabFrame_) onGrabResult(r);
   if (tapFrame_ && r.frame == *tapFrame_) {
     tapFrame_.reset();
     if (tapOffset_ < r.picks.size() && r.picks[tapOffset_].world.w > 0.5f) {

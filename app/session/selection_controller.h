@@ -122,6 +122,19 @@ class SelectionController {
   bool grabPending_ = false, grabInRequest_ = false, grabUndoable_ = false;
   std::optional<std::uint64_t> grabFrame_;
   std::size_t grabOffset_ = 0;
+  // The grab in flight (attached to a frame, its picks not back yet): its fingers as sent, and
+  // whether it starts an undo step. `grabLifted_`: every finger lifted while a grab was to be sent
+  // or in flight (a quick drag on slow frames: applied when its picks return). `gestureLast_`: each
+  // finger's last position in this gesture.
+  std::vector<std::pair<std::int64_t, glm::dvec2>> grabSent_, gestureLast_;
+  bool grabLifted_ = false, grabSentUndoable_ = false;
+  /// A finger down or up while the grab's picks are not back (the handle not anchored yet).
+  void unansweredFingerChange(const TouchEvent& e, const TouchInput& input);
+  /// Moves the handle being manipulated so its anchored points stay under these fingers (px).
+  void moveHandleTo(const std::vector<std::pair<std::int64_t, glm::dvec2>>& fingersPx);
+  /// The grab's picks: anchors the fingers on the handle under them (the drag applied at once when
+  /// they have all lifted since).
+  void onGrabResult(const FrameResult& r);
   std::string manipulationNote_;
   unsigned locks_ = kLockNone;
   // Taps (a finger down and up again within 0.3 s and 12 px, alone) pick the handle under them.
