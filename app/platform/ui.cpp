@@ -97,10 +97,10 @@ void Ui::swapchainRecreated(const vk::Swapchain& swapchain) {
   ImGui_ImplVulkan_SetMinImageCount(std::max(2u, swapchain.minImageCount()));
 }
 
-// The strain overlay's colour bar, bottom left: the raymarch's ramp (shaders/raymarch.comp,
+// The strain overlay's colour bar, bottom left (returns its top edge): the raymarch's ramp (shaders/raymarch.comp,
 // strainTint) from the strain where colour starts to where it is full; and the limit highlight's
 // colour (limitTint) with what it means.
-void Ui::strainColourBar(const UiStatus& st, const Remember& remember) {
+float Ui::strainColourBar(const UiStatus& st, const Remember& remember) {
   const float s = scale_;
   const ImVec2 display = ImGui::GetIO().DisplaySize;
   ImGui::SetNextWindowPos(ImVec2(10 * s, display.y - 10 * s), ImGuiCond_Always, ImVec2(0.0f, 1.0f));
@@ -128,7 +128,9 @@ void Ui::strainColourBar(const UiStatus& st, const Remember& remember) {
     ImGui::TextUnformatted(st.simulation.empty() ? "past its tissue's strain limit, no simulation" : "past its tissue's strain limit");
   }
   remember();
+  const float top = ImGui::GetWindowPos().y;
   ImGui::End();
+  return top;
 }
 
 namespace {
@@ -231,9 +233,11 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
   };
   const Action action = [&](const char* name, const std::string& value) { actions.push_back(uiEvent(time, name, value)); };
   const float barBottom = modeBar(st, action, remember);
-  if (st.strainOverlay || st.limitHighlight) strainColourBar(st, remember);
+  // The strain colour bar and the timing overlay share the bottom left corner: the overlay above the bar.
+  float bottom = ImGui::GetIO().DisplaySize.y - 10 * scale_;
+  if (st.strainOverlay || st.limitHighlight) bottom = strainColourBar(st, remember) - 6 * scale_;
   presetsAndHandles(st, action, remember, barBottom);
-  timingOverlay(st, 10 * scale_, ImGui::GetIO().DisplaySize.y - 10 * scale_, kPanel);
+  timingOverlay(st, 10 * scale_, bottom, kPanel);
   ImGui::Render();
 }
 

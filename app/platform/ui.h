@@ -97,7 +97,7 @@ class Ui {
   float modeBar(const UiStatus& st, const Action& action, const Remember& remember);
   void presetsAndHandles(const UiStatus& st, const Action& action, const Remember& remember, float barBottom);
   void handleList(const UiStatus& st, const Action& action);
-  void strainColourBar(const UiStatus& st, const Remember& remember);
+  float strainColourBar(const UiStatus& st, const Remember& remember);  ///< returns its top edge
   void timingOverlay(const UiStatus& st, float left, float bottom, int panelFlags);
   void modeOptions(const UiStatus& st, const Action& action, float buttonWidth, float buttonHeight);
   ImVec2 buttonSize() const;                    ///< a full-width touch button at this frame's fit

@@ -516,3 +516,31 @@ TEST_F(Window, APlayedDragWaitsForTheSimulationToBuildAndMovesTheTissue) {
   fs::remove(log);
   fs::remove_all(o.exportDir);
 }
+
+TEST_F(Window, NoPanelCoversAnotherWithTheStrainBarAndTheLimitHighlightShown) {
+  // The strain overlay's colour bar and the frame-time overlay share the bottom left corner: the
+  // overlay sits above the bar. Before, the bar was drawn over the overlay's last lines (seen in
+  // a screenshot at 1000x620: the two texts on top of each other).
+  for (const auto& [w, h] : {std::pair{1280, 800}, std::pair{1000, 620}, std::pair{512, 512}}) {
+    SCOPED_TRACE(std::to_string(w) + "x" + std::to_string(h));
+    ViewerOptions o = smallWindow();
+    o.width = w;
+    o.height = h;
+    o.frames = 3;
+    o.sim.enabled = false;
+    Viewer v(o);
+    v.session().apply(uiEvent(0.0, "toggle-strain", ""));
+    v.session().apply(uiEvent(0.0, "toggle-limits", ""));
+    while (v.step()) {
+    }
+    const auto panels = v.uiPanels();
+    ASSERT_GE(panels.size(), 4u) << "the mode bar, the colour bar, the presets and handles, the overlay";
+    for (std::size_t a = 0; a < panels.size(); ++a)
+      for (std::size_t b = a + 1; b < panels.size(); ++b) {
+        const double dx = std::min(panels[a][2], panels[b][2]) - std::max(panels[a][0], panels[b][0]);
+        const double dy = std::min(panels[a][3], panels[b][3]) - std::max(panels[a][1], panels[b][1]);
+        EXPECT_FALSE(dx > 0.5 && dy > 0.5) << "panels " << a << " and " << b << " overlap by " << dx << " x " << dy << " px";
+      }
+    EXPECT_EQ(v.finish(), 0);
+  }
+}
