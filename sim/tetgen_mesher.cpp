@@ -55,7 +55,9 @@ void fillInput(tetgenio& in, const std::vector<Eigen::Vector3d>& points, const s
 // In the child: TetGen on `in`, its answer as one frame [status i32][count i32][count tet corners i32]:
 // status 0 done, 1 TetGen failed, 2 it added points (indices would not be the input's).
 int tetrahedralizeInChild(tetgenio& in, ChildWriter& w) {
-  tetgenio out;
+  // Never destroyed: TetGen's error path may leave it half-freed, and the child exits right after
+  // its answer is written (a crash in its destructor would turn a good answer into a failure).
+  tetgenio& out = *new tetgenio;
   int status = 1;
   std::vector<std::int32_t> msg;
   try {

@@ -1109,12 +1109,13 @@ Volume readPixels(const std::vector<SliceHeader>& slices, const VolumeGeometry& 
 }
 
 // The directory's files; refuses a missing path, a file given for the directory, an empty one.
-DirectoryListing listDicomDirectory(const std::string& directory) {
+DirectoryListing listDicomDirectory(const std::string& directory, const ProgressFn& progress) {
   std::error_code ec;
   const fs::file_status st = fs::status(directory, ec);
   if (directory.empty() || ec || !fs::exists(st)) throw Error("DICOM directory '" + directory + "' does not exist");
   if (!fs::is_directory(st))
     throw Error("'" + directory + "' is not a directory: give the directory that holds the DICOM series' slice files, not a single file");
+  reportProgress(progress, 0.0, "scanning DICOM directory");
   DirectoryListing listing = listDirectory(directory);
   if (listing.files.empty())
     throw Error("DICOM directory '" + directory + "' holds no files: no DICOM images found" + subdirectoryHint(listing));
@@ -1200,8 +1201,7 @@ std::vector<SliceHeader> chosenSeriesSlices(const DirectoryListing& listing, gdc
 Volume readDicomSeriesInProcess(const std::string& directory, DicomReadReport* reportOut, const ProgressFn& progress,
                                  const std::string& seriesOf) {
   DicomReadReport report;
-  reportProgress(progress, 0.0, "scanning DICOM directory");
-  const DirectoryListing listing = listDicomDirectory(directory);
+  const DirectoryListing listing = listDicomDirectory(directory, progress);
   GdcmTraceCapture quiet;  // from here on GDCM's own messages are taken, not printed
   gdcm::Scanner scanner;
   std::vector<SliceHeader> slices = chosenSeriesSlices(listing, scanner, {directory, seriesOf, report});

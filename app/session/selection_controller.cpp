@@ -100,10 +100,7 @@ void SelectionController::detectTap(const TouchEvent& e, const TouchInput& input
 }
 
 void SelectionController::manipulate(const TouchEvent& e, const TouchInput& input) {
-  if (e.phase == TouchPhase::Down && input.fingers().size() == 1) {
-    gestureLast_.clear();
-    grabLifted_ = false;
-  }
+  if (e.phase == TouchPhase::Down && input.fingers().size() == 1) abandonGrab();  // a new gesture: the last one's grab, if unanswered, is dropped
   auto last = std::find_if(gestureLast_.begin(), gestureLast_.end(), [&](const auto& f) { return f.first == e.id; });
   if (last == gestureLast_.end()) gestureLast_.push_back({e.id, e.px});
   else last->second = e.px;
@@ -129,6 +126,14 @@ void SelectionController::manipulate(const TouchEvent& e, const TouchInput& inpu
   std::vector<std::pair<std::int64_t, glm::dvec2>> px;
   for (const auto& f : input.fingers()) px.push_back({f.id, f.px});
   moveHandleTo(px);
+}
+
+void SelectionController::abandonGrab() {
+  grabRequest_.clear();
+  grabSent_.clear();
+  gestureLast_.clear();
+  grabPending_ = grabLifted_ = false;
+  grabFrame_.reset();  // its picks, when they come, are ignored
 }
 
 void SelectionController::unansweredFingerChange(const TouchEvent& e, const TouchInput& input) {
@@ -229,6 +234,9 @@ int SelectionController::correctionTarget() const {
 }
 
 bool SelectionController::applyUi(const ScriptEvent& e) {
+  // A handle edit (undo included) comes after a drag whose picks are not back: the drag is
+  // dropped rather than applied after the edit it preceded.
+  if ((grabPending_ || grabFrame_) && !manipulator_.active() && e.action != "toggle-lock" && e.action != "pinch-op") abandonGrab();
   auto ids = [&](int& a, int& b) {
     char comma = 0;
     std::istringstream in(e.value);
@@ -358,11 +366,11 @@ void SelectionController::onGrabResult(const FrameResult& r) {
   const TouchInput& input = session_.gestures().input();
   const bool down = !input.fingers().empty();
   if (target && !anchors.empty() && (down || lifted)) {
-    const Handle* h = handles_.find(target);
-    if (grabUndoable_ || grabSentUndoable_) handles_.setPose(target, h->pose, true);  // one undo step per gesture
+    const RigidTransform picked = handles_.find(target)->pose;  // the pose the picks saw
+    if (grabUndoable_ || grabSentUndoable_) handles_.setPose(target, picked, true);  // one undo step per gesture
     grabUndoable_ = false;
     manipulated_ = target;
-    manipulator_.anchor(anchors, handles_.find(target)->pose);
+    manipulator_.anchor(anchors, picked);
     manipulationNote_.clear();
     // The fingers may have moved (or lifted) since they came down: the handle catches up with
     // them at once, each finger where it is now or where it lifted.
@@ -376,6 +384,20 @@ void SelectionController::onGrabResult(const FrameResult& r) {
     if (!down) {  // lifted before the picks returned: the gesture ends here
       manipulator_.release();
       manipulated_ = 0;
+    } else {
+      // Fingers lifted since the grab was sent no longer hold the handle: the ones still down
+      // anchor on the same points of it (its rest frame), wherever the catch-up put them.
+      const RigidTransform now = handles_.find(target)->pose;
+      std::vector<FingerAnchor> held;
+      for (const FingerAnchor& a : anchors)
+        if (std::any_of(input.fingers().begin(), input.fingers().end(), [&](const Finger& f) { return f.id == a.finger; }))
+          held.push_back({a.finger, now.apply(picked.toRest(a.world))});
+      if (held.empty()) {
+        manipulator_.release();
+        manipulated_ = 0;
+      } else if (held.size() < anchors.size()) {
+        manipulator_.anchor(held, now);
+      }
     }
   } else if (!target) {
     manipulationNote_ = "Touch a handle to move it";

@@ -128,6 +128,8 @@ class SelectionController {
   // finger's last position in this gesture.
   std::vector<std::pair<std::int64_t, glm::dvec2>> grabSent_, gestureLast_;
   bool grabLifted_ = false, grabSentUndoable_ = false;
+  /// Forgets the grab not yet answered (its request, its fingers' positions, its lift).
+  void abandonGrab();
   /// A finger down or up while the grab's picks are not back (the handle not anchored yet).
   void unansweredFingerChange(const TouchEvent& e, const TouchInput& input);
   /// Moves the handle being manipulated so its anchored points stay under these fingers (px).

@@ -1141,3 +1141,29 @@ TEST(Replay, ADragWhoseFingersLiftBeforeTheirPicksReturnStillMovesTheHandle) {
   EXPECT_LT(undone.translation.norm(), 1e-9) << "undo takes the quick drag back to rest";
   fs::remove_all(dir);
 }
+
+TEST(Replay, AFingerThatLiftsBeforeTheGrabIsAnsweredLeavesTheOtherMovingTheHandle) {
+  // Two fingers land on the kidney within one frame and one lifts again in the same frame, before
+  // the grab's picks are answered; the other drags on for 40 px over the next frames. When the
+  // picks return the handle catches up, and the finger still down holds it from then on (anchored
+  // on the same point of the handle): the kidney follows it ~40 mm. Before the re-anchoring the
+  // lifted finger stayed among the anchors and every later move was refused (the handle froze
+  // after the catch-up, ~2 mm).
+  handson::SessionScript s = handson::readSessionScript((fs::path(HANDSON_SOURCE_DIR) / "assets/gestures/kidney-translate-two-fingers.json").string());
+  s.events.erase(std::remove_if(s.events.begin(), s.events.end(), [](const handson::ScriptEvent& e) { return e.t >= 1.0; }), s.events.end());
+  using handson::TouchPhase;
+  s.events.push_back(handson::touchEvent(1.01, TouchPhase::Down, 3, {192, 262}));
+  s.events.push_back(handson::touchEvent(1.01, TouchPhase::Down, 4, {212, 262}));
+  s.events.push_back(handson::touchEvent(1.05, TouchPhase::Up, 3, {194, 262}));
+  for (int k = 1; k <= 20; ++k) s.events.push_back(handson::touchEvent(1.03 + 0.05 * k, TouchPhase::Move, 4, {212.0 + 2.0 * k, 262}));
+  s.events.push_back(handson::touchEvent(2.1, TouchPhase::Up, 4, {252, 262}));
+  const fs::path dir = freshDir("lift_one");
+  handson::writeSessionScript(s, (dir / "lift.json").string());
+  std::string out;
+  ASSERT_EQ(run("replay " + (dir / "lift.json").string() + " --fps 10 --size 128x128 --quiet --validation --sim off --print-handles", &out), 0) << out;
+  const auto h = firstHandle(out);
+  ASSERT_TRUE(h.has_value()) << out;
+  std::printf("moved %.2f, %.2f, %.2f mm\n", h->translation.x(), h->translation.y(), h->translation.z());
+  EXPECT_GT(h->translation.y(), 30.0) << "the finger still down moved the kidney anterior";
+  fs::remove_all(dir);
+}
