@@ -236,7 +236,9 @@ int SelectionController::correctionTarget() const {
 bool SelectionController::applyUi(const ScriptEvent& e) {
   // A handle edit (undo included) comes after a drag whose picks are not back: the drag is
   // dropped rather than applied after the edit it preceded.
-  if ((grabPending_ || grabFrame_) && !manipulator_.active() && e.action != "toggle-lock" && e.action != "pinch-op") abandonGrab();
+  static const char* const kHandleEdits[] = {"handle-status", "handle-delete", "handle-union", "handle-difference", "undo", "redo", "label-handle"};
+  if ((grabPending_ || grabFrame_) && !manipulator_.active() && std::find(std::begin(kHandleEdits), std::end(kHandleEdits), e.action) != std::end(kHandleEdits))
+    abandonGrab();
   auto ids = [&](int& a, int& b) {
     char comma = 0;
     std::istringstream in(e.value);
