@@ -101,9 +101,7 @@ void SelectionController::detectTap(const TouchEvent& e, const TouchInput& input
 
 void SelectionController::manipulate(const TouchEvent& e, const TouchInput& input) {
   if (e.phase == TouchPhase::Down && input.fingers().size() == 1) abandonGrab();  // a new gesture: the last one's grab, if unanswered, is dropped
-  auto last = std::find_if(gestureLast_.begin(), gestureLast_.end(), [&](const auto& f) { return f.first == e.id; });
-  if (last == gestureLast_.end()) gestureLast_.push_back({e.id, e.px});
-  else last->second = e.px;
+  gestureLast_[e.id] = e.px;
   if (e.phase != TouchPhase::Move) {
     if (!manipulator_.active() && (grabPending_ || grabFrame_)) {
       unansweredFingerChange(e, input);
@@ -375,12 +373,11 @@ void SelectionController::onGrabResult(const FrameResult& r) {
     manipulator_.anchor(anchors, picked);
     manipulationNote_.clear();
     // The fingers may have moved (or lifted) since they came down: the handle catches up with
-    // them at once, each finger where it is now or where it lifted.
+    // them at once, each finger where it is now or where it lifted (its last event).
     std::vector<std::pair<std::int64_t, glm::dvec2>> at;
     for (const auto& [id, px] : sent) {
-      const auto now = std::find_if(input.fingers().begin(), input.fingers().end(), [id = id](const Finger& f) { return f.id == id; });
-      const auto gone = std::find_if(gestureLast_.begin(), gestureLast_.end(), [id = id](const auto& g) { return g.first == id; });
-      at.push_back({id, now != input.fingers().end() ? now->px : gone != gestureLast_.end() ? gone->second : px});
+      const auto last = gestureLast_.find(id);
+      at.push_back({id, last != gestureLast_.end() ? last->second : px});
     }
     moveHandleTo(at);
     if (!down) {  // lifted before the picks returned: the gesture ends here

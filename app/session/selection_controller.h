@@ -13,6 +13,7 @@
 //   label-handle "I,J,K" (with a label map: the labelled organ at voxel I,J,K becomes a handle - what
 //   a tap on an organ that is no handle yet does in select mode).
 #include <memory>
+#include <map>
 #include <optional>
 #include <vector>
 
@@ -125,8 +126,9 @@ class SelectionController {
   // The grab in flight (attached to a frame, its picks not back yet): its fingers as sent, and
   // whether it starts an undo step. `grabLifted_`: every finger lifted while a grab was to be sent
   // or in flight (a quick drag on slow frames: applied when its picks return). `gestureLast_`: each
-  // finger's last position in this gesture.
-  std::vector<std::pair<std::int64_t, glm::dvec2>> grabSent_, gestureLast_;
+  // finger's last position in this gesture (down or lifted).
+  std::vector<std::pair<std::int64_t, glm::dvec2>> grabSent_;
+  std::map<std::int64_t, glm::dvec2> gestureLast_;
   bool grabLifted_ = false, grabSentUndoable_ = false;
   /// Forgets the grab not yet answered (its request, its fingers' positions, its lift).
   void abandonGrab();
