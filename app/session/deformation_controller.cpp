@@ -141,6 +141,7 @@ void DeformationController::startBuild(const HandleSet& handles) {
       restOutline_.push_back(std::move(surface));
     }
   if (simActive_.empty() || !simActive_.front()) return;  // nothing moves: nothing to simulate
+  ++buildsStarted_;
   const std::uint64_t gen = generation_.load();
   builderDone_ = std::make_shared<std::atomic<bool>>(false);
   {

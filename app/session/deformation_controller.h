@@ -107,6 +107,10 @@ class DeformationController {
   std::uint64_t failures() const;
   /// Blocks until the build ends (ready or failed), at most `seconds` (tests, headless runs).
   bool waitBuilt(double seconds);
+  /// Builds started so far (a changed handle set, changed settings, a handle outgrowing its
+  /// region). A build of a small scene may end before the caller looks at state(): this tells
+  /// that one was started whatever the timing.
+  std::uint64_t buildsStarted() const { return buildsStarted_; }
   /// Blocks until the worker published its last state for the newest poses sent (converged, or its
   /// iteration budget spent), at most
   /// `seconds`; the next prepareFrame shows it. False on timeout or when nothing is simulated.
@@ -156,6 +160,7 @@ class DeformationController {
   std::string buildStage_, error_;
   double buildFraction_ = 0.0;
   bool building_ = false;
+  std::uint64_t buildsStarted_ = 0;
   std::unique_ptr<Model> model_;  // in use (worker running, renderer deforming)
   std::vector<RigidTransform> sentPoses_;
   std::uint64_t lastSent_ = 0, shownInput_ = 0;

@@ -129,8 +129,11 @@ TEST(DeformationController, ShowsTheSimulationWithoutWaitingAndFollowsTheHandles
   const int fixedId = handles.add(s.liver);
   ASSERT_GT(fixedId, 0);
   handles.setStatus(fixedId, HandleStatus::Fixed);
+  const std::uint64_t builds = dc.buildsStarted();
   EXPECT_FALSE(s.frame(dc, handles)) << "rebuilding: the rigid preview meanwhile";
-  EXPECT_EQ(dc.state(), DeformationController::State::Building);
+  // Rebuilt (this small scene's build may already have ended on a fast machine: not a failure).
+  EXPECT_EQ(dc.buildsStarted(), builds + 1);
+  EXPECT_NE(dc.state(), DeformationController::State::Failed) << dc.status();
   handles.remove(id);
   s.frame(dc, handles);
   EXPECT_FALSE(s.renderer->deforming());
@@ -209,8 +212,11 @@ TEST(DeformationController, ARegionShapedByTheHandleIsSimulatedDrawnAndRebuiltWh
   // face in this small scene; the held cells' check: RegionShape.AMovedOutline...): rebuilt there.
   pose.t = Eigen::Vector3d(20, 0, 0);
   handles.setPose(id, pose, false);
+  const std::uint64_t builds = dc.buildsStarted();
   s.frame(dc, handles);
-  EXPECT_EQ(dc.state(), DeformationController::State::Building);
+  // Rebuilt there (this small scene's build may already have ended on a fast machine).
+  EXPECT_EQ(dc.buildsStarted(), builds + 1);
+  EXPECT_NE(dc.state(), DeformationController::State::Failed) << dc.status();
   while (!(s.frame(dc, handles) && dc.shownConverged()) && Clock::now() - t0 < std::chrono::seconds(120)) {
   }
   EXPECT_TRUE(dc.shownConverged()) << dc.status();
