@@ -7,7 +7,7 @@
 
 #include "app/bench/bench.h"
 #include "app/cli/commands.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson::cli {
 namespace {

@@ -1,7 +1,7 @@
 # cmake -DDIR=dir -DOUT=header.h -DEXTRA=text -P hash_sources.cmake : a header defining
-# HANDSON_SIM_SOURCE_HASH, the SHA-256 of every .h/.cpp in DIR (sorted) and EXTRA (the build type):
-# the preprocessing cache's entries are only valid for the code that wrote them.
-file(GLOB files ${DIR}/*.cpp ${DIR}/*.h)
+# HANDSON_SIM_SOURCE_HASH, the SHA-256 of every .h/.cpp under DIR, its subfolders too (sorted), and
+# EXTRA (the build type): the preprocessing cache's entries are only valid for the code that wrote them.
+file(GLOB_RECURSE files ${DIR}/*.cpp ${DIR}/*.h)
 list(SORT files)
 set(all "${EXTRA}")
 foreach(f ${files})

@@ -5,7 +5,7 @@
 #include <string>
 
 #include "interaction/region_grow.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "sim/volume.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -24,10 +24,10 @@
 //    paths along an organ's blurred rim, no longer join them.
 //    key(v) = max(|v - seed|^2, min over core 6-neighbours n of key(n)) for homogeneous v; the seed
 //    has key 0 and always passes on.
-// The smoothed and core criteria take a bound (GrowParams::bound, sim/grow_setup.h): the ball above
+// The smoothed and core criteria take a bound (GrowParams::bound, interaction/grow_setup.h): the ball above
 // (Ball), or path keys (Path): key(v) = min over passing neighbours n of key(n) + the step's length
 // (26 neighbours, a step across an edge or corner only where face steps through passing voxels join
-// them too; sim/grow_setup.h), the shortest path's length through the region, and the selection
+// them too; interaction/grow_setup.h), the shortest path's length through the region, and the selection
 // for an extent d is {key <= d in path units}. The statistics are refined, and the core's thinness
 // judged, in the 10 mm probe ball either way.
 // In all, shrinking is a threshold on stored keys and growing resumes where the last call stopped.
@@ -41,7 +41,7 @@
 #include <Eigen/Core>
 
 #include "interaction/radix_queue.h"
-#include "sim/grow_setup.h"
+#include "interaction/grow_setup.h"
 #include "sim/quantized_volume.h"
 
 namespace handson {
@@ -82,7 +82,7 @@ struct GrowParams {
   /// view and replay, `--rim` in select; on by default since it was measured better on `bench
   /// selection` with no organ lower, docs/region-growing.md, "The boundary rim").
   bool boundaryRim = true;
-  /// Smoothed and core criteria: how the extent bounds growth (sim/grow_setup.h: GrowBound). Path by
+  /// Smoothed and core criteria: how the extent bounds growth (interaction/grow_setup.h: GrowBound). Path by
   /// default since it was measured better on `bench selection` (docs/region-growing.md, "The path bound").
   GrowBound bound = GrowBound::Path;
 };

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstddef>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -30,7 +30,7 @@ void BrickPass::add(fg::FrameGraph& graph, fg::ResourceHandle volume, fg::Resour
   const BrickPush push{glm::ivec4(int(d.width), int(d.height), int(d.depth), 0), glm::ivec4(bx, by, bz, 0)};
   const std::uint32_t count = std::uint32_t(bx) * std::uint32_t(by) * std::uint32_t(bz);
   graph.addPass(
-      "brick-minmax",
+      PassId::BrickMinmax,
       [&](fg::PassBuilder& b) {
         b.read(volume, fg::Access::Sampled);
         b.write(ranges, fg::Access::StorageWrite);

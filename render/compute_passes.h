@@ -30,7 +30,7 @@ class RaymarchPass {
  public:
   explicit RaymarchPass(const Context& ctx);
   /// `nearest`: the strain, label and limit images' sampler (texelFetch only).
-  /// `showOnly`: the frame only shows a complete still-frame sum (RenderParams.quality.w = 1; no
+  /// `showOnly`: the frame only shows a complete still-frame sum (kFlagShowSum; no
   /// ray is marched), timed as "still-frame" rather than "raymarch" so that frame budgets do not
   /// take its time for a raymarch's.
   void add(fg::FrameGraph& graph, const MarchInputs& in, fg::ResourceHandle output, const Sampler& sampler, const Sampler& nearest,
@@ -68,7 +68,7 @@ class BrickPass {
 };
 
 /// Copies an image or buffer into a host-visible buffer (a side-effect pass: never culled).
-void addReadbackPass(fg::FrameGraph& graph, const char* name, fg::ResourceHandle src, fg::ResourceHandle hostBuffer);
+void addReadbackPass(fg::FrameGraph& graph, PassId id, fg::ResourceHandle src, fg::ResourceHandle hostBuffer);
 
 /// The GraphExecutor behind an fg::Executor (passes are recorded only by the Vulkan backend).
 GraphExecutor& vulkanExecutor(fg::Executor& e);

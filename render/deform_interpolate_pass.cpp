@@ -7,7 +7,7 @@
 #include "deform_descriptors.h"
 #include "deform_pass.h"
 #include "shaders/shared.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "vk_context.h"
 
 namespace handson::vk {
@@ -45,7 +45,7 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, const CoarseFrame
   const std::uint32_t nodeGroups = std::uint32_t((nodes_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
 
   g.addPass(
-      "deform-interpolate",
+      PassId::DeformInterpolate,
       [&](fg::PassBuilder& b) {
         b.read(hb.params, Access::StorageRead);
         for (auto r : {hb.nodeInfo, hb.rest, hb.blocks, hb.elementCorners, hb.coarseRest, hb.positions, hb.rotations, hb.handles})

@@ -1,5 +1,6 @@
-// GpuDeformer: its construction (checks in deform_setup.cpp), resources and frames; the passes are
-// in deform_interpolate_pass.cpp, deform_resample_pass.cpp and deform_strain_pass.cpp.
+// GpuDeformer: its construction (checks in deform_setup.cpp), resources and frames; its passes are
+// in deform_interpolate_pass.cpp and deform_resample_pass.cpp, the strain passes a class of their
+// own (deform_strain_pass.h).
 #include "deform_pass.h"
 
 #include <Eigen/Dense>
@@ -12,7 +13,7 @@
 #include "render/render_params.h"
 #include "shaders/spirv.h"
 #include "sim/tet_raster.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "vk_context.h"
 
 namespace handson::vk {
@@ -59,6 +60,7 @@ GpuDeformer::GpuDeformer(const Context& ctx, const Image& source, const Image& s
   p_ = valid.params;
 
   createPipelines();
+  strain_ = std::make_unique<DeformStrainPass>(ctx, tets_, source.desc(), setup.strainLimits);
   uploadStaticData(setup, valid);
 }
 
@@ -129,23 +131,6 @@ void GpuDeformer::createPipelines() {
                                        {gpu::kBindDeformResolveBrickList, kSsbo},
                                        {gpu::kBindDeformResolveRigid, kSsbo}}),
                              0);
-  strain_ = ComputePipeline(ctx, shaders::deformStrain(),
-                            bindings({{gpu::kBindDeformStrainParams, kParams},
-                                      {gpu::kBindDeformStrainTets, kSsbo},
-                                      {gpu::kBindDeformStrainRest, kSsbo},
-                                      {gpu::kBindDeformStrainPos, kSsbo},
-                                      {gpu::kBindDeformStrainOut, kSsbo}}),
-                            0);
-  strainRaster_ = ComputePipeline(ctx, shaders::deformStrainRaster(),
-                                  bindings({{gpu::kBindDeformStrainRasterParams, kParams},
-                                            {gpu::kBindDeformStrainRasterBox, kSsbo},
-                                            {gpu::kBindDeformStrainRasterOwner, kSsbo},
-                                            {gpu::kBindDeformStrainRasterStrain, kSsbo},
-                                            {gpu::kBindDeformStrainRasterOut, kStorageImage},
-                                            {gpu::kBindDeformStrainRasterLimits, kSsbo},
-                                            {gpu::kBindDeformStrainRasterLimitOut, kStorageImage},
-                                            {gpu::kBindDeformStrainRasterBrickList, kSsbo}}),
-                                  0);
 
 }
 
@@ -160,7 +145,7 @@ void GpuDeformer::uploadStaticData(const DeformSetup& setup, const ValidatedDefo
   if (!(setup.motionLagVoxels >= 0.0) || !(setup.motionLagVoxels <= 4.0))
     throw Error("deformation: the lag allowed during motion must be between 0 and 4 voxels");
   motionLag_ = float(setup.motionLagVoxels);
-  p_.regionHi.w = motionLag_;  // deform_bounds.comp widens what a moved tet marks by it
+  p_.motionLagVoxels = motionLag_;  // deform_bounds.comp widens what a moved tet marks by it
   uploadToBuffer(ctx, params_, &p_, sizeof(p_));
   nodeInfo_ = uploaded(ctx, d.node);
   rest_ = uploaded(ctx, d.rest);
@@ -168,7 +153,6 @@ void GpuDeformer::uploadStaticData(const DeformSetup& setup, const ValidatedDefo
   elementCorners_ = uploaded(ctx, d.elementCorners);
   coarseRest_ = uploaded(ctx, d.coarseRest);
   tetBuffer_ = uploaded(ctx, valid.tets);
-  strainLimits_ = uploaded(ctx, setup.strainLimits ? *setup.strainLimits : std::vector<float>(1, 0.0f));
   std::vector<Eigen::Vector4f> restIdx(nodes_);
   const Eigen::Matrix4f w2i = setup.worldToIndex.cast<float>();
   for (std::size_t f = 0; f < nodes_; ++f) {
@@ -186,10 +170,10 @@ void GpuDeformer::uploadStaticData(const DeformSetup& setup, const ValidatedDefo
     rigidBoxes_.assign(rigidIds_.size(), {Eigen::Vector3i(p_.regionVoxLo.x, p_.regionVoxLo.y, p_.regionVoxLo.z),
                                           Eigen::Vector3i(p_.regionVoxHi.x, p_.regionVoxHi.y, p_.regionVoxHi.z)});
   worldToIndex_ = setup.worldToIndex;
-  const std::vector<std::uint32_t> noBricks(std::size_t(p_.bricks.w), 0u);
+  const std::vector<std::uint32_t> noBricks(std::size_t(p_.brickCount), 0u);
   brickFlags_ = uploaded(ctx, noBricks);
   brickList_ = uploaded(ctx, noBricks);
-  brickLag_ = uploaded(ctx, std::vector<float>(std::size_t(p_.bricks.w), 0.0f));
+  brickLag_ = uploaded(ctx, std::vector<float>(std::size_t(p_.brickCount), 0.0f));
   box_ = Buffer(ctx, sizeof(gpu::DeformBox), kStorageUsage, Buffer::Memory::Device);
   argsBuffer_ = Buffer(ctx, 16, kStorageUsage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, Buffer::Memory::Device);
   owner_ = Buffer(ctx, valid.ownerBytes, kStorageUsage, Buffer::Memory::Device);
@@ -226,6 +210,7 @@ void GpuDeformer::importResources(fg::FrameGraph& g, bool withState, const Frame
   using fg::Access;
   Bound& h = h_;
   h = Bound{};
+  strain_->beginFrame();
   h.slot = slot;
   h.withState = withState;
   auto buf = [&](const char* name, const Buffer& b, Access a) { return g.importBuffer(name, {b.size()}, a); };
@@ -263,6 +248,7 @@ void GpuDeformer::importResources(fg::FrameGraph& g, bool withState, const Frame
 GpuDeformer::Outputs GpuDeformer::importOutputs(fg::FrameGraph& g) {
   h_ = Bound{};
   h_.onlyOutputs = true;
+  strain_->beginFrame();
   h_.volume = g.importImage("deformed-volume", volume_.desc(), fg::Access::Sampled);
   h_.mask = g.importImage("deformed-mask", mask_.desc(), fg::Access::Sampled);
   return {h_.volume, h_.mask};
@@ -273,8 +259,7 @@ void GpuDeformer::bind(GraphExecutor& x) {
   if (h.onlyOutputs) {
     x.bindImage(h.volume, volume_);
     x.bindImage(h.mask, mask_);
-    if (h.strainVolume.valid()) x.bindImage(h.strainVolume, strainVolume_);
-    if (h.overLimitVolume.valid()) x.bindImage(h.overLimitVolume, overLimitVolume_);
+    strain_->bind(x);
     return;
   }
   const Slot& s = slots_[h.slot];
@@ -296,10 +281,7 @@ void GpuDeformer::bind(GraphExecutor& x) {
   x.bindBuffer(h.brickList, brickList_);
   x.bindBuffer(h.brickLag, brickLag_);
   if (h.fineUpload.valid()) x.bindBuffer(h.fineUpload, *s.fine);
-  if (h.strain.valid()) x.bindBuffer(h.strain, *strainBuffer_);
-  if (h.strainVolume.valid()) x.bindImage(h.strainVolume, strainVolume_);
-  if (h.strainLimits.valid()) x.bindBuffer(h.strainLimits, strainLimits_);
-  if (h.overLimitVolume.valid()) x.bindImage(h.overLimitVolume, overLimitVolume_);
+  strain_->bind(x);
   if (h.withState) {
     x.bindBuffer(h.positions, *s.positions);
     x.bindBuffer(h.rotations, *s.rotations);
@@ -402,7 +384,7 @@ DeformFrameStats GpuDeformer::runOwn(const std::function<void(fg::FrameGraph&)>&
   fg::FrameGraph g;
   build(g);
   const auto host = g.importBuffer("deform-box-host", {boxReadback_->size()}, fg::Access::None);
-  addReadbackPass(g, "deform-box-readback", h_.box, host);
+  addReadbackPass(g, PassId::DeformBoxReadback, h_.box, host);
   g.compile();
   x.setGraph(&g);
   bind(x);
@@ -417,12 +399,12 @@ DeformFrameStats GpuDeformer::runOwn(const std::function<void(fg::FrameGraph&)>&
   DeformFrameStats st;
   st.boxLo = Eigen::Vector3i(b.lo.x, b.lo.y, b.lo.z);
   st.boxHi = Eigen::Vector3i(b.hi.x, b.hi.y, b.hi.z);
-  st.movedTets = b.stats.x;
-  st.coveredVoxels = b.stats.y;
-  st.skippedTets = b.stats.z;
-  st.bricks = b.bricks.x != 0;
-  st.dirtyBricks = b.bricks.y;
-  st.allBricks = b.bricks.z != 0;
+  st.movedTets = b.movedTets;
+  st.coveredVoxels = b.coveredVoxels;
+  st.skippedTets = b.skippedTets;
+  st.bricks = b.brickMode != 0;
+  st.dirtyBricks = b.dirtyBrickCount;
+  st.allBricks = b.allBricksDirty != 0;
   st.timings = x.completedTimings();
   return st;
 }
@@ -433,21 +415,18 @@ std::vector<Eigen::Vector4f> GpuDeformer::readPositions() const {
   return out;
 }
 
-std::vector<float> GpuDeformer::readStrainVolume() const {
-  if (!strainBuffer_) throw Error("deformation: no strain computed yet");
-  const fg::ImageDesc d = strainVolume_.desc();
-  std::vector<float> out(std::size_t(d.width) * d.height * d.depth);
-  downloadFromImage(ctx_, strainVolume_, out.data(), out.size() * sizeof(float));
-  return out;
+GpuDeformer::StrainOutputs GpuDeformer::addStrainPass(fg::FrameGraph& g) {
+  if (h_.onlyOutputs || !h_.posNew.valid() || !h_.args.valid())
+    throw Error("deformation: the strain passes need this frame's fine positions and resampling (addPasses first)");
+  return strain_->add(g, {h_.params, h_.tets, h_.rest, h_.posNew, h_.args, h_.box, h_.owner, h_.brickList});
 }
 
-std::vector<float> GpuDeformer::readStrainOverLimitVolume() const {
-  if (!strainBuffer_) throw Error("deformation: no strain computed yet");
-  if (!hasStrainLimits()) throw Error("deformation: no strain limits were given");
-  const fg::ImageDesc d = overLimitVolume_.desc();
-  std::vector<float> out(std::size_t(d.width) * d.height * d.depth);
-  downloadFromImage(ctx_, overLimitVolume_, out.data(), out.size() * sizeof(float));
-  return out;
+std::vector<float> GpuDeformer::runStrain(const std::vector<Eigen::Vector4f>& indexPositions) {
+  runOwn([&](fg::FrameGraph& g) {
+    addPassesFromPositions(g, indexPositions, Redo::Region);
+    addStrainPass(g);
+  });
+  return readStrain();
 }
 
 std::vector<std::uint16_t> GpuDeformer::readVolume() const {

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "compute_passes.h"
+#include "deform_strain_pass.h"
 #include "shaders/shared.h"
 #include "sim/fine_interpolation.h"
 #include "vk_graph_executor.h"
@@ -110,30 +111,21 @@ class GpuDeformer {
   /// the moved box or the bricks whose tissue moved are redone. Megabytes, not kilobytes: for the occasional refined state, not every frame.
   Outputs addPassesFromPositions(fg::FrameGraph& graph, const std::vector<Eigen::Vector4f>& indexPositions, Redo redo = Redo::Moved,
                                  const FrameImports& at = {});
-  /// Adds the strain passes: per fine tet, the largest principal stretch - 1 of its deformation
-  /// gradient at the fine positions this frame's addPasses / addPassesFromPositions computed
-  /// (deform_strain.comp), and the strain volume on the deformed volume's grid, redone over the same
-  /// box: each voxel the strain of the tet it was sampled through, 0 where none (deform_strain_raster
-  /// .comp). Call it after one of those, in the same graph. CPU references: tetStrain and
-  /// strainVolume (sim/strain.h).
-  /// With strain limits (DeformSetup::strainLimits) the raster also writes, on the same box, each
-  /// voxel's strain over its tet's limit (0 where the tissue has none): strainOverLimitVolume
-  /// (sim/tissue_limits.h) is its CPU reference.
-  struct StrainOutputs {
-    fg::ResourceHandle perTet;     ///< float per fine tet (NaN for a degenerate one)
-    fg::ResourceHandle volume;     ///< R32 float, the volume's grid, left in Access::Sampled
-    fg::ResourceHandle overLimit;  ///< R32 float strain over limit, likewise (invalid without limits)
-  };
+  /// Adds the strain passes (render/deform_strain_pass.h) at the fine positions this frame's
+  /// addPasses / addPassesFromPositions computed, over the same box or bricks. Call it after one of
+  /// those, in the same graph. With strain limits (DeformSetup::strainLimits) the raster also writes
+  /// each voxel's strain over its tet's limit.
+  using StrainOutputs = DeformStrainPass::Outputs;
   StrainOutputs addStrainPass(fg::FrameGraph& graph);
   /// Imports the strain volumes as the last strain passes left them (a frame without new
   /// positions); invalid handles before the first addStrainPass (perTet is never imported).
-  StrainOutputs importStrainVolume(fg::FrameGraph& graph);
-  bool hasStrainLimits() const { return p_.limits.z != 0; }
+  StrainOutputs importStrainVolume(fg::FrameGraph& graph) { return strain_->importVolumes(graph); }
+  bool hasStrainLimits() const { return strain_->hasLimits(); }
   /// The strain per fine tet, the strain volume and the strain-over-limit volume (x fastest), read
   /// back after a frame with the pass.
-  std::vector<float> readStrain() const;
-  std::vector<float> readStrainVolume() const;
-  std::vector<float> readStrainOverLimitVolume() const;
+  std::vector<float> readStrain() const { return strain_->readPerTet(); }
+  std::vector<float> readStrainVolume() const { return strain_->readVolume(); }
+  std::vector<float> readStrainOverLimitVolume() const { return strain_->readOverLimitVolume(); }
   /// One frame on its own graph from fine positions (voxel index space; the region redone) with the
   /// strain passes, waited for; returns the strain per fine tet.
   std::vector<float> runStrain(const std::vector<Eigen::Vector4f>& indexPositions);
@@ -196,7 +188,7 @@ class GpuDeformer {
   const Image& source_;
   const Image& sourceMask_;
   Sampler nearest_;  ///< the shaders only texelFetch
-  ComputePipeline interpolate_, bounds_, bricks_, args_, clear_, claim_, resolve_, strain_, strainRaster_;
+  ComputePipeline interpolate_, bounds_, bricks_, args_, clear_, claim_, resolve_;
   Buffer params_, nodeInfo_, rest_, blocks_, elementCorners_, coarseRest_, tetBuffer_, restIdx_, pos_, prev_, box_, argsBuffer_, owner_, affine_;
   Buffer brickFlags_, brickList_;  ///< uint per brick: this frame's motion, then 1 = redo; the redone ones listed
   Buffer brickLag_;                ///< float per brick: the lag accumulated since it was last resampled
@@ -204,10 +196,7 @@ class GpuDeformer {
   std::vector<Slot> slots_;
   std::unique_ptr<GraphExecutor> ownExecutor_;
   std::unique_ptr<Buffer> boxReadback_;
-  std::unique_ptr<Buffer> strainBuffer_;  ///< float per fine tet, made by the first addStrainPass
-  Image strainVolume_;                    ///< R32 float, made (zero) by the first addStrainPass
-  Buffer strainLimits_;                   ///< float per fine tet (1 float, unused, without limits)
-  Image overLimitVolume_;                 ///< R32 float, made (zero) by the first addStrainPass (1 voxel without limits)
+  std::unique_ptr<DeformStrainPass> strain_;  ///< made once the setup is checked
   gpu::DeformParams p_{};
   std::size_t nodes_ = 0, tets_ = 0, coarseNodes_ = 0, coarseElements_ = 0;
   std::uint32_t handles_ = 0;
@@ -219,7 +208,7 @@ class GpuDeformer {
   Eigen::Matrix4d worldToIndex_ = Eigen::Matrix4d::Identity();
   struct Bound {
     fg::ResourceHandle params, nodeInfo, rest, blocks, elementCorners, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, affine, source, sourceMask,
-        volume, mask, positions, rotations, handles, strain, strainVolume, strainLimits, overLimitVolume, brickFlags, brickList, brickLag, rigid;
+        volume, mask, positions, rotations, handles, brickFlags, brickList, brickLag, rigid;
     std::uint32_t slot = 0;
     fg::ResourceHandle fineUpload;
     bool withState = false, onlyOutputs = false;

@@ -6,7 +6,7 @@
 #include "deform_descriptors.h"
 #include "deform_pass.h"
 #include "shaders/shared.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "vk_context.h"
 
 namespace handson::vk {
@@ -29,11 +29,11 @@ void GpuDeformer::addRedoSelection(fg::FrameGraph& g, Redo redo) {
   using fg::Access;
   const Bound hb = h_;
   const std::uint32_t tetGroups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
-  const std::uint32_t brickGroups = std::uint32_t((p_.bricks.w + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
+  const std::uint32_t brickGroups = std::uint32_t((p_.brickCount + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
   const bool bricks = redo == Redo::Bricks || redo == Redo::BricksDuringMotion;
   if (redo == Redo::Moved || bricks)
     g.addPass(
-        "deform-bounds",
+        PassId::DeformBounds,
         [&](fg::PassBuilder& b) {
           b.read(hb.params, Access::StorageRead);
           b.read(hb.tets, Access::StorageRead);
@@ -57,7 +57,7 @@ void GpuDeformer::addRedoSelection(fg::FrameGraph& g, Redo redo) {
         });
   if (bricks)
     g.addPass(
-        "deform-bricks",
+        PassId::DeformBricks,
         [&](fg::PassBuilder& b) {
           b.read(hb.params, Access::StorageRead);
           b.read(hb.rigid, Access::StorageRead);
@@ -101,7 +101,7 @@ void GpuDeformer::addResetPass(fg::FrameGraph& g, Redo redo) {
   const gpu::DeformParams p = p_;
   const bool bricks = redo == Redo::Bricks || redo == Redo::BricksDuringMotion;
   g.addPass(
-      "deform-reset",
+      PassId::DeformReset,
       [&](fg::PassBuilder& b) {
         b.write(hb.box, Access::TransferDst);
         if (bricks) b.write(hb.brickFlags, Access::TransferDst);
@@ -111,16 +111,16 @@ void GpuDeformer::addResetPass(fg::FrameGraph& g, Redo redo) {
         GraphExecutor& x = vulkanExecutor(e);
         gpu::DeformBox init{};
         if (redo == Redo::Region || bricks) {  // brick mode: the box only bounds the skipped-tet count
-          init.lo = glm::ivec4(p.regionVoxLo.x, p.regionVoxLo.y, p.regionVoxLo.z, 0);
-          init.hi = glm::ivec4(p.regionVoxHi.x, p.regionVoxHi.y, p.regionVoxHi.z, 0);
+          init.lo = p.regionVoxLo;
+          init.hi = p.regionVoxHi;
         } else if (redo == Redo::WholeVolume) {
-          init.lo = glm::ivec4(0);
-          init.hi = glm::ivec4(p.dims.x - 1, p.dims.y - 1, p.dims.z - 1, 0);
+          init.lo = glm::ivec3(0);
+          init.hi = p.volumeDims - 1;
         } else {
-          init.lo = glm::ivec4(INT_MAX);
-          init.hi = glm::ivec4(INT_MIN);
+          init.lo = glm::ivec3(INT_MAX);
+          init.hi = glm::ivec3(INT_MIN);
         }
-        init.bricks.x = bricks ? 1u : 0u;
+        init.brickMode = bricks ? 1u : 0u;
         vkCmdUpdateBuffer(x.cmd(), x.buffer(hb.box).handle(), 0, sizeof(init), &init);
         if (bricks) vkCmdFillBuffer(x.cmd(), x.buffer(hb.brickFlags).handle(), 0, VK_WHOLE_SIZE, 0u);
         // A redo of the region leaves no brick lagging (the box of a moved-box frame is exact too,
@@ -134,7 +134,7 @@ void GpuDeformer::addArgsPass(fg::FrameGraph& g, Redo redo) {
   using fg::Access;
   const Bound hb = h_;
   g.addPass(
-      "deform-args",
+      PassId::DeformArgs,
       [&](fg::PassBuilder& b) {
         b.read(hb.params, Access::StorageRead);
         b.write(hb.box, Access::StorageReadWrite);
@@ -158,7 +158,7 @@ void GpuDeformer::addClearPass(fg::FrameGraph& g) {
   using fg::Access;
   const Bound hb = h_;
   g.addPass(
-      "deform-clear",
+      PassId::DeformClear,
       [&](fg::PassBuilder& b) {
         b.read(hb.params, Access::StorageRead);
         b.read(hb.args, Access::IndirectRead);
@@ -195,7 +195,7 @@ void GpuDeformer::addClaimPass(fg::FrameGraph& g) {
   const Bound hb = h_;
   const std::uint32_t tetGroups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
   g.addPass(
-      "deform-claim",
+      PassId::DeformClaim,
       [&](fg::PassBuilder& b) {
         b.read(hb.params, Access::StorageRead);
         b.read(hb.tets, Access::StorageRead);
@@ -228,7 +228,7 @@ void GpuDeformer::addResolvePass(fg::FrameGraph& g) {
   using fg::Access;
   const Bound hb = h_;
   g.addPass(
-      "deform-resolve",
+      PassId::DeformResolve,
       [&](fg::PassBuilder& b) {
         b.read(hb.params, Access::StorageRead);
         b.read(hb.args, Access::IndirectRead);

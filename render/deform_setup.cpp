@@ -8,7 +8,7 @@
 #include <string>
 
 #include "render/render_params.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/tet_raster.h"
 #include "sim/tissue_limits.h"
 #include "vk_context.h"
@@ -119,21 +119,31 @@ ValidatedDeformSetup validateDeformSetup(const Context& ctx, const fg::ImageDesc
 
   out.params.worldToIndex = toGlm(setup.worldToIndex);
   out.params.indexToWorld = toGlm(setup.worldToIndex.inverse());
-  out.params.regionLo = glm::vec4(float(setup.regionLo.x()), float(setup.regionLo.y()), float(setup.regionLo.z()), setup.background);
-  out.params.regionHi = glm::vec4(float(setup.regionHi.x()), float(setup.regionHi.y()), float(setup.regionHi.z()), 0.0f);
-  out.params.regionVoxLo = glm::ivec4(rlo.x(), rlo.y(), rlo.z(), int(nodes));
-  out.params.regionVoxHi = glm::ivec4(rhi.x(), rhi.y(), rhi.z(), int(tetCount));
-  out.params.dims = glm::ivec4(dims.x(), dims.y(), dims.z(), int(handles));
-  out.params.ownerDims = glm::ivec4(od.x(), od.y(), od.z(), int(coarseElements));
+  auto ivec3 = [](const Eigen::Vector3i& v) { return glm::ivec3(v.x(), v.y(), v.z()); };
+  out.params.regionLo = glm::vec3(float(setup.regionLo.x()), float(setup.regionLo.y()), float(setup.regionLo.z()));
+  out.params.background = setup.background;
+  out.params.regionHi = glm::vec3(float(setup.regionHi.x()), float(setup.regionHi.y()), float(setup.regionHi.z()));
+  out.params.motionLagVoxels = 0.0f;  // set by the deformer
+  out.params.regionVoxLo = ivec3(rlo);
+  out.params.fineNodeCount = int(nodes);
+  out.params.regionVoxHi = ivec3(rhi);
+  out.params.fineTetCount = int(tetCount);
+  out.params.volumeDims = ivec3(dims);
+  out.params.handleCount = int(handles);
+  out.params.ownerDims = ivec3(od);
+  out.params.coarseElementCount = int(coarseElements);
   const Eigen::Vector3i bd = (od + Eigen::Vector3i::Constant(HANDSON_DEFORM_BRICK - 1)) / HANDSON_DEFORM_BRICK;
-  out.params.bricks = glm::ivec4(bd.x(), bd.y(), bd.z(), bd.x() * bd.y() * bd.z());
+  out.params.brickGrid = ivec3(bd);
+  out.params.brickCount = bd.x() * bd.y() * bd.z();
   {
     TetMesh rest;  // the rest mesh in world space, for the default cap
     rest.nodes.reserve(nodes);
     for (const auto& X : d.rest) rest.nodes.emplace_back(double(X.x()), double(X.y()), double(X.z()));
     rest.tets = *setup.fineTets;
     const std::uint64_t cap = setup.maxTetVoxels ? setup.maxTetVoxels : defaultMaxTetVoxels(rest, setup.worldToIndex);
-    out.params.limits = glm::uvec4(std::uint32_t(std::min<std::uint64_t>(cap, UINT32_MAX)), d.cornersPerElement, setup.strainLimits ? 1u : 0u, 0);
+    out.params.maxTetVoxels = std::uint32_t(std::min<std::uint64_t>(cap, UINT32_MAX));
+    out.params.cornersPerElement = d.cornersPerElement;
+    out.params.writeOverLimit = setup.strainLimits ? 1u : 0u;
   }
   return out;
 }

@@ -5,7 +5,7 @@
 #include <sstream>
 
 #include "graph_check.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson::fg {
 
@@ -123,6 +123,11 @@ void FrameGraph::checkHandle(ResourceHandle h) const {
 const ResourceInfo& FrameGraph::resource(ResourceHandle h) const {
   checkHandle(h);
   return resources_[h.id];
+}
+
+void FrameGraph::addPass(PassId id, const SetupFn& setup, ExecuteFn execute) {
+  addPass(std::string(handson::passName(id)), setup, std::move(execute));
+  passes_.back().id = id;
 }
 
 void FrameGraph::addPass(std::string name, const SetupFn& setup, ExecuteFn execute) {
@@ -305,7 +310,7 @@ void FrameGraph::execute(Executor& executor) {
       }
   for (const auto& cp : compiled_) {
     const Pass& p = passes_[cp.pass];
-    const PassInfo info{cp.pass, p.name};
+    const PassInfo info{cp.pass, p.name, p.id};
     executor.beginPass(info);
     if (!cp.barriers.empty()) executor.barriers(cp.barriers);
     if (p.execute) p.execute(executor);

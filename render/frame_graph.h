@@ -9,7 +9,7 @@
 //   FrameGraph g;
 //   auto vol = g.importImage("volume", {...}, Access::Sampled);          // persistent, in layout of Sampled
 //   auto out = g.createImage("color", {w, h, 1, Format::Rgba8Unorm});   // transient, backend allocates
-//   g.addPass("raymarch", [&](PassBuilder& b) { b.read(vol, Access::Sampled); b.write(out, Access::StorageWrite); },
+//   g.addPass(PassId::Raymarch, [&](PassBuilder& b) { b.read(vol, Access::Sampled); b.write(out, Access::StorageWrite); },
 //             [&](Executor& e) { ... record ... });
 //   g.exportResource(out, Access::TransferSrc);   // keeps its producers alive, final state
 //   g.compile(); g.execute(executor);
@@ -17,6 +17,8 @@
 #include <functional>
 #include <string>
 #include <vector>
+
+#include "render/pass_id.h"
 
 namespace handson::fg {
 
@@ -93,6 +95,7 @@ struct Barrier {
 struct PassInfo {
   std::uint32_t index = 0;  ///< declaration index
   std::string name;
+  PassId id = PassId::Unnamed;
 };
 
 /// Backend interface. The graph calls these in order during execute().
@@ -145,6 +148,9 @@ class FrameGraph {
   ResourceHandle createImage(std::string name, const ImageDesc& desc);
   ResourceHandle createBuffer(std::string name, const BufferDesc& desc);
 
+  /// A pass of the renderer, by its id (its name from pass_id.h's table).
+  void addPass(PassId id, const SetupFn& setup, ExecuteFn execute);
+  /// A pass by name alone (tests, one-off tools): its id is PassId::Unnamed.
   void addPass(std::string name, const SetupFn& setup, ExecuteFn execute);
   /// Marks a resource as a frame output: its producers survive culling, and it ends the frame in
   /// `finalAccess`.
@@ -180,6 +186,7 @@ class FrameGraph {
   friend class PassBuilder;
   struct Pass {
     std::string name;
+    PassId id = PassId::Unnamed;
     std::vector<PassBuilder::Use> uses;
     ExecuteFn execute;
     bool sideEffect = false;

@@ -5,7 +5,7 @@
 #include "compute_passes.h"
 #include "shaders/shared.h"
 #include "shaders/spirv.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "vk_context.h"
 #include "vk_graph_executor.h"
 
@@ -97,7 +97,7 @@ std::optional<LiveSelection::Paint> LiveSelection::addPasses(fg::FrameGraph& g, 
   push.boxDims = glm::ivec4(d.x(), d.y(), d.z(), int(rowWords_));
   push.bound = glm::uvec4(bound_, words_, 0, 0);
   g.addPass(
-      "live-mask",
+      PassId::LiveMask,
       [&](fg::PassBuilder& b) {
         b.read(h.keys, fg::Access::StorageRead);
         b.read(baseHandle_, fg::Access::StorageRead);

@@ -2,7 +2,7 @@
 // graph and the descriptors they push.
 #include "compute_passes.h"
 #include "shaders/shared.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "vk_context.h"
 #include "vk_graph_executor.h"
 

@@ -11,7 +11,7 @@ PickPass::PickPass(const Context& ctx) : ctx_(ctx), pipeline_(ctx, shaders::pick
 void PickPass::add(fg::FrameGraph& graph, const MarchInputs& in, fg::ResourceHandle points, fg::ResourceHandle results,
                    std::uint32_t count, const Sampler& sampler) {
   graph.addPass(
-      "pick",
+      PassId::Pick,
       [&](fg::PassBuilder& b) {
         declareMarchInputs(b, in);
         b.read(points, fg::Access::StorageRead);
@@ -28,10 +28,10 @@ void PickPass::add(fg::FrameGraph& graph, const MarchInputs& in, fg::ResourceHan
       });
 }
 
-void addReadbackPass(fg::FrameGraph& graph, const char* name, fg::ResourceHandle src, fg::ResourceHandle hostBuffer) {
+void addReadbackPass(fg::FrameGraph& graph, PassId id, fg::ResourceHandle src, fg::ResourceHandle hostBuffer) {
   const bool isImage = graph.resource(src).kind == fg::ResourceKind::Image;
   graph.addPass(
-      name,
+      id,
       [&](fg::PassBuilder& b) {
         b.read(src, fg::Access::TransferSrc);
         b.write(hostBuffer, fg::Access::TransferDst);

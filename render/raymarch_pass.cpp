@@ -1,7 +1,7 @@
 #include "compute_passes.h"
 #include "shaders/shared.h"
 #include "shaders/spirv.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "vk_context.h"
 #include "vk_graph_executor.h"
 
@@ -15,7 +15,7 @@ void RaymarchPass::add(fg::FrameGraph& graph, const MarchInputs& in, fg::Resourc
     throw Error("raymarch: no strain, label, limit or accumulation image or jitter tile (bind a small one when there is none)");
   const fg::ImageDesc desc = graph.resource(output).image;
   graph.addPass(
-      showOnly ? "still-frame" : "raymarch",
+      showOnly ? PassId::StillFrame : PassId::Raymarch,
       [&](fg::PassBuilder& b) {
         declareMarchInputs(b, in);
         b.read(in.strain, fg::Access::Sampled);

@@ -5,7 +5,7 @@
 #include <thread>
 
 #include "blue_noise.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 
@@ -16,10 +16,10 @@ static_assert(gpu::kJitterTile == kBlueNoiseSize, "the raymarch's jitter tile is
 // Where, as a fraction of the step, pixel (x, y)'s first sample lies (shaders/raymarch.comp,
 // sampleOffset): the middle of the first step, or its blue-noise rank shifted by the jitter phase.
 float sampleOffset(const gpu::RenderParams& P, int x, int y) {
-  if (!(P.control.x & gpu::kFlagJitter)) return 0.5f;
+  if (!(P.flags & gpu::kFlagJitter)) return 0.5f;
   const std::uint32_t tile = std::uint32_t(gpu::kJitterTile);
   const std::uint32_t rank = blueNoiseRanks()[(std::uint32_t(y) % tile) * tile + std::uint32_t(x) % tile];
-  const std::uint32_t shifted = (rank + std::uint32_t(P.quality.y) * std::uint32_t(gpu::kJitterPhaseStep)) % (tile * tile);
+  const std::uint32_t shifted = (rank + std::uint32_t(P.jitterPhase) * std::uint32_t(gpu::kJitterPhaseStep)) % (tile * tile);
   return (float(shifted) + 0.5f) / float(tile * tile);
 }
 
@@ -52,10 +52,10 @@ struct Sampler {
     const auto& d = v.geometry.dims;
     const glm::ivec3 q = glm::clamp(glm::ivec3(glm::floor(idx + 0.5f)), glm::ivec3(0), glm::ivec3(d.x(), d.y(), d.z()) - 1);
     const float e = (*strain)[std::size_t(q.x) + std::size_t(d.x()) * (std::size_t(q.y) + std::size_t(d.y()) * std::size_t(q.z))];
-    if (!(e > P.strain.x)) return c;
-    const float w = glm::clamp((e - P.strain.x) / std::max(P.strain.y - P.strain.x, 1e-6f), 0.0f, 1.0f);
+    if (!(e > P.strainFrom)) return c;
+    const float w = glm::clamp((e - P.strainFrom) / std::max(P.strainTo - P.strainFrom, 1e-6f), 0.0f, 1.0f);
     const glm::vec3 ramp = glm::mix(glm::vec3(1.0f, 0.85f, 0.1f), glm::vec3(0.9f, 0.05f, 0.05f), w);
-    return glm::mix(c, ramp, P.strain.z * (0.25f + 0.75f * w));
+    return glm::mix(c, ramp, P.strainWeight * (0.25f + 0.75f * w));
   }
 
   // As raymarch.comp's limitTint.
@@ -83,7 +83,7 @@ struct Sampler {
   }
   // Vulkan linear filtering at texture coordinate (idx + 0.5) / dims: texel space x = idx.
   bool isMoving(std::uint32_t id) const {
-    for (std::uint32_t m = 0; m < P.control.w; ++m)
+    for (std::uint32_t m = 0; m < P.movingCount; ++m)
       if (P.moving[m].id.x == id) return true;
     return false;
   }
@@ -92,12 +92,12 @@ struct Sampler {
   float materialAt(glm::vec3 idx, std::uint32_t& id) const {
     id = handleAt(idx);
     float val = sample(idx);
-    if (P.control.w == 0) return val;
+    if (P.movingCount == 0) return val;
     if (id != 0 && isMoving(id)) {
       id = 0;
       val = -1.0f;
     }
-    for (std::uint32_t m = 0; m < P.control.w; ++m) {
+    for (std::uint32_t m = 0; m < P.movingCount; ++m) {
       const glm::vec3 rest = glm::vec3(P.moving[m].currentToRest * glm::vec4(idx, 1.0f));
       if (handleAt(rest) == P.moving[m].id.x) {
         id = P.moving[m].id.x;
@@ -120,7 +120,7 @@ struct Sampler {
     return acc;
   }
   // As march_common.glsl's transferRow, transfer, transfer2 and transferAt (the table's gradient
-  // axis, gradientTop, is what the renderer puts in RenderParams.tfGradient.x).
+  // axis, gradientTop, is what the renderer puts in RenderParams.tfRowGradient).
   glm::vec4 transferRow(std::uint32_t row, float val) const {
     const float x = std::clamp(val, 0.0f, 1.0f) * float(gpu::kTfEntries - 1);
     const int i0 = int(std::floor(x));
@@ -145,11 +145,11 @@ struct Sampler {
   bool setupRay(glm::vec2 ndc, glm::vec3& originW, glm::vec3& dirW, float& t0, float& t1) const {
     const glm::vec4 nearH = P.invViewProj * glm::vec4(ndc, 0.0f, 1.0f);
     const glm::vec4 farH = P.invViewProj * glm::vec4(ndc, 1.0f, 1.0f);
-    originW = glm::vec3(P.cameraPos);
+    originW = P.eye;
     dirW = glm::normalize(glm::vec3(farH) / farH.w - glm::vec3(nearH) / nearH.w);
     const glm::vec3 o = glm::vec3(P.worldToIndex * glm::vec4(originW, 1.0f));
     const glm::vec3 d = glm::mat3(P.worldToIndex) * dirW;
-    const glm::vec3 lo(-0.5f), hi = glm::vec3(P.dims) - 0.5f;
+    const glm::vec3 lo(-0.5f), hi = glm::vec3(P.volumeDims) - 0.5f;
     const glm::vec3 inv = 1.0f / d;
     const glm::vec3 ta = (lo - o) * inv, tb = (hi - o) * inv;
     const glm::vec3 tmin = glm::min(ta, tb), tmax = glm::max(ta, tb);
@@ -160,7 +160,7 @@ struct Sampler {
   }
   // As march_common.glsl's clipRay.
   void clipRay(glm::vec3 originW, glm::vec3 dirW, float& t0, float& t1) const {
-    const std::uint32_t flags = P.control.x;
+    const std::uint32_t flags = P.flags;
     if (flags & gpu::kFlagClipBox) {
       const glm::vec3 inv = 1.0f / dirW;
       const glm::vec3 ca = (glm::vec3(P.clipMin) - originW) * inv, cb = (glm::vec3(P.clipMax) - originW) * inv;
@@ -176,10 +176,10 @@ struct Sampler {
     }
   }
   bool brickOccupied(glm::vec3 idx, glm::ivec3& brick) const {
-    brick = glm::clamp(glm::ivec3(glm::floor((idx + 0.5f) / float(gpu::kBrickSize))), glm::ivec3(0), glm::ivec3(P.brickDims) - 1);
-    if (occ[std::size_t((brick.z * P.brickDims.y + brick.y) * P.brickDims.x + brick.x)] != 0u) return true;
+    brick = glm::clamp(glm::ivec3(glm::floor((idx + 0.5f) / float(gpu::kBrickSize))), glm::ivec3(0), P.brickCount - 1);
+    if (occ[std::size_t((brick.z * P.brickCount.y + brick.y) * P.brickCount.x + brick.x)] != 0u) return true;
     const glm::vec3 lo = glm::vec3(brick) * float(gpu::kBrickSize) - 0.5f, hi = lo + float(gpu::kBrickSize);
-    for (std::uint32_t m = 0; m < P.control.w; ++m)
+    for (std::uint32_t m = 0; m < P.movingCount; ++m)
       if (glm::all(glm::lessThanEqual(glm::vec3(P.moving[m].boxMin), hi)) && glm::all(glm::greaterThanEqual(glm::vec3(P.moving[m].boxMax), lo)))
         return true;
     return false;
@@ -191,7 +191,7 @@ struct Sampler {
     const glm::vec3 tmax = glm::max((lo - o) * inv, (hi - o) * inv);
     return std::min(std::min(tmax.x, tmax.y), tmax.z);
   }
-  float correctedAlpha(float a, float step) const { return 1.0f - std::pow(std::max(1.0f - a, 0.0f), step / P.march.y); }
+  float correctedAlpha(float a, float step) const { return 1.0f - std::pow(std::max(1.0f - a, 0.0f), step / P.opacityStepMm); }
   glm::vec3 gradientIndex(glm::vec3 idx) const {
     return 0.5f * glm::vec3(sample(idx + glm::vec3(1, 0, 0)) - sample(idx - glm::vec3(1, 0, 0)),
                             sample(idx + glm::vec3(0, 1, 0)) - sample(idx - glm::vec3(0, 1, 0)),
@@ -226,7 +226,7 @@ struct Sampler {
   }
 
   glm::vec4 shadePixel(glm::vec2 ndc, float offset) const {
-    const std::uint32_t flags = P.control.x;
+    const std::uint32_t flags = P.flags;
     glm::vec3 color(0.0f);
     float alpha = 0.0f;
     glm::vec3 originW, dirW;
@@ -234,11 +234,11 @@ struct Sampler {
     if (setupRay(ndc, originW, dirW, t0, t1)) {
       const glm::vec3 o = glm::vec3(P.worldToIndex * glm::vec4(originW, 1.0f));
       const glm::vec3 d = glm::mat3(P.worldToIndex) * dirW;
-      const float step = P.quality.x > 0.0f ? P.march.x * P.quality.x : P.march.x;
+      const float step = P.stepScale > 0.0f ? P.stepMm * P.stepScale : P.stepMm;
       const RaySamples ray{o, d, t0, step, offset};
       RayCursor cur;
       std::uint32_t taken = 0;
-      while (taken < P.control.z) {
+      while (taken < P.maxSteps) {
         const float t = ray.at(cur.n);
         if (t >= t1) break;
         const glm::vec3 idx = o + t * d;
@@ -264,14 +264,14 @@ struct Sampler {
           const float gl = glm::length(g);
           if (gl > 1e-6f) {
             const float ndl = std::abs(glm::dot(g / gl, dirW));
-            c = c * (P.light.x + P.light.y * ndl) + glm::vec3(P.light.z * std::pow(ndl, P.light.w));
+            c = c * (P.ambient + P.diffuse * ndl) + glm::vec3(P.specular * std::pow(ndl, P.shininess));
           } else {
-            c = c * (P.light.x + P.light.y);
+            c = c * (P.ambient + P.diffuse);
           }
         }
         color += (1.0f - alpha) * a * c;
         alpha += (1.0f - alpha) * a;
-        if ((flags & gpu::kFlagEarlyTermination) && alpha >= P.march.z) break;
+        if ((flags & gpu::kFlagEarlyTermination) && alpha >= P.earlyStopAlpha) break;
       }
     }
     const glm::vec3 out = color + (1.0f - alpha) * glm::vec3(P.background) * P.background.a;
@@ -287,12 +287,12 @@ struct Sampler {
     if (std::isnan(ndc.x) || std::isnan(ndc.y) || !setupRay(ndc, originW, dirW, t0, t1)) return r;
     const glm::vec3 o = glm::vec3(P.worldToIndex * glm::vec4(originW, 1.0f));
     const glm::vec3 d = glm::mat3(P.worldToIndex) * dirW;
-    const float step = P.march.x;
+    const float step = P.stepMm;
     float alpha = 0.0f;
     const RaySamples ray{o, d, t0, step, 0.5f};
     RayCursor cur;
     std::uint32_t taken = 0;
-    while (taken < P.control.z) {
+    while (taken < P.maxSteps) {
       const float t = ray.at(cur.n);
       if (t >= t1) break;
       const glm::vec3 idx = o + t * d;
@@ -306,8 +306,8 @@ struct Sampler {
       if (s.a <= 0.0f) continue;
       const float before = alpha;
       alpha += (1.0f - alpha) * correctedAlpha(s.a, step);
-      if (alpha >= P.march.w) {
-        const float f = std::clamp((P.march.w - before) / std::max(alpha - before, 1e-6f), 0.0f, 1.0f);
+      if (alpha >= P.pickAlpha) {
+        const float f = std::clamp((P.pickAlpha - before) / std::max(alpha - before, 1e-6f), 0.0f, 1.0f);
         const float th = std::max(t - step + f * step, t0);
         r.world = glm::vec4(originW + th * dirW, 1.0f);
         r.voxel = glm::ivec4(glm::ivec3(glm::floor(o + th * d + 0.5f)), int(id));
@@ -336,9 +336,9 @@ struct Sampler {
 std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const gpu::RenderParams& params,
                                             std::vector<glm::vec3>* accumulation) {
   const Sampler s{*scene.volume, *scene.lut, *scene.occupancy, params, scene.mask, scene.handleTints, scene.strain, scene.labels, scene.strainOverLimit};
-  const int w = params.dims.w, h = params.brickDims.w;
+  const int w = params.outputWidth, h = params.outputHeight;
   std::vector<std::uint8_t> img(std::size_t(w) * h * 4);
-  const bool accumulate = (params.control.x & gpu::kFlagAccumulate) != 0;
+  const bool accumulate = (params.flags & gpu::kFlagAccumulate) != 0;
   if (accumulate) {
     if (!accumulation) throw Error("raymarch reference: accumulation asked for without its sum");
     if (accumulation->size() != std::size_t(w) * h) accumulation->assign(std::size_t(w) * h, glm::vec3(0.0f));
@@ -351,12 +351,12 @@ std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const g
         if (accumulate) {
           // raymarch.comp: the still frame's sum, this phase added unless it is complete; its mean shown.
           glm::vec3& sum = (*accumulation)[std::size_t(y) * w + x];
-          if (params.quality.w > 0.5f) {
-            c = glm::vec4(glm::clamp(sum / params.quality.z, 0.0f, 1.0f), 1.0f);
+          if (params.flags & gpu::kFlagShowSum) {
+            c = glm::vec4(glm::clamp(sum / float(params.summedFrames), 0.0f, 1.0f), 1.0f);
           } else {
             const glm::vec3 phase(s.shadePixel(ndc, sampleOffset(params, x, y)));
-            sum = params.quality.z > 0.5f ? sum + phase : phase;
-            c = glm::vec4(glm::clamp(sum / (params.quality.z + 1.0f), 0.0f, 1.0f), 1.0f);
+            sum = params.summedFrames > 0 ? sum + phase : phase;
+            c = glm::vec4(glm::clamp(sum / (float(params.summedFrames) + 1.0f), 0.0f, 1.0f), 1.0f);
           }
         } else {
           c = s.shadePixel(ndc, sampleOffset(params, x, y));

@@ -24,7 +24,7 @@ struct ReferenceScene {
   const std::vector<float>* strainOverLimit = nullptr;     ///< strain over its tissue's limit on the volume grid (the highlight; null: none)
 };
 
-/// RGBA8 image (width = params.dims.w, height = params.brickDims.w), row 0 at the top. With
+/// RGBA8 image (width = params.outputWidth, height = params.outputHeight), row 0 at the top. With
 /// gpu::kFlagAccumulate, `accumulation` is the still frame's running sum (rgb per pixel, resized and
 /// zeroed when its size differs), read and written as the raymarch reads and writes kBindAccum.
 std::vector<std::uint8_t> raymarchReference(const ReferenceScene& scene, const gpu::RenderParams& params,

@@ -6,7 +6,7 @@
 #include "compute_passes.h"
 #include "shaders/shared.h"
 #include "shaders/spirv.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "vk_context.h"
 
 namespace handson::vk {
@@ -112,7 +112,7 @@ void GpuRegionGrower::setBound(std::uint32_t bound) {
 void GpuRegionGrower::addStartPasses(fg::FrameGraph& g, const Bound& h) {
   using fg::Access;
   g.addPass(
-      "grow-clear",
+      PassId::GrowClear,
       [&](fg::PassBuilder& b) {
         for (auto r : {h.keys, h.accept, h.flags, h.reached, h.lists[1 - current_]}) b.write(r, Access::TransferDst);
         b.sideEffect();
@@ -123,7 +123,7 @@ void GpuRegionGrower::addStartPasses(fg::FrameGraph& g, const Bound& h) {
         for (auto r : {h.accept, h.flags, h.reached, next}) vkCmdFillBuffer(x.cmd(), x.buffer(r).handle(), 0, VK_WHOLE_SIZE, 0);
       });
   g.addPass(
-      "grow-seed",
+      PassId::GrowSeed,
       [&](fg::PassBuilder& b) {
         for (auto r : {h.keys, h.lists[0], h.lists[1]}) b.write(r, Access::TransferDst);
         b.sideEffect();
@@ -142,7 +142,7 @@ void GpuRegionGrower::addCompactPasses(fg::FrameGraph& g, fg::ResourceHandle fla
                                        bool fromReached) {
   using fg::Access;
   g.addPass(
-      "grow-list-reset",
+      PassId::GrowListReset,
       [&](fg::PassBuilder& b) {
         b.write(into, Access::TransferDst);
         b.sideEffect();
@@ -152,7 +152,7 @@ void GpuRegionGrower::addCompactPasses(fg::FrameGraph& g, fg::ResourceHandle fla
         vkCmdFillBuffer(x.cmd(), x.buffer(into).handle(), 0, 4, 0);
       });
   g.addPass(
-      fromReached ? "grow-resume" : "grow-compact",
+      fromReached ? PassId::GrowResume : PassId::GrowCompact,
       [&](fg::PassBuilder& b) {
         b.write(flags, Access::StorageReadWrite);
         b.write(into, Access::StorageReadWrite);
@@ -202,7 +202,7 @@ GpuRegionGrower::Bound GpuRegionGrower::addRounds(fg::FrameGraph& g, int rounds,
   for (int r = 0; r < rounds; ++r) {
     const fg::ResourceHandle list = dense ? h.dense : h.lists[current_];
     g.addPass(
-        "grow-relax",
+        PassId::GrowRelax,
         [&](fg::PassBuilder& b) {
           b.read(h.volume, Access::Sampled);
           b.read(list, Access::IndirectRead);
@@ -230,7 +230,7 @@ GpuRegionGrower::Bound GpuRegionGrower::addRounds(fg::FrameGraph& g, int rounds,
   }
   // Active count for the host: the header of the list the next round would use.
   h.activeHost = g.importBuffer("grow-active-host", {activeHost_.size()}, Access::None);
-  addReadbackPass(g, "grow-active-readback", h.lists[current_], h.activeHost);
+  addReadbackPass(g, PassId::GrowActiveReadback, h.lists[current_], h.activeHost);
   handles_ = h;
   return h;
 }

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "frame_graph.h"
-#include "sim/grow_setup.h"
+#include "interaction/grow_setup.h"
 #include "vk_graph_executor.h"
 #include "vk_resources.h"
 

@@ -7,7 +7,7 @@
 #include <iomanip>
 #include <sstream>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "volume_texture.h"
 
 namespace handson {
@@ -80,15 +80,23 @@ gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::ma
   p.invViewProj = glm::inverse(viewProj);
   p.worldToIndex = toGlm(geometry.worldToIndex());
   p.indexToWorld = toGlm(geometry.indexToWorld());
-  p.cameraPos = glm::vec4(eye, 1.0f);
+  p.eye = eye;
   int bx, by, bz;
   brickDims(geometry.dims, bx, by, bz);
-  p.dims = glm::ivec4(geometry.dims.x(), geometry.dims.y(), geometry.dims.z(), s.width);
-  p.brickDims = glm::ivec4(bx, by, bz, s.height);
+  p.volumeDims = glm::ivec3(geometry.dims.x(), geometry.dims.y(), geometry.dims.z());
+  p.outputWidth = s.width;
+  p.brickCount = glm::ivec3(bx, by, bz);
+  p.outputHeight = s.height;
   const float step = float(geometry.spacing.minCoeff()) * s.stepFactor;
-  p.march = glm::vec4(step, 1.0f, s.terminationAlpha, s.pickThreshold);
+  p.stepMm = step;
+  p.opacityStepMm = 1.0f;
+  p.earlyStopAlpha = s.terminationAlpha;
+  p.pickAlpha = s.pickThreshold;
   p.background = s.background;
-  p.light = s.light;
+  p.ambient = s.light.x;
+  p.diffuse = s.light.y;
+  p.specular = s.light.z;
+  p.shininess = s.light.w;
   std::uint32_t flags = 0;
   if (s.emptySpaceSkipping) flags |= gpu::kFlagEmptySpaceSkipping;
   if (s.earlyTermination) flags |= gpu::kFlagEarlyTermination;
@@ -107,12 +115,16 @@ gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::ma
     flags |= gpu::kFlagClipPlane;
     p.clipPlane = glm::vec4(s.clip.normal / nlen, s.clip.offset / nlen);
   }
-  p.strain = glm::vec4(s.strainFrom, s.strainTo, s.strainWeight, 0.0f);
-  p.quality = glm::vec4(std::isfinite(s.raymarchStepScale) && s.raymarchStepScale >= 1.0f ? s.raymarchStepScale : 1.0f,
-                        float(std::clamp(s.jitterPhase, 0, int(gpu::kJitterTile * gpu::kJitterTile) - 1)), 0.0f, 0.0f);
+  p.strainFrom = s.strainFrom;
+  p.strainTo = s.strainTo;
+  p.strainWeight = s.strainWeight;
+  p.stepScale = std::isfinite(s.raymarchStepScale) && s.raymarchStepScale >= 1.0f ? s.raymarchStepScale : 1.0f;
+  p.jitterPhase = std::uint32_t(std::clamp(s.jitterPhase, 0, int(gpu::kJitterTile * gpu::kJitterTile) - 1));
   const double diag = geometry.diagonalMm();
-  const std::uint32_t maxSteps = std::uint32_t(std::ceil(diag / step)) * 2u + 64u;
-  p.control = glm::uvec4(flags, pickCount, maxSteps, 0u);
+  p.flags = flags;
+  p.pickCount = pickCount;
+  p.maxSteps = std::uint32_t(std::ceil(diag / step)) * 2u + 64u;
+  p.movingCount = 0;
   return p;
 }
 
@@ -150,16 +162,17 @@ void setMovingHandles(gpu::RenderParams& params, const VolumeGeometry& geometry,
     params.moving[n].boxMax = glm::vec4(glm::vec3(hi.x() + 1.5, hi.y() + 1.5, hi.z() + 1.5), 0.0f);
     ++n;
   }
-  params.control.w = n;
+  params.movingCount = n;
 }
 
 void setStillPhase(gpu::RenderParams& params, int before, int phases) {
   if (phases < 1) throw Error("a still frame sums at least one jitter phase");
-  params.control.x |= gpu::kFlagAccumulate;
+  params.flags |= gpu::kFlagAccumulate;
   const bool complete = before >= phases;
-  params.quality.y = float(complete ? 0 : std::max(before, 0));  // the jitter phase (unused once complete)
-  params.quality.z = float(complete ? phases : std::max(before, 0));
-  params.quality.w = complete ? 1.0f : 0.0f;
+  params.jitterPhase = std::uint32_t(complete ? 0 : std::max(before, 0));  // unused once complete
+  params.summedFrames = std::uint32_t(complete ? phases : std::max(before, 0));
+  if (complete) params.flags |= gpu::kFlagShowSum;
+  else params.flags &= ~gpu::kFlagShowSum;
 }
 
 glm::vec2 pixelToNdc(float x, float y, int width, int height) {

@@ -87,7 +87,7 @@ struct MovingHandlePose {
   Eigen::Vector3i restMin{0, 0, 0}, restMax{-1, -1, -1};  ///< the handle's voxel bounds at rest (index)
 };
 
-/// Fills params.moving and control.w (at most gpu::kMaxMovingHandles; identity poses are skipped).
+/// Fills params.moving and movingCount (at most gpu::kMaxMovingHandles; identity poses are skipped).
 void setMovingHandles(gpu::RenderParams& params, const VolumeGeometry& geometry, const std::vector<MovingHandlePose>& handles);
 
 /// Pixel centre (x, y) of a width x height image to NDC (x right, y down).

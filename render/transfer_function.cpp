@@ -6,7 +6,7 @@
 #include <sstream>
 
 #include "shaders/shared.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

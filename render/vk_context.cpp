@@ -6,7 +6,7 @@
 #include <iostream>
 #include <sstream>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson::vk {
 

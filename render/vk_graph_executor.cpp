@@ -2,7 +2,7 @@
 
 #include <sstream>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "vk_context.h"
 
 namespace handson::vk {
@@ -130,13 +130,13 @@ void GraphExecutor::collect(Slot& s) {
   s.pending = false;
   s.timings.clear();
   completed_.clear();
-  if (!s.queries || s.passNames.empty()) return;
-  std::vector<std::uint64_t> ticks(2 * s.passNames.size());
+  if (!s.queries || s.passes.empty()) return;
+  std::vector<std::uint64_t> ticks(2 * s.passes.size());
   const VkResult r = vkGetQueryPoolResults(ctx_.device(), s.queries, 0, std::uint32_t(ticks.size()), ticks.size() * sizeof(std::uint64_t),
                                            ticks.data(), sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
   check(r, "vkGetQueryPoolResults");
-  for (std::size_t i = 0; i < s.passNames.size(); ++i)
-    s.timings.push_back({s.passNames[i], double(ticks[2 * i + 1] - ticks[2 * i]) * ctx_.timestampPeriodNs() * 1e-6});
+  for (std::size_t i = 0; i < s.passes.size(); ++i)
+    s.timings.push_back({s.passes[i].name, double(ticks[2 * i + 1] - ticks[2 * i]) * ctx_.timestampPeriodNs() * 1e-6, s.passes[i].id});
   completed_ = s.timings;
 }
 
@@ -151,7 +151,7 @@ void GraphExecutor::beginFrame() {
   bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   check(vkBeginCommandBuffer(s.cmd, &bi), "vkBeginCommandBuffer");
   if (s.queries) vkCmdResetQueryPool(s.cmd, s.queries, 0, 2 * maxPasses_);
-  s.passNames.clear();
+  s.passes.clear();
   images_.clear();
   rawImages_.clear();
   buffers_.clear();
@@ -195,15 +195,15 @@ void GraphExecutor::realizeTransient(fg::ResourceHandle handle, const fg::Resour
 
 void GraphExecutor::beginPass(const fg::PassInfo& /*pass*/) {
   Slot& s = slots_[current_];
-  if (s.queries && s.passNames.size() < maxPasses_)
-    vkCmdWriteTimestamp2(s.cmd, VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT, s.queries, std::uint32_t(2 * s.passNames.size()));
+  if (s.queries && s.passes.size() < maxPasses_)
+    vkCmdWriteTimestamp2(s.cmd, VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT, s.queries, std::uint32_t(2 * s.passes.size()));
 }
 
 void GraphExecutor::endPass(const fg::PassInfo& pass) {
   Slot& s = slots_[current_];
-  if (s.queries && s.passNames.size() < maxPasses_) {
-    vkCmdWriteTimestamp2(s.cmd, VK_PIPELINE_STAGE_2_BOTTOM_OF_PIPE_BIT, s.queries, std::uint32_t(2 * s.passNames.size() + 1));
-    s.passNames.push_back(pass.name);
+  if (s.queries && s.passes.size() < maxPasses_) {
+    vkCmdWriteTimestamp2(s.cmd, VK_PIPELINE_STAGE_2_BOTTOM_OF_PIPE_BIT, s.queries, std::uint32_t(2 * s.passes.size() + 1));
+    s.passes.push_back(pass);
   }
 }
 

@@ -20,6 +20,7 @@ class Context;
 struct PassTiming {
   std::string name;
   double gpuMs = 0.0;
+  PassId id = PassId::Unnamed;
 };
 
 class GraphExecutor final : public fg::Executor {
@@ -75,7 +76,7 @@ class GraphExecutor final : public fg::Executor {
     VkFence fence = VK_NULL_HANDLE;
     VkQueryPool queries = VK_NULL_HANDLE;
     bool pending = false;
-    std::vector<std::string> passNames;
+    std::vector<fg::PassInfo> passes;  ///< timed this frame, in order
     std::vector<PassTiming> timings;
     std::map<std::string, std::unique_ptr<Image>> transientImages;
     std::map<std::string, std::unique_ptr<Buffer>> transientBuffers;

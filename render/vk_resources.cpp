@@ -5,7 +5,7 @@
 #include <unordered_map>
 #include <sstream>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "vk_context.h"
 
 namespace handson::vk {

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <iostream>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "vk_context.h"
 
 namespace handson::vk {

@@ -8,7 +8,7 @@
 
 #include "blue_noise.h"
 #include "render_params.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "vk_context.h"
 
 namespace handson {
@@ -122,7 +122,7 @@ void VolumeRenderer::setVolume(const QuantizedVolume& volume, const ProgressFn& 
   auto hRanges = g.importBuffer("brick-ranges", {rangeBytes}, fg::Access::None);
   auto hRead = g.importBuffer("brick-ranges-host", {rangeBytes}, fg::Access::None);
   brick_.add(g, hVol, hRanges, volume_, linear_);
-  vk::addReadbackPass(g, "brick-readback", hRanges, hRead);
+  vk::addReadbackPass(g, PassId::BrickReadback, hRanges, hRead);
   g.compile();
   executor_.beginFrame();
   executor_.setGraph(&g);
@@ -304,7 +304,7 @@ namespace {
 
 /// A box of ids to copy into the handle-id mask: rows of rowTexels texels (0: the box's width) in `src`.
 struct MaskCopy {
-  const char* name;
+  PassId id;
   fg::ResourceHandle src;
   Eigen::Vector3i min, dims;
   std::uint32_t rowTexels = 0;
@@ -315,7 +315,7 @@ struct MaskCopy {
 /// through the deformation.
 void addMaskCopy(fg::FrameGraph& g, const MaskCopy& c, fg::ResourceHandle mask, fg::ResourceHandle deformedMask) {
   g.addPass(
-      c.name,
+      c.id,
       [&](fg::PassBuilder& b) {
         b.read(c.src, fg::Access::TransferSrc);
         b.write(mask, fg::Access::TransferDst);
@@ -367,13 +367,13 @@ VolumeRenderer::MaskBox VolumeRenderer::addMaskWrites(FrameBuild& f, const Frame
     std::memcpy(s.maskStaging->mapped(), up.ids.data(), up.ids.size());
     s.maskStaging->flush();
     f.maskStaging = g.importBuffer("mask-staging", {s.maskStaging->size()}, fg::Access::HostWrite);
-    addMaskCopy(g, {"mask-upload", f.maskStaging, up.min, up.dims}, mask, deformedMask);
+    addMaskCopy(g, {PassId::MaskUpload, f.maskStaging, up.min, up.dims}, mask, deformedMask);
     cover(up.min, up.dims);
   }
   // The live selection's rounds and paint (after the upload: its base holds the uploaded ids).
   if (live_)
     if (const auto paint = live_->addPasses(g, f.in.volume)) {
-      addMaskCopy(g, {"live-mask-copy", paint->ids, paint->min, paint->dims, paint->rowTexels}, mask, deformedMask);
+      addMaskCopy(g, {PassId::LiveMaskCopy, paint->ids, paint->min, paint->dims, paint->rowTexels}, mask, deformedMask);
       cover(paint->min, paint->dims);
     }
   return box;
@@ -440,14 +440,14 @@ void VolumeRenderer::settleDeformation() {
 
 void VolumeRenderer::sumStillFrame(const FrameRequest& req, gpu::RenderParams& params) {
   stillShown_ = 0;
-  if (req.stillPhases <= 0 || !(params.control.x & gpu::kFlagJitter)) {
+  if (req.stillPhases <= 0 || !(params.flags & gpu::kFlagJitter)) {
     still_.count = 0;
     return;
   }
   gpu::RenderParams key = params;
-  key.control.y = 0;
-  key.control.x &= ~gpu::kFlagAccumulate;
-  key.quality.y = key.quality.z = key.quality.w = 0.0f;
+  key.pickCount = 0;
+  key.flags &= ~(gpu::kFlagAccumulate | gpu::kFlagShowSum);
+  key.jitterPhase = key.summedFrames = 0;
   const bool same = still_.count > 0 && still_.version == contentVersion_ && still_.phases == req.stillPhases && !req.maskUpload &&
                     !req.deform && !req.deformFine && std::memcmp(&key, &still_.key, sizeof key) == 0;
   const int before = same ? still_.count : 0;
@@ -474,28 +474,29 @@ void VolumeRenderer::importInputs(FrameBuild& f) {
 void VolumeRenderer::addOverlayInputs(FrameBuild& f, gpu::RenderParams& params) {
   vk::MarchInputs& in = f.in;
   in.labels = f.g.importImage("labels", labels_.desc(), fg::Access::Sampled);
-  if (!hasLabels_ || !(in.volume == f.sourceVolume)) params.control.x &= ~gpu::kFlagLabelTint;  // none, or deformed anatomy shown
+  if (!hasLabels_ || !(in.volume == f.sourceVolume)) params.flags &= ~gpu::kFlagLabelTint;  // none, or deformed anatomy shown
   f.ownStrain = !in.strain.valid();
   if (f.ownStrain) {
     in.strain = f.g.importImage("no-strain", noStrain_.desc(), fg::Access::Sampled);
-    params.control.x &= ~gpu::kFlagStrainOverlay;  // nothing to show (not deforming): no overlay
+    params.flags &= ~gpu::kFlagStrainOverlay;  // nothing to show (not deforming): no overlay
   }
   f.ownOverLimit = !in.overLimit.valid();
   if (f.ownOverLimit) {
     in.overLimit = f.g.importImage("no-strain-over-limit", noOverLimit_.desc(), fg::Access::Sampled);
-    params.control.x &= ~gpu::kFlagLimitHighlight;  // not deforming, or no limits: nothing to highlight
+    params.flags &= ~gpu::kFlagLimitHighlight;  // not deforming, or no limits: nothing to highlight
   }
 }
 
 void VolumeRenderer::addAccumulation(FrameBuild& f, const FrameRequest& req, gpu::RenderParams& params) {
-  const std::uint32_t w = std::uint32_t(params.dims.w), h = std::uint32_t(params.brickDims.w);
+  const std::uint32_t w = std::uint32_t(params.outputWidth), h = std::uint32_t(params.outputHeight);
   sumStillFrame(req, params);
-  const bool accumulate = (params.control.x & gpu::kFlagAccumulate) != 0;
+  const bool accumulate = (params.flags & gpu::kFlagAccumulate) != 0;
   if (accumulate && (!accum_.handle() || accum_.desc().width != w || accum_.desc().height != h)) {
     if (accum_.handle()) vkDeviceWaitIdle(ctx_.device());  // frames in flight may still use the old one (a resize: rare)
     accum_ = vk::Image(ctx_, {w, h, 1, fg::Format::Rgba32Sfloat}, VK_IMAGE_USAGE_STORAGE_BIT);
     accumAccess_ = fg::Access::None;
-    params.quality.z = params.quality.w = 0.0f;  // nothing summed in it yet: this phase starts the sum
+    params.summedFrames = 0;  // nothing summed in it yet: this phase starts the sum
+    params.flags &= ~gpu::kFlagShowSum;
   }
   f.accum = accumulate ? &accum_ : &noAccum_;
   f.accumAccess = accumulate ? &accumAccess_ : &noAccumAccess_;
@@ -504,13 +505,13 @@ void VolumeRenderer::addAccumulation(FrameBuild& f, const FrameRequest& req, gpu
 
 void VolumeRenderer::addReadbacks(FrameBuild& f, const FrameRequest& req, Slot& s, fg::ResourceHandle color) {
   fg::FrameGraph& g = f.g;
-  s.width = req.params.dims.w;
-  s.height = req.params.brickDims.w;
+  s.width = req.params.outputWidth;
+  s.height = req.params.outputHeight;
   s.wantImage = req.readbackImage;
   if (req.readbackImage) {
     ensureBuffer(s.imageReadback, VkDeviceSize(s.width) * VkDeviceSize(s.height) * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
     f.imageHost = g.importBuffer("image-readback", {s.imageReadback->size()}, fg::Access::None);
-    vk::addReadbackPass(g, "image-readback", color, f.imageHost);
+    vk::addReadbackPass(g, PassId::ImageReadback, color, f.imageHost);
   } else if (!req.extension) {
     g.exportResource(color, fg::Access::TransferSrc);
   }
@@ -527,7 +528,7 @@ void VolumeRenderer::addReadbacks(FrameBuild& f, const FrameRequest& req, Slot& 
   const fg::ResourceHandle pickOut = g.createBuffer("pick-results", {n * sizeof(gpu::PickResult)});
   f.pickHost = g.importBuffer("pick-readback", {s.pickReadback->size()}, fg::Access::None);
   pick_.add(g, f.in, f.pickIn, pickOut, n, linear_);
-  vk::addReadbackPass(g, "pick-readback", pickOut, f.pickHost);
+  vk::addReadbackPass(g, PassId::PickReadback, pickOut, f.pickHost);
 }
 
 void VolumeRenderer::bindFrame(FrameBuild& f, const FrameRequest& req, Slot& s, bool liveRan) {
@@ -556,7 +557,7 @@ void VolumeRenderer::bindFrame(FrameBuild& f, const FrameRequest& req, Slot& s, 
 
 std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   if (!hasVolume_ || !hasTf_) throw Error("renderer: no volume or transfer function");
-  const int w = req.params.dims.w, h = req.params.brickDims.w;
+  const int w = req.params.outputWidth, h = req.params.outputHeight;
   if (w <= 0 || h <= 0) throw Error("renderer: invalid output size");
 
   executor_.beginFrame();  // waits only for the frame that last used this slot
@@ -564,7 +565,7 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   Slot& s = slots_[executor_.slot()];
   ensureBuffer(s.params, sizeof(gpu::RenderParams), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);  // not uniform: see deform_descriptors.h
   gpu::RenderParams params = req.params;
-  params.control.y = std::uint32_t(req.pickPoints.size());  // written below, once the overlay is known
+  params.pickCount = std::uint32_t(req.pickPoints.size());  // written below, once the overlay is known
 
   FrameBuild f;
   importInputs(f);
@@ -579,14 +580,14 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   if (maskWritten) f.g.exportResource(f.sourceMask, fg::Access::Sampled);  // whoever reads it, it ends the frame sampled
   if (maskWritten) ++contentVersion_;                                     // a still frame's sum starts anew
   // The deformed images (and strain) the raymarch and picking read, while deforming.
-  if (deformer_) addDeformation(f, req, maskWritten, (params.control.x & (gpu::kFlagStrainOverlay | gpu::kFlagLimitHighlight)) != 0);
+  if (deformer_) addDeformation(f, req, maskWritten, (params.flags & (gpu::kFlagStrainOverlay | gpu::kFlagLimitHighlight)) != 0);
   addOverlayInputs(f, params);
-  params.tfGradient = glm::vec4(lut_.gradientTop, 0.0f, 0.0f, 0.0f);  // the table's, whatever the request said
+  params.tfRowGradient = lut_.gradientTop;  // the table's, whatever the request said
   addAccumulation(f, req, params);  // a still frame's running sum, at the frame's size; a new one starts a new sum
   std::memcpy(s.params->mapped(), &params, sizeof(params));
   s.params->flush();
   const fg::ResourceHandle color = f.g.createImage("color", {std::uint32_t(w), std::uint32_t(h), 1, fg::Format::Rgba8Unorm});
-  raymarch_.add(f.g, f.in, color, linear_, nearest_, (params.control.x & gpu::kFlagAccumulate) != 0 && params.quality.w > 0.5f);
+  raymarch_.add(f.g, f.in, color, linear_, nearest_, (params.flags & gpu::kFlagAccumulate) != 0 && (params.flags & gpu::kFlagShowSum) != 0);
   addReadbacks(f, req, s, color);
 
   f.g.compile();

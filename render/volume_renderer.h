@@ -16,7 +16,7 @@
 #include "live_selection.h"
 #include "shaders/shared.h"
 #include "tf_table.h"
-#include "sim/progress.h"
+#include "sim/base/progress.h"
 #include "vk_graph_executor.h"
 #include "vk_resources.h"
 #include "volume_texture.h"

@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "shaders/shared.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

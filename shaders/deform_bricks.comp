@@ -23,17 +23,17 @@ layout(push_constant) uniform Push { float lag; uint settle; } pc;
 
 void main() {
   uint b = gl_GlobalInvocationID.x;
-  if (b >= uint(P.bricks.w)) return;
+  if (b >= uint(P.brickCount)) return;
   float motion = uintBitsToFloat(flags[b]);
-  ivec3 bc = ivec3(int(b % uint(P.bricks.x)), int((b / uint(P.bricks.x)) % uint(P.bricks.y)), int(b / uint(P.bricks.x * P.bricks.y)));
-  vec3 lo = vec3(P.regionVoxLo.xyz + bc * HANDSON_DEFORM_BRICK), hi = lo + vec3(HANDSON_DEFORM_BRICK - 1);
+  ivec3 bc = ivec3(int(b % uint(P.brickGrid.x)), int((b / uint(P.brickGrid.x)) % uint(P.brickGrid.y)), int(b / uint(P.brickGrid.x * P.brickGrid.y)));
+  vec3 lo = vec3(P.regionVoxLo + bc * HANDSON_DEFORM_BRICK), hi = lo + vec3(HANDSON_DEFORM_BRICK - 1);
   for (uint m = 0u; m < rigidCount.x; ++m) {
     vec4 blo = rigid[m].boxLo, bhi = rigid[m].boxHi;
-    if (blo.w > 0.0 && all(lessThanEqual(blo.xyz - P.regionHi.w, hi)) && all(greaterThanEqual(bhi.xyz + P.regionHi.w, lo))) motion = max(motion, blo.w);
+    if (blo.w > 0.0 && all(lessThanEqual(blo.xyz - P.motionLagVoxels, hi)) && all(greaterThanEqual(bhi.xyz + P.motionLagVoxels, lo))) motion = max(motion, blo.w);
   }
   float acc = lag[b] + motion;
-  bool redo = box.bricks.z != 0u || (pc.settle != 0u ? acc > 0.0 : acc > pc.lag);
+  bool redo = box.allBricksDirty != 0u || (pc.settle != 0u ? acc > 0.0 : acc > pc.lag);
   lag[b] = redo ? 0.0 : acc;
   flags[b] = redo ? 1u : 0u;
-  if (redo) list[atomicAdd(box.bricks.y, 1u)] = b;
+  if (redo) list[atomicAdd(box.dirtyBrickCount, 1u)] = b;
 }

@@ -20,50 +20,50 @@ layout(std430, set = 0, binding = kBindDeformClaimBrickFlags) readonly buffer Fl
 
 // The dirty-brick index of a region voxel.
 uint deformBrickOf(ivec3 v) {
-  ivec3 c = (v - P.regionVoxLo.xyz) / HANDSON_DEFORM_BRICK;
-  return uint(c.x + P.bricks.x * (c.y + P.bricks.y * c.z));
+  ivec3 c = (v - P.regionVoxLo) / HANDSON_DEFORM_BRICK;
+  return uint(c.x + P.brickGrid.x * (c.y + P.brickGrid.y * c.z));
 }
 
 // Brick mode: whether a region voxel's brick is redone this frame.
-bool brickDirty(ivec3 v) { return box.bricks.z != 0u || flags[deformBrickOf(v)] != 0u; }
+bool brickDirty(ivec3 v) { return box.allBricksDirty != 0u || flags[deformBrickOf(v)] != 0u; }
 
 // Brick mode: whether any brick the voxel range [lo, hi] (in the region) meets is redone.
 bool anyBrickDirty(ivec3 lo, ivec3 hi) {
-  if (box.bricks.z != 0u) return true;
-  ivec3 blo = (lo - P.regionVoxLo.xyz) / HANDSON_DEFORM_BRICK, bhi = (hi - P.regionVoxLo.xyz) / HANDSON_DEFORM_BRICK;
+  if (box.allBricksDirty != 0u) return true;
+  ivec3 blo = (lo - P.regionVoxLo) / HANDSON_DEFORM_BRICK, bhi = (hi - P.regionVoxLo) / HANDSON_DEFORM_BRICK;
   for (int z = blo.z; z <= bhi.z; ++z)
     for (int y = blo.y; y <= bhi.y; ++y)
       for (int x = blo.x; x <= bhi.x; ++x)
-        if (flags[x + P.bricks.x * (y + P.bricks.y * z)] != 0u) return true;
+        if (flags[x + P.brickGrid.x * (y + P.brickGrid.y * z)] != 0u) return true;
   return false;
 }
 
 void main() {
   uint t = gl_GlobalInvocationID.x;
-  if (t >= uint(P.regionVoxHi.w)) return;
+  if (t >= uint(P.fineTetCount)) return;
   uvec4 n = tet[t];
   vec3 v0 = pos[n.x].xyz, v1 = pos[n.y].xyz, v2 = pos[n.z].xyz, v3 = pos[n.w].xyz;
   vec3 bmin = min(min(v0, v1), min(v2, v3)), bmax = max(max(v0, v1), max(v2, v3));
   // The voxel range in the region, widened by kRasterBoxMargin (sim/tet_raster.h).
-  ivec3 lo = max(ivec3(ceil(clamp(bmin, vec3(-1.0), vec3(P.dims.xyz)) - 1e-4)), P.regionVoxLo.xyz);
-  ivec3 hi = min(ivec3(floor(clamp(bmax, vec3(-1.0), vec3(P.dims.xyz)) + 1e-4)), P.regionVoxHi.xyz);
+  ivec3 lo = max(ivec3(ceil(clamp(bmin, vec3(-1.0), vec3(P.volumeDims)) - 1e-4)), P.regionVoxLo);
+  ivec3 hi = min(ivec3(floor(clamp(bmax, vec3(-1.0), vec3(P.volumeDims)) + 1e-4)), P.regionVoxHi);
   if (any(greaterThan(lo, hi))) return;
   // A tet stretched over more voxels than any sane state gives (a torn solve) is skipped, not
   // looped over for seconds: one invocation must stay short. (Judged on its range in the region,
   // not in this frame's box, so a moved-box frame equals a whole-region one.)
   uvec3 ext = uvec3(hi - lo + 1);
-  if (ext.x * ext.y * ext.z > P.limits.x) {
-    if (all(lessThanEqual(max(lo, box.lo.xyz), min(hi, box.hi.xyz)))) atomicAdd(box.stats.z, 1u);
+  if (ext.x * ext.y * ext.z > P.maxTetVoxels) {
+    if (all(lessThanEqual(max(lo, box.lo), min(hi, box.hi)))) atomicAdd(box.skippedTets, 1u);
     return;
   }
-  bool bricks = box.bricks.x != 0u;
+  bool bricks = box.brickMode != 0u;
   if (bricks) {
     if (!anyBrickDirty(lo, hi)) return;
     // Within one brick (most tets), or with every brick redone: no test per voxel.
-    bricks = box.bricks.z == 0u && deformBrickOf(lo) != deformBrickOf(hi);
+    bricks = box.allBricksDirty == 0u && deformBrickOf(lo) != deformBrickOf(hi);
   } else {
-    lo = max(lo, box.lo.xyz);
-    hi = min(hi, box.hi.xyz);
+    lo = max(lo, box.lo);
+    hi = min(hi, box.hi);
     if (any(greaterThan(lo, hi))) return;
   }
   mat3 D = mat3(v1 - v0, v2 - v0, v3 - v0);
@@ -88,7 +88,7 @@ void main() {
         float l0 = 1.0 - l.x - l.y - l.z;
         if (min(min(l.x, l.y), min(l.z, l0)) < -eps) continue;
         if (bricks && !brickDirty(ivec3(x, y, z))) continue;
-        ivec3 o = ivec3(x, y, z) - P.regionVoxLo.xyz;
+        ivec3 o = ivec3(x, y, z) - P.regionVoxLo;
         atomicMin(owner[uint(o.x + P.ownerDims.x * (o.y + P.ownerDims.y * o.z))], t + 1u);
       }
 }

@@ -18,10 +18,10 @@ void main() {
   ivec3 v;
   if (!deformVoxel(v)) return;
   vec3 w = (P.indexToWorld * vec4(vec3(v), 1.0)).xyz;
-  bool inside = all(greaterThanEqual(w - P.regionLo.xyz, vec3(-1e-3))) && all(greaterThanEqual(P.regionHi.xyz - w, vec3(-1e-3)));
-  ivec3 o = v - P.regionVoxLo.xyz;
-  if (all(greaterThanEqual(o, ivec3(0))) && all(lessThan(o, P.ownerDims.xyz)))
+  bool inside = all(greaterThanEqual(w - P.regionLo, vec3(-1e-3))) && all(greaterThanEqual(P.regionHi - w, vec3(-1e-3)));
+  ivec3 o = v - P.regionVoxLo;
+  if (all(greaterThanEqual(o, ivec3(0))) && all(lessThan(o, P.ownerDims)))
     owner[o.x + P.ownerDims.x * (o.y + P.ownerDims.y * o.z)] = inside ? kDeformNoOwner : 0u;
-  imageStore(uOut, v, inside ? vec4(P.regionLo.w) : texelFetch(uSource, v, 0));
+  imageStore(uOut, v, inside ? vec4(P.background) : texelFetch(uSource, v, 0));
   imageStore(uOutMask, v, inside ? vec4(0.0) : texelFetch(uSourceMask, v, 0));
 }

@@ -35,7 +35,7 @@ mat3 block3(uint o) { return mat3(blk[o].xyz, blk[o + 1].xyz, blk[o + 2].xyz); }
 
 void main() {
   uint f = gl_GlobalInvocationID.x;
-  if (f >= uint(P.regionVoxLo.w)) return;
+  if (f >= uint(P.fineNodeCount)) return;
   uvec4 n = node[f];
   vec3 X = rest[f].xyz;
   vec3 p = X;
@@ -47,7 +47,7 @@ void main() {
   } else if (n.x == kFineBoundary) {
     // Corners in groups of four (one uvec4 of indices, one vec4 of weights): constant lane indices.
     p = vec3(0.0);
-    for (uint h = 0u; h < P.limits.y / 4u; ++h) {
+    for (uint h = 0u; h < P.cornersPerElement / 4u; ++h) {
       uvec4 cs = corners[2u * n.y + h];
       vec4 N = blk[n.z + h];
       for (int k = 0; k < 4; ++k) p += N[k] * cpos[cs[k]].xyz;
@@ -57,7 +57,7 @@ void main() {
     mat3 Rt = transpose(R);
     vec3 q = X;
     uint o = n.z;
-    for (uint h = 0u; h < P.limits.y / 4u; ++h) {
+    for (uint h = 0u; h < P.cornersPerElement / 4u; ++h) {
       uvec4 cs = corners[2u * n.y + h];
       for (int k = 0; k < 4; ++k, o += 3u) q += block3(o) * (Rt * cpos[cs[k]].xyz - crest[cs[k]].xyz);
     }

@@ -25,8 +25,8 @@ layout(std430, set = 0, binding = kBindDeformResolveBrickList) readonly buffer B
 layout(std430, set = 0, binding = kBindDeformResolveRigid) readonly buffer Rigid { uvec4 rigidCount; RigidDraw rigid[]; };
 #include "deform_voxel.glsl"
 
-uint maskAt(ivec3 i) { return uint(texelFetch(uSourceMask, clamp(i, ivec3(0), P.dims.xyz - 1), 0).r * 255.0 + 0.5); }
-ivec3 nearestVoxel(vec3 r) { return clamp(ivec3(floor(r + 0.5)), ivec3(0), P.dims.xyz - 1); }
+uint maskAt(ivec3 i) { return uint(texelFetch(uSourceMask, clamp(i, ivec3(0), P.volumeDims - 1), 0).r * 255.0 + 0.5); }
+ivec3 nearestVoxel(vec3 r) { return clamp(ivec3(floor(r + 0.5)), ivec3(0), P.volumeDims - 1); }
 
 bool drawnRigidly(uint id) {
   for (uint m = 0u; m < rigidCount.x; ++m)
@@ -37,10 +37,10 @@ bool drawnRigidly(uint id) {
 // Trilinear interpolation from eight texel fetches with float weights (hardware filtering may use
 // 8-bit weights), clamped at the edges like Volume::sampleLinear.
 float sampleTrilinear(vec3 idx) {
-  vec3 p = clamp(idx, vec3(0.0), vec3(P.dims.xyz - 1));
+  vec3 p = clamp(idx, vec3(0.0), vec3(P.volumeDims - 1));
   ivec3 i0 = ivec3(floor(p));
   vec3 f = p - vec3(i0);
-  ivec3 i1 = min(i0 + 1, P.dims.xyz - 1);
+  ivec3 i1 = min(i0 + 1, P.volumeDims - 1);
   float c000 = texelFetch(uSource, ivec3(i0.x, i0.y, i0.z), 0).r, c100 = texelFetch(uSource, ivec3(i1.x, i0.y, i0.z), 0).r;
   float c010 = texelFetch(uSource, ivec3(i0.x, i1.y, i0.z), 0).r, c110 = texelFetch(uSource, ivec3(i1.x, i1.y, i0.z), 0).r;
   float c001 = texelFetch(uSource, ivec3(i0.x, i0.y, i1.z), 0).r, c101 = texelFetch(uSource, ivec3(i1.x, i0.y, i1.z), 0).r;
@@ -59,7 +59,7 @@ float nearestTissue(vec3 idx) {
     for (int dy = -2; dy <= 2; ++dy)
       for (int dx = -2; dx <= 2; ++dx) {
         ivec3 i = n + ivec3(dx, dy, dz);
-        if (any(lessThan(i, ivec3(0))) || any(greaterThanEqual(i, P.dims.xyz))) continue;
+        if (any(lessThan(i, ivec3(0))) || any(greaterThanEqual(i, P.volumeDims))) continue;
         vec3 e = vec3(i) - idx;
         float d2 = dot(e, e);
         if (d2 >= best || drawnRigidly(maskAt(i))) continue;
@@ -73,7 +73,7 @@ float nearestTissue(vec3 idx) {
 bool rigidAt(ivec3 v, out vec3 r, out uint id) {
   for (uint m = 0u; m < rigidCount.x; ++m) {
     r = (rigid[m].currentToRest * vec4(vec3(v), 1.0)).xyz;
-    if (any(lessThan(r, vec3(-0.5))) || any(greaterThanEqual(r, vec3(P.dims.xyz) - 0.5))) continue;
+    if (any(lessThan(r, vec3(-0.5))) || any(greaterThanEqual(r, vec3(P.volumeDims) - 0.5))) continue;
     if (maskAt(nearestVoxel(r)) == rigid[m].id.x) {
       id = rigid[m].id.x;
       return true;
@@ -86,9 +86,9 @@ void main() {
   ivec3 v;
   bool inBox = deformVoxel(v);
   bool claimed = false;
-  ivec3 o = v - P.regionVoxLo.xyz;
+  ivec3 o = v - P.regionVoxLo;
   // A whole-volume redo covers voxels outside the region's owner grid: nothing to resolve there.
-  if (inBox && all(greaterThanEqual(o, ivec3(0))) && all(lessThan(o, P.ownerDims.xyz))) {
+  if (inBox && all(greaterThanEqual(o, ivec3(0))) && all(lessThan(o, P.ownerDims))) {
     uint own = owner[uint(o.x + P.ownerDims.x * (o.y + P.ownerDims.y * o.z))];
     claimed = own != 0u && own != kDeformNoOwner;
     vec3 r;
@@ -108,5 +108,5 @@ void main() {
     }
   }
   uint covered = subgroupAdd(claimed ? 1u : 0u);
-  if (subgroupElect() && covered > 0u) atomicAdd(box.stats.y, covered);
+  if (subgroupElect() && covered > 0u) atomicAdd(box.coveredVoxels, covered);
 }

@@ -30,7 +30,7 @@ float largestEigenvalue(mat3 C) {
 
 void main() {
   uint t = gl_GlobalInvocationID.x;
-  if (t >= uint(P.regionVoxHi.w)) return;
+  if (t >= uint(P.fineTetCount)) return;
   uvec4 v = tet[t];
   vec3 X0 = rest[v.x].xyz;
   mat3 Dm = mat3(rest[v.y].xyz - X0, rest[v.z].xyz - X0, rest[v.w].xyz - X0);

@@ -11,7 +11,7 @@ layout(std430, set = 0, binding = kBindHandles) readonly buffer Handles { vec4 h
 
 // Handle id of the voxel nearest to a continuous index (0: none).
 uint handleAt(vec3 idx) {
-  ivec3 v = clamp(ivec3(floor(idx + 0.5)), ivec3(0), P.dims.xyz - 1);
+  ivec3 v = clamp(ivec3(floor(idx + 0.5)), ivec3(0), P.volumeDims - 1);
   return uint(round(texelFetch(uMask, v, 0).r * 255.0));
 }
 
@@ -19,11 +19,11 @@ uint handleAt(vec3 idx) {
 
 // Normalized value at a continuous voxel index (voxel centres at integers), clamped at the edges.
 float sampleVolume(vec3 idx) {
-  return textureLod(uVolume, (idx + 0.5) / vec3(P.dims.xyz), 0.0).r;
+  return textureLod(uVolume, (idx + 0.5) / vec3(P.volumeDims), 0.0).r;
 }
 
 bool isMoving(uint id) {
-  for (uint m = 0u; m < P.control.w; ++m)
+  for (uint m = 0u; m < P.movingCount; ++m)
     if (P.moving[m].id.x == id) return true;
   return false;
 }
@@ -33,12 +33,12 @@ bool isMoving(uint id) {
 float materialAt(vec3 idx, out uint id) {
   id = handleAt(idx);
   float v = sampleVolume(idx);
-  if (P.control.w == 0u) return v;
+  if (P.movingCount == 0u) return v;
   if (id != 0u && isMoving(id)) {
     id = 0u;
     v = -1.0;  // nothing here any more (transparent below)
   }
-  for (uint m = 0u; m < P.control.w; ++m) {
+  for (uint m = 0u; m < P.movingCount; ++m) {
     vec3 rest = (P.moving[m].currentToRest * vec4(idx, 1.0)).xyz;
     if (handleAt(rest) == P.moving[m].id.x) {
       id = P.moving[m].id.x;
@@ -60,10 +60,10 @@ vec4 transferRow(uint row, float v) {
 // Transfer function over value alone (the first row).
 vec4 transfer(float v) { return transferRow(0u, v); }
 
-// Over value and gradient magnitude g (normalized value per mm; P.tfGradient.x > 0): bilinear
-// between the rows around g / P.tfGradient.x * (kTfGradientRows - 1).
+// Over value and gradient magnitude g (normalized value per mm; P.tfRowGradient > 0): bilinear
+// between the rows around g / P.tfRowGradient * (kTfGradientRows - 1).
 vec4 transfer2(float v, float g) {
-  float y = clamp(g / P.tfGradient.x, 0.0, 1.0) * float(kTfGradientRows - 1);
+  float y = clamp(g / P.tfRowGradient, 0.0, 1.0) * float(kTfGradientRows - 1);
   uint r0 = uint(floor(y));
   uint r1 = min(r0 + 1u, kTfGradientRows - 1u);
   return mix(transferRow(r0, v), transferRow(r1, v), y - float(r0));
@@ -88,7 +88,7 @@ bool transparentAtAnyGradient(float v) { return transferRow(kTfGradientRows, v).
 // when the table has that axis (the volume as it is at idx: a moved handle's gradient is taken
 // where it is drawn, as the shading takes it), else over value.
 vec4 transferAt(vec3 idx, float value) {
-  if (P.tfGradient.x <= 0.0) return transfer(value);
+  if (P.tfRowGradient <= 0.0) return transfer(value);
   if (transparentAtAnyGradient(value)) return vec4(0.0);
   return transfer2(value, length(worldGradient(idx)));
 }
@@ -97,7 +97,7 @@ vec4 transferAt(vec3 idx, float value) {
 // half-space n.x >= D, so the first sample and the first visible point lie behind the cut, for the
 // raymarch and picking alike. CPU reference: clipRay in render/raymarch_reference.cpp.
 void clipRay(vec3 originW, vec3 dirW, inout float t0, inout float t1) {
-  uint flags = P.control.x;
+  uint flags = P.flags;
   if ((flags & kFlagClipBox) != 0u) {
     vec3 inv = 1.0 / dirW;
     vec3 ca = (P.clipMin.xyz - originW) * inv, cb = (P.clipMax.xyz - originW) * inv;
@@ -118,11 +118,11 @@ void clipRay(vec3 originW, vec3 dirW, inout float t0, inout float t1) {
 bool setupRay(vec2 ndc, out vec3 originW, out vec3 dirW, out float t0, out float t1) {
   vec4 nearH = P.invViewProj * vec4(ndc, 0.0, 1.0);
   vec4 farH = P.invViewProj * vec4(ndc, 1.0, 1.0);
-  originW = P.cameraPos.xyz;
+  originW = P.eye;
   dirW = normalize(farH.xyz / farH.w - nearH.xyz / nearH.w);
   vec3 o = (P.worldToIndex * vec4(originW, 1.0)).xyz;
   vec3 d = mat3(P.worldToIndex) * dirW;
-  vec3 lo = vec3(-0.5), hi = vec3(P.dims.xyz) - 0.5;
+  vec3 lo = vec3(-0.5), hi = vec3(P.volumeDims) - 0.5;
   vec3 inv = 1.0 / d;  // IEEE: +-inf for axis-parallel rays, handled by min/max below
   vec3 ta = (lo - o) * inv, tb = (hi - o) * inv;
   vec3 tmin = min(ta, tb), tmax = max(ta, tb);
@@ -135,10 +135,10 @@ bool setupRay(vec2 ndc, out vec3 originW, out vec3 dirW, out float t0, out float
 // Brick of a continuous index, and whether it may contain visible samples: by the transfer
 // function's occupancy, or because a moved handle's material is now there.
 bool brickOccupied(vec3 idx, out ivec3 brick) {
-  brick = clamp(ivec3(floor((idx + 0.5) / float(kBrickSize))), ivec3(0), P.brickDims.xyz - 1);
-  if (occupancy[(brick.z * P.brickDims.y + brick.y) * P.brickDims.x + brick.x] != 0u) return true;
+  brick = clamp(ivec3(floor((idx + 0.5) / float(kBrickSize))), ivec3(0), P.brickCount - 1);
+  if (occupancy[(brick.z * P.brickCount.y + brick.y) * P.brickCount.x + brick.x] != 0u) return true;
   vec3 lo = vec3(brick) * float(kBrickSize) - 0.5, hi = lo + float(kBrickSize);
-  for (uint m = 0u; m < P.control.w; ++m)
+  for (uint m = 0u; m < P.movingCount; ++m)
     if (all(lessThanEqual(P.moving[m].boxMin.xyz, hi)) && all(greaterThanEqual(P.moving[m].boxMax.xyz, lo))) return true;
   return false;
 }
@@ -153,7 +153,7 @@ float brickExit(vec3 o, vec3 d, ivec3 brick) {
 }
 
 // Opacity of one sample, corrected from the reference step to the actual step (the raymarch's,
-// P.march.x * P.quality.x; picking's, P.march.x).
+// P.stepMm * P.stepScale; picking's, P.stepMm).
 float correctedAlpha(float a, float step) {
-  return 1.0 - pow(max(1.0 - a, 0.0), step / P.march.y);
+  return 1.0 - pow(max(1.0 - a, 0.0), step / P.opacityStepMm);
 }

@@ -11,7 +11,7 @@ layout(std430, set = 0, binding = kBindPickInput) readonly buffer In { vec4 poin
 
 void main() {
   uint id = gl_GlobalInvocationID.x;
-  if (id >= P.control.y) return;
+  if (id >= P.pickCount) return;
   PickResult r;
   r.world = vec4(0.0);
   r.voxel = ivec4(-1, -1, -1, 0);
@@ -21,11 +21,11 @@ void main() {
   if (!any(isnan(ndc)) && setupRay(ndc, originW, dirW, t0, t1)) {
     vec3 o = (P.worldToIndex * vec4(originW, 1.0)).xyz;
     vec3 d = mat3(P.worldToIndex) * dirW;
-    float step = P.march.x;
+    float step = P.stepMm;
     float alpha = 0.0;
     uint n = 0u, taken = 0u;
     float occupiedUntil = -1.0;
-    while (taken < P.control.z) {
+    while (taken < P.maxSteps) {
       float t = t0 + (float(n) + 0.5) * step;
       if (t >= t1) break;
       vec3 idx = o + t * d;
@@ -49,9 +49,9 @@ void main() {
       if (s.a <= 0.0) continue;
       float before = alpha;
       alpha += (1.0 - alpha) * correctedAlpha(s.a, step);
-      if (alpha >= P.march.w) {
+      if (alpha >= P.pickAlpha) {
         // Accumulated opacity interpolated linearly between this sample and the previous one.
-        float f = clamp((P.march.w - before) / max(alpha - before, 1e-6), 0.0, 1.0);
+        float f = clamp((P.pickAlpha - before) / max(alpha - before, 1e-6), 0.0, 1.0);
         float th = max(t - step + f * step, t0);
         r.world = vec4(originW + th * dirW, 1.0);
         r.voxel = ivec4(ivec3(floor(o + th * d + 0.5)), int(id));

@@ -16,10 +16,10 @@ layout(set = 0, binding = kBindAccum, rgba32f) uniform image2D uAccum;
 // with kFlagJitter the pixel's blue-noise rank shifted by the jitter phase (integer arithmetic, so
 // the CPU reference finds the same offset). CPU reference: sampleOffset in render/raymarch_reference.cpp.
 float sampleOffset(ivec2 px) {
-  if ((P.control.x & kFlagJitter) == 0u) return 0.5;
+  if ((P.flags & kFlagJitter) == 0u) return 0.5;
   uint tile = uint(kJitterTile);
   uint rank = jitterRank[(uint(px.y) % tile) * tile + uint(px.x) % tile];
-  uint shifted = (rank + uint(P.quality.y) * uint(kJitterPhaseStep)) % (tile * tile);
+  uint shifted = (rank + uint(P.jitterPhase) * uint(kJitterPhaseStep)) % (tile * tile);
   return (float(shifted) + 0.5) / float(tile * tile);
 }
 
@@ -27,45 +27,45 @@ float sampleOffset(ivec2 px) {
 // background (0) untouched. CPU reference: labelTint in render/raymarch_reference.cpp.
 const float kLabelPalette[3 * kLabelPaletteSize] = float[](HANDSON_LABEL_PALETTE);
 vec3 labelTint(vec3 c, vec3 idx) {
-  ivec3 v = clamp(ivec3(floor(idx + 0.5)), ivec3(0), P.dims.xyz - 1);
+  ivec3 v = clamp(ivec3(floor(idx + 0.5)), ivec3(0), P.volumeDims - 1);
   uint l = uint(round(texelFetch(uLabels, v, 0).r * 65535.0));
   if (l == 0u) return c;
   uint k = 3u * (l % kLabelPaletteSize);
   return mix(c, vec3(kLabelPalette[k], kLabelPalette[k + 1u], kLabelPalette[k + 2u]), HANDSON_LABEL_TINT_WEIGHT);
 }
 
-// The strain overlay (kFlagStrainOverlay): the strain of the nearest voxel, from P.strain.x (no
-// colour) to P.strain.y (full colour, weight P.strain.z), yellow to red. CPU reference:
+// The strain overlay (kFlagStrainOverlay): the strain of the nearest voxel, from P.strainFrom (no
+// colour) to P.strainTo (full colour, weight P.strainWeight), yellow to red. CPU reference:
 // strainTint in render/raymarch_reference.cpp.
 vec3 strainTint(vec3 c, vec3 idx) {
-  ivec3 v = clamp(ivec3(floor(idx + 0.5)), ivec3(0), P.dims.xyz - 1);
+  ivec3 v = clamp(ivec3(floor(idx + 0.5)), ivec3(0), P.volumeDims - 1);
   float e = texelFetch(uStrain, v, 0).r;
-  if (!(e > P.strain.x)) return c;
-  float w = clamp((e - P.strain.x) / max(P.strain.y - P.strain.x, 1e-6), 0.0, 1.0);
+  if (!(e > P.strainFrom)) return c;
+  float w = clamp((e - P.strainFrom) / max(P.strainTo - P.strainFrom, 1e-6), 0.0, 1.0);
   vec3 ramp = mix(vec3(1.0, 0.85, 0.1), vec3(0.9, 0.05, 0.05), w);
-  return mix(c, ramp, P.strain.z * (0.25 + 0.75 * w));
+  return mix(c, ramp, P.strainWeight * (0.25 + 0.75 * w));
 }
 
 // The limit highlight (kFlagLimitHighlight): where the nearest voxel's strain is past its tissue's
 // limit (strain over limit > 1), HANDSON_LIMIT_COLOUR at HANDSON_LIMIT_WEIGHT. CPU reference:
 // limitTint in render/raymarch_reference.cpp.
 vec3 limitTint(vec3 c, vec3 idx) {
-  ivec3 v = clamp(ivec3(floor(idx + 0.5)), ivec3(0), P.dims.xyz - 1);
+  ivec3 v = clamp(ivec3(floor(idx + 0.5)), ivec3(0), P.volumeDims - 1);
   if (!(texelFetch(uStrainLimit, v, 0).r > 1.0)) return c;
   return mix(c, vec3(HANDSON_LIMIT_COLOUR), HANDSON_LIMIT_WEIGHT);
 }
 
 void main() {
   ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-  int width = P.dims.w, height = P.brickDims.w;
+  int width = P.outputWidth, height = P.outputHeight;
   if (px.x >= width || px.y >= height) return;
-  bool accumulate = (P.control.x & kFlagAccumulate) != 0u;
-  if (accumulate && P.quality.w > 0.5) {  // the still frame is complete: show its mean
-    imageStore(uOutput, px, vec4(clamp(imageLoad(uAccum, px).rgb / P.quality.z, 0.0, 1.0), 1.0));
+  bool accumulate = (P.flags & kFlagAccumulate) != 0u;
+  if (accumulate && (P.flags & kFlagShowSum) != 0u) {  // the still frame is complete: show its mean
+    imageStore(uOutput, px, vec4(clamp(imageLoad(uAccum, px).rgb / float(P.summedFrames), 0.0, 1.0), 1.0));
     return;
   }
   vec2 ndc = (vec2(px) + 0.5) / vec2(width, height) * 2.0 - 1.0;
-  uint flags = P.control.x;
+  uint flags = P.flags;
   vec3 color = vec3(0.0);
   float alpha = 0.0;
   vec3 originW, dirW;
@@ -74,8 +74,8 @@ void main() {
     vec3 o = (P.worldToIndex * vec4(originW, 1.0)).xyz;
     vec3 d = mat3(P.worldToIndex) * dirW;
     // The frame budget's step (1: the full-quality step; unset, 0, is taken as 1).
-    float step = P.quality.x > 0.0 ? P.march.x * P.quality.x : P.march.x;
-    uint maxSteps = P.control.z;
+    float step = P.stepScale > 0.0 ? P.stepMm * P.stepScale : P.stepMm;
+    uint maxSteps = P.maxSteps;
     // Samples sit at t0 + (n + offset) * step, whatever skipping does, so that skipping changes
     // nothing but the work done.
     float offset = sampleOffset(px);
@@ -103,7 +103,7 @@ void main() {
       float value = materialAt(idx, id);
       if (value < 0.0) continue;  // the place a moved handle left
       // The gradient, when the transfer function or the shading needs it (once for both).
-      bool overGradient = P.tfGradient.x > 0.0;
+      bool overGradient = P.tfRowGradient > 0.0;
       if (overGradient && transparentAtAnyGradient(value)) continue;
       vec3 g = overGradient ? worldGradient(idx) : vec3(0.0);
       vec4 s = overGradient ? transfer2(value, length(g)) : transfer(value);
@@ -120,23 +120,23 @@ void main() {
         if (gl > 1e-6) {
           vec3 nrm = g / gl;
           float ndl = abs(dot(nrm, dirW));
-          c = c * (P.light.x + P.light.y * ndl) + vec3(P.light.z * pow(ndl, P.light.w));
+          c = c * (P.ambient + P.diffuse * ndl) + vec3(P.specular * pow(ndl, P.shininess));
         } else {
-          c = c * (P.light.x + P.light.y);
+          c = c * (P.ambient + P.diffuse);
         }
       }
       color += (1.0 - alpha) * a * c;
       alpha += (1.0 - alpha) * a;
-      if ((flags & kFlagEarlyTermination) != 0u && alpha >= P.march.z) break;
+      if ((flags & kFlagEarlyTermination) != 0u && alpha >= P.earlyStopAlpha) break;
     }
   }
   vec3 outc = clamp(color + (1.0 - alpha) * P.background.rgb * P.background.a, 0.0, 1.0);
   // A still frame: this phase added to the sum of the earlier ones, their mean shown (CPU
   // reference: raymarchReference's accumulation in render/raymarch_reference.cpp).
   if (accumulate) {
-    vec3 sum = P.quality.z > 0.5 ? imageLoad(uAccum, px).rgb + outc : outc;
+    vec3 sum = P.summedFrames > 0u ? imageLoad(uAccum, px).rgb + outc : outc;
     imageStore(uAccum, px, vec4(sum, 1.0));
-    outc = sum / (P.quality.z + 1.0);
+    outc = sum / (float(P.summedFrames) + 1.0);
   }
   imageStore(uOutput, px, vec4(clamp(outc, 0.0, 1.0), 1.0));
 }

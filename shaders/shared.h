@@ -1,7 +1,8 @@
 // Shared between C++ and GLSL: workgroup sizes, binding numbers and the parameter-block layouts of
 // the compute passes. C++ includes it with glm types; GLSL includes it with GL_GOOGLE_include_directive.
-// Every block uses only 16-byte members (mat4, vec4, ivec4, uvec4), so std140, std430 and C++ agree;
-// the static_asserts below keep them so. The blocks are read-only storage buffers (std430), not
+// Every block is made of 16-byte groups (a mat4, a vec4, an ivec4, a vec3 or ivec3 and one scalar,
+// or four scalars), so std140, std430 and C++ agree; the static_asserts below keep them so. Each
+// field means one thing and says so by its name; flags are bits with names. The blocks are read-only storage buffers (std430), not
 // uniform buffers: lavapipe (Mesa 22.3) inlines uniform-buffer values that steer loops and compiles
 // a new shader variant each time the buffer is bound, every frame, keeping each until the device is
 // destroyed (two LLVM compiles and ~0.5 MiB a frame, measured with `handson soak`).
@@ -9,6 +10,7 @@
 #define HANDSON_SHADERS_SHARED_H
 
 #ifdef __cplusplus
+#include <cstddef>
 #include <cstdint>
 #include <glm/glm.hpp>
 namespace handson::gpu {
@@ -16,6 +18,8 @@ using mat4 = glm::mat4;
 using vec4 = glm::vec4;
 using ivec4 = glm::ivec4;
 using uvec4 = glm::uvec4;
+using vec3 = glm::vec3;
+using ivec3 = glm::ivec3;
 using uint = std::uint32_t;
 #define HS_CONST constexpr std::uint32_t
 #else
@@ -47,7 +51,7 @@ HS_CONST kBindBrickMinmaxOut = 1;
 
 // Transfer-function lookup table: kTfEntries RGBA entries spanning the volume's value window, one
 // row over value alone, or kTfGradientRows rows (row-major: row r at the gradient magnitude
-// r / (kTfGradientRows - 1) of RenderParams.tfGradient.x) over value and gradient magnitude and
+// r / (kTfGradientRows - 1) of RenderParams.tfRowGradient) over value and gradient magnitude and
 // then their envelope, the rows' largest entries (render/tf_table.h).
 HS_CONST kTfEntries = 4096;
 HS_CONST kTfGradientRows = 16;
@@ -63,13 +67,14 @@ HS_CONST kTfGradientRows = 16;
 HS_CONST kFlagEmptySpaceSkipping = 1u;
 HS_CONST kFlagEarlyTermination = 2u;
 HS_CONST kFlagShading = 4u;
-HS_CONST kFlagStrainOverlay = 8u;  // raymarch: colour tissue by its strain (RenderParams.strain)
+HS_CONST kFlagStrainOverlay = 8u;  // raymarch: colour tissue by its strain (RenderParams.strainFrom/To/Weight)
 HS_CONST kFlagLabelTint = 16u;     // raymarch: colour tissue by its organ label (kBindLabels, kLabelPalette)
 HS_CONST kFlagClipBox = 32u;       // raymarch and pick: only inside RenderParams.clipMin..clipMax (world box)
 HS_CONST kFlagClipPlane = 64u;     // raymarch and pick: only where dot(clipPlane.xyz, x) >= clipPlane.w
 HS_CONST kFlagLimitHighlight = 128u;  // raymarch: colour tissue past its strain limit (kBindStrainLimit)
-HS_CONST kFlagJitter = 256u;  // raymarch: each pixel's first sample offset by its blue-noise rank (kBindJitter, quality.y)
-HS_CONST kFlagAccumulate = 512u;  // raymarch: a still frame's running sum in kBindAccum (quality.z frames in it; quality.w = 1: show it, add none)
+HS_CONST kFlagJitter = 256u;  // raymarch: each pixel's first sample offset by its blue-noise rank (kBindJitter, jitterPhase)
+HS_CONST kFlagAccumulate = 512u;  // raymarch: a still frame's running sum in kBindAccum (summedFrames frames in it)
+HS_CONST kFlagShowSum = 1024u;    // raymarch with kFlagAccumulate: the still frame is complete: show its sum's mean, march nothing
 
 // Bindings of the raymarch and pick passes (one push-descriptor set).
 HS_CONST kBindParams = 0;     // RenderParams (read-only storage buffer)
@@ -81,7 +86,7 @@ HS_CONST kBindPickInput = 5;  // pick: storage buffer vec4[] (xy = NDC point)
 HS_CONST kBindMask = 6;       // sampler3D, R8_UNORM handle ids (id / 255), same grid as the volume
 HS_CONST kBindHandles = 7;    // storage buffer vec4[kMaxHandleIds]: rgb tint, a = tint weight (0: none)
 HS_CONST kMaxHandleIds = 256; // id 0 = no handle
-HS_CONST kMaxMovingHandles = 8;  // handles drawn at a rigid pose (RenderParams.moving, count in control.w)
+HS_CONST kMaxMovingHandles = 8;  // handles drawn at a rigid pose (RenderParams.moving, count in movingCount)
 HS_CONST kBindStrain = 8;     // raymarch only: sampler3D, R32 float strain on the volume's grid (texelFetch)
 HS_CONST kBindLabels = 9;     // raymarch only: sampler3D, R16_UNORM organ labels (label / 65535) on the volume's grid
 HS_CONST kBindStrainLimit = 10;  // raymarch only: sampler3D, R32 float strain over its tissue's limit (texelFetch; 0: none)
@@ -115,23 +120,37 @@ struct RenderParams {
   mat4 invViewProj;   // clip (Vulkan NDC, z in [0,1]) -> world
   mat4 worldToIndex;  // world (mm) -> continuous voxel index (voxel centres at integers)
   mat4 indexToWorld;  // inverse of the above
-  vec4 cameraPos;     // xyz world position of the eye, w unused
-  ivec4 dims;         // xyz voxel counts, w = output width
-  ivec4 brickDims;    // xyz brick counts, w = output height
-  vec4 march;         // x = step (mm), y = opacity reference step (mm), z = early-termination alpha, w = pick threshold
-  vec4 background;    // rgba composited behind the volume
-  vec4 light;         // x = ambient, y = diffuse, z = specular, w = shininess
-  uvec4 control;      // x = flags, y = pick count, z = max steps, w = moving handle count
-  vec4 tfGradient;    // x = the gradient magnitude (normalized value per mm) of the transfer function's last
-                      // row; 0: its table is over value alone (one row, no gradient computed for it)
-  vec4 strain;        // overlay: x = strain where the colour starts, y = where it is full, z = its weight there
-  vec4 clipMin;       // xyz: the clip box's low corner (world mm; kFlagClipBox)
-  vec4 clipMax;       // xyz: its high corner
-  vec4 clipPlane;     // xyz unit normal n, w = D: what is kept is n.x >= D (world mm; kFlagClipPlane)
-  vec4 quality;       // x = the raymarch's step over march.x (the frame budget; 1: full quality; picking
-                      // always takes march.x), y = the jitter phase (kFlagJitter; a whole number), z = the
-                      // frames already summed in kBindAccum (kFlagAccumulate; 0 starts the sum), w = 1: show
-                      // the sum divided by z and march nothing
+  vec3 eye;              // the eye's world position
+  float opacityStepMm;   // the step the transfer function's opacities are given for (mm)
+  ivec3 volumeDims;      // voxel counts
+  int outputWidth;       // the output image (pixels)
+  ivec3 brickCount;      // bricks of kBrickSize^3 voxels along each axis
+  int outputHeight;
+  float stepMm;          // the ray's step at full quality (picking always takes it)
+  float stepScale;       // the raymarch's step over stepMm (the frame budget; 1: full quality)
+  float earlyStopAlpha;  // kFlagEarlyTermination: a ray stops once this opaque
+  float pickAlpha;       // a pick lands where the ray's opacity reaches this
+  vec4 background;       // rgba composited behind the volume
+  float ambient;         // shading (kFlagShading): Blinn-Phong's terms
+  float diffuse;
+  float specular;
+  float shininess;
+  uint flags;            // kFlag* bits
+  uint pickCount;        // points in kBindPickInput
+  uint maxSteps;         // a ray's most steps (twice the volume's diagonal, and some)
+  uint movingCount;      // moving[0, movingCount) are drawn at their rigid pose
+  float tfRowGradient;   // the gradient magnitude (normalized value per mm) of the transfer function's
+                         // last row; 0: its table is over value alone (one row, no gradient computed)
+  uint jitterPhase;      // kFlagJitter: which phase of the blue-noise offsets this frame takes
+  uint summedFrames;     // kFlagAccumulate: the frames already summed in kBindAccum (0 starts the sum)
+  float strainFrom;      // the strain overlay: the strain where the colour starts,
+  float strainTo;        // where it is full,
+  float strainWeight;    // and its weight there
+  float unused0;
+  float unused1;
+  vec4 clipMin;          // xyz: the clip box's low corner (world mm; kFlagClipBox)
+  vec4 clipMax;          // xyz: its high corner
+  vec4 clipPlane;        // xyz unit normal n, w = D: what is kept is n.x >= D (world mm; kFlagClipPlane)
   MovingHandle moving[kMaxMovingHandles];
 };
 
@@ -217,7 +236,7 @@ HS_CONST kBindDeformBoundsBrickMotion = 5;  // uint per brick: this frame's larg
 HS_CONST kBindDeformBricksParams = 0;
 HS_CONST kBindDeformBricksBox = 1;
 HS_CONST kBindDeformBricksFlags = 2;
-HS_CONST kBindDeformBricksList = 3;  // the dirty bricks' indices, box.bricks.y of them
+HS_CONST kBindDeformBricksList = 3;  // the dirty bricks' indices, box.dirtyBrickCount of them
 HS_CONST kBindDeformBricksLag = 4;   // float per brick: lag accumulated since it was last resampled
 HS_CONST kBindDeformBricksRigid = 5; // RigidDraws: the rigid handles' boxes and motions
 // deform_args.comp
@@ -273,17 +292,25 @@ HS_CONST kBindDeformStrainRasterBrickList = 7;
 struct DeformParams {
   mat4 worldToIndex;
   mat4 indexToWorld;
-  vec4 regionLo;      // world box of the mesh at rest (xyz), w = background (normalized value)
-  vec4 regionHi;      // xyz, w = the lag allowed during motion (voxels; DeformSetup::motionLagVoxels)
-  ivec4 regionVoxLo;  // xyz: voxel index box that can hold region voxels (inclusive), w = fine node count
-  ivec4 regionVoxHi;  // xyz, w = fine tet count
-  ivec4 dims;         // xyz volume dims, w = handle count
-  ivec4 ownerDims;    // xyz: regionVoxHi - regionVoxLo + 1 (owner buffer), w = coarse element count
-  uvec4 limits;       // x = most voxels a tet's range may hold (larger ones are skipped and counted),
-                      // y = corners per coarse element (4 or 8), z = 1: the strain raster also writes
-                      // strain over each tet's limit (kBindDeformStrainRasterLimit*)
-  ivec4 bricks;       // xyz: the dirty-brick grid over the region's voxel box (HANDSON_DEFORM_BRICK
-                      // voxels a side, brick (0,0,0) at regionVoxLo, x fastest), w = brick count
+  vec3 regionLo;          // the world box of the mesh at rest
+  float background;       // the value outside the tissue (normalized)
+  vec3 regionHi;
+  float motionLagVoxels;  // the lag allowed during motion (voxels; DeformSetup::motionLagVoxels)
+  ivec3 regionVoxLo;      // the voxel index box that can hold region voxels (inclusive)
+  int fineNodeCount;
+  ivec3 regionVoxHi;
+  int fineTetCount;
+  ivec3 volumeDims;       // voxel counts
+  int handleCount;
+  ivec3 ownerDims;        // regionVoxHi - regionVoxLo + 1 (the owner buffer)
+  int coarseElementCount;
+  uint maxTetVoxels;      // the most voxels a tet's range may hold (larger ones are skipped and counted)
+  uint cornersPerElement; // 4 or 8
+  uint writeOverLimit;    // 1: the strain raster also writes strain over each tet's limit (kBindDeformStrainRasterLimit*)
+  uint unused0;
+  ivec3 brickGrid;        // the dirty-brick grid over the region's voxel box (HANDSON_DEFORM_BRICK voxels a
+                          // side, brick (0,0,0) at regionVoxLo, x fastest)
+  int brickCount;
 };
 
 // A handle drawn rigidly by the resampling (a sliding handle: its voxels are where its pose puts
@@ -302,21 +329,30 @@ struct RigidDraw {
 // The box redone this frame (storage buffer, written by deform_bounds.comp, clamped by
 // deform_args.comp) and counters.
 struct DeformBox {
-  ivec4 lo;     // xyz inclusive voxel index
-  ivec4 hi;     // xyz inclusive (lo > hi: nothing to redo)
-  uvec4 stats;  // x = moved tets, y = covered voxels, z = tets skipped as too large (a torn state)
-  uvec4 bricks; // x = 1: this frame redoes the dirty bricks (else the box), y = dirty bricks listed,
-                // z = 1: every brick is dirty (a moved tet spans more bricks than it may mark)
+  ivec3 lo;              // the voxel index box redone (inclusive)
+  uint brickMode;        // 1: this frame redoes the dirty bricks listed (else the box)
+  ivec3 hi;              // inclusive (lo > hi: nothing to redo)
+  uint dirtyBrickCount;  // dirty bricks listed
+  uint movedTets;
+  uint coveredVoxels;
+  uint skippedTets;      // tets skipped as too large (a torn state)
+  uint allBricksDirty;   // 1: every brick is dirty (a moved tet spans more bricks than it may mark)
 };
 
 #ifdef __cplusplus
 static_assert(sizeof(DeformParams) == 2 * 64 + 8 * 16, "DeformParams must match std140");
-static_assert(sizeof(DeformBox) == 64, "DeformBox must match std430");
+static_assert(offsetof(DeformParams, background) == 2 * 64 + 12 && offsetof(DeformParams, brickCount) == 2 * 64 + 7 * 16 + 12,
+              "DeformParams' vec3 groups must pack as in GLSL");
+static_assert(sizeof(DeformBox) == 48 && offsetof(DeformBox, dirtyBrickCount) == 28, "DeformBox must match std430");
 static_assert(sizeof(RigidDraw) == 112, "RigidDraw must match std430");
 static_assert(sizeof(LiveMaskPush) == 32, "LiveMaskPush must match std430");
 static_assert(sizeof(GrowPush) <= 128, "push constants must fit lavapipe's 128 bytes");
 static_assert(sizeof(MovingHandle) == 112, "MovingHandle must match std140");
-static_assert(sizeof(RenderParams) == 3 * 64 + 13 * 16 + 8 * 112, "RenderParams must match std140");
+static_assert(sizeof(RenderParams) == 3 * 64 + 12 * 16 + 8 * 112, "RenderParams must match std140");
+// A vec3 or ivec3 followed by one scalar fills 16 bytes in GLSL: so must it here (no padding).
+static_assert(offsetof(RenderParams, opacityStepMm) == 3 * 64 + 12 && offsetof(RenderParams, volumeDims) == 3 * 64 + 16 &&
+                  offsetof(RenderParams, outputHeight) == 3 * 64 + 44 && offsetof(RenderParams, clipMin) == 3 * 64 + 9 * 16,
+              "RenderParams' vec3 groups must pack as in GLSL");
 static_assert(sizeof(PickResult) == 32, "PickResult must match std430");
 }  // namespace handson::gpu
 #endif

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <string>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/tetgen_mesher.h"
 
 namespace handson {

@@ -14,7 +14,7 @@
 // not necessarily one coarse tet: the coarse model needs cell elements on this mesh.
 #include <functional>
 
-#include "sim/progress.h"
+#include "sim/base/progress.h"
 #include "sim/tet_mesh.h"
 
 namespace handson {

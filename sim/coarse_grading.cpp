@@ -10,7 +10,7 @@
 #include <unordered_map>
 
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -37,7 +37,7 @@
 
 #include "sim/coarse_pcg_workspace.h"
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

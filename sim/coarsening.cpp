@@ -8,12 +8,12 @@
 #include <limits>
 #include <unordered_map>
 
-#include "sim/binary_io.h"
+#include "sim/base/binary_io.h"
 #include "sim/slide_io.h"
 #include "sim/blas_threads.h"
 #include "sim/handle_reaction.h"
 #include "sim/coarse_pcg_workspace.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -27,7 +27,7 @@
 
 #include "sim/fem.h"
 #include "sim/fine_interpolation.h"
-#include "sim/progress.h"
+#include "sim/base/progress.h"
 #include "sim/rigid_transform.h"
 #include "sim/sliding_interface.h"
 #include "sim/sparse_direct.h"

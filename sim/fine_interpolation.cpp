@@ -4,7 +4,7 @@
 #include <string>
 
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -20,7 +20,7 @@
 #include <Eigen/Geometry>
 #include <cstdio>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/fem.h"
 
 namespace handson {

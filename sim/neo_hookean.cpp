@@ -3,7 +3,7 @@
 #include <Eigen/Dense>
 #include <cmath>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "sim/fem.h"
-#include "sim/progress.h"
+#include "sim/base/progress.h"
 #include "sim/static_solver.h"
 #include "sim/tet_mesh.h"
 

@@ -4,7 +4,7 @@
 #include <thread>
 #include <vector>
 
-#include "error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

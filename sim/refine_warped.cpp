@@ -17,8 +17,8 @@
 #include <Eigen/Dense>
 #include <cmath>
 
-#include "sim/error.h"
-#include "sim/parallel.h"
+#include "sim/base/error.h"
+#include "sim/base/parallel.h"
 #include "sim/refine_pcg.h"
 #include "sim/two_level.h"
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <unordered_map>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -6,7 +6,7 @@
 #include <thread>
 #include <vector>
 
-#include "error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

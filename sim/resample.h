@@ -2,7 +2,7 @@
 // Resampling a volume onto a coarser or finer regular grid covering the same physical box.
 #include <cstddef>
 
-#include "progress.h"
+#include "sim/base/progress.h"
 #include "volume.h"
 
 namespace handson {

@@ -9,11 +9,11 @@
 #include <sstream>
 #include <unistd.h>
 
-#include "sim/atomic_file.h"
-#include "sim/binary_io.h"
+#include "sim/base/atomic_file.h"
+#include "sim/base/binary_io.h"
 #include "sim/slide_io.h"
 #include "sim/source_hash.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/static_solver.h"
 
 namespace handson {

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "sim/coarsening.h"
-#include "sim/progress.h"
+#include "sim/base/progress.h"
 #include "sim/sim_scene.h"
 #include "sim/volume.h"
 

@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "sim/adapted_mesh.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/neo_hookean.h"
 #include "sim/region_shape.h"
 #include "sim/skeleton.h"

@@ -10,7 +10,7 @@
 #include "sim/adapted_mesh.h"
 #include "sim/coarsening.h"
 #include "sim/materials.h"
-#include "sim/progress.h"
+#include "sim/base/progress.h"
 #include "sim/static_solver.h"
 #include "sim/tet_mesh.h"
 #include "sim/volume.h"

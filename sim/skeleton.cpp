@@ -6,7 +6,7 @@
 #include <queue>
 #include <unordered_map>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <vector>
 
-#include "sim/binary_io.h"
+#include "sim/base/binary_io.h"
 #include "sim/sliding_interface.h"
 
 namespace handson::bin {

@@ -5,7 +5,7 @@
 #include <string>
 
 #include "sim/distance_transform.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

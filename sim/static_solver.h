@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "sim/fem.h"
-#include "sim/progress.h"
+#include "sim/base/progress.h"
 #include "sim/sliding_interface.h"
 #include "sim/sparse_direct.h"
 #include "sim/tet_mesh.h"

@@ -6,7 +6,7 @@
 #include <climits>
 #include <cmath>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -2,8 +2,8 @@
 
 #include <Eigen/Dense>
 #include <sys/types.h>
-#include "sim/child_process.h"
-#include "sim/error.h"
+#include "sim/base/child_process.h"
+#include "sim/base/error.h"
 #include <unistd.h>
 
 #include <cerrno>

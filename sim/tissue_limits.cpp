@@ -8,7 +8,7 @@
 #include <queue>
 #include <utility>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "sim/blas_threads.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/refine_pcg.h"
 #include "sim/static_solver.h"
 

@@ -12,7 +12,7 @@
 #include <optional>
 #include <sstream>
 
-#include "error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -10,7 +10,7 @@
 #include "app/bench/bench.h"
 #include "app/cli/args.h"
 #include "app/cli/headless_scene.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson::cli {
 
@@ -38,7 +38,7 @@ Sample measure(HeadlessScene& scene, int repeat) {
     if (i == 0) continue;
     wall.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
     for (const auto& t : r.timings)
-      if (t.name == "raymarch") gpu.push_back(t.gpuMs);
+      if (t.id == PassId::Raymarch) gpu.push_back(t.gpuMs);
   }
   return {median(wall), median(gpu)};
 }

@@ -18,7 +18,7 @@
 #include "render/deform_pass.h"
 #include "render/vk_context.h"
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/fine_interpolation.h"
 #include "sim/quantized_volume.h"
 #include "sim/sim_scene.h"
@@ -58,15 +58,15 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-// GPU time of the passes whose names start with one of the prefixes (0 without timestamps).
 // The resampling passes (the interpolation is timed on its own).
-const std::initializer_list<const char*> kResamplePasses = {"deform-reset", "deform-bounds", "deform-bricks", "deform-args", "deform-clear", "deform-claim", "deform-resolve"};
+const std::initializer_list<PassId> kResamplePasses = {PassId::DeformReset, PassId::DeformBounds, PassId::DeformBricks, PassId::DeformArgs, PassId::DeformClear, PassId::DeformClaim, PassId::DeformResolve};
 
-double passMs(const std::vector<vk::PassTiming>& t, std::initializer_list<const char*> names) {
+// GPU time of the passes with one of the ids (0 without timestamps).
+double passMs(const std::vector<vk::PassTiming>& t, std::initializer_list<PassId> ids) {
   double ms = 0;
   for (const auto& p : t)
-    for (const char* n : names)
-      if (p.name == n) ms += p.gpuMs;
+    for (const PassId id : ids)
+      if (p.id == id) ms += p.gpuMs;
   return ms;
 }
 
@@ -133,7 +133,7 @@ RegionCheck checkRegionAgainstCpu(const DeformBench& bench, const CoarseFrameSta
   const auto rr = region.runFrame(state, vk::Redo::Region);
   r.gpuRegionWall = since(t0);
   r.gpuRegion = passMs(rr.timings, kResamplePasses);
-  r.gpuInterp = passMs(rr.timings, {"deform-interpolate"});
+  r.gpuInterp = passMs(rr.timings, {PassId::DeformInterpolate});
   const auto gpuVol = region.readVolume();
   std::size_t within = 0;
   for (std::size_t i = 0; i < gpuVol.size(); ++i) within += std::abs(q.toValue(gpuVol[i] / 65535.0f) - cpuOut.value(i)) <= 1.0f ? 1 : 0;
@@ -251,7 +251,7 @@ DragRun runDrag(const DeformBench& bench, Deformers& d, const DragOptions& o) {
     const auto b = timed(d.box, vk::Redo::Moved, wb);
     const auto w = timed(d.whole, vk::Redo::WholeVolume, ww);
     const double rk = passMs(k.timings, kResamplePasses), rb = passMs(b.timings, kResamplePasses), rw = passMs(w.timings, kResamplePasses);
-    const double ik = passMs(k.timings, {"deform-interpolate"});
+    const double ik = passMs(k.timings, {PassId::DeformInterpolate});
     const LagError e = lagError(d.bricks.readVolume(), d.whole.readVolume(), q, bench.rlo, bench.rhi, tau);
     csv << f << "," << tSolve << "," << state.bytes() << "," << b.movedTets << "," << k.dirtyBricks << "," << k.redoneVoxels() << "," << b.boxVoxels() << ","
         << ik << "," << rk << "," << wk << "," << rb << "," << wb << "," << rw << "," << ww << "," << e.rmsHu << "," << e.p99Hu << "," << e.maxHu << ","
@@ -276,8 +276,9 @@ DragRun runDrag(const DeformBench& bench, Deformers& d, const DragOptions& o) {
     worst.worstOverRange = std::max(worst.worstOverRange, e.worstOverRange);
     if (!o.quiet && f == frames) {
       std::cout << "  passes of the last frame (dirty bricks / moved box / whole volume, ms):";
-      for (const char* n : {"deform-interpolate", "deform-reset", "deform-bounds", "deform-bricks", "deform-args", "deform-clear", "deform-claim", "deform-resolve"})
-        std::cout << " " << n << " " << std::setprecision(2) << passMs(k.timings, {n}) << "/" << passMs(b.timings, {n}) << "/" << passMs(w.timings, {n});
+      for (const PassId n : {PassId::DeformInterpolate, PassId::DeformReset, PassId::DeformBounds, PassId::DeformBricks, PassId::DeformArgs, PassId::DeformClear,
+                             PassId::DeformClaim, PassId::DeformResolve})
+        std::cout << " " << passName(n) << " " << std::setprecision(2) << passMs(k.timings, {n}) << "/" << passMs(b.timings, {n}) << "/" << passMs(w.timings, {n});
       std::cout << "\n";
     }
     if (!o.quiet)

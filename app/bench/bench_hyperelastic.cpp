@@ -14,7 +14,7 @@
 #include "app/bench/bench.h"
 #include "app/cli/args.h"
 #include "app/session/console.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/handle_reaction.h"
 #include "sim/sim_scene.h"
 #include "sim/strain.h"

@@ -18,7 +18,7 @@
 #include "render/region_grow_pass.h"
 #include "render/vk_context.h"
 #include "render/vk_resources.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/quantized_volume.h"
 
 namespace handson::cli {

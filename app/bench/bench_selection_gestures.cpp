@@ -14,7 +14,7 @@
 
 #include "app/io/nifti_io.h"
 #include "app/tools/selection_gestures.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/quantized_volume.h"
 
 namespace handson::cli {

@@ -18,7 +18,7 @@
 #include "app/io/volume_io.h"
 #include "app/session/console.h"
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/handle_reaction.h"
 #include "sim/sim_scene.h"
 #include "sim/static_solver.h"

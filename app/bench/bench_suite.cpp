@@ -25,7 +25,7 @@
 #include "scripts/scenario_kidney_rotate_out_of_plane_three_fingers.h"
 #include "scripts/scenario_kidney_translate_two_fingers.h"
 #include "scripts/scenario_vessel_translate_one_finger.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/resample.h"
 
 namespace handson::cli {

@@ -17,7 +17,7 @@
 #include "app/io/nifti_io.h"
 #include "app/io/png_io.h"
 #include "app/tools/visibility.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 
 namespace handson::cli {

@@ -20,7 +20,7 @@
 #include "render/deform_pass.h"
 #include "render/vk_context.h"
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/handle_reaction.h"
 #include "sim/quantized_volume.h"
 #include "sim/scene_cache.h"

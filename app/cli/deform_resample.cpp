@@ -4,7 +4,7 @@
 
 #include "render/deform_pass.h"
 #include "render/vk_resources.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/fine_interpolation.h"
 #include "sim/quantized_volume.h"
 #include "sim/sliding_interface.h"

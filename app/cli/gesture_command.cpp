@@ -11,7 +11,7 @@
 #include "app/cli/args.h"
 #include "app/cli/commands.h"
 #include "interaction/gesture_solve.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson::cli {
 

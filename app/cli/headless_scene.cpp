@@ -7,7 +7,7 @@
 #include "app/session/clip_framing.h"
 #include "render/auto_window.h"
 #include "app/session/console.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 #include "sim/resample.h"
 

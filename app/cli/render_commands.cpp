@@ -8,7 +8,7 @@
 #include "app/cli/commands.h"
 #include "app/cli/headless_scene.h"
 #include "app/io/png_io.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson::cli {
 

@@ -19,7 +19,7 @@
 #include "app/tools/session_compose.h"
 #include "app/tools/soak.h"
 #include "render/transfer_function.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson::cli {
 

@@ -7,7 +7,7 @@
 #include "app/io/volume_io.h"
 #include "app/session/console.h"
 #include "render/vk_context.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 #include "sim/resample.h"
 

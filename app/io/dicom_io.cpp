@@ -31,9 +31,9 @@
 #include <cerrno>
 #include <unistd.h>
 
-#include "sim/child_process.h"
-#include "sim/binary_io.h"
-#include "sim/error.h"
+#include "sim/base/child_process.h"
+#include "sim/base/binary_io.h"
+#include "sim/base/error.h"
 
 namespace handson {
 namespace {

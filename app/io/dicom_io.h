@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "sim/error.h"
-#include "sim/progress.h"
+#include "sim/base/error.h"
+#include "sim/base/progress.h"
 #include "sim/volume.h"
 
 namespace handson {

@@ -3,7 +3,7 @@
 #include <cmath>
 
 #include "app/io/vtu_io.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

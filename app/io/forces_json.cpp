@@ -4,8 +4,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "sim/atomic_file.h"
-#include "sim/error.h"
+#include "sim/base/atomic_file.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -3,7 +3,7 @@
 #include <cstdint>
 #include <exception>
 
-#include "sim/child_process.h"
+#include "sim/base/child_process.h"
 
 namespace handson {
 

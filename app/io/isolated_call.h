@@ -1,13 +1,13 @@
 #pragma once
 // Running a library call that may crash, abort or hang on malformed input (MetaIO's header parser)
-// in a child process (sim/child_process), so that the app, its session and its unsaved work survive
+// in a child process (sim/base/child_process), so that the app, its session and its unsaved work survive
 // it: the child's result comes back through a pipe; a child that dies by a signal, exits without a
 // result or runs past its time is reported as an error.
 #include <functional>
 #include <string>
 
-#include "sim/child_process.h"
-#include "sim/error.h"
+#include "sim/base/child_process.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -20,11 +20,11 @@
 #include <sstream>
 #include <vector>
 
-#include "sim/atomic_file.h"
+#include "sim/base/atomic_file.h"
 #include "app/io/isolated_call.h"
 #include "app/io/volume_import.h"
-#include "sim/binary_io.h"
-#include "sim/error.h"
+#include "sim/base/binary_io.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

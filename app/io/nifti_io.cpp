@@ -30,8 +30,8 @@
 #include <type_traits>
 #include <vector>
 
-#include "sim/atomic_file.h"
-#include "sim/error.h"
+#include "sim/base/atomic_file.h"
+#include "sim/base/error.h"
 
 namespace handson {
 namespace {
@@ -817,7 +817,7 @@ Volume readNiftiImpl(const std::string& givenPath, const NiftiReadOptions& optio
   throw Error("Cannot write NIfTI file '" + path + "': " + what);
 }
 
-// The file itself is sim/atomic_file's; this adds the gzip stream (on a dup of its descriptor).
+// The file itself is sim/base/atomic_file's; this adds the gzip stream (on a dup of its descriptor).
 class AtomicOutput {
  public:
   AtomicOutput(const std::string& path, bool gzip) : file_(path, "NIfTI file") {

@@ -13,9 +13,9 @@
 #include <memory>
 #include <vector>
 
-#include "sim/atomic_file.h"
+#include "sim/base/atomic_file.h"
 #include "app/io/volume_import.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

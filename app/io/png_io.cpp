@@ -6,8 +6,8 @@
 #include <filesystem>
 #include <memory>
 
-#include "sim/atomic_file.h"
-#include "sim/error.h"
+#include "sim/base/atomic_file.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

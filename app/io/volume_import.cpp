@@ -5,7 +5,7 @@
 #include <string>
 
 #include "app/io/volume_io.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -14,7 +14,7 @@
 #include "app/io/nifti_io.h"
 #include "app/io/nrrd_io.h"
 #include "app/io/volume_import.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 
 namespace handson {

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "interaction/label_map.h"
-#include "sim/progress.h"
+#include "sim/base/progress.h"
 #include "sim/volume.h"
 
 namespace handson {

@@ -11,7 +11,7 @@
 #include "render/vk_context.h"
 #include "render/vk_swapchain.h"
 #include "shaders/shared.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 
@@ -156,11 +156,11 @@ void Ui::modeOptions(const UiStatus& st, const Action& action, float buttonWidth
     ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 3.0f * button.x);
     ImGui::TextUnformatted("Drag from a box face's middle to move it; drag elsewhere to cut through the point under the finger (up: deeper)");
     ImGui::PopTextWrapPos();
-    if (st.clipped && ImGui::Button("Clear clip", button)) action("clear-clip", "");
+    if (st.clipped && ImGui::Button("Clear clip", button)) action(UiAction::ClearClip, "");
     if (st.clipped) ImGui::SameLine();
-    if (st.clipped && ImGui::Button("Frame clip", button)) action("frame-clip", "");
+    if (st.clipped && ImGui::Button("Frame clip", button)) action(UiAction::FrameClip, "");
     if (st.canGoBack) ImGui::SameLine();
-    if (st.canGoBack && ImGui::Button("Previous view", button)) action("camera-back", "");
+    if (st.canGoBack && ImGui::Button("Previous view", button)) action(UiAction::CameraBack, "");
   }
   if (st.mode == "window") {
     ImGui::NewLine();
@@ -168,16 +168,16 @@ void Ui::modeOptions(const UiStatus& st, const Action& action, float buttonWidth
     ImGui::TextWrapped("Drag up/down: level, left/right: window, spread two fingers: opacity (window x%.2f, level %+.0f, opacity x%.2f)",
                        st.window.scale, st.window.shift, st.window.opacity);
     ImGui::PopTextWrapPos();
-    if (!st.window.identity() && ImGui::Button("Reset window", button)) action("reset-window", "");
+    if (!st.window.identity() && ImGui::Button("Reset window", button)) action(UiAction::ResetWindow, "");
     if (!st.window.identity()) ImGui::SameLine();
-    if (ImGui::Button("Auto window", button)) action("auto-window", "");
+    if (ImGui::Button("Auto window", button)) action(UiAction::AutoWindow, "");
   }
   if (st.mode == "select") {
     // What the next pinches do: a new handle, or a correction of the handle tapped last (else the newest).
     ImGui::NewLine();
     const std::pair<const char*, const char*> ops[] = {{"new", "New handle"}, {"add", "Add to handle"}, {"remove", "Remove from handle"}};
     for (const auto& [op, label] : ops) {
-      if (colouredButton(label, ImVec2(button.x * 1.4f, button.y), st.pinchOp == op, kOptionOn)) action("pinch-op", op);
+      if (colouredButton(label, ImVec2(button.x * 1.4f, button.y), st.pinchOp == op, kOptionOn)) action(UiAction::PinchOp, op);
       ImGui::SameLine();
     }
     ImGui::NewLine();
@@ -188,7 +188,7 @@ void Ui::modeOptions(const UiStatus& st, const Action& action, float buttonWidth
     const std::pair<unsigned, const char*> locks[] = {{1u, "z-translation"}, {2u, "z-rotation"}, {4u, "xy-translation"}};
     for (const auto& [bit, name] : locks) {
       const std::string label = std::string("Lock ") + name;
-      if (colouredButton(label.c_str(), ImVec2(button.x * 1.4f, button.y), (st.locks & bit) != 0, kOptionOn)) action("toggle-lock", name);
+      if (colouredButton(label.c_str(), ImVec2(button.x * 1.4f, button.y), (st.locks & bit) != 0, kOptionOn)) action(UiAction::ToggleLock, name);
       ImGui::SameLine();
     }
     ImGui::NewLine();
@@ -231,7 +231,7 @@ void Ui::build(const UiStatus& st, double time, std::vector<ScriptEvent>& action
     const ImVec2 p = ImGui::GetWindowPos(), sz = ImGui::GetWindowSize();
     panels_.push_back({p.x, p.y, p.x + sz.x, p.y + sz.y});
   };
-  const Action action = [&](const char* name, const std::string& value) { actions.push_back(uiEvent(time, name, value)); };
+  const Action action = [&](UiAction a, const std::string& value) { actions.push_back(uiEvent(time, a, value)); };
   const float barBottom = modeBar(st, action, remember);
   // The strain colour bar and the timing overlay share the bottom left corner: the overlay above the bar.
   float bottom = ImGui::GetIO().DisplaySize.y - 10 * scale_;
@@ -252,24 +252,24 @@ float Ui::modeBar(const UiStatus& st, const Action& action, const Remember& reme
     const bool active = st.mode == m;
     char label[32];
     std::snprintf(label, sizeof(label), "%c%s", m[0] - 32, m + 1);
-    if (colouredButton(label, labelButton(label), active) && !active) action("set-mode", m);
+    if (colouredButton(label, labelButton(label), active) && !active) action(UiAction::SetMode, m);
     ImGui::SameLine();
   }
   if (ImGui::Button(actionsOpen_ ? "Less" : "More", labelButton("More"))) actionsOpen_ = !actionsOpen_;
   if (actionsOpen_) {
-    if (ImGui::Button("Reset view", labelButton("Reset view"))) action("reset-camera", "");
+    if (ImGui::Button("Reset view", labelButton("Reset view"))) action(UiAction::ResetCamera, "");
     ImGui::SameLine();
-    if (ImGui::Button("Export", labelButton("Export"))) action("export", "");
+    if (ImGui::Button("Export", labelButton("Export"))) action(UiAction::Export, "");
     ImGui::SameLine();
-    if (colouredButton("Strain", labelButton("Strain"), st.strainOverlay, ImVec4(0.85f, 0.35f, 0.10f, 1.0f))) action("toggle-strain", "");
+    if (colouredButton("Strain", labelButton("Strain"), st.strainOverlay, ImVec4(0.85f, 0.35f, 0.10f, 1.0f))) action(UiAction::ToggleStrain, "");
     ImGui::SameLine();
-    if (colouredButton("Limits", labelButton("Limits"), st.limitHighlight, ImVec4(0.75f, 0.10f, 0.70f, 1.0f))) action("toggle-limits", "");
+    if (colouredButton("Limits", labelButton("Limits"), st.limitHighlight, ImVec4(0.75f, 0.10f, 0.70f, 1.0f))) action(UiAction::ToggleLimits, "");
     ImGui::SameLine();
     // The handles' interface with the tissue: the button names the current one, a tap switches.
-    if (ImGui::Button(st.sliding ? "Sliding" : "Glued", labelButton("Sliding"))) action("set-interface", st.sliding ? "glued" : "sliding");
+    if (ImGui::Button(st.sliding ? "Sliding" : "Glued", labelButton("Sliding"))) action(UiAction::SetInterface, st.sliding ? "glued" : "sliding");
     if (st.hasLabels) {
       ImGui::SameLine();
-      if (colouredButton("Labels", labelButton("Labels"), st.labelTint, ImVec4(0.25f, 0.60f, 0.35f, 1.0f))) action("toggle-labels", "");
+      if (colouredButton("Labels", labelButton("Labels"), st.labelTint, ImVec4(0.25f, 0.60f, 0.35f, 1.0f))) action(UiAction::ToggleLabels, "");
     }
     ImGui::SameLine();
     if (colouredButton("Info", labelButton("Info"), infoOpen_)) infoOpen_ = !infoOpen_;
@@ -297,7 +297,7 @@ void Ui::presetsAndHandles(const UiStatus& st, const Action& action, const Remem
   if (presetsOpen_)
     for (const auto& p : transferFunctionPresetNames()) {
       const bool active = st.preset == p;
-      if (colouredButton(p.c_str(), ImVec2(std::max(button.x, labelButton(p.c_str()).x), button.y), active) && !active) action("set-preset", p);
+      if (colouredButton(p.c_str(), ImVec2(std::max(button.x, labelButton(p.c_str()).x), button.y), active) && !active) action(UiAction::SetPreset, p);
     }
   ImGui::Separator();
   handleList(st, action);
@@ -335,10 +335,10 @@ void Ui::handleList(const UiStatus& st, const Action& action) {
     for (const char* stName : {"active", "fixed", "idle"}) {
       const bool on = h.status == stName;
       const char label[2] = {char(stName[0] - 32), 0};
-      if (colouredButton(label, small, on) && !on) action("handle-status", std::to_string(h.id) + ":" + stName);
+      if (colouredButton(label, small, on) && !on) action(UiAction::HandleStatus, std::to_string(h.id) + ":" + stName);
       ImGui::SameLine();
     }
-    if (ImGui::Button("Del", small)) action("handle-delete", std::to_string(h.id));
+    if (ImGui::Button("Del", small)) action(UiAction::HandleDelete, std::to_string(h.id));
     ImGui::PopID();
   }
   if (st.picked.size() == 2) {
@@ -346,17 +346,17 @@ void Ui::handleList(const UiStatus& st, const Action& action) {
     std::snprintf(unite, sizeof(unite), "#%d + #%d", st.picked[0], st.picked[1]);
     std::snprintf(subtract, sizeof(subtract), "#%d - #%d", st.picked[0], st.picked[1]);
     std::snprintf(pair, sizeof(pair), "%d,%d", st.picked[0], st.picked[1]);
-    if (ImGui::Button(unite, button)) action("handle-union", pair);
+    if (ImGui::Button(unite, button)) action(UiAction::HandleUnion, pair);
     ImGui::SameLine();
-    if (ImGui::Button(subtract, button)) action("handle-difference", pair);
+    if (ImGui::Button(subtract, button)) action(UiAction::HandleDifference, pair);
   }
   if (st.canUndo || st.canRedo) {  // with nothing to undo or redo they take no room
     ImGui::BeginDisabled(!st.canUndo);
-    if (ImGui::Button("Undo", small)) action("undo", "");
+    if (ImGui::Button("Undo", small)) action(UiAction::Undo, "");
     ImGui::EndDisabled();
     ImGui::SameLine();
     ImGui::BeginDisabled(!st.canRedo);
-    if (ImGui::Button("Redo", small)) action("redo", "");
+    if (ImGui::Button("Redo", small)) action(UiAction::Redo, "");
     ImGui::EndDisabled();
   }
 }

@@ -92,7 +92,7 @@ class Ui {
   static constexpr float kMinTarget = 48.0f;  ///< smallest touch target, pixels at 100 %
 
  private:
-  using Action = std::function<void(const char*, const std::string&)>;  ///< a UI action (name, value) for the session
+  using Action = std::function<void(UiAction, const std::string&)>;  ///< a UI action (and its value) for the session
   using Remember = std::function<void()>;                              ///< notes the current panel's rectangle
   float modeBar(const UiStatus& st, const Action& action, const Remember& remember);
   void presetsAndHandles(const UiStatus& st, const Action& action, const Remember& remember, float barBottom);

@@ -29,7 +29,7 @@
 #include "render/vk_context.h"
 #include "render/vk_swapchain.h"
 #include "render/volume_renderer.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 
 namespace handson {
@@ -84,7 +84,7 @@ class PresentExtension final : public FrameExtension {
     target_ = g.importImage("swapchain", {ext.width, ext.height, 1, fg::Format::Rgba8Unorm}, fg::Access::None);
     const fg::ImageDesc src = g.resource(color).image;
     g.addPass(
-        "blit",
+        PassId::Blit,
         [&](fg::PassBuilder& b) {
           b.read(color, fg::Access::TransferSrc);
           b.write(target_, fg::Access::TransferDst);
@@ -99,12 +99,12 @@ class PresentExtension final : public FrameExtension {
                          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region, VK_FILTER_LINEAR);
         });
     g.addPass(
-        "ui", [&](fg::PassBuilder& b) { b.write(target_, fg::Access::ColorAttachmentWrite); },
+        PassId::Ui, [&](fg::PassBuilder& b) { b.write(target_, fg::Access::ColorAttachmentWrite); },
         [this, ext](fg::Executor& e) { ui_.record(vk::vulkanExecutor(e).cmd(), sc_.framebuffer(frame_.image), ext); });
     if (screenshot_) {
       shot_ = g.importBuffer("screenshot", {screenshot_->size()}, fg::Access::None);
       g.addPass(
-          "screenshot",
+          PassId::Screenshot,
           [&](fg::PassBuilder& b) {
             b.read(target_, fg::Access::TransferSrc);
             b.write(shot_, fg::Access::TransferDst);
@@ -339,15 +339,15 @@ void Viewer::Impl::pollInput(const Viewport& vp, std::vector<TouchEvent>& touche
     }
     if (e.type == SDL_KEYDOWN && !ui->wantsKeyboard()) {
       const SDL_Keycode k = e.key.keysym.sym;
-      ScriptEvent key{t, false, {}, "", ""};
+      ScriptEvent key = uiEvent(t, UiAction::None);
       if (k == SDLK_ESCAPE) running = false;
-      if (k == SDLK_r) key.action = "reset-camera";
+      if (k == SDLK_r) key.action = UiAction::ResetCamera;
       if (k >= SDLK_1 && k <= SDLK_5) {
         static const char* const kModes[] = {"navigate", "select", "manipulate", "clip", "window"};
-        key.action = "set-mode";
+        key.action = UiAction::SetMode;
         key.value = kModes[k - SDLK_1];
       }
-      if (!key.action.empty()) actions.push_back(key);
+      if (key.action != UiAction::None) actions.push_back(key);
     }
     input->translate(e, t, vp, [this](double x, double y) { return ui->covers(x, y); }, touches);
   }
@@ -438,8 +438,8 @@ void Viewer::Impl::updateStatus() {
 // camera where a framing in progress has it now.
 void Viewer::Impl::followClip(double now) {
   if (session->takeClipSettled() && !play) {
-    session->apply(uiEvent(now, "frame-clip"));
-    if (session->windowFollowsRegion()) session->apply(uiEvent(now, "auto-window"));
+    session->apply(uiEvent(now, UiAction::FrameClip));
+    if (session->windowFollowsRegion()) session->apply(uiEvent(now, UiAction::AutoWindow));
   }
   session->advance(now);
 }
@@ -450,8 +450,8 @@ void Viewer::Impl::startPlay(double t) {
   if (play->freeArea) session->setFreeArea(*play->freeArea);  // reset-camera frames where the recording app did
   if (play->camera) play->camera->applyTo(session->camera());
   else session->resetCamera();
-  if (!play->preset.empty()) session->apply(uiEvent(t, "set-preset", play->preset));
-  session->apply(uiEvent(t, "set-mode", play->mode));
+  if (!play->preset.empty()) session->apply(uiEvent(t, UiAction::SetPreset, play->preset));
+  session->apply(uiEvent(t, UiAction::SetMode, play->mode));
   // Before anything is recorded the start is the recording's header (as the played script has it),
   // not events; a repeat's start is recorded as events.
   if (frameNo == 0) {
@@ -510,7 +510,7 @@ void Viewer::Impl::takeCompletedFrames() {
     std::vector<std::pair<std::string, double>> passes;
     for (const auto& p : r.timings) {
       passes.emplace_back(p.name, p.gpuMs);
-      if (p.name == "raymarch") status.gpuRaymarchMs = p.gpuMs;
+      if (p.id == PassId::Raymarch) status.gpuRaymarchMs = p.gpuMs;
     }
     log.setGpuTimes(r.frame, passes);
   }
@@ -574,8 +574,8 @@ bool Viewer::Impl::step() {
     // The frame budget: a changing picture drawn smaller or with a longer step to fit, refined when
     // it stops (never the export's image).
     const FrameQuality quality = driver->applyFrameBudget(req, !touches.empty() || !actions.empty(), req.readbackImage);
-    status.renderWidth = req.params.dims.w;
-    status.renderHeight = req.params.brickDims.w;
+    status.renderWidth = req.params.outputWidth;
+    status.renderHeight = req.params.outputHeight;
     status.qualityScale = quality.scale;
     status.qualityStep = quality.stepScale;
     ft.qualityScale = quality.scale;

@@ -1,6 +1,6 @@
 #pragma once
 // Console helpers of the command line: progress on stderr.
-#include "sim/progress.h"
+#include "sim/base/progress.h"
 
 namespace handson {
 

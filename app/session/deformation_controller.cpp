@@ -13,7 +13,7 @@
 
 #include "render/deform_pass.h"
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/fine_interpolation.h"
 #include "sim/quantized_volume.h"
 #include "sim/region_shape.h"

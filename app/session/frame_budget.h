@@ -4,8 +4,8 @@
 // are chosen so that the frame's predicted GPU time fits the budget; when it stops changing the
 // frames refine one level at a time back to the full-quality frame, which is then exactly the
 // frame drawn without a budget (the same parameters). Picking is never degraded: it does not use
-// the raymarch's resolution, and the step it takes is the full one (RenderParams.march.x; the
-// raymarch alone scales it, RenderParams.quality.x).
+// the raymarch's resolution, and the step it takes is the full one (RenderParams.stepMm; the
+// raymarch alone scales it, RenderParams.stepScale).
 //
 // The prediction: a frame's GPU time = the other passes' time (deformation, growth: what the
 // budget cannot scale) + the raymarch at full quality x the level's relative cost, scale² / step

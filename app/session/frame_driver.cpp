@@ -11,8 +11,8 @@
 namespace handson {
 
 bool FrameDriver::applyUi(const ScriptEvent& e) {
-  if (e.action == "auto-window") return applyAutoWindow();
-  if (e.action != "set-interface") return false;
+  if (e.action == UiAction::AutoWindow) return applyAutoWindow();
+  if (e.action != UiAction::SetInterface) return false;
   const auto i = parseInterface(e.value);
   if (!i) return false;  // refused: an unknown interface
   deform_.setInterface(*i);
@@ -84,8 +84,10 @@ FrameQuality FrameDriver::applyFrameBudget(FrameRequest& request, bool eventsApp
   // The picture's parameters (its full size included: a resized view changes) apart from the
   // picks and what the budget and the still frame's sum set below.
   gpu::RenderParams p = request.params;
-  p.control.y = 0;
-  p.quality = glm::vec4(0.0f);
+  p.pickCount = 0;
+  p.stepScale = 0.0f;
+  p.jitterPhase = p.summedFrames = 0;
+  p.flags &= ~gpu::kFlagShowSum;
   const bool sameParams = hasLastParams_ && std::memcmp(&p, &lastParams_, sizeof(p)) == 0;
   lastParams_ = p;
   hasLastParams_ = true;
@@ -101,10 +103,10 @@ FrameQuality FrameDriver::applyFrameBudget(FrameRequest& request, bool eventsApp
   // same with a budget or without).
   request.stillPhases = nextQuality_.full() ? kStillJitterPhases : 0;
   if (nextQuality_.full()) return nextQuality_;
-  const int w = request.params.dims.w, h = request.params.brickDims.w;
-  request.params.dims.w = std::max(1, int(std::lround(w * nextQuality_.scale)));
-  request.params.brickDims.w = std::max(1, int(std::lround(h * nextQuality_.scale)));
-  request.params.quality.x *= float(nextQuality_.stepScale);
+  const int w = request.params.outputWidth, h = request.params.outputHeight;
+  request.params.outputWidth = std::max(1, int(std::lround(w * nextQuality_.scale)));
+  request.params.outputHeight = std::max(1, int(std::lround(h * nextQuality_.scale)));
+  request.params.stepScale *= float(nextQuality_.stepScale);
   return nextQuality_;
 }
 
@@ -124,7 +126,7 @@ void FrameDriver::completed(const FrameResult& result) {
     double ray = 0.0, other = 0.0;
     bool drawn = false;
     for (const auto& t : result.timings) {
-      if (t.name == "raymarch") {
+      if (t.id == PassId::Raymarch) {
         ray += t.gpuMs;
         drawn = true;
       } else {

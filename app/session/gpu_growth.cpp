@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <limits>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -7,8 +7,8 @@
 #include <set>
 #include <sstream>
 
-#include "sim/atomic_file.h"
-#include "sim/error.h"
+#include "sim/base/atomic_file.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -27,7 +27,7 @@
 #include "render/volume_renderer.h"
 #include "scripts/demo_script.h"
 #include "scripts/scenario_full_session.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 
 namespace handson {
@@ -39,7 +39,7 @@ namespace {
 int framesToRest(const SessionScript& script, double fps) {
   double end = script.duration();
   for (const ScriptEvent& e : script.events)
-    if (!e.isTouch && (e.action == "frame-clip" || e.action == "camera-back")) end = std::max(end, e.t + Session::kFramingSeconds);
+    if (!e.isTouch && (e.action == UiAction::FrameClip || e.action == UiAction::CameraBack)) end = std::max(end, e.t + Session::kFramingSeconds);
   return int(std::floor(end * fps)) + 2;
 }
 using Clock = std::chrono::steady_clock;
@@ -246,7 +246,7 @@ void ReplayRun::setUpSession() {
     if (!script_.camera) session.resetCamera();
   }
   if (script_.camera) script_.camera->applyTo(session.camera());
-  session.apply(ScriptEvent{0.0, false, {}, "set-mode", script_.mode});
+  session.apply(uiEvent(0.0, UiAction::SetMode, script_.mode));
   renderer_->setTransferFunction(transferFunctionPreset(session.preset()).lookupTable(*q_));
 }
 
@@ -285,7 +285,7 @@ void ReplayRun::applyDueEvents(double frameTime, FrameTiming& ft) {
       ++refused_;
       if (!o_.quiet)
         std::cerr << "refused at t=" << e.t << " s: "
-                  << (e.isTouch ? "touch " + std::string(touchPhaseName(e.touch.phase)) + " id " + std::to_string(e.touch.id) : e.action + " " + e.value)
+                  << (e.isTouch ? "touch " + std::string(touchPhaseName(e.touch.phase)) + " id " + std::to_string(e.touch.id) : std::string(uiActionName(e.action)) + " " + e.value)
                   << "\n";
     }
     if (ft.inputFirst < 0) ft.inputFirst = now;

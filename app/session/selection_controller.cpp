@@ -6,7 +6,7 @@
 
 #include "render/raymarch_reference.h"
 #include "render/vk_context.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 
 namespace handson {
@@ -234,56 +234,52 @@ int SelectionController::correctionTarget() const {
 bool SelectionController::applyUi(const ScriptEvent& e) {
   // A handle edit (undo included) comes after a drag whose picks are not back: the drag is
   // dropped rather than applied after the edit it preceded.
-  static const char* const kHandleEdits[] = {"handle-status", "handle-delete", "handle-union", "handle-difference", "undo", "redo", "label-handle"};
-  if ((grabPending_ || grabFrame_) && !manipulator_.active() && std::find(std::begin(kHandleEdits), std::end(kHandleEdits), e.action) != std::end(kHandleEdits))
-    abandonGrab();
-  auto ids = [&](int& a, int& b) {
-    char comma = 0;
-    std::istringstream in(e.value);
-    return bool(in >> a >> comma >> b) && comma == ',';
+  if ((grabPending_ || grabFrame_) && !manipulator_.active() && isHandleEdit(e.action)) abandonGrab();
+  auto ids = [&](int& a, int& b) {  // "A,B", each a whole number written in full
+    const auto comma = e.value.find(',');
+    const std::string_view v = e.value;
+    return comma != std::string::npos && parseWholeNumber(v.substr(0, comma), a) && parseWholeNumber(v.substr(comma + 1), b);
   };
   const auto before = handles_.handles();
   bool ok = false;
-  if (e.action == "handle-status") {
-    const auto colon = e.value.find(':');
-    HandleStatus st;
-    if (colon != std::string::npos && parseHandleStatus(e.value.substr(colon + 1), st)) {
-      try {
-        ok = handles_.setStatus(std::stoi(e.value.substr(0, colon)), st);
-      } catch (...) {
-        ok = false;
-      }
+  switch (e.action) {
+    case UiAction::HandleStatus: {
+      const auto colon = e.value.find(':');
+      HandleStatus st;
+      int id = 0;
+      ok = colon != std::string::npos && parseHandleStatus(e.value.substr(colon + 1), st) &&
+           parseWholeNumber(std::string_view(e.value).substr(0, colon), id) && handles_.setStatus(id, st);
+      if (ok) tintsDirty_ = true;
+      return ok;
     }
-    if (ok) tintsDirty_ = true;
-    return ok;
-  } else if (e.action == "handle-delete") {
-    try {
-      ok = handles_.remove(std::stoi(e.value));
-    } catch (...) {
-      ok = false;
+    case UiAction::HandleDelete: {
+      int id = 0;
+      ok = parseWholeNumber(e.value, id) && handles_.remove(id);
+      break;
     }
-  } else if (e.action == "handle-union" || e.action == "handle-difference") {
-    int a = 0, b = 0;
-    ok = ids(a, b) && (e.action == "handle-union" ? uniteHandle(handles_, a, b, corrections_, volume_.geometry)
-                                                          : subtractHandle(handles_, a, b, corrections_, volume_.geometry));
-  } else if (e.action == "pinch-op") {
-    PinchOp op;
-    if (!parsePinchOp(e.value, op)) return false;
-    pinchOp_ = op;
-    return true;
-  } else if (e.action == "label-handle") {
-    ok = labelHandle(e.value);
-  } else if (e.action == "toggle-lock") {
-    unsigned lock = 0;
-    if (!parseGestureLock(e.value, lock)) return false;
-    locks_ ^= lock;
-    return true;
-  } else if (e.action == "undo") {
-    ok = handles_.undo();
-  } else if (e.action == "redo") {
-    ok = handles_.redo();
-  } else {
-    return false;
+    case UiAction::HandleUnion:
+    case UiAction::HandleDifference: {
+      int a = 0, b = 0;
+      ok = ids(a, b) && (e.action == UiAction::HandleUnion ? uniteHandle(handles_, a, b, corrections_, volume_.geometry)
+                                                            : subtractHandle(handles_, a, b, corrections_, volume_.geometry));
+      break;
+    }
+    case UiAction::PinchOp: {
+      PinchOp op;
+      if (!parsePinchOp(e.value, op)) return false;
+      pinchOp_ = op;
+      return true;
+    }
+    case UiAction::LabelHandle: ok = labelHandle(e.value); break;
+    case UiAction::ToggleLock: {
+      unsigned lock = 0;
+      if (!parseGestureLock(e.value, lock)) return false;
+      locks_ ^= lock;
+      return true;
+    }
+    case UiAction::Undo: ok = handles_.undo(); break;
+    case UiAction::Redo: ok = handles_.redo(); break;
+    default: return false;
   }
   if (ok) {
     repaint(HandleSet::changedVoxels(before, handles_.handles()));
@@ -315,7 +311,7 @@ void SelectionController::prepareFrame(FrameRequest& req, const Viewport& vp) {
   setMovingHandles(req.params, volume_.geometry, movingHandles());
   lastParams_ = req.params;  // the CPU grab probe sees moved handles where they are, either way
   haveParams_ = true;
-  if (!rigidPreview_) req.params.control.w = 0;  // the deformed volume already holds them there
+  if (!rigidPreview_) req.params.movingCount = 0;  // the deformed volume already holds them there
   const auto pts = pinch_.takePickRequest();
   if (!pts.empty()) {
     pickOffset_ = req.pickPoints.size();
@@ -424,7 +420,7 @@ void SelectionController::onFrameResult(const FrameResult& r) {
         if (const auto v = labelledVoxelBehind(*labels_, {hit.x, hit.y, hit.z}, {dir.x, dir.y, dir.z}, depth)) {
           std::ostringstream text;
           text << v->x() << "," << v->y() << "," << v->z();
-          applyUi(uiEvent(0.0, "label-handle", text.str()));
+          applyUi(uiEvent(0.0, UiAction::LabelHandle, text.str()));
         } else {
           labelNote_ = "No labelled organ there";
         }

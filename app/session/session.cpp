@@ -40,12 +40,12 @@ void Session::setViewport(const Viewport& v) { gestures_.setViewport(v); }
 namespace {
 
 /// The clip actions; false (state unchanged) for a malformed value.
-bool applyClip(const std::string& action, const std::string& value, ClipRegion& clip) {
-  if (action == "clear-clip") {
+bool applyClip(UiAction action, const std::string& value, ClipRegion& clip) {
+  if (action == UiAction::ClearClip) {
     clip = {};
     return true;
   }
-  return (action == "set-clip-box" ? parseClipBox(value, clip) : parseClipPlane(value, clip)).empty();
+  return (action == UiAction::SetClipBox ? parseClipBox(value, clip) : parseClipPlane(value, clip)).empty();
 }
 
 /// "SCALE,SHIFT,OPACITY" (finite, scale and opacity > 0); false (unchanged) otherwise.
@@ -69,45 +69,8 @@ bool Session::apply(const ScriptEvent& e) {
   if (e.isTouch) {
     move_.reset();  // a finger stops a framing where it is: the gesture acts on the camera shown
     ok = gestures_.handle(e.touch);
-  } else if (e.action == "set-mode") {
-    InteractionMode m;
-    ok = parseMode(e.value, m);
-    if (ok) gestures_.setMode(m);
-  } else if (e.action == "set-preset") {
-    const auto names = transferFunctionPresetNames();
-    ok = std::find(names.begin(), names.end(), e.value) != names.end();
-    if (ok && e.value != preset_) {
-      preset_ = e.value;
-      window_ = {};
-      windowAuto_ = false;
-      presetChanged_ = true;
-    }
-  } else if (e.action == "set-window" || e.action == "reset-window") {
-    WindowLevel w;
-    ok = e.action == "reset-window" || parseWindow(e.value, w);
-    if (ok) windowAuto_ = false;
-    if (ok && !(w == window_)) {
-      window_ = w;
-      presetChanged_ = true;
-    }
-  } else if (e.action == "reset-camera") {
-    resetCamera();
-  } else if (e.action == "frame-clip") {
-    const Viewport& vp = framingViewport_ ? *framingViewport_ : gestures_.viewport();
-    const std::optional<OrbitCamera> to = frameClip(camera_, geometry_, clip_, FramingView{vp.width, vp.height, freeArea_});
-    const OrbitCamera before = camera_;
-    ok = frameTo(to, e.t);
-    if (ok) beforeFraming_ = before;
-  } else if (e.action == "camera-back") {
-    ok = frameTo(std::exchange(beforeFraming_, std::nullopt), e.t);
-  } else if (e.action == "toggle-strain") {
-    strainOverlay_ = !strainOverlay_;
-  } else if (e.action == "toggle-limits") {
-    limitHighlight_ = !limitHighlight_;
-  } else if (e.action == "toggle-labels") {
-    labelTint_ = !labelTint_;
-  } else if (e.action == "set-clip-box" || e.action == "set-clip-plane" || e.action == "clear-clip") {
-    ok = applyClip(e.action, e.value, clip_);
+  } else if (const std::optional<bool> view = applyViewAction(e)) {
+    ok = *view;
   } else {
     ok = false;
     for (const auto& f : uiExtensions_)
@@ -118,6 +81,58 @@ bool Session::apply(const ScriptEvent& e) {
   }
   if (ok && recording_) script_.events.push_back(e);
   return ok;
+}
+
+std::optional<bool> Session::applyViewAction(const ScriptEvent& e) {
+  switch (e.action) {
+    case UiAction::SetMode: {
+      InteractionMode m;
+      if (!parseMode(e.value, m)) return false;
+      gestures_.setMode(m);
+      return true;
+    }
+    case UiAction::SetPreset: return setPreset(e.value);
+    case UiAction::SetWindow:
+    case UiAction::ResetWindow: {
+      WindowLevel w;
+      if (e.action == UiAction::SetWindow && !parseWindow(e.value, w)) return false;
+      windowAuto_ = false;
+      if (!(w == window_)) {
+        window_ = w;
+        presetChanged_ = true;
+      }
+      return true;
+    }
+    case UiAction::ResetCamera: resetCamera(); return true;
+    case UiAction::FrameClip: {
+      const Viewport& vp = framingViewport_ ? *framingViewport_ : gestures_.viewport();
+      const std::optional<OrbitCamera> to = frameClip(camera_, geometry_, clip_, FramingView{vp.width, vp.height, freeArea_});
+      const OrbitCamera before = camera_;
+      if (!frameTo(to, e.t)) return false;
+      beforeFraming_ = before;
+      return true;
+    }
+    case UiAction::CameraBack: return frameTo(std::exchange(beforeFraming_, std::nullopt), e.t);
+    case UiAction::ToggleStrain: strainOverlay_ = !strainOverlay_; return true;
+    case UiAction::ToggleLimits: limitHighlight_ = !limitHighlight_; return true;
+    case UiAction::ToggleLabels: labelTint_ = !labelTint_; return true;
+    case UiAction::SetClipBox:
+    case UiAction::SetClipPlane:
+    case UiAction::ClearClip: return applyClip(e.action, e.value, clip_);
+    default: return std::nullopt;  // not the view's: the extensions'
+  }
+}
+
+bool Session::setPreset(const std::string& name) {
+  const auto names = transferFunctionPresetNames();
+  if (std::find(names.begin(), names.end(), name) == names.end()) return false;
+  if (name != preset_) {
+    preset_ = name;
+    window_ = {};
+    windowAuto_ = false;
+    presetChanged_ = true;
+  }
+  return true;
 }
 
 void Session::setAutomaticWindow(const WindowLevel& w) {

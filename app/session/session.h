@@ -100,6 +100,11 @@ class Session {
   const SessionScript& script() const { return script_; }
 
  private:
+  /// The view's actions (mode, preset, window, camera, clip, overlays): whether it was accepted;
+  /// nullopt for an action that is not the view's (the extensions' then).
+  std::optional<bool> applyViewAction(const ScriptEvent& e);
+  bool setPreset(const std::string& name);
+
   VolumeGeometry geometry_;
   OrbitCamera camera_;
   GestureRecognizer gestures_;

@@ -13,7 +13,7 @@
 namespace handson {
 
 bool SessionExport::onUi(const ScriptEvent& e) {
-  if (e.action != "export") return false;
+  if (e.action != UiAction::Export) return false;
   pending_ = true;
   return true;
 }

@@ -11,8 +11,8 @@
 #include <sstream>
 
 #include "app/session/session.h"
-#include "sim/atomic_file.h"
-#include "sim/error.h"
+#include "sim/base/atomic_file.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -8,8 +8,8 @@
 #include <sstream>
 
 #include "interaction/gesture.h"
-#include "sim/atomic_file.h"
-#include "sim/error.h"
+#include "sim/base/atomic_file.h"
+#include "sim/base/error.h"
 #include "sim/sim_scene.h"
 
 namespace handson {
@@ -148,20 +148,15 @@ SessionScript parseSessionScript(const std::string& text, const std::string& nam
       ev.touch.time = ev.t;
     } else {
       ev.isTouch = false;
-      ev.action = p.string(e["ui"], where + ".ui");
+      const std::string actionName = p.string(e["ui"], where + ".ui");
+      const auto action = parseUiAction(actionName);
+      if (!action) p.fail(where + ": unknown UI action \"" + actionName + "\"");
+      ev.action = *action;
       if (auto v = e.find("value"); v != e.end()) ev.value = p.string(*v, where + ".value");
-      if (ev.action == "set-mode") {
-        InteractionMode m;
-        if (!parseMode(ev.value, m)) p.fail(where + ": unknown mode \"" + ev.value + "\"");
-      } else {
-        static const char* const kActions[] = {"set-preset", "reset-camera", "handle-status", "handle-delete", "handle-union",
-                                                "handle-difference", "undo", "redo", "toggle-lock", "toggle-strain", "toggle-limits", "export", "label-handle",
-                                                "toggle-labels", "set-clip-box", "set-clip-plane", "clear-clip", "set-window", "reset-window", "pinch-op",
-                                                "frame-clip", "camera-back", "auto-window"};
-        if (ev.action == "set-interface" && !parseInterface(ev.value)) p.fail(where + ": the interface must be sliding or glued, not \"" + ev.value + "\"");
-        if (ev.action != "set-interface" && std::find(std::begin(kActions), std::end(kActions), ev.action) == std::end(kActions))
-          p.fail(where + ": unknown UI action \"" + ev.action + "\"");
-      }
+      InteractionMode m;
+      if (ev.action == UiAction::SetMode && !parseMode(ev.value, m)) p.fail(where + ": unknown mode \"" + ev.value + "\"");
+      if (ev.action == UiAction::SetInterface && !parseInterface(ev.value))
+        p.fail(where + ": the interface must be sliding or glued, not \"" + ev.value + "\"");
     }
     s.events.push_back(std::move(ev));
   }
@@ -202,7 +197,7 @@ std::string formatSessionScript(const SessionScript& s) {
       j["y"] = e.touch.px.y;
       if (e.touch.pressure != 1.0) j["pressure"] = e.touch.pressure;
     } else {
-      j["ui"] = e.action;
+      j["ui"] = uiActionName(e.action);
       if (!e.value.empty()) j["value"] = e.value;
     }
     events.push_back(std::move(j));
@@ -222,11 +217,11 @@ std::string formatSessionScript(const SessionScript& s) {
   return out;
 }
 
-ScriptEvent uiEvent(double t, std::string action, std::string value) {
+ScriptEvent uiEvent(double t, UiAction action, std::string value) {
   ScriptEvent e;
   e.t = t;
   e.isTouch = false;
-  e.action = std::move(action);
+  e.action = action;
   e.value = std::move(value);
   return e;
 }

@@ -34,6 +34,7 @@
 #include <string>
 #include <vector>
 
+#include "app/session/ui_action.h"
 #include "interaction/camera.h"
 #include "interaction/touch.h"
 
@@ -45,12 +46,12 @@ struct ScriptEvent {
   double t = 0.0;
   bool isTouch = true;
   TouchEvent touch;     ///< when isTouch (touch.time == t)
-  std::string action;   ///< when !isTouch: "set-mode", "set-preset", "reset-camera", handle edits
+  UiAction action = UiAction::None;  ///< when !isTouch
   std::string value;
 };
 
 /// A UI action at time t.
-ScriptEvent uiEvent(double t, std::string action, std::string value = {});
+ScriptEvent uiEvent(double t, UiAction action, std::string value = {});
 /// A touch at time t (touch.time = t).
 ScriptEvent touchEvent(double t, TouchPhase phase, std::int64_t id, glm::dvec2 px, double pressure = 1.0);
 

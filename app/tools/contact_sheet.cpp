@@ -5,7 +5,7 @@
 #include <cstdlib>
 
 #include "app/io/png_io.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 
@@ -57,7 +57,7 @@ class GestureStream {
     if (r < 0.12) return {1e12, -1e12};
     return {uniform(0, w_), uniform(0, h_)};
   }
-  void ui(const std::string& action, const std::string& value) { s_.events.push_back(uiEvent(t_, action, value)); }
+  void ui(UiAction action, const std::string& value) { s_.events.push_back(uiEvent(t_, action, value)); }
   void touch(TouchPhase phase, std::int64_t id, glm::dvec2 px) {
     const double nan = std::numeric_limits<double>::quiet_NaN();
     const double pressure = chance(0.05) ? (chance(0.5) ? nan : uniform(-2.0, 3.0)) : uniform(0.2, 1.0);
@@ -70,21 +70,21 @@ class GestureStream {
     const char* locks[] = {"z-translation", "z-rotation", "xy-translation"};
     const int a = 1 + pick(4), b = 1 + pick(4);
     switch (pick(9)) {
-      case 0: ui("set-mode", modes[pick(7)]); break;
-      case 1: ui("handle-status", std::to_string(a) + ":" + statuses[pick(3)]); break;
-      case 2: ui("handle-union", std::to_string(a) + "," + std::to_string(b)); break;
-      case 3: ui("handle-difference", std::to_string(a) + "," + std::to_string(b)); break;
-      case 4: ui(chance(0.5) ? "undo" : "redo", ""); break;
-      case 5: ui("handle-delete", std::to_string(a)); break;
-      case 6: ui("toggle-lock", locks[pick(3)]); break;
-      case 7: ui("reset-camera", ""); break;
-      default: ui("set-mode", modes[pick(5)]); break;
+      case 0: ui(UiAction::SetMode, modes[pick(7)]); break;
+      case 1: ui(UiAction::HandleStatus, std::to_string(a) + ":" + statuses[pick(3)]); break;
+      case 2: ui(UiAction::HandleUnion, std::to_string(a) + "," + std::to_string(b)); break;
+      case 3: ui(UiAction::HandleDifference, std::to_string(a) + "," + std::to_string(b)); break;
+      case 4: ui(chance(0.5) ? UiAction::Undo : UiAction::Redo, ""); break;
+      case 5: ui(UiAction::HandleDelete, std::to_string(a)); break;
+      case 6: ui(UiAction::ToggleLock, locks[pick(3)]); break;
+      case 7: ui(UiAction::ResetCamera, ""); break;
+      default: ui(UiAction::SetMode, modes[pick(5)]); break;
     }
   }
 
   // A pinch in select mode (kind 0) or a one- to three-finger drag in manipulate mode (kind 1).
   void cleanGesture(int kind, double t0, double dt) {
-    ui("set-mode", kind == 0 ? "select" : "manipulate");
+    ui(UiAction::SetMode, kind == 0 ? "select" : "manipulate");
     const int fingers = kind == 0 ? 2 : 1 + pick(3);
     const glm::dvec2 c(w_ * uniform(0.35, 0.65), h_ * uniform(0.35, 0.65));
     std::vector<glm::dvec2> p0, p1;

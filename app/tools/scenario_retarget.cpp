@@ -9,7 +9,7 @@
 #include "render/render_params.h"
 #include "render/transfer_function.h"
 #include "render/volume_texture.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/quantized_volume.h"
 
 namespace handson {

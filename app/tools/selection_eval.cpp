@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "sim/distance_transform.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/quantized_volume.h"
 
 namespace handson {

@@ -16,7 +16,7 @@
 #include "interaction/view_adjust.h"
 #include "render/transfer_function.h"
 #include "sim/distance_transform.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 
@@ -136,7 +136,7 @@ class EventWriter {
  public:
   explicit EventWriter(SessionScript& s) : s_(s) {}
   double t = 0.0;
-  void ui(const std::string& action, const std::string& value = "", double dt = 0.1) {
+  void ui(UiAction action, const std::string& value = "", double dt = 0.1) {
     s_.events.push_back(uiEvent(std::round(t * 1000.0) / 1000.0, action, value));
     t += dt;
   }
@@ -198,16 +198,16 @@ class Composer {
     useView(deep, view);
     orbitIn(volumePath);
     if (clipping) exposeByClipping();
-    w.ui("set-mode", "select");
+    w.ui(UiAction::SetMode, "select");
     selectBoth();
-    w.ui("handle-status", "2:fixed");
-    w.ui("set-mode", "manipulate");
+    w.ui(UiAction::HandleStatus, "2:fixed");
+    w.ui(UiAction::SetMode, "manipulate");
     prepareHandle();
     tiltWithThree();
     dragWithOne();
     pushWithTwo();
     twistAndSpread();
-    w.ui("handle-status", "2:idle");
+    w.ui(UiAction::HandleStatus, "2:idle");
     finish();
     return std::move(out);
   }
@@ -368,8 +368,8 @@ class Composer {
   // The cut the app then shows is the one the strokes make, to the quarter pixel the script stores;
   // the picks from here on use it.
   void exposeByClipping() {
-    if (picker.preset() != startPreset) w.ui("set-preset", picker.preset());
-    w.ui("set-mode", "clip");
+    if (picker.preset() != startPreset) w.ui(UiAction::SetPreset, picker.preset());
+    w.ui(UiAction::SetMode, "clip");
     glm::dvec3 boxLo, boxHi;
     volumeWorldBox(ct.geometry(), boxLo, boxHi);
     const glm::dvec3 n = cam.forward();
@@ -695,20 +695,20 @@ class Composer {
     const Footprint last = seen(spread, 2);
     const auto [tap, rt] = last.innermost(last.innerDistance(onHandle1));
     if (rt < 3.0) throw Error("compose: after the drags the selection of label " + std::to_string(o.organ) + " is out of sight");
-    w.ui("set-mode", "select");
+    w.ui(UiAction::SetMode, "select");
     w.stroke(14, {tap}, {tap}, 1, 0.04);
     w.t += 0.3;
-    for (const auto& [a, v] : std::vector<std::pair<const char*, const char*>>{
-             {"handle-union", "1,2"}, {"undo", ""}, {"redo", ""}, {"undo", ""}, {"handle-difference", "1,2"}, {"undo", ""}})
+    for (const auto& [a, v] : std::vector<std::pair<UiAction, const char*>>{
+             {UiAction::HandleUnion, "1,2"}, {UiAction::Undo, ""}, {UiAction::Redo, ""}, {UiAction::Undo, ""}, {UiAction::HandleDifference, "1,2"}, {UiAction::Undo, ""}})
       w.ui(a, v);
-    w.ui("set-mode", "navigate");
+    w.ui(UiAction::SetMode, "navigate");
     const std::vector<double> background = fp.innerDistance([](int l) { return l == kBackground; });
     const bool someBackground = *std::max_element(background.begin(), background.end()) >= 12.0;
     const glm::dvec2 p = fp.innermost(someBackground ? background : fp.innerDistance([this](int l) { return !organ(l) && !anchor(l); })).first;
     const double dx = std::round(40.0 * vp.height / 512.0);
     w.stroke(20, {p}, {p + glm::dvec2(p.x < mid.x ? dx : -dx, 0.0)}, 9, 0.05);
-    w.ui("reset-camera", "", 0.2);
-    w.ui("export");
+    w.ui(UiAction::ResetCamera, "", 0.2);
+    w.ui(UiAction::Export);
   }
 };
 

@@ -17,7 +17,7 @@
 #include "app/session/replay.h"
 #include "render/vk_resources.h"
 #include "scripts/scenario_kidney_translate_two_fingers.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 
@@ -49,7 +49,7 @@ SessionScript soakScript(int frames, double fps) {
   s.events.erase(std::remove_if(s.events.begin(), s.events.end(), [](const ScriptEvent& e) { return e.t >= 1.0; }), s.events.end());
   std::int64_t id = 100;
   double t = 0.0;
-  auto ui = [&](double at, const std::string& action, const std::string& value = "") { s.events.push_back(uiEvent(at, action, value)); };
+  auto ui = [&](double at, UiAction action, const std::string& value = "") { s.events.push_back(uiEvent(at, action, value)); };
   auto touch = [&](double at, TouchPhase phase, std::int64_t finger, double x, double y) {
     s.events.push_back(touchEvent(at, phase, finger, {x, y}));
   };
@@ -77,19 +77,19 @@ SessionScript soakScript(int frames, double fps) {
     // the handle is back exactly where it was (a gesture is one undo step). The same with one
     // finger, 12 px down. Every cycle solves the same poses again, from the same state.
     double at = stroke(t, {{192, 262}, {212, 262}}, {{2, 0}, {2, 0}}, 10, false);  // lifted at t + 0.55
-    ui(at + 0.1, "undo");
-    ui(at + 0.2, "redo");
-    ui(at + 0.3, "undo");
+    ui(at + 0.1, UiAction::Undo);
+    ui(at + 0.2, UiAction::Redo);
+    ui(at + 0.3, UiAction::Undo);
     at = stroke(at + 0.4, {{202, 266}}, {{0, 2}}, 6, false);  // t + 1.3
-    ui(at + 0.1, "undo");
+    ui(at + 0.1, UiAction::Undo);
     // A tap on it in select mode (picked), then the view orbited 40 px and back, zoomed and back.
-    ui(at + 0.2, "set-mode", "select");
+    ui(at + 0.2, UiAction::SetMode, "select");
     touch(at + 0.3, TouchPhase::Down, ++id, 202, 270);
     touch(at + 0.35, TouchPhase::Up, id, 202, 270);
-    ui(at + 0.45, "set-mode", "navigate");
+    ui(at + 0.45, UiAction::SetMode, "navigate");
     at = stroke(at + 0.5, {{100, 450}}, {{5, 0}}, 8, true);                     // t + 2.65
     at = stroke(at + 0.1, {{200, 100}, {260, 100}}, {{-3, 0}, {3, 0}}, 4, true);  // t + 3.2
-    ui(t + 3.9, "set-mode", "manipulate");
+    ui(t + 3.9, UiAction::SetMode, "manipulate");
   }
   std::stable_sort(s.events.begin(), s.events.end(), [](const ScriptEvent& a, const ScriptEvent& b) { return a.t < b.t; });
   return s;

@@ -9,7 +9,7 @@
 
 #include "app/io/nifti_io.h"
 #include "fuzz_input_file.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace {
 void readChecked(const std::string& path, std::int64_t frame) {

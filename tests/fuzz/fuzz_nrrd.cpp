@@ -7,7 +7,7 @@
 
 #include "app/io/nrrd_io.h"
 #include "fuzz_input_file.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const auto path = handson::fuzz::scratchDir() / "input.nrrd";

@@ -5,7 +5,7 @@
 #include <string>
 
 #include "app/session/session_script.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

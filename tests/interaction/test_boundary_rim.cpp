@@ -7,7 +7,7 @@
 #include <random>
 
 #include "interaction/region_grow.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 using namespace handson;
 

@@ -4,7 +4,7 @@
 
 #include "interaction/handles.h"
 #include "interaction/selection.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 #include "sim/quantized_volume.h"
 

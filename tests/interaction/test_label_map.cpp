@@ -8,7 +8,7 @@
 #include <random>
 
 #include "interaction/label_map.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 namespace {

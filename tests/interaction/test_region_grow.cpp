@@ -6,7 +6,7 @@
 #include <string>
 
 #include "interaction/region_grow.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 
 using namespace handson;

@@ -7,7 +7,7 @@
 #include <numbers>
 
 #include "render/blue_noise.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 using namespace handson;
 

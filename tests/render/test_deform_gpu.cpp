@@ -18,7 +18,7 @@
 #include "interaction/camera.h"
 #include "render/vk_resources.h"
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 #include "sim/quantized_volume.h"
 #include "sim/sim_scene.h"
@@ -474,7 +474,7 @@ TEST_F(DeformGpu, FrameGraphDeformsThenRaymarchesAndPicksTheDeformedVolume) {
   EXPECT_GT(after.picks[0].world.w, 0.5f);
   EXPECT_EQ(after.picks[0].voxel.w, kKidneyId) << "the pick lands on the moved kidney";
   bool ran = false;
-  for (const auto& t : after.timings) ran = ran || t.name == "deform-resolve";
+  for (const auto& t : after.timings) ran = ran || t.id == PassId::DeformResolve;
   EXPECT_TRUE(ran || after.timings.empty());
 
   // The CPU raymarch of the deformed volume and mask the GPU made.

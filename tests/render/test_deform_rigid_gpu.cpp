@@ -13,7 +13,7 @@
 #include "gpu_test_env.h"
 #include "render/deform_pass.h"
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/sim_scene.h"
 #include "sim/tet_raster.h"
 #include "sim/tissue_limits.h"

@@ -1,11 +1,12 @@
 // Frame-graph logic without a GPU: a recording executor checks culling, ordering and barriers.
 #include <gtest/gtest.h>
 
+#include <set>
 #include <string>
 #include <vector>
 
 #include "render/frame_graph.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 using namespace handson::fg;
 
@@ -54,6 +55,39 @@ TEST(FrameGraph, CullsPassesWhoseOutputsNobodyUses) {
   EXPECT_EQ(ran, (std::vector<std::string>{"make-a", "make-b"}));
   // The culled pass's transient output is never allocated.
   EXPECT_EQ(ex.realized, (std::vector<std::string>{"a", "b"}));
+}
+
+TEST(FrameGraph, APassAddedByIdIsNamedFromTheTableAndTheExecutorSeesItsId) {
+  // Callers find a pass's time by its id (the frame budget reads the raymarch's): the executor
+  // gets the id with the name, and a pass added by name alone is Unnamed.
+  FrameGraph g;
+  auto a = g.createImage("a", kImg);
+  auto b = g.createImage("b", kImg);
+  g.addPass(handson::PassId::Raymarch, [&](PassBuilder& p) { p.write(a, Access::StorageWrite); }, [](Executor&) {});
+  g.addPass("copy", [&](PassBuilder& p) { p.read(a, Access::StorageRead); p.write(b, Access::StorageWrite); }, [](Executor&) {});
+  g.exportResource(b, Access::TransferSrc);
+  g.compile();
+  struct Ids : MockExecutor {
+    std::vector<PassInfo> seen;
+    void beginPass(const PassInfo& p) override { seen.push_back(p); }
+  } ex;
+  g.execute(ex);
+  ASSERT_EQ(ex.seen.size(), 2u);
+  EXPECT_EQ(ex.seen[0].id, handson::PassId::Raymarch);
+  EXPECT_EQ(ex.seen[0].name, "raymarch");
+  EXPECT_EQ(ex.seen[1].id, handson::PassId::Unnamed);
+  EXPECT_EQ(ex.seen[1].name, "copy");
+}
+
+TEST(FrameGraph, EveryPassIdHasItsOwnName) {
+  // The timing log's columns and the benchmarks' figures are the names: one each, never shared.
+  std::set<std::string> names;
+  for (int i = 1; i < int(handson::PassId::Count); ++i) {
+    const std::string n = handson::passName(handson::PassId(i));
+    EXPECT_FALSE(n.empty()) << i;
+    EXPECT_TRUE(names.insert(n).second) << n;
+  }
+  EXPECT_EQ(std::string(handson::passName(handson::PassId::Unnamed)), "");
 }
 
 TEST(FrameGraph, SideEffectAndImportedWritesKeepPassesAlive) {

@@ -11,7 +11,7 @@
 #include "render/render_params.h"
 #include "render/transfer_function.h"
 #include "render/volume_renderer.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 
 using namespace handson;
@@ -167,7 +167,7 @@ TEST_F(GpuPasses, PickMatchesCpuReference) {
   const auto cpu = pickReference({&s.q, &s.lut, &s.renderer->occupancy()}, p, pts);
   ASSERT_EQ(r.picks.size(), cpu.size());
   int hits = 0, agree = 0;
-  const float step = p.march.x;
+  const float step = p.stepMm;
   for (std::size_t i = 0; i < cpu.size(); ++i) {
     const bool hg = r.picks[i].world.w > 0.5f, hc = cpu[i].world.w > 0.5f;
     hits += hc;
@@ -210,7 +210,7 @@ TEST_F(GpuPasses, ATransferFunctionOverValueAndGradientMagnitudeMatchesCpuRefere
   for (std::size_t i = 0; i < cpu.size(); ++i) {
     const bool hg = r.picks[i].world.w > 0.5f, hc = cpu[i].world.w > 0.5f;
     hits += hc;
-    if (hg == hc && (!hg || glm::distance(glm::vec3(r.picks[i].world), glm::vec3(cpu[i].world)) <= 1.01f * p.march.x)) ++agree;
+    if (hg == hc && (!hg || glm::distance(glm::vec3(r.picks[i].world), glm::vec3(cpu[i].world)) <= 1.01f * p.stepMm)) ++agree;
   }
   EXPECT_GT(hits, 40);
   EXPECT_GE(agree, int(cpu.size()) - 3);
@@ -252,7 +252,7 @@ TEST_F(GpuPasses, ClippingMatchesCpuAndPicksLandBehindTheCut) {
     EXPECT_LE(d.fractionOver2, 0.01);
     EXPECT_GT(compare(r.rgba, unclipped).meanDiff, 2.0) << "the cut shows";
     const auto cpu = pickReference(ref, p, pts);
-    const float step = p.march.x;
+    const float step = p.stepMm;
     int hits = 0, agree = 0;
     for (std::size_t i = 0; i < pts.size(); ++i) {
       const bool hg = r.picks[i].world.w > 0.5f;
@@ -450,7 +450,7 @@ TEST_F(GpuPasses, HandleTintMatchesCpuAndPicksReportTheHandleId) {
     }
   req.params = paramsFor(s, cam, rs, 2);
   setMovingHandles(req.params, s.phantom.ct.geometry(), {moved});
-  ASSERT_EQ(req.params.control.w, 1u);
+  ASSERT_EQ(req.params.movingCount, 1u);
   const glm::vec4 c2 = vp * glm::vec4(float(kc.x()), float(kc.y() + 30.0), float(kc.z()), 1.0f);
   req.pickPoints = {glm::vec2(c) / c.w, glm::vec2(c2) / c2.w};
   s.renderer->submit(req);
@@ -593,7 +593,7 @@ TEST_F(GpuPasses, AJitteredStillFrameSumsItsPhasesAsTheCpuReferenceDoesAndSettle
   const RenderSettings& rs = v.rs;
   const OrbitCamera& cam = v.cam;
   const gpu::RenderParams base = paramsFor(s, cam, rs);
-  ASSERT_TRUE(base.control.x & gpu::kFlagJitter) << "jitter is on by default";
+  ASSERT_TRUE(base.flags & gpu::kFlagJitter) << "jitter is on by default";
   const ReferenceScene ref{&s.q, &s.lut, &s.renderer->occupancy()};
   std::vector<glm::vec3> cpuSum;
   std::vector<std::uint8_t> last;
@@ -622,7 +622,7 @@ TEST_F(GpuPasses, AJitteredStillFrameSumsItsPhasesAsTheCpuReferenceDoesAndSettle
   EXPECT_TRUE(renderGpu(s, first).rgba == one.rgba);
   // And without jitter every ray samples at the middle of each step: a different picture.
   gpu::RenderParams plain = base;
-  plain.control.x &= ~gpu::kFlagJitter;
+  plain.flags &= ~gpu::kFlagJitter;
   EXPECT_GT(compare(renderGpu(s, plain).rgba, one.rgba).fractionOver2, 0.01);
 }
 
@@ -703,7 +703,7 @@ TEST_F(GpuPasses, TheRendererSumsAStillPictureAndStartsAnewWhenItChanges) {
     // frame budget never takes its time for a raymarch's (app/session/frame_driver.cpp).
     bool marched = false, shown = false;
     for (const auto& t : r.timings) {
-      marched = marched || t.name == "raymarch";
+      marched = marched || t.id == PassId::Raymarch;
       shown = shown || t.name == "still-frame";
     }
     if (!r.timings.empty()) {

@@ -13,7 +13,7 @@
 #include "render/transfer_function.h"
 #include "render/volume_renderer.h"
 #include "shaders/shared.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 
 using namespace handson;

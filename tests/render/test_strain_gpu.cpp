@@ -21,7 +21,7 @@
 #include "render/volume_renderer.h"
 #include "render/vk_resources.h"
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 #include "sim/quantized_volume.h"
 #include "sim/sim_scene.h"

@@ -9,7 +9,7 @@
 #include "render/transfer_function.h"
 #include "render/volume_texture.h"
 #include "shaders/shared.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 using namespace handson;
 
@@ -173,11 +173,11 @@ TEST(RenderParams, RejectsBadSizesAndEncodesTheCamera) {
   s.width = 64;
   s.height = 32;
   const auto p = makeRenderParams(g, glm::mat4(1), glm::mat4(1), glm::vec3(1, 2, 3), s, 5);
-  EXPECT_EQ(p.dims.w, 64);
-  EXPECT_EQ(p.brickDims.w, 32);
-  EXPECT_EQ(p.control.y, 5u);
-  EXPECT_EQ(p.cameraPos, glm::vec4(1, 2, 3, 1));
-  EXPECT_FLOAT_EQ(p.march.x, 0.5f);
+  EXPECT_EQ(p.outputWidth, 64);
+  EXPECT_EQ(p.outputHeight, 32);
+  EXPECT_EQ(p.pickCount, 5u);
+  EXPECT_EQ(p.eye, glm::vec3(1, 2, 3));
+  EXPECT_FLOAT_EQ(p.stepMm, 0.5f);
 }
 
 TEST(TransferFunction, WindowingMovesAndScalesThePointsAboutWhereTheyBecomeVisible) {

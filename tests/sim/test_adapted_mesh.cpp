@@ -8,7 +8,7 @@
 
 #include "sim/adapted_mesh.h"
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 #include "sim/sim_scene.h"
 #include "sim/tet_raster.h"

@@ -6,7 +6,7 @@
 #include <cstdio>
 
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 #include "sim/sim_scene.h"
 

@@ -13,7 +13,7 @@
 #include <sstream>
 
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 #include "sim/sim_scene.h"
 #include "sim/static_solver.h"

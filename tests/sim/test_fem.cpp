@@ -6,7 +6,7 @@
 #include <Eigen/Geometry>
 #include <random>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/fem.h"
 #include "sim/static_solver.h"
 

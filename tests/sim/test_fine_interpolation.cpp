@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/fine_interpolation.h"
 #include "sim/phantom.h"
 #include "sim/sim_scene.h"

@@ -4,7 +4,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/materials.h"
 
 using namespace handson;

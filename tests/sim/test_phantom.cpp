@@ -3,7 +3,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 
 using namespace handson;

@@ -5,7 +5,7 @@
 #include <random>
 
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/static_solver.h"
 #include "sim/two_level.h"
 

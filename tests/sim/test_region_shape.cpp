@@ -7,7 +7,7 @@
 #include <random>
 
 #include "sim/coarsening.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 #include "sim/region_shape.h"
 #include "sim/sim_scene.h"

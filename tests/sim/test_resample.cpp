@@ -3,7 +3,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/resample.h"
 
 using namespace handson;

@@ -9,7 +9,7 @@
 #include <fstream>
 #include <unistd.h>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/handle_reaction.h"
 #include "sim/phantom.h"
 #include "sim/scene_cache.h"

@@ -3,7 +3,7 @@
 // 150-700 HU).
 #include <gtest/gtest.h>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/skeleton.h"
 
 namespace handson {

@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <algorithm>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/handle_reaction.h"
 #include "sim/sim_scene.h"
 #include "sim/strain.h"

@@ -5,7 +5,7 @@
 #include <random>
 #include <set>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/tet_mesh.h"
 
 using namespace handson;

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <limits>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/materials.h"
 #include "sim/strain.h"
 #include "sim/tet_mesh.h"

@@ -17,7 +17,7 @@
 #include "app/io/nifti_io.h"
 #include "app/session/session_recovery.h"
 #include "app/session/session_script.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "tests/app/run_handson.h"
 
 namespace fs = std::filesystem;

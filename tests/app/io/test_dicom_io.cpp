@@ -20,7 +20,7 @@
 
 #include "app/io/dicom_io.h"
 #include "app/io/volume_io.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 #ifndef HANDSON_SHARED_DATA_DIR
 #define HANDSON_SHARED_DATA_DIR "../shared/data"

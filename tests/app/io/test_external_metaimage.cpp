@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "app/io/volume_io.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 namespace {

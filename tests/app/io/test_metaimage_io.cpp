@@ -16,7 +16,7 @@
 
 #include "app/io/volume_io.h"
 #include "file_test_fixture.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 namespace {

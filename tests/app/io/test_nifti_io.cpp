@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/volume.h"
 
 #ifndef HANDSON_SHARED_DATA_DIR

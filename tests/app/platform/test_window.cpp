@@ -22,7 +22,7 @@
 #include "app/session/session_recovery.h"
 #include "app/session/session_script.h"
 #include "interaction/camera.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 
 using namespace handson;
@@ -257,8 +257,8 @@ TEST_F(Window, TheExportButtonsActionWritesTheSessionTheVolumeAndAScreenshot) {
   EXPECT_FALSE(fs::exists(dir / "out" / "mesh-01.vtu")) << "nothing simulated: no mesh";
   const SessionScript s = readSessionScript((dir / "out" / "session-01.json").string());
   ASSERT_GE(s.events.size(), 2u);
-  EXPECT_EQ(s.events[0].action, "set-preset");
-  EXPECT_EQ(s.events.back().action, "export");
+  EXPECT_EQ(s.events[0].action, UiAction::SetPreset);
+  EXPECT_EQ(s.events.back().action, UiAction::Export);
   int w = 0, h = 0;
   EXPECT_FALSE(readPng((dir / "out" / "screenshot-01.png").string(), w, h).empty());
   EXPECT_GT(w, 0);
@@ -295,7 +295,7 @@ TEST_F(Window, ALostDeviceEndsTheSessionWithAClearMessageAndItsScriptAndHandlesS
   EXPECT_NE(message.find("the session so far is saved"), std::string::npos) << message;
   const SessionScript s = readSessionScript((dir / "out" / "recovery-session.json").string());
   ASSERT_GE(s.events.size(), 2u);
-  EXPECT_EQ(s.events[0].action, "set-preset");
+  EXPECT_EQ(s.events[0].action, UiAction::SetPreset);
   EXPECT_TRUE(readHandles((dir / "out" / "recovery-handles.json").string()).handles.empty());
   fs::remove_all(dir);
 }
@@ -529,8 +529,8 @@ TEST_F(Window, NoPanelCoversAnotherWithTheStrainBarAndTheLimitHighlightShown) {
     o.frames = 3;
     o.sim.enabled = false;
     Viewer v(o);
-    v.session().apply(uiEvent(0.0, "toggle-strain", ""));
-    v.session().apply(uiEvent(0.0, "toggle-limits", ""));
+    v.session().apply(uiEvent(0.0, UiAction::ToggleStrain, ""));
+    v.session().apply(uiEvent(0.0, UiAction::ToggleLimits, ""));
     while (v.step()) {
     }
     const auto panels = v.uiPanels();

@@ -7,7 +7,7 @@
 #include <limits>
 
 #include "app/session/frame_budget.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 using namespace handson;
 

@@ -9,7 +9,7 @@
 #include "interaction/region_grow.h"
 #include "render/transfer_function.h"
 #include "render/vk_context.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 
 using namespace handson;

@@ -1118,7 +1118,7 @@ TEST(Replay, ADragWhoseFingersLiftBeforeTheirPicksReturnStillMovesTheHandle) {
   handson::SessionScript quick = asset;
   for (handson::ScriptEvent& e : quick.events)
     if (e.t >= 1.0) e.t = 1.01 + (e.t - 1.0) * 0.08 / 1.05;  // 1.01 .. 1.09 s: between two frames
-  quick.events.push_back(handson::uiEvent(2.0, "undo"));                // the drag as one undo step
+  quick.events.push_back(handson::uiEvent(2.0, handson::UiAction::Undo));                // the drag as one undo step
   handson::writeSessionScript(asset, (dir / "slow.json").string());
   handson::writeSessionScript(quick, (dir / "quick.json").string());
   handson::SessionScript quickKept = quick;

@@ -37,10 +37,10 @@ TEST(SessionFraming, FrameClipMovesTheCameraToTheClippedRegionAndBack) {
   const Viewport vp{640, 400};
   Session s(g, vp, "ct-abdomen");
   const OrbitCamera start = s.camera();
-  EXPECT_FALSE(s.apply(uiEvent(0.5, "frame-clip"))) << "nothing clipped: nothing to frame";
-  EXPECT_FALSE(s.apply(uiEvent(0.5, "camera-back"))) << "no framing to go back from";
-  ASSERT_TRUE(s.apply(uiEvent(1.0, "set-clip-box", "10,-30,-40,40,0,-10")));
-  ASSERT_TRUE(s.apply(uiEvent(1.0, "frame-clip")));
+  EXPECT_FALSE(s.apply(uiEvent(0.5, UiAction::FrameClip))) << "nothing clipped: nothing to frame";
+  EXPECT_FALSE(s.apply(uiEvent(0.5, UiAction::CameraBack))) << "no framing to go back from";
+  ASSERT_TRUE(s.apply(uiEvent(1.0, UiAction::SetClipBox, "10,-30,-40,40,0,-10")));
+  ASSERT_TRUE(s.apply(uiEvent(1.0, UiAction::FrameClip)));
   const OrbitCamera want = *frameClip(start, g, s.clip(), FramingView{vp.width, vp.height});
   s.advance(1.0);
   EXPECT_TRUE(same(s.camera(), start)) << "the move starts where the camera was";
@@ -58,7 +58,7 @@ TEST(SessionFraming, FrameClipMovesTheCameraToTheClippedRegionAndBack) {
   EXPECT_EQ(s.camera().azimuth, start.azimuth);
   // One gesture back: the camera before the framing, moved to the same way.
   ASSERT_TRUE(s.canGoBack());
-  ASSERT_TRUE(s.apply(uiEvent(3.0, "camera-back")));
+  ASSERT_TRUE(s.apply(uiEvent(3.0, UiAction::CameraBack)));
   EXPECT_FALSE(s.canGoBack());
   s.advance(3.0 + Session::kFramingSeconds);
   EXPECT_TRUE(same(s.camera(), start));
@@ -70,8 +70,8 @@ TEST(SessionFraming, AFingerStopsTheMoveWhereItIsAndAClipThatLeavesNothingIsNotF
   const VolumeGeometry g = grid();
   Session s(g, Viewport{400, 400}, "ct-abdomen");
   const OrbitCamera start = s.camera();
-  ASSERT_TRUE(s.apply(uiEvent(0.0, "set-clip-plane", "1,0,0,20")));
-  ASSERT_TRUE(s.apply(uiEvent(0.0, "frame-clip")));
+  ASSERT_TRUE(s.apply(uiEvent(0.0, UiAction::SetClipPlane, "1,0,0,20")));
+  ASSERT_TRUE(s.apply(uiEvent(0.0, UiAction::FrameClip)));
   const CameraMove move{start, *frameClip(start, g, s.clip(), FramingView{400, 400}), 0.0, Session::kFramingSeconds};
   s.advance(0.1);
   EXPECT_TRUE(same(s.camera(), move.at(0.1)));
@@ -82,7 +82,7 @@ TEST(SessionFraming, AFingerStopsTheMoveWhereItIsAndAClipThatLeavesNothingIsNotF
   EXPECT_TRUE(same(s.camera(), move.at(0.12))) << "the finger's gesture acts on the camera shown";
   ASSERT_TRUE(s.apply(touchEvent(0.2, TouchPhase::Up, 1, {200, 200})));
   // A framing and a finger within one frame (no advance between): the camera still moved.
-  ASSERT_TRUE(s.apply(uiEvent(1.0, "camera-back")));
+  ASSERT_TRUE(s.apply(uiEvent(1.0, UiAction::CameraBack)));
   ASSERT_TRUE(s.apply(touchEvent(1.1, TouchPhase::Down, 2, {200, 200})));
   EXPECT_FALSE(same(s.camera(), move.at(0.12)));
   EXPECT_FALSE(same(s.camera(), start));
@@ -90,8 +90,8 @@ TEST(SessionFraming, AFingerStopsTheMoveWhereItIsAndAClipThatLeavesNothingIsNotF
   // A plane past the volume's end leaves nothing, one through its corner a point: both refused,
   // the camera unchanged.
   for (const char* plane : {"1,0,0,5000", "1,1,1,285"}) {
-    ASSERT_TRUE(s.apply(uiEvent(2.0, "set-clip-plane", plane)));
-    EXPECT_FALSE(s.apply(uiEvent(2.0, "frame-clip"))) << plane;
+    ASSERT_TRUE(s.apply(uiEvent(2.0, UiAction::SetClipPlane, plane)));
+    EXPECT_FALSE(s.apply(uiEvent(2.0, UiAction::FrameClip))) << plane;
     EXPECT_FALSE(s.cameraMoving());
   }
 }
@@ -101,8 +101,8 @@ TEST(SessionFraming, AClipDragThatChangesTheClipAsksToBeFramedOnceItEnds) {
   const VolumeGeometry g = grid();
   const Viewport vp{400, 400};
   Session s(g, vp, "ct-abdomen");
-  ASSERT_TRUE(s.apply(uiEvent(0.0, "set-mode", "clip")));
-  ASSERT_TRUE(s.apply(uiEvent(0.0, "set-clip-box", "-60,-60,-60,60,60,60")));
+  ASSERT_TRUE(s.apply(uiEvent(0.0, UiAction::SetMode, "clip")));
+  ASSERT_TRUE(s.apply(uiEvent(0.0, UiAction::SetClipBox, "-60,-60,-60,60,60,60")));
   // Drag from the middle of a face of the box as seen (the nearest face handle is under the finger).
   std::optional<glm::dvec2> handle;
   for (int axis = 0; axis < 3 && !handle; ++axis)
@@ -177,11 +177,11 @@ TEST(SessionFraming, AnAutomaticWindowFollowsTheRegionUntilTheWindowIsSetByHand)
   s.setAutomaticWindow(WindowLevel{0.8, -60.0, 1.0});
   EXPECT_TRUE(s.takePresetChanged());
   EXPECT_TRUE(s.windowFollowsRegion());
-  ASSERT_TRUE(s.apply(uiEvent(0.0, "set-window", "1.2,10,1")));
+  ASSERT_TRUE(s.apply(uiEvent(0.0, UiAction::SetWindow, "1.2,10,1")));
   EXPECT_FALSE(s.windowFollowsRegion()) << "set by hand";
-  ASSERT_TRUE(s.apply(uiEvent(0.1, "reset-window")));
+  ASSERT_TRUE(s.apply(uiEvent(0.1, UiAction::ResetWindow)));
   EXPECT_TRUE(s.windowFollowsRegion());
   s.setAutomaticWindow(WindowLevel{0.8, -60.0, 1.0});
-  ASSERT_TRUE(s.apply(uiEvent(0.2, "set-preset", "ct-soft-tissue")));
+  ASSERT_TRUE(s.apply(uiEvent(0.2, UiAction::SetPreset, "ct-soft-tissue")));
   EXPECT_TRUE(s.window().identity()) << "a new preset starts from its own window";
 }

@@ -8,7 +8,7 @@
 
 #include "app/session/session.h"
 #include "app/session/session_recovery.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 using namespace handson;
 namespace fs = std::filesystem;
@@ -97,7 +97,7 @@ TEST(SessionRecovery, SavesTheScriptAndTheHandlesAndSaysWhereOrWhyNot) {
   ScriptEvent e;
   e.t = 0.5;
   e.isTouch = false;
-  e.action = "set-mode";
+  e.action = UiAction::SetMode;
   e.value = "select";
   ASSERT_TRUE(session.apply(e));
   const HandleSet set = twoHandles();

@@ -8,7 +8,7 @@
 #include "app/session/replay.h"
 #include "app/session/session.h"
 #include "app/session/session_script.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 using namespace handson;
 
@@ -122,7 +122,7 @@ TEST(Session, UiActionsAndRecording) {
   s.startRecording(SessionScript{});
   ScriptEvent preset;
   preset.isTouch = false;
-  preset.action = "set-preset";
+  preset.action = UiAction::SetPreset;
   preset.value = "ct-bone";
   EXPECT_TRUE(s.apply(preset));
   EXPECT_TRUE(s.takePresetChanged());
@@ -130,7 +130,7 @@ TEST(Session, UiActionsAndRecording) {
   preset.value = "nonsense";
   EXPECT_FALSE(s.apply(preset));  // refused and not recorded
   ScriptEvent mode = preset;
-  mode.action = "set-mode";
+  mode.action = UiAction::SetMode;
   mode.value = "manipulate";
   EXPECT_TRUE(s.apply(mode));
   EXPECT_EQ(s.gestures().mode(), InteractionMode::Manipulate);
@@ -138,7 +138,7 @@ TEST(Session, UiActionsAndRecording) {
   EXPECT_EQ(s.script().viewport.width, 200);
   // The strain overlay toggles and is recorded; a script carrying the action parses back.
   ScriptEvent strain = preset;
-  strain.action = "toggle-strain";
+  strain.action = UiAction::ToggleStrain;
   strain.value.clear();
   EXPECT_FALSE(s.strainOverlay());
   EXPECT_TRUE(s.apply(strain));
@@ -148,10 +148,10 @@ TEST(Session, UiActionsAndRecording) {
   EXPECT_EQ(s.script().events.size(), 4u);
   const SessionScript back = parseSessionScript(formatSessionScript(s.script()));
   ASSERT_EQ(back.events.size(), 4u);
-  EXPECT_EQ(back.events[3].action, "toggle-strain");
+  EXPECT_EQ(back.events[3].action, UiAction::ToggleStrain);
   // So does the limit highlight.
   ScriptEvent limits = strain;
-  limits.action = "toggle-limits";
+  limits.action = UiAction::ToggleLimits;
   EXPECT_FALSE(s.limitHighlight());
   EXPECT_TRUE(s.apply(limits));
   EXPECT_TRUE(s.limitHighlight());
@@ -159,7 +159,7 @@ TEST(Session, UiActionsAndRecording) {
   EXPECT_EQ(s.script().events.size(), 5u);
   const SessionScript back2 = parseSessionScript(formatSessionScript(s.script()));
   ASSERT_EQ(back2.events.size(), 5u);
-  EXPECT_EQ(back2.events[4].action, "toggle-limits");
+  EXPECT_EQ(back2.events[4].action, UiAction::ToggleLimits);
 }
 
 TEST(LatencyLog, PercentilesAndSummary) {

@@ -6,7 +6,7 @@
 
 #include "app/io/png_io.h"
 #include "app/tools/contact_sheet.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace fs = std::filesystem;
 

@@ -5,7 +5,7 @@
 #include <set>
 
 #include "app/tools/gesture_stress.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace {
 
@@ -26,8 +26,8 @@ TEST(GestureStress, TheStreamHoldsEveryKindOfBrokenInputAndIsDeterministic) {
     EXPECT_GE(e.t, last);
     last = e.t;
     if (!e.isTouch) {
-      if (e.action == "set-mode" && !down.empty()) ++modeSwitchesMidGesture;
-      if (e.action.rfind("handle-", 0) == 0 || e.action == "undo" || e.action == "redo") ++edits;
+      if (e.action == handson::UiAction::SetMode && !down.empty()) ++modeSwitchesMidGesture;
+      if (handson::isHandleEdit(e.action)) ++edits;
       continue;
     }
     const auto& p = e.touch.px;

@@ -4,7 +4,7 @@
 #include <random>
 
 #include "app/tools/session_compose.h"
-#include "sim/error.h"
+#include "sim/base/error.h"
 #include "sim/phantom.h"
 
 namespace {

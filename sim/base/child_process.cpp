@@ -1,4 +1,4 @@
-#include "sim/child_process.h"
+#include "sim/base/child_process.h"
 
 #include <poll.h>
 #include <signal.h>
@@ -14,7 +14,7 @@
 #include <cstring>
 #include <limits>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 

@@ -1,4 +1,4 @@
-#include "grow_setup.h"
+#include "interaction/grow_setup.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 #pragma once
 // What region growing's CPU reference (interaction/region_grow.h) and its GPU pass
 // (render/region_grow_pass.h) share: the criterion, the seed statistics that decide homogeneity,
-// and the keys. Plain data, so neither library depends on the other.
+// and the keys. Plain data, kept with region growing (render/ includes interaction/ for it, never the reverse).
 #include <array>
 #include <cstdint>
 #include <string>

@@ -8,8 +8,8 @@
 #include <fstream>
 #include <iterator>
 
-#include "sim/atomic_file.h"
-#include "sim/error.h"
+#include "sim/base/atomic_file.h"
+#include "sim/base/error.h"
 
 namespace fs = std::filesystem;
 

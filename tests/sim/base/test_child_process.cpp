@@ -7,8 +7,8 @@
 #include <cstdlib>
 #include <thread>
 
-#include "sim/child_process.h"
-#include "sim/error.h"
+#include "sim/base/child_process.h"
+#include "sim/base/error.h"
 
 using namespace handson;
 

@@ -1,4 +1,4 @@
-#include "sim/atomic_file.h"
+#include "sim/base/atomic_file.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -6,11 +6,13 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <vector>
 
-#include "sim/error.h"
+#include "sim/base/error.h"
 
 namespace handson {
 
