@@ -13,6 +13,7 @@
 
 #include "compute_passes.h"
 #include "deform_pass.h"
+#include "frame_renderer.h"
 #include "live_selection.h"
 #include "shaders/shared.h"
 #include "tf_table.h"
@@ -74,7 +75,7 @@ struct FrameResult {
   std::vector<vk::PassTiming> timings;
 };
 
-class VolumeRenderer {
+class VolumeRenderer final : public FrameRenderer {
  public:
   explicit VolumeRenderer(const vk::Context& ctx, std::uint32_t framesInFlight = 2);
   ~VolumeRenderer();
@@ -83,7 +84,7 @@ class VolumeRenderer {
   void setVolume(const QuantizedVolume& volume, const ProgressFn& progress = {});
   /// Uploads a lookup table and the brick occupancy it implies. Throws handson::Error on a table
   /// whose shape is not one the passes read (TfTable::valid).
-  void setTransferFunction(const TfTable& lut);
+  void setTransferFunction(const TfTable& lut) override;
   /// Tint per handle id (gpu::kMaxHandleIds entries: rgb, weight; id 0 unused).
   void setHandleTints(const std::vector<glm::vec4>& tints);
   /// Organ labels on the volume's grid for the label tint (gpu::kFlagLabelTint; uploaded now,
@@ -139,9 +140,9 @@ class VolumeRenderer {
   std::vector<std::uint8_t> readMask();
 
   /// Records and submits one frame; blocks only if the slot it reuses is still in flight.
-  std::uint64_t submit(const FrameRequest& request);
+  std::uint64_t submit(const FrameRequest& request) override;
   /// The jitter phases in the still frame's sum the last submitted frame shows (0: not a sum).
-  int stillPhasesShown() const { return stillShown_; }
+  int stillPhasesShown() const override { return stillShown_; }
   /// Results that completed since the last call (non-blocking; from slots that came round again).
   std::vector<FrameResult> takeCompleted();
   /// Waits for the last submitted frame and returns its results.

@@ -27,12 +27,12 @@ namespace {
 
 const char* const kViewHelp =
     "usage: handson view [PATH] [options]\n"
-    "  Opens a volume (NIfTI file or DICOM directory; omitted: the built-in phantom) in the touch app.\n"
+    "  Opens a volume (NIfTI, NRRD or MetaImage file, or a DICOM directory; omitted: the built-in phantom)\n"
+    "  in the touch app.\n"
     "  Touch: one finger orbits; two fingers pinch to zoom, pan and twist to roll (navigate mode).\n"
     "  Mouse: left drag = one finger; Shift = two fingers moving together; Ctrl = two fingers\n"
     "  mirrored about the window centre (pinch, twist); Ctrl+Shift = three fingers; wheel zooms.\n"
     "  Keys: 1/2/3 navigate/select/manipulate, R reset view, Esc quit.\n"
-    "  --frame N               the volume of a 4D NIfTI image to load (default 0)\n"
     "  --size WxH              window size in points (default 1280x800)\n"
     "  --present-mode MODE     fifo (vsync, default), mailbox or immediate\n"
     "  --render-scale F        raymarch resolution relative to the window (default 1 on a GPU, 0.5 on a CPU)\n"
@@ -44,18 +44,38 @@ const char* const kViewHelp =
     "  --frames N              render N frames and exit\n"
     "  --screenshot OUT.png    with --frames: save the last presented frame (UI included)\n"
     "  --record SCRIPT.json    write what the user did as a session script\n"
-    "  --export-dir DIR        where the Export button writes the session, the deformed volume, the\n"
-    "                          mesh and a screenshot (default handson-export)\n"
-    "  --export-format F       nifti (default), nrrd or mha: the exported volumes' format\n"
-    "  --timings LOG.csv       per-frame latency log (input, CPU, GPU passes, submit, present)\n"
     "  --play SCRIPT.json      feed a session script in as live input, in real time; exits after it\n"
     "  --play-repeat N         play it N times in a row, resetting the view in between (default 1)\n"
     "  --play-wait on|off      a played script's clock stops while the simulation builds (default on:\n"
-    "                          as a user waits for 'building' to end; off: every event at its time)\n"
+    "                          as a user waits for 'building' to end; off: every event at its time)\n";
+
+const char* const kReplayHelp =
+    "usage: handson replay [SCRIPT] [--volume PATH] [--frames-out DIR] [--timings LOG.csv] [options]\n"
+    "  Plays a session script headless (no window, any Vulkan device): frames at --fps of script\n"
+    "  time (default 30) written as DIR/frame_NNNNN.png, and the per-frame timing log. SCRIPT\n"
+    "  omitted: the built-in orbit-and-zoom demo. The same script on the same driver gives\n"
+    "  bit-identical frames.\n"
+    "  --volume PATH           replay on another volume than the script's\n"
+    "  --frames-out DIR        the frames as PNGs\n"
+    "  --frames N              frames to render (default: through the script's last event, plus one)\n"
+    "  --frame-budget-ms MS    as in view, from the frames' measured times (default 0: off; on, frames\n"
+    "                          depend on timing and are no longer bit-identical run to run)\n"
+    "  --size WxH              output size (touches are scaled from the script's viewport)\n"
+    "  --fps F                 frames per second of script time\n"
+    "  --export OUT.nii.gz     the deformed volume at the end, on the input's grid\n"
+    "  --print-handles         each handle's state and pose at the end\n";
+
+// The options every session has, in view and in replay alike (app/session/session_options.h).
+const char* const kSessionHelp =
+    "  --frame N               the volume of a 4D NIfTI image to load (default 0)\n"
     "  --labels LABELS         organ labels (0 = background; another grid of the same space is resampled):\n"
     "                          in select mode a tap on an organ makes its labelled component a handle\n"
+    "  --timings LOG.csv       per-frame latency log (input, CPU, GPU passes, submit, present)\n"
+    "  --export-dir DIR        where export actions (the Export button) write the session, the deformed\n"
+    "                          volume, the mesh and a screenshot (default handson-export)\n"
+    "  --export-format F       nifti (default), nrrd or mha: the exported volumes' format\n"
     "  --selection-backend B   where a pinch's selection grows: auto (default: the GPU pass on a GPU,\n"
-    "                          the CPU search on a CPU device such as lavapipe), gpu or cpu\n"
+    "                          the CPU search on a CPU device such as lavapipe), gpu or cpu (the same voxels)\n"
     "  --selection-rim on|off  a finished pinch's selection ends with its partial-volume boundary rim\n"
     "                          (default on; docs/region-growing.md)\n"
     "  --selection-bound path|ball  how far the fingers' spread lets a selection grow: path (default:\n"
@@ -66,28 +86,6 @@ const char* const kViewHelp =
     "                          neck between the two seeds, a union the pinch's lobe its seed lies in) or\n"
     "                          grown (the earlier rule: all the pinch grew)\n"
     "  --device NAME, --validation, --quiet, --print-camera\n";
-
-const char* const kReplayHelp =
-    "usage: handson replay [SCRIPT] [--volume PATH] [--frames-out DIR] [--timings LOG.csv] [options]\n"
-    "  Plays a session script headless (no window, any Vulkan device): frames at --fps of script\n"
-    "  time (default 30) written as DIR/frame_NNNNN.png, and the per-frame timing log. SCRIPT\n"
-    "  omitted: the built-in orbit-and-zoom demo. The same script on the same driver gives\n"
-    "  bit-identical frames.\n"
-    "  --volume PATH       replay on another volume than the script's\n"
-    "  --frame-budget-ms MS  as in view, from the frames' measured times (default 0: off; on, frames\n"
-    "                      depend on timing and are no longer bit-identical run to run)\n"
-    "  --size WxH          output size (touches are scaled from the script's viewport)\n"
-    "  --fps F             frames per second of script time\n"
-    "  --export OUT.nii.gz the deformed volume at the end, on the input's grid\n"
-    "  --export-dir DIR    where the script's export actions write (default handson-export)\n"
-    "  --export-format F   nifti (default), nrrd or mha for the exported volumes\n"
-    "  --labels LABELS     organ labels: taps in select mode and label-handle actions make organs handles\n"
-    "  --selection-backend auto|gpu|cpu  where a pinch's selection grows (as in view; the same voxels)\n"
-    "  --selection-rim on|off  a finished pinch's selection ends with its boundary rim (as in view)\n"
-    "  --selection-bound path|ball  how far the fingers' spread lets a selection grow (as in view)\n"
-    "  --selection-corrections neck|grown  what a pinch united with or subtracted from a handle adds or\n"
-    "                          takes (as in view)\n"
-    "  --device NAME, --validation, --quiet, --print-camera, --print-handles\n";
 
 const char* const kSimHelp =
     "  --sim on|off            simulate moved handles (default on): the tissue around them deforms\n"
@@ -118,8 +116,8 @@ const std::vector<std::string> kSimOptions = {"--sim", "--sim-coarse-tets", "--s
                                                  "--sim-handle-nodes", "--sim-bone", "--sim-outer-boundary", "--sim-interface",
                                                  "--sim-adapt-contrast", "--sim-cache", "--sim-iterations", "--sim-idle-iterations"};
 
-DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
-  DeformationOptions d;
+// The simulation's options over `d` (whose fields are the defaults).
+DeformationOptions simOptions(const Args& args, DeformationOptions d = {}) {
   d.enabled = onOffOption(args, "--sim", true);
   d.sim.coarseTets = int(args.integer("--sim-coarse-tets", d.sim.coarseTets, 6, 2000000));
   d.sim.fineTets = int(args.integer("--sim-fine-tets", d.sim.fineTets, 6, 20000000));
@@ -128,7 +126,7 @@ DeformationOptions simOptions(const Args& args, int defaultRefineSteps) {
   regionOption(args, "--sim-region", d.sim);
   coarseModelOptions(args, "--sim-", d.sim);
   fineMeshOptions(args, "--sim-fine-mesh", "--sim-adapt-contrast", d.sim);
-  d.refineSteps = int(args.integer("--sim-refine-steps", defaultRefineSteps, 0, 100));
+  d.refineSteps = int(args.integer("--sim-refine-steps", d.refineSteps, 0, 100));
   d.coarseIterations = int(args.integer("--sim-iterations", d.coarseIterations, 1, 1000));
   d.idleIterations = int(args.integer("--sim-idle-iterations", d.idleIterations, 0, 100000));
   const std::string cache = args.valueOr("--sim-cache", defaultSimulationCacheDir().string());
@@ -154,6 +152,29 @@ GrowBound selectionBoundOption(const Args& args) {
   return b;
 }
 
+const std::vector<std::string> kSessionOptions = {"--frame", "--labels", "--timings", "--export-dir", "--export-format", "--selection-backend", "--selection-rim",
+                                                  "--selection-bound", "--selection-corrections", "--device", "--frames"};
+const std::vector<std::string> kSessionFlags = {"--validation", "--quiet", "--print-camera"};
+
+// The options every session has into `o`, whose fields hold the defaults (the mode's own struct).
+void readSessionOptions(const Args& args, SessionOptions& o) {
+  o.volumeFrame = loadOptions(args).frame;
+  o.labels = args.valueOr("--labels", o.labels);
+  o.timings = args.valueOr("--timings", o.timings);
+  o.exportDir = args.valueOr("--export-dir", o.exportDir);
+  o.exportExtension = exportVolumeExtension(args);
+  o.selectionBackend = selectionBackendOption(args);
+  o.selectionRim = onOffOption(args, "--selection-rim", o.selectionRim);
+  o.selectionBound = selectionBoundOption(args);
+  o.selectionCorrections = selectionCorrectionsOption(args);
+  o.device = args.valueOr("--device", o.device);
+  o.frames = int(args.integer("--frames", o.frames, 1, 100000000));
+  o.validation = args.flag("--validation");
+  o.quiet = args.flag("--quiet");
+  o.printCamera = args.flag("--print-camera");
+  o.sim = simOptions(args, o.sim);
+}
+
 std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& b) {
   a.insert(a.end(), b.begin(), b.end());
   return a;
@@ -163,81 +184,54 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 
 int cmdView(const Words& words) {
   Args args(words,
-            with({"--frame", "--size", "--present-mode", "--render-scale", "--frame-budget-ms", "--preset", "--frames", "--screenshot", "--record", "--timings", "--device", "--play",
-                  "--frames-in-flight", "--play-repeat", "--play-wait", "--export-dir", "--export-format", "--labels", "--selection-backend", "--selection-rim",
-                  "--selection-bound"},
+            with(with({"--size", "--present-mode", "--render-scale", "--frame-budget-ms", "--preset", "--screenshot", "--record", "--play", "--frames-in-flight",
+                       "--play-repeat", "--play-wait"},
+                      kSessionOptions),
                  kSimOptions),
-            {"--validation", "--quiet", "--print-camera"});
+            kSessionFlags);
   if (args.help() || args.positional().size() > 1) {
-    usageStream(args) << kViewHelp << kSimHelp;
+    usageStream(args) << kViewHelp << kSessionHelp << kSimHelp;
     return args.help() ? 0 : 2;
   }
   ViewerOptions o;
-  if (!args.positional().empty()) o.path = args.positional()[0];
-  o.frame = loadOptions(args).frame;
+  if (!args.positional().empty()) o.volume = args.positional()[0];
+  readSessionOptions(args, o);
   if (auto s = args.value("--size")) parseSize(*s, o.width, o.height);
-  o.presentMode = args.valueOr("--present-mode", "fifo");
+  o.presentMode = args.valueOr("--present-mode", o.presentMode);
   if (o.presentMode != "fifo" && o.presentMode != "mailbox" && o.presentMode != "immediate")
     throw UsageError("--present-mode must be fifo, mailbox or immediate");
-  o.renderScale = args.number("--render-scale", 0.0, 0.05, 4.0);
-  o.frameBudgetMs = args.number("--frame-budget-ms", 33.0, 0.0, 10000.0);
-  o.preset = args.valueOr("--preset", "");
+  o.renderScale = args.number("--render-scale", o.renderScale, 0.05, 4.0);
+  o.frameBudgetMs = args.number("--frame-budget-ms", o.frameBudgetMs, 0.0, 10000.0);
+  o.preset = args.valueOr("--preset", o.preset);
   if (!o.preset.empty()) transferFunctionPreset(o.preset);  // validates the name
-  o.frames = int(args.integer("--frames", 0, 1, 100000000));
   o.screenshot = args.valueOr("--screenshot", "");
   if (!o.screenshot.empty() && o.frames <= 0) throw UsageError("--screenshot needs --frames N");
   o.record = args.valueOr("--record", "");
-  o.exportDir = args.valueOr("--export-dir", o.exportDir);
-  o.exportExtension = exportVolumeExtension(args);
-  o.timings = args.valueOr("--timings", "");
   o.play = args.valueOr("--play", "");
-  o.framesInFlight = int(args.integer("--frames-in-flight", 2, 1, 3));
-  o.playRepeat = int(args.integer("--play-repeat", 1, 1, 100000));
-  o.playWaitsForSimulation = onOffOption(args, "--play-wait", true);
-  o.device = args.valueOr("--device", "");
-  o.validation = args.flag("--validation");
-  o.quiet = args.flag("--quiet");
-  o.printCamera = args.flag("--print-camera");
-  o.labels = args.valueOr("--labels", "");
-  o.selectionBackend = selectionBackendOption(args);
-  o.selectionRim = onOffOption(args, "--selection-rim", true);
-  o.selectionBound = selectionBoundOption(args);
-  o.selectionCorrections = selectionCorrectionsOption(args);
-  o.sim = simOptions(args, 2);
+  o.framesInFlight = int(args.integer("--frames-in-flight", o.framesInFlight, 1, 3));
+  o.playRepeat = int(args.integer("--play-repeat", o.playRepeat, 1, 100000));
+  o.playWaitsForSimulation = onOffOption(args, "--play-wait", o.playWaitsForSimulation);
   if (!displayAvailable()) throw Error("no display available (DISPLAY and WAYLAND_DISPLAY are unset): use 'handson replay' to run headless");
   return runViewer(o);
 }
 
 int cmdReplay(const Words& words) {
-  Args args(words, with({"--volume", "--frames-out", "--timings", "--fps", "--frame-budget-ms", "--size", "--device", "--export", "--export-dir", "--export-format", "--labels", "--selection-backend", "--selection-rim", "--selection-bound", "--selection-corrections"},
-                 kSimOptions),
-            {"--validation", "--quiet", "--print-camera", "--print-handles"});
+  Args args(words, with(with({"--volume", "--frames-out", "--fps", "--frame-budget-ms", "--size", "--export"}, kSessionOptions), kSimOptions),
+            with(kSessionFlags, {"--print-handles"}));
   if (args.help() || args.positional().size() > 1) {
-    usageStream(args) << kReplayHelp << kSimHelp << "  (replay waits each frame for the simulation to settle: frames do not depend on timing)\n";
+    usageStream(args) << kReplayHelp << kSessionHelp << kSimHelp << "  (replay waits each frame for the simulation to settle: frames do not depend on timing)\n";
     return args.help() ? 0 : 2;
   }
   ReplayOptions o;
   if (!args.positional().empty()) o.script = args.positional()[0];
-  o.volume = args.valueOr("--volume", "");
-  o.framesOut = args.valueOr("--frames-out", "");
-  o.timings = args.valueOr("--timings", "");
-  o.fps = args.number("--fps", 30.0, 0.01, 1000.0);
-  o.frameBudgetMs = args.number("--frame-budget-ms", 0.0, 0.0, 10000.0);
+  readSessionOptions(args, o);
+  o.volume = args.valueOr("--volume", o.volume);
+  o.framesOut = args.valueOr("--frames-out", o.framesOut);
+  o.fps = args.number("--fps", o.fps, 0.01, 1000.0);
+  o.frameBudgetMs = args.number("--frame-budget-ms", o.frameBudgetMs, 0.0, 10000.0);
   if (auto s = args.value("--size")) parseSize(*s, o.width, o.height);
-  o.device = args.valueOr("--device", "");
-  o.validation = args.flag("--validation");
-  o.quiet = args.flag("--quiet");
-  o.printCamera = args.flag("--print-camera");
   o.printHandles = args.flag("--print-handles");
-  o.labels = args.valueOr("--labels", "");
-  o.selectionBackend = selectionBackendOption(args);
-  o.selectionRim = onOffOption(args, "--selection-rim", true);
-  o.selectionBound = selectionBoundOption(args);
-  o.selectionCorrections = selectionCorrectionsOption(args);
   o.exportPath = args.valueOr("--export", "");
-  o.exportDir = args.valueOr("--export-dir", o.exportDir);
-  o.exportExtension = exportVolumeExtension(args);
-  o.sim = simOptions(args, 0);
   return runReplay(o);
 }
 
@@ -335,7 +329,7 @@ int cmdStressGestures(const Words& words) {
   o.printHandles = true;
   o.printCamera = true;
   o.exportDir = (scratch / "exports").string();
-  o.sim = simOptions(args, 0);
+  o.sim = simOptions(args);
   o.sim.enabled = args.valueOr("--sim", "off") == "on";  // off unless asked for
   std::cout << g.sequences << " sequences, " << o.scriptData->events.size() << " events\n";
   int rc = 1;
@@ -378,7 +372,7 @@ int cmdSoak(const Words& words) {
   o.device = args.valueOr("--device", "");
   o.validation = !args.flag("--no-validation");
   o.quiet = args.flag("--quiet");
-  o.sim = simOptions(args, 0);
+  o.sim = simOptions(args);
   if (auto out = args.value("--script-out")) writeSessionScript(soakScript(o.frames, o.fps), *out);
   return runSoak(o);
 }
@@ -414,7 +408,7 @@ int cmdDefault(const Words& words) {
   o.validation = args.flag("--validation");
   o.quiet = args.flag("--quiet");
   o.exportDir = (std::filesystem::path(o.framesOut) / "export").string();
-  o.sim = simOptions(args, 0);
+  o.sim = simOptions(args);
   const int rc = runReplay(o);
   if (rc != 0) return rc;
   std::vector<std::string> frames;

@@ -23,6 +23,7 @@
 #include "app/session/selection_controller.h"
 #include "app/session/session.h"
 #include "app/session/session_export.h"
+#include "app/session/session_parts.h"
 #include "app/session/session_recovery.h"
 #include "render/compute_passes.h"
 #include "render/transfer_function.h"
@@ -201,7 +202,9 @@ struct Viewer::Impl {
   /// A played script's start, as `replay` sets it: its preset, free area, camera and mode (applied
   /// at once, before the frame's touches).
   void startPlay(double t);
-  void followClip(double now);
+  void firstFrame(const Viewport& vp);
+  FrameInput frameInput(const Viewport& vp, const std::vector<TouchEvent>& touches, std::vector<ScriptEvent> actions, const vk::Swapchain::Frame& image);
+  void noteFrame(const FrameOutcome& out);
   bool windowReady();
   void takeCompletedFrames();
   /// The display times of presented frames (VK_KHR_present_wait) into the timing log.
@@ -268,11 +271,11 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
 
   // The scene.
   const ProgressFn progress = o.quiet ? ProgressFn{} : consoleProgress();
-  if (o.path.empty()) {
+  if (o.volume.empty()) {
     volume = makePhantom().ct;
   } else {
     LoadReport rep;
-    volume = loadVolume(o.path, &rep, progress, LoadOptions{o.frame});
+    volume = loadVolume(o.volume, &rep, progress, LoadOptions{o.volumeFrame});
     for (const auto& warning : rep.warnings) std::cerr << "warning: " << warning << "\n";
   }
   if (!o.labels.empty()) labels = std::make_unique<LabelMap>(loadLabelMap(o.labels, volume.geometry()));
@@ -293,8 +296,8 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
   renderer->setTransferFunction(transferFunctionPreset(session->preset()).lookupTable(q));
   {  // always recorded: the Export button writes the session so far; --record writes it at the end
     SessionScript header;
-    header.volumeSource = o.path.empty() ? "phantom" : "file";
-    header.volumePath = o.path;
+    header.volumeSource = o.volume.empty() ? "phantom" : "file";
+    header.volumePath = o.volume;
     session->startRecording(header);
   }
   if (!o.quiet)
@@ -305,26 +308,17 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
   log.setNotes({"clock: seconds since the first frame on the steady clock",
                 "input_first_s, input_last_s: when the app read the frame's events from SDL (SDL 2 gives touches no device timestamp)",
                 swapchain->presentTimingNote()});
-  GrowParams grow;
-  grow.boundaryRim = o.selectionRim;
-  grow.bound = o.selectionBound;
-  selection = std::make_unique<SelectionController>(q, *session, *renderer, grow, o.selectionBackend);
-  selection->setCorrectionRule(o.selectionCorrections);
-  if (!o.quiet) std::cerr << selection->backend().status << "\n";
+  SessionParts parts = makeSessionParts(o, volume, q, *session, *renderer, labels.get());
+  selection = std::move(parts.selection);
+  deform = std::move(parts.deform);
+  exporter = std::move(parts.exporter);
   status.selectionBackend = selection->backend().status;
-  selection->setLabels(labels.get());
-  if (labels) {
-    renderer->setLabels(labels->labels);
-    session->setLabelTint(true);
-  }
-  deform = std::make_unique<DeformationController>(volume, q, *renderer, o.sim);
   driver = std::make_unique<FrameDriver>(volume, q, *session, *renderer, *selection, *deform);
   driver->setFrameBudget(o.frameBudgetMs);
-  exporter = std::make_unique<SessionExport>(o.exportDir, volume, o.exportExtension);
-  session->addUiExtension([this](const ScriptEvent& e) { return exporter->onUi(e); });
   status.device = ctx->summary().name;
   if (!o.play.empty()) play = readSessionScript(o.play);
   t0 = Clock::now();
+  driver->setClockStart(t0);
 }
 
 void Viewer::Impl::pollInput(const Viewport& vp, std::vector<TouchEvent>& touches, std::vector<ScriptEvent>& actions) {
@@ -422,26 +416,9 @@ void Viewer::Impl::updateStatus() {
                                                           : selection->manipulationNote();
   status.simulation = deform->status();
   status.tissueLimits = deform->shownTissueLimits();
-  if (driver->newFailure()) {
-    // The simulation refused a pose, stopped without converging or failed to build: the session
-    // goes on (the last good state shows), and what was done so far is saved.
-    rescueNote = rescue();
-    if (!o.quiet) std::cerr << "warning: " << deform->status() << "\n  " << rescueNote << "\n";
-  }
   if (!rescueNote.empty()) status.simulation += "; " + rescueNote;
   status.liveVoxels = selection->liveVoxelCount();
   status.liveOnGpuMm = selection->liveOnGpu() ? selection->pinch().extentMm() : -1.0;
-}
-
-// A Clip-mode drag that changed the clip frames it and, unless the window was set by hand, fits
-// the window to it (recorded, so a replay does the same; a played script carries its own); then the
-// camera where a framing in progress has it now.
-void Viewer::Impl::followClip(double now) {
-  if (session->takeClipSettled() && !play) {
-    session->apply(uiEvent(now, UiAction::FrameClip));
-    if (session->windowFollowsRegion()) session->apply(uiEvent(now, UiAction::AutoWindow));
-  }
-  session->advance(now);
 }
 
 void Viewer::Impl::startPlay(double t) {
@@ -519,97 +496,104 @@ void Viewer::Impl::takeCompletedFrames() {
 bool Viewer::Impl::step() {
   if (!running || (o.frames > 0 && int(frameNo) >= o.frames)) return false;
   if (frameNo == 0) playStart = playClock = seconds(Clock::now(), t0);
-  {
-    FrameTiming ft;
-    ft.frame = frameNo + 1;
-    const auto frameStart = Clock::now();
-    ft.cpuStart = seconds(frameStart, t0);
-    double wait = 0.0;
-    if (!windowReady()) return true;
-    // Acquire first, then sample input as late as possible before recording.
-    const auto a0 = Clock::now();
-    auto frame = swapchain->acquire();
-    wait += seconds(Clock::now(), a0);
-    if (!frame) {
-      resized = true;
-      return true;
-    }
-    std::vector<TouchEvent> touches;
-    std::vector<ScriptEvent> actions;
-    const Viewport vp{int(swapchain->extent().width), int(swapchain->extent().height)};
-    pollInput(vp, touches, actions);
-    if (frameNo == 0 && play) startPlay(playStart);  // recorded before the script's first event
-    if (frameNo == 0 && !play) {
-      // Before any touch is applied (a finger already down would be cancelled by the reframing):
-      // lay the UI out twice (ImGui sizes an auto-resized panel from its content at the end of a
-      // frame; these passes' actions are dropped) so that the panels are measured at their size,
-      // and frame the view where they leave room.
-      updateStatus();
-      std::vector<ScriptEvent> layoutPass;
-      for (int pass = 0; pass < 2; ++pass) ui->build(status, seconds(Clock::now(), t0), layoutPass);
-      frameInFreeArea(vp);
-    }
-    for (const auto& t : touches) {
-      ScriptEvent se;
-      se.t = t.time;
-      se.touch = t;
-      session->apply(se);
-      if (ft.inputFirst < 0 || t.time < ft.inputFirst) ft.inputFirst = t.time;
-      ft.inputLast = std::max(ft.inputLast, t.time);
-      ++ft.inputCount;
-    }
+  FrameTiming ft;
+  ft.frame = frameNo + 1;
+  ft.cpuStart = seconds(Clock::now(), t0);
+  if (!windowReady()) return true;
+  // Acquire first, then sample input as late as possible before recording.
+  const auto a0 = Clock::now();
+  auto image = swapchain->acquire();
+  double wait = seconds(Clock::now(), a0);
+  if (!image) {
+    resized = true;
+    return true;
+  }
+  std::vector<TouchEvent> touches;
+  std::vector<ScriptEvent> actions;
+  const Viewport vp{int(swapchain->extent().width), int(swapchain->extent().height)};
+  pollInput(vp, touches, actions);
+  if (frameNo == 0) firstFrame(vp);
+  const FrameOutcome out = driver->frame(frameInput(vp, touches, std::move(actions), *image), ft);
+  if (out.exportImage) exportFrame = out.frame;
+  noteFrame(out);
+  wait += ft.submit - ft.cpuEnd;
+  const auto p0 = Clock::now();
+  if (!swapchain->present(*image, ft.frame)) resized = true;
+  ft.present = seconds(Clock::now(), t0);
+  wait += seconds(Clock::now(), p0);
+  ft.waitMs = wait * 1e3;
+  takeCompletedFrames();
+  status.cpuFrameMs = (ft.cpuEnd - ft.cpuStart) * 1e3;
+  status.fps = lastFrameEnd > 0 ? 1.0 / std::max(1e-6, ft.present - lastFrameEnd) : 0.0;
+  status.latencyMs = ft.latencyMs() >= 0 ? ft.latencyMs() : status.latencyMs;
+  lastFrameEnd = ft.present;
+  log.add(ft);
+  takeDisplayTimes();
+  ++frameNo;
+  return running && (o.frames <= 0 || int(frameNo) < o.frames);
+}
+
+// The first frame: a played script's start (recorded before its first event), or - before any
+// touch is applied (a finger already down would be cancelled by the reframing) - the UI laid out
+// twice (ImGui sizes an auto-resized panel from its content at the end of a frame; these passes'
+// actions are dropped) so that the panels are measured at their size, and the view framed where
+// they leave room.
+void Viewer::Impl::firstFrame(const Viewport& vp) {
+  if (play) {
+    startPlay(playStart);
+    return;
+  }
+  updateStatus();
+  std::vector<ScriptEvent> layoutPass;
+  for (int pass = 0; pass < 2; ++pass) ui->build(status, seconds(Clock::now(), t0), layoutPass);
+  frameInFreeArea(vp);
+}
+
+// The frame's input for the driver: the touches, then the panels laid out on the state they left
+// (with the keys' and a played script's actions); the raymarch at the render scale; the present
+// and UI passes prepared (and the screenshot's buffer on the last frame) before the submission.
+FrameInput Viewer::Impl::frameInput(const Viewport& vp, const std::vector<TouchEvent>& touches, std::vector<ScriptEvent> actions,
+                                    const vk::Swapchain::Frame& image) {
+  FrameInput in;
+  for (const auto& t : touches) {
+    ScriptEvent se;
+    se.t = t.time;
+    se.touch = t;
+    in.events.push_back({se, t.time});
+  }
+  in.panels = [this, actions = std::move(actions)]() mutable {
     updateStatus();
     ui->build(status, seconds(Clock::now(), t0), actions);
-    for (const auto& a : actions) session->apply(a);
-    followClip(seconds(Clock::now(), t0));
-    driver->refreshTransferFunction();
-
-    status.renderWidth = std::max(1, int(std::lround(vp.width * scale)));
-    status.renderHeight = std::max(1, int(std::lround(vp.height * scale)));
-    FrameRequest req = driver->request(vp, status.renderWidth, status.renderHeight);
-    req.readbackImage = exporter->pending() && exportFrame == 0;  // the export's image (without the UI)
-    req.extension = present.get();
-    driver->attachSimulation(req, false);  // never waits for the solve
-    driver->attachSelection(req, vp, ft);
-    // The frame budget: a changing picture drawn smaller or with a longer step to fit, refined when
-    // it stops (never the export's image).
-    const FrameQuality quality = driver->applyFrameBudget(req, !touches.empty() || !actions.empty(), req.readbackImage);
-    status.renderWidth = req.params.outputWidth;
-    status.renderHeight = req.params.outputHeight;
-    status.qualityScale = quality.scale;
-    status.qualityStep = quality.stepScale;
-    ft.qualityScale = quality.scale;
-    ft.qualityStep = quality.stepScale;
-    driver->recordSimulation(ft);
-    const bool lastFrame = o.frames > 0 && int(frameNo) + 1 == o.frames;
+    return actions;
+  };
+  in.sessionClock = seconds(Clock::now(), t0);
+  in.followClip = !play;  // a played script carries its own framing and window
+  in.view = vp;
+  in.width = std::max(1, int(std::lround(vp.width * scale)));
+  in.height = std::max(1, int(std::lround(vp.height * scale)));
+  in.exportImage = [this] { return exporter->pending() && exportFrame == 0; };  // the export's image (without the UI)
+  in.extension = present.get();
+  const bool lastFrame = o.frames > 0 && int(frameNo) + 1 == o.frames;
+  in.beforeSubmit = [this, lastFrame, &image, vp] {
     if (lastFrame && !o.screenshot.empty())
-      shot = std::make_unique<vk::Buffer>(*ctx, VkDeviceSize(vp.width) * vp.height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                          vk::Buffer::Memory::HostVisible);
-    present->prepare(*frame, (lastFrame && shot) ? shot.get() : nullptr);
-    ft.cpuEnd = seconds(Clock::now(), t0);
-    const auto s0 = Clock::now();
-    ft.frame = driver->submit(req);  // waits only for the frame two submissions back
-    ft.stillPhases = driver->stillPhases();
-    status.stillPhases = ft.stillPhases;
-    status.stillPhasesTotal = kStillJitterPhases;
-    if (req.readbackImage) exportFrame = ft.frame;
-    ft.submit = seconds(Clock::now(), t0);
-    wait += seconds(Clock::now(), s0);
-    const auto p0 = Clock::now();
-    if (!swapchain->present(*frame, ft.frame)) resized = true;
-    ft.present = seconds(Clock::now(), t0);
-    wait += seconds(Clock::now(), p0);
-    ft.waitMs = wait * 1e3;
-    takeCompletedFrames();
-    status.cpuFrameMs = (ft.cpuEnd - ft.cpuStart) * 1e3;
-    status.fps = lastFrameEnd > 0 ? 1.0 / std::max(1e-6, ft.present - lastFrameEnd) : 0.0;
-    status.latencyMs = ft.latencyMs() >= 0 ? ft.latencyMs() : status.latencyMs;
-    lastFrameEnd = ft.present;
-    log.add(ft);
-    takeDisplayTimes();
-    ++frameNo;
-  }
-  return running && (o.frames <= 0 || int(frameNo) < o.frames);
+      shot = std::make_unique<vk::Buffer>(*ctx, VkDeviceSize(vp.width) * vp.height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, vk::Buffer::Memory::HostVisible);
+    present->prepare(image, (lastFrame && shot) ? shot.get() : nullptr);
+  };
+  return in;
+}
+
+// What the frame drew into the panel's status; a new simulation failure saved and told (the
+// session goes on, the last good state showing).
+void Viewer::Impl::noteFrame(const FrameOutcome& out) {
+  status.renderWidth = out.width;
+  status.renderHeight = out.height;
+  status.qualityScale = out.quality.scale;
+  status.qualityStep = out.quality.stepScale;
+  status.stillPhases = out.stillPhases;
+  status.stillPhasesTotal = kStillJitterPhases;
+  if (!out.newFailure) return;
+  rescueNote = rescue();
+  if (!o.quiet) std::cerr << "warning: " << deform->status() << "\n  " << rescueNote << "\n";
 }
 
 int Viewer::Impl::finish() {

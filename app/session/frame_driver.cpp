@@ -19,6 +19,56 @@ bool FrameDriver::applyUi(const ScriptEvent& e) {
   return true;
 }
 
+FrameOutcome FrameDriver::frame(const FrameInput& in, FrameTiming& ft) {
+  FrameOutcome out;
+  const bool applied = applyInput(in, ft, out);
+  followClip(in.followClip, in.sessionClock);
+  session_.advance(in.sessionClock);  // a framing's camera move
+  refreshTransferFunction();
+  FrameRequest req = request(in.view, in.width, in.height);
+  out.exportImage = in.exportImage && in.exportImage();
+  req.readbackImage = in.readbackImage || out.exportImage;
+  req.extension = in.extension;
+  attachSimulation(req, in.settled);
+  out.newFailure = newFailure();
+  attachSelection(req, in.view, ft);
+  out.quality = applyFrameBudget(req, applied, out.exportImage);
+  out.width = req.params.outputWidth;
+  out.height = req.params.outputHeight;
+  ft.qualityScale = out.quality.scale;
+  ft.qualityStep = out.quality.stepScale;
+  recordSimulation(ft);
+  if (in.beforeSubmit) in.beforeSubmit();
+  ft.cpuEnd = now();
+  out.frame = submit(req);  // waits only for the frame two submissions back
+  ft.frame = out.frame;
+  out.stillPhases = ft.stillPhases = renderer_.stillPhasesShown();
+  ft.submit = now();
+  return out;
+}
+
+bool FrameDriver::applyInput(const FrameInput& in, FrameTiming& ft, FrameOutcome& out) {
+  for (const FrameInput::Event& e : in.events) {
+    if (!session_.apply(e.event)) out.refused.push_back(e.event);
+    if (ft.inputFirst < 0 || e.arrived < ft.inputFirst) ft.inputFirst = e.arrived;
+    ft.inputLast = std::max(ft.inputLast, e.arrived);
+    ++ft.inputCount;
+  }
+  std::size_t actions = 0;
+  if (in.panels)
+    for (const ScriptEvent& a : in.panels()) {
+      ++actions;
+      if (!session_.apply(a)) out.refused.push_back(a);
+    }
+  return !in.events.empty() || actions > 0;
+}
+
+void FrameDriver::followClip(bool follow, double now) {
+  if (!session_.takeClipSettled() || !follow) return;  // taken either way: a settled drag is followed once or not at all
+  session_.apply(uiEvent(now, UiAction::FrameClip));
+  if (session_.windowFollowsRegion()) session_.apply(uiEvent(now, UiAction::AutoWindow));
+}
+
 bool FrameDriver::applyAutoWindow() {
   // The preset's ramps on the soft tissue of what the clip leaves (the whole volume without one);
   // refused where there is none (too few soft-tissue voxels) or the preset has no reference.

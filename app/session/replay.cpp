@@ -19,6 +19,7 @@
 #include "app/session/selection_controller.h"
 #include "app/session/session.h"
 #include "app/session/session_export.h"
+#include "app/session/session_parts.h"
 #include "app/session/session_recovery.h"
 #include "interaction/camera.h"
 #include "render/render_params.h"
@@ -81,7 +82,7 @@ Volume loadReplayVolume(const ReplayOptions& o, const SessionScript& script, con
     volume = makePhantom().ct;
   } else {
     LoadReport rep;
-    volume = loadVolume(source, &rep, progress);
+    volume = loadVolume(source, &rep, progress, LoadOptions{o.volumeFrame});
     for (const auto& w : rep.warnings) std::cerr << "warning: " << w << "\n";
   }
   return volume;
@@ -176,8 +177,10 @@ class ReplayRun {
  private:
   void setUpSession();
   void setUpControllers();
-  /// The script's events due by `frameTime`, applied (refusals counted and told).
-  void applyDueEvents(double frameTime, FrameTiming& ft);
+  /// The script's events due by `frameTime` (touches scaled to the output).
+  std::vector<FrameInput::Event> dueEvents(double frameTime);
+  /// Refused events counted and told.
+  void tellRefused(const std::vector<ScriptEvent>& refused);
   /// Frame k: events, the request with the simulation, selection and budget, submitted and waited for.
   void frame(int k);
   /// Records the frame's GPU results and writes what was asked of it.
@@ -204,7 +207,6 @@ class ReplayRun {
   int frames_ = 0;
   std::size_t next_ = 0, refused_ = 0;
   LatencyLog log_;
-  Clock::time_point t0_;
 };
 
 ReplayRun::ReplayRun(const ReplayOptions& o)
@@ -251,18 +253,10 @@ void ReplayRun::setUpSession() {
 }
 
 void ReplayRun::setUpControllers() {
-  GrowParams grow;
-  grow.boundaryRim = o_.selectionRim;
-  grow.bound = o_.selectionBound;
-  selection_ = std::make_unique<SelectionController>(*q_, *session_, *renderer_, grow, o_.selectionBackend);
-  selection_->setCorrectionRule(o_.selectionCorrections);
-  if (!o_.quiet) std::cerr << selection_->backend().status << "\n";
-  if (labels_) {
-    selection_->setLabels(&*labels_);
-    renderer_->setLabels(labels_->labels);
-    session_->setLabelTint(true);
-  }
-  deform_ = std::make_unique<DeformationController>(volume_, *q_, *renderer_, o_.sim);
+  SessionParts parts = makeSessionParts(o_, volume_, *q_, *session_, *renderer_, labels_ ? &*labels_ : nullptr);
+  selection_ = std::move(parts.selection);
+  deform_ = std::move(parts.deform);
+  exporter_ = std::move(parts.exporter);
   driver_ = std::make_unique<FrameDriver>(volume_, *q_, *session_, *renderer_, *selection_, *deform_);
   driver_->setFrameBudget(o_.frameBudgetMs);
   // Everything applied is recorded: an "export" action writes the session so far as a script.
@@ -272,54 +266,50 @@ void ReplayRun::setUpControllers() {
     header.volumePath = o_.volume == "phantom" ? "" : o_.volume;
   }
   session_->startRecording(header);
-  exporter_ = std::make_unique<SessionExport>(o_.exportDir, volume_, o_.exportExtension);
-  session_->addUiExtension([this](const ScriptEvent& e) { return exporter_->onUi(e); });
 }
 
-void ReplayRun::applyDueEvents(double frameTime, FrameTiming& ft) {
+std::vector<FrameInput::Event> ReplayRun::dueEvents(double frameTime) {
+  std::vector<FrameInput::Event> due;
+  const double now = driver_->now();
   while (next_ < script_.events.size() && script_.events[next_].t <= frameTime) {
     ScriptEvent e = script_.events[next_++];
     e.touch.px *= touchScale_;
-    const double now = seconds(Clock::now(), t0_);
-    if (!session_->apply(e)) {
-      ++refused_;
-      if (!o_.quiet)
-        std::cerr << "refused at t=" << e.t << " s: "
-                  << (e.isTouch ? "touch " + std::string(touchPhaseName(e.touch.phase)) + " id " + std::to_string(e.touch.id) : std::string(uiActionName(e.action)) + " " + e.value)
-                  << "\n";
-    }
-    if (ft.inputFirst < 0) ft.inputFirst = now;
-    ft.inputLast = now;
-    ++ft.inputCount;
+    due.push_back({e, now});
   }
+  return due;
+}
+
+void ReplayRun::tellRefused(const std::vector<ScriptEvent>& refused) {
+  refused_ += refused.size();
+  if (o_.quiet) return;
+  for (const ScriptEvent& e : refused)
+    std::cerr << "refused at t=" << e.t << " s: "
+              << (e.isTouch ? "touch " + std::string(touchPhaseName(e.touch.phase)) + " id " + std::to_string(e.touch.id) : std::string(uiActionName(e.action)) + " " + e.value)
+              << "\n";
 }
 
 void ReplayRun::frame(int k) {
   const double frameTime = k / o_.fps;
   FrameTiming ft;
-  ft.cpuStart = seconds(Clock::now(), t0_);
-  applyDueEvents(frameTime, ft);
-  session_->advance(frameTime);  // a framing's camera move, on the script's clock
-  FrameDriver& driver = *driver_;
-  driver.refreshTransferFunction();
-  FrameRequest req = driver.request(vp_, vp_.width, vp_.height);
-  req.readbackImage = !o_.framesOut.empty() || exporter_->pending();
-  driver.attachSimulation(req, true);
+  ft.cpuStart = driver_->now();
+  FrameInput in;
+  in.events = dueEvents(frameTime);
+  in.sessionClock = frameTime;  // a framing's camera move, on the script's clock
+  in.view = vp_;
+  in.width = vp_.width;
+  in.height = vp_.height;
+  in.settled = true;
+  in.readbackImage = !o_.framesOut.empty();
+  in.exportImage = [this] { return exporter_->pending(); };
+  const FrameOutcome out = driver_->frame(in, ft);
+  tellRefused(out.refused);
   if (const std::string st = deform_->status(); !o_.quiet && st != simStatus_) {
     simStatus_ = st;
     if (!st.empty()) std::cerr << st << "\n";
   }
   // The simulation refused a pose, stopped without converging or failed to build: the
   // session goes on (the last good state shows), and what was done so far is saved.
-  if (driver.newFailure()) std::cerr << "warning: " << deform_->status() << "\n  " << rescue() << "\n";
-  driver.attachSelection(req, vp_, ft);
-  const FrameQuality quality = driver.applyFrameBudget(req, ft.inputCount > 0, exporter_->pending());
-  ft.qualityScale = quality.scale;
-  ft.qualityStep = quality.stepScale;
-  ft.cpuEnd = seconds(Clock::now(), t0_);
-  driver.submit(req);
-  ft.stillPhases = driver.stillPhases();
-  ft.submit = seconds(Clock::now(), t0_);
+  if (out.newFailure) std::cerr << "warning: " << deform_->status() << "\n  " << rescue() << "\n";
   const auto w0 = Clock::now();
   const FrameResult r = renderer_->waitLast();
   ft.waitMs = seconds(Clock::now(), w0) * 1e3;
@@ -331,11 +321,10 @@ void ReplayRun::finishFrame(int k, const FrameResult& r, FrameTiming& ft) {
   for (const auto& older : renderer_->takeCompleted()) driver_->completed(older);
   driver_->completed(r);
   if (exporter_->pending()) std::cout << exporter_->write(*session_, selection_->handles(), selection_->picked(), *deform_, r) << "\n";
-  ft.present = seconds(Clock::now(), t0_);
+  ft.present = driver_->now();
   ft.waitMs += seconds(Clock::now(), w0) * 1e3;
   ft.frame = r.frame;
   for (const auto& p : r.timings) ft.gpuMs.emplace_back(p.name, p.gpuMs);
-  driver_->recordSimulation(ft);
   if (!o_.framesOut.empty()) writeFrame(o_.framesOut, k, r, vp_);
   log_.add(ft);
   if (o_.afterFrame) o_.afterFrame(k, frames_, ctx_->validationMessageCount());
@@ -346,7 +335,7 @@ int ReplayRun::run() {
   // A failure under the session (a Vulkan allocation, a lost device, running out of memory) ends
   // the replay with the session so far saved beside the exports.
   try {
-    t0_ = Clock::now();
+    driver_->setClockStart(Clock::now());
     for (int k = 0; k < frames_; ++k) frame(k);
     if (!o_.timings.empty()) log_.writeCsv(o_.timings);
     if (!o_.exportPath.empty()) writeDeformedVolume(*deform_, volume_, o_.exportPath);  // every frame was waited for above

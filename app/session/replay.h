@@ -3,43 +3,28 @@
 // the same session logic and frame graph as the app, frames rendered at a fixed rate of script
 // time, written as numbered PNGs with a timing log. The same script on the same driver gives
 // bit-identical frames.
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
 
-#include "app/session/deformation_controller.h"
-#include "app/session/selection_backend.h"
-#include "interaction/region_grow.h"
-#include "interaction/selection_edit.h"
-
+#include "app/session/session_options.h"
 #include "app/session/session_script.h"
 
 namespace handson {
 
-struct ReplayOptions {
+/// The replay's options: the session's (app/session/session_options.h; `volume` overrides the
+/// script's, `frames` 0: through the script's last event, plus one, and the simulation waited for
+/// each frame: deterministic) and its own.
+struct ReplayOptions : SessionOptions {
   std::string script;      ///< path; empty: the built-in orbit-and-zoom demo
   std::optional<SessionScript> scriptData;  ///< a script in memory instead (e.g. app/tools/gesture_stress.h: may hold NaN)
-  std::string volume;      ///< overrides the script's volume
-  std::string labels;      ///< organ labels for taps and label-handle actions (empty: none)
-  SelectionBackend selectionBackend = SelectionBackend::Auto;  ///< where pinches grow (app/session/selection_backend.h)
-  bool selectionRim = true;  ///< finished pinches end with their boundary rim (GrowParams::boundaryRim)
-  GrowBound selectionBound = GrowParams{}.bound;  ///< how the fingers' extent bounds growth (GrowParams::bound)
-  CorrectionRule selectionCorrections = CorrectionRule::Neck;  ///< handle-union and handle-difference (interaction/selection_edit.h)
   std::string framesOut;   ///< directory for frame_NNNNN.png (created); empty: no PNGs
-  std::string timings;     ///< timing log CSV
   double fps = 30.0;       ///< frames per second of script time
   double frameBudgetMs = 0.0;  ///< app/session/frame_budget.h; 0: off (frames bit-identical run to run)
   int width = 0, height = 0;  ///< output size; 0: the script's viewport (touches are scaled)
-  std::string device;
-  bool validation = false;
-  bool quiet = false;
-  bool printCamera = false;
   bool printHandles = false;
   std::string exportPath;  ///< the deformed volume at the end (.nii.gz, the input's grid)
-  std::string exportDir = "handson-export";  ///< where the script's "export" actions write
-  std::string exportExtension = ".nii.gz";  ///< the exported volumes' format: ".nii.gz", ".nrrd" or ".mha"
-  DeformationOptions sim;  ///< the simulation of moved handles (each frame waits for it to settle: deterministic)
-  int frames = 0;          ///< frames to render; 0: through the script's last event, plus one
   /// Called after each frame (index, frame count, validation messages so far): soaks sample here.
   std::function<void(int frame, int frames, std::uint64_t validationMessages)> afterFrame;
 };

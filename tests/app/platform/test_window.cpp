@@ -49,6 +49,7 @@ ViewerOptions smallWindow() {
   o.height = 480;
   o.quiet = true;
   o.validation = true;
+  o.sim.refineSteps = 0;  // the tests' held poses not refined (the window's default: 2)
   return o;
 }
 

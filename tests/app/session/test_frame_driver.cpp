@@ -1,0 +1,213 @@
+// The frame sequence (app/session/frame_driver): one call runs a frame for the window and the
+// replay alike. Its submissions go to a recording renderer, so the tests see what a frame hands
+// over and in which order; the selection and the simulation run on a real renderer (lavapipe,
+// validation on), as they do in the app.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "app/session/frame_driver.h"
+#include "app/session/session_parts.h"
+#include "render/render_params.h"
+#include "render/transfer_function.h"
+#include "render/vk_context.h"
+#include "interaction/camera.h"
+#include "interaction/view_adjust.h"
+#include "sim/phantom.h"
+
+using namespace handson;
+
+namespace {
+
+// A renderer that records what the driver asks of it, in order ("tf", "submit"), and keeps the
+// requests' parameters.
+class RecordingRenderer final : public FrameRenderer {
+ public:
+  explicit RecordingRenderer(std::vector<std::string>& calls) : calls_(calls) {}
+  void setTransferFunction(const TfTable&) override { calls_.push_back("tf"); }
+  std::uint64_t submit(const FrameRequest& r) override {
+    calls_.push_back("submit");
+    submitted.push_back(r.params);
+    masks.push_back(r.maskUpload != nullptr);
+    deforms.push_back(r.deform != nullptr || r.deformFine != nullptr);
+    picks.push_back(r.pickPoints.size());
+    readbacks.push_back(r.readbackImage);
+    stillRequested.push_back(r.stillPhases);
+    return submitted.size();
+  }
+  int stillPhasesShown() const override { return 0; }
+  std::vector<gpu::RenderParams> submitted;
+  std::vector<bool> masks, deforms, readbacks;
+  std::vector<std::size_t> picks;
+  std::vector<int> stillRequested;
+
+ private:
+  std::vector<std::string>& calls_;
+};
+
+struct DriverScene {
+  std::unique_ptr<vk::Context> ctx;
+  Phantom phantom;
+  QuantizedVolume q;
+  std::unique_ptr<VolumeRenderer> renderer;  // the controllers' (their GPU passes and uploads)
+  std::unique_ptr<Session> session;
+  SessionParts parts;
+  std::vector<std::string> calls;
+  RecordingRenderer frames{calls};
+  std::unique_ptr<FrameDriver> driver;
+  const Viewport vp{64, 48};
+
+  DriverScene() {
+    vk::ContextOptions co;
+    co.validation = true;
+    co.requireValidation = true;
+    ctx = std::make_unique<vk::Context>(co);
+    PhantomOptions po;
+    po.spacingMm = 4.0;
+    phantom = makePhantom(po);
+    q = quantizeVolume(phantom.ct);
+    renderer = std::make_unique<VolumeRenderer>(*ctx);
+    renderer->setVolume(q);
+    session = std::make_unique<Session>(phantom.ct.geometry(), vp, "ct-abdomen");
+    SessionOptions o;
+    o.quiet = true;
+    o.sim.enabled = false;
+    o.selectionBackend = SelectionBackend::Cpu;
+    parts = makeSessionParts(o, phantom.ct, q, *session, *renderer, nullptr);
+    driver = std::make_unique<FrameDriver>(phantom.ct, q, *session, frames, *parts.selection, *parts.deform);
+  }
+  FrameInput input() const {
+    FrameInput in;
+    in.view = vp;
+    in.width = vp.width;
+    in.height = vp.height;
+    return in;
+  }
+};
+
+}  // namespace
+
+TEST(FrameDriver, AFrameWithNothingToDoSubmitsTheSamePictureAndNothingElse) {
+  DriverScene s;
+  FrameTiming ft0, ft1;
+  const FrameOutcome first = s.driver->frame(s.input(), ft0);
+  s.calls.clear();
+  const FrameOutcome second = s.driver->frame(s.input(), ft1);
+  // One submission and no other call (the transfer function is not set again); the same picture.
+  ASSERT_EQ(s.calls, std::vector<std::string>({"submit"}));
+  EXPECT_EQ(first.frame, 1u);
+  EXPECT_EQ(second.frame, 2u);
+  EXPECT_EQ(std::memcmp(&s.frames.submitted[0], &s.frames.submitted[1], sizeof(gpu::RenderParams)), 0);
+  // Nothing attached: no mask upload, no simulation state, no picks, no image read back.
+  EXPECT_FALSE(s.frames.masks[1]);
+  EXPECT_FALSE(s.frames.deforms[1]);
+  EXPECT_EQ(s.frames.picks[1], 0u);
+  EXPECT_FALSE(s.frames.readbacks[1]);
+  // No input, no refusal, no failure; without a budget, full quality at the asked size, the
+  // still picture summing its jitter phases.
+  EXPECT_EQ(ft1.inputCount, 0);
+  EXPECT_LT(ft1.inputFirst, 0.0);
+  EXPECT_TRUE(second.refused.empty());
+  EXPECT_FALSE(second.newFailure);
+  EXPECT_FALSE(second.exportImage);
+  EXPECT_TRUE(second.quality.full());
+  EXPECT_EQ(second.width, s.vp.width);
+  EXPECT_EQ(second.height, s.vp.height);
+  EXPECT_EQ(s.frames.stillRequested[1], kStillJitterPhases);
+  EXPECT_EQ(ft1.frame, 2u);
+  EXPECT_LE(ft1.cpuStart, ft1.cpuEnd);
+  EXPECT_LE(ft1.cpuEnd, ft1.submit);
+}
+
+TEST(FrameDriver, TheSequenceAppliesTheInputThenThePanelsThenMakesAndSubmitsTheRequest) {
+  DriverScene s;
+  FrameTiming ft0;
+  s.driver->frame(s.input(), ft0);
+  const gpu::RenderParams before = s.frames.submitted.back();
+  s.calls.clear();
+  // A one-finger drag in navigate mode orbits; the panels see the finger down (the input applied
+  // before them) and answer with a preset change and an action the session refuses.
+  FrameInput in = s.input();
+  in.events.push_back({touchEvent(0.0, TouchPhase::Down, 1, {20.0, 24.0}), 0.5});
+  in.events.push_back({touchEvent(0.05, TouchPhase::Move, 1, {40.0, 24.0}), 0.25});
+  std::size_t fingersSeen = 0;
+  in.panels = [&] {
+    s.calls.push_back("panels");
+    fingersSeen = s.session->gestures().input().fingers().size();
+    return std::vector<ScriptEvent>{uiEvent(0.1, UiAction::SetPreset, "ct-bone"), uiEvent(0.1, UiAction::SetMode, "no-such-mode")};
+  };
+  in.beforeSubmit = [&] { s.calls.push_back("before-submit"); };
+  bool exportAsked = false;
+  in.exportImage = [&] {
+    exportAsked = true;
+    return true;
+  };
+  s.driver->setFrameBudget(33.0);
+  FrameTiming ft;
+  const FrameOutcome out = s.driver->frame(in, ft);
+  EXPECT_EQ(s.calls, std::vector<std::string>({"panels", "tf", "before-submit", "submit"}));
+  EXPECT_EQ(fingersSeen, 1u);
+  EXPECT_EQ(s.session->preset(), "ct-bone");
+  // The refused action comes back; the input is counted with its arrival times.
+  ASSERT_EQ(out.refused.size(), 1u);
+  EXPECT_EQ(out.refused[0].value, "no-such-mode");
+  EXPECT_EQ(ft.inputCount, 2);
+  EXPECT_DOUBLE_EQ(ft.inputFirst, 0.25);
+  EXPECT_DOUBLE_EQ(ft.inputLast, 0.5);
+  // The orbit is in the request; the export's image is read back at full quality though the
+  // picture changes under a budget.
+  EXPECT_NE(std::memcmp(&before, &s.frames.submitted.back(), sizeof(gpu::RenderParams)), 0);
+  EXPECT_TRUE(exportAsked);
+  EXPECT_TRUE(out.exportImage);
+  EXPECT_TRUE(s.frames.readbacks.back());
+  EXPECT_TRUE(out.quality.full());
+  // The next frame, the finger still down and no export: the budget's frame, drawn smaller.
+  FrameTiming ft2;
+  const FrameOutcome next = s.driver->frame(s.input(), ft2);
+  EXPECT_FALSE(next.exportImage);
+  EXPECT_EQ(next.quality.scale < 1.0 || next.quality.stepScale > 1.0, !next.quality.full());
+}
+
+// Where a Clip-mode finger grabs the face of the box [-r, r]^3 (none: nullopt).
+std::optional<glm::dvec2> boxFaceHandle(const Session& s, const Viewport& vp, double r) {
+  for (int axis = 0; axis < 3; ++axis)
+    for (bool high : {false, true}) {
+      const BoxFace f{axis, high};
+      const auto px = projectToPixel(s.camera(), vp, faceCentre(glm::dvec3(-r), glm::dvec3(r), f));
+      if (!px) continue;
+      const auto grabbed = boxFaceNear(glm::dvec3(-r), glm::dvec3(r), s.camera(), vp, *px);
+      if (grabbed && grabbed->axis == axis && grabbed->high == high) return px;
+    }
+  return std::nullopt;
+}
+
+TEST(FrameDriver, AClipDragThatSettledIsFramedOnlyWhereTheCallerFollowsIt) {
+  // The window frames a clip its own gestures changed once the finger lifts (followClip); a
+  // played or replayed script carries that framing as an action, so its frames let the drag go.
+  for (const bool follow : {false, true}) {
+    DriverScene s;
+    FrameTiming ft;
+    ASSERT_TRUE(s.session->apply(uiEvent(0.0, UiAction::SetMode, "clip")));
+    ASSERT_TRUE(s.session->apply(uiEvent(0.0, UiAction::SetClipBox, "-60,-60,-60,60,60,60")));
+    const auto handle = boxFaceHandle(*s.session, s.vp, 60.0);
+    ASSERT_TRUE(handle.has_value());
+    const OrbitCamera start = s.session->camera();
+    FrameInput in = s.input();
+    in.followClip = follow;
+    in.events = {{touchEvent(1.0, TouchPhase::Down, 7, *handle), 1.0}, {touchEvent(1.1, TouchPhase::Move, 7, *handle + glm::dvec2(10, 6)), 1.1},
+                 {touchEvent(1.2, TouchPhase::Up, 7, *handle + glm::dvec2(10, 6)), 1.2}};
+    in.sessionClock = 1.2;
+    s.driver->frame(in, ft);
+    // Frames later, the framing (if any) has ended.
+    FrameInput later = s.input();
+    later.followClip = true;
+    later.sessionClock = 1.2 + 2.0 * Session::kFramingSeconds;
+    s.driver->frame(later, ft);
+    const bool moved = s.session->camera().distance != start.distance || s.session->camera().target != start.target;
+    EXPECT_EQ(moved, follow) << (follow ? "followed: framed" : "let go, and not framed by a later frame either");
+  }
+}
