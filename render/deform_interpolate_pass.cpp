@@ -86,7 +86,7 @@ GpuDeformer::Outputs GpuDeformer::addPassesFromPositions(fg::FrameGraph& g, cons
   s.fine->flush();
   importResources(g, false, at);
   using fg::Access;
-  h_.fineUpload = g.importBuffer("fine-positions-upload", {s.fine->size()}, Access::HostWrite);
+  h_.fineUpload = importBuffer(g, "fine-positions-upload", *s.fine, Access::HostWrite);
   const Bound hb = h_;
   // The positions last taken become the previous ones (for the moved box), then the upload.
   auto copyPass = [&](const char* name, fg::ResourceHandle from, fg::ResourceHandle to) {

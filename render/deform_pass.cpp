@@ -213,7 +213,7 @@ void GpuDeformer::importResources(fg::FrameGraph& g, bool withState, const Frame
   strain_->beginFrame();
   h.slot = slot;
   h.withState = withState;
-  auto buf = [&](const char* name, const Buffer& b, Access a) { return g.importBuffer(name, {b.size()}, a); };
+  auto buf = [&](const char* name, const Buffer& b, Access a) { return importBuffer(g, name, b, a); };
   h.params = buf("deform-params", params_, Access::StorageRead);
   h.nodeInfo = buf("fine-node-records", nodeInfo_, Access::StorageRead);
   h.rest = buf("fine-rest", rest_, Access::StorageRead);
@@ -239,59 +239,19 @@ void GpuDeformer::importResources(fg::FrameGraph& g, bool withState, const Frame
   }
   writeRigidDraws(slots_[slot]);
   h.rigid = buf("rigid-handle-draws", *slots_[slot].rigid, Access::HostWrite);
-  h.source = sourceVolume.valid() ? sourceVolume : g.importImage("volume", source_.desc(), Access::Sampled);
-  h.sourceMask = sourceMask.valid() ? sourceMask : g.importImage("handle-mask", sourceMask_.desc(), Access::Sampled);
-  h.volume = outputs.volume.valid() ? outputs.volume : g.importImage("deformed-volume", volume_.desc(), Access::Sampled);
-  h.mask = outputs.mask.valid() ? outputs.mask : g.importImage("deformed-mask", mask_.desc(), Access::Sampled);
+  h.source = sourceVolume.valid() ? sourceVolume : importImage(g, "volume", source_, Access::Sampled);
+  h.sourceMask = sourceMask.valid() ? sourceMask : importImage(g, "handle-mask", sourceMask_, Access::Sampled);
+  h.volume = outputs.volume.valid() ? outputs.volume : importImage(g, "deformed-volume", volume_, Access::Sampled);
+  h.mask = outputs.mask.valid() ? outputs.mask : importImage(g, "deformed-mask", mask_, Access::Sampled);
 }
 
 GpuDeformer::Outputs GpuDeformer::importOutputs(fg::FrameGraph& g) {
   h_ = Bound{};
   h_.onlyOutputs = true;
   strain_->beginFrame();
-  h_.volume = g.importImage("deformed-volume", volume_.desc(), fg::Access::Sampled);
-  h_.mask = g.importImage("deformed-mask", mask_.desc(), fg::Access::Sampled);
+  h_.volume = importImage(g, "deformed-volume", volume_, fg::Access::Sampled);
+  h_.mask = importImage(g, "deformed-mask", mask_, fg::Access::Sampled);
   return {h_.volume, h_.mask};
-}
-
-void GpuDeformer::bind(GraphExecutor& x) {
-  const Bound& h = h_;
-  if (h.onlyOutputs) {
-    x.bindImage(h.volume, volume_);
-    x.bindImage(h.mask, mask_);
-    strain_->bind(x);
-    return;
-  }
-  const Slot& s = slots_[h.slot];
-  x.bindBuffer(h.params, params_);
-  x.bindBuffer(h.nodeInfo, nodeInfo_);
-  x.bindBuffer(h.rest, rest_);
-  x.bindBuffer(h.blocks, blocks_);
-  x.bindBuffer(h.elementCorners, elementCorners_);
-  x.bindBuffer(h.coarseRest, coarseRest_);
-  x.bindBuffer(h.tets, tetBuffer_);
-  x.bindBuffer(h.restIdx, restIdx_);
-  x.bindBuffer(h.posNew, pos_);
-  x.bindBuffer(h.posOld, prev_);
-  x.bindBuffer(h.box, box_);
-  x.bindBuffer(h.args, argsBuffer_);
-  x.bindBuffer(h.owner, owner_);
-  x.bindBuffer(h.affine, affine_);
-  x.bindBuffer(h.brickFlags, brickFlags_);
-  x.bindBuffer(h.brickList, brickList_);
-  x.bindBuffer(h.brickLag, brickLag_);
-  if (h.fineUpload.valid()) x.bindBuffer(h.fineUpload, *s.fine);
-  strain_->bind(x);
-  if (h.withState) {
-    x.bindBuffer(h.positions, *s.positions);
-    x.bindBuffer(h.rotations, *s.rotations);
-    x.bindBuffer(h.handles, *s.handles);
-  }
-  if (h.rigid.valid()) x.bindBuffer(h.rigid, *s.rigid);
-  x.bindImage(h.source, source_);
-  x.bindImage(h.sourceMask, sourceMask_);
-  x.bindImage(h.volume, volume_);
-  x.bindImage(h.mask, mask_);
 }
 
 void GpuDeformer::setHandlePoses(const std::vector<Eigen::Matrix4f>& worldPoses) {
@@ -383,12 +343,10 @@ DeformFrameStats GpuDeformer::runOwn(const std::function<void(fg::FrameGraph&)>&
   x.beginFrame();
   fg::FrameGraph g;
   build(g);
-  const auto host = g.importBuffer("deform-box-host", {boxReadback_->size()}, fg::Access::None);
+  const auto host = importBuffer(g, "deform-box-host", *boxReadback_, fg::Access::None);
   addReadbackPass(g, PassId::DeformBoxReadback, h_.box, host);
   g.compile();
   x.setGraph(&g);
-  bind(x);
-  x.bindBuffer(host, *boxReadback_);
   g.execute(x);
   x.setGraph(nullptr);
   x.submit();

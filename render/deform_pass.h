@@ -134,8 +134,6 @@ class GpuDeformer {
   /// The region's voxel box (inclusive) on the volume grid.
   Eigen::Vector3i regionVoxelLo() const { return {p_.regionVoxLo.x, p_.regionVoxLo.y, p_.regionVoxLo.z}; }
   Eigen::Vector3i regionVoxelHi() const { return {p_.regionVoxHi.x, p_.regionVoxHi.y, p_.regionVoxHi.z}; }
-  /// Binds what the last addPasses imported.
-  void bind(GraphExecutor& executor);
 
   /// The handles' world poses the next frames from positions draw the rigid handles at
   /// (DeformSetup::rigidIds, one pose each); a frame from a coarse state takes its own.

@@ -75,10 +75,10 @@ DeformStrainPass::Outputs DeformStrainPass::add(fg::FrameGraph& g, const Inputs&
   using fg::Access;
   constexpr VkDescriptorType ssbo = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
   if (!perTet_) allocate();
-  h_.perTet = g.importBuffer("fine-strain", {perTet_->size()}, Access::StorageWrite);
-  h_.volume = g.importImage("strain-volume", volume_.desc(), Access::Sampled);
-  h_.limits = g.importBuffer("strain-limits", {limits_.size()}, Access::StorageRead);
-  h_.overLimit = g.importImage("strain-over-limit", overLimit_.desc(), Access::Sampled);
+  h_.perTet = importBuffer(g, "fine-strain", *perTet_, Access::StorageWrite);
+  h_.volume = importImage(g, "strain-volume", volume_, Access::Sampled);
+  h_.limits = importBuffer(g, "strain-limits", limits_, Access::StorageRead);
+  h_.overLimit = importImage(g, "strain-over-limit", overLimit_, Access::Sampled);
   const Handles h = h_;
   const std::uint32_t groups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
   g.addPass(
@@ -138,17 +138,10 @@ DeformStrainPass::Outputs DeformStrainPass::add(fg::FrameGraph& g, const Inputs&
 
 DeformStrainPass::Outputs DeformStrainPass::importVolumes(fg::FrameGraph& g) {
   if (!perTet_) return {};
-  h_.volume = g.importImage("strain-volume", volume_.desc(), fg::Access::Sampled);
+  h_.volume = importImage(g, "strain-volume", volume_, fg::Access::Sampled);
   if (!hasLimits_) return {{}, h_.volume, {}};
-  h_.overLimit = g.importImage("strain-over-limit", overLimit_.desc(), fg::Access::Sampled);
+  h_.overLimit = importImage(g, "strain-over-limit", overLimit_, fg::Access::Sampled);
   return {{}, h_.volume, h_.overLimit};
-}
-
-void DeformStrainPass::bind(GraphExecutor& x) const {
-  if (h_.perTet.valid()) x.bindBuffer(h_.perTet, *perTet_);
-  if (h_.volume.valid()) x.bindImage(h_.volume, volume_);
-  if (h_.limits.valid()) x.bindBuffer(h_.limits, limits_);
-  if (h_.overLimit.valid()) x.bindImage(h_.overLimit, overLimit_);
 }
 
 std::vector<float> DeformStrainPass::readPerTet() const {

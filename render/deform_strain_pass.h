@@ -43,8 +43,6 @@ class DeformStrainPass {
   /// Imports the volumes as the last passes left them (a frame without new positions); invalid
   /// handles before the first add (perTet is never imported).
   Outputs importVolumes(fg::FrameGraph& g);
-  /// Binds what add or importVolumes imported this frame.
-  void bind(GraphExecutor& x) const;
 
   bool hasLimits() const { return hasLimits_; }
   /// Read back after a frame with the passes (x fastest for the volumes).

@@ -100,12 +100,16 @@ ResourceInfo makeResource(std::string name, ResourceKind kind, const ImageDesc& 
 }
 }  // namespace
 
-ResourceHandle FrameGraph::importImage(std::string name, const ImageDesc& desc, Access currentAccess) {
-  return addResource(makeResource(std::move(name), ResourceKind::Image, desc, {}, true, currentAccess));
+ResourceHandle FrameGraph::importImage(std::string name, const ImageDesc& desc, Access currentAccess, const void* external) {
+  ResourceInfo r = makeResource(std::move(name), ResourceKind::Image, desc, {}, true, currentAccess);
+  r.external = external;
+  return addResource(std::move(r));
 }
 
-ResourceHandle FrameGraph::importBuffer(std::string name, const BufferDesc& desc, Access currentAccess) {
-  return addResource(makeResource(std::move(name), ResourceKind::Buffer, {}, desc, true, currentAccess));
+ResourceHandle FrameGraph::importBuffer(std::string name, const BufferDesc& desc, Access currentAccess, const void* external) {
+  ResourceInfo r = makeResource(std::move(name), ResourceKind::Buffer, {}, desc, true, currentAccess);
+  r.external = external;
+  return addResource(std::move(r));
 }
 
 ResourceHandle FrameGraph::createImage(std::string name, const ImageDesc& desc) {

@@ -73,6 +73,9 @@ struct ResourceInfo {
   ImageDesc image;
   BufferDesc buffer;
   bool imported = false;        ///< owned outside the graph (persistent across frames)
+  /// What an import names, for the executor to bind (opaque here: the Vulkan backend's
+  /// vk::importImage / vk::importBuffer set it, so an import is bound where it is declared).
+  const void* external = nullptr;
   Access initialAccess = Access::None;  ///< state an imported resource is in when the frame starts
   bool exported = false;
   Access finalAccess = Access::None;  ///< state requested at the end of the frame (exported only)
@@ -143,8 +146,8 @@ class FrameGraph {
   using SetupFn = std::function<void(PassBuilder&)>;
   using ExecuteFn = std::function<void(Executor&)>;
 
-  ResourceHandle importImage(std::string name, const ImageDesc& desc, Access currentAccess);
-  ResourceHandle importBuffer(std::string name, const BufferDesc& desc, Access currentAccess);
+  ResourceHandle importImage(std::string name, const ImageDesc& desc, Access currentAccess, const void* external = nullptr);
+  ResourceHandle importBuffer(std::string name, const BufferDesc& desc, Access currentAccess, const void* external = nullptr);
   ResourceHandle createImage(std::string name, const ImageDesc& desc);
   ResourceHandle createBuffer(std::string name, const BufferDesc& desc);
 

@@ -90,8 +90,8 @@ std::optional<LiveSelection::Paint> LiveSelection::addPasses(fg::FrameGraph& g, 
   }
   if (!repaint_ && !grow) return std::nullopt;
   const GpuRegionGrower::Bound h = grower_.addRounds(g, grow ? rounds_ : 0, false, volume);
-  baseHandle_ = g.importBuffer("live-base-ids", {base_.size()}, baseState_);
-  idsHandle_ = g.importBuffer("live-ids", {ids_.size()}, idsState_);
+  baseHandle_ = importBuffer(g, "live-base-ids", base_, baseState_);
+  idsHandle_ = importBuffer(g, "live-ids", ids_, idsState_);
   const Eigen::Vector3i& d = grower_.boxDims();
   gpu::LiveMaskPush push{};
   push.boxDims = glm::ivec4(d.x(), d.y(), d.z(), int(rowWords_));
@@ -119,13 +119,6 @@ std::optional<LiveSelection::Paint> LiveSelection::addPasses(fg::FrameGraph& g, 
   repaint_ = false;  // the rounds above are painted in this frame; more rounds paint again
   inFlight_ = painting_ = true;
   return Paint{idsHandle_, grower_.boxMin(), d, rowWords_ * 4};
-}
-
-void LiveSelection::bind(GraphExecutor& executor) const {
-  grower_.bind(executor);
-  if (!painting_) return;
-  executor.bindBuffer(baseHandle_, base_);
-  executor.bindBuffer(idsHandle_, ids_);
 }
 
 void LiveSelection::submitted(const fg::FrameGraph& g) {

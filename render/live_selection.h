@@ -53,7 +53,6 @@ class LiveSelection {
   /// last passes must be done (frameDone): the growth's state goes from one frame to the next.
   /// `volume`: the volume image as the frame imports it.
   std::optional<Paint> addPasses(fg::FrameGraph& g, fg::ResourceHandle volume);
-  void bind(GraphExecutor& executor) const;
   /// Once the frame with the passes is recorded, and after its fence.
   void submitted(const fg::FrameGraph& g);
   void frameDone();

@@ -178,9 +178,8 @@ GpuRegionGrower::Bound GpuRegionGrower::addRounds(fg::FrameGraph& g, int rounds,
   if (brickCount_ == 0) throw Error("region growing: begin() first");
   Bound h;
   fg::ResourceHandle* slot[kBufferCount] = {&h.keys, &h.accept, &h.flags, &h.reached, &h.lists[0], &h.lists[1], &h.dense};
-  for (int i = 0; i < kBufferCount; ++i) *slot[i] = g.importBuffer(kBufferNames[i], {buffers_[i].size()}, state_[i]);
-  volumeImported_ = !volume.valid();
-  h.volume = volume.valid() ? volume : g.importImage("grow-volume", volume_.desc(), Access::Sampled);
+  for (int i = 0; i < kBufferCount; ++i) *slot[i] = importBuffer(g, kBufferNames[i], buffers_[i], state_[i]);
+  h.volume = volume.valid() ? volume : importImage(g, "grow-volume", volume_, Access::Sampled);
   if (startPending_) addStartPasses(g, h);
   startPending_ = false;
   if (resumePending_ && active_ == 0) {  // active_: the list the next round consumes, as of the last frame done
@@ -229,18 +228,10 @@ GpuRegionGrower::Bound GpuRegionGrower::addRounds(fg::FrameGraph& g, int rounds,
     addCompactPasses(g, h.flags, h.lists[current_], h.reached, false);
   }
   // Active count for the host: the header of the list the next round would use.
-  h.activeHost = g.importBuffer("grow-active-host", {activeHost_.size()}, Access::None);
+  h.activeHost = importBuffer(g, "grow-active-host", activeHost_, Access::None);
   addReadbackPass(g, PassId::GrowActiveReadback, h.lists[current_], h.activeHost);
   handles_ = h;
   return h;
-}
-
-void GpuRegionGrower::bind(GraphExecutor& x) const {
-  const Bound& h = handles_;
-  const auto imported = bufferHandles(h);
-  for (int i = 0; i < kBufferCount; ++i) x.bindBuffer(imported[std::size_t(i)], buffers_[i]);
-  x.bindBuffer(h.activeHost, activeHost_);
-  if (volumeImported_) x.bindImage(h.volume, volume_);
 }
 
 void GpuRegionGrower::frameDone(const fg::FrameGraph& g) {
@@ -269,7 +260,6 @@ int GpuRegionGrower::growTo(std::uint32_t bound, bool dense, int roundsPerSubmit
     addRounds(g, roundsPerSubmit, dense);
     g.compile();
     x.setGraph(&g);
-    bind(x);
     g.execute(x);
     x.setGraph(nullptr);
     x.submit();

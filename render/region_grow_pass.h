@@ -41,12 +41,10 @@ class GpuRegionGrower {
   /// Adds `rounds` rounds (relax over the active bricks, or every brick when `dense`; then the
   /// compaction of the next active list) to `g`, after the start's clears if begin() came since the
   /// last frame, and a readback of the active count. `volume`: the volume image if the frame already
-  /// imports it. Call bind() on the frame's executor, and frameDone() once the frame has run and
+  /// imports it (what it imports is bound there: vk::importBuffer). Call frameDone() once the frame has run and
   /// before the next addRounds: one frame of growth in flight at a time (the active count and the
   /// buffers' states are carried from one frame to the next).
   Bound addRounds(fg::FrameGraph& g, int rounds, bool dense, fg::ResourceHandle volume = {});
-  /// Binds the buffers (and the volume, where addRounds imported it) of the last addRounds.
-  void bind(GraphExecutor& executor) const;
   /// After the frame's fence: keeps each buffer's last access for the next frame's barriers and
   /// reads the active count back (recordStates, then readActive).
   void frameDone(const fg::FrameGraph& g);
@@ -91,7 +89,7 @@ class GpuRegionGrower {
   Buffer activeHost_;
   fg::Access state_[kBufferCount] = {};
   int current_ = 0;
-  bool startPending_ = false, resumePending_ = false, grown_ = false, volumeImported_ = false;  // grown_: rounds ran since begin()
+  bool startPending_ = false, resumePending_ = false, grown_ = false;  // grown_: rounds ran since begin()
   Bound handles_{};                                                                             // of the last addRounds
   std::unique_ptr<GraphExecutor> ownExecutor_;
 };

@@ -164,16 +164,32 @@ void GraphExecutor::bindImage(fg::ResourceHandle h, const Image& image) { images
 void GraphExecutor::bindBuffer(fg::ResourceHandle h, const Buffer& buffer) { buffers_[h.id] = &buffer; }
 void GraphExecutor::bindRawImage(fg::ResourceHandle h, VkImage image) { rawImages_[h.id] = image; }
 
+const void* GraphExecutor::named(fg::ResourceHandle h, fg::ResourceKind kind) const {
+  if (!graph_ || !h.valid()) return nullptr;
+  const fg::ResourceInfo& info = graph_->resource(h);
+  return info.imported && info.kind == kind ? info.external : nullptr;
+}
+
 const Image& GraphExecutor::image(fg::ResourceHandle h) const {
   auto it = images_.find(h.id);
-  if (it == images_.end()) throw Error("GraphExecutor: no image bound for a graph resource");
-  return *it->second;
+  if (it != images_.end()) return *it->second;
+  if (const void* p = named(h, fg::ResourceKind::Image)) return *static_cast<const Image*>(p);  // set only by vk::importImage
+  throw Error("GraphExecutor: no image bound for a graph resource");
 }
 
 const Buffer& GraphExecutor::buffer(fg::ResourceHandle h) const {
   auto it = buffers_.find(h.id);
-  if (it == buffers_.end()) throw Error("GraphExecutor: no buffer bound for a graph resource");
-  return *it->second;
+  if (it != buffers_.end()) return *it->second;
+  if (const void* p = named(h, fg::ResourceKind::Buffer)) return *static_cast<const Buffer*>(p);  // set only by vk::importBuffer
+  throw Error("GraphExecutor: no buffer bound for a graph resource");
+}
+
+fg::ResourceHandle importImage(fg::FrameGraph& graph, std::string name, const Image& image, fg::Access current) {
+  return graph.importImage(std::move(name), image.desc(), current, &image);
+}
+
+fg::ResourceHandle importBuffer(fg::FrameGraph& graph, std::string name, const Buffer& buffer, fg::Access current) {
+  return graph.importBuffer(std::move(name), {buffer.size()}, current, &buffer);
 }
 
 void GraphExecutor::realizeTransient(fg::ResourceHandle handle, const fg::ResourceInfo& info) {

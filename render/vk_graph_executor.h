@@ -38,10 +38,13 @@ class GraphExecutor final : public fg::Executor {
   std::uint32_t slot() const { return current_; }
   std::uint32_t framesInFlight() const { return std::uint32_t(slots_.size()); }
 
+  /// Binds an import declared without what it names (FrameGraph::importImage / importBuffer with a
+  /// description only); imports made by vk::importImage / vk::importBuffer need none.
   void bindImage(fg::ResourceHandle h, const Image& image);
   void bindBuffer(fg::ResourceHandle h, const Buffer& buffer);
   /// An image not owned by a vk::Image (a swapchain image): known to the executor for barriers only.
   void bindRawImage(fg::ResourceHandle h, VkImage image);
+  /// What a resource is this frame: bound, realized (transient) or named by its import.
   const Image& image(fg::ResourceHandle h) const;
   const Buffer& buffer(fg::ResourceHandle h) const;
 
@@ -71,6 +74,8 @@ class GraphExecutor final : public fg::Executor {
   void dropBarriersForTest(bool drop) { dropBarriers_ = drop; }
 
  private:
+  /// What an import made by vk::importImage / importBuffer names (null: none, or not this kind).
+  const void* named(fg::ResourceHandle h, fg::ResourceKind kind) const;
   struct Slot {
     VkCommandBuffer cmd = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
@@ -99,5 +104,12 @@ class GraphExecutor final : public fg::Executor {
   std::map<std::uint32_t, const Buffer*> buffers_;
   std::vector<PassTiming> completed_;
 };
+
+/// Imports `image` into `graph` (its description, in the access it is in when the frame starts)
+/// and binds it there: a resource owned outside the graph is declared and bound in one place, and
+/// the executor finds it from the graph. `image` must outlive the frame's execution.
+fg::ResourceHandle importImage(fg::FrameGraph& graph, std::string name, const Image& image, fg::Access current);
+/// The same for a buffer.
+fg::ResourceHandle importBuffer(fg::FrameGraph& graph, std::string name, const Buffer& buffer, fg::Access current);
 
 }  // namespace handson::vk

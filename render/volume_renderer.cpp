@@ -118,17 +118,14 @@ void VolumeRenderer::setVolume(const QuantizedVolume& volume, const ProgressFn& 
   Buffer ranges(ctx_, rangeBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, Buffer::Memory::Device);
   Buffer readback(ctx_, rangeBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, Buffer::Memory::HostVisible);
   fg::FrameGraph g;
-  auto hVol = g.importImage("volume", desc, fg::Access::Sampled);
-  auto hRanges = g.importBuffer("brick-ranges", {rangeBytes}, fg::Access::None);
-  auto hRead = g.importBuffer("brick-ranges-host", {rangeBytes}, fg::Access::None);
+  auto hVol = vk::importImage(g, "volume", volume_, fg::Access::Sampled);
+  auto hRanges = vk::importBuffer(g, "brick-ranges", ranges, fg::Access::None);
+  auto hRead = vk::importBuffer(g, "brick-ranges-host", readback, fg::Access::None);
   brick_.add(g, hVol, hRanges, volume_, linear_);
   vk::addReadbackPass(g, PassId::BrickReadback, hRanges, hRead);
   g.compile();
   executor_.beginFrame();
   executor_.setGraph(&g);
-  executor_.bindImage(hVol, volume_);
-  executor_.bindBuffer(hRanges, ranges);
-  executor_.bindBuffer(hRead, readback);
   g.execute(executor_);
   executor_.submit();
   executor_.waitLastFrame();
@@ -366,7 +363,7 @@ VolumeRenderer::MaskBox VolumeRenderer::addMaskWrites(FrameBuild& f, const Frame
     ensureBuffer(s.maskStaging, up.ids.size(), VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
     std::memcpy(s.maskStaging->mapped(), up.ids.data(), up.ids.size());
     s.maskStaging->flush();
-    f.maskStaging = g.importBuffer("mask-staging", {s.maskStaging->size()}, fg::Access::HostWrite);
+    f.maskStaging = vk::importBuffer(g, "mask-staging", *s.maskStaging, fg::Access::HostWrite);
     addMaskCopy(g, {PassId::MaskUpload, f.maskStaging, up.min, up.dims}, mask, deformedMask);
     cover(up.min, up.dims);
   }
@@ -457,32 +454,32 @@ void VolumeRenderer::sumStillFrame(const FrameRequest& req, gpu::RenderParams& p
 }
 
 
-void VolumeRenderer::importInputs(FrameBuild& f) {
+void VolumeRenderer::importInputs(FrameBuild& f, const Slot& s) {
   fg::FrameGraph& g = f.g;
   vk::MarchInputs& in = f.in;
-  in.params = g.importBuffer("params", {sizeof(gpu::RenderParams)}, fg::Access::HostWrite);
-  in.volume = g.importImage("volume", volume_.desc(), fg::Access::Sampled);
-  in.tf = g.importBuffer("transfer-function", {tf_.size()}, fg::Access::StorageRead);
-  in.occupancy = g.importBuffer("occupancy", {occupancyBuffer_.size()}, fg::Access::StorageRead);
-  in.mask = g.importImage("handle-mask", mask_.desc(), fg::Access::Sampled);
-  in.handles = g.importBuffer("handle-tints", {handleTints_.size()}, fg::Access::StorageRead);
-  in.jitter = g.importBuffer("jitter-tile", {jitter_.size()}, fg::Access::StorageRead);
+  in.params = vk::importBuffer(g, "params", *s.params, fg::Access::HostWrite);
+  in.volume = vk::importImage(g, "volume", volume_, fg::Access::Sampled);
+  in.tf = vk::importBuffer(g, "transfer-function", tf_, fg::Access::StorageRead);
+  in.occupancy = vk::importBuffer(g, "occupancy", occupancyBuffer_, fg::Access::StorageRead);
+  in.mask = vk::importImage(g, "handle-mask", mask_, fg::Access::Sampled);
+  in.handles = vk::importBuffer(g, "handle-tints", handleTints_, fg::Access::StorageRead);
+  in.jitter = vk::importBuffer(g, "jitter-tile", jitter_, fg::Access::StorageRead);
   // While deforming, the deformed images are what the raymarch and picking read.
   if (deformer_) f.deformed = deformer_->importOutputs(g);
 }
 
 void VolumeRenderer::addOverlayInputs(FrameBuild& f, gpu::RenderParams& params) {
   vk::MarchInputs& in = f.in;
-  in.labels = f.g.importImage("labels", labels_.desc(), fg::Access::Sampled);
+  in.labels = vk::importImage(f.g, "labels", labels_, fg::Access::Sampled);
   if (!hasLabels_ || !(in.volume == f.sourceVolume)) params.flags &= ~gpu::kFlagLabelTint;  // none, or deformed anatomy shown
   f.ownStrain = !in.strain.valid();
   if (f.ownStrain) {
-    in.strain = f.g.importImage("no-strain", noStrain_.desc(), fg::Access::Sampled);
+    in.strain = vk::importImage(f.g, "no-strain", noStrain_, fg::Access::Sampled);
     params.flags &= ~gpu::kFlagStrainOverlay;  // nothing to show (not deforming): no overlay
   }
   f.ownOverLimit = !in.overLimit.valid();
   if (f.ownOverLimit) {
-    in.overLimit = f.g.importImage("no-strain-over-limit", noOverLimit_.desc(), fg::Access::Sampled);
+    in.overLimit = vk::importImage(f.g, "no-strain-over-limit", noOverLimit_, fg::Access::Sampled);
     params.flags &= ~gpu::kFlagLimitHighlight;  // not deforming, or no limits: nothing to highlight
   }
 }
@@ -500,7 +497,7 @@ void VolumeRenderer::addAccumulation(FrameBuild& f, const FrameRequest& req, gpu
   }
   f.accum = accumulate ? &accum_ : &noAccum_;
   f.accumAccess = accumulate ? &accumAccess_ : &noAccumAccess_;
-  f.in.accum = f.g.importImage(accumulate ? "accumulation" : "no-accumulation", f.accum->desc(), *f.accumAccess);
+  f.in.accum = vk::importImage(f.g, accumulate ? "accumulation" : "no-accumulation", *f.accum, *f.accumAccess);
 }
 
 void VolumeRenderer::addReadbacks(FrameBuild& f, const FrameRequest& req, Slot& s, fg::ResourceHandle color) {
@@ -510,7 +507,7 @@ void VolumeRenderer::addReadbacks(FrameBuild& f, const FrameRequest& req, Slot& 
   s.wantImage = req.readbackImage;
   if (req.readbackImage) {
     ensureBuffer(s.imageReadback, VkDeviceSize(s.width) * VkDeviceSize(s.height) * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
-    f.imageHost = g.importBuffer("image-readback", {s.imageReadback->size()}, fg::Access::None);
+    f.imageHost = vk::importBuffer(g, "image-readback", *s.imageReadback, fg::Access::None);
     vk::addReadbackPass(g, PassId::ImageReadback, color, f.imageHost);
   } else if (!req.extension) {
     g.exportResource(color, fg::Access::TransferSrc);
@@ -524,34 +521,17 @@ void VolumeRenderer::addReadbacks(FrameBuild& f, const FrameRequest& req, Slot& 
   auto* pts = static_cast<glm::vec4*>(s.pickPoints->mapped());
   for (std::uint32_t i = 0; i < n; ++i) pts[i] = glm::vec4(req.pickPoints[i], 0.0f, 0.0f);
   s.pickPoints->flush();
-  f.pickIn = g.importBuffer("pick-points", {s.pickPoints->size()}, fg::Access::HostWrite);
+  f.pickIn = vk::importBuffer(g, "pick-points", *s.pickPoints, fg::Access::HostWrite);
   const fg::ResourceHandle pickOut = g.createBuffer("pick-results", {n * sizeof(gpu::PickResult)});
-  f.pickHost = g.importBuffer("pick-readback", {s.pickReadback->size()}, fg::Access::None);
+  f.pickHost = vk::importBuffer(g, "pick-readback", *s.pickReadback, fg::Access::None);
   pick_.add(g, f.in, f.pickIn, pickOut, n, linear_);
   vk::addReadbackPass(g, PassId::PickReadback, pickOut, f.pickHost);
 }
 
-void VolumeRenderer::bindFrame(FrameBuild& f, const FrameRequest& req, Slot& s, bool liveRan) {
-  executor_.bindBuffer(f.in.params, *s.params);
-  executor_.bindImage(f.sourceVolume, volume_);
-  executor_.bindBuffer(f.in.tf, tf_);
-  executor_.bindBuffer(f.in.occupancy, occupancyBuffer_);
-  executor_.bindImage(f.sourceMask, mask_);
-  if (f.ownStrain) executor_.bindImage(f.in.strain, noStrain_);
-  if (f.ownOverLimit) executor_.bindImage(f.in.overLimit, noOverLimit_);
-  executor_.bindImage(f.in.labels, labels_);
-  if (deformer_) deformer_->bind(executor_);
-  if (liveRan) live_->bind(executor_);
-  executor_.bindBuffer(f.in.handles, handleTints_);
-  executor_.bindBuffer(f.in.jitter, jitter_);
-  executor_.bindImage(f.in.accum, *f.accum);
+void VolumeRenderer::bindFrame(FrameBuild& f, const FrameRequest& req) {
+  // Every import of the renderer and its passes was bound where it was declared (vk::importImage,
+  // vk::importBuffer); what the caller's extension imported it binds itself.
   *f.accumAccess = fg::Access::StorageReadWrite;
-  if (f.maskStaging.valid()) executor_.bindBuffer(f.maskStaging, *s.maskStaging);
-  if (f.imageHost.valid()) executor_.bindBuffer(f.imageHost, *s.imageReadback);
-  if (f.pickIn.valid()) {
-    executor_.bindBuffer(f.pickIn, *s.pickPoints);
-    executor_.bindBuffer(f.pickHost, *s.pickReadback);
-  }
   if (req.extension) req.extension->bind(executor_);
 }
 
@@ -568,7 +548,7 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   params.pickCount = std::uint32_t(req.pickPoints.size());  // written below, once the overlay is known
 
   FrameBuild f;
-  importInputs(f);
+  importInputs(f, s);
   // A frame carrying the live selection's growth waits for the last one that did.
   if (live_ && live_->inFlight()) {
     executor_.waitSlot(liveSlot_);
@@ -593,7 +573,7 @@ std::uint64_t VolumeRenderer::submit(const FrameRequest& req) {
   f.g.compile();
   executor_.setGraph(&f.g);
   const bool liveRan = live_ && live_->inFlight();  // its passes are in this frame
-  bindFrame(f, req, s, liveRan);
+  bindFrame(f, req);
   f.g.execute(executor_);
   executor_.setGraph(nullptr);
   if (req.extension) executor_.submit(req.extension->waitSemaphore, req.extension->waitStage, req.extension->signalSemaphore);

@@ -31,7 +31,8 @@ class FrameExtension {
   virtual ~FrameExtension() = default;
   /// Declares the extra passes; `color` is the raymarched image (RGBA8).
   virtual void addPasses(fg::FrameGraph& graph, fg::ResourceHandle color) = 0;
-  /// Binds the imported resources the extra passes declared.
+  /// Binds what the extra passes imported without naming it (a swapchain image: bindRawImage);
+  /// an import made with vk::importImage / importBuffer is bound already.
   virtual void bind(vk::GraphExecutor& executor) = 0;
   VkSemaphore waitSemaphore = VK_NULL_HANDLE;
   VkPipelineStageFlags2 waitStage = VK_PIPELINE_STAGE_2_TRANSFER_BIT;
@@ -174,7 +175,7 @@ class VolumeRenderer final : public FrameRenderer {
   using MaskBox = std::optional<std::pair<Eigen::Vector3i, Eigen::Vector3i>>;
   struct FrameBuild;  // one frame's graph and what submit() binds to it (volume_renderer.cpp)
   /// The raymarch's and picking's imported inputs, and the deformed images while deforming.
-  void importInputs(FrameBuild& f);
+  void importInputs(FrameBuild& f, const Slot& s);
   /// The frame's writes into the handle-id mask (and the deformed one): the request's upload, then
   /// the live selection's paint. Returns the box they cover (nullopt: none).
   MaskBox addMaskWrites(FrameBuild& f, const FrameRequest& req, Slot& s);
@@ -187,8 +188,9 @@ class VolumeRenderer final : public FrameRenderer {
   void addAccumulation(FrameBuild& f, const FrameRequest& req, gpu::RenderParams& params);
   /// The image's read-back (or the extension's passes on it) and the picks.
   void addReadbacks(FrameBuild& f, const FrameRequest& req, Slot& s, fg::ResourceHandle color);
-  /// Binds every imported resource of the compiled frame to the executor.
-  void bindFrame(FrameBuild& f, const FrameRequest& req, Slot& s, bool liveRan);
+  /// What is left to bind once the frame is compiled: the caller's extension's imports (every
+  /// other import was bound where it was declared); the still sum's image marked as written.
+  void bindFrame(FrameBuild& f, const FrameRequest& req);
   /// Waits for every frame in flight (and takes the live selection's growth state from them).
   void waitFramesInFlight();
 

@@ -103,7 +103,7 @@ class PresentExtension final : public FrameExtension {
         PassId::Ui, [&](fg::PassBuilder& b) { b.write(target_, fg::Access::ColorAttachmentWrite); },
         [this, ext](fg::Executor& e) { ui_.record(vk::vulkanExecutor(e).cmd(), sc_.framebuffer(frame_.image), ext); });
     if (screenshot_) {
-      shot_ = g.importBuffer("screenshot", {screenshot_->size()}, fg::Access::None);
+      shot_ = vk::importBuffer(g, "screenshot", *screenshot_, fg::Access::None);
       g.addPass(
           PassId::Screenshot,
           [&](fg::PassBuilder& b) {
@@ -125,9 +125,8 @@ class PresentExtension final : public FrameExtension {
 
   void bind(vk::GraphExecutor& x) override {
     // The swapchain image is not a vk::Image; the passes above use its handle directly, and the
-    // executor only needs it for barriers.
+    // executor only needs it for barriers (the screenshot buffer was bound where it was imported).
     x.bindRawImage(target_, sc_.image(frame_.image));
-    if (screenshot_) x.bindBuffer(shot_, *screenshot_);
   }
 
  private:

@@ -762,3 +762,44 @@ TEST_F(GpuPasses, TheRendererSumsAStillPictureAndStartsAnewWhenItChanges) {
   EXPECT_EQ(s.renderer->stillPhasesShown(), 0);
   s.renderer->waitLast();
 }
+
+TEST_F(GpuPasses, AnImportIsBoundWhereItIsDeclaredAndOneThatNamesNothingMustBeBound) {
+  // vk::importBuffer declares a resource owned outside the graph and binds it in the same call:
+  // the executor finds it from the graph (no bindBuffer), here through a copy read back.
+  const vk::Context& ctx = test::gpuContext();
+  vk::Buffer source(ctx, 64, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, vk::Buffer::Memory::HostVisible);
+  vk::Buffer target(ctx, 64, VK_BUFFER_USAGE_TRANSFER_DST_BIT, vk::Buffer::Memory::HostVisible);
+  auto* in = static_cast<std::uint32_t*>(source.mapped());
+  for (std::uint32_t i = 0; i < 16; ++i) in[i] = 1000u + i * i;
+  source.flush();
+  vk::GraphExecutor x(ctx, 1);
+  x.beginFrame();
+  fg::FrameGraph g;
+  const fg::ResourceHandle from = vk::importBuffer(g, "source", source, fg::Access::HostWrite);
+  const fg::ResourceHandle to = vk::importBuffer(g, "target", target, fg::Access::None);
+  vk::addReadbackPass(g, PassId::ImageReadback, from, to);
+  g.compile();
+  x.setGraph(&g);
+  EXPECT_EQ(&x.buffer(from), &source);
+  EXPECT_EQ(&x.buffer(to), &target);
+  g.execute(x);
+  x.setGraph(nullptr);
+  x.submit();
+  x.waitLastFrame();
+  target.invalidate();
+  const auto* out = static_cast<const std::uint32_t*>(target.mapped());
+  for (std::uint32_t i = 0; i < 16; ++i) EXPECT_EQ(out[i], 1000u + i * i) << i;
+  // An import by description alone names nothing: unbound, asking for it is a clear error; bound,
+  // it is what was bound.
+  x.beginFrame();
+  fg::FrameGraph h;
+  const fg::ResourceHandle unnamed = h.importBuffer("unnamed", {64}, fg::Access::None);
+  x.setGraph(&h);
+  EXPECT_THROW(x.buffer(unnamed), Error);
+  EXPECT_THROW(x.image(unnamed), Error);
+  x.bindBuffer(unnamed, target);
+  EXPECT_EQ(&x.buffer(unnamed), &target);
+  x.setGraph(nullptr);
+  x.submit();
+  x.waitLastFrame();
+}

@@ -167,7 +167,6 @@ TEST_F(RegionGrowGpu, RoundsSpreadOverFramesWithTheExtentRaisedMidGrowthGiveTheC
       g.compile();
       x.setGraph(&g);
       x.bindImage(v, volume);
-      gpu.bind(x);
       g.execute(x);
       x.setGraph(nullptr);
       x.submit();
