@@ -29,19 +29,14 @@ void BrickPass::add(fg::FrameGraph& graph, fg::ResourceHandle volume, fg::Resour
   brickDims(Eigen::Vector3i(int(d.width), int(d.height), int(d.depth)), bx, by, bz);
   const BrickPush push{glm::ivec4(int(d.width), int(d.height), int(d.depth), 0), glm::ivec4(bx, by, bz, 0)};
   const std::uint32_t count = std::uint32_t(bx) * std::uint32_t(by) * std::uint32_t(bz);
+  const PassResources r =
+      PassResources().sampled(gpu::kBindBrickMinmaxVolume, volume, sampler).buffer(gpu::kBindBrickMinmaxOut, ranges, fg::Access::StorageWrite);
   graph.addPass(
-      PassId::BrickMinmax,
-      [&](fg::PassBuilder& b) {
-        b.read(volume, fg::Access::Sampled);
-        b.write(ranges, fg::Access::StorageWrite);
-      },
-      [this, volume, ranges, push, count, &sampler](fg::Executor& e) {
+      PassId::BrickMinmax, [&](fg::PassBuilder& b) { r.declare(b); },
+      [this, r, push, count](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_.pipeline());
-        DescriptorWriter()
-            .sampledImage(gpu::kBindBrickMinmaxVolume, x.image(volume).view(), sampler.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-            .buffer(gpu::kBindBrickMinmaxOut, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(ranges).handle())
-            .push(ctx_, x.cmd(), pipeline_);
+        r.push(ctx_, x, pipeline_);
         vkCmdPushConstants(x.cmd(), pipeline_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(BrickPush), &push);
         vkCmdDispatch(x.cmd(), (count + gpu::kBrickGroupX - 1) / gpu::kBrickGroupX, 1, 1);
       });

@@ -3,6 +3,7 @@
 // by declaring what it reads and writes; the graph places the barriers. Implementations live in
 // one file per pass (raymarch_pass.cpp, pick_pass.cpp, brick_pass.cpp).
 #include "frame_graph.h"
+#include "pass_resources.h"
 #include "vk_resources.h"
 
 namespace handson::vk {
@@ -75,7 +76,8 @@ GraphExecutor& vulkanExecutor(fg::Executor& e);
 
 // Shared by the raymarch and pick passes (march_inputs.cpp).
 std::vector<VkDescriptorSetLayoutBinding> marchBindingsFor(bool pick);
-void declareMarchInputs(fg::PassBuilder& b, const MarchInputs& in);
-DescriptorWriter marchDescriptors(GraphExecutor& x, const MarchInputs& in, const Sampler& sampler);
+/// The inputs the raymarch and the pick share, each with its binding and access (`sampler` for
+/// the volume and the mask).
+PassResources marchResources(const MarchInputs& in, const Sampler& sampler);
 
 }  // namespace handson::vk

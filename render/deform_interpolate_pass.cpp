@@ -18,8 +18,6 @@ float GpuDeformer::commitFor(Redo redo) const {
   return commit_;
 }
 
-using deform::kParams;
-using deform::kSsbo;
 
 GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, const CoarseFrameState& state, Redo redo, const FrameImports& at) {
   const std::uint32_t slot = at.slot;
@@ -44,29 +42,24 @@ GpuDeformer::Outputs GpuDeformer::addPasses(fg::FrameGraph& g, const CoarseFrame
   const Bound hb = h_;
   const std::uint32_t nodeGroups = std::uint32_t((nodes_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
 
+  const PassResources r = PassResources()
+                              .buffer(gpu::kBindDeformInterpolateParams, hb.params, Access::StorageRead)
+                              .buffer(gpu::kBindDeformInterpolateNodes, hb.nodeInfo, Access::StorageRead)
+                              .buffer(gpu::kBindDeformInterpolateRest, hb.rest, Access::StorageRead)
+                              .buffer(gpu::kBindDeformInterpolateBlocks, hb.blocks, Access::StorageRead)
+                              .buffer(gpu::kBindDeformInterpolateElements, hb.elementCorners, Access::StorageRead)
+                              .buffer(gpu::kBindDeformInterpolateCoarseRest, hb.coarseRest, Access::StorageRead)
+                              .buffer(gpu::kBindDeformInterpolateCoarsePos, hb.positions, Access::StorageRead)
+                              .buffer(gpu::kBindDeformInterpolateRotations, hb.rotations, Access::StorageRead)
+                              .buffer(gpu::kBindDeformInterpolateHandles, hb.handles, Access::StorageRead)
+                              .buffer(gpu::kBindDeformInterpolateOut, hb.posNew, Access::StorageReadWrite)
+                              .buffer(gpu::kBindDeformInterpolatePrev, hb.posOld, Access::StorageWrite);
   g.addPass(
-      PassId::DeformInterpolate,
-      [&](fg::PassBuilder& b) {
-        b.read(hb.params, Access::StorageRead);
-        for (auto r : {hb.nodeInfo, hb.rest, hb.blocks, hb.elementCorners, hb.coarseRest, hb.positions, hb.rotations, hb.handles})
-          b.read(r, Access::StorageRead);
-        b.write(hb.posNew, Access::StorageReadWrite);
-        b.write(hb.posOld, Access::StorageWrite);
-      },
-      [this, hb, nodeGroups, commit = commitFor(redo)](fg::Executor& e) {
+      PassId::DeformInterpolate, [&](fg::PassBuilder& b) { r.declare(b); },
+      [this, r, nodeGroups, commit = commitFor(redo)](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, interpolate_.pipeline());
-        DescriptorWriter w;
-        w.buffer(gpu::kBindDeformInterpolateParams, kParams, x.buffer(hb.params).handle());
-        for (const auto& [b, r] :
-             {std::pair{gpu::kBindDeformInterpolateNodes, hb.nodeInfo}, std::pair{gpu::kBindDeformInterpolateRest, hb.rest},
-              std::pair{gpu::kBindDeformInterpolateBlocks, hb.blocks}, std::pair{gpu::kBindDeformInterpolateElements, hb.elementCorners},
-              std::pair{gpu::kBindDeformInterpolateCoarseRest, hb.coarseRest},
-              std::pair{gpu::kBindDeformInterpolateCoarsePos, hb.positions}, std::pair{gpu::kBindDeformInterpolateRotations, hb.rotations},
-              std::pair{gpu::kBindDeformInterpolateHandles, hb.handles}, std::pair{gpu::kBindDeformInterpolateOut, hb.posNew},
-              std::pair{gpu::kBindDeformInterpolatePrev, hb.posOld}})
-          w.buffer(b, kSsbo, x.buffer(r).handle());
-        w.push(ctx_, x.cmd(), interpolate_);
+        r.push(ctx_, x, interpolate_);
         vkCmdPushConstants(x.cmd(), interpolate_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, 4, &commit);
         vkCmdDispatch(x.cmd(), nodeGroups, 1, 1);
       });

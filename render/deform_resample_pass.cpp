@@ -18,10 +18,6 @@ struct BricksPush {  // deform_bricks.comp's push constants
 };
 }  // namespace
 
-using deform::kParams;
-using deform::kSampled;
-using deform::kSsbo;
-using deform::kStorageImage;
 
 // What to redo: the moved tets' box (deform_bounds.comp), and in brick mode each brick's lag and the
 // list of bricks past it (deform_bricks.comp).
@@ -31,55 +27,41 @@ void GpuDeformer::addRedoSelection(fg::FrameGraph& g, Redo redo) {
   const std::uint32_t tetGroups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
   const std::uint32_t brickGroups = std::uint32_t((p_.brickCount + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
   const bool bricks = redo == Redo::Bricks || redo == Redo::BricksDuringMotion;
-  if (redo == Redo::Moved || bricks)
+  if (redo == Redo::Moved || bricks) {
+    const PassResources r = PassResources()
+                                .buffer(gpu::kBindDeformBoundsParams, hb.params, Access::StorageRead)
+                                .buffer(gpu::kBindDeformBoundsTets, hb.tets, Access::StorageRead)
+                                .buffer(gpu::kBindDeformBoundsPosNew, hb.posNew, Access::StorageRead)
+                                .buffer(gpu::kBindDeformBoundsPosOld, hb.posOld, Access::StorageRead)
+                                .buffer(gpu::kBindDeformBoundsBox, hb.box, Access::StorageReadWrite)
+                                .buffer(gpu::kBindDeformBoundsBrickMotion, hb.brickFlags, Access::StorageReadWrite);
     g.addPass(
-        PassId::DeformBounds,
-        [&](fg::PassBuilder& b) {
-          b.read(hb.params, Access::StorageRead);
-          b.read(hb.tets, Access::StorageRead);
-          b.read(hb.posNew, Access::StorageRead);
-          b.read(hb.posOld, Access::StorageRead);
-          b.write(hb.box, Access::StorageReadWrite);
-          b.write(hb.brickFlags, Access::StorageReadWrite);
-        },
-        [this, hb, tetGroups](fg::Executor& e) {
+        PassId::DeformBounds, [&](fg::PassBuilder& b) { r.declare(b); },
+        [this, r, tetGroups](fg::Executor& e) {
           GraphExecutor& x = vulkanExecutor(e);
           vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, bounds_.pipeline());
-          DescriptorWriter()
-              .buffer(gpu::kBindDeformBoundsParams, kParams, x.buffer(hb.params).handle())
-              .buffer(gpu::kBindDeformBoundsTets, kSsbo, x.buffer(hb.tets).handle())
-              .buffer(gpu::kBindDeformBoundsPosNew, kSsbo, x.buffer(hb.posNew).handle())
-              .buffer(gpu::kBindDeformBoundsPosOld, kSsbo, x.buffer(hb.posOld).handle())
-              .buffer(gpu::kBindDeformBoundsBox, kSsbo, x.buffer(hb.box).handle())
-              .buffer(gpu::kBindDeformBoundsBrickMotion, kSsbo, x.buffer(hb.brickFlags).handle())
-              .push(ctx_, x.cmd(), bounds_);
+          r.push(ctx_, x, bounds_);
           vkCmdDispatch(x.cmd(), tetGroups, 1, 1);
         });
-  if (bricks)
+  }
+  if (bricks) {
+    const PassResources r = PassResources()
+                                .buffer(gpu::kBindDeformBricksParams, hb.params, Access::StorageRead)
+                                .buffer(gpu::kBindDeformBricksRigid, hb.rigid, Access::StorageRead)
+                                .buffer(gpu::kBindDeformBricksFlags, hb.brickFlags, Access::StorageReadWrite)
+                                .buffer(gpu::kBindDeformBricksLag, hb.brickLag, Access::StorageReadWrite)
+                                .buffer(gpu::kBindDeformBricksBox, hb.box, Access::StorageReadWrite)
+                                .buffer(gpu::kBindDeformBricksList, hb.brickList, Access::StorageWrite);
     g.addPass(
-        PassId::DeformBricks,
-        [&](fg::PassBuilder& b) {
-          b.read(hb.params, Access::StorageRead);
-          b.read(hb.rigid, Access::StorageRead);
-          b.write(hb.brickFlags, Access::StorageReadWrite);
-          b.write(hb.brickLag, Access::StorageReadWrite);
-          b.write(hb.box, Access::StorageReadWrite);
-          b.write(hb.brickList, Access::StorageWrite);
-        },
-        [this, hb, brickGroups, push = BricksPush{redo == Redo::Bricks ? 0.0f : motionLag_, redo == Redo::Bricks ? 1u : 0u}](fg::Executor& e) {
+        PassId::DeformBricks, [&](fg::PassBuilder& b) { r.declare(b); },
+        [this, r, brickGroups, push = BricksPush{redo == Redo::Bricks ? 0.0f : motionLag_, redo == Redo::Bricks ? 1u : 0u}](fg::Executor& e) {
           GraphExecutor& x = vulkanExecutor(e);
           vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, bricks_.pipeline());
-          DescriptorWriter()
-              .buffer(gpu::kBindDeformBricksParams, kParams, x.buffer(hb.params).handle())
-              .buffer(gpu::kBindDeformBricksBox, kSsbo, x.buffer(hb.box).handle())
-              .buffer(gpu::kBindDeformBricksFlags, kSsbo, x.buffer(hb.brickFlags).handle())
-              .buffer(gpu::kBindDeformBricksList, kSsbo, x.buffer(hb.brickList).handle())
-              .buffer(gpu::kBindDeformBricksLag, kSsbo, x.buffer(hb.brickLag).handle())
-              .buffer(gpu::kBindDeformBricksRigid, kSsbo, x.buffer(hb.rigid).handle())
-              .push(ctx_, x.cmd(), bricks_);
+          r.push(ctx_, x, bricks_);
           vkCmdPushConstants(x.cmd(), bricks_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
           vkCmdDispatch(x.cmd(), brickGroups, 1, 1);
         });
+  }
 }
 
 GpuDeformer::Outputs GpuDeformer::addResamplePasses(fg::FrameGraph& g, Redo redo) {
@@ -133,21 +115,16 @@ void GpuDeformer::addResetPass(fg::FrameGraph& g, Redo redo) {
 void GpuDeformer::addArgsPass(fg::FrameGraph& g, Redo redo) {
   using fg::Access;
   const Bound hb = h_;
+  const PassResources r = PassResources()
+                              .buffer(gpu::kBindDeformArgsParams, hb.params, Access::StorageRead)
+                              .buffer(gpu::kBindDeformArgsBox, hb.box, Access::StorageReadWrite)
+                              .buffer(gpu::kBindDeformArgsArgs, hb.args, Access::StorageWrite);
   g.addPass(
-      PassId::DeformArgs,
-      [&](fg::PassBuilder& b) {
-        b.read(hb.params, Access::StorageRead);
-        b.write(hb.box, Access::StorageReadWrite);
-        b.write(hb.args, Access::StorageWrite);
-      },
-      [this, hb, whole = redo == Redo::WholeVolume ? 1u : 0u](fg::Executor& e) {
+      PassId::DeformArgs, [&](fg::PassBuilder& b) { r.declare(b); },
+      [this, r, whole = redo == Redo::WholeVolume ? 1u : 0u](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, args_.pipeline());
-        DescriptorWriter()
-            .buffer(gpu::kBindDeformArgsParams, kParams, x.buffer(hb.params).handle())
-            .buffer(gpu::kBindDeformArgsBox, kSsbo, x.buffer(hb.box).handle())
-            .buffer(gpu::kBindDeformArgsArgs, kSsbo, x.buffer(hb.args).handle())
-            .push(ctx_, x.cmd(), args_);
+        r.push(ctx_, x, args_);
         vkCmdPushConstants(x.cmd(), args_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, 4, &whole);
         vkCmdDispatch(x.cmd(), 1, 1, 1);
       });
@@ -157,35 +134,23 @@ void GpuDeformer::addArgsPass(fg::FrameGraph& g, Redo redo) {
 void GpuDeformer::addClearPass(fg::FrameGraph& g) {
   using fg::Access;
   const Bound hb = h_;
+  const PassResources r = PassResources()
+                              .buffer(gpu::kBindDeformClearParams, hb.params, Access::StorageRead)
+                              .use(hb.args, Access::IndirectRead)
+                              .buffer(gpu::kBindDeformClearBox, hb.box, Access::StorageRead)
+                              .buffer(gpu::kBindDeformClearBrickList, hb.brickList, Access::StorageRead)
+                              .sampled(gpu::kBindDeformClearSource, hb.source, nearest_)
+                              .sampled(gpu::kBindDeformClearSourceMask, hb.sourceMask, nearest_)
+                              .storageImage(gpu::kBindDeformClearOut, hb.volume, Access::StorageReadWrite)
+                              .storageImage(gpu::kBindDeformClearOutMask, hb.mask, Access::StorageReadWrite)
+                              .buffer(gpu::kBindDeformClearOwner, hb.owner, Access::StorageReadWrite);
   g.addPass(
-      PassId::DeformClear,
-      [&](fg::PassBuilder& b) {
-        b.read(hb.params, Access::StorageRead);
-        b.read(hb.args, Access::IndirectRead);
-        b.read(hb.box, Access::StorageRead);
-        b.read(hb.brickList, Access::StorageRead);
-        b.read(hb.source, Access::Sampled);
-        b.read(hb.sourceMask, Access::Sampled);
-        b.write(hb.volume, Access::StorageReadWrite);
-        b.write(hb.mask, Access::StorageReadWrite);
-        b.write(hb.owner, Access::StorageReadWrite);
-      },
-      [this, hb](fg::Executor& e) {
+      PassId::DeformClear, [&](fg::PassBuilder& b) { r.declare(b); },
+      [this, r, args = hb.args](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, clear_.pipeline());
-        DescriptorWriter()
-            .buffer(gpu::kBindDeformClearParams, kParams, x.buffer(hb.params).handle())
-            .buffer(gpu::kBindDeformClearBox, kSsbo, x.buffer(hb.box).handle())
-            .sampledImage(gpu::kBindDeformClearSource, x.image(hb.source).view(), nearest_.handle(),
-                          VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-            .sampledImage(gpu::kBindDeformClearSourceMask, x.image(hb.sourceMask).view(), nearest_.handle(),
-                          VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-            .storageImage(gpu::kBindDeformClearOut, x.image(hb.volume).view())
-            .storageImage(gpu::kBindDeformClearOutMask, x.image(hb.mask).view())
-            .buffer(gpu::kBindDeformClearOwner, kSsbo, x.buffer(hb.owner).handle())
-            .buffer(gpu::kBindDeformClearBrickList, kSsbo, x.buffer(hb.brickList).handle())
-            .push(ctx_, x.cmd(), clear_);
-        vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
+        r.push(ctx_, x, clear_);
+        vkCmdDispatchIndirect(x.cmd(), x.buffer(args).handle(), 0);
       });
 }
 
@@ -194,31 +159,21 @@ void GpuDeformer::addClaimPass(fg::FrameGraph& g) {
   using fg::Access;
   const Bound hb = h_;
   const std::uint32_t tetGroups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
+  const PassResources r = PassResources()
+                              .buffer(gpu::kBindDeformClaimParams, hb.params, Access::StorageRead)
+                              .buffer(gpu::kBindDeformClaimTets, hb.tets, Access::StorageRead)
+                              .buffer(gpu::kBindDeformClaimPos, hb.posNew, Access::StorageRead)
+                              .buffer(gpu::kBindDeformClaimBox, hb.box, Access::StorageRead)
+                              .buffer(gpu::kBindDeformClaimRestIdx, hb.restIdx, Access::StorageRead)
+                              .buffer(gpu::kBindDeformClaimBrickFlags, hb.brickFlags, Access::StorageRead)
+                              .buffer(gpu::kBindDeformClaimOwner, hb.owner, Access::StorageReadWrite)
+                              .buffer(gpu::kBindDeformClaimAffine, hb.affine, Access::StorageWrite);
   g.addPass(
-      PassId::DeformClaim,
-      [&](fg::PassBuilder& b) {
-        b.read(hb.params, Access::StorageRead);
-        b.read(hb.tets, Access::StorageRead);
-        b.read(hb.posNew, Access::StorageRead);
-        b.read(hb.box, Access::StorageRead);
-        b.read(hb.restIdx, Access::StorageRead);
-        b.read(hb.brickFlags, Access::StorageRead);
-        b.write(hb.owner, Access::StorageReadWrite);
-        b.write(hb.affine, Access::StorageWrite);
-      },
-      [this, hb, tetGroups](fg::Executor& e) {
+      PassId::DeformClaim, [&](fg::PassBuilder& b) { r.declare(b); },
+      [this, r, tetGroups](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, claim_.pipeline());
-        DescriptorWriter()
-            .buffer(gpu::kBindDeformClaimParams, kParams, x.buffer(hb.params).handle())
-            .buffer(gpu::kBindDeformClaimTets, kSsbo, x.buffer(hb.tets).handle())
-            .buffer(gpu::kBindDeformClaimPos, kSsbo, x.buffer(hb.posNew).handle())
-            .buffer(gpu::kBindDeformClaimBox, kSsbo, x.buffer(hb.box).handle())
-            .buffer(gpu::kBindDeformClaimOwner, kSsbo, x.buffer(hb.owner).handle())
-            .buffer(gpu::kBindDeformClaimRestIdx, kSsbo, x.buffer(hb.restIdx).handle())
-            .buffer(gpu::kBindDeformClaimAffine, kSsbo, x.buffer(hb.affine).handle())
-            .buffer(gpu::kBindDeformClaimBrickFlags, kSsbo, x.buffer(hb.brickFlags).handle())
-            .push(ctx_, x.cmd(), claim_);
+        r.push(ctx_, x, claim_);
         vkCmdDispatch(x.cmd(), tetGroups, 1, 1);
       });
 }
@@ -227,39 +182,25 @@ void GpuDeformer::addClaimPass(fg::FrameGraph& g) {
 void GpuDeformer::addResolvePass(fg::FrameGraph& g) {
   using fg::Access;
   const Bound hb = h_;
+  const PassResources r = PassResources()
+                              .buffer(gpu::kBindDeformResolveParams, hb.params, Access::StorageRead)
+                              .use(hb.args, Access::IndirectRead)
+                              .buffer(gpu::kBindDeformResolveAffine, hb.affine, Access::StorageRead)
+                              .buffer(gpu::kBindDeformResolveBrickList, hb.brickList, Access::StorageRead)
+                              .buffer(gpu::kBindDeformResolveRigid, hb.rigid, Access::StorageRead)
+                              .sampled(gpu::kBindDeformResolveSource, hb.source, nearest_)
+                              .sampled(gpu::kBindDeformResolveSourceMask, hb.sourceMask, nearest_)
+                              .buffer(gpu::kBindDeformResolveOwner, hb.owner, Access::StorageReadWrite)  // the voxels a rigid handle took
+                              .buffer(gpu::kBindDeformResolveBox, hb.box, Access::StorageReadWrite)
+                              .storageImage(gpu::kBindDeformResolveOut, hb.volume, Access::StorageReadWrite)
+                              .storageImage(gpu::kBindDeformResolveOutMask, hb.mask, Access::StorageReadWrite);
   g.addPass(
-      PassId::DeformResolve,
-      [&](fg::PassBuilder& b) {
-        b.read(hb.params, Access::StorageRead);
-        b.read(hb.args, Access::IndirectRead);
-        b.read(hb.affine, Access::StorageRead);
-        b.read(hb.brickList, Access::StorageRead);
-        b.read(hb.rigid, Access::StorageRead);
-        b.read(hb.source, Access::Sampled);
-        b.read(hb.sourceMask, Access::Sampled);
-        b.write(hb.owner, Access::StorageReadWrite);  // the voxels a rigid handle took
-        b.write(hb.box, Access::StorageReadWrite);
-        b.write(hb.volume, Access::StorageReadWrite);
-        b.write(hb.mask, Access::StorageReadWrite);
-      },
-      [this, hb](fg::Executor& e) {
+      PassId::DeformResolve, [&](fg::PassBuilder& b) { r.declare(b); },
+      [this, r, args = hb.args](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, resolve_.pipeline());
-        DescriptorWriter()
-            .buffer(gpu::kBindDeformResolveParams, kParams, x.buffer(hb.params).handle())
-            .buffer(gpu::kBindDeformResolveAffine, kSsbo, x.buffer(hb.affine).handle())
-            .buffer(gpu::kBindDeformResolveBox, kSsbo, x.buffer(hb.box).handle())
-            .buffer(gpu::kBindDeformResolveOwner, kSsbo, x.buffer(hb.owner).handle())
-            .sampledImage(gpu::kBindDeformResolveSource, x.image(hb.source).view(), nearest_.handle(),
-                          VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-            .sampledImage(gpu::kBindDeformResolveSourceMask, x.image(hb.sourceMask).view(), nearest_.handle(),
-                          VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-            .storageImage(gpu::kBindDeformResolveOut, x.image(hb.volume).view())
-            .storageImage(gpu::kBindDeformResolveOutMask, x.image(hb.mask).view())
-            .buffer(gpu::kBindDeformResolveBrickList, kSsbo, x.buffer(hb.brickList).handle())
-            .buffer(gpu::kBindDeformResolveRigid, kSsbo, x.buffer(hb.rigid).handle())
-            .push(ctx_, x.cmd(), resolve_);
-        vkCmdDispatchIndirect(x.cmd(), x.buffer(hb.args).handle(), 0);
+        r.push(ctx_, x, resolve_);
+        vkCmdDispatchIndirect(x.cmd(), x.buffer(args).handle(), 0);
       });
 }
 

@@ -73,7 +73,6 @@ void DeformStrainPass::allocate() {
 
 DeformStrainPass::Outputs DeformStrainPass::add(fg::FrameGraph& g, const Inputs& in) {
   using fg::Access;
-  constexpr VkDescriptorType ssbo = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
   if (!perTet_) allocate();
   h_.perTet = importBuffer(g, "fine-strain", *perTet_, Access::StorageWrite);
   h_.volume = importImage(g, "strain-volume", volume_, Access::Sampled);
@@ -81,55 +80,38 @@ DeformStrainPass::Outputs DeformStrainPass::add(fg::FrameGraph& g, const Inputs&
   h_.overLimit = importImage(g, "strain-over-limit", overLimit_, Access::Sampled);
   const Handles h = h_;
   const std::uint32_t groups = std::uint32_t((tets_ + HANDSON_DEFORM_GROUP_X - 1) / HANDSON_DEFORM_GROUP_X);
+  const PassResources perTet = PassResources()
+                                   .buffer(gpu::kBindDeformStrainParams, in.params, Access::StorageRead)
+                                   .buffer(gpu::kBindDeformStrainTets, in.tets, Access::StorageRead)
+                                   .buffer(gpu::kBindDeformStrainRest, in.rest, Access::StorageRead)
+                                   .buffer(gpu::kBindDeformStrainPos, in.positions, Access::StorageRead)
+                                   .buffer(gpu::kBindDeformStrainOut, h.perTet, Access::StorageWrite);
   g.addPass(
-      PassId::DeformStrain,
-      [&](fg::PassBuilder& b) {
-        b.read(in.params, Access::StorageRead);
-        b.read(in.tets, Access::StorageRead);
-        b.read(in.rest, Access::StorageRead);
-        b.read(in.positions, Access::StorageRead);
-        b.write(h.perTet, Access::StorageWrite);
-      },
-      [this, in, h, groups](fg::Executor& e) {
+      PassId::DeformStrain, [&](fg::PassBuilder& b) { perTet.declare(b); },
+      [this, perTet, groups](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, strain_.pipeline());
-        DescriptorWriter()
-            .buffer(gpu::kBindDeformStrainParams, ssbo, x.buffer(in.params).handle())
-            .buffer(gpu::kBindDeformStrainTets, ssbo, x.buffer(in.tets).handle())
-            .buffer(gpu::kBindDeformStrainRest, ssbo, x.buffer(in.rest).handle())
-            .buffer(gpu::kBindDeformStrainPos, ssbo, x.buffer(in.positions).handle())
-            .buffer(gpu::kBindDeformStrainOut, ssbo, x.buffer(h.perTet).handle())
-            .push(ctx_, x.cmd(), strain_);
+        perTet.push(ctx_, x, strain_);
         vkCmdDispatch(x.cmd(), groups, 1, 1);
       });
   // After the resolve pass (it writes the box's counters): the same box or bricks, the same owners.
+  const PassResources raster = PassResources()
+                                   .buffer(gpu::kBindDeformStrainRasterParams, in.params, Access::StorageRead)
+                                   .use(in.args, Access::IndirectRead)
+                                   .buffer(gpu::kBindDeformStrainRasterBox, in.box, Access::StorageRead)
+                                   .buffer(gpu::kBindDeformStrainRasterOwner, in.owner, Access::StorageRead)
+                                   .buffer(gpu::kBindDeformStrainRasterBrickList, in.brickList, Access::StorageRead)
+                                   .buffer(gpu::kBindDeformStrainRasterStrain, h.perTet, Access::StorageRead)
+                                   .buffer(gpu::kBindDeformStrainRasterLimits, h.limits, Access::StorageRead)
+                                   .storageImage(gpu::kBindDeformStrainRasterOut, h.volume, Access::StorageWrite)
+                                   .storageImage(gpu::kBindDeformStrainRasterLimitOut, h.overLimit, Access::StorageWrite);
   g.addPass(
-      PassId::DeformStrainRaster,
-      [&](fg::PassBuilder& b) {
-        b.read(in.params, Access::StorageRead);
-        b.read(in.args, Access::IndirectRead);
-        b.read(in.box, Access::StorageRead);
-        b.read(in.owner, Access::StorageRead);
-        b.read(in.brickList, Access::StorageRead);
-        b.read(h.perTet, Access::StorageRead);
-        b.read(h.limits, Access::StorageRead);
-        b.write(h.volume, Access::StorageWrite);
-        b.write(h.overLimit, Access::StorageWrite);
-      },
-      [this, in, h](fg::Executor& e) {
+      PassId::DeformStrainRaster, [&](fg::PassBuilder& b) { raster.declare(b); },
+      [this, raster, args = in.args](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, raster_.pipeline());
-        DescriptorWriter()
-            .buffer(gpu::kBindDeformStrainRasterParams, ssbo, x.buffer(in.params).handle())
-            .buffer(gpu::kBindDeformStrainRasterBox, ssbo, x.buffer(in.box).handle())
-            .buffer(gpu::kBindDeformStrainRasterOwner, ssbo, x.buffer(in.owner).handle())
-            .buffer(gpu::kBindDeformStrainRasterStrain, ssbo, x.buffer(h.perTet).handle())
-            .storageImage(gpu::kBindDeformStrainRasterOut, x.image(h.volume).view())
-            .buffer(gpu::kBindDeformStrainRasterLimits, ssbo, x.buffer(h.limits).handle())
-            .storageImage(gpu::kBindDeformStrainRasterLimitOut, x.image(h.overLimit).view())
-            .buffer(gpu::kBindDeformStrainRasterBrickList, ssbo, x.buffer(in.brickList).handle())
-            .push(ctx_, x.cmd(), raster_);
-        vkCmdDispatchIndirect(x.cmd(), x.buffer(in.args).handle(), 0);
+        raster.push(ctx_, x, raster_);
+        vkCmdDispatchIndirect(x.cmd(), x.buffer(args).handle(), 0);
       });
   g.exportResource(h.volume, Access::Sampled);
   g.exportResource(h.overLimit, Access::Sampled);

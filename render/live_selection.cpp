@@ -96,22 +96,16 @@ std::optional<LiveSelection::Paint> LiveSelection::addPasses(fg::FrameGraph& g, 
   gpu::LiveMaskPush push{};
   push.boxDims = glm::ivec4(d.x(), d.y(), d.z(), int(rowWords_));
   push.bound = glm::uvec4(bound_, words_, 0, 0);
+  const PassResources r = PassResources()
+                              .buffer(gpu::kBindLiveMaskKeys, h.keys, fg::Access::StorageRead)
+                              .buffer(gpu::kBindLiveMaskBase, baseHandle_, fg::Access::StorageRead)
+                              .buffer(gpu::kBindLiveMaskOut, idsHandle_, fg::Access::StorageWrite);
   g.addPass(
-      PassId::LiveMask,
-      [&](fg::PassBuilder& b) {
-        b.read(h.keys, fg::Access::StorageRead);
-        b.read(baseHandle_, fg::Access::StorageRead);
-        b.write(idsHandle_, fg::Access::StorageWrite);
-      },
-      [this, keys = h.keys, base = baseHandle_, ids = idsHandle_, push,
-       maxGroups = std::min<std::uint32_t>(ctx_.properties().limits.maxComputeWorkGroupCount[0], 65535u)](fg::Executor& e) {
+      PassId::LiveMask, [&](fg::PassBuilder& b) { r.declare(b); },
+      [this, r, push, maxGroups = std::min<std::uint32_t>(ctx_.properties().limits.maxComputeWorkGroupCount[0], 65535u)](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, paint_.pipeline());
-        DescriptorWriter()
-            .buffer(gpu::kBindLiveMaskKeys, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(keys).handle())
-            .buffer(gpu::kBindLiveMaskBase, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(base).handle())
-            .buffer(gpu::kBindLiveMaskOut, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(ids).handle())
-            .push(ctx_, x.cmd(), paint_);
+        r.push(ctx_, x, paint_);
         vkCmdPushConstants(x.cmd(), paint_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
         const std::uint32_t groups = (push.bound.y + HANDSON_LIVE_MASK_GROUP_X - 1) / HANDSON_LIVE_MASK_GROUP_X;
         vkCmdDispatch(x.cmd(), std::min(groups, maxGroups), 1, 1);  // the shader strides over the rest

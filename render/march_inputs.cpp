@@ -41,24 +41,15 @@ std::vector<VkDescriptorSetLayoutBinding> marchBindingsFor(bool pick) {
   return marchBindings(pick ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, pick);
 }
 
-void declareMarchInputs(fg::PassBuilder& b, const MarchInputs& in) {
-  b.read(in.params, fg::Access::StorageRead);
-  b.read(in.volume, fg::Access::Sampled);
-  b.read(in.tf, fg::Access::StorageRead);
-  b.read(in.occupancy, fg::Access::StorageRead);
-  b.read(in.mask, fg::Access::Sampled);
-  b.read(in.handles, fg::Access::StorageRead);
-}
-
-DescriptorWriter marchDescriptors(GraphExecutor& x, const MarchInputs& in, const Sampler& sampler) {
-  DescriptorWriter w;
-  w.buffer(gpu::kBindParams, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.params).handle())
-      .sampledImage(gpu::kBindVolume, x.image(in.volume).view(), sampler.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-      .buffer(gpu::kBindTf, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.tf).handle())
-      .buffer(gpu::kBindOccupancy, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.occupancy).handle())
-      .sampledImage(gpu::kBindMask, x.image(in.mask).view(), sampler.handle(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-      .buffer(gpu::kBindHandles, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(in.handles).handle());
-  return w;
+PassResources marchResources(const MarchInputs& in, const Sampler& sampler) {
+  PassResources r;
+  r.buffer(gpu::kBindParams, in.params, fg::Access::StorageRead)
+      .sampled(gpu::kBindVolume, in.volume, sampler)
+      .buffer(gpu::kBindTf, in.tf, fg::Access::StorageRead)
+      .buffer(gpu::kBindOccupancy, in.occupancy, fg::Access::StorageRead)
+      .sampled(gpu::kBindMask, in.mask, sampler)
+      .buffer(gpu::kBindHandles, in.handles, fg::Access::StorageRead);
+  return r;
 }
 
 }  // namespace handson::vk

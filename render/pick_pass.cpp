@@ -10,20 +10,15 @@ PickPass::PickPass(const Context& ctx) : ctx_(ctx), pipeline_(ctx, shaders::pick
 
 void PickPass::add(fg::FrameGraph& graph, const MarchInputs& in, fg::ResourceHandle points, fg::ResourceHandle results,
                    std::uint32_t count, const Sampler& sampler) {
+  const PassResources r = marchResources(in, sampler)
+                              .buffer(gpu::kBindPickInput, points, fg::Access::StorageRead)
+                              .buffer(gpu::kBindOutput, results, fg::Access::StorageWrite);
   graph.addPass(
-      PassId::Pick,
-      [&](fg::PassBuilder& b) {
-        declareMarchInputs(b, in);
-        b.read(points, fg::Access::StorageRead);
-        b.write(results, fg::Access::StorageWrite);
-      },
-      [this, in, points, results, count, &sampler](fg::Executor& e) {
+      PassId::Pick, [&](fg::PassBuilder& b) { r.declare(b); },
+      [this, r, count](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_.pipeline());
-        marchDescriptors(x, in, sampler)
-            .buffer(gpu::kBindOutput, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(results).handle())
-            .buffer(gpu::kBindPickInput, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(points).handle())
-            .push(ctx_, x.cmd(), pipeline_);
+        r.push(ctx_, x, pipeline_);
         vkCmdDispatch(x.cmd(), (count + gpu::kPickGroupX - 1) / gpu::kPickGroupX, 1, 1);
       });
 }

@@ -151,22 +151,20 @@ void GpuRegionGrower::addCompactPasses(fg::FrameGraph& g, fg::ResourceHandle fla
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdFillBuffer(x.cmd(), x.buffer(into).handle(), 0, 4, 0);
       });
+  const PassResources r = PassResources()
+                              .buffer(gpu::kBindRegionCompactFlags, flags, Access::StorageReadWrite)
+                              .buffer(gpu::kBindRegionCompactList, into, Access::StorageReadWrite)
+                              .buffer(gpu::kBindRegionCompactReached, reached, Access::StorageRead);
   g.addPass(
       fromReached ? PassId::GrowResume : PassId::GrowCompact,
       [&](fg::PassBuilder& b) {
-        b.write(flags, Access::StorageReadWrite);
-        b.write(into, Access::StorageReadWrite);
-        b.read(reached, Access::StorageRead);
+        r.declare(b);
         b.sideEffect();
       },
-      [this, flags, into, reached, fromReached](fg::Executor& e) {
+      [this, r, fromReached](fg::Executor& e) {
         GraphExecutor& x = vulkanExecutor(e);
         vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, compact_.pipeline());
-        DescriptorWriter()
-            .buffer(gpu::kBindRegionCompactFlags, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(flags).handle())
-            .buffer(gpu::kBindRegionCompactList, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(into).handle())
-            .buffer(gpu::kBindRegionCompactReached, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(reached).handle())
-            .push(ctx_, x.cmd(), compact_);
+        r.push(ctx_, x, compact_);
         const CompactPush cp{brickCount_, fromReached ? 1u : 0u};
         vkCmdPushConstants(x.cmd(), compact_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(cp), &cp);
         vkCmdDispatch(x.cmd(), (brickCount_ + HANDSON_COMPACT_GROUP_X - 1) / HANDSON_COMPACT_GROUP_X, 1, 1);
@@ -200,27 +198,24 @@ GpuRegionGrower::Bound GpuRegionGrower::addRounds(fg::FrameGraph& g, int rounds,
   if (rounds > 0) grown_ = true;
   for (int r = 0; r < rounds; ++r) {
     const fg::ResourceHandle list = dense ? h.dense : h.lists[current_];
+    const PassResources res = PassResources()
+                                  .sampled(gpu::kBindRegionGrowVolume, h.volume, sampler_)
+                                  .use(list, Access::IndirectRead)
+                                  .buffer(gpu::kBindRegionGrowList, list, Access::StorageRead)
+                                  .buffer(gpu::kBindRegionGrowKeys, h.keys, Access::StorageReadWrite)
+                                  .buffer(gpu::kBindRegionGrowAccept, h.accept, Access::StorageReadWrite)
+                                  .buffer(gpu::kBindRegionGrowFlags, h.flags, Access::StorageReadWrite)
+                                  .buffer(gpu::kBindRegionGrowReached, h.reached, Access::StorageReadWrite);
     g.addPass(
         PassId::GrowRelax,
         [&](fg::PassBuilder& b) {
-          b.read(h.volume, Access::Sampled);
-          b.read(list, Access::IndirectRead);
-          b.read(list, Access::StorageRead);
-          for (auto w : {h.keys, h.accept, h.flags, h.reached}) b.write(w, Access::StorageReadWrite);
+          res.declare(b);
           b.sideEffect();
         },
-        [this, h, list, push](fg::Executor& e) {
+        [this, res, list, push](fg::Executor& e) {
           GraphExecutor& x = vulkanExecutor(e);
           vkCmdBindPipeline(x.cmd(), VK_PIPELINE_BIND_POINT_COMPUTE, relax_.pipeline());
-          DescriptorWriter()
-              .sampledImage(gpu::kBindRegionGrowVolume, x.image(h.volume).view(), sampler_.handle(),
-                            VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL)
-              .buffer(gpu::kBindRegionGrowKeys, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(h.keys).handle())
-              .buffer(gpu::kBindRegionGrowAccept, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(h.accept).handle())
-              .buffer(gpu::kBindRegionGrowList, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(list).handle())
-              .buffer(gpu::kBindRegionGrowFlags, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(h.flags).handle())
-              .buffer(gpu::kBindRegionGrowReached, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, x.buffer(h.reached).handle())
-              .push(ctx_, x.cmd(), relax_);
+          res.push(ctx_, x, relax_);
           vkCmdPushConstants(x.cmd(), relax_.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
           vkCmdDispatchIndirect(x.cmd(), x.buffer(list).handle(), 0);
         });

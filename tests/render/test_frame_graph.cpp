@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "render/frame_graph.h"
+#include "render/pass_resources.h"
 #include "sim/base/error.h"
 
 using namespace handson::fg;
@@ -257,4 +258,39 @@ TEST(FrameGraph, ABufferReadTwoWaysInOnePassIsMadeVisibleToBoth) {
     EXPECT_EQ((b.dstAlso | accessBit(b.dst)), accessBit(Access::IndirectRead) | accessBit(Access::StorageRead));
   }
   EXPECT_EQ(onList, 1);
+}
+
+TEST(FrameGraph, AnImportKeepsWhatItNamesForTheExecutor) {
+  // vk::importImage / importBuffer pass the resource they bind; the graph keeps it, opaque.
+  FrameGraph g;
+  const int owner = 7;
+  const ResourceHandle named = g.importBuffer("named", {4}, Access::StorageRead, &owner);
+  const ResourceHandle plain = g.importBuffer("plain", {4}, Access::StorageRead);
+  EXPECT_EQ(g.resource(named).external, &owner);
+  EXPECT_EQ(g.resource(plain).external, nullptr);
+}
+
+TEST(PassResources, ThePassDeclaresEachResourceOnceWithTheAccessItIsBoundFor) {
+  // A pass names each resource once (binding, handle, access); its declaration to the graph comes
+  // from the same list, writes as writes, in the order named.
+  FrameGraph g;
+  const ResourceHandle args = g.importBuffer("args", {16}, Access::StorageWrite);
+  const ResourceHandle in = g.importBuffer("in", {16}, Access::StorageRead);
+  const ResourceHandle out = g.importImage("out", {4, 4, 1, Format::R32Sfloat}, Access::None);
+  const handson::vk::PassResources r = handson::vk::PassResources()
+                                           .buffer(0, in, Access::StorageRead)
+                                           .use(args, Access::IndirectRead)
+                                           .buffer(1, args, Access::StorageRead)
+                                           .storageImage(2, out, Access::StorageWrite);
+  g.addPass("pass", [&](PassBuilder& b) { r.declare(b); }, [](Executor&) {});
+  const auto& uses = g.passUses(0);
+  ASSERT_EQ(uses.size(), 4u);
+  const std::vector<std::pair<std::uint32_t, Access>> want = {
+      {in.id, Access::StorageRead}, {args.id, Access::IndirectRead}, {args.id, Access::StorageRead}, {out.id, Access::StorageWrite}};
+  for (std::size_t i = 0; i < want.size(); ++i) {
+    EXPECT_EQ(uses[i].resource.id, want[i].first) << i;
+    EXPECT_EQ(uses[i].access, want[i].second) << i;
+  }
+  g.exportResource(out, Access::Sampled);
+  EXPECT_NO_THROW(g.compile());
 }
