@@ -93,6 +93,19 @@ TEST(DocsLinks, EveryRelativeLinkAndAnchorResolves) {
   EXPECT_GT(checked, 20u);  // the pages link to each other: finding none means the reader is broken
 }
 
+TEST(DocsLinks, EachDesignPageIsUnder300LinesAndTheReadmeAtMost150) {
+  // Design pages describe how a part works and why, briefly; what was tried and measured goes to
+  // the one results log (docs/results.md, exempt), which they link to.
+  for (const fs::path& file : pages()) {
+    std::ifstream in(file);
+    std::size_t lines = 0;
+    for (std::string line; std::getline(in, line);) ++lines;
+    if (file.filename() == "results.md") continue;
+    const std::size_t limit = file.filename() == "README.md" ? 151 : 300;
+    EXPECT_LT(lines, limit) << file.string() << ": " << lines << " lines";
+  }
+}
+
 TEST(DocsLinks, TheSlugIsGitHubsHeadingIdOnAsciiHeadings) {
   EXPECT_EQ(slug("What is left, and what else was tried (measured, not kept)", true), "what-is-left-and-what-else-was-tried-measured-not-kept");
   EXPECT_EQ(slug("Growth in the app", true), "growth-in-the-app");
