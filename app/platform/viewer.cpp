@@ -204,6 +204,7 @@ struct Viewer::Impl {
   void firstFrame(const Viewport& vp);
   FrameInput frameInput(const Viewport& vp, const std::vector<TouchEvent>& touches, std::vector<ScriptEvent> actions, const vk::Swapchain::Frame& image);
   void noteFrame(const FrameOutcome& out);
+  void noteFailure();
   bool windowReady();
   void takeCompletedFrames();
   /// The display times of presented frames (VK_KHR_present_wait) into the timing log.
@@ -415,6 +416,7 @@ void Viewer::Impl::updateStatus() {
                                                           : selection->manipulationNote();
   status.simulation = deform->status();
   status.tissueLimits = deform->shownTissueLimits();
+  if (driver->newFailure()) noteFailure();  // a failure that landed since the last frame: in this frame's panel
   if (!rescueNote.empty()) status.simulation += "; " + rescueNote;
   status.liveVoxels = selection->liveVoxelCount();
   status.liveOnGpuMm = selection->liveOnGpu() ? selection->pinch().extentMm() : -1.0;
@@ -565,7 +567,8 @@ FrameInput Viewer::Impl::frameInput(const Viewport& vp, const std::vector<TouchE
     ui->build(status, seconds(Clock::now(), t0), actions);
     return actions;
   };
-  in.sessionClock = seconds(Clock::now(), t0);
+  // sessionClock left to the driver: read once the panels' actions are applied, so that a settled
+  // clip's framing is stamped after them (a recorded script's times never decrease).
   in.followClip = !play;  // a played script carries its own framing and window
   in.view = vp;
   in.width = std::max(1, int(std::lround(vp.width * scale)));
@@ -590,7 +593,12 @@ void Viewer::Impl::noteFrame(const FrameOutcome& out) {
   status.qualityStep = out.quality.stepScale;
   status.stillPhases = out.stillPhases;
   status.stillPhasesTotal = kStillJitterPhases;
-  if (!out.newFailure) return;
+  if (out.newFailure) noteFailure();
+}
+
+// The simulation refused a pose, stopped without converging or failed to build: the session goes
+// on (the last good state shows), and what was done so far is saved and said.
+void Viewer::Impl::noteFailure() {
   rescueNote = rescue();
   if (!o.quiet) std::cerr << "warning: " << deform->status() << "\n  " << rescueNote << "\n";
 }

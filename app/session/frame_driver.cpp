@@ -22,8 +22,9 @@ bool FrameDriver::applyUi(const ScriptEvent& e) {
 FrameOutcome FrameDriver::frame(const FrameInput& in, FrameTiming& ft) {
   FrameOutcome out;
   const bool applied = applyInput(in, ft, out);
-  followClip(in.followClip, in.sessionClock);
-  session_.advance(in.sessionClock);  // a framing's camera move
+  const double clock = in.sessionClock >= 0.0 ? in.sessionClock : now();
+  followClip(in.followClip, clock);
+  session_.advance(clock);  // a framing's camera move
   refreshTransferFunction();
   FrameRequest req = request(in.view, in.width, in.height);
   out.exportImage = in.exportImage && in.exportImage();
@@ -49,9 +50,10 @@ FrameOutcome FrameDriver::frame(const FrameInput& in, FrameTiming& ft) {
 
 bool FrameDriver::applyInput(const FrameInput& in, FrameTiming& ft, FrameOutcome& out) {
   for (const FrameInput::Event& e : in.events) {
+    const double arrived = e.arrived >= 0.0 ? e.arrived : now();
     if (!session_.apply(e.event)) out.refused.push_back(e.event);
-    if (ft.inputFirst < 0 || e.arrived < ft.inputFirst) ft.inputFirst = e.arrived;
-    ft.inputLast = std::max(ft.inputLast, e.arrived);
+    if (ft.inputFirst < 0 || arrived < ft.inputFirst) ft.inputFirst = arrived;
+    ft.inputLast = std::max(ft.inputLast, arrived);
     ++ft.inputCount;
   }
   std::size_t actions = 0;

@@ -30,16 +30,20 @@ namespace handson {
 
 /// One frame's input (FrameDriver::frame).
 struct FrameInput {
-  /// An input event and when it arrived, on the driver's clock (the latency log's input times).
+  /// An input event and when it arrived, on the driver's clock (the latency log's input times);
+  /// `arrived` < 0: when it is applied (a script's events, applied as their frame comes).
   struct Event {
     ScriptEvent event;
-    double arrived = 0.0;
+    double arrived = -1.0;
   };
   std::vector<Event> events;  ///< touches and a script's events: applied first, in order; the frame's input
   /// The window's panels, laid out on the state the input left; the actions it returns (its
   /// buttons', the keys', a played script's) are applied next. Not counted as input.
   std::function<std::vector<ScriptEvent>()> panels;
-  double sessionClock = 0.0;   ///< the session's clock (s): a framing's camera move advances to it
+  /// The session's clock (s): a framing's camera move advances to it, and the actions a settled
+  /// clip drag adds are stamped with it. < 0: the driver's clock once the input and the panels'
+  /// actions are applied (the window: its panels' actions are stamped when they are built).
+  double sessionClock = -1.0;
   /// A clip drag that settled frames the clip and, unless the window was set by hand, fits the
   /// window to it (the window's own gestures; a played or replayed script carries these actions).
   bool followClip = false;
@@ -97,6 +101,10 @@ class FrameDriver {
   /// (DeformationController::setInterface) and "auto-window" (the session's window fitted to the
   /// soft tissue of what the clip leaves: render/auto_window.h; refused where there is none).
   bool applyUi(const ScriptEvent& e);
+  /// True once for each new simulation failure (a refused pose, no convergence, a failed build);
+  /// `frame` asks after attaching the simulation (FrameOutcome::newFailure), the window's panel
+  /// also before laying itself out.
+  bool newFailure();
 
  private:
   /// Applies the frame's events and the panels' actions; whether any was applied.
@@ -127,8 +135,6 @@ class FrameDriver {
   void attachSelection(FrameRequest& request, const Viewport& vp, FrameTiming& ft);
   /// What the frame shows of the simulation (state, its age, the reactions) into ft.
   void recordSimulation(FrameTiming& ft) const;
-  /// True once for each new simulation failure.
-  bool newFailure();
   /// Submits the frame (waiting only for the frame two submissions back); its number.
   std::uint64_t submit(const FrameRequest& request);
   bool applyAutoWindow();

@@ -270,11 +270,10 @@ void ReplayRun::setUpControllers() {
 
 std::vector<FrameInput::Event> ReplayRun::dueEvents(double frameTime) {
   std::vector<FrameInput::Event> due;
-  const double now = driver_->now();
   while (next_ < script_.events.size() && script_.events[next_].t <= frameTime) {
     ScriptEvent e = script_.events[next_++];
     e.touch.px *= touchScale_;
-    due.push_back({e, now});
+    due.push_back({e, -1.0});  // stamped as it is applied
   }
   return due;
 }

@@ -172,6 +172,20 @@ TEST(FrameDriver, TheSequenceAppliesTheInputThenThePanelsThenMakesAndSubmitsTheR
   EXPECT_EQ(next.quality.scale < 1.0 || next.quality.stepScale > 1.0, !next.quality.full());
 }
 
+TEST(FrameDriver, EventsWithoutAnArrivalTimeAreStampedAsTheyAreApplied) {
+  // A replay's script events carry no arrival time: the timing log takes when each was applied.
+  DriverScene s;
+  FrameInput in = s.input();
+  in.events = {{uiEvent(0.0, UiAction::SetMode, "select"), -1.0}, {uiEvent(0.0, UiAction::SetMode, "navigate"), -1.0}};
+  const double before = s.driver->now();
+  FrameTiming ft;
+  s.driver->frame(in, ft);
+  EXPECT_EQ(ft.inputCount, 2);
+  EXPECT_GE(ft.inputFirst, before);
+  EXPECT_GE(ft.inputLast, ft.inputFirst);
+  EXPECT_LE(ft.inputLast, ft.cpuEnd);
+}
+
 // Where a Clip-mode finger grabs the face of the box [-r, r]^3 (none: nullopt).
 std::optional<glm::dvec2> boxFaceHandle(const Session& s, const Viewport& vp, double r) {
   for (int axis = 0; axis < 3; ++axis)
