@@ -211,8 +211,6 @@ void GpuDeformer::importResources(fg::FrameGraph& g, bool withState, const Frame
   Bound& h = h_;
   h = Bound{};
   strain_->beginFrame();
-  h.slot = slot;
-  h.withState = withState;
   auto buf = [&](const char* name, const Buffer& b, Access a) { return importBuffer(g, name, b, a); };
   h.params = buf("deform-params", params_, Access::StorageRead);
   h.nodeInfo = buf("fine-node-records", nodeInfo_, Access::StorageRead);

@@ -207,9 +207,8 @@ class GpuDeformer {
   struct Bound {
     fg::ResourceHandle params, nodeInfo, rest, blocks, elementCorners, coarseRest, tets, restIdx, posNew, posOld, box, args, owner, affine, source, sourceMask,
         volume, mask, positions, rotations, handles, brickFlags, brickList, brickLag, rigid;
-    std::uint32_t slot = 0;
     fg::ResourceHandle fineUpload;
-    bool withState = false, onlyOutputs = false;
+    bool onlyOutputs = false;
   } h_;
 };
 
