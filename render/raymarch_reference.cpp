@@ -278,17 +278,31 @@ struct Sampler {
     return glm::vec4(glm::clamp(out, 0.0f, 1.0f), 1.0f);
   }
 
-  gpu::PickResult pick(glm::vec2 ndc) const {
-    gpu::PickResult r{};
-    r.world = glm::vec4(0.0f);
-    r.voxel = glm::ivec4(-1, -1, -1, 0);
-    glm::vec3 originW, dirW;
-    float t0, t1;
-    if (std::isnan(ndc.x) || std::isnan(ndc.y) || !setupRay(ndc, originW, dirW, t0, t1)) return r;
-    const glm::vec3 o = glm::vec3(P.worldToIndex * glm::vec4(originW, 1.0f));
-    const glm::vec3 d = glm::mat3(P.worldToIndex) * dirW;
+  // pick.comp's handleBehind: the handle id just behind the surface point th (sample t), within reach.
+  int handleBehind(glm::vec3 o, glm::vec3 d, float t, float th, float t1, float step) const {
+    const float reach = std::min(th + std::max(float(HANDSON_PICK_HANDLE_REACH_MM), float(HANDSON_PICK_HANDLE_REACH_VOXELS) / std::max(glm::length(d), 1e-6f)), t1);
+    for (std::uint32_t k = 1; k < 4096; ++k) {
+      const float u = t + float(k) * step;
+      if (u >= reach) break;
+      std::uint32_t hid = 0;
+      const float hv = materialAt(o + u * d, hid);
+      if (hid != 0 && hv >= 0.0f && transferAt(o + u * d, hv).a > 0.0f) return int(hid);
+    }
+    return 0;
+  }
+
+  // Where a pick ray reports its surface (pick.comp): the sample t where the accumulated opacity
+  // passes pickAlpha (the point th interpolated within its step), or, on a ray that ends fainter than
+  // that but at least pickFaintAlpha opaque, its most visible sample.
+  struct RayHit {
+    bool hit = false;
+    float t = 0.0f, th = 0.0f;
+    std::uint32_t id = 0;
+  };
+  RayHit pickDepth(glm::vec3 o, glm::vec3 d, float t0, float t1) const {
     const float step = P.stepMm;
-    float alpha = 0.0f;
+    float alpha = 0.0f, bestShare = 0.0f;
+    RayHit best;
     const RaySamples ray{o, d, t0, step, 0.5f};
     RayCursor cur;
     std::uint32_t taken = 0;
@@ -304,29 +318,35 @@ struct Sampler {
       if (value < 0.0f) continue;
       const glm::vec4 s = transferAt(idx, value);
       if (s.a <= 0.0f) continue;
-      const float before = alpha;
-      alpha += (1.0f - alpha) * correctedAlpha(s.a, step);
+      const float before = alpha, a = correctedAlpha(s.a, step);
+      alpha += (1.0f - alpha) * a;
+      if ((1.0f - before) * a > bestShare) {
+        bestShare = (1.0f - before) * a;
+        best = {true, t, std::max(t - 0.5f * step, t0), id};
+      }
       if (alpha >= P.pickAlpha) {
         const float f = std::clamp((P.pickAlpha - before) / std::max(alpha - before, 1e-6f), 0.0f, 1.0f);
-        const float th = std::max(t - step + f * step, t0);
-        r.world = glm::vec4(originW + th * dirW, 1.0f);
-        r.voxel = glm::ivec4(glm::ivec3(glm::floor(o + th * d + 0.5f)), int(id));
-        if (id == 0) {  // a handle just behind the surface (pick.comp)
-          const float reach = std::min(th + std::max(float(HANDSON_PICK_HANDLE_REACH_MM), float(HANDSON_PICK_HANDLE_REACH_VOXELS) / std::max(glm::length(d), 1e-6f)), t1);
-          for (std::uint32_t k = 1; k < 4096; ++k) {
-            const float u = t + float(k) * step;
-            if (u >= reach) break;
-            std::uint32_t hid = 0;
-            const float hv = materialAt(o + u * d, hid);
-            if (hid != 0 && hv >= 0.0f && transferAt(o + u * d, hv).a > 0.0f) {
-              r.voxel.w = int(hid);
-              break;
-            }
-          }
-        }
-        break;
+        return {true, t, std::max(t - step + f * step, t0), id};
       }
     }
+    if (P.pickFaintAlpha > 0.0f && alpha >= P.pickFaintAlpha && bestShare > 0.0f) return best;
+    return {};
+  }
+
+  gpu::PickResult pick(glm::vec2 ndc) const {
+    gpu::PickResult r{};
+    r.world = glm::vec4(0.0f);
+    r.voxel = glm::ivec4(-1, -1, -1, 0);
+    glm::vec3 originW, dirW;
+    float t0, t1;
+    if (std::isnan(ndc.x) || std::isnan(ndc.y) || !setupRay(ndc, originW, dirW, t0, t1)) return r;
+    const glm::vec3 o = glm::vec3(P.worldToIndex * glm::vec4(originW, 1.0f));
+    const glm::vec3 d = glm::mat3(P.worldToIndex) * dirW;
+    const RayHit h = pickDepth(o, d, t0, t1);
+    if (!h.hit) return r;
+    r.world = glm::vec4(originW + h.th * dirW, 1.0f);
+    r.voxel = glm::ivec4(glm::ivec3(glm::floor(o + h.th * d + 0.5f)), int(h.id));
+    if (h.id == 0) r.voxel.w = handleBehind(o, d, h.t, h.th, t1, P.stepMm);  // a handle just behind the surface
     return r;
   }
 };

@@ -92,6 +92,7 @@ gpu::RenderParams makeRenderParams(const VolumeGeometry& geometry, const glm::ma
   p.opacityStepMm = 1.0f;
   p.earlyStopAlpha = s.terminationAlpha;
   p.pickAlpha = s.pickThreshold;
+  p.pickFaintAlpha = std::min(s.pickFaintThreshold, s.pickThreshold);
   p.background = s.background;
   p.ambient = s.light.x;
   p.diffuse = s.light.y;

@@ -45,6 +45,11 @@ struct RenderSettings {
   float terminationAlpha = 0.99f;
   /// Accumulated opacity at which a pick ray reports its surface.
   float pickThreshold = 0.5f;
+  /// A ray that stays fainter than pickThreshold but ends at least this opaque (0.2: a fifth of its
+  /// pixel's colour is the volume's) reports its most visible sample, the one whose share of the
+  /// pixel's colour, (1 - alpha before it) * its opacity, is largest. 0 (the default): such rays miss.
+  /// Not the app's default yet: a composed session's pinch then lands elsewhere (docs/frame.md).
+  float pickFaintThreshold = 0.0f;
   glm::vec4 background{0.08f, 0.09f, 0.11f, 1.0f};
   glm::vec4 light{0.35f, 0.75f, 0.25f, 24.0f};  ///< ambient, diffuse, specular, shininess
   /// The strain overlay (while deforming): tissue coloured from strainFrom (none) to strainTo (full

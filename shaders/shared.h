@@ -146,7 +146,8 @@ struct RenderParams {
   float strainFrom;      // the strain overlay: the strain where the colour starts,
   float strainTo;        // where it is full,
   float strainWeight;    // and its weight there
-  float unused0;
+  float pickFaintAlpha;  // a pick ray that never reaches pickAlpha but ends at least this opaque lands at
+                         // its most visible sample (the largest share of the pixel's colour); 0: off
   float unused1;
   vec4 clipMin;          // xyz: the clip box's low corner (world mm; kFlagClipBox)
   vec4 clipMax;          // xyz: its high corner

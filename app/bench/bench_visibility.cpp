@@ -64,6 +64,7 @@ struct VisibilityOptions {
   int size = 384, grid = 48;
   double marginMm = 15.0;
   bool autoWindow = true;
+  float faintThreshold = RenderSettings{}.pickFaintThreshold;  ///< the picks' faint-ray rule (render_params.h)
   std::string preset;  ///< empty: each volume's default
   std::string out;
 };
@@ -96,6 +97,7 @@ VisibilityRow measure(const VisibilityCase& c, const LoadedVolume& loaded, const
   HeadlessScene scene = openHeadlessScene(c.ctPath, args);
   row.preset = scene.tf.name;
   row.windowShift = scene.windowShift;
+  scene.settings.pickFaintThreshold = o.faintThreshold;
   FrameRequest req;
   req.params = scene.params(std::uint32_t(grid * grid));
   req.stillPhases = scene.settings.jitter ? scene.jitterPhases : 0;
@@ -145,16 +147,17 @@ void writeRows(const std::vector<VisibilityRow>& rows, const std::string& out, i
 }  // namespace
 
 int cmdBenchVisibility(const Words& words) {
-  Args args(words, {"--out", "--data", "--size", "--grid", "--margin-mm", "--preset"}, {"--no-auto-window"});
+  Args args(words, {"--out", "--data", "--size", "--grid", "--margin-mm", "--preset", "--faint-threshold"}, {"--no-auto-window"});
   if (args.help() || !args.value("--out") || !args.positional().empty()) {
     usageStream(args) << "usage: handson bench visibility --out DIR [--data DIR] [--size N] [--grid G] [--margin-mm M] [--preset NAME]\n"
-                         "                               [--no-auto-window]\n"
+                         "                               [--no-auto-window] [--faint-threshold B]\n"
                          "  How well each organ is seen and picked with the defaults: its label box +- M mm (default 15) as a clip\n"
                          "  box, framed from the side of the body it is nearest, the default preset (its window fitted to the clip);\n"
                          "  an N x N still frame (default 384) and depth picks on a G x G grid (default 48): the grid points that hit\n"
                          "  anything and the organ, and the mean CIELAB dE between the organ's and the other hit pixels. The kidneys,\n"
                          "  spleen and liver of DIR/ircadb1.1 and DIR/totalseg-small (default ../shared/data), else the phantom's.\n"
-                         "  --preset NAME measures another preset; --no-auto-window keeps the preset's own window (the baseline).\n"
+                         "  --preset NAME measures another preset; --no-auto-window keeps the preset's own window (the baseline);\n"
+                         "  --faint-threshold B the picks' faint-ray rule as `pick` takes it (default 0: faint rays miss).\n"
                          "  Writes DIR/visibility.csv, visibility.md\n"
                          "  and visibility_VOLUME_ORGAN.png.\n";
     return args.help() ? 0 : 2;
@@ -166,6 +169,7 @@ int cmdBenchVisibility(const Words& words) {
   if (o.grid > o.size) throw UsageError("--grid must not exceed --size");
   o.marginMm = args.number("--margin-mm", 15.0, 0.0, 500.0);
   o.autoWindow = !args.flag("--no-auto-window");
+  o.faintThreshold = float(args.number("--faint-threshold", o.faintThreshold, 0.0, 1.0));
   o.preset = args.valueOr("--preset", "");
   if (!o.preset.empty()) (void)transferFunctionPreset(o.preset);  // an unknown name: the list, before any work
   std::filesystem::create_directories(o.out);

@@ -60,12 +60,14 @@ int cmdRender(const Words& words) {
 }
 
 int cmdPick(const Words& words) {
-  Args args(words, withExtra(kRenderValueOptions, {"--at", "--threshold"}), withExtra(kRenderFlagOptions, {"--json"}));
+  Args args(words, withExtra(kRenderValueOptions, {"--at", "--threshold", "--faint-threshold"}), withExtra(kRenderFlagOptions, {"--json"}));
   if (args.help() || !args.value("--at") || args.positional().size() > 1) {
-    usageStream(args) << "usage: handson pick [PATH] --at X,Y[;X,Y...] [--threshold A] [options]\n"
+    usageStream(args) << "usage: handson pick [PATH] --at X,Y[;X,Y...] [--threshold A] [--faint-threshold B] [options]\n"
                  "  GPU depth picking: for each pixel (x right, y down, in the --size image), the first point along\n"
-                 "  its viewing ray where the accumulated opacity reaches A (default 0.5), as a RAS point in mm and\n"
-                 "  the nearest voxel index; or 'miss'. --json prints one JSON object per point.\n"
+                 "  its viewing ray where the accumulated opacity reaches A (default 0.5); on a ray that ends fainter\n"
+                 "  than A but at least B opaque (default 0: such rays miss; 0.2: a fifth of the pixel's colour), its\n"
+                 "  most visible point (the sample giving the pixel most of its colour). A RAS point in mm and the nearest voxel index; or 'miss'.\n"
+                 "  --json prints one JSON object per point.\n"
               << kRenderOptionsHelp;
     return args.help() ? 0 : 2;
   }
@@ -82,6 +84,7 @@ int cmdPick(const Words& words) {
   if (pixels.empty() || pixels.size() > 100000) throw UsageError("--at needs between 1 and 100000 points");
   HeadlessScene scene = openHeadlessScene(args.positional().empty() ? "" : args.positional()[0], args);
   scene.settings.pickThreshold = float(args.number("--threshold", 0.5, 1e-4, 1.0));
+  scene.settings.pickFaintThreshold = float(args.number("--faint-threshold", RenderSettings{}.pickFaintThreshold, 0.0, 1.0));
   FrameRequest req;
   req.params = scene.params(std::uint32_t(pixels.size()));
   req.readbackImage = false;

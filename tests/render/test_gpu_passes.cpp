@@ -327,6 +327,64 @@ TEST_F(GpuPasses, PickLandsOnAnalyticSurfacesWithinOneVoxel) {
   }
 }
 
+TEST_F(GpuPasses, AFaintRayIsPickedAtItsMostVisibleSampleAndAFainterOneMisses) {
+  // The aorta (+280 HU, radius 11 mm) from the front, with a translucent preset: opacity `perMm` for
+  // 240-330 HU (the aorta, and the vertebral body's cancellous bone behind it), none elsewhere. At
+  // 0.02 per mm the rays through the aorta's axis end between 0.2 and 0.5 opaque (at 0.04 they pass
+  // 0.5 in the bone behind; at 0.005 they stay under 0.2 - measured on the CPU reference): under the
+  // pick threshold, over what a ray that is seen reaches. The sample that gives the pixel most of its
+  // colour is the first one in the aorta (its share (1 - alpha) a falls along a uniform run), so the
+  // pick lands on the aorta's front surface (within a voxel, as the opaque aorta's does in
+  // PickLandsOnAnalyticSurfacesWithinOneVoxel), GPU and CPU alike; without the faint rule (the
+  // default, RenderSettings::pickFaintThreshold) these rays miss, and at a quarter the opacity too.
+  Scene& s = scene();
+  const PhantomGeometry& geo = s.phantom.geometry;
+  const double voxel = s.phantom.ct.geometry().spacing.x();
+  auto translucent = [](float perMm) {
+    TransferFunction tf;
+    tf.name = "translucent";
+    tf.points = {{239.9f, {1, 1, 1, 0}}, {240.0f, {1, 1, 1, perMm}}, {330.0f, {1, 1, 1, perMm}}, {330.1f, {1, 1, 1, 0}}};
+    return tf;
+  };
+  RenderSettings rs;
+  rs.width = rs.height = 128;
+  rs.pickFaintThreshold = 0.2f;
+  const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), 0.0, 0.0);
+  const glm::mat4 vp = cam.projection(1.0) * cam.view();
+  std::vector<glm::vec2> pts;
+  for (double dz : {-60.0, -20.0, 0.0, 30.0, 70.0}) {
+    const glm::vec4 c = vp * glm::vec4(float(geo.aortaCenter.x()), float(geo.aortaCenter.y() + geo.aortaRadius), float(dz), 1.0f);
+    pts.push_back(glm::vec2(c) / c.w);
+  }
+  const glm::dvec3 eye = cam.eye();
+  useTf(s, translucent(0.02f));
+  gpu::RenderParams p = paramsFor(s, cam, rs, std::uint32_t(pts.size()));
+  const FrameResult r = renderGpu(s, p, pts);
+  const auto cpu = pickReference({&s.q, &s.lut, &s.renderer->occupancy()}, p, pts);
+  ASSERT_EQ(r.picks.size(), pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const auto& pk = r.picks[i];
+    ASSERT_GT(pk.world.w, 0.5f) << i;
+    ASSERT_GT(cpu[i].world.w, 0.5f) << i;
+    EXPECT_LE(glm::distance(glm::vec3(pk.world), glm::vec3(cpu[i].world)), 1.01f * p.stepMm) << i;
+    const Eigen::Vector3d o(eye.x, eye.y, eye.z);
+    const Eigen::Vector3d dir = (Eigen::Vector3d(pk.world.x, pk.world.y, pk.world.z) - o).normalized();
+    ASSERT_TRUE(geo.intersectAorta(o, dir).has_value()) << i;
+    EXPECT_LE(std::abs(std::hypot(pk.world.x - geo.aortaCenter.x(), pk.world.y - geo.aortaCenter.y()) - geo.aortaRadius), voxel) << i;
+  }
+  // The default rule (no faint rays) misses them all, and so does a ray four times fainter.
+  rs.pickFaintThreshold = RenderSettings{}.pickFaintThreshold;
+  p = paramsFor(s, cam, rs, std::uint32_t(pts.size()));
+  for (const auto& pk : renderGpu(s, p, pts).picks) EXPECT_EQ(pk.world.w, 0.0f);
+  for (const auto& pk : pickReference({&s.q, &s.lut, &s.renderer->occupancy()}, p, pts)) EXPECT_EQ(pk.world.w, 0.0f);
+  rs.pickFaintThreshold = 0.2f;
+  useTf(s, translucent(0.005f));
+  p = paramsFor(s, cam, rs, std::uint32_t(pts.size()));
+  for (const auto& pk : renderGpu(s, p, pts).picks) EXPECT_EQ(pk.world.w, 0.0f);
+  for (const auto& pk : pickReference({&s.q, &s.lut, &s.renderer->occupancy()}, p, pts)) EXPECT_EQ(pk.world.w, 0.0f);
+  useTf(s, transferFunctionPreset("ct-abdomen"));
+}
+
 TEST_F(GpuPasses, FramesInFlightDoNotStallAndArriveInOrder) {
   Scene& s = scene();
   useTf(s, transferFunctionPreset("ct-abdomen"));

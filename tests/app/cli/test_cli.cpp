@@ -110,6 +110,7 @@ TEST_F(Cli, BadInputGivesOneClearMessageAndNonZeroExit) {
       {"frobnicate", 2, "unknown command"},
       {"render --size 0x10 -o " + p("x.png"), 2, "--size"},
       {"render --size 64x64 --camera a,b -o " + p("x.png"), 2, "--camera"},
+      {"pick --at 8,8 --size 16x16 --faint-threshold 1.5", 2, "--faint-threshold"},
       {"render --preset nope -o " + p("x.png"), 1, "unknown transfer-function preset"},
       {"render --size 16x16 -o /nonexistent-dir/x.png --quiet", 1, "does not exist"},
       {"render --device no-such-gpu --size 16x16 -o " + p("x.png"), 1, "no Vulkan device matches"},
