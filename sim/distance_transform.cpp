@@ -1,5 +1,6 @@
 #include "distance_transform.h"
 
+#include <algorithm>
 #include <limits>
 
 namespace handson {
@@ -41,6 +42,32 @@ void edt1d(const std::vector<double>& f, std::vector<double>& d, double step, st
   }
 }
 
+// edt1d for a binary line (f 0 outside, infinite inside), in two scans: d[q] = ((q - p) step)^2 for
+// the nearest p with f[p] = 0, infinite when there is none - the expression edt1d evaluates for the
+// parabola it picks (the nearest zero; ties give the same value), so the same bits.
+void edt1dBinary(const std::vector<double>& f, std::vector<double>& d, double step) {
+  const int n = int(f.size());
+  const double inf = std::numeric_limits<double>::infinity();
+  int last = -1;
+  for (int q = 0; q < n; ++q) {
+    if (f[q] != inf) last = q;
+    d[q] = last < 0 ? inf : double(q - last) * step * (double(q - last) * step);
+  }
+  int next = -1;
+  for (int q = n - 1; q >= 0; --q) {
+    if (f[q] != inf) next = q;
+    if (next < 0) continue;
+    const double dq = (q - next) * step;
+    d[q] = std::min(d[q], dq * dq);
+  }
+}
+
+bool allZero(const std::vector<double>& f) {
+  for (const double x : f)
+    if (x != 0.0) return false;
+  return true;
+}
+
 }  // namespace
 
 std::vector<float> squaredDistanceToOutside(const std::vector<std::uint8_t>& inside, const Eigen::Vector3i& dims,
@@ -52,26 +79,41 @@ std::vector<float> squaredDistanceToOutside(const std::vector<std::uint8_t>& ins
   const std::size_t maxn = std::max({nx, ny, nz});
   std::vector<double> f(maxn), d(maxn), z(maxn + 1);
   std::vector<int> v(maxn);
-  auto pass = [&](std::size_t n, std::size_t stride, double step, auto&& lines) {
+  // The first pass sees the binary input (edt1dBinary); a later line of zeros (no voxel inside on
+  // it, in the passes before) stays zeros, as edt1d would leave it. The y and z passes take up to
+  // kBlock lines side by side in x, so that each cache line they read serves them all.
+  constexpr std::size_t kBlock = 16;
+  std::vector<double> lines(kBlock * maxn);
+  bool first = true;
+  auto pass = [&](std::size_t n, std::size_t stride, double step, auto&& blocks) {
     f.resize(n);
     d.resize(n);
-    lines([&](std::size_t base) {
-      for (std::size_t q = 0; q < n; ++q) f[q] = g[base + q * stride];
-      edt1d(f, d, step, v, z);
-      for (std::size_t q = 0; q < n; ++q) g[base + q * stride] = d[q];
+    blocks([&](std::size_t base, std::size_t count) {  // lines base .. base + count - 1, each q * stride along
+      for (std::size_t q = 0; q < n; ++q)
+        for (std::size_t b = 0; b < count; ++b) lines[b * n + q] = g[base + b + q * stride];
+      for (std::size_t b = 0; b < count; ++b) {
+        std::copy_n(lines.begin() + std::ptrdiff_t(b * n), n, f.begin());
+        if (first) edt1dBinary(f, d, step);
+        else if (allZero(f)) continue;
+        else edt1d(f, d, step, v, z);
+        std::copy_n(d.begin(), n, lines.begin() + std::ptrdiff_t(b * n));
+      }
+      for (std::size_t q = 0; q < n; ++q)
+        for (std::size_t b = 0; b < count; ++b) g[base + b + q * stride] = lines[b * n + q];
     });
+    first = false;
   };
-  pass(nx, 1, spacing.x(), [&](auto&& line) {
+  pass(nx, 1, spacing.x(), [&](auto&& block) {
     for (std::size_t k = 0; k < nz; ++k)
-      for (std::size_t j = 0; j < ny; ++j) line(nx * (j + ny * k));
+      for (std::size_t j = 0; j < ny; ++j) block(nx * (j + ny * k), 1);
   });
-  pass(ny, nx, spacing.y(), [&](auto&& line) {
+  pass(ny, nx, spacing.y(), [&](auto&& block) {
     for (std::size_t k = 0; k < nz; ++k)
-      for (std::size_t i = 0; i < nx; ++i) line(i + nx * ny * k);
+      for (std::size_t i = 0; i < nx; i += kBlock) block(i + nx * ny * k, std::min(kBlock, nx - i));
   });
-  pass(nz, nx * ny, spacing.z(), [&](auto&& line) {
+  pass(nz, nx * ny, spacing.z(), [&](auto&& block) {
     for (std::size_t j = 0; j < ny; ++j)
-      for (std::size_t i = 0; i < nx; ++i) line(i + nx * j);
+      for (std::size_t i = 0; i < nx; i += kBlock) block(i + nx * j, std::min(kBlock, nx - i));
   });
   std::vector<float> out(g.size());
   for (std::size_t i = 0; i < g.size(); ++i) out[i] = g[i] == inf ? std::numeric_limits<float>::max() : float(g[i]);
