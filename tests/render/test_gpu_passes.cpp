@@ -273,6 +273,19 @@ TEST_F(GpuPasses, ClippingMatchesCpuAndPicksLandBehindTheCut) {
   }
 }
 
+namespace {
+// Five points on the aorta's front line (its anterior surface at five heights), in NDC of `cam`.
+std::vector<glm::vec2> aortaFrontPoints(const OrbitCamera& cam, const PhantomGeometry& geo) {
+  const glm::mat4 vp = cam.projection(1.0) * cam.view();
+  std::vector<glm::vec2> pts;
+  for (double dz : {-60.0, -20.0, 0.0, 30.0, 70.0}) {
+    const glm::vec4 c = vp * glm::vec4(float(geo.aortaCenter.x()), float(geo.aortaCenter.y() + geo.aortaRadius), float(dz), 1.0f);
+    pts.push_back(glm::vec2(c) / c.w);
+  }
+  return pts;
+}
+}  // namespace
+
 TEST_F(GpuPasses, PickLandsOnAnalyticSurfacesWithinOneVoxel) {
   Scene& s = scene();
   const double voxel = s.phantom.ct.geometry().spacing.x();
@@ -306,12 +319,7 @@ TEST_F(GpuPasses, PickLandsOnAnalyticSurfacesWithinOneVoxel) {
   // Aorta (+280 HU) seen from the front, through fat, muscle and cavity (all below 200 HU).
   useTf(s, thresholdTransferFunction(200.0f));
   const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), 0.0, 0.0);
-  const glm::mat4 vp = cam.projection(1.0) * cam.view();
-  std::vector<glm::vec2> pts;
-  for (double dz : {-60.0, -20.0, 0.0, 30.0, 70.0}) {
-    const glm::vec4 c = vp * glm::vec4(float(geo.aortaCenter.x()), float(geo.aortaCenter.y() + geo.aortaRadius), float(dz), 1.0f);
-    pts.push_back(glm::vec2(c) / c.w);
-  }
+  const std::vector<glm::vec2> pts = aortaFrontPoints(cam, geo);
   const FrameResult r = renderGpu(s, paramsFor(s, cam, rs, std::uint32_t(pts.size())), pts);
   const glm::dvec3 eye = cam.eye();
   for (const auto& pk : r.picks) {
@@ -350,12 +358,7 @@ TEST_F(GpuPasses, AFaintRayIsPickedAtItsMostVisibleSampleAndAFainterOneMisses) {
   rs.width = rs.height = 128;
   rs.pickFaintThreshold = 0.2f;
   const OrbitCamera cam = OrbitCamera::framing(s.phantom.ct.geometry(), 0.0, 0.0);
-  const glm::mat4 vp = cam.projection(1.0) * cam.view();
-  std::vector<glm::vec2> pts;
-  for (double dz : {-60.0, -20.0, 0.0, 30.0, 70.0}) {
-    const glm::vec4 c = vp * glm::vec4(float(geo.aortaCenter.x()), float(geo.aortaCenter.y() + geo.aortaRadius), float(dz), 1.0f);
-    pts.push_back(glm::vec2(c) / c.w);
-  }
+  const std::vector<glm::vec2> pts = aortaFrontPoints(cam, geo);
   const glm::dvec3 eye = cam.eye();
   useTf(s, translucent(0.02f));
   gpu::RenderParams p = paramsFor(s, cam, rs, std::uint32_t(pts.size()));
