@@ -1,6 +1,7 @@
 // The exact Euclidean distance transform (sim/distance_transform.h) against brute force.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <limits>
 #include <random>
 
