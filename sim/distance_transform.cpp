@@ -51,7 +51,8 @@ void edt1dBinary(const std::vector<double>& f, std::vector<double>& d, double st
   int last = -1;
   for (int q = 0; q < n; ++q) {
     if (f[q] != inf) last = q;
-    d[q] = last < 0 ? inf : double(q - last) * step * (double(q - last) * step);
+    const double dq = (q - last) * step;
+    d[q] = last < 0 ? inf : dq * dq;
   }
   int next = -1;
   for (int q = n - 1; q >= 0; --q) {
@@ -62,11 +63,7 @@ void edt1dBinary(const std::vector<double>& f, std::vector<double>& d, double st
   }
 }
 
-bool allZero(const std::vector<double>& f) {
-  for (const double x : f)
-    if (x != 0.0) return false;
-  return true;
-}
+bool allZero(const std::vector<double>& f) { return std::all_of(f.begin(), f.end(), [](double x) { return x == 0.0; }); }
 
 }  // namespace
 

@@ -66,8 +66,8 @@ int cmdPick(const Words& words) {
                  "  GPU depth picking: for each pixel (x right, y down, in the --size image), the first point along\n"
                  "  its viewing ray where the accumulated opacity reaches A (default 0.5); on a ray that ends fainter\n"
                  "  than A but at least B opaque (default 0: such rays miss; 0.2: a fifth of the pixel's colour), its\n"
-                 "  most visible point (the sample giving the pixel most of its colour). A RAS point in mm and the nearest voxel index; or 'miss'.\n"
-                 "  --json prints one JSON object per point.\n"
+                 "  most visible point (the sample giving the pixel most of its colour). A RAS point in mm and the\n"
+                 "  nearest voxel index; or 'miss'. --json prints one JSON object per point.\n"
               << kRenderOptionsHelp;
     return args.help() ? 0 : 2;
   }

@@ -361,7 +361,7 @@ TEST_F(GpuPasses, AFaintRayIsPickedAtItsMostVisibleSampleAndAFainterOneMisses) {
   const std::vector<glm::vec2> pts = aortaFrontPoints(cam, geo);
   const glm::dvec3 eye = cam.eye();
   useTf(s, translucent(0.02f));
-  gpu::RenderParams p = paramsFor(s, cam, rs, std::uint32_t(pts.size()));
+  const gpu::RenderParams p = paramsFor(s, cam, rs, std::uint32_t(pts.size()));
   const FrameResult r = renderGpu(s, p, pts);
   const auto cpu = pickReference({&s.q, &s.lut, &s.renderer->occupancy()}, p, pts);
   ASSERT_EQ(r.picks.size(), pts.size());
@@ -376,15 +376,16 @@ TEST_F(GpuPasses, AFaintRayIsPickedAtItsMostVisibleSampleAndAFainterOneMisses) {
     EXPECT_LE(std::abs(std::hypot(pk.world.x - geo.aortaCenter.x(), pk.world.y - geo.aortaCenter.y()) - geo.aortaRadius), voxel) << i;
   }
   // The default rule (no faint rays) misses them all, and so does a ray four times fainter.
-  rs.pickFaintThreshold = RenderSettings{}.pickFaintThreshold;
-  p = paramsFor(s, cam, rs, std::uint32_t(pts.size()));
-  for (const auto& pk : renderGpu(s, p, pts).picks) EXPECT_EQ(pk.world.w, 0.0f);
-  for (const auto& pk : pickReference({&s.q, &s.lut, &s.renderer->occupancy()}, p, pts)) EXPECT_EQ(pk.world.w, 0.0f);
-  rs.pickFaintThreshold = 0.2f;
+  auto expectAllMiss = [&](const RenderSettings& settings) {
+    const gpu::RenderParams q = paramsFor(s, cam, settings, std::uint32_t(pts.size()));
+    for (const auto& pk : renderGpu(s, q, pts).picks) EXPECT_EQ(pk.world.w, 0.0f);
+    for (const auto& pk : pickReference({&s.q, &s.lut, &s.renderer->occupancy()}, q, pts)) EXPECT_EQ(pk.world.w, 0.0f);
+  };
+  RenderSettings off = rs;
+  off.pickFaintThreshold = RenderSettings{}.pickFaintThreshold;
+  expectAllMiss(off);
   useTf(s, translucent(0.005f));
-  p = paramsFor(s, cam, rs, std::uint32_t(pts.size()));
-  for (const auto& pk : renderGpu(s, p, pts).picks) EXPECT_EQ(pk.world.w, 0.0f);
-  for (const auto& pk : pickReference({&s.q, &s.lut, &s.renderer->occupancy()}, p, pts)) EXPECT_EQ(pk.world.w, 0.0f);
+  expectAllMiss(rs);
   useTf(s, transferFunctionPreset("ct-abdomen"));
 }
 
