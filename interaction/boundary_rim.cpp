@@ -10,8 +10,12 @@
 namespace handson {
 
 std::vector<std::uint32_t> withBoundaryRim(const RegionGrower& grower, const std::vector<std::uint32_t>& voxels) {
-  const QuantizedVolume& volume = grower.volume();
-  const GrowSetup& setup = grower.setup();
+  return withBoundaryRim(BoundaryRimRule(grower), voxels);
+}
+
+std::vector<std::uint32_t> withBoundaryRim(const BoundaryRimRule& grower, const std::vector<std::uint32_t>& voxels) {
+  const QuantizedVolume& volume = *grower.volume;
+  const GrowSetup& setup = grower.setup;
   const Eigen::Vector3i d = volume.geometry.dims;
   const std::size_t n = volume.data.size();
   if (n != std::size_t(d.x()) * std::size_t(d.y()) * std::size_t(d.z())) throw Error("boundary rim: the volume's data does not fit its grid");

@@ -38,9 +38,10 @@ std::vector<std::uint32_t> held(const Claim& c, const Handle& b) {
 }
 }  // namespace
 
-void HandleSet::snapshot() {
+void HandleSet::snapshot(bool move) {
   ++edits_;
-  undo_.push_back(handles_);
+  if (move) undo_.push_back(std::move(handles_));
+  else undo_.push_back(handles_);
   trimmed_.reset();
   if (undo_.size() > 64) {
     trimmed_ = std::move(undo_.front());
@@ -241,14 +242,31 @@ std::vector<glm::vec4> HandleSet::tints(int highlight) const {
   return t;
 }
 
-std::vector<std::uint32_t> HandleSet::changedVoxels(const std::vector<Handle>& before, const std::vector<Handle>& after) {
-  // Voxels of any handle on either side; the caller repaints them from `after`.
-  std::vector<std::uint32_t> all;
-  for (const auto* side : {&before, &after})
-    for (const auto& h : *side) all.insert(all.end(), h.voxels.begin(), h.voxels.end());
-  std::sort(all.begin(), all.end());
-  all.erase(std::unique(all.begin(), all.end()), all.end());
-  return all;
+HandleSet::MaskChange HandleSet::maskChange(const std::vector<Handle>& before, const std::vector<Handle>& after) {
+  MaskChange out;
+  static const std::vector<std::uint32_t> none;
+  auto voxelsOf = [](const std::vector<Handle>& side, int id) -> const std::vector<std::uint32_t>& {
+    for (const Handle& h : side)
+      if (h.id == id) return h.voxels;
+    return none;
+  };
+  for (const Handle& h : before) {
+    const auto& now = voxelsOf(after, h.id);
+    std::set_difference(h.voxels.begin(), h.voxels.end(), now.begin(), now.end(), std::back_inserter(out.cleared));
+  }
+  std::vector<std::uint32_t> joined;
+  for (const Handle& h : after) {
+    const auto& was = voxelsOf(before, h.id);
+    joined.clear();
+    std::set_difference(h.voxels.begin(), h.voxels.end(), was.begin(), was.end(), std::back_inserter(joined));
+    for (std::uint32_t v : joined) out.joined.emplace_back(v, std::uint8_t(h.id));
+  }
+  return out;
+}
+
+void HandleSet::replace(std::vector<Handle> after) {
+  snapshot(true);
+  handles_ = std::move(after);
 }
 
 }  // namespace handson

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "sim/rigid_transform.h"
@@ -82,11 +83,25 @@ class HandleSet {
   /// Tint per id for the raymarch (gpu::kMaxHandleIds entries): active warm, fixed blue, idle grey,
   /// the live selection bright green; `highlight` (a picked handle) is drawn stronger.
   std::vector<glm::vec4> tints(int highlight = 0) const;
-  /// Every voxel whose handle id changed since `before` (for partial mask uploads).
-  static std::vector<std::uint32_t> changedVoxels(const std::vector<Handle>& before, const std::vector<Handle>& after);
+  /// What a mask of handle ids needs to go from `before` to `after` (handles matched by id): the
+  /// voxels that left a handle, cleared first, then those that joined one, set to its id. Linear in
+  /// the handles' voxels (sorted merges), for partial mask uploads.
+  struct MaskChange {
+    std::vector<std::uint32_t> cleared;
+    std::vector<std::pair<std::uint32_t, std::uint8_t>> joined;
+  };
+  static MaskChange maskChange(const std::vector<Handle>& before, const std::vector<Handle>& after);
+
+  HandleSet() = default;
+  /// A set holding these handles, with no history (a copy to edit off the frame's thread).
+  explicit HandleSet(std::vector<Handle> handles) : handles_(std::move(handles)) {}
+  /// Every handle replaced by `after` (an edit made on a copy, interaction/selection_edit.h): one
+  /// undo step.
+  void replace(std::vector<Handle> after);
 
  private:
-  void snapshot();
+  /// The state before an edit into the undo history (`move`: taken, the caller sets the new one).
+  void snapshot(bool move = false);
   Handle* get(int id);
   /// Erases the handles that match `gone` and every claim on them (their ids may be reused).
   template <class Pred> void erase(Pred gone);

@@ -246,13 +246,15 @@ void RegionGrower::restart() {
   front_.push(0, s);
 }
 
-float RegionGrower::value(int i, int j, int k) const {
-  const auto& d = vol_.geometry.dims;
+float RegionGrower::value(int i, int j, int k) const { return growValue(vol_, setup_.criterion, i, j, k); }
+
+float growValue(const QuantizedVolume& volume, GrowCriterion criterion, int i, int j, int k) {
+  const auto& d = volume.geometry.dims;
   const std::size_t sy = std::size_t(d.x()), sz = std::size_t(d.x()) * std::size_t(d.y());
-  if (setup_.criterion == GrowCriterion::Paper) return float(vol_.data[std::size_t(i) + sy * std::size_t(j) + sz * std::size_t(k)]);
+  if (criterion == GrowCriterion::Paper) return float(volume.data[std::size_t(i) + sy * std::size_t(j) + sz * std::size_t(k)]);
   std::uint32_t sum = 0;  // 27 values below 2^16: exact, and exact in float too (below 2^24)
   if (i > 0 && j > 0 && k > 0 && i < d.x() - 1 && j < d.y() - 1 && k < d.z() - 1) {
-    const std::uint16_t* p = vol_.data.data() + (std::size_t(i - 1) + sy * std::size_t(j - 1) + sz * std::size_t(k - 1));
+    const std::uint16_t* p = volume.data.data() + (std::size_t(i - 1) + sy * std::size_t(j - 1) + sz * std::size_t(k - 1));
     for (int dz = 0; dz < 3; ++dz, p += sz)
       for (int dy = 0; dy < 3; ++dy) {
         const std::uint16_t* row = p + sy * std::size_t(dy);
@@ -263,7 +265,7 @@ float RegionGrower::value(int i, int j, int k) const {
   for (int dz = -1; dz <= 1; ++dz)  // at the volume's faces: edges clamped
     for (int dy = -1; dy <= 1; ++dy)
       for (int dx = -1; dx <= 1; ++dx)
-        sum += vol_.data[std::size_t(std::clamp(i + dx, 0, d.x() - 1)) + sy * std::size_t(std::clamp(j + dy, 0, d.y() - 1)) +
+        sum += volume.data[std::size_t(std::clamp(i + dx, 0, d.x() - 1)) + sy * std::size_t(std::clamp(j + dy, 0, d.y() - 1)) +
                          sz * std::size_t(std::clamp(k + dz, 0, d.z() - 1))];
   return float(sum);
 }
@@ -271,6 +273,11 @@ float RegionGrower::value(int i, int j, int k) const {
 bool RegionGrower::accepts(std::size_t linear) const {
   const Eigen::Vector3i v = vol_.geometry.voxelOf(linear);
   return std::abs(value(v.x(), v.y(), v.z()) - setup_.seedValue) < setup_.tolerance;
+}
+
+bool BoundaryRimRule::accepts(std::size_t linear) const {
+  const Eigen::Vector3i v = volume->geometry.voxelOf(linear);
+  return std::abs(growValue(*volume, setup.criterion, v.x(), v.y(), v.z()) - setup.seedValue) < setup.tolerance;
 }
 
 std::uint32_t RegionGrower::bound(double extentMm) const { return growKeyBound(setup_.criterion, setup_.bound, extentMm, vol_.geometry.spacing); }

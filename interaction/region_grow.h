@@ -178,4 +178,17 @@ class RegionGrower {
 /// handson::Error for an index outside the volume or voxels out of order.
 std::vector<std::uint32_t> withBoundaryRim(const RegionGrower& grower, const std::vector<std::uint32_t>& voxels);
 
+/// What the rim needs of a grower: its volume (kept alive by the caller) and its setup - a copy,
+/// so that a finished selection can be rimmed on another thread once its grower is gone.
+struct BoundaryRimRule {
+  const QuantizedVolume* volume = nullptr;
+  GrowSetup setup;
+  explicit BoundaryRimRule(const RegionGrower& grower) : volume(&grower.volume()), setup(grower.setup()) {}
+  /// Homogeneous with the seed (RegionGrower::accepts).
+  bool accepts(std::size_t linear) const;
+};
+std::vector<std::uint32_t> withBoundaryRim(const BoundaryRimRule& rule, const std::vector<std::uint32_t>& voxels);
+/// The value a criterion tests at voxel (i, j, k): the u16 value (Paper) or its 3x3x3 sum, edges clamped.
+float growValue(const QuantizedVolume& volume, GrowCriterion criterion, int i, int j, int k);
+
 }  // namespace handson

@@ -67,9 +67,8 @@ void PinchSelection::finish() {
   if (state_ == State::Growing && grower_) {
     std::optional<std::vector<std::uint32_t>> voxels;
     if (growingOn_) onEngine([&voxels](GrowthEngine& g) { voxels = g.finish(); });
-    finished_ = voxels ? std::move(*voxels) : liveVoxels();  // liveVoxels: the CPU's, also after a fallback
-    std::sort(finished_->begin(), finished_->end());  // the same handle whichever engine grew it
-    if (params_.boundaryRim) *finished_ = withBoundaryRim(*grower_, *finished_);
+    finished_ = FinishedPinch{voxels ? std::move(*voxels) : liveVoxels(), std::nullopt};  // liveVoxels: the CPU's, also after a fallback
+    if (params_.boundaryRim) finished_->rim.emplace(*grower_);
     finishedSeed_ = std::uint32_t(linearIndex(volume_.geometry, grower_->setup().seed));
     changed_ = true;
   }
@@ -160,6 +159,16 @@ std::vector<std::uint32_t> PinchSelection::liveVoxels() const {
   return out;
 }
 
-std::optional<std::vector<std::uint32_t>> PinchSelection::takeFinished() { return std::exchange(finished_, std::nullopt); }
+std::optional<std::vector<std::uint32_t>> PinchSelection::takeFinished() {
+  auto f = takeFinishedPinch();
+  if (!f) return std::nullopt;
+  return std::move(*f).complete();
+}
+
+std::vector<std::uint32_t> FinishedPinch::complete() && {
+  std::vector<std::uint32_t> out = std::move(voxels);
+  std::sort(out.begin(), out.end());  // the same handle whichever engine grew it
+  return rim ? withBoundaryRim(*rim, out) : out;
+}
 
 }  // namespace handson

@@ -34,6 +34,15 @@ class GrowthEngine {
   virtual std::vector<std::uint32_t> finish() = 0;
 };
 
+/// A pinch's selection as its fingers lifted, before its voxels are sorted and rimmed: what the
+/// window finishes off the frame's thread (app/session/selection_controller.h).
+struct FinishedPinch {
+  std::vector<std::uint32_t> voxels;     ///< as grown, in any order
+  std::optional<BoundaryRimRule> rim;    ///< set when GrowParams::boundaryRim
+  /// The final voxels: ascending, with their boundary rim (withBoundaryRim).
+  std::vector<std::uint32_t> complete() &&;
+};
+
 class PinchSelection {
  public:
   enum class State : std::uint8_t { Idle, WaitingForPicks, Growing };
@@ -60,6 +69,8 @@ class PinchSelection {
   /// boundary rim when GrowParams::boundaryRim (withBoundaryRim; the live voxels before the lift
   /// are the grown ones alone). Taken once.
   std::optional<std::vector<std::uint32_t>> takeFinished();
+  /// The same before its voxels are sorted and rimmed (FinishedPinch::complete, on any thread).
+  std::optional<FinishedPinch> takeFinishedPinch() { return std::exchange(finished_, std::nullopt); }
   /// The voxel the last finished selection grew from (linear index; HandleSet's seed of its handle).
   std::uint32_t finishedSeed() const { return finishedSeed_; }
   /// A user-facing message about the last pinch ("" if none), e.g. a refusal.
@@ -88,7 +99,7 @@ class PinchSelection {
   std::unique_ptr<RegionGrower> grower_;
   GrowthEngine* engine_ = nullptr;
   GrowthEngine* growingOn_ = nullptr;  // the engine of the pinch now growing (nullptr: the CPU)
-  std::optional<std::vector<std::uint32_t>> finished_;
+  std::optional<FinishedPinch> finished_;
   std::uint32_t finishedSeed_ = 0xffffffffu;
   bool liftedBeforePicks_ = false;  ///< a finger lifted while the picks were on their way
   std::string feedback_;

@@ -173,4 +173,33 @@ PinchEdit applyPinch(HandleSet& handles, std::vector<std::uint32_t> voxels, std:
   return out;
 }
 
+namespace {
+
+EditOnCopy tookIn(const std::vector<Handle>& before, HandleSet& edited) {
+  EditOnCopy out;
+  out.changed = true;
+  out.after = edited.handles();
+  out.mask = HandleSet::maskChange(before, out.after);
+  return out;
+}
+
+}  // namespace
+
+EditOnCopy applyPinchOnCopy(std::vector<Handle> handles, std::vector<std::uint32_t> voxels, std::uint32_t seed, const PinchRequest& request,
+                            const VolumeGeometry& g) {
+  HandleSet set(handles);
+  const PinchEdit edit = applyPinch(set, std::move(voxels), seed, request, g);
+  EditOnCopy out;
+  if (edit.handle != 0) out = tookIn(handles, set);
+  out.refusal = edit.refusal;
+  out.handle = edit.handle;
+  return out;
+}
+
+EditOnCopy correctOnCopy(std::vector<Handle> handles, int a, int b, bool unite, CorrectionRule rule, const VolumeGeometry& g) {
+  HandleSet set(handles);
+  const bool ok = unite ? uniteHandle(set, a, b, rule, g) : subtractHandle(set, a, b, rule, g);
+  return ok ? tookIn(handles, set) : EditOnCopy{};
+}
+
 }  // namespace handson

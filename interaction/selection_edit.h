@@ -76,6 +76,22 @@ struct PinchRequest {
 /// one undo step. A refused correction leaves the handles as they were, with no redo step.
 PinchEdit applyPinch(HandleSet& handles, std::vector<std::uint32_t> voxels, std::uint32_t seed, const PinchRequest& request, const VolumeGeometry& g);
 
+/// A handle edit made on a copy of the handles, so that it can run off the frame's thread
+/// (app/session/selection_controller.h), then be taken into the set it was copied from with
+/// HandleSet::replace: the same handles as the edit made on that set.
+struct EditOnCopy {
+  bool changed = false;         ///< false: refused, nothing to take in
+  std::string refusal;          ///< a refused pinch's reason (PinchEdit::refusal)
+  int handle = 0;               ///< a pinch's handle (PinchEdit::handle)
+  std::vector<Handle> after;    ///< the handles once edited (when changed)
+  HandleSet::MaskChange mask;   ///< from the copy to `after`
+};
+/// applyPinch on a copy of the handles.
+EditOnCopy applyPinchOnCopy(std::vector<Handle> handles, std::vector<std::uint32_t> voxels, std::uint32_t seed, const PinchRequest& request,
+                            const VolumeGeometry& g);
+/// uniteHandle (`unite`) or subtractHandle on a copy of the handles.
+EditOnCopy correctOnCopy(std::vector<Handle> handles, int a, int b, bool unite, CorrectionRule rule, const VolumeGeometry& g);
+
 /// a := a ∪ b under `rule` (one undo step; b removed; refusals as HandleSet::unite). With Neck only
 /// b's voxels on its seed's side of b's narrowest neck between the top its seed climbs to and b's
 /// deepest voxel (all of b when they are the same lobe, or b's seed lies outside it or it has none).

@@ -61,7 +61,7 @@ void writeCsvRows(std::ostream& csv, const OrganGestures& o) {
   for (const GestureStep& s : o.steps)
     csv << o.dataset << "," << o.organ << "," << s.gesture << "," << gestureKindName(s.kind) << "," << std::setprecision(4) << s.dice << "," << s.precision
         << "," << s.recall << "," << s.selected << "," << s.target.x() << " " << s.target.y() << " " << s.target.z() << "," << s.spreadMm << ","
-        << s.regionVoxels << "," << s.pinchVoxels << "," << (s.refused ? 1 : 0) << "," << s.milliseconds << "," << s.editMs << "\n";
+        << s.regionVoxels << "," << s.pinchVoxels << "," << (s.refused ? 1 : 0) << "," << s.milliseconds << "," << s.editMs << "," << s.editFrameMs << "," << s.uploadVoxels << "," << s.liftMs << "\n";
 }
 
 // The summary table: Dice after 1, 3, 5 and `last` gestures, the worst single correction, then the
@@ -132,7 +132,7 @@ void writeChart(const std::vector<OrganGestures>& all, const std::filesystem::pa
 int benchSelectionGestures(const std::string& dataDir, const std::filesystem::path& out, const GestureProtocol& protocol) {
   std::filesystem::create_directories(out);
   std::ofstream csv(out / "selection_gestures.csv");
-  csv << "dataset,organ,gesture,kind,dice,precision,recall,selected,target,spread_mm,region_voxels,pinch_voxels,refused,ms,edit_ms\n";
+  csv << "dataset,organ,gesture,kind,dice,precision,recall,selected,target,spread_mm,region_voxels,pinch_voxels,refused,ms,edit_ms,edit_frame_ms,upload_voxels,lift_ms\n";
   const int gestures = protocol.gestures;
   std::cerr << "gestures: " << gestures << " an organ, corrections by the " << correctionRuleName(protocol.corrections) << " rule\n";
   std::vector<OrganGestures> all;

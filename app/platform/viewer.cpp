@@ -310,6 +310,7 @@ Viewer::Impl::Impl(const ViewerOptions& opts) : o(opts), log(opts.timings.empty(
                 swapchain->presentTimingNote()});
   SessionParts parts = makeSessionParts(o, volume, q, *session, *renderer, labels.get());
   selection = std::move(parts.selection);
+  selection->setEditsInBackground(true);  // a liver-sized correction never holds a frame
   deform = std::move(parts.deform);
   exporter = std::move(parts.exporter);
   status.selectionBackend = selection->backend().status;
@@ -411,6 +412,7 @@ void Viewer::Impl::updateStatus() {
   status.canUndo = selection->handles().canUndo();
   status.canRedo = selection->handles().canRedo();
   status.feedback = !selection->pinch().feedback().empty() ? selection->pinch().feedback()
+                    : selection->editing()                ? std::string("Editing the selection...")
                     : !selection->labelNote().empty()     ? selection->labelNote()
                     : !selection->correctionNote().empty() ? selection->correctionNote()
                                                           : selection->manipulationNote();

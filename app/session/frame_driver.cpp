@@ -21,6 +21,7 @@ bool FrameDriver::applyUi(const ScriptEvent& e) {
 
 FrameOutcome FrameDriver::frame(const FrameInput& in, FrameTiming& ft) {
   FrameOutcome out;
+  selection_.poll();  // a handle edit made in the background since the last frame
   const bool applied = applyInput(in, ft, out);
   const double clock = in.sessionClock >= 0.0 ? in.sessionClock : now();
   followClip(in.followClip, clock);

@@ -1,6 +1,7 @@
 #include "selection_controller.h"
 
 #include <algorithm>
+#include <chrono>
 #include <utility>
 #include <sstream>
 
@@ -13,7 +14,7 @@ namespace handson {
 
 SelectionController::SelectionController(const QuantizedVolume& volume, Session& session, VolumeRenderer& renderer, const GrowParams& params,
                                          SelectionBackend backend)
-    : volume_(volume), session_(session), renderer_(renderer), pinch_(volume, params), mask_(volume.data.size(), 0) {
+    : volume_(volume), session_(session), renderer_(renderer), pinch_(volume, params), mask_(volume.data.size(), 0), ids_(volume.data.size(), 0) {
   dirtyMin_ = volume.geometry.dims;
   dirtyMax_ = Eigen::Vector3i(-1, -1, -1);
   const VkPhysicalDeviceProperties& device = renderer.context().properties();
@@ -47,10 +48,9 @@ void SelectionController::repaint(const std::vector<std::uint32_t>& voxels) {
     const Eigen::Vector3i p = volume_.geometry.voxelOf(v);
     dirtyMin_ = dirtyMin_.cwiseMin(p);
     dirtyMax_ = dirtyMax_.cwiseMax(p);
-    mask_[v] = 0;
+    mask_[v] = ids_[v];
   }
-  for (const auto& h : handles_.handles())
-    for (std::uint32_t v : h.voxels) mask_[v] = std::uint8_t(h.id);  // only voxels in the dirty box matter
+  for (std::uint32_t v : landing_) mask_[v] = HandleSet::kLiveSelectionId;
   for (std::uint32_t v : live_) mask_[v] = HandleSet::kLiveSelectionId;
   if (gpu_ && !voxels.empty()) {  // the handles changed under a pinch growing on the GPU
     try {
@@ -60,18 +60,25 @@ void SelectionController::repaint(const std::vector<std::uint32_t>& voxels) {
   }
 }
 
+void SelectionController::relabel(const HandleSet::MaskChange& change, std::vector<std::uint32_t> also) {
+  also.reserve(also.size() + change.cleared.size() + change.joined.size());
+  for (std::uint32_t v : change.cleared) {
+    ids_[v] = 0;
+    also.push_back(v);
+  }
+  for (const auto& [v, id] : change.joined) {
+    ids_[v] = id;
+    also.push_back(v);
+  }
+  repaint(also);
+}
+
 void SelectionController::refreshLive() {
   std::vector<std::uint32_t> old = std::move(live_);
   live_ = pinch_.state() == PinchSelection::State::Growing ? pinch_.liveVoxels() : std::vector<std::uint32_t>{};
-  if (auto done = pinch_.takeFinished()) {
-    const auto before = handles_.handles();
-    const int target = pinchOp_ == PinchOp::New ? 0 : correctionTarget();
-    correctionNote_ = applyPinch(handles_, std::move(*done), pinch_.finishedSeed(), {pinchOp_, target, corrections_}, volume_.geometry).refusal;
-    picked_.erase(std::remove_if(picked_.begin(), picked_.end(), [&](int id) { return !handles_.find(id); }), picked_.end());
-    old.insert(old.end(), live_.begin(), live_.end());
-    const auto changed = HandleSet::changedVoxels(before, handles_.handles());
-    old.insert(old.end(), changed.begin(), changed.end());
-    tintsDirty_ = true;
+  if (auto done = pinch_.takeFinishedPinch()) {
+    if (editing()) queued_.push_back({std::nullopt, std::move(*done), pinch_.finishedSeed(), pinchOp_});
+    else startPinchEdit(std::move(*done), pinch_.finishedSeed(), pinchOp_);
   }
   // The GPU painted the live selection into its box: back to the handles' ids there.
   if (const auto box = gpu_ && !gpu_->growing() ? gpu_->takePaintedBox() : std::nullopt) {
@@ -231,7 +238,70 @@ int SelectionController::correctionTarget() const {
   return handles_.handles().empty() ? 0 : handles_.handles().back().id;
 }
 
+void SelectionController::startPinchEdit(FinishedPinch pinch, std::uint32_t seed, PinchOp op) {
+  const PinchRequest request{op, op == PinchOp::New ? 0 : correctionTarget(), corrections_};
+  auto edit = [request, seed, g = volume_.geometry](std::vector<Handle> handles, FinishedPinch p) {
+    return applyPinchOnCopy(std::move(handles), std::move(p).complete(), seed, request, g);
+  };
+  if (!editsInBackground_) {
+    takeIn(edit(handles_.handles(), std::move(pinch)), true);
+    return;
+  }
+  const StageTimes::Scope t(stages_, "selection-edit");
+  landing_ = pinch.voxels;
+  editIsPinch_ = true;
+  editFuture_ = std::async(std::launch::async, edit, handles_.handles(), std::move(pinch));
+}
+
+bool SelectionController::correct(int a, int b, bool unite) {
+  const StageTimes::Scope t(stages_, "selection-edit");
+  if (!editsInBackground_) {
+    EditOnCopy edit = correctOnCopy(handles_.handles(), a, b, unite, corrections_, volume_.geometry);
+    const bool ok = edit.changed;
+    takeIn(std::move(edit), false);
+    return ok;
+  }
+  if (a == b || !handles_.find(a) || !handles_.find(b)) return false;  // refused as the handles would refuse it
+  editIsPinch_ = false;
+  editFuture_ = std::async(std::launch::async, correctOnCopy, handles_.handles(), a, b, unite, corrections_, volume_.geometry);
+  return true;
+}
+
+void SelectionController::takeIn(EditOnCopy edit, bool pinch) {
+  if (pinch) correctionNote_ = edit.refusal;
+  std::vector<std::uint32_t> landed = std::exchange(landing_, {});
+  if (edit.changed) {
+    // A handle moved while the edit was made in the background keeps its new pose.
+    for (Handle& h : edit.after)
+      if (const Handle* now = handles_.find(h.id)) h.pose = now->pose;
+    handles_.replace(std::move(edit.after));
+    picked_.erase(std::remove_if(picked_.begin(), picked_.end(), [&](int id) { return !handles_.find(id); }), picked_.end());
+    tintsDirty_ = true;
+  }
+  relabel(edit.mask, std::move(landed));
+}
+
+void SelectionController::poll() {
+  if (editFuture_.valid() && editFuture_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+    const StageTimes::Scope t(stages_, "selection-edit");
+    takeIn(editFuture_.get(), editIsPinch_);
+  }
+  while (!editFuture_.valid() && !queued_.empty()) {  // the edits that waited, in order, until one goes to the background
+    QueuedEdit q = std::move(queued_.front());
+    queued_.pop_front();
+    if (q.ui) applyEdit(*q.ui);
+    else startPinchEdit(std::move(q.pinch), q.seed, q.op);
+  }
+}
+
 bool SelectionController::applyUi(const ScriptEvent& e) {
+  if (!isHandleEdit(e.action) || !editing()) return applyEdit(e);
+  if ((grabPending_ || grabFrame_) && !manipulator_.active()) abandonGrab();
+  queued_.push_back({e, {}, kNoSeed, PinchOp::New});
+  return true;
+}
+
+bool SelectionController::applyEdit(const ScriptEvent& e) {
   // A handle edit (undo included) comes after a drag whose picks are not back: the drag is
   // dropped rather than applied after the edit it preceded.
   if ((grabPending_ || grabFrame_) && !manipulator_.active() && isHandleEdit(e.action)) abandonGrab();
@@ -240,6 +310,10 @@ bool SelectionController::applyUi(const ScriptEvent& e) {
     const std::string_view v = e.value;
     return comma != std::string::npos && parseWholeNumber(v.substr(0, comma), a) && parseWholeNumber(v.substr(comma + 1), b);
   };
+  if (e.action == UiAction::HandleUnion || e.action == UiAction::HandleDifference) {
+    int a = 0, b = 0;
+    return ids(a, b) && correct(a, b, e.action == UiAction::HandleUnion);
+  }
   const auto before = handles_.handles();
   bool ok = false;
   switch (e.action) {
@@ -255,13 +329,6 @@ bool SelectionController::applyUi(const ScriptEvent& e) {
     case UiAction::HandleDelete: {
       int id = 0;
       ok = parseWholeNumber(e.value, id) && handles_.remove(id);
-      break;
-    }
-    case UiAction::HandleUnion:
-    case UiAction::HandleDifference: {
-      int a = 0, b = 0;
-      ok = ids(a, b) && (e.action == UiAction::HandleUnion ? uniteHandle(handles_, a, b, corrections_, volume_.geometry)
-                                                            : subtractHandle(handles_, a, b, corrections_, volume_.geometry));
       break;
     }
     case UiAction::PinchOp: {
@@ -282,7 +349,7 @@ bool SelectionController::applyUi(const ScriptEvent& e) {
     default: return false;
   }
   if (ok) {
-    repaint(HandleSet::changedVoxels(before, handles_.handles()));
+    relabel(HandleSet::maskChange(before, handles_.handles()));
     picked_.erase(std::remove_if(picked_.begin(), picked_.end(), [&](int id) { return !handles_.find(id); }), picked_.end());
     tintsDirty_ = true;
   }

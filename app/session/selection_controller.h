@@ -12,6 +12,14 @@
 //   redo, toggle-lock "z-translation|z-rotation|xy-translation",
 //   label-handle "I,J,K" (with a label map: the labelled organ at voxel I,J,K becomes a handle - what
 //   a tap on an organ that is no handle yet does in select mode).
+// Edits in the background (the window): a finished pinch (its voxels sorted and rimmed, then its
+// edit), a union and a difference are made on a copy of the handles by a worker thread and taken
+// in at the first frame after they are done (poll), so a liver-sized correction (hundreds of ms)
+// never holds a frame; handle edits that come meanwhile wait behind it, in order (moves of a
+// handle do not: they are carried over). Otherwise (replays, tests) each edit lands in the frame
+// that makes it: the same handles.
+#include <deque>
+#include <future>
 #include <memory>
 #include <map>
 #include <optional>
@@ -46,8 +54,17 @@ class SelectionController {
   void submitted(std::uint64_t frame);
   /// With every completed frame's results.
   void onFrameResult(const FrameResult& result);
-  /// Handle edits; false for actions that are not the controller's or that were refused.
+  /// Handle edits; false for actions that are not the controller's or that were refused (an edit
+  /// waiting behind one in the background is accepted: its refusal shows in correctionNote()).
   bool applyUi(const ScriptEvent& e);
+
+  /// Edits made in the background (the window) or in the frame that makes them (default).
+  void setEditsInBackground(bool on) { editsInBackground_ = on; }
+  /// At the start of a frame: a background edit that is done is taken in, and the edits waiting
+  /// behind it start.
+  void poll();
+  /// An edit is being made in the background or waits behind one.
+  bool editing() const { return editFuture_.valid() || !queued_.empty(); }
 
   /// Organ labels on the volume's grid (owned by the caller, kept alive while this controller is):
   /// taps and "label-handle" actions then make labelled organs handles. nullptr: none.
@@ -88,10 +105,31 @@ class SelectionController {
   std::vector<std::pair<std::string, double>> takeStageTimes() { return stages_.take(); }
 
  private:
+  /// Voxels whose shown id may have changed: the handles' ids, the live selection over them.
   void repaint(const std::vector<std::uint32_t>& voxels);
+  /// The handles' ids changed.
+  void relabel(const HandleSet::MaskChange& change, std::vector<std::uint32_t> also = {});
   bool labelHandle(const std::string& voxel);
   void refreshLive();
   void syncTints();
+  // Edits (app/session/selection_controller.h's head): a handle edit now, or behind the one in
+  // the background; a finished pinch's edit started (in the background or made now); an edit
+  // made on a copy taken in.
+  bool applyEdit(const ScriptEvent& e);
+  bool correct(int a, int b, bool unite);
+  void startPinchEdit(FinishedPinch pinch, std::uint32_t seed, PinchOp op);
+  void takeIn(EditOnCopy edit, bool pinch);
+  struct QueuedEdit {
+    std::optional<ScriptEvent> ui;  // a UI action, else a finished pinch
+    FinishedPinch pinch;
+    std::uint32_t seed = kNoSeed;
+    PinchOp op = PinchOp::New;
+  };
+  bool editsInBackground_ = false;
+  std::future<EditOnCopy> editFuture_;
+  bool editIsPinch_ = false;
+  std::deque<QueuedEdit> queued_;
+  std::vector<std::uint32_t> landing_;  // a pinch whose edit is in the background: drawn as the live selection
 
   const QuantizedVolume& volume_;
   Session& session_;
@@ -99,6 +137,7 @@ class SelectionController {
   PinchSelection pinch_;
   HandleSet handles_;
   std::vector<std::uint8_t> mask_;           // handle ids on the volume grid (CPU copy)
+  std::vector<std::uint8_t> ids_;            // the handles' ids alone (the mask without the live selection)
   std::vector<std::uint32_t> live_;          // voxels of the live selection
   Eigen::Vector3i dirtyMin_, dirtyMax_;      // box to upload (empty when min > max)
   MaskUpload upload_;

@@ -79,8 +79,9 @@ void eachComponent(const Box& box, const VolumeGeometry& g, const std::vector<st
 // depth-picks on either side of it, spread so that the app's extent is `spreadMm`; one lifts.
 // Returns the finished selection (with its boundary rim when the rules say so) and its seed.
 struct Pinched {
-  std::vector<std::uint32_t> voxels;
+  FinishedPinch finished;  // its voxels as grown (complete(): sorted and rimmed)
   std::uint32_t seed = kNoSeed;
+  double liftMs = 0.0;  // the fingers lifted (the frame's thread)
 };
 Pinched appPinch(PinchSelection& pinch, const VolumeGeometry& g, const Eigen::Vector3i& target, double spreadMm) {
   const Eigen::Vector3d w = g.toWorld(target.cast<double>());
@@ -102,11 +103,34 @@ Pinched appPinch(PinchSelection& pinch, const VolumeGeometry& g, const Eigen::Ve
   pinch.takePickRequest();
   const glm::dvec3 side = camera.right() * 0.5;  // picks 1 mm apart, their midpoint the target
   pinch.onPicks({camera.target - side, camera.target + side}, camera, viewport);
+  const auto lift = std::chrono::steady_clock::now();
   touch(TouchPhase::Up, 1);
   touch(TouchPhase::Up, 0);
-  auto done = pinch.takeFinished();
+  const double liftMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - lift).count();
+  auto done = pinch.takeFinishedPinch();
   if (!done) return {};
-  return {std::move(*done), pinch.finishedSeed()};
+  return {std::move(*done), pinch.finishedSeed(), liftMs};
+}
+
+double ms(std::chrono::steady_clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
+
+// A change of handle ids painted as the app paints it: the ids, and the box to upload (its voxels).
+std::size_t paintChange(const HandleSet::MaskChange& c, std::vector<std::uint8_t>& ids, const VolumeGeometry& g) {
+  Eigen::Vector3i lo = g.dims, hi(-1, -1, -1);
+  auto box = [&](std::uint32_t v) {
+    const Eigen::Vector3i p = g.voxelOf(v);
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  };
+  for (std::uint32_t v : c.cleared) {
+    ids[v] = 0;
+    box(v);
+  }
+  for (const auto& [v, id] : c.joined) {
+    ids[v] = id;
+    box(v);
+  }
+  return (lo.array() <= hi.array()).all() ? Box{lo, hi}.size() : 0;
 }
 
 // Dice, precision and recall of a selection (ascending voxels) against the organ's mask.
@@ -185,6 +209,7 @@ OrganGestures runGestureProtocol(const std::string& dataset, const Volume& ct, c
   HandleSet handles;
   int selection = 0;
   std::vector<std::uint8_t> selectedMask(organMask.size(), 0);
+  std::vector<std::uint8_t> ids(organMask.size(), 0);  // the app's mask of handle ids
   for (int n = 1; n <= protocol.gestures; ++n) {
     GestureStep s;
     s.gesture = n;
@@ -194,8 +219,11 @@ OrganGestures runGestureProtocol(const std::string& dataset, const Volume& ct, c
       s.spreadMm = radius;
       s.regionVoxels = organVoxels;
       Pinched p = appPinch(pinch, g, first, radius);
-      s.pinchVoxels = p.voxels.size();
-      selection = applyPinch(handles, std::move(p.voxels), p.seed, {PinchOp::New, 0, protocol.corrections}, g).handle;
+      std::vector<std::uint32_t> voxels = std::move(p.finished).complete();
+      s.pinchVoxels = voxels.size();
+      s.liftMs = p.liftMs;
+      selection = applyPinch(handles, std::move(voxels), p.seed, {PinchOp::New, 0, protocol.corrections}, g).handle;
+      s.uploadVoxels = paintChange(HandleSet::maskChange({}, handles.handles()), ids, g);
       s.refused = selection == 0;
     } else {
       const ErrorRegion e = largestErrorRegion(organMask, selectedMask, g);
@@ -205,12 +233,27 @@ OrganGestures runGestureProtocol(const std::string& dataset, const Volume& ct, c
       s.spreadMm = e.target.spreadMm;
       s.regionVoxels = e.target.voxels.size();
       Pinched p = appPinch(pinch, g, s.target, s.spreadMm);
-      s.pinchVoxels = p.voxels.size();
+      s.liftMs = p.liftMs;
+      // As the window makes it (app/session/selection_controller.h): the handles copied and the
+      // edit taken in on the frame's thread; the pinch's voxels sorted and rimmed and the edit
+      // itself on a worker.
+      const PinchRequest request{e.missed ? PinchOp::Add : PinchOp::Remove, selection, protocol.corrections};
       const auto t1 = std::chrono::steady_clock::now();
-      const PinchEdit edit = applyPinch(handles, std::move(p.voxels), p.seed, {e.missed ? PinchOp::Add : PinchOp::Remove, selection, protocol.corrections}, g);
+      std::vector<Handle> copy = handles.handles();
+      const auto t2 = std::chrono::steady_clock::now();
+      std::vector<std::uint32_t> voxels = std::move(p.finished).complete();
+      s.pinchVoxels = voxels.size();
+      EditOnCopy edit = applyPinchOnCopy(std::move(copy), std::move(voxels), p.seed, request, g);
+      const auto t3 = std::chrono::steady_clock::now();
+      if (edit.changed) {
+        handles.replace(std::move(edit.after));
+        s.uploadVoxels = paintChange(edit.mask, ids, g);
+      }
+      const auto t4 = std::chrono::steady_clock::now();
       s.refused = edit.handle == 0;
       if (edit.handle) selection = edit.handle;
-      s.editMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+      s.editMs = ms(t4 - t1);
+      s.editFrameMs = ms(t2 - t1) + ms(t4 - t3);
     }
     s.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const Handle* h = handles.find(selection);

@@ -59,7 +59,10 @@ struct GestureStep {
   std::size_t selected = 0;
   double dice = 0.0, precision = 0.0, recall = 0.0;
   double milliseconds = 0.0;  ///< the gesture: the pinch's growth and the handle edit
-  double editMs = 0.0;        ///< the handle edit alone (union or difference)
+  double editMs = 0.0;        ///< a correction's edit: the pinch's voxels sorted and rimmed, the union or difference
+  std::size_t uploadVoxels = 0;  ///< the mask's box the edit uploads (the box of the voxels whose id changed)
+  double liftMs = 0.0;        ///< the pinch's fingers lifted (the frame's thread; its voxels are finished in the edit)
+  double editFrameMs = 0.0;   ///< of it, the window's frame thread's part: the handles copied, the edit taken in and painted
 };
 
 struct OrganGestures {

@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 
 #include "interaction/handles.h"
 #include "interaction/selection.h"
@@ -101,6 +103,62 @@ struct PinchRig {
 };
 
 }  // namespace
+
+TEST(HandleSet, TheMaskChangeTakesAMaskOfTheHandlesBeforeToTheOneAfterAsBruteForceFindsIt) {
+  // Random adds, unions, differences, removals and undos on a 1,000-voxel grid: the mask of ids
+  // painted from the handles before, with the change applied (cleared, then joined), must be the
+  // mask painted from the handles after; and the change names only voxels whose id changed.
+  std::srand(7);
+  auto paint = [](const std::vector<Handle>& hs) {
+    std::vector<std::uint8_t> m(1000, 0);
+    for (const Handle& h : hs)
+      for (std::uint32_t v : h.voxels) m[v] = std::uint8_t(h.id);
+    return m;
+  };
+  HandleSet h;
+  for (int step = 0; step < 300; ++step) {
+    const std::vector<Handle> before = h.handles();
+    const int op = std::rand() % 5, a = 1 + std::rand() % 6, b = 1 + std::rand() % 6;
+    if (op == 0) {
+      std::vector<std::uint32_t> v;
+      const std::uint32_t start = std::uint32_t(std::rand() % 900);
+      for (std::uint32_t i = 0; i < 100; ++i) v.push_back(start + i * std::uint32_t(1 + std::rand() % 2) % 100);
+      h.add(v);
+    } else if (op == 1) {
+      h.unite(a, b);
+    } else if (op == 2) {
+      h.subtract(a, b);
+    } else if (op == 3) {
+      h.remove(a);
+    } else {
+      h.undo();
+    }
+    const HandleSet::MaskChange c = HandleSet::maskChange(before, h.handles());
+    std::vector<std::uint8_t> m = paint(before);
+    const std::vector<std::uint8_t> was = m;
+    for (std::uint32_t v : c.cleared) m[v] = 0;
+    for (const auto& [v, id] : c.joined) m[v] = id;
+    ASSERT_EQ(m, paint(h.handles())) << "step " << step;
+    for (std::uint32_t v : c.cleared) EXPECT_NE(was[v], m[v]);  // left a handle: none now, or another's
+    for (const auto& [v, id] : c.joined) EXPECT_NE(was[v], id);
+  }
+}
+
+TEST(HandleSet, ReplacingEveryHandleIsOneUndoStep) {
+  HandleSet h;
+  const int a = h.add({1, 2, 3});
+  HandleSet copy(h.handles());  // no history
+  EXPECT_FALSE(copy.canUndo());
+  copy.add({3, 4});
+  h.replace(copy.handles());
+  EXPECT_EQ(h.handles().size(), 2u);
+  EXPECT_EQ(h.find(a)->voxels, (std::vector<std::uint32_t>{1, 2}));
+  EXPECT_TRUE(h.undo());
+  ASSERT_EQ(h.handles().size(), 1u);
+  EXPECT_EQ(h.find(a)->voxels, (std::vector<std::uint32_t>{1, 2, 3}));
+  EXPECT_TRUE(h.redo());
+  EXPECT_EQ(h.handles().size(), 2u);
+}
 
 TEST(PinchSelection, GrowsFromTheMidpointAndEndsWhenAFingerLifts) {
   PinchRig rig;

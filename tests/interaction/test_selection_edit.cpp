@@ -239,6 +239,51 @@ TEST(SelectionEdit, APinchThatAddsOrRemovesIsOneUndoStepAndARefusedOneChangesNot
   EXPECT_EQ(applyPinch(h, pinch, d.at(30, 20, 20), {PinchOp::Add, 7, CorrectionRule::Neck}, d.g).handle, 2);
 }
 
+TEST(SelectionEdit, AnEditMadeOnACopyGivesTheHandlesTheSameEditMadeInPlaceGives) {
+  // The app's background edits (app/session/selection_controller.h): a pinch removed, refused,
+  // added; a union and a difference of handles; each on a copy, taken in with replace, against
+  // the same edit on the set itself.
+  Dumbbell d;
+  const auto organ = voxelsWhere(d.g, Dumbbell::organ);
+  const auto pinch = voxelsWhere(d.g, [](const Eigen::Vector3d& p) { return Dumbbell::bridge(p) || Dumbbell::leak(p); });
+  HandleSet inPlace, copied;
+  auto same = [&](const char* what) {
+    ASSERT_EQ(inPlace.handles().size(), copied.handles().size()) << what;
+    for (std::size_t i = 0; i < inPlace.handles().size(); ++i) {
+      EXPECT_EQ(inPlace.handles()[i].id, copied.handles()[i].id) << what;
+      EXPECT_EQ(inPlace.handles()[i].voxels, copied.handles()[i].voxels) << what;
+      EXPECT_EQ(inPlace.handles()[i].seed, copied.handles()[i].seed) << what;
+    }
+  };
+  auto pinchBoth = [&](const std::vector<std::uint32_t>& voxels, std::uint32_t seed, PinchRequest r) {
+    const PinchEdit e = applyPinch(inPlace, voxels, seed, r, d.g);
+    EditOnCopy c = applyPinchOnCopy(copied.handles(), voxels, seed, r, d.g);
+    EXPECT_EQ(c.handle, e.handle);
+    EXPECT_EQ(c.refusal, e.refusal);
+    EXPECT_EQ(c.changed, e.handle != 0);
+    if (c.changed) copied.replace(std::move(c.after));
+  };
+  pinchBoth(d.all, d.at(12, 20, 20), {PinchOp::New, 0, CorrectionRule::Neck});
+  same("first pinch");
+  pinchBoth(pinch, d.at(30, 20, 20), {PinchOp::Remove, 1, CorrectionRule::Neck});
+  same("removal");
+  pinchBoth(organ, d.at(12, 20, 20), {PinchOp::Remove, 1, CorrectionRule::Neck});  // refused
+  same("refused removal");
+  pinchBoth(pinch, d.at(30, 20, 20), {PinchOp::New, 0, CorrectionRule::Neck});
+  same("second handle");
+  for (const bool unite : {false, true}) {
+    const bool ok = unite ? uniteHandle(inPlace, 1, 2, CorrectionRule::Neck, d.g) : subtractHandle(inPlace, 1, 2, CorrectionRule::Neck, d.g);
+    EditOnCopy c = correctOnCopy(copied.handles(), 1, 2, unite, CorrectionRule::Neck, d.g);
+    EXPECT_EQ(c.changed, ok);
+    if (c.changed) copied.replace(std::move(c.after));
+    same(unite ? "union" : "difference");
+  }
+  EXPECT_FALSE(correctOnCopy(copied.handles(), 1, 9, true, CorrectionRule::Neck, d.g).changed);  // no handle 9: refused
+  // Undone, both go back to the same handles: each edit was one undo step.
+  while (inPlace.undo()) ASSERT_TRUE(copied.undo());
+  EXPECT_FALSE(copied.undo());
+}
+
 TEST(SelectionEdit, ClaimsGiveBackOnlyWhatTheClaimerStillHoldsToHandlesThatStillExist) {
   // A new handle that empties another: its claim on it is dropped (the id is reused next).
   HandleSet h;

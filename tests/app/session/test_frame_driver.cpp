@@ -4,10 +4,12 @@
 // validation on), as they do in the app.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstring>
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "app/session/frame_driver.h"
@@ -16,6 +18,7 @@
 #include "render/transfer_function.h"
 #include "render/vk_context.h"
 #include "interaction/camera.h"
+#include "interaction/label_map.h"
 #include "interaction/view_adjust.h"
 #include "sim/phantom.h"
 
@@ -33,6 +36,7 @@ class RecordingRenderer final : public FrameRenderer {
     calls_.push_back("submit");
     submitted.push_back(r.params);
     masks.push_back(r.maskUpload != nullptr);
+    if (r.maskUpload) uploads.push_back(*r.maskUpload);
     deforms.push_back(r.deform != nullptr || r.deformFine != nullptr);
     picks.push_back(r.pickPoints.size());
     readbacks.push_back(r.readbackImage);
@@ -42,6 +46,7 @@ class RecordingRenderer final : public FrameRenderer {
   int stillPhasesShown() const override { return 0; }
   std::vector<gpu::RenderParams> submitted;
   std::vector<bool> masks, deforms, readbacks;
+  std::vector<MaskUpload> uploads;
   std::vector<std::size_t> picks;
   std::vector<int> stillRequested;
 
@@ -224,4 +229,95 @@ TEST(FrameDriver, AClipDragThatSettledIsFramedOnlyWhereTheCallerFollowsIt) {
     const bool moved = s.session->camera().distance != start.distance || s.session->camera().target != start.target;
     EXPECT_EQ(moved, follow) << (follow ? "followed: framed" : "let go, and not framed by a later frame either");
   }
+}
+
+namespace {
+
+// The first voxel of a label, as "I,J,K".
+std::string firstVoxelOf(const Volume& labels, int label) {
+  for (std::size_t v = 0; v < labels.voxelCount(); ++v)
+    if (labels.value(v) == float(label)) {
+      const Eigen::Vector3i p = labels.geometry().voxelOf(std::uint32_t(v));
+      return std::to_string(p.x()) + "," + std::to_string(p.y()) + "," + std::to_string(p.z());
+    }
+  return "";
+}
+
+struct EditedSession {
+  std::vector<Handle> handles;
+  bool canUndo = false, canRedo = false;
+  std::vector<std::uint8_t> uploaded;  // the mask as the frames uploaded it
+  bool editingAfterItsFrame = false;
+  std::size_t handlesAfterItsFrame = 0;
+};
+
+// The liver and the right kidney made handles; then, in one frame, their union and an undo;
+// frames until the edits are in.
+EditedSession editSession(bool background) {
+  DriverScene s;
+  const LabelMap labels = labelsOnGrid(s.phantom.labels, s.phantom.ct.geometry());
+  SelectionController& sel = *s.parts.selection;
+  sel.setLabels(&labels);
+  sel.setEditsInBackground(background);
+  FrameTiming ft;
+  FrameInput in = s.input();
+  for (int label : {int(label::kLiver), int(label::kKidneyRight)})
+    in.events.push_back({uiEvent(0.0, UiAction::LabelHandle, firstVoxelOf(s.phantom.labels, label)), 0.0});
+  s.driver->frame(in, ft);
+  in.events.clear();
+  for (const auto& [action, value] : std::vector<std::pair<UiAction, std::string>>{{UiAction::HandleUnion, "1,2"}, {UiAction::Undo, ""}})
+    in.events.push_back({uiEvent(0.1, action, value), 0.1});
+  const FrameOutcome edited = s.driver->frame(in, ft);
+  EXPECT_TRUE(edited.refused.empty());
+  EditedSession out;
+  out.editingAfterItsFrame = sel.editing();
+  out.handlesAfterItsFrame = sel.handles().handles().size();
+  in.events.clear();
+  for (int frame = 0; frame < 600 && sel.editing(); ++frame) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    s.driver->frame(in, ft);
+  }
+  EXPECT_FALSE(sel.editing());
+  s.driver->frame(in, ft);  // the mask of what landed last
+  out.handles = sel.handles().handles();
+  out.canUndo = sel.handles().canUndo();
+  out.canRedo = sel.handles().canRedo();
+  out.uploaded.assign(s.q.data.size(), 0);
+  const Eigen::Vector3i d = s.q.geometry.dims;
+  for (const MaskUpload& u : s.frames.uploads)
+    for (int k = 0; k < u.dims.z(); ++k)
+      for (int j = 0; j < u.dims.y(); ++j)
+        for (int i = 0; i < u.dims.x(); ++i)
+          out.uploaded[std::size_t(u.min.x() + i) + std::size_t(d.x()) * (std::size_t(u.min.y() + j) + std::size_t(d.y()) * std::size_t(u.min.z() + k))] =
+              u.ids[std::size_t(i) + std::size_t(u.dims.x()) * (std::size_t(j) + std::size_t(u.dims.y()) * std::size_t(k))];
+  return out;
+}
+
+}  // namespace
+
+TEST(FrameDriver, AnEditInTheBackgroundLandsAtALaterFrameAndTheEditsBehindItFollowInOrder) {
+  // The window's edits (app/session/selection_controller.h): the union is made on a worker, so
+  // the frame that makes it shows the handles as they were; the undo that came in the same frame
+  // waits behind it (made at once, it would take back the kidney's handle and the union would
+  // then land on top of it). Once in: the handles, their history and the mask the frames uploaded
+  // are those of the same actions made in the frame that makes them: the union undone.
+  const EditedSession now = editSession(false);
+  const EditedSession later = editSession(true);
+  EXPECT_FALSE(now.editingAfterItsFrame);
+  EXPECT_EQ(now.handlesAfterItsFrame, 2u);  // the union made and undone
+  EXPECT_TRUE(later.editingAfterItsFrame);
+  EXPECT_EQ(later.handlesAfterItsFrame, 2u);
+  ASSERT_EQ(now.handles.size(), 2u);
+  ASSERT_EQ(later.handles.size(), now.handles.size());
+  std::vector<std::uint8_t> painted(now.uploaded.size(), 0);
+  for (std::size_t i = 0; i < now.handles.size(); ++i) {
+    EXPECT_EQ(later.handles[i].id, now.handles[i].id);
+    EXPECT_EQ(later.handles[i].voxels, now.handles[i].voxels);
+    for (std::uint32_t v : now.handles[i].voxels) painted[v] = std::uint8_t(now.handles[i].id);
+  }
+  EXPECT_TRUE(now.canRedo);
+  EXPECT_EQ(later.canUndo, now.canUndo);
+  EXPECT_EQ(later.canRedo, now.canRedo);
+  EXPECT_EQ(now.uploaded, painted);
+  EXPECT_EQ(later.uploaded, painted);
 }
