@@ -85,6 +85,9 @@ struct EditOnCopy {
   int handle = 0;               ///< a pinch's handle (PinchEdit::handle)
   std::vector<Handle> after;    ///< the handles once edited (when changed)
   HandleSet::MaskChange mask;   ///< from the copy to `after`
+  /// The box (voxel indices, inclusive) of the mask's change and of a pinch's voxels: where the
+  /// shown ids may change when the edit is taken in (empty when boxMin > boxMax).
+  Eigen::Vector3i boxMin{0, 0, 0}, boxMax{-1, -1, -1};
 };
 /// applyPinch on a copy of the handles.
 EditOnCopy applyPinchOnCopy(std::vector<Handle> handles, std::vector<std::uint32_t> voxels, std::uint32_t seed, const PinchRequest& request,

@@ -212,8 +212,12 @@ struct Viewer::Impl {
     for (const auto& shown : swapchain->takeShown())
       if (const double ms = log.setDisplayed(shown.tag, seconds(shown.at, t0)); ms >= 0.0) status.displayLatencyMs = ms;
   }
-  std::string rescue() const {
+  std::string rescue() {
     if (!session || !selection) return "nothing to save yet";
+    try {
+      selection->finishEdits();  // the edits the user made, in the saved handles too
+    } catch (const std::exception&) {  // an edit that failed: the handles as they are
+    }
     return saveRecovery(*session, selection->handles(), selection->picked(), volume.dims(), o.exportDir);
   }
 };
@@ -375,7 +379,7 @@ void Viewer::Impl::pollInput(const Viewport& vp, std::vector<TouchEvent>& touche
         break;  // the next events in a later frame: after this one's effects (a handle made active starts its build)
       }
     }
-    if (playNext >= play->events.size() && now > playStart + play->duration() + 0.5) {
+    if (playNext >= play->events.size() && now > playStart + play->duration() + 0.5 && !selection->editing()) {
       if (++playRound < o.playRepeat) {
         playNext = 0;  // play it again from here, from the script's start
         playStart = now;
@@ -606,6 +610,7 @@ void Viewer::Impl::noteFailure() {
 }
 
 int Viewer::Impl::finish() {
+  if (selection) selection->finishEdits();  // the session's handles, its exports and records with every edit in
   const FrameResult last = frameNo ? renderer->waitLast() : FrameResult{};
   swapchain->settleDisplayTimes(std::chrono::milliseconds(500));
   takeDisplayTimes();

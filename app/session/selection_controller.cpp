@@ -43,12 +43,20 @@ SelectionController::~SelectionController() {
   }
 }
 
-void SelectionController::repaint(const std::vector<std::uint32_t>& voxels) {
-  for (std::uint32_t v : voxels) {
-    const Eigen::Vector3i p = volume_.geometry.voxelOf(v);
-    dirtyMin_ = dirtyMin_.cwiseMin(p);
-    dirtyMax_ = dirtyMax_.cwiseMax(p);
-    mask_[v] = ids_[v];
+void SelectionController::repaint(const std::vector<std::uint32_t>& voxels, const std::optional<VoxelBox>& box) {
+  if (box) {  // known: no voxel's coordinates needed
+    if ((box->first.array() <= box->second.array()).all()) {
+      dirtyMin_ = dirtyMin_.cwiseMin(box->first);
+      dirtyMax_ = dirtyMax_.cwiseMax(box->second);
+    }
+    for (std::uint32_t v : voxels) mask_[v] = ids_[v];
+  } else {
+    for (std::uint32_t v : voxels) {
+      const Eigen::Vector3i p = volume_.geometry.voxelOf(v);
+      dirtyMin_ = dirtyMin_.cwiseMin(p);
+      dirtyMax_ = dirtyMax_.cwiseMax(p);
+      mask_[v] = ids_[v];
+    }
   }
   for (std::uint32_t v : landing_) mask_[v] = HandleSet::kLiveSelectionId;
   for (std::uint32_t v : live_) mask_[v] = HandleSet::kLiveSelectionId;
@@ -60,7 +68,7 @@ void SelectionController::repaint(const std::vector<std::uint32_t>& voxels) {
   }
 }
 
-void SelectionController::relabel(const HandleSet::MaskChange& change, std::vector<std::uint32_t> also) {
+void SelectionController::relabel(const HandleSet::MaskChange& change, std::vector<std::uint32_t> also, const std::optional<VoxelBox>& box) {
   also.reserve(also.size() + change.cleared.size() + change.joined.size());
   for (std::uint32_t v : change.cleared) {
     ids_[v] = 0;
@@ -70,15 +78,15 @@ void SelectionController::relabel(const HandleSet::MaskChange& change, std::vect
     ids_[v] = id;
     also.push_back(v);
   }
-  repaint(also);
+  repaint(also, box);
 }
 
 void SelectionController::refreshLive() {
   std::vector<std::uint32_t> old = std::move(live_);
   live_ = pinch_.state() == PinchSelection::State::Growing ? pinch_.liveVoxels() : std::vector<std::uint32_t>{};
   if (auto done = pinch_.takeFinishedPinch()) {
-    if (editing()) queued_.push_back({std::nullopt, std::move(*done), pinch_.finishedSeed(), pinchOp_});
-    else startPinchEdit(std::move(*done), pinch_.finishedSeed(), pinchOp_);
+    if (editing()) queued_.push_back({std::nullopt, std::move(*done), pinch_.finishedSeed(), pinchOp_, picked_});
+    else startPinchEdit(std::move(*done), pinch_.finishedSeed(), pinchOp_, picked_);
   }
   // The GPU painted the live selection into its box: back to the handles' ids there.
   if (const auto box = gpu_ && !gpu_->growing() ? gpu_->takePaintedBox() : std::nullopt) {
@@ -232,14 +240,14 @@ bool SelectionController::labelHandle(const std::string& value) {
   return true;
 }
 
-int SelectionController::correctionTarget() const {
-  for (auto it = picked_.rbegin(); it != picked_.rend(); ++it)
+int SelectionController::correctionTarget(const std::vector<int>& picked) const {
+  for (auto it = picked.rbegin(); it != picked.rend(); ++it)
     if (handles_.find(*it)) return *it;
   return handles_.handles().empty() ? 0 : handles_.handles().back().id;
 }
 
-void SelectionController::startPinchEdit(FinishedPinch pinch, std::uint32_t seed, PinchOp op) {
-  const PinchRequest request{op, op == PinchOp::New ? 0 : correctionTarget(), corrections_};
+void SelectionController::startPinchEdit(FinishedPinch pinch, std::uint32_t seed, PinchOp op, const std::vector<int>& picked) {
+  const PinchRequest request{op, op == PinchOp::New ? 0 : correctionTarget(picked), corrections_};
   auto edit = [request, seed, g = volume_.geometry](std::vector<Handle> handles, FinishedPinch p) {
     return applyPinchOnCopy(std::move(handles), std::move(p).complete(), seed, request, g);
   };
@@ -248,27 +256,33 @@ void SelectionController::startPinchEdit(FinishedPinch pinch, std::uint32_t seed
     return;
   }
   const StageTimes::Scope t(stages_, "selection-edit");
-  landing_ = pinch.voxels;
+  landing_ = pinch.voxels;  // drawn as the live selection until it lands
   editIsPinch_ = true;
   editFuture_ = std::async(std::launch::async, edit, handles_.handles(), std::move(pinch));
 }
 
 bool SelectionController::correct(int a, int b, bool unite) {
   const StageTimes::Scope t(stages_, "selection-edit");
+  correctionNote_.clear();
+  editIsPinch_ = false;
+  editRefusal_ = unite ? "Union refused: both handles must exist and differ"
+                       : "Difference refused: it would leave nothing of the handle, or none of the other lies beyond a neck";
   if (!editsInBackground_) {
     EditOnCopy edit = correctOnCopy(handles_.handles(), a, b, unite, corrections_, volume_.geometry);
     const bool ok = edit.changed;
     takeIn(std::move(edit), false);
     return ok;
   }
-  if (a == b || !handles_.find(a) || !handles_.find(b)) return false;  // refused as the handles would refuse it
-  editIsPinch_ = false;
+  if (a == b || !handles_.find(a) || !handles_.find(b)) {  // refused as the handles would refuse it
+    correctionNote_ = editRefusal_;
+    return false;
+  }
   editFuture_ = std::async(std::launch::async, correctOnCopy, handles_.handles(), a, b, unite, corrections_, volume_.geometry);
   return true;
 }
 
 void SelectionController::takeIn(EditOnCopy edit, bool pinch) {
-  if (pinch) correctionNote_ = edit.refusal;
+  correctionNote_ = pinch ? edit.refusal : edit.changed ? std::string() : editRefusal_;
   std::vector<std::uint32_t> landed = std::exchange(landing_, {});
   if (edit.changed) {
     // A handle moved while the edit was made in the background keeps its new pose.
@@ -278,33 +292,54 @@ void SelectionController::takeIn(EditOnCopy edit, bool pinch) {
     picked_.erase(std::remove_if(picked_.begin(), picked_.end(), [&](int id) { return !handles_.find(id); }), picked_.end());
     tintsDirty_ = true;
   }
-  relabel(edit.mask, std::move(landed));
+  relabel(edit.mask, std::move(landed), VoxelBox{edit.boxMin, edit.boxMax});  // the box holds the landed pinch too
 }
 
 void SelectionController::poll() {
   if (editFuture_.valid() && editFuture_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
     const StageTimes::Scope t(stages_, "selection-edit");
-    takeIn(editFuture_.get(), editIsPinch_);
+    EditOnCopy edit;
+    try {
+      edit = editFuture_.get();
+    } catch (...) {  // the edit failed (its error goes on to the caller): the pinch is no longer drawn
+      queued_.clear();
+      repaint(std::exchange(landing_, {}));
+      throw;
+    }
+    takeIn(std::move(edit), editIsPinch_);
   }
   while (!editFuture_.valid() && !queued_.empty()) {  // the edits that waited, in order, until one goes to the background
     QueuedEdit q = std::move(queued_.front());
     queued_.pop_front();
-    if (q.ui) applyEdit(*q.ui);
-    else startPinchEdit(std::move(q.pinch), q.seed, q.op);
+    if (!q.ui) {
+      startPinchEdit(std::move(q.pinch), q.seed, q.op, q.picked);
+      repaint(landing_);  // a pinch that waited is drawn from now (it was repainted as it ended)
+      continue;
+    }
+    correctionNote_.clear();
+    if (!applyEdit(*q.ui, true) && correctionNote_.empty())
+      correctionNote_ = std::string(uiActionName(q.ui->action)) + " " + q.ui->value + " was refused";
+  }
+}
+
+void SelectionController::finishEdits() {
+  while (editing()) {
+    if (editFuture_.valid()) editFuture_.wait();
+    poll();
   }
 }
 
 bool SelectionController::applyUi(const ScriptEvent& e) {
   if (!isHandleEdit(e.action) || !editing()) return applyEdit(e);
   if ((grabPending_ || grabFrame_) && !manipulator_.active()) abandonGrab();
-  queued_.push_back({e, {}, kNoSeed, PinchOp::New});
+  queued_.push_back({e, {}, kNoSeed, PinchOp::New, {}});
   return true;
 }
 
-bool SelectionController::applyEdit(const ScriptEvent& e) {
+bool SelectionController::applyEdit(const ScriptEvent& e, bool waited) {
   // A handle edit (undo included) comes after a drag whose picks are not back: the drag is
-  // dropped rather than applied after the edit it preceded.
-  if ((grabPending_ || grabFrame_) && !manipulator_.active() && isHandleEdit(e.action)) abandonGrab();
+  // dropped rather than applied after the edit it preceded (an edit that waited did so when it came).
+  if (!waited && (grabPending_ || grabFrame_) && !manipulator_.active() && isHandleEdit(e.action)) abandonGrab();
   auto ids = [&](int& a, int& b) {  // "A,B", each a whole number written in full
     const auto comma = e.value.find(',');
     const std::string_view v = e.value;
@@ -403,6 +438,11 @@ void SelectionController::submitted(std::uint64_t frame) {
 void SelectionController::onGrabResult(const FrameResult& r) {
   grabFrame_.reset();
   if (grabPending_) return;  // a finger came down since: the grab that includes it answers instead
+  if (editing()) {  // a move now would be an undo step before the edit's: the handles wait for it
+    abandonGrab();
+    manipulationNote_ = "The selection is being edited: touch the handle again once it is done";
+    return;
+  }
   const std::vector<std::pair<std::int64_t, glm::dvec2>> sent = std::exchange(grabSent_, {});
   const bool lifted = std::exchange(grabLifted_, false);
   // The handle under the fingers: the one already being moved if a finger is on it, else the
@@ -472,7 +512,9 @@ void SelectionController::onFrameResult(const FrameResult& r) {
     tapFrame_.reset();
     if (tapOffset_ < r.picks.size() && r.picks[tapOffset_].world.w > 0.5f) {
       const int id = r.picks[tapOffset_].voxel.w;
-      if (id > 0 && handles_.find(id)) {
+      if (id == HandleSet::kLiveSelectionId) {
+        // The live selection, or a pinch whose edit is being made: not a handle yet.
+      } else if (id > 0 && handles_.find(id)) {
         picked_.erase(std::remove(picked_.begin(), picked_.end(), id), picked_.end());
         picked_.push_back(id);
         if (picked_.size() > 2) picked_.erase(picked_.begin());

@@ -15,9 +15,9 @@
 // Edits in the background (the window): a finished pinch (its voxels sorted and rimmed, then its
 // edit), a union and a difference are made on a copy of the handles by a worker thread and taken
 // in at the first frame after they are done (poll), so a liver-sized correction (hundreds of ms)
-// never holds a frame; handle edits that come meanwhile wait behind it, in order (moves of a
-// handle do not: they are carried over). Otherwise (replays, tests) each edit lands in the frame
-// that makes it: the same handles.
+// never holds a frame; handle edits and pinches that end meanwhile wait behind it, in order, and a
+// new grab of a handle waits too (a drag under way goes on, its pose carried over). Otherwise
+// (replays, tests) each edit lands in the frame that makes it: the same handles.
 #include <deque>
 #include <future>
 #include <memory>
@@ -55,7 +55,8 @@ class SelectionController {
   /// With every completed frame's results.
   void onFrameResult(const FrameResult& result);
   /// Handle edits; false for actions that are not the controller's or that were refused (an edit
-  /// waiting behind one in the background is accepted: its refusal shows in correctionNote()).
+  /// waiting behind one in the background, or made there, is accepted: a refusal shows later in
+  /// correctionNote()).
   bool applyUi(const ScriptEvent& e);
 
   /// Edits made in the background (the window) or in the frame that makes them (default).
@@ -63,6 +64,9 @@ class SelectionController {
   /// At the start of a frame: a background edit that is done is taken in, and the edits waiting
   /// behind it start.
   void poll();
+  /// Waits for the edits in the background and those behind them, and takes them in (a save, the
+  /// session's end).
+  void finishEdits();
   /// An edit is being made in the background or waits behind one.
   bool editing() const { return editFuture_.valid() || !queued_.empty(); }
 
@@ -105,29 +109,34 @@ class SelectionController {
   std::vector<std::pair<std::string, double>> takeStageTimes() { return stages_.take(); }
 
  private:
-  /// Voxels whose shown id may have changed: the handles' ids, the live selection over them.
-  void repaint(const std::vector<std::uint32_t>& voxels);
-  /// The handles' ids changed.
-  void relabel(const HandleSet::MaskChange& change, std::vector<std::uint32_t> also = {});
+  /// Voxels whose shown id may have changed: the handles' ids, the live selection over them; the
+  /// upload's box grows by theirs (`box`, inclusive voxel indices, when the caller knows it).
+  using VoxelBox = std::pair<Eigen::Vector3i, Eigen::Vector3i>;
+  void repaint(const std::vector<std::uint32_t>& voxels, const std::optional<VoxelBox>& box = std::nullopt);
+  /// The handles' ids changed (and `also` is to be repainted).
+  void relabel(const HandleSet::MaskChange& change, std::vector<std::uint32_t> also = {}, const std::optional<VoxelBox>& box = std::nullopt);
   bool labelHandle(const std::string& voxel);
   void refreshLive();
   void syncTints();
   // Edits (app/session/selection_controller.h's head): a handle edit now, or behind the one in
   // the background; a finished pinch's edit started (in the background or made now); an edit
   // made on a copy taken in.
-  bool applyEdit(const ScriptEvent& e);
+  bool applyEdit(const ScriptEvent& e, bool waited = false);
   bool correct(int a, int b, bool unite);
-  void startPinchEdit(FinishedPinch pinch, std::uint32_t seed, PinchOp op);
+  /// `picked`: the handles tapped as the pinch ended (a correction's target: correctionTarget).
+  void startPinchEdit(FinishedPinch pinch, std::uint32_t seed, PinchOp op, const std::vector<int>& picked);
   void takeIn(EditOnCopy edit, bool pinch);
   struct QueuedEdit {
     std::optional<ScriptEvent> ui;  // a UI action, else a finished pinch
     FinishedPinch pinch;
     std::uint32_t seed = kNoSeed;
     PinchOp op = PinchOp::New;
+    std::vector<int> picked;  // as the pinch ended
   };
   bool editsInBackground_ = false;
   std::future<EditOnCopy> editFuture_;
   bool editIsPinch_ = false;
+  std::string editRefusal_;  // what a union or difference says when the handles refuse it
   std::deque<QueuedEdit> queued_;
   std::vector<std::uint32_t> landing_;  // a pinch whose edit is in the background: drawn as the live selection
 
@@ -195,8 +204,8 @@ class SelectionController {
   CorrectionRule corrections_ = CorrectionRule::Neck;
   PinchOp pinchOp_ = PinchOp::New;
   std::string correctionNote_;
-  /// The handle a correction pinch edits: the one tapped last, else the newest (0: none).
-  int correctionTarget() const;
+  /// The handle a correction pinch edits: the one of `picked` tapped last, else the newest (0: none).
+  int correctionTarget(const std::vector<int>& picked) const;
   std::string labelNote_;
   StageTimes stages_;
   SelectionBackendChoice backend_;

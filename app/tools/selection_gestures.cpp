@@ -114,23 +114,42 @@ Pinched appPinch(PinchSelection& pinch, const VolumeGeometry& g, const Eigen::Ve
 
 double ms(std::chrono::steady_clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
 
-// A change of handle ids painted as the app paints it: the ids, and the box to upload (its voxels).
-std::size_t paintChange(const HandleSet::MaskChange& c, std::vector<std::uint8_t>& ids, const VolumeGeometry& g) {
-  Eigen::Vector3i lo = g.dims, hi(-1, -1, -1);
-  auto box = [&](std::uint32_t v) {
-    const Eigen::Vector3i p = g.voxelOf(v);
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  };
-  for (std::uint32_t v : c.cleared) {
-    ids[v] = 0;
-    box(v);
-  }
-  for (const auto& [v, id] : c.joined) {
-    ids[v] = id;
-    box(v);
-  }
-  return (lo.array() <= hi.array()).all() ? Box{lo, hi}.size() : 0;
+// A change of handle ids painted as the app paints it: the ids, the pinch that was drawn meanwhile
+// back to them; the box to upload (its voxels), the edit's.
+std::size_t paintChange(const EditOnCopy& e, const std::vector<std::uint32_t>& landed, std::vector<std::uint8_t>& ids, std::vector<std::uint8_t>& mask) {
+  for (std::uint32_t v : e.mask.cleared) ids[v] = 0;
+  for (const auto& [v, id] : e.mask.joined) ids[v] = id;
+  for (std::uint32_t v : e.mask.cleared) mask[v] = ids[v];
+  for (const auto& [v, id] : e.mask.joined) mask[v] = ids[v];
+  for (std::uint32_t v : landed) mask[v] = ids[v];
+  return (e.boxMin.array() <= e.boxMax.array()).all() ? std::size_t((e.boxMax - e.boxMin + Eigen::Vector3i::Ones()).prod()) : 0;
+}
+
+// The app's grids of handle ids: the handles' alone, and as shown.
+struct AppMask {
+  std::vector<std::uint8_t> ids, shown;
+};
+
+// A finished pinch's edit as the window makes it (app/session/selection_controller.h): the handles
+// and the pinch's voxels copied, the edit taken in and its voxels and the pinch's repainted on the
+// frame's thread; the pinch's voxels sorted and rimmed and the edit itself on a worker.
+EditOnCopy editAsTheWindowDoes(HandleSet& handles, AppMask& m, Pinched p, const PinchRequest& request, const VolumeGeometry& g, GestureStep& s) {
+  std::vector<std::uint8_t>& ids = m.ids;
+  std::vector<std::uint8_t>& mask = m.shown;
+  const auto t1 = std::chrono::steady_clock::now();
+  std::vector<Handle> copy = handles.handles();
+  const std::vector<std::uint32_t> landing = p.finished.voxels;  // drawn as the live selection meanwhile
+  const auto t2 = std::chrono::steady_clock::now();
+  std::vector<std::uint32_t> voxels = std::move(p.finished).complete();
+  s.pinchVoxels = voxels.size();
+  EditOnCopy edit = applyPinchOnCopy(std::move(copy), std::move(voxels), p.seed, request, g);
+  const auto t3 = std::chrono::steady_clock::now();
+  if (edit.changed) handles.replace(std::move(edit.after));
+  s.uploadVoxels = paintChange(edit, landing, ids, mask);
+  const auto t4 = std::chrono::steady_clock::now();
+  s.editMs = ms(t4 - t1);
+  s.editFrameMs = ms(t2 - t1) + ms(t4 - t3);
+  return edit;
 }
 
 // Dice, precision and recall of a selection (ascending voxels) against the organ's mask.
@@ -209,22 +228,16 @@ OrganGestures runGestureProtocol(const std::string& dataset, const Volume& ct, c
   HandleSet handles;
   int selection = 0;
   std::vector<std::uint8_t> selectedMask(organMask.size(), 0);
-  std::vector<std::uint8_t> ids(organMask.size(), 0);  // the app's mask of handle ids
+  AppMask appMask{std::vector<std::uint8_t>(organMask.size(), 0), std::vector<std::uint8_t>(organMask.size(), 0)};
   for (int n = 1; n <= protocol.gestures; ++n) {
     GestureStep s;
     s.gesture = n;
     const auto t0 = std::chrono::steady_clock::now();
+    PinchRequest request{PinchOp::New, 0, protocol.corrections};
     if (n == 1) {
       s.target = first;
       s.spreadMm = radius;
       s.regionVoxels = organVoxels;
-      Pinched p = appPinch(pinch, g, first, radius);
-      std::vector<std::uint32_t> voxels = std::move(p.finished).complete();
-      s.pinchVoxels = voxels.size();
-      s.liftMs = p.liftMs;
-      selection = applyPinch(handles, std::move(voxels), p.seed, {PinchOp::New, 0, protocol.corrections}, g).handle;
-      s.uploadVoxels = paintChange(HandleSet::maskChange({}, handles.handles()), ids, g);
-      s.refused = selection == 0;
     } else {
       const ErrorRegion e = largestErrorRegion(organMask, selectedMask, g);
       if (e.target.voxels.empty()) break;  // the selection is the organ
@@ -232,29 +245,13 @@ OrganGestures runGestureProtocol(const std::string& dataset, const Volume& ct, c
       s.target = e.target.deepest;
       s.spreadMm = e.target.spreadMm;
       s.regionVoxels = e.target.voxels.size();
-      Pinched p = appPinch(pinch, g, s.target, s.spreadMm);
-      s.liftMs = p.liftMs;
-      // As the window makes it (app/session/selection_controller.h): the handles copied and the
-      // edit taken in on the frame's thread; the pinch's voxels sorted and rimmed and the edit
-      // itself on a worker.
-      const PinchRequest request{e.missed ? PinchOp::Add : PinchOp::Remove, selection, protocol.corrections};
-      const auto t1 = std::chrono::steady_clock::now();
-      std::vector<Handle> copy = handles.handles();
-      const auto t2 = std::chrono::steady_clock::now();
-      std::vector<std::uint32_t> voxels = std::move(p.finished).complete();
-      s.pinchVoxels = voxels.size();
-      EditOnCopy edit = applyPinchOnCopy(std::move(copy), std::move(voxels), p.seed, request, g);
-      const auto t3 = std::chrono::steady_clock::now();
-      if (edit.changed) {
-        handles.replace(std::move(edit.after));
-        s.uploadVoxels = paintChange(edit.mask, ids, g);
-      }
-      const auto t4 = std::chrono::steady_clock::now();
-      s.refused = edit.handle == 0;
-      if (edit.handle) selection = edit.handle;
-      s.editMs = ms(t4 - t1);
-      s.editFrameMs = ms(t2 - t1) + ms(t4 - t3);
+      request = {e.missed ? PinchOp::Add : PinchOp::Remove, selection, protocol.corrections};
     }
+    Pinched p = appPinch(pinch, g, s.target, s.spreadMm);
+    s.liftMs = p.liftMs;
+    const EditOnCopy edit = editAsTheWindowDoes(handles, appMask, std::move(p), request, g, s);
+    s.refused = edit.handle == 0;
+    if (edit.handle) selection = edit.handle;
     s.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const Handle* h = handles.find(selection);
     const std::vector<std::uint32_t> none;

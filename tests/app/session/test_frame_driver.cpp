@@ -243,6 +243,35 @@ std::string firstVoxelOf(const Volume& labels, int label) {
   return "";
 }
 
+// The phantom's liver and right kidney as handles 1 and 2 (label-handle actions in one frame), with
+// edits in the background or not.
+struct LabelledScene {
+  DriverScene s;
+  LabelMap labels = labelsOnGrid(s.phantom.labels, s.phantom.ct.geometry());
+  SelectionController& sel = *s.parts.selection;
+  FrameTiming ft;
+  FrameInput in = s.input();
+  explicit LabelledScene(bool background) {
+    sel.setLabels(&labels);
+    sel.setEditsInBackground(background);
+    for (int label : {int(label::kLiver), int(label::kKidneyRight)})
+      in.events.push_back({uiEvent(0.0, UiAction::LabelHandle, firstVoxelOf(s.phantom.labels, label)), 0.0});
+    s.driver->frame(in, ft);
+  }
+  FrameOutcome frame(std::vector<FrameInput::Event> events) {
+    in.events = std::move(events);
+    return s.driver->frame(in, ft);
+  }
+  // Frames with no input until the edits are in (at most 3 s).
+  void untilEditsAreIn() {
+    for (int n = 0; n < 600 && sel.editing(); ++n) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      frame({});
+    }
+    EXPECT_FALSE(sel.editing());
+  }
+};
+
 struct EditedSession {
   std::vector<Handle> handles;
   bool canUndo = false, canRedo = false;
@@ -254,31 +283,16 @@ struct EditedSession {
 // The liver and the right kidney made handles; then, in one frame, their union and an undo;
 // frames until the edits are in.
 EditedSession editSession(bool background) {
-  DriverScene s;
-  const LabelMap labels = labelsOnGrid(s.phantom.labels, s.phantom.ct.geometry());
-  SelectionController& sel = *s.parts.selection;
-  sel.setLabels(&labels);
-  sel.setEditsInBackground(background);
-  FrameTiming ft;
-  FrameInput in = s.input();
-  for (int label : {int(label::kLiver), int(label::kKidneyRight)})
-    in.events.push_back({uiEvent(0.0, UiAction::LabelHandle, firstVoxelOf(s.phantom.labels, label)), 0.0});
-  s.driver->frame(in, ft);
-  in.events.clear();
-  for (const auto& [action, value] : std::vector<std::pair<UiAction, std::string>>{{UiAction::HandleUnion, "1,2"}, {UiAction::Undo, ""}})
-    in.events.push_back({uiEvent(0.1, action, value), 0.1});
-  const FrameOutcome edited = s.driver->frame(in, ft);
+  LabelledScene l(background);
+  const FrameOutcome edited = l.frame({{uiEvent(0.1, UiAction::HandleUnion, "1,2"), 0.1}, {uiEvent(0.1, UiAction::Undo), 0.1}});
   EXPECT_TRUE(edited.refused.empty());
   EditedSession out;
-  out.editingAfterItsFrame = sel.editing();
-  out.handlesAfterItsFrame = sel.handles().handles().size();
-  in.events.clear();
-  for (int frame = 0; frame < 600 && sel.editing(); ++frame) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    s.driver->frame(in, ft);
-  }
-  EXPECT_FALSE(sel.editing());
-  s.driver->frame(in, ft);  // the mask of what landed last
+  out.editingAfterItsFrame = l.sel.editing();
+  out.handlesAfterItsFrame = l.sel.handles().handles().size();
+  l.untilEditsAreIn();
+  DriverScene& s = l.s;
+  SelectionController& sel = l.sel;
+  l.frame({});  // the mask of what landed last
   out.handles = sel.handles().handles();
   out.canUndo = sel.handles().canUndo();
   out.canRedo = sel.handles().canRedo();
@@ -320,4 +334,19 @@ TEST(FrameDriver, AnEditInTheBackgroundLandsAtALaterFrameAndTheEditsBehindItFoll
   EXPECT_EQ(later.canRedo, now.canRedo);
   EXPECT_EQ(now.uploaded, painted);
   EXPECT_EQ(later.uploaded, painted);
+}
+
+TEST(FrameDriver, AnEditRefusedInTheBackgroundOrBehindOneSaysSoInThePanel) {
+  // A union of a handle with itself is refused at once, with the note; a delete of a handle that
+  // does not exist, waiting behind a union in the background, is accepted when it comes and its
+  // refusal shows once it is made.
+  LabelledScene l(true);
+  const SelectionController& sel = l.sel;
+  EXPECT_EQ(l.frame({{uiEvent(0.1, UiAction::HandleUnion, "1,1"), 0.1}}).refused.size(), 1u);
+  EXPECT_NE(sel.correctionNote().find("Union refused"), std::string::npos) << sel.correctionNote();
+  // Both accepted: the delete waits.
+  EXPECT_TRUE(l.frame({{uiEvent(0.2, UiAction::HandleUnion, "1,2"), 0.2}, {uiEvent(0.2, UiAction::HandleDelete, "7"), 0.2}}).refused.empty());
+  l.untilEditsAreIn();
+  EXPECT_EQ(sel.handles().handles().size(), 1u);
+  EXPECT_EQ(sel.correctionNote(), "handle-delete 7 was refused");
 }
