@@ -350,3 +350,33 @@ TEST(FrameDriver, AnEditRefusedInTheBackgroundOrBehindOneSaysSoInThePanel) {
   EXPECT_EQ(sel.handles().handles().size(), 1u);
   EXPECT_EQ(sel.correctionNote(), "handle-delete 7 was refused");
 }
+
+TEST(FrameDriver, AGrabOfAHandleWaitsForAnEditInTheBackground) {
+  // A grab answered while a union is being made in the background would put its undo step before
+  // the union's: it is refused with a note and the handle stays; once the union is in, the same
+  // grab anchors and a drag moves the handle. The grab's pick is answered by hand (the recording
+  // renderer draws nothing): handle 1 under the finger.
+  LabelledScene l(true);
+  const SelectionController& sel = l.sel;
+  l.frame({{uiEvent(0.1, UiAction::SetMode, "manipulate"), 0.1}});
+  auto grabAndDrag = [&](double t, std::vector<FrameInput::Event> first) {
+    first.push_back({touchEvent(t, TouchPhase::Down, 1, {32.0, 24.0}), t});
+    FrameResult picked;
+    picked.frame = l.frame(std::move(first)).frame;
+    gpu::PickResult hit{};
+    hit.world = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
+    hit.voxel = glm::ivec4(0, 0, 0, 1);
+    picked.picks.push_back(hit);
+    l.s.driver->completed(picked);
+    l.frame({{touchEvent(t + 0.05, TouchPhase::Move, 1, {40.0, 24.0}), t + 0.05}});
+    l.frame({{touchEvent(t + 0.1, TouchPhase::Up, 1, {40.0, 24.0}), t + 0.1}});
+  };
+  grabAndDrag(0.2, {{uiEvent(0.2, UiAction::HandleUnion, "1,2"), 0.2}});  // the union, then the finger, in one frame
+  EXPECT_NE(sel.manipulationNote().find("being edited"), std::string::npos) << sel.manipulationNote();
+  l.untilEditsAreIn();
+  ASSERT_EQ(sel.handles().handles().size(), 1u);
+  EXPECT_TRUE(sel.handles().handles()[0].pose.isIdentity());
+  grabAndDrag(1.0, {});
+  EXPECT_EQ(sel.manipulationNote().find("being edited"), std::string::npos) << sel.manipulationNote();
+  EXPECT_FALSE(sel.handles().handles()[0].pose.isIdentity());
+}
