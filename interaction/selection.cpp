@@ -67,9 +67,9 @@ void PinchSelection::finish() {
   if (state_ == State::Growing && grower_) {
     std::optional<std::vector<std::uint32_t>> voxels;
     if (growingOn_) onEngine([&voxels](GrowthEngine& g) { voxels = g.finish(); });
-    finished_ = FinishedPinch{voxels ? std::move(*voxels) : liveVoxels(), std::nullopt};  // liveVoxels: the CPU's, also after a fallback
-    if (params_.boundaryRim) finished_->rim.emplace(*grower_);
     finishedSeed_ = std::uint32_t(linearIndex(volume_.geometry, grower_->setup().seed));
+    finished_ = FinishedPinch{voxels ? std::move(*voxels) : liveVoxels(), std::nullopt, finishedSeed_};  // liveVoxels: the CPU's, also after a fallback
+    if (params_.boundaryRim) finished_->rim.emplace(*grower_);
     changed_ = true;
   }
   growingOn_ = nullptr;

@@ -39,6 +39,7 @@ class GrowthEngine {
 struct FinishedPinch {
   std::vector<std::uint32_t> voxels;     ///< as grown, in any order
   std::optional<BoundaryRimRule> rim;    ///< set when GrowParams::boundaryRim
+  std::uint32_t seed = 0xffffffffu;      ///< the voxel it grew from (PinchSelection::finishedSeed)
   /// The final voxels: ascending, with their boundary rim (withBoundaryRim).
   std::vector<std::uint32_t> complete() &&;
 };

@@ -181,15 +181,13 @@ void growBox(EditOnCopy& e, std::uint32_t v, const VolumeGeometry& g) {
   e.boxMax = e.boxMax.cwiseMax(p);
 }
 
-EditOnCopy tookIn(const std::vector<Handle>& before, HandleSet& edited, const VolumeGeometry& g) {
-  EditOnCopy out;
+// The edited set taken out of `edited` into `out`, with the mask's change from `before` and its box.
+void tookIn(const std::vector<Handle>& before, HandleSet& edited, const VolumeGeometry& g, EditOnCopy& out) {
   out.changed = true;
   out.after = edited.handles();
   out.mask = HandleSet::maskChange(before, out.after);
-  out.boxMin = g.dims;
   for (std::uint32_t v : out.mask.cleared) growBox(out, v, g);
   for (const auto& [v, id] : out.mask.joined) growBox(out, v, g);
-  return out;
 }
 
 }  // namespace
@@ -197,23 +195,20 @@ EditOnCopy tookIn(const std::vector<Handle>& before, HandleSet& edited, const Vo
 EditOnCopy applyPinchOnCopy(std::vector<Handle> handles, std::vector<std::uint32_t> voxels, std::uint32_t seed, const PinchRequest& request,
                             const VolumeGeometry& g) {
   HandleSet set(handles);
-  EditOnCopy pinchBox;
-  pinchBox.boxMin = g.dims;
-  for (std::uint32_t v : voxels) growBox(pinchBox, v, g);
-  const PinchEdit edit = applyPinch(set, std::move(voxels), seed, request, g);
   EditOnCopy out;
-  if (edit.handle != 0) out = tookIn(handles, set, g);
+  for (std::uint32_t v : voxels) growBox(out, v, g);  // the pinch drawn meanwhile is repainted too
+  const PinchEdit edit = applyPinch(set, std::move(voxels), seed, request, g);
+  if (edit.handle != 0) tookIn(handles, set, g, out);
   out.refusal = edit.refusal;
   out.handle = edit.handle;
-  out.boxMin = out.changed ? out.boxMin.cwiseMin(pinchBox.boxMin) : pinchBox.boxMin;
-  out.boxMax = out.boxMax.cwiseMax(pinchBox.boxMax);
   return out;
 }
 
 EditOnCopy correctOnCopy(std::vector<Handle> handles, int a, int b, bool unite, CorrectionRule rule, const VolumeGeometry& g) {
   HandleSet set(handles);
-  const bool ok = unite ? uniteHandle(set, a, b, rule, g) : subtractHandle(set, a, b, rule, g);
-  return ok ? tookIn(handles, set, g) : EditOnCopy{};
+  EditOnCopy out;
+  if (unite ? uniteHandle(set, a, b, rule, g) : subtractHandle(set, a, b, rule, g)) tookIn(handles, set, g, out);
+  return out;
 }
 
 }  // namespace handson

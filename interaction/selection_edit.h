@@ -3,6 +3,7 @@
 // takes away what leaked into it, not the organ it leaked from; a pinch united with it adds the
 // structure it was placed on, not what it leaked into.
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -87,7 +88,8 @@ struct EditOnCopy {
   HandleSet::MaskChange mask;   ///< from the copy to `after`
   /// The box (voxel indices, inclusive) of the mask's change and of a pinch's voxels: where the
   /// shown ids may change when the edit is taken in (empty when boxMin > boxMax).
-  Eigen::Vector3i boxMin{0, 0, 0}, boxMax{-1, -1, -1};
+  Eigen::Vector3i boxMin = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
+  Eigen::Vector3i boxMax = Eigen::Vector3i::Constant(-1);
 };
 /// applyPinch on a copy of the handles.
 EditOnCopy applyPinchOnCopy(std::vector<Handle> handles, std::vector<std::uint32_t> voxels, std::uint32_t seed, const PinchRequest& request,

@@ -44,20 +44,17 @@ SelectionController::~SelectionController() {
 }
 
 void SelectionController::repaint(const std::vector<std::uint32_t>& voxels, const std::optional<VoxelBox>& box) {
-  if (box) {  // known: no voxel's coordinates needed
-    if ((box->first.array() <= box->second.array()).all()) {
-      dirtyMin_ = dirtyMin_.cwiseMin(box->first);
-      dirtyMax_ = dirtyMax_.cwiseMax(box->second);
-    }
-    for (std::uint32_t v : voxels) mask_[v] = ids_[v];
+  if (box) {  // known: no voxel's coordinates needed (an empty box leaves the dirty box as it is)
+    dirtyMin_ = dirtyMin_.cwiseMin(box->first);
+    dirtyMax_ = dirtyMax_.cwiseMax(box->second);
   } else {
     for (std::uint32_t v : voxels) {
       const Eigen::Vector3i p = volume_.geometry.voxelOf(v);
       dirtyMin_ = dirtyMin_.cwiseMin(p);
       dirtyMax_ = dirtyMax_.cwiseMax(p);
-      mask_[v] = ids_[v];
     }
   }
+  for (std::uint32_t v : voxels) mask_[v] = ids_[v];
   for (std::uint32_t v : landing_) mask_[v] = HandleSet::kLiveSelectionId;
   for (std::uint32_t v : live_) mask_[v] = HandleSet::kLiveSelectionId;
   if (gpu_ && !voxels.empty()) {  // the handles changed under a pinch growing on the GPU
@@ -85,8 +82,8 @@ void SelectionController::refreshLive() {
   std::vector<std::uint32_t> old = std::move(live_);
   live_ = pinch_.state() == PinchSelection::State::Growing ? pinch_.liveVoxels() : std::vector<std::uint32_t>{};
   if (auto done = pinch_.takeFinishedPinch()) {
-    if (editing()) queued_.push_back({std::nullopt, std::move(*done), pinch_.finishedSeed(), pinchOp_, picked_});
-    else startPinchEdit(std::move(*done), pinch_.finishedSeed(), pinchOp_, picked_);
+    if (editing()) queued_.push_back({std::nullopt, std::move(*done), pinchOp_, picked_});
+    else startPinchEdit(std::move(*done), pinchOp_, picked_);
   }
   // The GPU painted the live selection into its box: back to the handles' ids there.
   if (const auto box = gpu_ && !gpu_->growing() ? gpu_->takePaintedBox() : std::nullopt) {
@@ -246,9 +243,10 @@ int SelectionController::correctionTarget(const std::vector<int>& picked) const 
   return handles_.handles().empty() ? 0 : handles_.handles().back().id;
 }
 
-void SelectionController::startPinchEdit(FinishedPinch pinch, std::uint32_t seed, PinchOp op, const std::vector<int>& picked) {
+void SelectionController::startPinchEdit(FinishedPinch pinch, PinchOp op, const std::vector<int>& picked) {
   const PinchRequest request{op, op == PinchOp::New ? 0 : correctionTarget(picked), corrections_};
-  auto edit = [request, seed, g = volume_.geometry](std::vector<Handle> handles, FinishedPinch p) {
+  auto edit = [request, g = volume_.geometry](std::vector<Handle> handles, FinishedPinch p) {
+    const std::uint32_t seed = p.seed;
     return applyPinchOnCopy(std::move(handles), std::move(p).complete(), seed, request, g);
   };
   if (!editsInBackground_) {
@@ -312,7 +310,7 @@ void SelectionController::poll() {
     QueuedEdit q = std::move(queued_.front());
     queued_.pop_front();
     if (!q.ui) {
-      startPinchEdit(std::move(q.pinch), q.seed, q.op, q.picked);
+      startPinchEdit(std::move(q.pinch), q.op, q.picked);
       repaint(landing_);  // a pinch that waited is drawn from now (it was repainted as it ended)
       continue;
     }
@@ -332,7 +330,7 @@ void SelectionController::finishEdits() {
 bool SelectionController::applyUi(const ScriptEvent& e) {
   if (!isHandleEdit(e.action) || !editing()) return applyEdit(e);
   if ((grabPending_ || grabFrame_) && !manipulator_.active()) abandonGrab();
-  queued_.push_back({e, {}, kNoSeed, PinchOp::New, {}});
+  queued_.push_back({e, {}, PinchOp::New, {}});
   return true;
 }
 

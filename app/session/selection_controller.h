@@ -124,12 +124,11 @@ class SelectionController {
   bool applyEdit(const ScriptEvent& e, bool waited = false);
   bool correct(int a, int b, bool unite);
   /// `picked`: the handles tapped as the pinch ended (a correction's target: correctionTarget).
-  void startPinchEdit(FinishedPinch pinch, std::uint32_t seed, PinchOp op, const std::vector<int>& picked);
+  void startPinchEdit(FinishedPinch pinch, PinchOp op, const std::vector<int>& picked);
   void takeIn(EditOnCopy edit, bool pinch);
   struct QueuedEdit {
     std::optional<ScriptEvent> ui;  // a UI action, else a finished pinch
     FinishedPinch pinch;
-    std::uint32_t seed = kNoSeed;
     PinchOp op = PinchOp::New;
     std::vector<int> picked;  // as the pinch ended
   };

@@ -79,8 +79,7 @@ void eachComponent(const Box& box, const VolumeGeometry& g, const std::vector<st
 // depth-picks on either side of it, spread so that the app's extent is `spreadMm`; one lifts.
 // Returns the finished selection (with its boundary rim when the rules say so) and its seed.
 struct Pinched {
-  FinishedPinch finished;  // its voxels as grown (complete(): sorted and rimmed)
-  std::uint32_t seed = kNoSeed;
+  FinishedPinch finished;  // its voxels as grown (complete(): sorted and rimmed) and its seed
   double liftMs = 0.0;  // the fingers lifted (the frame's thread)
 };
 Pinched appPinch(PinchSelection& pinch, const VolumeGeometry& g, const Eigen::Vector3i& target, double spreadMm) {
@@ -109,7 +108,7 @@ Pinched appPinch(PinchSelection& pinch, const VolumeGeometry& g, const Eigen::Ve
   const double liftMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - lift).count();
   auto done = pinch.takeFinishedPinch();
   if (!done) return {};
-  return {std::move(*done), pinch.finishedSeed(), liftMs};
+  return {std::move(*done), liftMs};
 }
 
 double ms(std::chrono::steady_clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
@@ -140,9 +139,10 @@ EditOnCopy editAsTheWindowDoes(HandleSet& handles, AppMask& m, Pinched p, const 
   std::vector<Handle> copy = handles.handles();
   const std::vector<std::uint32_t> landing = p.finished.voxels;  // drawn as the live selection meanwhile
   const auto t2 = std::chrono::steady_clock::now();
+  const std::uint32_t seed = p.finished.seed;
   std::vector<std::uint32_t> voxels = std::move(p.finished).complete();
   s.pinchVoxels = voxels.size();
-  EditOnCopy edit = applyPinchOnCopy(std::move(copy), std::move(voxels), p.seed, request, g);
+  EditOnCopy edit = applyPinchOnCopy(std::move(copy), std::move(voxels), seed, request, g);
   const auto t3 = std::chrono::steady_clock::now();
   if (edit.changed) handles.replace(std::move(edit.after));
   s.uploadVoxels = paintChange(edit, landing, ids, mask);
