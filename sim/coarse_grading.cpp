@@ -26,11 +26,15 @@ void CoarseModel::buildGradedLeaves(const CoarseGrading& grading, std::vector<st
   graded_ = true;
   const Eigen::Vector3i C = CG.cells();
   const TetMesh& F = meshes_.fine;
-  // Cells whose box, widened by the split distance, holds a handle node.
+  // Cells whose box, widened by the split distance, holds a handle node or a sliding interface's
+  // node (so none of these is a hanging node: a slide node follows its handle's surface normally).
   std::vector<char> split(CG.cellCount(), 0);
+  std::vector<char> near(F.nodes.size(), 0);
+  for (std::size_t n = 0; n < F.nodes.size(); ++n) near[n] = constraints_.handleOf[n] >= 0;
+  for (const SlideNode& s : constraints_.slide) near[std::size_t(s.node)] = 1;
   const double reach = grading.splitWithinCells * CG.cell().maxCoeff();
   for (std::size_t n = 0; n < F.nodes.size(); ++n) {
-    if (constraints_.handleOf[n] < 0) continue;
+    if (!near[n]) continue;
     const Eigen::Vector3d p = F.nodes[n] - CG.origin();
     Eigen::Vector3i lo, hi;
     for (int a = 0; a < 3; ++a) {

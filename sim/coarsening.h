@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -168,6 +169,10 @@ class CoarseModel {
   /// units, sign, moment centre), from the condensed blocks alone - no fine work. Throws
   /// handson::Error on a size mismatch.
   std::vector<HandleReaction> handleReactions(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const;
+  /// The elastic energy the coarse state x stores (N mm, i.e. mJ): sum_e 1/2 q_e^T H_e q_e over the
+  /// condensed elements in the solve's frames, springs included. For a translation U of a handle in
+  /// the linear regime the force along U is 2E/|U| (Clapeyron): a check of handleReactions().
+  double storedEnergy(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) const;
 
   /// The reconstruction packed for the GPU interpolation pass (see sim/fine_interpolation.h).
   FineInterpolationData interpolationData() const;
@@ -238,6 +243,16 @@ class CoarseModel {
     Eigen::Matrix<double, Eigen::Dynamic, 9> A;
     Eigen::Matrix<double, Eigen::Dynamic, 3> B;
   };
+  /// A sliding interface's springs' share of an element's condensed energy: the element's blocks
+  /// (K_h 3n x 3n, the handles' A and B in the element's handle order, Q 12h x 12h) with K the
+  /// springs' alone and the element's shape functions (condensed with tissue and springs together),
+  /// so the element's blocks are the tissue's plus these. handleReactions() takes the two apart: the
+  /// tissue's in its moment-free frame, the springs' in the solve's corner-fit frame, in which their
+  /// normals are fixed (sim/handle_reaction.cpp).
+  struct SpringPart {
+    Eigen::MatrixXd Kh, Q;
+    std::vector<HandleBlock> handles;
+  };
   struct Element {
     std::array<int, 8> node{};  ///< coarse corner nodes (first n)
     /// The handles' condensed stiffness against their unit motions (12h x 12h, h = handles.size(),
@@ -248,6 +263,7 @@ class CoarseModel {
     Eigen::Matrix3d fitInv;     ///< (sum dX dX^T)^-1 of the rest corners about their centroid
     std::array<Eigen::Vector3d, 8> dX;
     std::vector<HandleBlock> handles;
+    std::optional<SpringPart> springs;  ///< sliding interfaces: the springs' share of Kh, handles and Q
   };
   struct InteriorNode {
     int fine, element;
@@ -264,7 +280,6 @@ class CoarseModel {
     Eigen::Matrix<double, 8, 1> N;  ///< weights of the element's corners (first n)
   };
   Eigen::Matrix3d elementRotation(int e, const std::vector<Eigen::Vector3d>& x) const;
-  std::vector<char> interfaceElement_;
   /// An element's condensed load in the frame R (sim/handle_reaction.cpp): corner displacements d
   /// (3n), handle motion parameters p (12h), corner forces K_h d + sum_a [A_a B_a] p_a (3n), and per
   /// handle the gradient g_a against its 12 motion parameters.
@@ -342,14 +357,26 @@ class CoarseModel {
   std::vector<int> localNodes(int e, const Element& el, ConformingBuild& b) const;
   ElementSystem elementSystem(int e, const Element& el, const std::vector<int>& nodes, ConformingBuild& b) const;
   void condenseInterior(int e, ElementSystem& sys) const;
-  void addHandleCoupling(Element& el, const ElementSystem& sys, const Eigen::MatrixXd& KPhic) const;
+  /// The condensed blocks of stiffness K (the element's, or its springs' share) with the system's
+  /// shape functions: Kh = Phi_c^T K Phi_c, the handles' A and B from Phi_c^T K Phi_D, and Q.
+  void condenseBlocks(const ElementSystem& sys, const Eigen::MatrixXd& K, Eigen::MatrixXd& Kh, std::vector<HandleBlock>& handles,
+                      Eigen::MatrixXd& Q) const;
+  /// An element's tissue part (its blocks less its springs') or springs' part, as an element.
+  static Element energyPart(const Element& el, bool springs);
+  /// The rotation of the handle a springs' part couples to (energyPart(el, true)): their forces
+  /// are normal to its surface, which turns with it.
+  static Eigen::Matrix3d springsRotation(const Element& springs, const std::vector<RigidTransform>& handles);
+  /// Adds element el's forces (its load L, in an element frame) taken to the world by Rc to the
+  /// reactions of the handles it touches.
+  void addElementReaction(const Element& el, const Eigen::Matrix3d& Rc, const ElementLoad& L, const std::vector<Eigen::Vector3d>& x,
+                          const std::vector<RigidTransform>& handles, std::vector<HandleReaction>& r) const;
   void recordReconstruction(int e, const ElementSystem& sys, ConformingBuild& b);
   /// All corners with a weight in w are held (fixed).
   bool onHeldCorners(const Element& el, const Eigen::Matrix<double, 8, 1>& w) const;
   /// Symmetrizes el.Kh and derives KhX, the corners' offsets and fitInv.
   void finishElement(Element& el) const;
   /// Adds the blocks of one handle node at rest position X (blk: 3n x 3, K_hd's columns of the node).
-  void addHandleBlock(Element& el, int handle, const Eigen::Vector3d& X, const Eigen::Ref<const Eigen::MatrixXd>& blk) const;
+  void addHandleBlock(std::vector<HandleBlock>& blocks, int handle, const Eigen::Vector3d& X, const Eigen::Ref<const Eigen::MatrixXd>& blk) const;
   static void addInteriorHandleBlock(InteriorNode& in, int handle, const Eigen::Vector3d& X, const Eigen::Matrix3d& blk);
   VecE handleTerm(const Element& el, const Eigen::Matrix3d& Rc, const std::vector<RigidTransform>& handles) const;
 

@@ -21,7 +21,8 @@ namespace handson {
 namespace {
 
 constexpr char kMagic[8] = {'H', 'S', 'I', 'M', 'C', 'A', 'C', '1'};
-constexpr std::uint32_t kFormat = 2;
+// 3: a coarse element keeps its sliding springs' share of its blocks apart (CoarseModel::SpringPart).
+constexpr std::uint32_t kFormat = 3;
 
 // Two FNV-1a 64-bit hashes with different offsets: a 128-bit key.
 struct Hasher {

@@ -306,12 +306,6 @@ BenchSimOptions parseBenchSimOptions(const Args& args) {
   o.settings.materials = args.value("--materials") ? MaterialTable::load(*args.value("--materials")) : MaterialTable::ctDefault();
   tissueRuleOptions(args, "--", o.settings);
   interfaceOption(args, "--", o.settings);
-  // Graded cells are glued-only (CoarseModel refuses them with a sliding interface): measured by
-  // default with glued, skipped with sliding unless asked for (then refused).
-  if (o.settings.interface == SimSettings::Interface::Sliding) {
-    if (args.value("--graded-split") && o.gradedSplit >= 0) throw UsageError("--graded-split needs --interface glued: graded cells with a sliding interface are not right yet");
-    o.gradedSplit = -1.0;
-  }
   return o;
 }
 

@@ -151,8 +151,6 @@ void coarseModelOptions(const Args& args, const std::string& prefix, SimSettings
     throw UsageError(prefix + "graded-split needs the pcg coarse solver");
   tissueRuleOptions(args, prefix, settings);
   interfaceOption(args, prefix, settings);
-  if (settings.grading.graded() && settings.interface == SimSettings::Interface::Sliding)
-    throw UsageError(prefix + "graded-split needs the glued interface (" + prefix + "interface glued): graded cells with a sliding interface are not right yet");
 }
 
 void tissueRuleOptions(const Args& args, const std::string& prefix, SimSettings& settings) {

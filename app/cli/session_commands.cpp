@@ -98,7 +98,7 @@ const char* const kSimHelp =
     "  --sim-coarse-solver pcg|assembled  the coarse solve: matrix-free PCG (default) or the assembled\n"
     "                          warped stiffness refactorized every third frame (the old one, kept to compare)\n"
     "  --sim-graded-split CELLS  graded cells: halve the coarse cells within CELLS cell sizes of a\n"
-    "                          handle (off by default; --sim-interface glued only; see handson deform --help)\n"
+    "                          handle (off by default; see handson deform --help)\n"
     "  --sim-fine-mesh regular|adapted  fine mesh (default regular; see handson deform --help)\n"
     "  --sim-cache DIR|off     preprocessing cache (scene + coarse model; a second open of the same\n"
     "                          volume, handles and settings skips it): default $HANDSON_CACHE_DIR,\n"

@@ -129,14 +129,15 @@ TEST(SlidingInterface, TheMasksNormalOnABallIsRadial) {
 }
 
 // A ball of radius 8 mm (1 mm voxels) in uniform soft tissue (30 HU: E 6 kPa, nu 0.45) padded by
-// 32 mm (4 radii, where the glued ball's force is 1.04x the unbounded medium's), with the interface.
-SimScene ballInSoftTissue(SimSettings::Interface interface, int coarse) {
+// 32 mm (4 radii, where the glued ball's force is 1.04x the unbounded medium's), with the interface;
+// `finePerCoarse` fine tets per coarse one (m^3: 64 for graded cells, which need m even).
+SimScene ballInSoftTissue(SimSettings::Interface interface, int coarse, int finePerCoarse = 27) {
   Ball b(121, 8.0);
   Volume ct(b.g, ScalarType::Int16);
   for (std::size_t i = 0; i < ct.voxelCount(); ++i) ct.setValue(i, 30.0f);
   SimSettings s;
   s.coarseTets = coarse;
-  s.fineTets = coarse * 27;
+  s.fineTets = coarse * finePerCoarse;
   s.paddingMm = 32.0;
   s.interface = interface;
   return buildSimScene(ct, {SimHandle{b.voxels, {}}}, s);
@@ -303,14 +304,32 @@ TEST(SlidingInterface, TheCoarseModelSlidesAndRefinementConvergesToTheFineAnswer
   EXPECT_LT(compareDeformation(sc, T, x, fine.x).rmsOfMotion, 0.01);
 }
 
-TEST(SlidingInterface, GradedCellsAreRefusedWithASlidingInterface) {
-  // Graded cells with a sliding interface: converged, the coarse force is 0.55x (split 0) to 0.69x
-  // (split 1) the refined one for the phantom's kidney moved 6 mm at 4,700 coarse tets, a ball's 0.39x
-  // (the 12 mm of motion first seen was an unconverged solve): refused with a clear error; glued
-  // they build.
-  const SimScene sc = ballInSoftTissue(SimSettings::Interface::Sliding, 300);
-  ASSERT_FALSE(sc.constraints.slide.empty());
-  EXPECT_THROW(CoarseModel(sc.meshes, sc.fineK, sc.constraints, {}, CoarseElement::Cell, CoarseGrading{0.0}), Error);
+TEST(SlidingInterface, TheCoarseReactionOfASlidingBallIsTheWorkItsSolutionStores) {
+#if defined(HANDSON_TEST_SANITIZED)
+  GTEST_SKIP() << "a scene of 200k fine tets condensed three ways: the release suite runs it";
+#endif
+  // Translated U in the linear regime, the force along U is 2E/U (Clapeyron), E the energy the
+  // coarse state stores (springs included, in the solve's own frames). The reaction takes the
+  // tissue's part in each element's moment-free frame and the springs' in the solve's: within 5 %
+  // of 2E/U for uniform and graded cells (measured 1.001x uniform, 0.989x and 0.963x graded split 0
+  // and 1). With the springs in the moment-free frame too, graded cells gave 0.29x and 0.17x here:
+  // that frame turns the springs' normals against the nodes' slip. Against the closed form (0.202 N;
+  // the fine reference 0.206 N) the coarse model is stiffer, as on every scene (measured 1.32x,
+  // 1.35x, 1.17x): within 1.5x.
+  const SimScene sc = ballInSoftTissue(SimSettings::Interface::Sliding, 3200, 64);
+  const std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], Eigen::Vector3d::Zero(), Eigen::Vector3d(1, 0, 0))};
+  const double G = 6000.0 / 2.9, nu = 0.45;
+  const double closed = 24 * M_PI * G * 8.0 * (1 - nu) / (7 - 8 * nu) * 1e-6;  // N (the test above)
+  for (const double split : {-1.0, 0.0, 1.0}) {
+    CoarseModel model(sc.meshes, sc.fineK, sc.constraints, {}, CoarseElement::Cell, CoarseGrading{split});
+    auto xc = model.restState();
+    ASSERT_TRUE(model.solve(T, xc, 5000, 1e-9).converged);
+    const double along = -model.handleReactions(T, xc)[0].forceN.x(), work = 2.0 * model.storedEnergy(T, xc);
+    std::printf("split %.0f: reaction along the motion %.4f N, 2E/U %.4f N (%.3fx), %.2fx the closed form\n", split, along, work, along / work, along / closed);
+    EXPECT_NEAR(along, work, 0.05 * work) << "split " << split;
+    EXPECT_GT(along, closed);
+    EXPECT_LT(along, 1.5 * closed);
+  }
 }
 
 }  // namespace

@@ -447,8 +447,7 @@ TEST_F(Cli, DeformOnTheGpuAgreesWithTheCpuReference) {
                              " --handle-label 4 --coarse-tets 300 --fine-tets 19200 --quiet --translate-mm 10,0,0 --rotate-deg 0,0,30 ";
   // coarse: the interpolation pass from the coarse state; refined: fine positions uploaded.
   // Graded cells (hanging nodes in the state, through the same pass and the refinement's transfers).
-  // (Graded cells are glued-only.)
-  for (const char* extra : {"--model coarse", "--model coarse --refine-steps 2", "--model coarse --graded-split 0 --interface glued",
+  for (const char* extra : {"--model coarse", "--model coarse --refine-steps 2", "--model coarse --graded-split 0",
                             "--model coarse --graded-split 0 --refine-steps 2 --interface glued"}) {
     CliRun r = runHandson(common + extra + " -o " + p("cpu.nii.gz"));
     ASSERT_EQ(r.status, 0) << r.output;
@@ -481,8 +480,7 @@ TEST_F(Cli, SimulationOptionsAreCheckedBeforeAnyWork) {
       {"bench deform --coarse-element hex", 2},
       {"replay --sim-fine-mesh fancy", 2},
       {"replay --sim-graded-split 11", 2},
-      {"replay --sim-graded-split 0", 2},  // graded cells need the glued interface (sliding is the default)
-      {"deform /nonexistent.nii.gz --handle x.nii.gz --translate-mm 1,0,0 -o y.nii.gz --graded-split 0 --interface sliding", 2},
+      {"deform /nonexistent.nii.gz --handle x.nii.gz --translate-mm 1,0,0 -o y.nii.gz --graded-split 0 --interface stuck", 2},
       {"replay --sim-graded-split 0 --sim-coarse-element tet", 2},
       {"replay --sim-graded-split 1 --sim-coarse-solver assembled", 2},
       {"deform /nonexistent.nii.gz --handle x.nii.gz --translate-mm 1,0,0 -o y.nii.gz --graded-split nan", 2},

@@ -231,7 +231,6 @@ TEST(DeformationController, GradedCellsAreSimulatedRefinedAndDrawn) {
   DeformationOptions o = small();
   o.sim.fineTets = 300 * 64;  // 4 fine cells per coarse cell: half-size cells need an even count
   o.sim.grading.splitWithinCells = 0.0;
-  o.sim.interface = SimSettings::Interface::Glued;  // graded cells are glued-only
   o.refineSteps = 2;
   DeformationController dc(s.phantom.ct, s.q, *s.renderer, o);
   const auto t0 = Clock::now();
