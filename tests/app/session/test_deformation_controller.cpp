@@ -12,9 +12,7 @@
 #include "render/deform_pass.h"
 #include "render/render_params.h"
 #include "render/transfer_function.h"
-#include "render/vk_context.h"
-#include "sim/phantom.h"
-#include "sim/quantized_volume.h"
+#include "tests/app/session/phantom_on_gpu.h"
 
 using namespace handson;
 
@@ -22,24 +20,10 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-struct Scene {
-  std::unique_ptr<vk::Context> ctx;
-  Phantom phantom;
-  QuantizedVolume q;
-  std::unique_ptr<VolumeRenderer> renderer;
+struct Scene : test::PhantomOnGpu {
   std::vector<std::uint32_t> kidney, liver;
   gpu::RenderParams params{};
   Scene() {
-    vk::ContextOptions co;
-    co.validation = true;
-    co.requireValidation = true;
-    ctx = std::make_unique<vk::Context>(co);
-    PhantomOptions po;
-    po.spacingMm = 4.0;
-    phantom = makePhantom(po);
-    q = quantizeVolume(phantom.ct);
-    renderer = std::make_unique<VolumeRenderer>(*ctx);
-    renderer->setVolume(q);
     renderer->setTransferFunction(transferFunctionPreset("ct-abdomen").lookupTable(q));
     const auto* lab = phantom.labels.data<std::uint8_t>();
     for (std::size_t i = 0; i < phantom.labels.voxelCount(); ++i) {

@@ -16,11 +16,11 @@
 #include "app/session/session_parts.h"
 #include "render/render_params.h"
 #include "render/transfer_function.h"
-#include "render/vk_context.h"
 #include "interaction/camera.h"
 #include "interaction/label_map.h"
 #include "interaction/view_adjust.h"
 #include "sim/phantom.h"
+#include "tests/app/session/phantom_on_gpu.h"
 
 using namespace handson;
 
@@ -54,11 +54,8 @@ class RecordingRenderer final : public FrameRenderer {
   std::vector<std::string>& calls_;
 };
 
-struct DriverScene {
-  std::unique_ptr<vk::Context> ctx;
-  Phantom phantom;
-  QuantizedVolume q;
-  std::unique_ptr<VolumeRenderer> renderer;  // the controllers' (their GPU passes and uploads)
+// The renderer: the controllers' (their GPU passes and uploads).
+struct DriverScene : test::PhantomOnGpu {
   std::unique_ptr<Session> session;
   SessionParts parts;
   std::vector<std::string> calls;
@@ -67,16 +64,6 @@ struct DriverScene {
   const Viewport vp{64, 48};
 
   DriverScene() {
-    vk::ContextOptions co;
-    co.validation = true;
-    co.requireValidation = true;
-    ctx = std::make_unique<vk::Context>(co);
-    PhantomOptions po;
-    po.spacingMm = 4.0;
-    phantom = makePhantom(po);
-    q = quantizeVolume(phantom.ct);
-    renderer = std::make_unique<VolumeRenderer>(*ctx);
-    renderer->setVolume(q);
     session = std::make_unique<Session>(phantom.ct.geometry(), vp, "ct-abdomen");
     SessionOptions o;
     o.quiet = true;
