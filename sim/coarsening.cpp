@@ -137,7 +137,7 @@ struct CoarseModel::ElementSystem {
   std::vector<int> nodes;
   ElementNodes roles;
   Mat K, Phic, PhiD, H, G;
-  Mat Ks;  ///< the sliding springs' share of K (3n' x 3n'; empty without springs)
+  bool slides = false;  ///< it holds springs or slide nodes on its faces
 };
 
 void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::vector<std::vector<int>>& tetsOf, const ProgressFn& progress) {
@@ -166,13 +166,9 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
     }
     ElementSystem sys = elementSystem(int(e), el, nodes, b);
     condenseInterior(int(e), sys);
-    condenseBlocks(sys, sys.K, el.Kh, el.handles, el.Q);
+    condenseBlocks(sys, el);
     finishElement(el);
-    if (sys.Ks.size() > 0) {
-      SpringPart sp;
-      condenseBlocks(sys, sys.Ks, sp.Kh, sp.handles, sp.Q);
-      el.springs = std::move(sp);
-    }
+    el.slides = sys.slides;
     recordReconstruction(int(e), sys, b);
   }
 }
@@ -218,9 +214,8 @@ CoarseModel::ElementSystem CoarseModel::elementSystem(int e, const Element& el, 
         const int li = b.local[F.tets[std::size_t(t)][std::size_t(i)]], lj = b.local[F.tets[std::size_t(t)][std::size_t(j)]];
         sys.K.block<3, 3>(3 * li, 3 * lj) += b.fineK[std::size_t(t)].block<3, 3>(3 * i, 3 * j);
       }
-  if (!springs.empty()) sys.Ks = Mat::Zero(3 * ng, 3 * ng);
-  for (std::size_t g = 0; g < springs.size(); ++g) addGhost(sys.Ks, b.local[constraints_.slide[std::size_t(springs[g])].node], n + int(g), b.slide, springs[g], roles);
-  if (!springs.empty()) sys.K += sys.Ks;
+  for (std::size_t g = 0; g < springs.size(); ++g) addGhost(sys.K, b.local[constraints_.slide[std::size_t(springs[g])].node], n + int(g), b.slide, springs[g], roles);
+  sys.slides = !springs.empty() || !roles.S.empty();
   const std::size_t firstSurfaceGhost = roles.D.size();
   for (std::size_t j = 0; j < roles.S.size(); ++j) {
     const SlideNode& sn = constraints_.slide[std::size_t(b.slide.slideOf[std::size_t(nodes[std::size_t(roles.S[j])])])];
@@ -262,26 +257,25 @@ void CoarseModel::condenseInterior(int e, ElementSystem& sys) const {
 // Kh = Phi_c^T K Phi_c (3nc x 3nc); per handle among the D nodes its blocks of
 // K_hd = Phi_c^T K Phi_D (3nc x 3nD); and the handles' own condensed stiffness for their reactions,
 // Q = (Phi_D U)^T K (Phi_D U), U (3nD x 12h) each D node's 12 unit motions in its handle's columns
-// (the blocks' order, first appearance among the D nodes, so every K gives the same order).
-void CoarseModel::condenseBlocks(const ElementSystem& sys, const Mat& K, Mat& Kh, std::vector<HandleBlock>& handles, Mat& Q) const {
-  const Mat KPhic = K * sys.Phic;
-  Kh = sys.Phic.transpose() * KPhic;
-  Kh = 0.5 * (Kh + Kh.transpose()).eval();
+// (el.handles order).
+void CoarseModel::condenseBlocks(const ElementSystem& sys, Element& el) const {
+  const Mat KPhic = sys.K * sys.Phic;
+  el.Kh = sys.Phic.transpose() * KPhic;
   const ElementNodes& roles = sys.roles;
   const int nD = int(roles.D.size());
   if (nD == 0) return;
   const Mat Khd = KPhic.transpose() * sys.PhiD;  // 3nc x 3nD
-  for (int i = 0; i < nD; ++i) addHandleBlock(handles, roles.Dhandle[std::size_t(i)], roles.DX[std::size_t(i)], Khd.middleCols(3 * i, 3));
-  const int h = int(handles.size());
+  for (int i = 0; i < nD; ++i) addHandleBlock(el.handles, roles.Dhandle[std::size_t(i)], roles.DX[std::size_t(i)], Khd.middleCols(3 * i, 3));
+  const int h = int(el.handles.size());
   Mat U = Mat::Zero(3 * nD, 12 * h);
   for (int i = 0; i < nD; ++i) {
     const int hd = roles.Dhandle[std::size_t(i)];
-    const auto it = std::find_if(handles.begin(), handles.end(), [&](const HandleBlock& hb) { return hb.handle == hd; });
-    U.block<3, 12>(3 * i, 12 * int(it - handles.begin())) = unitMotions(roles.DX[std::size_t(i)]);
+    const auto it = std::find_if(el.handles.begin(), el.handles.end(), [&](const HandleBlock& hb) { return hb.handle == hd; });
+    U.block<3, 12>(3 * i, 12 * int(it - el.handles.begin())) = unitMotions(roles.DX[std::size_t(i)]);
   }
   const Mat PU = sys.PhiD * U;
-  Q = PU.transpose() * (K * PU);
-  Q = 0.5 * (Q + Q.transpose()).eval();
+  el.Q = PU.transpose() * (sys.K * PU);
+  el.Q = 0.5 * (el.Q + el.Q.transpose()).eval();
 }
 
 // The fine nodes' reconstruction records: slide nodes on faces (the first element's record) and
@@ -444,14 +438,7 @@ void CoarseModel::save(std::ostream& os) const {
       w.matrix(h.B);
     }
     if (!el.handles.empty()) w.matrix(el.Q);
-    w.pod(std::uint8_t(el.springs.has_value()));
-    if (!el.springs) continue;
-    w.matrix(el.springs->Kh);
-    for (const auto& h : el.springs->handles) {  // the element's handles, in its order
-      w.matrix(h.A);
-      w.matrix(h.B);
-    }
-    if (!el.handles.empty()) w.matrix(el.springs->Q);
+    w.pod(std::uint8_t(el.slides));
   }
   w.pod(std::uint64_t(interior_.size()));
   for (const auto& in : interior_) {
@@ -512,18 +499,9 @@ std::unique_ptr<CoarseModel> CoarseModel::load(std::istream& is, std::uint64_t b
       r.matrix(h.B, 3 * nc, 3);
     }
     if (nh > 0) r.matrix(el.Q, 12 * Eigen::Index(nh), 12 * Eigen::Index(nh));
-    const auto springs = r.pod<std::uint8_t>();
-    if (springs > 1) throw Error("cache file corrupt (spring part)");
-    if (springs == 0) continue;
-    SpringPart& sp = el.springs.emplace();
-    r.matrix(sp.Kh, 3 * nc, 3 * nc);
-    sp.handles.resize(nh);
-    for (std::size_t a = 0; a < nh; ++a) {
-      sp.handles[a].handle = el.handles[a].handle;
-      r.matrix(sp.handles[a].A, 3 * nc, 9);
-      r.matrix(sp.handles[a].B, 3 * nc, 3);
-    }
-    if (nh > 0) r.matrix(sp.Q, 12 * Eigen::Index(nh), 12 * Eigen::Index(nh));
+    const auto slides = r.pod<std::uint8_t>();
+    if (slides > 1) throw Error("cache file corrupt (sliding flag)");
+    el.slides = slides != 0;
   }
   const auto ni = r.pod<std::uint64_t>();
   if (ni > nf) throw Error("cache file corrupt (interior nodes)");

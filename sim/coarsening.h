@@ -22,7 +22,6 @@
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
-#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -243,16 +242,6 @@ class CoarseModel {
     Eigen::Matrix<double, Eigen::Dynamic, 9> A;
     Eigen::Matrix<double, Eigen::Dynamic, 3> B;
   };
-  /// A sliding interface's springs' share of an element's condensed energy: the element's blocks
-  /// (K_h 3n x 3n, the handles' A and B in the element's handle order, Q 12h x 12h) with K the
-  /// springs' alone and the element's shape functions (condensed with tissue and springs together),
-  /// so the element's blocks are the tissue's plus these. handleReactions() takes the two apart: the
-  /// tissue's in its moment-free frame, the springs' in the solve's corner-fit frame, in which their
-  /// normals are fixed (sim/handle_reaction.cpp).
-  struct SpringPart {
-    Eigen::MatrixXd Kh, Q;
-    std::vector<HandleBlock> handles;
-  };
   struct Element {
     std::array<int, 8> node{};  ///< coarse corner nodes (first n)
     /// The handles' condensed stiffness against their unit motions (12h x 12h, h = handles.size(),
@@ -263,7 +252,9 @@ class CoarseModel {
     Eigen::Matrix3d fitInv;     ///< (sum dX dX^T)^-1 of the rest corners about their centroid
     std::array<Eigen::Vector3d, 8> dX;
     std::vector<HandleBlock> handles;
-    std::optional<SpringPart> springs;  ///< sliding interfaces: the springs' share of Kh, handles and Q
+    /// It holds a sliding interface's nodes (springs, or slide nodes held on its faces): their
+    /// normals are fixed in the element's frame, so handleReactions() takes it in the solve's frame.
+    bool slides = false;
   };
   struct InteriorNode {
     int fine, element;
@@ -357,17 +348,10 @@ class CoarseModel {
   std::vector<int> localNodes(int e, const Element& el, ConformingBuild& b) const;
   ElementSystem elementSystem(int e, const Element& el, const std::vector<int>& nodes, ConformingBuild& b) const;
   void condenseInterior(int e, ElementSystem& sys) const;
-  /// The condensed blocks of stiffness K (the element's, or its springs' share) with the system's
-  /// shape functions: Kh = Phi_c^T K Phi_c, the handles' A and B from Phi_c^T K Phi_D, and Q.
-  void condenseBlocks(const ElementSystem& sys, const Eigen::MatrixXd& K, Eigen::MatrixXd& Kh, std::vector<HandleBlock>& handles,
-                      Eigen::MatrixXd& Q) const;
-  /// An element's tissue part (its blocks less its springs') or springs' part, as an element.
-  static Element energyPart(const Element& el, bool springs);
-  /// The rotation of the handle a springs' part couples to (energyPart(el, true)): their forces
-  /// are normal to its surface, which turns with it.
-  static Eigen::Matrix3d springsRotation(const Element& springs, const std::vector<RigidTransform>& handles);
-  /// Adds element el's forces (its load L, in an element frame) taken to the world by Rc to the
-  /// reactions of the handles it touches.
+  /// The condensed blocks with the system's shape functions: Kh = Phi_c^T K Phi_c, the handles' A
+  /// and B from Phi_c^T K Phi_D, and Q.
+  void condenseBlocks(const ElementSystem& sys, Element& el) const;
+  /// Adds element el's forces in frame Rc (its load L) to the reactions of the handles it touches.
   void addElementReaction(const Element& el, const Eigen::Matrix3d& Rc, const ElementLoad& L, const std::vector<Eigen::Vector3d>& x,
                           const std::vector<RigidTransform>& handles, std::vector<HandleReaction>& r) const;
   void recordReconstruction(int e, const ElementSystem& sys, ConformingBuild& b);

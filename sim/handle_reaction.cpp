@@ -12,10 +12,8 @@
 // (x_D = R_k X_D + t_k; moments about the world origin), and the handle's coarse corners receive
 // their rows of -R_e (K_h d + h_e) with moments x_c x f_c. No fine work: a pass over the elements.
 // R_e is not the solve's corner-fit rotation but the element's moment-free frame, where E_e is
-// stationary (stationaryRotation; docs/simulation-outputs.md, "Reaction force and torque"). With a
-// sliding interface the element's blocks are the tissue's plus its springs' (SpringPart): the
-// tissue's in its moment-free frame, the springs' loaded in the corner-fit frame and their forces
-// taken to the world by their handle's rotation.
+// stationary (stationaryRotation; docs/simulation-outputs.md, "Reaction force and torque"), except
+// in an element that holds a sliding interface, whose normals are fixed in the solve's frame.
 #include "sim/handle_reaction.h"
 
 #include <algorithm>
@@ -236,34 +234,6 @@ Eigen::Matrix3d CoarseModel::stationaryRotation(const Element& el, const Eigen::
   return R;  // the frame of least |m| found (L is its load)
 }
 
-CoarseModel::Element CoarseModel::energyPart(const Element& el, bool springs) {
-  const SpringPart& sp = *el.springs;
-  Element part;
-  part.node = el.node;
-  part.Kh = springs ? sp.Kh : Eigen::MatrixXd(el.Kh - sp.Kh);
-  part.Q = springs ? sp.Q : Eigen::MatrixXd(el.Q - sp.Q);
-  part.handles = springs ? sp.handles : el.handles;
-  if (!springs)
-    for (std::size_t a = 0; a < part.handles.size(); ++a) {
-      part.handles[a].A -= sp.handles[a].A;
-      part.handles[a].B -= sp.handles[a].B;
-    }
-  return part;
-}
-
-Eigen::Matrix3d CoarseModel::springsRotation(const Element& springs, const std::vector<RigidTransform>& handles) {
-  // The springs' handle: the one their blocks couple to (the others' blocks are zero); where two
-  // handles' interfaces meet in one element, the one with the stiffer share.
-  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
-  double most = 0.0;
-  for (const HandleBlock& b : springs.handles)
-    if (b.B.norm() > most) {
-      most = b.B.norm();
-      R = handles[std::size_t(b.handle)].R;
-    }
-  return R;
-}
-
 void CoarseModel::addElementReaction(const Element& el, const Eigen::Matrix3d& Rc, const ElementLoad& L, const std::vector<Eigen::Vector3d>& x,
                                      const std::vector<RigidTransform>& handles, std::vector<HandleReaction>& r) const {
   // The handles' coarse corners: their rows of the element force.
@@ -299,28 +269,21 @@ std::vector<HandleReaction> CoarseModel::handleReactions(const std::vector<Rigid
     if (el.handles.empty() && !handleCorner) continue;
     // Each element at a handle in the frame where its energy is stationary; one whose corners and
     // other handle nodes all belong to one handle moves rigidly with it (its interior condensed to
-    // follow), and its corner fit is that frame already. A sliding interface's springs are loaded
-    // in the frame the solve balanced them in, the corner fit (their normals are fixed in the
-    // element's frame, and turning it by an angle t changes a spring's gap by t times the node's
-    // slip, at a hundred times the tissue's stiffness), and their forces, normal to the handle's
-    // surface, turn with the handle into the world (docs/simulation-outputs.md).
+    // follow), and its corner fit is that frame already. One that holds a sliding interface in the
+    // solve's own frame, the corner fit: the interface's normals are fixed in the element's frame,
+    // so another frame turns them against the tissue's slip and changes the gaps the solve
+    // balanced, at a hundred times the tissue's stiffness (docs/simulation-outputs.md).
     bool rigid = coarseRole_[std::size_t(el.node[0])] >= 0;
     for (int c = 0; c < nc; ++c) rigid = rigid && coarseRole_[std::size_t(el.node[std::size_t(c)])] == coarseRole_[std::size_t(el.node[0])];
     for (const auto& b : el.handles) rigid = rigid && b.handle == coarseRole_[std::size_t(el.node[0])];
     const Eigen::Matrix3d Rfit = elementRotation(int(e), x);
-    if (rigid) {
+    if (rigid || el.slides) {
       addElementReaction(el, Rfit, elementLoad(el, Rfit, x, handles), x, handles, r);
       continue;
     }
-    if (el.springs) {
-      const Element springs = energyPart(el, true);
-      addElementReaction(springs, springsRotation(springs, handles), elementLoad(springs, Rfit, x, handles), x, handles, r);
-    }
-    const Element tissuePart = el.springs ? energyPart(el, false) : Element{};
-    const Element& tissue = el.springs ? tissuePart : el;
     ElementLoad L;
-    const Eigen::Matrix3d Rc = stationaryRotation(tissue, Rfit, x, handles, L);
-    addElementReaction(tissue, Rc, L, x, handles, r);
+    const Eigen::Matrix3d Rc = stationaryRotation(el, Rfit, x, handles, L);
+    addElementReaction(el, Rc, L, x, handles, r);
   }
   r.pop_back();
   return aboutCentroids(std::move(r), handleRestCentroid_, given);

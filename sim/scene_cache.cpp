@@ -21,7 +21,7 @@ namespace handson {
 namespace {
 
 constexpr char kMagic[8] = {'H', 'S', 'I', 'M', 'C', 'A', 'C', '1'};
-// 3: a coarse element keeps its sliding springs' share of its blocks apart (CoarseModel::SpringPart).
+// 3: a coarse element records whether it holds a sliding interface (CoarseModel::Element::slides).
 constexpr std::uint32_t kFormat = 3;
 
 // Two FNV-1a 64-bit hashes with different offsets: a 128-bit key.
