@@ -81,7 +81,7 @@ TEST_P(FineInterpolationKinds, PackedFloatReferenceEqualsTheModelsReconstruction
 
 TEST(FineInterpolation, GradedCellsPackLikeTheirReconstruction) {
   // Hanging nodes are coarse nodes like any other (their positions in the state), never face records.
-  // (Graded cells are glued-only.)
+  // (Glued: with a sliding interface the cells at the handle split too, and fewer nodes hang.)
   const Scene s = kidneyScene(SimSettings::Interface::Glued);
   CoarseModel model(s.scene.meshes, s.scene.fineK, s.scene.constraints, {}, CoarseElement::Cell, CoarseGrading{0.0});
   ASSERT_GT(model.hangingNodeCount(), 0u);
