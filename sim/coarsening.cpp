@@ -265,7 +265,7 @@ void CoarseModel::condenseBlocks(const ElementSystem& sys, Element& el) const {
   const int nD = int(roles.D.size());
   if (nD == 0) return;
   const Mat Khd = KPhic.transpose() * sys.PhiD;  // 3nc x 3nD
-  for (int i = 0; i < nD; ++i) addHandleBlock(el.handles, roles.Dhandle[std::size_t(i)], roles.DX[std::size_t(i)], Khd.middleCols(3 * i, 3));
+  for (int i = 0; i < nD; ++i) addHandleBlock(el, roles.Dhandle[std::size_t(i)], roles.DX[std::size_t(i)], Khd.middleCols(3 * i, 3));
   const int h = int(el.handles.size());
   Mat U = Mat::Zero(3 * nD, 12 * h);
   for (int i = 0; i < nD; ++i) {
@@ -385,14 +385,14 @@ void CoarseModel::finishElement(Element& el) const {
   el.fitInv = M.inverse();
 }
 
-void CoarseModel::addHandleBlock(std::vector<HandleBlock>& blocks, int handle, const Eigen::Vector3d& X, const Eigen::Ref<const Eigen::MatrixXd>& blk) const {
-  auto it = std::find_if(blocks.begin(), blocks.end(), [&](const HandleBlock& b) { return b.handle == handle; });
-  if (it == blocks.end()) {
+void CoarseModel::addHandleBlock(Element& el, int handle, const Eigen::Vector3d& X, const Eigen::Ref<const Eigen::MatrixXd>& blk) const {
+  auto it = std::find_if(el.handles.begin(), el.handles.end(), [&](const HandleBlock& b) { return b.handle == handle; });
+  if (it == el.handles.end()) {
     HandleBlock hb{handle, {}, {}};
     hb.A.setZero(3 * nc_, 9);
     hb.B.setZero(3 * nc_, 3);
-    blocks.push_back(std::move(hb));
-    it = blocks.end() - 1;
+    el.handles.push_back(std::move(hb));
+    it = el.handles.end() - 1;
   }
   for (int c = 0; c < 3; ++c) it->A.middleCols(3 * c, 3) += X[c] * blk;
   it->B += blk;

@@ -360,7 +360,7 @@ class CoarseModel {
   /// Symmetrizes el.Kh and derives KhX, the corners' offsets and fitInv.
   void finishElement(Element& el) const;
   /// Adds the blocks of one handle node at rest position X (blk: 3n x 3, K_hd's columns of the node).
-  void addHandleBlock(std::vector<HandleBlock>& blocks, int handle, const Eigen::Vector3d& X, const Eigen::Ref<const Eigen::MatrixXd>& blk) const;
+  void addHandleBlock(Element& el, int handle, const Eigen::Vector3d& X, const Eigen::Ref<const Eigen::MatrixXd>& blk) const;
   static void addInteriorHandleBlock(InteriorNode& in, int handle, const Eigen::Vector3d& X, const Eigen::Matrix3d& blk);
   VecE handleTerm(const Element& el, const Eigen::Matrix3d& Rc, const std::vector<RigidTransform>& handles) const;
 
