@@ -24,6 +24,9 @@
 //     rotations cannot map A_0 onto A(R) there (the phantom's sliding kidney moved 10 mm and turned
 //     30 degrees from rest: 143 iterations with A_0 throughout, 81 refreshed). A frame's three
 //     iterations never refactorize: a refresh costs as much as ~9 of them.
+//  5. Uniform cells and tets: the step taken is Anderson's mix of the update with the last
+//     PcgOptions::andersonDepth secant pairs (sim/anderson.h), kept across a drag's calls; a stall
+//     (no smaller plain update in 8 iterations) goes back to the best iterate and on plain, damped.
 // Graded cells: a hanging corner (x_h = sum_m w_m x_m) gathers its masters' free dofs and scatters
 // its force to them with the same weights (P^T f with P the constraint's prolongation), and x is
 // re-expanded after every update.
@@ -34,6 +37,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "sim/coarse_pcg_workspace.h"
 #include "sim/coarsening.h"
@@ -249,7 +253,28 @@ void CoarseModel::pcgRefresh(CoarseSolveStats& st) {
   w.refQ = w.elementQ;
   w.drift = 0.0;
   w.rzLast = 0.0;  // the carried direction was conjugate under the old preconditioner: restart
+  w.anderson.reset();  // the update's map changed with the preconditioner
   pcgNodeRotations();
+}
+
+// Replaces the plain update w.d by Anderson's mix of the call's recent iterates (sim/anderson.h) and
+// returns the plain update's largest node step. A mix more than 10x the plain step's length (secants
+// that no longer describe the map: a handle let go, a preconditioner refreshed) is dropped for the
+// plain step, and the pairs with it.
+double CoarseModel::andersonStep(const std::vector<Eigen::Vector3d>& x) {
+  PcgWorkspace& w = *pcg_;
+  auto largest = [](const Eigen::VectorXd& v) {
+    double m = 0.0;
+    for (Eigen::Index i = 0; i < v.size(); i += 3) m = std::max(m, v.segment<3>(i).norm());
+    return m;
+  };
+  w.xFree.resize(dofCount_);
+  for (std::size_t i = 0; i < w.freeNode.size(); ++i) w.xFree.segment<3>(3 * Eigen::Index(i)) = x[std::size_t(w.freeNode[i])];
+  const double plain = largest(w.d);
+  Eigen::VectorXd mixed = w.anderson.step(w.xFree, w.d);
+  if (mixed.allFinite() && largest(mixed) <= 10.0 * plain) w.d = std::move(mixed);
+  else w.anderson.reset();
+  return plain;
 }
 
 CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tol) {
@@ -261,6 +286,18 @@ CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handle
   const bool cell = nc_ == 8;
   const PcgOptions& o = pcgOptions_;
   double update0 = 0.0, relax = 1.0;
+  if (w.andersonDepth != o.andersonDepth) {
+    w.anderson = AndersonAcceleration(o.andersonDepth);
+    w.andersonDepth = o.andersonDepth;
+  }
+  w.anderson.begin();
+  constexpr int kStall = 8;
+  // Graded cells keep the plain iteration: with a sliding interface it barely contracts there
+  // (rate ~0.99), and the mix stalled, then left the plain iteration thousands of iterations from
+  // its fixed point (results.md, 2026-12-07, sixth entry).
+  bool accelerate = o.andersonDepth > 0 && !graded_;
+  double bestUpdate = std::numeric_limits<double>::infinity();
+  int sinceBest = 0;
   for (int it = 0; it < maxIterations; ++it) {
     auto t0 = Clock::now();
     // The preconditioner's node rotations once a call: it need only stay close to A(R).
@@ -314,7 +351,28 @@ CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handle
     w.pLast = w.p;
     w.rzLast = rzOuter;
     if (!w.d.allFinite()) throw Error("coarse solve: diverged (non-finite update)");
+    // With Anderson acceleration the plain update stays a convergence measure beside the step.
     double update = 0.0;
+    if (accelerate) {
+      update = andersonStep(x);
+      relax = 1.0;
+      // Stagnation: no new smallest plain update in kStall iterations. Anderson's mix cannot mend
+      // a map that barely contracts (as graded cells' with sliding, where it wandered at 1e-2 of
+      // the motion), so the call goes back to the iterate with the smallest plain update and on
+      // from there plain, damped.
+      if (update < bestUpdate) {
+        bestUpdate = update;
+        sinceBest = 0;
+        w.bestX = x;
+      } else if (++sinceBest >= kStall) {
+        accelerate = false;
+        w.anderson.reset();
+        ++st.andersonStalls;
+        x = w.bestX;
+        w.d.setZero();
+        update0 = std::numeric_limits<double>::infinity();  // full steps again
+      }
+    }
     for (std::size_t i = 0; i < w.freeNode.size(); ++i) {
       const Eigen::Vector3d step = relax * w.d.segment<3>(3 * Eigen::Index(i));
       x[std::size_t(w.freeNode[i])] += step;

@@ -4,6 +4,7 @@
 #include "sim/sparse_direct.h"
 #include <vector>
 
+#include "sim/anderson.h"
 #include "sim/coarsening.h"
 
 namespace handson {
@@ -27,6 +28,10 @@ struct CoarseModel::PcgWorkspace {
   Eigen::VectorXd r, d, res, z, p, q, tmp;
   Eigen::VectorXd rLast, pLast;  ///< the last iteration's residual and direction (one CG step an iteration)
   double rzLast = 0;
+  AndersonAcceleration anderson{0};  ///< PcgOptions::andersonDepth; its pairs span a drag's calls
+  int andersonDepth = 0;
+  Eigen::VectorXd xFree;             ///< the free dofs' positions (Anderson's iterate)
+  std::vector<Eigen::Vector3d> bestX;  ///< the call's iterate with the smallest plain update (a stall goes back to it)
 };
 
 }  // namespace handson

@@ -65,6 +65,7 @@ void CoarseModel::setPcgOptions(const PcgOptions& o) {
   if (o.cgIterations < 1 || o.cgIterations > 16) throw Error("coarse solve: 1 to 16 conjugate-gradient iterations an iteration");
   if (!(o.refreshDeg >= 0.0 && o.refreshDeg <= 180.0)) throw Error("coarse solve: the preconditioner's refresh angle must be 0 (never) to 180 degrees");
   if (o.refreshFromIteration < 0) throw Error("coarse solve: the preconditioner's refresh cannot start before a call's first iteration");
+  if (o.andersonDepth < 0 || o.andersonDepth > 16) throw Error("coarse solve: Anderson acceleration keeps 0 to 16 secant pairs");
   pcgOptions_ = o;
 }
 

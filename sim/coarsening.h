@@ -52,6 +52,7 @@ struct FineConstraints {
 struct CoarseSolveStats {
   int iterations = 0, factorizations = 0;
   int pcgIterations = 0;    ///< CoarseSolver::Pcg: inner conjugate-gradient iterations, all together
+  int andersonStalls = 0;   ///< CoarseSolver::Pcg: Anderson acceleration given up for the plain iteration (0 or 1)
   double lastUpdate = 0.0;  ///< largest coarse node update of the last iteration (mm)
   bool converged = false;
   double solveMs = 0.0;     ///< wall time of the solve (all of it), of which:
@@ -85,6 +86,10 @@ struct PcgOptions {
   /// never pay for a factorization (~27 ms at the default mesh), a longer solve does (the phantom's
   /// sliding kidney from rest: 81 iterations against 143 with the rest factor throughout).
   int refreshFromIteration = 3;
+  /// Anderson acceleration of the iteration (sim/anderson.h): secant pairs kept, 0-16 (0: the
+  /// plain iteration with its damping, the earlier default). Uniform cells and tets only: graded
+  /// cells keep the plain iteration (results.md, 2026-12-07, sixth entry).
+  int andersonDepth = 3;
 };
 
 enum class CoarseElement { Tet = 0, Cell = 1 };
@@ -230,6 +235,8 @@ class CoarseModel {
   void pcgProduct(const Eigen::VectorXd& p, Eigen::VectorXd& out) const;
   void pcgNodeRotations();
   void pcgRefresh(CoarseSolveStats& st);
+  /// Anderson acceleration of the update in pcg_->d (sim/anderson.h); returns the plain update's largest node step.
+  double andersonStep(const std::vector<Eigen::Vector3d>& x);
   void pcgFactorize(const std::vector<Eigen::Matrix3d>* Q, CoarseSolveStats& st);
   void pcgPrecondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) const;
   bool pcgReady() const;

@@ -315,7 +315,7 @@ struct Measured {
   std::vector<Eigen::Vector3d> xc;
   double coarsening = 0;
   Drag drag, baseline;     // the default solver (pcg) and the assembled one (cells only)
-  Drag earlier;            // pcg as it was: one nonlinear CG step an iteration, the rest factor throughout (cells only)
+  Drag earlier;            // pcg as it was: the plain iteration, without Anderson acceleration (cells only)
   int earlierIterations = 0;  // its iterations from rest to converged (-1: not converged)
   CoarseSolveStats conv;
   double solverDiff = 0;   // the two solvers' converged states: largest difference / motion
@@ -335,8 +335,7 @@ Measured measureCoarse(const BenchCase& c, CoarseElement kind) {
   }
   if (kind == CoarseElement::Cell) {
     PcgOptions earlier;
-    earlier.cgIterations = 1;
-    earlier.refreshDeg = 0.0;
+    earlier.andersonDepth = 0;
     std::vector<Eigen::Vector3d> xr;
     m.earlier = dragRun(*m.model, CoarseSolver::Pcg, c, xr, earlier);
     xr = m.model->restState();
@@ -418,7 +417,7 @@ void printLevel(const BenchCase& c, const Level& l) {
             << b.pcgIterations / 30.0 << " CG iterations; assembled: rotations " << a.mean.rotationMs << ", assembly " << a.mean.productMs
             << ", factorization " << a.mean.factorMs << ", back-solves " << a.mean.backSolveMs << ", boundary " << a.mean.boundaryMs << " ms\n"
             << "  pcg: " << std::setprecision(3) << b.factorizations / 30.0 << " factorizations a frame, mean frame " << cell.drag.meanFrame
-            << " ms; as it was (one nonlinear CG step an iteration, the rest factor throughout): frame " << cell.earlier.frame << " ms (mean "
+            << " ms; as it was (the plain iteration, no Anderson acceleration): frame " << cell.earlier.frame << " ms (mean "
             << cell.earlier.meanFrame << "), after the drag " << std::setprecision(6) << cell.earlier.lag << " of the motion from converged, from rest "
             << cell.earlierIterations << " iterations to converge\n"
             << std::setprecision(6) << "  after the drag, distance to the converged state / motion: pcg " << cell.drag.lag << ", assembled " << a.lag

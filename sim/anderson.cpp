@@ -1,0 +1,78 @@
+#include "sim/anderson.h"
+
+#include <vector>
+
+
+
+namespace handson {
+
+void AndersonAcceleration::reset() {
+  count_ = 0;
+  next_ = 0;
+  havePrevious_ = false;
+}
+
+void AndersonAcceleration::push(const Eigen::VectorXd& x, const Eigen::VectorXd& f) {
+  if (dX_.rows() != x.size() || dX_.cols() != depth_) {
+    dX_.resize(x.size(), depth_);
+    dF_.resize(x.size(), depth_);
+    count_ = next_ = 0;
+  }
+  dX_.col(next_) = x - xPrev_;
+  dF_.col(next_) = f - fPrev_;
+  next_ = (next_ + 1) % depth_;
+  count_ = std::min(count_ + 1, depth_);
+}
+
+// gamma = argmin |f - dF gamma| by Gram-Schmidt on dF's columns, each orthogonalized twice against
+// the ones before ("twice is enough": orthogonal to rounding even when the secants are nearly
+// parallel), in q_ (n x m, no allocation once sized). A column left with under 1e-10 of its length
+// is dependent on the others and drops out (its gamma 0).
+Eigen::VectorXd AndersonAcceleration::leastSquares(const Eigen::VectorXd& f) {
+  const int m = count_;
+  q_.resize(dF_.rows(), depth_);
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(m, m);  // m x m, upper triangular
+  std::vector<char> kept(std::size_t(m), 0);
+  for (int j = 0; j < m; ++j) {
+    q_.col(j) = dF_.col(j);
+    const double length = q_.col(j).norm();
+    for (int pass = 0; pass < 2; ++pass)
+      for (int i = 0; i < j; ++i)
+        if (kept[std::size_t(i)]) {
+          const double c = q_.col(i).dot(q_.col(j));
+          R(i, j) += c;
+          q_.col(j) -= c * q_.col(i);
+        }
+    const double left = q_.col(j).norm();
+    if (!(left > 1e-10 * length)) continue;
+    kept[std::size_t(j)] = 1;
+    R(j, j) = left;
+    q_.col(j) /= left;
+  }
+  Eigen::VectorXd gamma = Eigen::VectorXd::Zero(m);
+  for (int j = m - 1; j >= 0; --j) {
+    if (!kept[std::size_t(j)]) continue;
+    double v = q_.col(j).dot(f);
+    for (int k = j + 1; k < m; ++k) v -= R(j, k) * gamma[k];
+    gamma[j] = v / R(j, j);
+  }
+  return gamma;
+}
+
+Eigen::VectorXd AndersonAcceleration::step(const Eigen::VectorXd& x, const Eigen::VectorXd& f) {
+  // A pair whose update did not change (the same iterate again) says nothing of the map: skipped.
+  if (havePrevious_ && depth_ > 0 && xPrev_.size() == x.size() && (f - fPrev_).squaredNorm() > 1e-28 * f.squaredNorm()) push(x, f);
+  if (count_ > 0 && dX_.rows() != x.size()) reset();
+  xPrev_ = x;
+  fPrev_ = f;
+  havePrevious_ = true;
+  if (count_ == 0) return f;
+  const Eigen::VectorXd gamma = leastSquares(f);  // m
+  if (!gamma.allFinite()) return f;
+  Eigen::VectorXd s = f;
+  s.noalias() -= dX_.leftCols(count_) * gamma;
+  s.noalias() -= dF_.leftCols(count_) * gamma;
+  return s;
+}
+
+}  // namespace handson
