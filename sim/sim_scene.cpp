@@ -111,11 +111,41 @@ std::size_t claimNodesInside(SimScene& sc, const VolumeGeometry& g, const SimHan
   return claimed;
 }
 
+// The skeleton is anchored: a node whose nearest voxel is skeleton, and every node of a tet that is
+// bone throughout (its softest sample's band is a skeleton band, so all five samples lie on the
+// skeleton), unless a handle holds it. The second rule catches the nodes on bone's surface whose
+// nearest voxel is soft: left free, such a node is held only through its bone tets (300 MPa and up),
+// which the fine model leaves nearly at rest but a coarse cell, whose fine nodes follow its corners,
+// stretches with everything else in the cell. ircadb1.1's right kidney moved 6 mm, glued: the coarse
+// force 35.8 / 406 / 64.7 N at 1,600 / 3,000 / 6,000 coarse tets against the fine 14.6 / 14.5 /
+// 14.4 N; with the rule 21.8 / 20.7 / 20.5 N (results.md, 2026-12-07, sixth entry).
+// `boneTet`: per fine tet, bone throughout (boneTets(), taken before the exterior layer renames
+// the outer cells' bands).
+void anchorSkeleton(SimScene& sc, const TissueMap& tissue, const std::vector<char>& boneTet) {
+  const TetMesh& F = sc.meshes.fine;
+  for (std::size_t n = 0; n < F.nodes.size(); ++n)
+    if (sc.constraints.handleOf[n] < 0 && tissue.skeletonAt(F.nodes[n])) sc.constraints.fixed[n] = 1;
+  for (std::size_t t = 0; t < F.tets.size(); ++t)
+    if (boneTet[t])
+      for (const int n : F.tets[t])
+        if (sc.constraints.handleOf[std::size_t(n)] < 0) sc.constraints.fixed[std::size_t(n)] = 1;
+}
+
+// Per fine tet: its softest sample's band is a skeleton band, so all five of its samples lie on the
+// skeleton (assignMaterials; a "joined" band off the skeleton is the band below).
+std::vector<char> boneTets(const SimScene& sc, const TissueMap& tissue) {
+  std::vector<char> bone(sc.band.size(), 0);
+  if (tissue.skeletonVoxelCount() == 0) return bone;
+  for (std::size_t t = 0; t < sc.band.size(); ++t)
+    bone[t] = sc.band[t] >= 0 && tissue.table().band(sc.band[t]).skeleton != SkeletonRole::No;
+  return bone;
+}
+
 // Dirichlet roles: the region's outer faces are fixed; handle nodes by the settings' rule, later
 // handles winning; the skeleton's nodes that no handle holds are anchored (fixed). `holdsHandle`
 // (shaped regions): the coarse cells holding a handle voxel.
 void assignConstraints(SimScene& sc, const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& s, const TissueMap& tissue,
-                       std::vector<char>* holdsHandle) {
+                       const std::vector<char>& boneTet, std::vector<char>* holdsHandle) {
   const TetMesh& F = sc.meshes.fine;
   const VolumeGeometry& g = image.geometry();
   sc.constraints.handleCount = int(handles.size());
@@ -131,9 +161,7 @@ void assignConstraints(SimScene& sc, const Volume& image, const std::vector<SimH
       for (std::uint32_t v : handles[h].voxels)
         if (const int t = sc.meshes.locateFine(g.toWorld(g.voxelOf(v).cast<double>())); t >= 0) (*holdsHandle)[std::size_t(sc.meshes.fineParent[std::size_t(t)] / 6)] = 1;
   }
-  if (tissue.skeletonVoxelCount() > 0)
-    for (std::size_t n = 0; n < F.nodes.size(); ++n)
-      if (sc.constraints.handleOf[n] < 0 && tissue.skeletonAt(F.nodes[n])) sc.constraints.fixed[n] = 1;
+  if (tissue.skeletonVoxelCount() > 0) anchorSkeleton(sc, tissue, boneTet);
 }
 // Sliding interfaces (sim/sliding_interface.h): each handle's own tets (all four nodes selected by
 // it) lose their stiffness and strain limit, and its surface nodes become free nodes held to its
@@ -298,11 +326,12 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   buildMeshes(sc, s, coarseTets, table, tissue, progress);
   reportProgress(progress, 0.2, "materials");
   assignMaterials(sc, tissue);
+  const std::vector<char> boneTet = boneTets(sc, tissue);
   if (s.outer == SimSettings::Outer::Exterior && !sc.handleCentroid.empty()) applyExteriorLayer(sc);
   reportProgress(progress, 0.5, "stiffness");
   sc.fineK = tetStiffnesses(sc.meshes.fine, sc.youngs, sc.poisson);
   std::vector<char> holdsHandle(shaped ? sc.meshes.coarseGrid.cellCount() : 0, 0);
-  assignConstraints(sc, image, handles, s, tissue, shaped ? &holdsHandle : nullptr);
+  assignConstraints(sc, image, handles, s, tissue, boneTet, shaped ? &holdsHandle : nullptr);
   if (shaped) holdCellsAwayFromHandles(sc, shape, holdsHandle, s.paddingMm);
   if (s.interface == SimSettings::Interface::Sliding && !handles.empty()) makeInterfacesSliding(sc, g, handles);
   countHandleNodes(sc, handles.size());

@@ -92,6 +92,42 @@ TEST(SimScene, AHandleHoldsTheNodesInsideItsSelectionAndTheSkeletonIsAnchored) {
   EXPECT_EQ(fixedBone, 0u);
 }
 
+TEST(SimScene, EveryNodeOfATetThatIsBoneThroughoutIsAnchored) {
+  // A tet whose five samples all lie on the skeleton is bone (its softest sample's band a skeleton
+  // band: hundreds of MPa and up). Its nodes on the bone's surface, whose nearest voxel may be soft,
+  // are anchored with it, or a coarse cell, whose fine nodes follow its corners, would stretch the
+  // bone with the cell (sim_scene.cpp, anchorSkeleton). A compact-bone slab 5 mm thick, tilted to
+  // the grid (normal (1, 2, 0.5)), so that nodes on its faces fall either side of voxel centres.
+  VolumeGeometry g;
+  g.dims = {60, 60, 60};
+  g.spacing = {1, 1, 1};
+  Volume ct(g, ScalarType::Int16);
+  SimHandle ball;
+  const Eigen::Vector3d n = Eigen::Vector3d(1, 2, 0.5).normalized(), centre(30, 24, 30);
+  for (int k = 0; k < 60; ++k)
+    for (int j = 0; j < 60; ++j)
+      for (int i = 0; i < 60; ++i) {
+        const Eigen::Vector3d p(i, j, k);
+        const double d = n.dot(p - Eigen::Vector3d(30, 30, 30));
+        ct.setValue(i, j, k, d > 4.0 && d < 9.0 ? 900.0f : 30.0f);
+        if ((p - centre).norm() <= 6.0) ball.voxels.push_back(std::uint32_t(ct.linearIndex(i, j, k)));
+      }
+  for (const int coarse : {400, 3000}) {
+    SimSettings s = settings(coarse, SimSettings::HandleNodes::Inside, SimSettings::Bone::Anchored);
+    s.outer = SimSettings::Outer::Wall;  // every tet keeps its band (the exterior layer renames the outer cells')
+    const SimScene sc = buildSimScene(ct, {ball}, s);
+    const TetMesh& F = sc.meshes.fine;
+    std::size_t boneTets = 0, loose = 0;
+    for (std::size_t t = 0; t < F.tets.size(); ++t) {
+      if (sc.band[t] < 0 || s.materials.resolve(ct).band(sc.band[t]).skeleton == SkeletonRole::No) continue;
+      ++boneTets;
+      for (const int v : F.tets[t]) loose += sc.constraints.handleOf[std::size_t(v)] < 0 && !sc.constraints.fixed[std::size_t(v)];
+    }
+    EXPECT_GT(boneTets, 100u);
+    EXPECT_EQ(loose, 0u) << coarse << " coarse tets: bone tets' nodes left free";
+  }
+}
+
 TEST(SimScene, AHandleThinnerThanTheFineMeshFallsBackToItsTets) {
   // One voxel between fine nodes: no node is nearest to it, so the handle takes its tet's nodes.
   const BallAndBone scene;
