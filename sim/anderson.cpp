@@ -2,8 +2,6 @@
 
 #include <vector>
 
-
-
 namespace handson {
 
 void AndersonAcceleration::reset() {
@@ -24,17 +22,20 @@ void AndersonAcceleration::push(const Eigen::VectorXd& x, const Eigen::VectorXd&
   count_ = std::min(count_ + 1, depth_);
 }
 
-// gamma = argmin |f - dF gamma| by Gram-Schmidt on dF's columns, each orthogonalized twice against
-// the ones before ("twice is enough": orthogonal to rounding even when the secants are nearly
-// parallel), in q_ (n x m, no allocation once sized). A column left with under 1e-10 of its length
-// is dependent on the others and drops out (its gamma 0).
+// gamma = argmin |f - dF gamma| by Gram-Schmidt on dF's columns, newest pair first, each
+// orthogonalized twice against the ones before ("twice is enough": orthogonal to rounding even when
+// the secants are nearly parallel), in q_ (n x m, no allocation once sized). A column left with
+// under 1e-10 of its length is dependent on newer ones and drops out (its gamma 0), so of two
+// nearly parallel pairs the older goes. gamma is indexed by ring slot.
 Eigen::VectorXd AndersonAcceleration::leastSquares(const Eigen::VectorXd& f) {
   const int m = count_;
   q_.resize(dF_.rows(), depth_);
-  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(m, m);  // m x m, upper triangular
+  std::vector<int> slot(static_cast<std::size_t>(m), 0);  // the j-th newest pair's column
+  for (int j = 0; j < m; ++j) slot[std::size_t(j)] = ((next_ - 1 - j) % depth_ + depth_) % depth_;
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(m, m);  // m x m, upper triangular in newest-first order
   std::vector<char> kept(std::size_t(m), 0);
   for (int j = 0; j < m; ++j) {
-    q_.col(j) = dF_.col(j);
+    q_.col(j) = dF_.col(slot[std::size_t(j)]);
     const double length = q_.col(j).norm();
     for (int pass = 0; pass < 2; ++pass)
       for (int i = 0; i < j; ++i)
@@ -49,13 +50,15 @@ Eigen::VectorXd AndersonAcceleration::leastSquares(const Eigen::VectorXd& f) {
     R(j, j) = left;
     q_.col(j) /= left;
   }
-  Eigen::VectorXd gamma = Eigen::VectorXd::Zero(m);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(m);  // newest-first order
   for (int j = m - 1; j >= 0; --j) {
     if (!kept[std::size_t(j)]) continue;
     double v = q_.col(j).dot(f);
-    for (int k = j + 1; k < m; ++k) v -= R(j, k) * gamma[k];
-    gamma[j] = v / R(j, j);
+    for (int k = j + 1; k < m; ++k) v -= R(j, k) * g[k];
+    g[j] = v / R(j, j);
   }
+  Eigen::VectorXd gamma = Eigen::VectorXd::Zero(m);
+  for (int j = 0; j < m; ++j) gamma[slot[std::size_t(j)]] = g[j];
   return gamma;
 }
 
@@ -67,7 +70,7 @@ Eigen::VectorXd AndersonAcceleration::step(const Eigen::VectorXd& x, const Eigen
   fPrev_ = f;
   havePrevious_ = true;
   if (count_ == 0) return f;
-  const Eigen::VectorXd gamma = leastSquares(f);  // m
+  const Eigen::VectorXd gamma = leastSquares(f);  // m, by ring slot
   if (!gamma.allFinite()) return f;
   Eigen::VectorXd s = f;
   s.noalias() -= dX_.leftCols(count_) * gamma;

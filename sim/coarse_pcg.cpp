@@ -257,8 +257,9 @@ void CoarseModel::pcgRefresh(CoarseSolveStats& st) {
   pcgNodeRotations();
 }
 
-// Replaces the plain update w.d by Anderson's mix of the call's recent iterates (sim/anderson.h) and
-// returns the plain update's largest node step. A mix more than 10x the plain step's length (secants
+// Replaces the plain update w.d by Anderson's mix with the recent secant pairs (sim/anderson.h; from
+// this call and the drag's earlier ones) and returns the plain update's largest node step. A mix
+// more than 10x the plain step's length (secants
 // that no longer describe the map: a handle let go, a preconditioner refreshed) is dropped for the
 // plain step, and the pairs with it.
 double CoarseModel::andersonStep(const std::vector<Eigen::Vector3d>& x) {
@@ -286,10 +287,11 @@ CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handle
   const bool cell = nc_ == 8;
   const PcgOptions& o = pcgOptions_;
   double update0 = 0.0, relax = 1.0;
-  if (w.andersonDepth != o.andersonDepth) {
-    w.anderson = AndersonAcceleration(o.andersonDepth);
-    w.andersonDepth = o.andersonDepth;
-  }
+  // Other options make another map: its pairs go.
+  if (w.options.andersonDepth != o.andersonDepth) w.anderson = AndersonAcceleration(o.andersonDepth);
+  else if (w.options.cgIterations != o.cgIterations || w.options.refreshDeg != o.refreshDeg || w.options.refreshFromIteration != o.refreshFromIteration)
+    w.anderson.reset();
+  w.options = o;
   w.anderson.begin();
   constexpr int kStall = 8;
   // Graded cells keep the plain iteration: with a sliding interface it barely contracts there
@@ -304,7 +306,11 @@ CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handle
     if (cell) pcgRotations<8>(x, it == 0);
     else pcgRotations<4>(x, it == 0);
     st.rotationMs += ms(t0);
-    if (it >= o.refreshFromIteration && o.refreshDeg > 0.0 && w.drift > o.refreshDeg * M_PI / 180.0) pcgRefresh(st);
+    if (it >= o.refreshFromIteration && o.refreshDeg > 0.0 && w.drift > o.refreshDeg * M_PI / 180.0) {
+      pcgRefresh(st);
+      bestUpdate = std::numeric_limits<double>::infinity();  // updates before it were another map's
+      sinceBest = 0;
+    }
     t0 = Clock::now();
     double boundary = 0.0;
     if (cell) pcgResidual<8>(handles, x, w.r, boundary);

@@ -29,7 +29,7 @@ struct CoarseModel::PcgWorkspace {
   Eigen::VectorXd rLast, pLast;  ///< the last iteration's residual and direction (one CG step an iteration)
   double rzLast = 0;
   AndersonAcceleration anderson{0};  ///< PcgOptions::andersonDepth; its pairs span a drag's calls
-  int andersonDepth = 0;
+  PcgOptions options{2, 10.0, 3, 0};  ///< those the accelerator's pairs were taken with
   Eigen::VectorXd xFree;             ///< the free dofs' positions (Anderson's iterate)
   std::vector<Eigen::Vector3d> bestX;  ///< the call's iterate with the smallest plain update (a stall goes back to it)
 };

@@ -69,9 +69,10 @@ struct CoarseSolveStats {
 constexpr int kOneOffSolveIterations = 5000;
 
 /// How the Pcg solve iterates (docs/simulation.md, "pcg"; the defaults measured in results.md,
-/// 2026-12-06, the second entry: a sliding kidney dragged 10 mm and turned 30 degrees in ten frames of
-/// three iterations ends 5.2 % of its largest motion from converged with these, 46 % with one
-/// nonlinear CG step an iteration, the earlier default; the frame 1.4x as long).
+/// 2026-12-06, the second entry, and 2026-12-07, the sixth: a sliding kidney dragged 10 mm and
+/// turned 30 degrees in ten frames of three iterations ends 4.1 % of its largest motion from
+/// converged with these, 6.2 % without Anderson acceleration, 46 % with one nonlinear CG step an
+/// iteration).
 struct PcgOptions {
   /// Conjugate-gradient iterations on A(R) d = r per solve() iteration, restarted from d = 0 each
   /// time (1-16). 1 instead carries the directions over a call's iterations (nonlinear conjugate

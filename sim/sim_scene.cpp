@@ -118,7 +118,7 @@ std::size_t claimNodesInside(SimScene& sc, const VolumeGeometry& g, const SimHan
 // which the fine model leaves nearly at rest but a coarse cell, whose fine nodes follow its corners,
 // stretches with everything else in the cell. ircadb1.1's right kidney moved 6 mm, glued: the coarse
 // force 35.8 / 406 / 64.7 N at 1,600 / 3,000 / 6,000 coarse tets against the fine 14.6 / 14.5 /
-// 14.4 N; with the rule 21.8 / 20.7 / 20.5 N (results.md, 2026-12-07, sixth entry).
+// 14.4 N; with the rule 21.0 / 19.9 / 19.5 N (results.md, 2026-12-07, seventh entry).
 // `boneTet`: per fine tet, bone throughout (boneTets(), taken before the exterior layer renames
 // the outer cells' bands).
 void anchorSkeleton(SimScene& sc, const TissueMap& tissue, const std::vector<char>& boneTet) {

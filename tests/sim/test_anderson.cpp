@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <vector>
 
 #include "sim/anderson.h"
 
@@ -14,7 +15,10 @@ struct SlowLinearMap {
   Eigen::VectorXd b, solution;
   SlowLinearMap() {
     const int n = 6;
-    const Eigen::MatrixXd Q = Eigen::HouseholderQR<Eigen::MatrixXd>(Eigen::MatrixXd::Random(n, n)).householderQ();
+    // A fixed orthogonal Q (a Householder reflector), so the eigenvectors do not depend on a
+    // library's random numbers.
+    const Eigen::VectorXd v = Eigen::VectorXd::LinSpaced(n, 1.0, 6.0);
+    const Eigen::MatrixXd Q = Eigen::MatrixXd::Identity(n, n) - 2.0 * v * v.transpose() / v.squaredNorm();
     const Eigen::VectorXd eig = Eigen::VectorXd::LinSpaced(n, 1.0, 100.0);
     A = Q * eig.asDiagonal() * Q.transpose();
     b = Eigen::VectorXd::LinSpaced(n, -1.0, 2.0);
@@ -57,7 +61,49 @@ TEST(AndersonAcceleration, WithNoPairItIsThePlainStepAndANewRunFormsNoPairAcross
   EXPECT_EQ(aa.pairs(), 0);
 }
 
-TEST(AndersonAcceleration, DepthZeroIsThePlainIterationAndParallelSecantsDoNotBreakIt) {
+TEST(AndersonAcceleration, ParallelSecantsDropOutAndTheStepStaysExact) {
+  // f(x) = -(x - x*) / 2 from a start whose error lies along one direction: every secant is
+  // parallel to the first. One pair is the secant method, exact on a linear map: the fixed point
+  // at the second step; the next pair, parallel to it, drops out (a finite step, not NaN).
+  const Eigen::VectorXd star = Eigen::VectorXd::LinSpaced(5, 1.0, 5.0), dir = Eigen::VectorXd::LinSpaced(5, -2.0, 2.0);
+  auto update = [&](const Eigen::VectorXd& y) -> Eigen::VectorXd { return -0.5 * (y - star); };
+  AndersonAcceleration aa(3);
+  Eigen::VectorXd x = star + 4.0 * dir;
+  x += aa.step(x, update(x));  // plain: half way
+  x += aa.step(x, update(x));  // one pair: exact
+  EXPECT_LT((x - star).norm(), 1e-12 * star.norm());
+  const Eigen::VectorXd y = star + 1e-3 * dir;  // another start on the same line
+  const Eigen::VectorXd s = aa.step(y, update(y));
+  EXPECT_TRUE(s.allFinite());
+  EXPECT_LT((y + s - star).norm(), 1e-9 * star.norm());
+}
+
+TEST(AndersonAcceleration, AfterTheRingWrapsItMixesTheLastPairs) {
+  // Depth 2 over 5 steps of the slow linear map: the fifth step must be the least-squares mix of
+  // the last two secant pairs, computed here densely from the iterates (tolerance 1e-10 relative:
+  // rounding in two different least-squares methods).
+  const SlowLinearMap map;
+  AndersonAcceleration aa(2);
+  std::vector<Eigen::VectorXd> xs{Eigen::VectorXd::Zero(6)}, fs;
+  Eigen::VectorXd last;
+  for (int k = 0; k < 5; ++k) {
+    fs.push_back(map.update(xs.back()));
+    last = aa.step(xs.back(), fs.back());
+    xs.push_back(xs.back() + last);
+  }
+  const std::size_t k = fs.size() - 1;
+  Eigen::MatrixXd dX(6, 2), dF(6, 2);
+  for (int j = 0; j < 2; ++j) {
+    dX.col(j) = xs[k - std::size_t(j)] - xs[k - std::size_t(j) - 1];
+    dF.col(j) = fs[k - std::size_t(j)] - fs[k - std::size_t(j) - 1];
+  }
+  const Eigen::VectorXd gamma = dF.colPivHouseholderQr().solve(fs[k]);
+  const Eigen::VectorXd expected = fs[k] - (dX + dF) * gamma;
+  EXPECT_EQ(aa.pairs(), 2);
+  EXPECT_LT((last - expected).norm(), 1e-10 * expected.norm());
+}
+
+TEST(AndersonAcceleration, DepthZeroIsThePlainIterationAndARepeatedIterateAddsNoPair) {
   const SlowLinearMap map;
   AndersonAcceleration none(0);
   Eigen::VectorXd x = Eigen::VectorXd::Zero(6);
@@ -66,13 +112,14 @@ TEST(AndersonAcceleration, DepthZeroIsThePlainIterationAndParallelSecantsDoNotBr
     EXPECT_TRUE(none.step(x, f).isApprox(f));
     x += f;
   }
-  // The same iterate twice: a zero secant, which the pivoted QR drops (a finite step, not NaN).
+  // The same iterate twice: a zero secant, skipped (no pair; the plain step).
   AndersonAcceleration aa(2);
   const Eigen::VectorXd y = Eigen::VectorXd::Ones(6), f = map.update(y);
   aa.step(y, f);
   const Eigen::VectorXd s = aa.step(y, f);
   EXPECT_TRUE(s.allFinite());
   EXPECT_TRUE(s.isApprox(f));
+  EXPECT_EQ(aa.pairs(), 0);
 }
 
 }  // namespace

@@ -125,6 +125,16 @@ TEST(SimScene, EveryNodeOfATetThatIsBoneThroughoutIsAnchored) {
     }
     EXPECT_GT(boneTets, 100u);
     EXPECT_EQ(loose, 0u) << coarse << " coarse tets: bone tets' nodes left free";
+    // With the exterior layer (the default), which renames the outer cells' bands, the same nodes
+    // are anchored: bone is told before the renaming (the slab crosses the outer cells).
+    s.outer = SimSettings::Outer::Exterior;
+    const SimScene ext = buildSimScene(ct, {ball}, s);
+    ASSERT_EQ(ext.constraints.fixed.size(), sc.constraints.fixed.size());
+    std::size_t differ = 0, renamed = 0;
+    for (std::size_t v = 0; v < F.nodes.size(); ++v) differ += ext.constraints.fixed[v] != sc.constraints.fixed[v];
+    for (std::size_t t = 0; t < F.tets.size(); ++t) renamed += ext.band[t] < 0 && sc.band[t] >= 0 && s.materials.resolve(ct).band(sc.band[t]).skeleton != SkeletonRole::No;
+    EXPECT_GT(renamed, 0u) << "no bone tet in the exterior layer: the check would not tell";
+    EXPECT_EQ(differ, 0u);
   }
 }
 
