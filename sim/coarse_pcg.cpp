@@ -259,9 +259,8 @@ void CoarseModel::pcgRefresh(CoarseSolveStats& st) {
 
 // Replaces the plain update w.d by Anderson's mix with the recent secant pairs (sim/anderson.h; from
 // this call and the drag's earlier ones) and returns the plain update's largest node step. A mix
-// more than 10x the plain step's length (secants
-// that no longer describe the map: a handle let go, a preconditioner refreshed) is dropped for the
-// plain step, and the pairs with it.
+// more than 10x the plain step's length (secants that no longer describe the map: a handle let go,
+// a preconditioner refreshed) is dropped for the plain step, and the pairs with it.
 double CoarseModel::andersonStep(const std::vector<Eigen::Vector3d>& x) {
   PcgWorkspace& w = *pcg_;
   auto largest = [](const Eigen::VectorXd& v) {
@@ -278,9 +277,81 @@ double CoarseModel::andersonStep(const std::vector<Eigen::Vector3d>& x) {
   return plain;
 }
 
+namespace {
+
+double msSince(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(); }
+
+// Anderson acceleration's stall watch over one call: no new smallest plain update in kStall
+// iterations is a stall. Anderson's mix cannot mend a map that barely contracts (as graded cells'
+// with sliding, where it wandered at 1e-2 of the motion), so the call then goes back to the iterate
+// with the smallest plain update and on from there plain, damped.
+struct StallWatch {
+  static constexpr int kStall = 8;
+  double best = std::numeric_limits<double>::infinity();
+  int since = 0;
+  /// After a preconditioner refresh: the updates before it were another map's.
+  void restart() { *this = StallWatch{}; }
+  enum class Verdict { Improved, Same, Stalled };
+  Verdict watch(double update) {
+    if (update < best) {
+      best = update;
+      since = 0;
+      return Verdict::Improved;
+    }
+    return ++since >= kStall ? Verdict::Stalled : Verdict::Same;
+  }
+};
+
+}  // namespace
+
+// Conjugate gradients on A(R) d = r from d = 0 into w.d, o.cgIterations of them. With one an
+// iteration the directions are carried over the call's iterations instead (nonlinear conjugate
+// gradients, Polak-Ribiere+: beta = max(0, z_k . (r_k - r_k-1) / z_k-1 . r_k-1)): within a frame the
+// problem is nearly linear, so three such iterations do about what three linear CG iterations would.
+// `carry`: a later iteration of the call, whose direction may be carried.
+void CoarseModel::pcgStep(bool carry, CoarseSolveStats& st) {
+  PcgWorkspace& w = *pcg_;
+  const PcgOptions& o = pcgOptions_;
+  const bool cell = nc_ == 8;
+  w.d.setZero(dofCount_);
+  w.res = w.r;
+  auto t0 = std::chrono::steady_clock::now();
+  pcgPrecondition(w.res, w.z);
+  st.backSolveMs += msSince(t0);
+  double rz = w.res.dot(w.z);
+  const double rzOuter = rz;
+  if (o.cgIterations == 1 && carry && w.rzLast > 0) {
+    const double beta = std::max(0.0, (rz - w.z.dot(w.rLast)) / w.rzLast);
+    w.p = w.z + beta * w.pLast;
+  } else {
+    w.p = w.z;
+  }
+  for (int j = 0; j < o.cgIterations && rz > 0; ++j) {
+    t0 = std::chrono::steady_clock::now();
+    if (cell) pcgProduct<8>(w.p, w.q);
+    else pcgProduct<4>(w.p, w.q);
+    st.productMs += msSince(t0);
+    const double pq = w.p.dot(w.q);
+    if (!(pq > 0)) break;
+    const double alpha = w.res.dot(w.p) / pq;  // = rz / pq for the linear iterations
+    w.d.noalias() += alpha * w.p;
+    ++st.pcgIterations;
+    if (j + 1 == o.cgIterations) break;
+    w.res.noalias() -= alpha * w.q;
+    t0 = std::chrono::steady_clock::now();
+    pcgPrecondition(w.res, w.z);
+    st.backSolveMs += msSince(t0);
+    const double rzNew = w.res.dot(w.z);
+    w.p = w.z + (rzNew / rz) * w.p;
+    rz = rzNew;
+  }
+  w.rLast = w.r;
+  w.pLast = w.p;
+  w.rzLast = rzOuter;
+  if (!w.d.allFinite()) throw Error("coarse solve: diverged (non-finite update)");
+}
+
 CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tol) {
-  using Clock = std::chrono::steady_clock;
-  auto ms = [](Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); };
   CoarseSolveStats st;
   preparePcg(st);
   PcgWorkspace& w = *pcg_;
@@ -289,88 +360,40 @@ CoarseSolveStats CoarseModel::solvePcg(const std::vector<RigidTransform>& handle
   double update0 = 0.0, relax = 1.0;
   // Other options make another map: its pairs go.
   if (w.options.andersonDepth != o.andersonDepth) w.anderson = AndersonAcceleration(o.andersonDepth);
-  else if (w.options.cgIterations != o.cgIterations || w.options.refreshDeg != o.refreshDeg || w.options.refreshFromIteration != o.refreshFromIteration)
-    w.anderson.reset();
+  else if (!(w.options == o)) w.anderson.reset();
   w.options = o;
   w.anderson.begin();
-  constexpr int kStall = 8;
   // Graded cells keep the plain iteration: with a sliding interface it barely contracts there
   // (rate ~0.99), and the mix stalled, then left the plain iteration thousands of iterations from
   // its fixed point (results.md, 2026-12-07, sixth entry).
   bool accelerate = o.andersonDepth > 0 && !graded_;
-  double bestUpdate = std::numeric_limits<double>::infinity();
-  int sinceBest = 0;
+  StallWatch stall;
   for (int it = 0; it < maxIterations; ++it) {
-    auto t0 = Clock::now();
+    auto t0 = std::chrono::steady_clock::now();
     // The preconditioner's node rotations once a call: it need only stay close to A(R).
     if (cell) pcgRotations<8>(x, it == 0);
     else pcgRotations<4>(x, it == 0);
-    st.rotationMs += ms(t0);
+    st.rotationMs += msSince(t0);
     if (it >= o.refreshFromIteration && o.refreshDeg > 0.0 && w.drift > o.refreshDeg * M_PI / 180.0) {
       pcgRefresh(st);
-      bestUpdate = std::numeric_limits<double>::infinity();  // updates before it were another map's
-      sinceBest = 0;
+      stall.restart();
     }
-    t0 = Clock::now();
+    t0 = std::chrono::steady_clock::now();
     double boundary = 0.0;
     if (cell) pcgResidual<8>(handles, x, w.r, boundary);
     else pcgResidual<4>(handles, x, w.r, boundary);
     st.boundaryMs += boundary;
-    st.productMs += ms(t0) - boundary;
-    // Conjugate gradients on A(R) d = r from d = 0, o.cgIterations of them. With one a iteration
-    // the directions are carried over the call's iterations instead (nonlinear conjugate gradients,
-    // Polak-Ribiere+: beta = max(0, z_k . (r_k - r_k-1) / z_k-1 . r_k-1)): within a frame the problem
-    // is nearly linear, so three such iterations do about what three linear CG iterations would.
-    w.d.setZero(dofCount_);
-    w.res = w.r;
-    t0 = Clock::now();
-    pcgPrecondition(w.res, w.z);
-    st.backSolveMs += ms(t0);
-    double rz = w.res.dot(w.z);
-    const double rzOuter = rz;
-    if (o.cgIterations == 1 && it > 0 && w.rzLast > 0) {
-      const double beta = std::max(0.0, (rz - w.z.dot(w.rLast)) / w.rzLast);
-      w.p = w.z + beta * w.pLast;
-    } else {
-      w.p = w.z;
-    }
-    for (int j = 0; j < o.cgIterations && rz > 0; ++j) {
-      t0 = Clock::now();
-      if (cell) pcgProduct<8>(w.p, w.q);
-      else pcgProduct<4>(w.p, w.q);
-      st.productMs += ms(t0);
-      const double pq = w.p.dot(w.q);
-      if (!(pq > 0)) break;
-      const double alpha = w.res.dot(w.p) / pq;  // = rz / pq for the linear iterations
-      w.d.noalias() += alpha * w.p;
-      ++st.pcgIterations;
-      if (j + 1 == o.cgIterations) break;
-      w.res.noalias() -= alpha * w.q;
-      t0 = Clock::now();
-      pcgPrecondition(w.res, w.z);
-      st.backSolveMs += ms(t0);
-      const double rzNew = w.res.dot(w.z);
-      w.p = w.z + (rzNew / rz) * w.p;
-      rz = rzNew;
-    }
-    w.rLast = w.r;
-    w.pLast = w.p;
-    w.rzLast = rzOuter;
-    if (!w.d.allFinite()) throw Error("coarse solve: diverged (non-finite update)");
+    st.productMs += msSince(t0) - boundary;
+    pcgStep(it > 0, st);
     // With Anderson acceleration the plain update stays a convergence measure beside the step.
     double update = 0.0;
     if (accelerate) {
       update = andersonStep(x);
       relax = 1.0;
-      // Stagnation: no new smallest plain update in kStall iterations. Anderson's mix cannot mend
-      // a map that barely contracts (as graded cells' with sliding, where it wandered at 1e-2 of
-      // the motion), so the call goes back to the iterate with the smallest plain update and on
-      // from there plain, damped.
-      if (update < bestUpdate) {
-        bestUpdate = update;
-        sinceBest = 0;
+      const StallWatch::Verdict v = stall.watch(update);
+      if (v == StallWatch::Verdict::Improved) {
         w.bestX = x;
-      } else if (++sinceBest >= kStall) {
+      } else if (v == StallWatch::Verdict::Stalled) {
         accelerate = false;
         w.anderson.reset();
         ++st.andersonStalls;

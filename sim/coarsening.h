@@ -91,6 +91,7 @@ struct PcgOptions {
   /// plain iteration with its damping, the earlier default). Uniform cells and tets only: graded
   /// cells keep the plain iteration (results.md, 2026-12-07, sixth entry).
   int andersonDepth = 3;
+  bool operator==(const PcgOptions&) const = default;
 };
 
 enum class CoarseElement { Tet = 0, Cell = 1 };
@@ -236,6 +237,8 @@ class CoarseModel {
   void pcgProduct(const Eigen::VectorXd& p, Eigen::VectorXd& out) const;
   void pcgNodeRotations();
   void pcgRefresh(CoarseSolveStats& st);
+  /// One iteration's conjugate-gradient step on A(R) d = r into pcg_->d (`carry`: a later iteration).
+  void pcgStep(bool carry, CoarseSolveStats& st);
   /// Anderson acceleration of the update in pcg_->d (sim/anderson.h); returns the plain update's largest node step.
   double andersonStep(const std::vector<Eigen::Vector3d>& x);
   void pcgFactorize(const std::vector<Eigen::Matrix3d>* Q, CoarseSolveStats& st);

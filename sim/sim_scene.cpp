@@ -142,10 +142,10 @@ std::vector<char> boneTets(const SimScene& sc, const TissueMap& tissue) {
 }
 
 // Dirichlet roles: the region's outer faces are fixed; handle nodes by the settings' rule, later
-// handles winning; the skeleton's nodes that no handle holds are anchored (fixed). `holdsHandle`
-// (shaped regions): the coarse cells holding a handle voxel.
-void assignConstraints(SimScene& sc, const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& s, const TissueMap& tissue,
-                       const std::vector<char>& boneTet, std::vector<char>* holdsHandle) {
+// handles winning (anchorSkeleton, after it, anchors the skeleton's nodes no handle holds).
+// `holdsHandle` (shaped regions): the coarse cells holding a handle voxel.
+void assignConstraints(SimScene& sc, const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& s,
+                       std::vector<char>* holdsHandle) {
   const TetMesh& F = sc.meshes.fine;
   const VolumeGeometry& g = image.geometry();
   sc.constraints.handleCount = int(handles.size());
@@ -161,7 +161,6 @@ void assignConstraints(SimScene& sc, const Volume& image, const std::vector<SimH
       for (std::uint32_t v : handles[h].voxels)
         if (const int t = sc.meshes.locateFine(g.toWorld(g.voxelOf(v).cast<double>())); t >= 0) (*holdsHandle)[std::size_t(sc.meshes.fineParent[std::size_t(t)] / 6)] = 1;
   }
-  if (tissue.skeletonVoxelCount() > 0) anchorSkeleton(sc, tissue, boneTet);
 }
 // Sliding interfaces (sim/sliding_interface.h): each handle's own tets (all four nodes selected by
 // it) lose their stiffness and strain limit, and its surface nodes become free nodes held to its
@@ -331,7 +330,8 @@ SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handle
   reportProgress(progress, 0.5, "stiffness");
   sc.fineK = tetStiffnesses(sc.meshes.fine, sc.youngs, sc.poisson);
   std::vector<char> holdsHandle(shaped ? sc.meshes.coarseGrid.cellCount() : 0, 0);
-  assignConstraints(sc, image, handles, s, tissue, boneTet, shaped ? &holdsHandle : nullptr);
+  assignConstraints(sc, image, handles, s, shaped ? &holdsHandle : nullptr);
+  if (tissue.skeletonVoxelCount() > 0) anchorSkeleton(sc, tissue, boneTet);
   if (shaped) holdCellsAwayFromHandles(sc, shape, holdsHandle, s.paddingMm);
   if (s.interface == SimSettings::Interface::Sliding && !handles.empty()) makeInterfacesSliding(sc, g, handles);
   countHandleNodes(sc, handles.size());
