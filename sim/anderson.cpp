@@ -1,5 +1,6 @@
 #include "sim/anderson.h"
 
+#include <algorithm>
 #include <vector>
 
 namespace handson {
@@ -76,6 +77,23 @@ Eigen::VectorXd AndersonAcceleration::step(const Eigen::VectorXd& x, const Eigen
   s.noalias() -= dX_.leftCols(count_) * gamma;
   s.noalias() -= dF_.leftCols(count_) * gamma;
   return s;
+}
+
+namespace {
+
+double largestTriple(const Eigen::VectorXd& v) {
+  double m = 0.0;
+  for (Eigen::Index i = 0; i + 2 < v.size(); i += 3) m = std::max(m, v.segment<3>(i).norm());
+  return m;
+}
+
+}  // namespace
+
+Eigen::VectorXd AndersonAcceleration::guardedStep(const Eigen::VectorXd& x, const Eigen::VectorXd& f, double maxRatio) {
+  Eigen::VectorXd s = step(x, f);
+  if (s.allFinite() && largestTriple(s) <= maxRatio * largestTriple(f)) return s;
+  reset();
+  return f;
 }
 
 }  // namespace handson

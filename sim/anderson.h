@@ -27,6 +27,11 @@ class AndersonAcceleration {
   /// The next iterate from x and its update f = g(x) - x (same size, free dofs). Returns the step
   /// taken, next - x.
   Eigen::VectorXd step(const Eigen::VectorXd& x, const Eigen::VectorXd& f);
+  /// step() for stacked 3-vectors (node positions): a mix that is not finite, or whose largest
+  /// 3-vector is more than maxRatio times the plain update's largest, is dropped for the plain
+  /// update f, and every pair with it (secants that no longer describe the map: the map changed
+  /// under them, or it barely changes along a secant, so the mix extrapolates far along it).
+  Eigen::VectorXd guardedStep(const Eigen::VectorXd& x, const Eigen::VectorXd& f, double maxRatio);
   int pairs() const { return count_; }
 
  private:

@@ -260,20 +260,16 @@ void CoarseModel::pcgRefresh(CoarseSolveStats& st) {
 // Replaces the plain update w.d by Anderson's mix with the recent secant pairs (sim/anderson.h; from
 // this call and the drag's earlier ones) and returns the plain update's largest node step. A mix
 // more than 10x the plain step's length (secants that no longer describe the map: a handle let go,
-// a preconditioner refreshed) is dropped for the plain step, and the pairs with it.
+// a preconditioner refreshed) is dropped for the plain step, and the pairs with it (guardedStep).
 double CoarseModel::andersonStep(const std::vector<Eigen::Vector3d>& x) {
   PcgWorkspace& w = *pcg_;
-  auto largest = [](const Eigen::VectorXd& v) {
-    double m = 0.0;
-    for (Eigen::Index i = 0; i < v.size(); i += 3) m = std::max(m, v.segment<3>(i).norm());
-    return m;
-  };
   w.xFree.resize(dofCount_);
-  for (std::size_t i = 0; i < w.freeNode.size(); ++i) w.xFree.segment<3>(3 * Eigen::Index(i)) = x[std::size_t(w.freeNode[i])];
-  const double plain = largest(w.d);
-  Eigen::VectorXd mixed = w.anderson.step(w.xFree, w.d);
-  if (mixed.allFinite() && largest(mixed) <= 10.0 * plain) w.d = std::move(mixed);
-  else w.anderson.reset();
+  double plain = 0.0;
+  for (std::size_t i = 0; i < w.freeNode.size(); ++i) {
+    w.xFree.segment<3>(3 * Eigen::Index(i)) = x[std::size_t(w.freeNode[i])];
+    plain = std::max(plain, w.d.segment<3>(3 * Eigen::Index(i)).norm());
+  }
+  w.d = w.anderson.guardedStep(w.xFree, w.d, 10.0);
   return plain;
 }
 
@@ -282,9 +278,9 @@ namespace {
 double msSince(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(); }
 
 // Anderson acceleration's stall watch over one call: no new smallest plain update in kStall
-// iterations is a stall. Anderson's mix cannot mend a map that barely contracts (as graded cells'
-// with sliding, where it wandered at 1e-2 of the motion), so the call then goes back to the iterate
-// with the smallest plain update and on from there plain, damped.
+// iterations is a stall. Anderson's mix cannot mend a map that barely
+// contracts (as graded cells' with sliding, where it wandered at 1e-2 of the motion), so the call
+// then goes back to the iterate with the smallest plain update and on from there plain, damped.
 struct StallWatch {
   static constexpr int kStall = 8;
   double best = std::numeric_limits<double>::infinity();

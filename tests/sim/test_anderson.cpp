@@ -122,5 +122,36 @@ TEST(AndersonAcceleration, DepthZeroIsThePlainIterationAndARepeatedIterateAddsNo
   EXPECT_EQ(aa.pairs(), 0);
 }
 
+TEST(AndersonAcceleration, TheGuardDropsAFarMixAndItsPairsAndKeepsAnOrdinaryOne) {
+  // One secant along which the map barely changes: x 0 -> (1,0,0), f (1,0,0) -> (1.001,0,0). The
+  // least squares fits f with gamma = 1.001 / 0.001 = 1001, so the mix extrapolates to
+  // 1.001 - 1.001 * 1001 = -1001 along it, 1000x the plain update: guarded at 10x, the plain
+  // update comes back exactly and the pair goes. On the slow linear map (6 unknowns, two 3-vectors)
+  // the guard never acts: the same steps as unguarded, to the last bit.
+  const Eigen::Vector3d x0 = Eigen::Vector3d::Zero(), f0(1.0, 0.0, 0.0), x1(1.0, 0.0, 0.0), f1(1.001, 0.0, 0.0);
+  AndersonAcceleration open(2), guarded(2);
+  open.step(x0, f0);
+  guarded.guardedStep(x0, f0, 10.0);
+  const Eigen::VectorXd far = open.step(x1, f1);
+  EXPECT_NEAR(far[0], -1001.0, 1e-6);  // what the guard is for
+  const Eigen::VectorXd kept = guarded.guardedStep(x1, f1, 10.0);
+  EXPECT_EQ(kept, Eigen::VectorXd(f1));
+  EXPECT_EQ(guarded.pairs(), 0);
+  // Nothing of the dropped run is paired with the next call either.
+  EXPECT_EQ(Eigen::VectorXd(guarded.guardedStep(x1 + f1, f1, 10.0)), Eigen::VectorXd(f1));
+  EXPECT_EQ(guarded.pairs(), 0);
+
+  const SlowLinearMap map;
+  AndersonAcceleration a(3), b(3);
+  Eigen::VectorXd xa = Eigen::VectorXd::Zero(6), xb = xa;
+  for (int k = 0; k < 5; ++k) {
+    const Eigen::VectorXd sa = a.step(xa, map.update(xa)), sb = b.guardedStep(xb, map.update(xb), 10.0);
+    EXPECT_EQ(sa, sb) << "step " << k;
+    xa += sa;
+    xb += sb;
+  }
+  EXPECT_EQ(b.pairs(), 3);
+}
+
 }  // namespace
 }  // namespace handson

@@ -224,6 +224,32 @@ TEST(CoarsePcg, AndersonAccelerationKeepsTheFixedPointAndGradedCellsKeepThePlain
   }
 }
 
+TEST(CoarsePcg, AStalledMixGoesBackToItsBestIterateAndOnPlainToTheSameFixedPoint) {
+  // The stall watch: no new smallest plain update in 8 iterations of a call gives Anderson's mix up,
+  // back to the iterate with the smallest plain update, and on plain. A solve asked for more than
+  // rounding allows (tolerance 0, 100 iterations) reaches the rounding floor, where the updates
+  // only wander, so the watch must act there. The sliding kidney (1,440 coarse tets) moved from
+  // rest, measured: one stall (not before 40 iterations), the last update 3e-15 mm, 7e-12 of the
+  // motion from the plain iteration's answer at 1e-11. Bounds: exactly one stall (then plain to the
+  // end), the answer within 1e-6 of the motion (as for the mix itself), the last update under
+  // 1e-9 mm (it ends at rounding, not thrown back to an early iterate).
+  const KidneyScene k(1500, 64);
+  PcgOptions plainOptions;
+  plainOptions.andersonDepth = 0;
+  CoarseModel plain(k.sc.meshes, k.sc.fineK, k.sc.constraints), mixed(k.sc.meshes, k.sc.fineK, k.sc.constraints);
+  plain.setPcgOptions(plainOptions);
+  auto xp = plain.restState(), xm = mixed.restState();
+  const auto sp = plain.solve(k.pose(1.0), xp, 5000, 1e-11), sm = mixed.solve(k.pose(1.0), xm, 100, 0.0);
+  const double motion = handleMotion(plain, xp);
+  std::printf("tolerance 0, 100 iterations: %d stalls, last update %.1e mm, %.1e of the motion from plain (%d iterations)\n", sm.andersonStalls,
+              sm.lastUpdate, largestDistance(xp, xm) / motion, sp.iterations);
+  ASSERT_TRUE(sp.converged);
+  EXPECT_FALSE(sm.converged);
+  EXPECT_EQ(sm.andersonStalls, 1);
+  EXPECT_LT(largestDistance(xp, xm), 1e-6 * motion);
+  EXPECT_LT(sm.lastUpdate, 1e-9);
+}
+
 TEST(CoarsePcg, ALongSolveRefreshesItsPreconditionerAndKeepsItsFixedPoint) {
   // From rest, the sliding kidney moved 10 mm and turned 30 degrees: the refreshes (from a call's
   // fourth iteration, once an element turned 10 degrees from the factor's rotations) cut the
