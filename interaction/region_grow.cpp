@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 #include <string>
+#include <utility>
 
 #include "sim/volume.h"
 #include "sim/base/error.h"
@@ -58,18 +59,46 @@ Eigen::Vector3i mostHomogeneousNear(const QuantizedVolume& volume, const Eigen::
 }
 
 void GrowWorkspace::reserve(std::size_t voxels) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (lent_) throw Error("region growing: the workspace is lent to a grower");
   if (keys.size() != voxels) keys.assign(voxels, kUnreached);
   if (tests.size() != voxels) tests.assign(voxels, 0);
 }
 
-RegionGrower::~RegionGrower() {
+void GrowWorkspace::lend(std::vector<std::uint32_t>& k, std::vector<std::uint8_t>& t) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  returned_.wait(lock, [this] { return !lent_; });
+  lent_ = true;
+  std::swap(k, keys);
+  std::swap(t, tests);
+}
+
+void GrowWorkspace::giveBack(std::vector<std::uint32_t>& k, std::vector<std::uint8_t>& t) {
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    std::swap(keys, k);
+    std::swap(tests, t);
+    lent_ = false;
+  }
+  returned_.notify_all();
+}
+
+RegionGrower::~RegionGrower() { releaseWorkspace(); }
+
+void RegionGrower::releaseWorkspace() {
   if (!workspace_) return;
   // Back to the workspace as it came: cleared where this grower wrote.
   for (std::size_t v : touched_) keys_[v] = kUnreached;
   for (std::size_t v : classified_) class_[v] = 0;
   if (!front_.empty()) front_.clear();
-  std::swap(workspace_->keys, keys_);
-  std::swap(workspace_->tests, class_);
+  std::exchange(workspace_, nullptr)->giveBack(keys_, class_);
+}
+
+std::vector<std::uint32_t> RegionGrower::selected(std::uint32_t bound) const {
+  std::vector<std::uint32_t> out;
+  for (std::size_t v : touched_)
+    if (keys_[v] <= bound) out.push_back(std::uint32_t(v));
+  return out;
 }
 
 RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i& seed, const GrowParams& params, GrowWorkspace* workspace)
@@ -87,11 +116,22 @@ RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i&
     throw Error("region growing: invalid refinement parameters");
   if (params.criterion != GrowCriterion::Paper && params.bound == GrowBound::Path && !(g.spacing.maxCoeff() < 1e5))
     throw Error("region growing: path keys need voxel spacings below 100 m");  // a step < 2^26 units: keys cannot overflow
-  if (workspace) {  // every check is above: from here the arrays are the grower's (its destructor gives them back)
-    std::swap(keys_, workspace->keys);
-    std::swap(class_, workspace->tests);
+  if (workspace) {  // every check is above: from here the arrays are the grower's (given back by its destructor, or below)
+    workspace->lend(keys_, class_);
     workspace_ = workspace;
   }
+  try {
+    begin(seed);
+  } catch (...) {  // the arrays back as they came (the destructor does not run)
+    releaseWorkspace();
+    throw;
+  }
+}
+
+// The seed statistics and the criterion's probes (docs/region-growing.md).
+void RegionGrower::begin(const Eigen::Vector3i& seed) {
+  const GrowParams& params = params_;
+  const auto& g = vol_.geometry;
   setup_.seed = seed;
   setup_.criterion = params.criterion;
   setup_.spacing = g.spacing.cast<float>();

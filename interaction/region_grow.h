@@ -34,7 +34,9 @@
 // The smoothed criteria then refine their statistics from the region they grow near the seed (see
 // GrowParams); the paper criterion is the paper's rule, unchanged.
 #include <array>
+#include <condition_variable>
 #include <cstdint>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -95,13 +97,24 @@ Eigen::Vector3i mostHomogeneousNear(const QuantizedVolume& volume, const Eigen::
 /// The grower's per-voxel arrays (a key and the cached tests for every voxel of the volume), kept
 /// between growers: allocating and clearing them is most of a new grower's cost on a large CT
 /// (ircadb1.1, 34 M voxels: ~0.5 s of fresh pages against milliseconds of growth). A grower given a
-/// workspace takes its arrays, and gives them back cleared (only the entries it touched) when it
-/// is destroyed. One grower at a time per workspace; the workspace must outlive it.
+/// workspace borrows its arrays, and gives them back cleared (only the entries it touched) when it
+/// is destroyed - on any thread: a finished pinch's grower is let go where its voxels are gathered
+/// (interaction/selection.h, FinishedPinch). One grower at a time per workspace: a grower made
+/// while another holds the arrays waits for them. The workspace must outlive its growers.
 struct GrowWorkspace {
-  std::vector<std::uint32_t> keys;  ///< kUnreached everywhere, or empty
+  std::vector<std::uint32_t> keys;  ///< kUnreached everywhere, or empty (lent, or never sized)
   std::vector<std::uint8_t> tests;  ///< 0 everywhere, or empty
-  /// Sizes the arrays for a volume now (so the first grower does not pay for it).
+  /// Sizes the arrays for a volume now (so the first grower does not pay for it). Not while lent.
   void reserve(std::size_t voxels);
+  /// A grower borrows the arrays (swapped into k and t), waiting while another holds them.
+  void lend(std::vector<std::uint32_t>& k, std::vector<std::uint8_t>& t);
+  /// ... and gives them back (cleared by the grower).
+  void giveBack(std::vector<std::uint32_t>& k, std::vector<std::uint8_t>& t);
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable returned_;
+  bool lent_ = false;
 };
 
 class RegionGrower {
@@ -131,6 +144,9 @@ class RegionGrower {
   double grownExtent() const { return grown_; }
   /// Voxels that have a key (the only candidates for any selection).
   const std::vector<std::size_t>& touched() const { return touched_; }
+  /// The selection for a key bound (keys <= bound, bound(extentMm)): linear indices in the order
+  /// they were reached (touched()).
+  std::vector<std::uint32_t> selected(std::uint32_t bound) const;
 
  private:
   float value(int i, int j, int k) const;  // u16 value or 3x3x3 sum, per criterion
@@ -140,6 +156,10 @@ class RegionGrower {
   /// A voxel inside the volume that is homogeneous and passes growth on (or the seed).
   bool passesThrough(const Eigen::Vector3i& voxel);
   void restart();
+  /// The constructor's work once the checks passed and the arrays are borrowed.
+  void begin(const Eigen::Vector3i& seed);
+  /// The arrays back to the workspace, cleared (nothing without one).
+  void releaseWorkspace();
   bool homogeneous(std::size_t v, int i, int j, int k);  // accepts(), cached; (i, j, k) = v's voxel
   bool passesOn(std::size_t v, const Eigen::Vector3i& voxel);
   void setTolerance(double tolerance);

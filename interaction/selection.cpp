@@ -68,8 +68,16 @@ void PinchSelection::finish() {
     std::optional<std::vector<std::uint32_t>> voxels;
     if (growingOn_) onEngine([&voxels](GrowthEngine& g) { voxels = g.finish(); });
     finishedSeed_ = std::uint32_t(linearIndex(volume_.geometry, grower_->setup().seed));
-    finished_ = FinishedPinch{voxels ? std::move(*voxels) : liveVoxels(), std::nullopt, finishedSeed_};  // liveVoxels: the CPU's, also after a fallback
+    finished_.emplace();
+    finished_->seed = finishedSeed_;
     if (params_.boundaryRim) finished_->rim.emplace(*grower_);
+    if (voxels) {
+      finished_->voxels = std::move(*voxels);
+    } else {  // the CPU's (also after a fallback), gathered later: the lift stays cheap
+      finished_->bound = grower_->bound(extent_);
+      finished_->workspace = workspace_;
+      finished_->grower = std::move(grower_);
+    }
     changed_ = true;
   }
   growingOn_ = nullptr;
@@ -109,7 +117,8 @@ void PinchSelection::onPicks(const std::vector<std::optional<glm::dvec3>>& world
   const double depth = glm::dot(seedWorld - camera.eye(), camera.forward());
   pixelMm_ = camera.pixelSizeAt(std::max(depth, 1e-3), viewport.height);
   grower_.reset();  // gives the workspace back before the next grower takes it
-  grower_ = std::make_unique<RegionGrower>(volume_, seed, params_, &workspace_);
+  if (finished_) finished_->gather();  // so does a finished pinch not taken yet (on this thread: it would wait for itself)
+  grower_ = std::make_unique<RegionGrower>(volume_, seed, params_, workspace_.get());
   state_ = State::Growing;
   extent_ = 0.0;
   feedback_.clear();
@@ -152,11 +161,7 @@ void PinchSelection::updateExtent(const TouchInput& input) {
 std::vector<std::uint32_t> PinchSelection::liveVoxels() const {
   std::vector<std::uint32_t> out;
   if (!grower_ || growingOn_) return out;
-  const std::uint32_t bound = grower_->bound(extent_);
-  const auto& keys = grower_->keys();
-  for (std::size_t v : grower_->touched())
-    if (keys[v] <= bound) out.push_back(std::uint32_t(v));
-  return out;
+  return grower_->selected(grower_->bound(extent_));
 }
 
 std::optional<std::vector<std::uint32_t>> PinchSelection::takeFinished() {
@@ -165,7 +170,15 @@ std::optional<std::vector<std::uint32_t>> PinchSelection::takeFinished() {
   return std::move(*f).complete();
 }
 
+void FinishedPinch::gather() {
+  if (!grower) return;
+  voxels = grower->selected(bound);
+  grower.reset();
+  workspace.reset();
+}
+
 std::vector<std::uint32_t> FinishedPinch::complete() && {
+  gather();
   std::vector<std::uint32_t> out = std::move(voxels);
   std::sort(out.begin(), out.end());  // the same handle whichever engine grew it
   return rim ? withBoundaryRim(*rim, out) : out;

@@ -34,13 +34,21 @@ class GrowthEngine {
   virtual std::vector<std::uint32_t> finish() = 0;
 };
 
-/// A pinch's selection as its fingers lifted, before its voxels are sorted and rimmed: what the
-/// window finishes off the frame's thread (app/session/selection_controller.h).
+/// A pinch's selection as its fingers lifted, before its voxels are gathered, sorted and rimmed:
+/// what the window finishes off the frame's thread (app/session/selection_controller.h). Grown on
+/// the CPU, its voxels are still the grower's keys up to `bound`, and the grower still holds its
+/// workspace's arrays: gathering them and clearing those (2.2 M voxels of a liver: ~40 ms) is left
+/// to gather() or complete(), on any thread; a new pinch's grower waits for the arrays meanwhile.
 struct FinishedPinch {
-  std::vector<std::uint32_t> voxels;     ///< as grown, in any order
+  std::vector<std::uint32_t> voxels;     ///< as grown, in any order (gathered, or the engine's)
   std::optional<BoundaryRimRule> rim;    ///< set when GrowParams::boundaryRim
   std::uint32_t seed = 0xffffffffu;      ///< the voxel it grew from (PinchSelection::finishedSeed)
-  /// The final voxels: ascending, with their boundary rim (withBoundaryRim).
+  std::shared_ptr<GrowWorkspace> workspace;  ///< the grower's workspace, kept alive while it holds it
+  std::unique_ptr<RegionGrower> grower;      ///< set until gathered: the voxels are its keys <= bound
+  std::uint32_t bound = 0;
+  /// The voxels from the grower into `voxels`, and the grower let go (its arrays back, cleared).
+  void gather();
+  /// The final voxels: ascending, with their boundary rim (withBoundaryRim); gathered first.
   std::vector<std::uint32_t> complete() &&;
 };
 
@@ -50,8 +58,9 @@ class PinchSelection {
 
   /// Sizes the growers' per-voxel arrays for the volume now (GrowWorkspace): a pinch then starts in
   /// milliseconds, not the time to clear a large CT's worth of them.
-  PinchSelection(const QuantizedVolume& volume, const GrowParams& params) : volume_(volume), params_(params) {
-    workspace_.reserve(volume.data.size());
+  PinchSelection(const QuantizedVolume& volume, const GrowParams& params)
+      : volume_(volume), params_(params), workspace_(std::make_shared<GrowWorkspace>()) {
+    workspace_->reserve(volume.data.size());
   }
 
   /// Feed select-mode touches (after the input layer accepted them).
@@ -96,7 +105,7 @@ class PinchSelection {
   glm::dvec2 pickA_{0.0}, pickB_{0.0};
   bool requestPending_ = false;
   double pixelMm_ = 0.0, extent_ = 0.0;
-  GrowWorkspace workspace_;  // before grower_: outlives it
+  std::shared_ptr<GrowWorkspace> workspace_;  // before grower_: outlives it (and a finished pinch's grower)
   std::unique_ptr<RegionGrower> grower_;
   GrowthEngine* engine_ = nullptr;
   GrowthEngine* growingOn_ = nullptr;  // the engine of the pinch now growing (nullptr: the CPU)

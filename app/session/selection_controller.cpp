@@ -81,17 +81,23 @@ void SelectionController::relabel(const HandleSet::MaskChange& change, std::vect
 void SelectionController::refreshLive() {
   std::vector<std::uint32_t> old = std::move(live_);
   live_ = pinch_.state() == PinchSelection::State::Growing ? pinch_.liveVoxels() : std::vector<std::uint32_t>{};
+  bool drawn = false;  // the finished pinch stays drawn as it was: its live voxels became landing_
   if (auto done = pinch_.takeFinishedPinch()) {
-    if (editing()) queued_.push_back({std::nullopt, std::move(*done), pinchOp_, picked_});
-    else startPinchEdit(std::move(*done), pinchOp_, picked_);
+    if (editing()) {
+      done->gather();  // its grower's arrays back now: the next pinch must not wait behind the queue
+      queued_.push_back({std::nullopt, std::move(*done), pinchOp_, picked_});
+    } else {
+      drawn = startPinchEdit(std::move(*done), pinchOp_, picked_, old);
+    }
   }
   // The GPU painted the live selection into its box: back to the handles' ids there.
   if (const auto box = gpu_ && !gpu_->growing() ? gpu_->takePaintedBox() : std::nullopt) {
     dirtyMin_ = dirtyMin_.cwiseMin(box->first);
     dirtyMax_ = dirtyMax_.cwiseMax(box->first + box->second - Eigen::Vector3i::Ones());
   }
+  if (drawn) old.clear();
   old.insert(old.end(), live_.begin(), live_.end());
-  repaint(old);
+  if (!drawn || !old.empty()) repaint(old);
 }
 
 void SelectionController::detectTap(const TouchEvent& e, const TouchInput& input) {
@@ -243,7 +249,7 @@ int SelectionController::correctionTarget(const std::vector<int>& picked) const 
   return handles_.handles().empty() ? 0 : handles_.handles().back().id;
 }
 
-void SelectionController::startPinchEdit(FinishedPinch pinch, PinchOp op, const std::vector<int>& picked) {
+bool SelectionController::startPinchEdit(FinishedPinch pinch, PinchOp op, const std::vector<int>& picked, std::vector<std::uint32_t>& shown) {
   const PinchRequest request{op, op == PinchOp::New ? 0 : correctionTarget(picked), corrections_};
   auto edit = [request, g = volume_.geometry](std::vector<Handle> handles, FinishedPinch p) {
     const std::uint32_t seed = p.seed;
@@ -251,12 +257,21 @@ void SelectionController::startPinchEdit(FinishedPinch pinch, PinchOp op, const 
   };
   if (!editsInBackground_) {
     takeIn(edit(handles_.handles(), std::move(pinch)), true);
-    return;
+    return false;
   }
   const StageTimes::Scope t(stages_, "selection-edit");
-  landing_ = pinch.voxels;  // drawn as the live selection until it lands
+  // Drawn as the live selection until it lands: grown on the CPU and shown, what was shown (its
+  // voxels are gathered on the worker); else its voxels (the engine's, or gathered now: a pinch
+  // that ended as its picks came back was never shown).
+  const bool showsLive = pinch.grower && !shown.empty();
+  if (showsLive) landing_ = std::move(shown);
+  else {
+    pinch.gather();
+    landing_ = pinch.voxels;
+  }
   editIsPinch_ = true;
   editFuture_ = std::async(std::launch::async, edit, handles_.handles(), std::move(pinch));
+  return showsLive;
 }
 
 bool SelectionController::correct(int a, int b, bool unite) {
@@ -310,7 +325,8 @@ void SelectionController::poll() {
     QueuedEdit q = std::move(queued_.front());
     queued_.pop_front();
     if (!q.ui) {
-      startPinchEdit(std::move(q.pinch), q.op, q.picked);
+      std::vector<std::uint32_t> none;
+      startPinchEdit(std::move(q.pinch), q.op, q.picked, none);
       repaint(landing_);  // a pinch that waited is drawn from now (it was repainted as it ended)
       continue;
     }

@@ -123,8 +123,10 @@ class SelectionController {
   // made on a copy taken in.
   bool applyEdit(const ScriptEvent& e, bool waited = false);
   bool correct(int a, int b, bool unite);
-  /// `picked`: the handles tapped as the pinch ended (a correction's target: correctionTarget).
-  void startPinchEdit(FinishedPinch pinch, PinchOp op, const std::vector<int>& picked);
+  /// `picked`: the handles tapped as the pinch ended (a correction's target: correctionTarget);
+  /// `shown`: its voxels as drawn live (empty if none), taken as landing_ when the edit goes to the
+  /// background with the pinch's voxels still in its grower - then it returns true (nothing to repaint).
+  bool startPinchEdit(FinishedPinch pinch, PinchOp op, const std::vector<int>& picked, std::vector<std::uint32_t>& shown);
   void takeIn(EditOnCopy edit, bool pinch);
   struct QueuedEdit {
     std::optional<ScriptEvent> ui;  // a UI action, else a finished pinch

@@ -79,7 +79,8 @@ void eachComponent(const Box& box, const VolumeGeometry& g, const std::vector<st
 // depth-picks on either side of it, spread so that the app's extent is `spreadMm`; one lifts.
 // Returns the finished selection (with its boundary rim when the rules say so) and its seed.
 struct Pinched {
-  FinishedPinch finished;  // its voxels as grown (complete(): sorted and rimmed) and its seed
+  FinishedPinch finished;  // its voxels as grown (complete(): gathered, sorted and rimmed) and its seed
+  std::vector<std::uint32_t> shown;  // its live voxels as the app drew them before the lift
   double liftMs = 0.0;  // the fingers lifted (the frame's thread)
 };
 Pinched appPinch(PinchSelection& pinch, const VolumeGeometry& g, const Eigen::Vector3i& target, double spreadMm) {
@@ -102,13 +103,14 @@ Pinched appPinch(PinchSelection& pinch, const VolumeGeometry& g, const Eigen::Ve
   pinch.takePickRequest();
   const glm::dvec3 side = camera.right() * 0.5;  // picks 1 mm apart, their midpoint the target
   pinch.onPicks({camera.target - side, camera.target + side}, camera, viewport);
+  std::vector<std::uint32_t> shown = pinch.liveVoxels();  // the app's live selection, drawn as it grew
   const auto lift = std::chrono::steady_clock::now();
   touch(TouchPhase::Up, 1);
   touch(TouchPhase::Up, 0);
   const double liftMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - lift).count();
   auto done = pinch.takeFinishedPinch();
   if (!done) return {};
-  return {std::move(*done), liftMs};
+  return {std::move(*done), std::move(shown), liftMs};
 }
 
 double ms(std::chrono::steady_clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
@@ -137,7 +139,14 @@ EditOnCopy editAsTheWindowDoes(HandleSet& handles, AppMask& m, Pinched p, const 
   std::vector<std::uint8_t>& mask = m.shown;
   const auto t1 = std::chrono::steady_clock::now();
   std::vector<Handle> copy = handles.handles();
-  const std::vector<std::uint32_t> landing = p.finished.voxels;  // drawn as the live selection meanwhile
+  // Drawn as the live selection meanwhile: what was shown (its voxels gathered on the worker).
+  std::vector<std::uint32_t> landing;
+  if (p.finished.grower && !p.shown.empty()) {
+    landing = std::move(p.shown);
+  } else {
+    p.finished.gather();
+    landing = p.finished.voxels;
+  }
   const auto t2 = std::chrono::steady_clock::now();
   const std::uint32_t seed = p.finished.seed;
   std::vector<std::uint32_t> voxels = std::move(p.finished).complete();

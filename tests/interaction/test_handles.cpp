@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <chrono>
 #include <cstdlib>
+#include <thread>
 
 #include "interaction/handles.h"
 #include "interaction/selection.h"
@@ -194,6 +196,51 @@ TEST(PinchSelection, GrowsFromTheMidpointAndEndsWhenAFingerLifts) {
   ASSERT_TRUE(done.has_value());
   EXPECT_GT(done->size(), 10u);
   EXPECT_FALSE(sel.takeFinished().has_value());
+}
+
+TEST(PinchSelection, TheLiftLeavesItsVoxelsInTheGrowerForWhoeverCompletesThePinch) {
+  // The lift hands the grower on (no gathering, no clearing of its arrays on the frame's thread):
+  // the voxels are the ones shown live, gathered where the pinch is completed. Completed on another
+  // thread while the next pinch starts here, that pinch's grower waits for the workspace's arrays
+  // and grows what a pinch on a fresh selection grows (the arrays came back cleared). A finished
+  // pinch nobody took is gathered when the next one starts (it would otherwise wait for itself).
+  PinchRig rig, refRig;
+  PinchSelection sel(rig.q, GrowParams{}), ref(refRig.q, GrowParams{});
+  rig.pinchKidney(sel);
+  rig.feed(sel, TouchPhase::Move, 2, 240, 270);
+  std::vector<std::uint32_t> shown = sel.liveVoxels();
+  rig.feed(sel, TouchPhase::Up, 1, 200, 270);
+  rig.feed(sel, TouchPhase::Up, 2, 240, 270);
+  std::optional<FinishedPinch> first = sel.takeFinishedPinch();
+  ASSERT_TRUE(first.has_value());
+  ASSERT_TRUE(first->grower != nullptr) << "the voxels stay in the grower until completed";
+  EXPECT_TRUE(first->voxels.empty());
+  refRig.pinchKidney(ref);
+  refRig.feed(ref, TouchPhase::Move, 2, 240, 270);
+  refRig.feed(ref, TouchPhase::Up, 1, 200, 270);
+  refRig.feed(ref, TouchPhase::Up, 2, 240, 270);
+  const std::vector<std::uint32_t> expected = *ref.takeFinished();
+  std::vector<std::uint32_t> completed;
+  std::thread worker([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    completed = std::move(*first).complete();
+  });
+  rig.pinchKidney(sel);  // waits for the worker's grower to give the arrays back
+  worker.join();
+  EXPECT_EQ(completed, expected);
+  std::vector<std::uint32_t> shownSorted = shown;
+  std::sort(shownSorted.begin(), shownSorted.end());
+  EXPECT_TRUE(std::includes(completed.begin(), completed.end(), shownSorted.begin(), shownSorted.end())) << "what was shown, and its rim";
+  refRig.pinchKidney(ref);
+  EXPECT_EQ(sel.liveVoxels(), ref.liveVoxels());
+  // Finished and not taken: the next pinch gathers it here.
+  for (auto [r, s] : {std::pair{&rig, &sel}, std::pair{&refRig, &ref}}) {
+    r->feed(*s, TouchPhase::Up, 1, 200, 270);
+    r->feed(*s, TouchPhase::Up, 2, 220, 270);
+  }
+  rig.pinchKidney(sel);
+  EXPECT_EQ(sel.state(), PinchSelection::State::Growing);
+  EXPECT_EQ(*sel.takeFinished(), *ref.takeFinished());
 }
 
 TEST(PinchSelection, AFingerLiftedBeforeThePicksReturnEndsTheSelectionWhenTheyDo) {
