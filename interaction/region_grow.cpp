@@ -67,7 +67,8 @@ void GrowWorkspace::reserve(std::size_t voxels) {
 
 void GrowWorkspace::lend(std::vector<std::uint32_t>& k, std::vector<std::uint8_t>& t) {
   std::unique_lock<std::mutex> lock(mutex_);
-  returned_.wait(lock, [this] { return !lent_; });
+  if (!returned_.wait_for(lock, lendWait, [this] { return !lent_; }))
+    throw Error("region growing: the last selection still holds the grower's arrays (not finished in " + std::to_string(lendWait.count()) + " ms)");
   lent_ = true;
   std::swap(k, keys);
   std::swap(t, tests);
@@ -91,7 +92,7 @@ void RegionGrower::releaseWorkspace() {
   for (std::size_t v : touched_) keys_[v] = kUnreached;
   for (std::size_t v : classified_) class_[v] = 0;
   if (!front_.empty()) front_.clear();
-  std::exchange(workspace_, nullptr)->giveBack(keys_, class_);
+  std::exchange(workspace_, nullptr)->giveBack(keys_, class_);  // the last owner may free it after
 }
 
 std::vector<std::uint32_t> RegionGrower::selected(std::uint32_t bound) const {
@@ -101,7 +102,7 @@ std::vector<std::uint32_t> RegionGrower::selected(std::uint32_t bound) const {
   return out;
 }
 
-RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i& seed, const GrowParams& params, GrowWorkspace* workspace)
+RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i& seed, const GrowParams& params, std::shared_ptr<GrowWorkspace> workspace)
     : vol_(volume), params_(params) {
   const auto& g = volume.geometry;
   if (!g.contains(seed)) throw Error("region growing: the seed voxel lies outside the volume");
@@ -118,7 +119,7 @@ RegionGrower::RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i&
     throw Error("region growing: path keys need voxel spacings below 100 m");  // a step < 2^26 units: keys cannot overflow
   if (workspace) {  // every check is above: from here the arrays are the grower's (given back by its destructor, or below)
     workspace->lend(keys_, class_);
-    workspace_ = workspace;
+    workspace_ = std::move(workspace);
   }
   try {
     begin(seed);

@@ -34,8 +34,10 @@
 // The smoothed criteria then refine their statistics from the region they grow near the seed (see
 // GrowParams); the paper criterion is the paper's rule, unchanged.
 #include <array>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -100,13 +102,18 @@ Eigen::Vector3i mostHomogeneousNear(const QuantizedVolume& volume, const Eigen::
 /// workspace borrows its arrays, and gives them back cleared (only the entries it touched) when it
 /// is destroyed - on any thread: a finished pinch's grower is let go where its voxels are gathered
 /// (interaction/selection.h, FinishedPinch). One grower at a time per workspace: a grower made
-/// while another holds the arrays waits for them. The workspace must outlive its growers.
+/// while another holds the arrays waits for them (at most lendWait: then it is refused, as a
+/// grower that would wait for one its own thread holds would hang). Growers hold their workspace
+/// by shared_ptr. `keys` and `tests` may be read only while no grower holds them.
 struct GrowWorkspace {
   std::vector<std::uint32_t> keys;  ///< kUnreached everywhere, or empty (lent, or never sized)
   std::vector<std::uint8_t> tests;  ///< 0 everywhere, or empty
   /// Sizes the arrays for a volume now (so the first grower does not pay for it). Not while lent.
   void reserve(std::size_t voxels);
-  /// A grower borrows the arrays (swapped into k and t), waiting while another holds them.
+  /// How long a grower waits for the arrays before it is refused.
+  std::chrono::milliseconds lendWait{20000};
+  /// A grower borrows the arrays (swapped into k and t), waiting while another holds them; throws
+  /// handson::Error if they do not come back within lendWait.
   void lend(std::vector<std::uint32_t>& k, std::vector<std::uint8_t>& t);
   /// ... and gives them back (cleared by the grower).
   void giveBack(std::vector<std::uint32_t>& k, std::vector<std::uint8_t>& t);
@@ -120,8 +127,10 @@ struct GrowWorkspace {
 class RegionGrower {
  public:
   /// Throws handson::Error if the seed lies outside the volume or the parameters are invalid.
-  /// `workspace`: arrays to reuse (see GrowWorkspace); nullptr: the grower's own.
-  RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i& seed, const GrowParams& params = {}, GrowWorkspace* workspace = nullptr);
+  /// `workspace`: arrays to reuse (see GrowWorkspace), kept alive while the grower holds them;
+  /// nullptr: the grower's own.
+  RegionGrower(const QuantizedVolume& volume, const Eigen::Vector3i& seed, const GrowParams& params = {},
+               std::shared_ptr<GrowWorkspace> workspace = nullptr);
   ~RegionGrower();
   RegionGrower(const RegionGrower&) = delete;
   RegionGrower& operator=(const RegionGrower&) = delete;
@@ -182,7 +191,7 @@ class RegionGrower {
   std::vector<std::size_t> classified_;
   // Resumable front: (key, voxel), smallest key first (keys only grow as the search goes on).
   RadixQueue<std::size_t> front_;
-  GrowWorkspace* workspace_ = nullptr;  // where keys_ and class_ came from, and go back to
+  std::shared_ptr<GrowWorkspace> workspace_;  // where keys_ and class_ came from, and go back to
   std::array<std::uint32_t, 8> steps_{};  // Path keys: step lengths by axis mask (growStepCosts)
 };
 

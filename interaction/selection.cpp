@@ -75,7 +75,6 @@ void PinchSelection::finish() {
       finished_->voxels = std::move(*voxels);
     } else {  // the CPU's (also after a fallback), gathered later: the lift stays cheap
       finished_->bound = grower_->bound(extent_);
-      finished_->workspace = workspace_;
       finished_->grower = std::move(grower_);
     }
     changed_ = true;
@@ -118,7 +117,14 @@ void PinchSelection::onPicks(const std::vector<std::optional<glm::dvec3>>& world
   pixelMm_ = camera.pixelSizeAt(std::max(depth, 1e-3), viewport.height);
   grower_.reset();  // gives the workspace back before the next grower takes it
   if (finished_) finished_->gather();  // so does a finished pinch not taken yet (on this thread: it would wait for itself)
-  grower_ = std::make_unique<RegionGrower>(volume_, seed, params_, workspace_.get());
+  try {
+    grower_ = std::make_unique<RegionGrower>(volume_, seed, params_, workspace_);
+  } catch (const Error& e) {
+    feedback_ = std::string("Pinch refused: ") + e.what();
+    state_ = State::Idle;
+    changed_ = true;
+    return;
+  }
   state_ = State::Growing;
   extent_ = 0.0;
   feedback_.clear();
@@ -174,7 +180,6 @@ void FinishedPinch::gather() {
   if (!grower) return;
   voxels = grower->selected(bound);
   grower.reset();
-  workspace.reset();
 }
 
 std::vector<std::uint32_t> FinishedPinch::complete() && {

@@ -43,8 +43,7 @@ struct FinishedPinch {
   std::vector<std::uint32_t> voxels;     ///< as grown, in any order (gathered, or the engine's)
   std::optional<BoundaryRimRule> rim;    ///< set when GrowParams::boundaryRim
   std::uint32_t seed = 0xffffffffu;      ///< the voxel it grew from (PinchSelection::finishedSeed)
-  std::shared_ptr<GrowWorkspace> workspace;  ///< the grower's workspace, kept alive while it holds it
-  std::unique_ptr<RegionGrower> grower;      ///< set until gathered: the voxels are its keys <= bound
+  std::unique_ptr<RegionGrower> grower;  ///< set until gathered: the voxels are its keys <= bound
   std::uint32_t bound = 0;
   /// The voxels from the grower into `voxels`, and the grower let go (its arrays back, cleared).
   void gather();

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <chrono>
 #include <cstdlib>
@@ -221,12 +222,19 @@ TEST(PinchSelection, TheLiftLeavesItsVoxelsInTheGrowerForWhoeverCompletesThePinc
   refRig.feed(ref, TouchPhase::Up, 2, 240, 270);
   const std::vector<std::uint32_t> expected = *ref.takeFinished();
   std::vector<std::uint32_t> completed;
+  std::atomic<std::int64_t> workerStarts{0};
+  const auto since = [t0 = std::chrono::steady_clock::now()] {
+    return std::int64_t(std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - t0).count());
+  };
   std::thread worker([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    workerStarts = since();
     completed = std::move(*first).complete();
   });
   rig.pinchKidney(sel);  // waits for the worker's grower to give the arrays back
+  const std::int64_t pinchStarted = since();
   worker.join();
+  EXPECT_GE(pinchStarted, workerStarts.load()) << "the next pinch's grower waited for the arrays";
   EXPECT_EQ(completed, expected);
   std::vector<std::uint32_t> shownSorted = shown;
   std::sort(shownSorted.begin(), shownSorted.end());

@@ -547,7 +547,8 @@ TEST(RegionGrow, GrowersSharingAWorkspaceGiveTheKeysOfFreshOnesAndLeaveItCleared
   const QuantizedVolume q = quantizeVolume(ph.ct);
   const Eigen::Vector3i kidney = ph.ct.geometry().toIndex(ph.geometry.kidneyRightCenter).array().round().cast<int>();
   const Eigen::Vector3i liver = ph.ct.geometry().toIndex(ph.geometry.liverCenter).array().round().cast<int>();
-  GrowWorkspace ws;
+  const auto workspace = std::make_shared<GrowWorkspace>();
+  GrowWorkspace& ws = *workspace;
   ws.reserve(q.data.size());
   for (GrowCriterion c : {GrowCriterion::Core, GrowCriterion::Paper, GrowCriterion::Smoothed, GrowCriterion::Core})
     for (const Eigen::Vector3i& seed : {kidney, liver}) {
@@ -556,7 +557,7 @@ TEST(RegionGrow, GrowersSharingAWorkspaceGiveTheKeysOfFreshOnesAndLeaveItCleared
       RegionGrower fresh(q, seed, p);
       fresh.growTo(40.0);
       {
-        RegionGrower reused(q, seed, p, &ws);
+        RegionGrower reused(q, seed, p, workspace);
         EXPECT_TRUE(ws.keys.empty()) << "the grower holds the arrays";
         reused.growTo(25.0);
         reused.growTo(40.0);
@@ -569,7 +570,17 @@ TEST(RegionGrow, GrowersSharingAWorkspaceGiveTheKeysOfFreshOnesAndLeaveItCleared
     }
   GrowParams bad;
   bad.refinements = -1;
-  EXPECT_THROW(RegionGrower(q, kidney, bad, &ws), Error);
-  EXPECT_THROW(RegionGrower(q, Eigen::Vector3i(-1, 0, 0), GrowParams{}, &ws), Error);
+  EXPECT_THROW(RegionGrower(q, kidney, bad, workspace), Error);
+  EXPECT_THROW(RegionGrower(q, Eigen::Vector3i(-1, 0, 0), GrowParams{}, workspace), Error);
   EXPECT_EQ(ws.keys.size(), q.data.size()) << "a refused grower never took the arrays";
+  // One grower at a time: a second waits for the arrays, and is refused once the wait runs out
+  // (as it would wait for ever for a grower its own thread holds).
+  ws.lendWait = std::chrono::milliseconds(50);
+  {
+    RegionGrower holder(q, kidney, GrowParams{}, workspace);
+    EXPECT_THROW(RegionGrower(q, liver, GrowParams{}, workspace), Error);
+  }
+  RegionGrower after(q, liver, GrowParams{}, workspace);
+  after.growTo(20.0);
+  EXPECT_GT(after.count(20.0), 27u) << "given back, the arrays lend again";
 }
