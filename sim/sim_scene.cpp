@@ -284,14 +284,6 @@ void buildMeshes(SimScene& sc, const SimSettings& s, int coarseTets, const Mater
   }
 }
 
-// A handle's nodes: those it moves rigidly (enclosed tissue included) and its sliding surface's.
-void countHandleNodes(SimScene& sc, std::size_t handleCount) {
-  sc.handleNodeCount.assign(handleCount, 0);
-  for (std::size_t n = 0; n < sc.meshes.fine.nodes.size(); ++n)
-    if (sc.constraints.handleOf[n] >= 0 && !sc.constraints.fixed[n]) ++sc.handleNodeCount[std::size_t(sc.constraints.handleOf[n])];
-  for (const SlideNode& sn : sc.constraints.slide) ++sc.handleNodeCount[std::size_t(sn.handle)];
-}
-
 }  // namespace
 
 SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& s, const ProgressFn& progress) {
@@ -409,6 +401,13 @@ DeformationError compareDeformation(const SimScene& sc, const std::vector<RigidT
   e.maxOfMotion /= m;
   e.relativeL2 = ref2 > 0 ? std::sqrt(err2 / ref2) : 0.0;
   return e;
+}
+
+void countHandleNodes(SimScene& sc, std::size_t handleCount) {
+  sc.handleNodeCount.assign(handleCount, 0);
+  for (std::size_t n = 0; n < sc.meshes.fine.nodes.size(); ++n)
+    if (sc.constraints.handleOf[n] >= 0 && !sc.constraints.fixed[n]) ++sc.handleNodeCount[std::size_t(sc.constraints.handleOf[n])];
+  for (const SlideNode& sn : sc.constraints.slide) ++sc.handleNodeCount[std::size_t(sn.handle)];
 }
 
 }  // namespace handson

@@ -94,6 +94,10 @@ struct SimScene {
 /// that is empty after clipping to the image.
 SimScene buildSimScene(const Volume& image, const std::vector<SimHandle>& handles, const SimSettings& settings, const ProgressFn& progress = {});
 
+/// SimScene::handleNodeCount from the scene's fine node roles: the nodes each handle moves
+/// rigidly (enclosed tissue included) and its sliding surface's.
+void countHandleNodes(SimScene& scene, std::size_t handleCount);
+
 /// The fine reference's material: the linear corotational model (the default, what the coarse model
 /// condenses) or compressible Neo-Hookean (sim/neo_hookean.h: where the linear material stops holding).
 enum class FineMaterial : std::uint8_t { Corotational, NeoHookean };

@@ -45,6 +45,13 @@ Args::Args(std::vector<std::string> args, std::vector<std::string> valueOptions,
 
 bool Args::flag(const std::string& name) const { return std::find(flags_.begin(), flags_.end(), name) != flags_.end(); }
 
+std::vector<std::string> Args::values(const std::string& name) const {
+  std::vector<std::string> out;
+  for (const auto& [k, v] : values_)
+    if (k == name) out.push_back(v);
+  return out;
+}
+
 std::optional<std::string> Args::value(const std::string& name) const {
   std::optional<std::string> out;
   for (const auto& [k, v] : values_)

@@ -36,6 +36,8 @@ class Args {
   bool flag(const std::string& name) const;
   std::optional<std::string> value(const std::string& name) const;
   std::string valueOr(const std::string& name, const std::string& fallback) const;
+  /// Every value given to a repeatable option, in order.
+  std::vector<std::string> values(const std::string& name) const;
   const std::vector<std::string>& positional() const { return positional_; }
   bool help() const { return help_; }
 

@@ -24,6 +24,7 @@
 #include "sim/handle_reaction.h"
 #include "sim/quantized_volume.h"
 #include "sim/scene_cache.h"
+#include "sim/scene_cut.h"
 #include "sim/sim_scene.h"
 #include "sim/static_solver.h"
 #include "sim/strain.h"
@@ -96,6 +97,10 @@ const char* const kDeformHelp =
     "                          centroid) the tissue exerts on it, RAS; from the model that was solved (the\n"
     "                          coarse model's own is approximate, far off where bone shares its cells with\n"
     "                          the handle; --refine-steps 2 gives the fine model's within about 5 %)\n"
+    "  --cut-quad X0,Y0,Z0,X1,Y1,Z1,X2,Y2,Z2,X3,Y3,Z3  (repeatable; --model fine only so far) cuts the\n"
+    "                          tissue along a planar convex quad (RAS mm, corners in order) before the\n"
+    "                          handle moves: the fine mesh separates along the faces over the quad\n"
+    "                          between the tets on either side of its plane (docs/cutting.md)\n"
     "  --mesh-out MESH.vtu     the fine mesh for ParaView: rest positions, point data displacement and\n"
     "                          dirichlet, cell data youngs_modulus, poisson_ratio, coarse_element (the\n"
     "                          coarse model's element: grid cell or coarse tet), strain and\n"
@@ -145,8 +150,28 @@ struct DeformRequest {
   int refineSteps = 0;
   std::filesystem::path cacheDir;  ///< empty: no cache
   bool quiet = false;
+  std::vector<CutQuad> cuts;  ///< --cut-quad, in order
   bool coarseOnly() const { return model == "coarse" && refineSteps == 0; }
 };
+
+// --cut-quad: twelve numbers, a planar convex quad; the fine reference alone sees cuts so far.
+std::vector<CutQuad> cutOptions(const Args& args, const std::string& model) {
+  std::vector<CutQuad> cuts;
+  for (const std::string& text : args.values("--cut-quad")) {
+    const std::vector<double> v = parseNumberList(text, "--cut-quad");
+    if (v.size() != 12) throw UsageError("--cut-quad takes twelve numbers: the quad's four corners X,Y,Z in order");
+    CutQuad q;
+    for (int c = 0; c < 4; ++c) q.corners[std::size_t(c)] = Eigen::Vector3d(v[std::size_t(3 * c)], v[std::size_t(3 * c + 1)], v[std::size_t(3 * c + 2)]);
+    try {
+      checkCutQuad(q);
+    } catch (const Error& e) {
+      throw UsageError(std::string("--cut-quad: ") + e.what());
+    }
+    cuts.push_back(q);
+  }
+  if (!cuts.empty() && model != "fine") throw UsageError("--cut-quad: only the fine reference sees cuts so far (--model fine)");
+  return cuts;
+}
 
 DeformRequest parseDeformRequest(const Args& args) {
   DeformRequest r;
@@ -175,6 +200,7 @@ DeformRequest parseDeformRequest(const Args& args) {
   const std::string cacheArg = args.valueOr("--cache-dir", defaultSimulationCacheDir().string());
   r.cacheDir = cacheArg == "off" ? std::filesystem::path() : std::filesystem::path(cacheArg);
   r.quiet = args.flag("--quiet");
+  r.cuts = cutOptions(args, r.model);
   return r;
 }
 
@@ -215,8 +241,10 @@ DeformSolution solveDeform(const DeformRequest& r, const Volume& image, const st
   } else {
     sc = buildSimScene(image, handles, r.settings, progress);
   }
+  const SceneCutStats cut = cutScene(sc, r.cuts);
   d.sceneSeconds = seconds(t0);
   printScene(sc);
+  if (!r.cuts.empty()) std::cout << "cut: " << r.cuts.size() << " quad(s), " << cut.cutFaces << " faces separated, " << cut.copiedNodes << " nodes copied\n";
   // Large motions are applied in increments of at most 30 degrees and 10 mm, each solve starting
   // from the previous one (continuation keeps the Newton and corotational iterations in their basin).
   d.steps = std::max({1, int(std::ceil(r.rotation.norm() / (M_PI / 6))), int(std::ceil(r.translation.norm() / 10.0))});
@@ -323,7 +351,7 @@ void writeForces(const std::string& path, const DeformRequest& r, const DeformSo
 int cmdDeform(const Words& words) {
   Args args(words,
             {"--frame", "--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm", "--region",
-             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--graded-split", "--fine-mesh", "--adapt-contrast", "--cache-dir", "--forces-out", "--strain-out",
+             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--graded-split", "--fine-mesh", "--adapt-contrast", "--cache-dir", "--forces-out", "--strain-out", "--cut-quad",
              "--handle-nodes", "--bone", "--outer-boundary", "--interface", "--fine-material"},
             {"--whole-volume", "--quiet", "--validation"});
   if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {

@@ -323,6 +323,45 @@ TEST_F(Cli, GestureSolveReadsJsonAndRecoversAMotion) {
   }
 }
 
+TEST_F(Cli, DeformCutsTheTissueForTheFineReferenceAndRefusesBadCuts) {
+  // A plane through the kidney across the region (--cut-quad): the fine reference's 6 mm move takes
+  // less force than uncut, and the opening the cut leaves is not covered by the deformed tets.
+  // Refused: a cut for the coarse model (the fine reference alone sees cuts so far), eleven numbers,
+  // corners off one plane (usage, 2), a quad that misses the tissue (1).
+  ASSERT_EQ(runHandson("phantom -o " + p("ct.nii.gz") + " --labels-out " + p("labels.nii.gz") + " --spacing 5 --noise 0").status, 0);
+  const std::string common = "deform " + p("ct.nii.gz") + " --handle " + p("labels.nii.gz") +
+                             " --handle-label 4 --coarse-tets 300 --fine-tets 8100 --quiet --translate-mm 0,0,6 -o " + p("d.nii.gz") + " ";
+  const std::string plane = " --cut-quad 80,-300,-300,80,300,-300,80,300,300,80,-300,300";
+  auto forceZ = [&](const std::string& json) {
+    std::ifstream f(json);
+    const std::string text((std::istreambuf_iterator<char>(f)), {});
+    const auto at = text.find("\"force_N\": [");
+    return at == std::string::npos ? 0.0 : std::strtod(text.c_str() + text.find(',', text.find(',', at) + 1) + 1, nullptr);
+  };
+  CliRun r = runHandson(common + "--model fine --forces-out " + p("uncut.json"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = runHandson(common + "--model fine --forces-out " + p("cut.json") + plane);
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(r.has("cut: 1 quad(s), ")) << r.output;
+  const double uncut = forceZ(p("uncut.json")), cut = forceZ(p("cut.json"));
+  std::printf("craniocaudal force: uncut %.3f N, cut %.3f N\n", uncut, cut);
+  EXPECT_LT(uncut, 0.0) << "the tissue pulls the kidney back";
+  EXPECT_LT(std::abs(cut), 0.95 * std::abs(uncut));
+  const auto covered = r.output.find(", covered ");
+  const auto region = r.output.find("region voxels ");
+  ASSERT_NE(covered, std::string::npos);
+  EXPECT_LT(std::atol(r.output.c_str() + covered + 10), std::atol(r.output.c_str() + region + 14)) << "the opening: " << r.output;
+  for (const std::string& bad : {std::string("--model coarse") + plane, std::string("--model fine --cut-quad 1,2,3,4,5,6,7,8,9,10,11"),
+                                 std::string("--model fine --cut-quad 80,-300,-300,80,300,-300,90,300,300,80,-300,300")}) {
+    r = runHandson(common + bad);
+    EXPECT_EQ(r.status, 2) << bad << "\n" << r.output;
+    EXPECT_TRUE(r.has("--cut-quad")) << r.output;
+  }
+  r = runHandson(common + "--model fine --cut-quad 900,-300,-300,900,300,-300,900,300,300,900,-300,300");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_TRUE(r.has("separates no tissue")) << r.output;
+}
+
 TEST_F(Cli, DeformMovesTheHandleRegionOnlyAndWritesAMeshForParaView) {
   ASSERT_EQ(runHandson("phantom -o " + p("ct.nii.gz") + " --labels-out " + p("labels.nii.gz") + " --spacing 5 --noise 0").status, 0);
   const std::string common = "deform " + p("ct.nii.gz") + " --handle " + p("labels.nii.gz") + " --handle-label 4 --coarse-tets 300 --fine-tets 8100 --quiet ";

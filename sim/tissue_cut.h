@@ -1,0 +1,42 @@
+#pragma once
+// Cutting the fine mesh along a planar quadrilateral (docs/cutting.md): the mesh separates along
+// the faces between tets on either side of the quad's plane whose centroids project inside the
+// quad, so the tissue on either side moves on its own. Each node of a cut face is copied once per
+// group of its tets that stay joined around it through uncut faces (the tets keep their order and
+// rest shape); a node at the cut's edge, whose tets are still joined around the cut's end, stays
+// one. Cutting again (through an earlier cut, or across it) works the same way: faces an earlier cut
+// separated are no longer shared.
+#include <Eigen/Core>
+#include <array>
+#include <cstddef>
+#include <vector>
+
+#include "sim/tet_mesh.h"
+
+namespace handson {
+
+/// A planar convex quadrilateral, its corners in order around it (RAS mm).
+struct CutQuad {
+  std::array<Eigen::Vector3d, 4> corners;
+};
+
+/// Throws handson::Error unless the quad is finite, of non-zero area, planar (each corner within
+/// 1e-3 of its longer diagonal from the corners' best plane) and convex.
+void checkCutQuad(const CutQuad& quad);
+
+struct MeshCut {
+  TetMesh mesh;                 ///< the same tets in the same order, on copied nodes where the cut separates them
+  std::vector<int> sourceNode;  ///< per node of `mesh`: the input node it copies (an input node is its own)
+  std::size_t cutFaces = 0;     ///< faces separated by this cut
+};
+
+/// Per tet and local face (slot 4 t + f, the face opposite vertex f): the tet across it, or -1 on
+/// the mesh's boundary and where a cut separated it. Throws handson::Error for a face of more than
+/// two tets.
+std::vector<int> faceNeighbours(const TetMesh& mesh);
+
+/// The mesh cut by the quad. Throws handson::Error for a bad quad (checkCutQuad), one that separates
+/// no face the mesh still shares, and one that would leave a single tet on its own.
+MeshCut cutMesh(const TetMesh& mesh, const CutQuad& quad);
+
+}  // namespace handson
