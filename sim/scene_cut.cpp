@@ -9,30 +9,81 @@ namespace handson {
 
 namespace {
 
-// Copies' roles: handle and held flags from their source, each slide spring shared among the
-// copies of its node (its stiffness divided by their count).
-void carryRoles(FineConstraints& c, const std::vector<int>& sourceNode) {
+// What the cut did to the scene's nodes: per node of the cut mesh, its source and whether that
+// source was split (has a copy); per tet, whether it has stiffness (a sliding organ's own tets
+// have none: it moves rigidly).
+struct CutNodes {
+  std::vector<int> source;
+  std::vector<char> split;
+  std::vector<char> stiffTet;
+};
+
+CutNodes cutNodes(const TetMesh& m, const std::vector<Mat12>& K, std::vector<int> source, std::size_t sceneNodes) {
+  CutNodes c{std::move(source), {}, std::vector<char>(m.tets.size(), 0)};
+  std::vector<int> count(sceneNodes, 0);
+  for (int s : c.source) ++count[std::size_t(s)];
+  c.split.resize(c.source.size());
+  for (std::size_t n = 0; n < c.source.size(); ++n) c.split[n] = count[std::size_t(c.source[n])] > 1;
+  for (std::size_t t = 0; t < m.tets.size(); ++t) c.stiffTet[t] = !K[t].isZero(0.0);
+  return c;
+}
+
+// Copies' roles from their source: the handle and held flags, and a copy of each slide spring.
+void carryRoles(FineConstraints& c, const std::vector<int>& source) {
   const std::size_t before = c.handleOf.size();
-  std::vector<int> copies(before, 1);
-  for (std::size_t n = before; n < sourceNode.size(); ++n) {
-    const auto s = std::size_t(sourceNode[n]);
+  std::vector<std::vector<int>> copiesOf(before);
+  for (std::size_t n = before; n < source.size(); ++n) {
+    const auto s = std::size_t(source[n]);
     c.handleOf.push_back(c.handleOf[s]);
     c.fixed.push_back(c.fixed[s]);
-    ++copies[s];
+    copiesOf[s].push_back(int(n));
   }
-  std::vector<std::vector<int>> copiesOf(before);
-  for (std::size_t n = before; n < sourceNode.size(); ++n) copiesOf[std::size_t(sourceNode[n])].push_back(int(n));
   const std::size_t slides = c.slide.size();
-  for (std::size_t i = 0; i < slides; ++i) {
-    const auto s = std::size_t(c.slide[i].node);
-    if (copies[s] == 1) continue;
-    c.slide[i].stiffness /= double(copies[s]);
-    for (int n : copiesOf[s]) {
+  for (std::size_t i = 0; i < slides; ++i)
+    for (int n : copiesOf[std::size_t(c.slide[i].node)]) {
       SlideNode copy = c.slide[i];
       copy.node = n;
       c.slide.push_back(copy);
     }
+}
+
+// The nodes the cut split take the role their own side gives them:
+//  - a slide node with the organ's (stiffness-free) tets alone moves with its handle, as the organ's
+//    inner nodes do; one with tissue tets alone was cut off the organ and is free (no spring); one
+//    with both keeps its spring, of kSlidePenalty times its own tissue stiffness (as the scene makes it);
+//  - a node a handle moves that has none of the handle's own tets left (glued: tets of its nodes
+//    alone; sliding: the organ's) was cut off it and is free.
+// Held nodes stay held (a cut along bone leaves the tissue anchored there).
+void rolesBySide(const TetMesh& m, const std::vector<Mat12>& K, const CutNodes& cut, FineConstraints& c) {
+  std::vector<char> rigid(m.nodes.size(), 0), stiff(m.nodes.size(), 0), ownHandle(m.nodes.size(), 0);
+  std::vector<double> diag(m.nodes.size(), 0.0);
+  for (std::size_t t = 0; t < m.tets.size(); ++t) {
+    const auto& n = m.tets[t];
+    const int h = c.handleOf[std::size_t(n[0])];
+    bool allOfHandle = h >= 0;
+    for (int a = 0; a < 4; ++a) allOfHandle = allOfHandle && c.handleOf[std::size_t(n[std::size_t(a)])] == h;
+    for (int a = 0; a < 4; ++a) {
+      const auto v = std::size_t(n[std::size_t(a)]);
+      (cut.stiffTet[t] ? stiff : rigid)[v] = 1;
+      ownHandle[v] = ownHandle[v] || !cut.stiffTet[t] || allOfHandle;
+      diag[v] += K[t].block<3, 3>(3 * a, 3 * a).trace() / 3.0;
+    }
   }
+  for (std::size_t v = 0; v < m.nodes.size(); ++v)
+    if (cut.split[v] && c.handleOf[v] >= 0 && !c.fixed[v] && !ownHandle[v]) c.handleOf[v] = -1;
+  std::vector<SlideNode> kept;
+  for (SlideNode sn : c.slide) {
+    const auto v = std::size_t(sn.node);
+    if (!cut.split[v]) {
+      kept.push_back(sn);
+    } else if (!stiff[v]) {
+      c.handleOf[v] = sn.handle;
+    } else if (rigid[v]) {
+      sn.stiffness = kSlidePenalty * diag[v];
+      kept.push_back(sn);
+    }
+  }
+  c.slide = std::move(kept);
 }
 
 int findRoot(std::vector<int>& parent, int a) {
@@ -40,49 +91,51 @@ int findRoot(std::vector<int>& parent, int a) {
   return a;
 }
 
-// A slide node left by the cut with none of the tissue's tets (only its organ's own, which have no
-// stiffness: the organ moves rigidly; the tissue's side went to a copy) moves with its handle, as
-// the organ's inner nodes do.
-void holdRigidSlideNodes(const TetMesh& m, const std::vector<Mat12>& K, FineConstraints& c) {
-  std::vector<char> stiff(m.nodes.size(), 0);
-  for (std::size_t t = 0; t < m.tets.size(); ++t)
-    if (!K[t].isZero(0.0))
-      for (int n : m.tets[t]) stiff[std::size_t(n)] = 1;
-  std::vector<SlideNode> kept;
-  for (const SlideNode& sn : c.slide) {
-    const auto n = std::size_t(sn.node);
-    if (!stiff[n]) c.handleOf[n] = sn.handle;
-    else kept.push_back(sn);
+// Whether the held points seen so far fix a rigid body: three of them off one line (1e-3 mm apart).
+struct RigidHold {
+  int points = 0;  // 0, 1 (p0), 2 (p0, p1 apart), 3 (one off their line)
+  Eigen::Vector3d p0, p1;
+  void add(const Eigen::Vector3d& p) {
+    if (points == 0) {
+      p0 = p;
+      points = 1;
+    } else if (points == 1 && (p - p0).norm() > 1e-3) {
+      p1 = p;
+      points = 2;
+    } else if (points == 2 && (p1 - p0).cross(p - p0).norm() > 1e-3 * (p1 - p0).norm()) {
+      points = 3;
+    }
   }
-  c.slide = std::move(kept);
-}
+};
 
-// Throws unless every piece of tissue (stiff tets joined through shared faces: a piece joined to
-// the rest by an edge or a corner alone would turn about it) holds a handle's or held node.
-void refuseLoosePieces(const TetMesh& m, const std::vector<Mat12>& K, const FineConstraints& c) {
+// Throws unless every piece of tissue the cut touched (stiff tets joined through shared faces, so a
+// piece hanging by an edge is a piece of its own) holds three handle's or held nodes off one line.
+void refuseLoosePieces(const TetMesh& m, const CutNodes& cut, const FineConstraints& c) {
   const std::vector<int> across = faceNeighbours(m);
   std::vector<int> parent(m.tets.size());
   std::iota(parent.begin(), parent.end(), 0);
-  std::vector<char> stiff(m.tets.size());
-  for (std::size_t t = 0; t < m.tets.size(); ++t) stiff[t] = !K[t].isZero(0.0);
   for (std::size_t s = 0; s < across.size(); ++s) {
     const int t = int(s / 4), o = across[s];
-    if (o < 0 || !stiff[std::size_t(t)] || !stiff[std::size_t(o)]) continue;
+    if (o < 0 || !cut.stiffTet[std::size_t(t)] || !cut.stiffTet[std::size_t(o)]) continue;
     const int a = findRoot(parent, t), b = findRoot(parent, o);
     if (a != b) parent[std::size_t(std::max(a, b))] = std::min(a, b);
   }
-  std::vector<char> held(m.tets.size(), 0);
+  std::vector<char> touched(m.tets.size(), 0);
+  std::vector<RigidHold> hold(m.tets.size());
   std::vector<std::size_t> size(m.tets.size(), 0);
   for (std::size_t t = 0; t < m.tets.size(); ++t) {
-    if (!stiff[t]) continue;
+    if (!cut.stiffTet[t]) continue;
     const auto r = std::size_t(findRoot(parent, int(t)));
     ++size[r];
-    for (int n : m.tets[t]) held[r] = held[r] || c.handleOf[std::size_t(n)] >= 0 || c.fixed[std::size_t(n)];
+    for (int n : m.tets[t]) {
+      touched[r] = touched[r] || cut.split[std::size_t(n)];
+      if (c.handleOf[std::size_t(n)] >= 0 || c.fixed[std::size_t(n)]) hold[r].add(m.nodes[std::size_t(n)]);
+    }
   }
   for (std::size_t r = 0; r < m.tets.size(); ++r)
-    if (size[r] > 0 && !held[r])
+    if (touched[r] && hold[r].points < 3)
       throw Error("cut: the cuts leave a piece of tissue (" + std::to_string(size[r]) +
-                  " tets) that nothing holds, or that hangs by an edge; cut it off against a handle or the region's edge");
+                  " tets) that nothing holds, or that hangs by a point or an edge; cut it off against a handle or the region's edge");
 }
 
 }  // namespace
@@ -102,9 +155,11 @@ SceneCutStats cutScene(SimScene& scene, const std::vector<CutQuad>& cuts) {
   }
   FineConstraints constraints = scene.constraints;
   carryRoles(constraints, source);
-  holdRigidSlideNodes(mesh, scene.fineK, constraints);
-  refuseLoosePieces(mesh, scene.fineK, constraints);
+  const CutNodes cut = cutNodes(mesh, scene.fineK, std::move(source), scene.meshes.fine.nodes.size());
+  rolesBySide(mesh, scene.fineK, cut, constraints);
+  refuseLoosePieces(mesh, cut, constraints);
   st.copiedNodes = mesh.nodes.size() - scene.meshes.fine.nodes.size();
+  st.sourceNode = cut.source;
   scene.meshes.fine = std::move(mesh);
   scene.constraints = std::move(constraints);
   countHandleNodes(scene, scene.handleNodeCount.size());

@@ -12,13 +12,17 @@ namespace handson {
 
 struct SceneCutStats {
   std::size_t cutFaces = 0, copiedNodes = 0;
+  std::vector<int> sourceNode;  ///< per node of the cut fine mesh: the scene's node it copies (itself if none)
 };
 
-/// Cuts the scene's fine mesh by each quad in turn. A copy of a node keeps its role: a handle's
-/// node, a held one (the region's boundary, the anchored skeleton: a cut through bone leaves both
-/// sides anchored) or a slide node, whose spring is shared among its copies. Throws handson::Error
-/// (the scene unchanged) for a bad quad (cutMesh), and when the cuts leave a piece of tissue that
-/// nothing holds (no handle's or held node: its position would be undetermined).
+/// Cuts the scene's fine mesh by each quad in turn. A copy of a node keeps its role as its side
+/// gives it (docs/cutting.md): a held node stays held (the region's boundary, the anchored
+/// skeleton: a cut through bone leaves both sides anchored); a handle's node stays the handle's
+/// where the handle's own tets are, and is free where the cut took it off them; a slide node keeps
+/// its spring (its stiffness from its own tets) where it has both the organ's and the tissue's
+/// tets, moves with the organ where it has the organ's alone, and is free where it has the tissue's
+/// alone. Throws handson::Error (the scene unchanged) for a bad quad (cutMesh), and when the cuts
+/// leave a piece of tissue not held at three points off one line (its position would be undetermined).
 SceneCutStats cutScene(SimScene& scene, const std::vector<CutQuad>& cuts);
 
 }  // namespace handson

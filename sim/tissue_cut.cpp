@@ -112,11 +112,8 @@ Eigen::Vector3d centroid(const TetMesh& m, int t) {
 
 // The faces the quad separates: shared, between tets whose centroids lie on either side of its
 // plane, with their own centroid over the quad. Per slot (4 tet + f).
-std::vector<char> facesToCut(const TetMesh& mesh, const QuadPlane& P, const std::vector<int>& across, std::size_t& count) {
-  std::vector<char> above(mesh.tets.size());
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t) above[t] = P.height(centroid(mesh, int(t))) >= 0.0;
+std::vector<char> facesToCut(const TetMesh& mesh, const QuadPlane& P, const std::vector<int>& across, const std::vector<char>& above) {
   std::vector<char> cut(across.size(), 0);
-  count = 0;
   for (std::size_t s = 0; s < across.size(); ++s) {
     const int t = int(s / 4), o = across[s];
     if (o < 0 || above[std::size_t(t)] == above[std::size_t(o)]) continue;
@@ -126,14 +123,14 @@ std::vector<char> facesToCut(const TetMesh& mesh, const QuadPlane& P, const std:
       if (i != int(s % 4)) fc += mesh.nodes[std::size_t(n[std::size_t(i)])] / 3.0;
     if (!P.contains(fc)) continue;
     cut[s] = 1;
-    count += t < o;  // each face once
   }
   return cut;
 }
 
-// Gives each group of a node's tets that are joined around it through uncut faces its own copy of
-// the node (the group holding the node's lowest-numbered tet keeps the node itself).
-void splitNodes(MeshCut& out, const std::vector<int>& across, const std::vector<char>& cut) {
+// Gives each group of a node's tets that are joined around it - through uncut faces, or by lying on
+// the same side of the plane (tets of one side that meet only along an edge are not slit apart) -
+// its own copy of the node (the group holding the node's lowest-numbered tet keeps the node).
+void splitNodes(MeshCut& out, const std::vector<int>& across, const std::vector<char>& cut, const std::vector<char>& above) {
   TetMesh& m = out.mesh;
   std::vector<std::vector<int>> tetsOf(m.nodes.size());
   std::vector<char> onCut(m.nodes.size(), 0);
@@ -149,6 +146,9 @@ void splitNodes(MeshCut& out, const std::vector<int>& across, const std::vector<
     if (!onCut[v]) continue;
     const std::vector<int>& ts = tetsOf[v];  // ascending
     Sets groups(ts.size());
+    for (std::size_t a = 1; a < ts.size(); ++a)
+      for (std::size_t b = 0; b < a; ++b)
+        if (above[std::size_t(ts[a])] == above[std::size_t(ts[b])]) groups.join(int(a), int(b));
     for (std::size_t a = 0; a < ts.size(); ++a)
       for (int f = 0; f < 4; ++f) {
         const std::size_t slot = 4 * std::size_t(ts[a]) + std::size_t(f);
@@ -172,16 +172,33 @@ void splitNodes(MeshCut& out, const std::vector<int>& across, const std::vector<
   }
 }
 
-// Throws when a tet the cut touched is left joined to no other tet.
-void refuseLoneTets(const TetMesh& m, const std::vector<int>& across, const std::vector<char>& cut) {
+// Whether the face in slot s (4 t + f) is still shared by its two tets (all three nodes) in m.
+bool stillShared(const TetMesh& m, const std::vector<int>& across, std::size_t s) {
+  const int t = int(s / 4), o = across[s];
+  if (o < 0) return false;
+  const auto& a = m.tets[std::size_t(t)];
+  int shared = 0;
+  for (int i = 0; i < 4; ++i)
+    if (i != int(s % 4)) shared += std::find(m.tets[std::size_t(o)].begin(), m.tets[std::size_t(o)].end(), a[std::size_t(i)]) != m.tets[std::size_t(o)].end();
+  return shared == 3;
+}
+
+// Faces the cut separated (each once): cut faces whose two tets no longer share all three nodes (a
+// face at the cut's edge keeps them, and so does every face of a quad narrower than the mesh's).
+// Throws when it leaves a tet it touched joined to no other tet.
+std::size_t separatedFaces(const TetMesh& m, const std::vector<int>& across, const std::vector<char>& cut) {
+  std::size_t count = 0;
   for (std::size_t t = 0; t < m.tets.size(); ++t) {
     bool touched = false, joined = false;
-    for (std::size_t f = 0; f < 4; ++f) {
-      touched = touched || cut[4 * t + f];
-      joined = joined || (across[4 * t + f] >= 0 && !cut[4 * t + f]);
+    for (std::size_t s = 4 * t; s < 4 * t + 4; ++s) {
+      const bool shared = stillShared(m, across, s);
+      touched = touched || (cut[s] && !shared);
+      joined = joined || shared;
+      count += cut[s] && !shared && across[s] > int(t);
     }
     if (touched && !joined) throw Error("cut: it would leave a single tet on its own (cut further from the tissue's edge, or across it)");
   }
+  return count;
 }
 
 }  // namespace
@@ -191,14 +208,17 @@ void checkCutQuad(const CutQuad& quad) { planeOf(quad); }
 MeshCut cutMesh(const TetMesh& mesh, const CutQuad& quad) {
   const QuadPlane P = planeOf(quad);
   const std::vector<int> across = faceNeighbours(mesh);
+  std::vector<char> above(mesh.tets.size());
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) above[t] = P.height(centroid(mesh, int(t))) >= 0.0;
+  const std::vector<char> cut = facesToCut(mesh, P, across, above);
   MeshCut out;
-  const std::vector<char> cut = facesToCut(mesh, P, across, out.cutFaces);
-  if (out.cutFaces == 0) throw Error("cut: the quad separates no tissue (it misses the mesh, or follows an earlier cut)");
-  refuseLoneTets(mesh, across, cut);
   out.mesh = mesh;
   out.sourceNode.resize(mesh.nodes.size());
   std::iota(out.sourceNode.begin(), out.sourceNode.end(), 0);
-  splitNodes(out, across, cut);
+  splitNodes(out, across, cut, above);
+  out.cutFaces = separatedFaces(out.mesh, across, cut);
+  if (out.cutFaces == 0)
+    throw Error("cut: the quad separates no tissue (it misses the mesh, follows an earlier cut, or is narrower than the mesh's faces)");
   return out;
 }
 

@@ -155,7 +155,9 @@ TEST(TissueCut, ACutAcrossAnEarlierOneAndRefusals) {
   // A second cut across the first (the split, then across at x = 10): both apply, and the far
   // quarters, pulled, transmit nothing to the held end. The same cut again separates nothing: refused. So are a quad with
   // a non-finite corner, no area, corners off one plane, a bow tie, one that misses the mesh, and
-  // one that would leave a tet on its own (two tets joined by one face, cut along it).
+  // one that would leave a tet on its own (two tets joined by one face, cut along it); a dart (a
+  // non-convex quad with an area); and a quad narrower than the mesh's faces (nothing separates).
+  // Either winding of a quad cuts alike.
   const TetMesh m = bar();
   const CutQuad split{{Eigen::Vector3d(-1, -1, 2), Eigen::Vector3d(21, -1, 2), Eigen::Vector3d(21, 7, 2), Eigen::Vector3d(-1, 7, 2)}};
   const MeshCut first = cutMesh(m, split);
@@ -177,6 +179,17 @@ TEST(TissueCut, ACutAcrossAnEarlierOneAndRefusals) {
   std::swap(bowTie.corners[1], bowTie.corners[2]);
   EXPECT_THROW(checkCutQuad(bowTie), Error);
   EXPECT_NO_THROW(checkCutQuad(quadX(10.0, 0.0, 6.0, 0.0, 6.0)));
+  CutQuad dart = quadX(10.0, 0.0, 6.0, 0.0, 6.0);  // a corner pushed in past the diagonal: area, not convex
+  dart.corners[2] = Eigen::Vector3d(10.0, 2.0, 2.0);
+  EXPECT_THROW(checkCutQuad(dart), Error);
+  // Either winding cuts alike.
+  CutQuad clockwise = quadX(10.0, -1.0, 7.0, -1.0, 7.0);
+  std::swap(clockwise.corners[1], clockwise.corners[3]);
+  const MeshCut a = cutMesh(m, clockwise), b = cutMesh(m, quadX(10.0, -1.0, 7.0, -1.0, 7.0));
+  EXPECT_EQ(a.mesh.tets, b.mesh.tets);
+  EXPECT_EQ(a.sourceNode, b.sourceNode);
+  // A quad narrower than the mesh's faces cuts faces whose nodes all stay shared: nothing separates.
+  EXPECT_THROW(cutMesh(m, quadX(10.0, 2.4, 2.6, 2.4, 2.6)), Error);
   EXPECT_THROW(cutMesh(m, quadX(100.0, -1.0, 7.0, -1.0, 7.0)), Error);
   TetMesh pair;
   pair.nodes = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, -1}};
