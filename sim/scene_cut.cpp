@@ -86,11 +86,6 @@ void rolesBySide(const TetMesh& m, const std::vector<Mat12>& K, const CutNodes& 
   c.slide = std::move(kept);
 }
 
-int findRoot(std::vector<int>& parent, int a) {
-  while (parent[std::size_t(a)] != a) a = parent[std::size_t(a)] = parent[std::size_t(parent[std::size_t(a)])];
-  return a;
-}
-
 // Whether the held points seen so far fix a rigid body: three of them off one line (1e-3 mm apart).
 struct RigidHold {
   int points = 0;  // 0, 1 (p0), 2 (p0, p1 apart), 3 (one off their line)
@@ -112,20 +107,17 @@ struct RigidHold {
 // piece hanging by an edge is a piece of its own) holds three handle's or held nodes off one line.
 void refuseLoosePieces(const TetMesh& m, const CutNodes& cut, const FineConstraints& c) {
   const std::vector<int> across = faceNeighbours(m);
-  std::vector<int> parent(m.tets.size());
-  std::iota(parent.begin(), parent.end(), 0);
+  DisjointSets pieces(m.tets.size());
   for (std::size_t s = 0; s < across.size(); ++s) {
     const int t = int(s / 4), o = across[s];
-    if (o < 0 || !cut.stiffTet[std::size_t(t)] || !cut.stiffTet[std::size_t(o)]) continue;
-    const int a = findRoot(parent, t), b = findRoot(parent, o);
-    if (a != b) parent[std::size_t(std::max(a, b))] = std::min(a, b);
+    if (o >= 0 && cut.stiffTet[std::size_t(t)] && cut.stiffTet[std::size_t(o)]) pieces.join(t, o);
   }
   std::vector<char> touched(m.tets.size(), 0);
   std::vector<RigidHold> hold(m.tets.size());
   std::vector<std::size_t> size(m.tets.size(), 0);
   for (std::size_t t = 0; t < m.tets.size(); ++t) {
     if (!cut.stiffTet[t]) continue;
-    const auto r = std::size_t(findRoot(parent, int(t)));
+    const auto r = std::size_t(pieces.find(int(t)));
     ++size[r];
     for (int n : m.tets[t]) {
       touched[r] = touched[r] || cut.split[std::size_t(n)];

@@ -59,22 +59,20 @@ QuadPlane planeOf(const CutQuad& quad) {
   return P;
 }
 
-// Disjoint sets over 0..n-1.
-struct Sets {
-  std::vector<int> parent;
-  explicit Sets(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
-  int find(int a) {
-    while (parent[std::size_t(a)] != a) a = parent[std::size_t(a)] = parent[std::size_t(parent[std::size_t(a)])];
-    return a;
-  }
-  void join(int a, int b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[std::size_t(std::max(a, b))] = std::min(a, b);  // the smallest index leads
-  }
-};
-
 }  // namespace
+
+DisjointSets::DisjointSets(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+
+int DisjointSets::find(int a) {
+  while (parent[std::size_t(a)] != a) a = parent[std::size_t(a)] = parent[std::size_t(parent[std::size_t(a)])];
+  return a;
+}
+
+void DisjointSets::join(int a, int b) {
+  a = find(a);
+  b = find(b);
+  if (a != b) parent[std::size_t(std::max(a, b))] = std::min(a, b);
+}
 
 // Found by sorting the faces' node triples.
 std::vector<int> faceNeighbours(const TetMesh& mesh) {
@@ -127,9 +125,10 @@ std::vector<char> facesToCut(const TetMesh& mesh, const QuadPlane& P, const std:
   return cut;
 }
 
-// Gives each group of a node's tets that are joined around it - through uncut faces, or by lying on
-// the same side of the plane (tets of one side that meet only along an edge are not slit apart) -
-// its own copy of the node (the group holding the node's lowest-numbered tet keeps the node).
+// Splits each node of a cut face by side: the tets on the side of the node's lowest-numbered tet
+// keep the node, those on the other side take a copy - unless an uncut face holding the node joins
+// tets of both sides (the cut's edge: the node stays shared). Tets of one side that meet only along
+// an edge are not slit apart.
 void splitNodes(MeshCut& out, const std::vector<int>& across, const std::vector<char>& cut, const std::vector<char>& above) {
   TetMesh& m = out.mesh;
   std::vector<std::vector<int>> tetsOf(m.nodes.size());
@@ -145,30 +144,23 @@ void splitNodes(MeshCut& out, const std::vector<int>& across, const std::vector<
   for (std::size_t v = 0; v < inputNodes; ++v) {
     if (!onCut[v]) continue;
     const std::vector<int>& ts = tetsOf[v];  // ascending
-    Sets groups(ts.size());
-    for (std::size_t a = 1; a < ts.size(); ++a)
-      for (std::size_t b = 0; b < a; ++b)
-        if (above[std::size_t(ts[a])] == above[std::size_t(ts[b])]) groups.join(int(a), int(b));
-    for (std::size_t a = 0; a < ts.size(); ++a)
-      for (int f = 0; f < 4; ++f) {
-        const std::size_t slot = 4 * std::size_t(ts[a]) + std::size_t(f);
-        if (m.tets[std::size_t(ts[a])][std::size_t(f)] == int(v) || across[slot] < 0 || cut[slot]) continue;  // the face must hold v
-        const auto b = std::find(ts.begin(), ts.end(), across[slot]);
-        if (b != ts.end()) groups.join(int(a), int(b - ts.begin()));
+    const char keep = above[std::size_t(ts[0])];
+    bool edge = false;
+    for (int t : ts)
+      for (int f = 0; f < 4 && !edge; ++f) {
+        const std::size_t slot = 4 * std::size_t(t) + std::size_t(f);
+        const int o = across[slot];
+        if (m.tets[std::size_t(t)][std::size_t(f)] == int(v) || o < 0 || cut[slot]) continue;  // the face must hold v
+        edge = above[std::size_t(o)] != above[std::size_t(t)];
       }
-    std::vector<int> copyOf(ts.size(), -1);  // per group leader: the node its tets use
-    for (std::size_t a = 0; a < ts.size(); ++a) {
-      const std::size_t lead = std::size_t(groups.find(int(a)));
-      if (copyOf[lead] < 0) {
-        copyOf[lead] = lead == 0 ? int(v) : int(m.nodes.size());
-        if (lead != 0) {
-          m.nodes.push_back(m.nodes[v]);
-          out.sourceNode.push_back(out.sourceNode[v]);
-        }
-      }
-      for (int& n : m.tets[std::size_t(ts[a])])
-        if (n == int(v)) n = copyOf[lead];
-    }
+    if (edge) continue;
+    const int copy = int(m.nodes.size());
+    m.nodes.push_back(m.nodes[v]);
+    out.sourceNode.push_back(out.sourceNode[v]);
+    for (int t : ts)
+      if (above[std::size_t(t)] != keep)
+        for (int& n : m.tets[std::size_t(t)])
+          if (n == int(v)) n = copy;
   }
 }
 

@@ -30,6 +30,14 @@ struct MeshCut {
   std::size_t cutFaces = 0;     ///< faces separated by this cut
 };
 
+/// Disjoint sets over 0..n-1 (path halving; the smallest index of a set leads it).
+struct DisjointSets {
+  std::vector<int> parent;
+  explicit DisjointSets(std::size_t n);
+  int find(int a);
+  void join(int a, int b);
+};
+
 /// Per tet and local face (slot 4 t + f, the face opposite vertex f): the tet across it, or -1 on
 /// the mesh's boundary and where a cut separated it. Throws handson::Error for a face of more than
 /// two tets.
