@@ -105,29 +105,41 @@ struct RigidHold {
 
 // Throws unless every piece of tissue the cut touched (stiff tets joined through shared faces, so a
 // piece hanging by an edge is a piece of its own) holds three handle's or held nodes off one line.
+// Each piece is searched from a stiff tet of a split node, breadth first, until it has them (the
+// tets it reached are then known held: a search that meets one stops) or has none left to reach.
 void refuseLoosePieces(const TetMesh& m, const CutNodes& cut, const FineConstraints& c) {
-  const std::vector<int> across = faceNeighbours(m);
-  DisjointSets pieces(m.tets.size());
-  for (std::size_t s = 0; s < across.size(); ++s) {
-    const int t = int(s / 4), o = across[s];
-    if (o >= 0 && cut.stiffTet[std::size_t(t)] && cut.stiffTet[std::size_t(o)]) pieces.join(t, o);
-  }
-  std::vector<char> touched(m.tets.size(), 0);
-  std::vector<RigidHold> hold(m.tets.size());
-  std::vector<std::size_t> size(m.tets.size(), 0);
-  for (std::size_t t = 0; t < m.tets.size(); ++t) {
-    if (!cut.stiffTet[t]) continue;
-    const auto r = std::size_t(pieces.find(int(t)));
-    ++size[r];
-    for (int n : m.tets[t]) {
-      touched[r] = touched[r] || cut.split[std::size_t(n)];
-      if (c.handleOf[std::size_t(n)] >= 0 || c.fixed[std::size_t(n)]) hold[r].add(m.nodes[std::size_t(n)]);
+  const TetIncidence inc(m);
+  enum : char { kUnseen, kSearched, kHeld };
+  std::vector<char> state(m.tets.size(), kUnseen);
+  for (std::size_t start = 0; start < m.tets.size(); ++start) {
+    if (state[start] != kUnseen || !cut.stiffTet[start]) continue;
+    bool touched = false;
+    for (int n : m.tets[start]) touched = touched || cut.split[std::size_t(n)];
+    if (!touched) continue;
+    std::vector<int> reached{int(start)};
+    state[start] = kSearched;
+    RigidHold hold;
+    bool held = false;
+    for (std::size_t i = 0; i < reached.size() && !held; ++i) {
+      const int t = reached[i];
+      for (int n : m.tets[std::size_t(t)])
+        if (c.handleOf[std::size_t(n)] >= 0 || c.fixed[std::size_t(n)]) hold.add(m.nodes[std::size_t(n)]);
+      held = hold.points == 3;
+      for (int f = 0; f < 4 && !held; ++f) {
+        const int o = inc.across(m, t, f);
+        if (o < 0 || !cut.stiffTet[std::size_t(o)]) continue;
+        held = state[std::size_t(o)] == kHeld;
+        if (state[std::size_t(o)] == kUnseen) {
+          state[std::size_t(o)] = kSearched;
+          reached.push_back(o);
+        }
+      }
     }
-  }
-  for (std::size_t r = 0; r < m.tets.size(); ++r)
-    if (touched[r] && hold[r].points < 3)
-      throw Error("cut: the cuts leave a piece of tissue (" + std::to_string(size[r]) +
+    if (!held)
+      throw Error("cut: the cuts leave a piece of tissue (" + std::to_string(reached.size()) +
                   " tets) that nothing holds, or that hangs by a point or an edge; cut it off against a handle or the region's edge");
+    for (int t : reached) state[std::size_t(t)] = kHeld;
+  }
 }
 
 }  // namespace

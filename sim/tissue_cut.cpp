@@ -74,31 +74,29 @@ void DisjointSets::join(int a, int b) {
   if (a != b) parent[std::size_t(std::max(a, b))] = std::min(a, b);
 }
 
-// Found by sorting the faces' node triples.
-std::vector<int> faceNeighbours(const TetMesh& mesh) {
-  struct Face {
-    std::array<int, 3> key;
-    int slot;  // 4 tet + f
-  };
-  std::vector<Face> faces;
-  faces.reserve(4 * mesh.tets.size());
+TetIncidence::TetIncidence(const TetMesh& mesh) : first(mesh.nodes.size() + 1, 0), tets(4 * mesh.tets.size()) {
+  for (const auto& t : mesh.tets)
+    for (int n : t) ++first[std::size_t(n) + 1];
+  std::partial_sum(first.begin(), first.end(), first.begin());
+  std::vector<int> next(first.begin(), first.end() - 1);
   for (std::size_t t = 0; t < mesh.tets.size(); ++t)
-    for (int f = 0; f < 4; ++f) {
-      std::array<int, 3> k{};
-      for (int i = 0, j = 0; i < 4; ++i)
-        if (i != f) k[std::size_t(j++)] = mesh.tets[t][std::size_t(i)];
-      std::sort(k.begin(), k.end());
-      faces.push_back({k, int(4 * t) + f});
-    }
-  std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) { return a.key < b.key || (a.key == b.key && a.slot < b.slot); });
-  std::vector<int> across(faces.size(), -1);
-  for (std::size_t i = 0; i + 1 < faces.size(); ++i) {
-    if (faces[i].key != faces[i + 1].key) continue;
-    if (i + 2 < faces.size() && faces[i + 2].key == faces[i].key) throw Error("cut: the mesh has a face shared by more than two tets");
-    across[std::size_t(faces[i].slot)] = faces[i + 1].slot / 4;
-    across[std::size_t(faces[i + 1].slot)] = faces[i].slot / 4;
+    for (int n : mesh.tets[t]) tets[std::size_t(next[std::size_t(n)]++)] = int(t);
+}
+
+// Among the tets of the face's first node, those holding its other two.
+int TetIncidence::across(const TetMesh& mesh, int t, int f) const {
+  std::array<int, 3> face{};
+  for (int i = 0, j = 0; i < 4; ++i)
+    if (i != f) face[std::size_t(j++)] = mesh.tets[std::size_t(t)][std::size_t(i)];
+  auto holds = [&](int o, int n) { return std::find(mesh.tets[std::size_t(o)].begin(), mesh.tets[std::size_t(o)].end(), n) != mesh.tets[std::size_t(o)].end(); };
+  int found = -1;
+  for (int k = first[std::size_t(face[0])]; k < first[std::size_t(face[0]) + 1]; ++k) {
+    const int o = tets[std::size_t(k)];
+    if (o == t || !holds(o, face[1]) || !holds(o, face[2])) continue;
+    if (found >= 0) throw Error("cut: the mesh has a face shared by more than two tets");
+    found = o;
   }
-  return across;
+  return found;
 }
 
 namespace {
@@ -108,85 +106,110 @@ Eigen::Vector3d centroid(const TetMesh& m, int t) {
   return 0.25 * (m.nodes[std::size_t(n[0])] + m.nodes[std::size_t(n[1])] + m.nodes[std::size_t(n[2])] + m.nodes[std::size_t(n[3])]);
 }
 
-// The faces the quad separates: shared, between tets whose centroids lie on either side of its
-// plane, with their own centroid over the quad. Per slot (4 tet + f).
-std::vector<char> facesToCut(const TetMesh& mesh, const QuadPlane& P, const std::vector<int>& across, const std::vector<char>& above) {
-  std::vector<char> cut(across.size(), 0);
-  for (std::size_t s = 0; s < across.size(); ++s) {
-    const int t = int(s / 4), o = across[s];
-    if (o < 0 || above[std::size_t(t)] == above[std::size_t(o)]) continue;
-    const auto& n = mesh.tets[std::size_t(t)];
-    Eigen::Vector3d fc = Eigen::Vector3d::Zero();
+// The longest edge of any tet: no tet nearer the quad than that can hold one of its faces' tets.
+double longestEdge(const TetMesh& m) {
+  double longest = 0.0;
+  for (const auto& t : m.tets)
     for (int i = 0; i < 4; ++i)
-      if (i != int(s % 4)) fc += mesh.nodes[std::size_t(n[std::size_t(i)])] / 3.0;
-    if (!P.contains(fc)) continue;
-    cut[s] = 1;
+      for (int j = i + 1; j < 4; ++j) longest = std::max(longest, (m.nodes[std::size_t(t[std::size_t(i)])] - m.nodes[std::size_t(t[std::size_t(j)])]).norm());
+  return longest;
+}
+
+// The faces the quad separates: shared, between tets whose centroids lie on either side of its
+// plane, with their own centroid over the quad. Ascending slots (4 tet + f). Only tets whose
+// centroid lies within the longest edge of the quad's plane and of its outline are looked at: a
+// face's tets have centroids at most half an edge from each other and an edge from the face's.
+std::vector<std::size_t> facesToCut(const TetMesh& mesh, const QuadPlane& P, const TetIncidence& inc, const std::vector<char>& above) {
+  const double reach = longestEdge(mesh);
+  Eigen::Vector2d lo = P.q[0], hi = P.q[0];
+  for (const auto& q : P.q) {
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  lo.array() -= reach;
+  hi.array() += reach;
+  std::vector<std::size_t> cut;
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    const Eigen::Vector3d c = centroid(mesh, int(t));
+    const Eigen::Vector2d inPlane = P.in(c);
+    if (std::abs(P.height(c)) > reach || (inPlane.array() < lo.array()).any() || (inPlane.array() > hi.array()).any()) continue;
+    const auto& n = mesh.tets[t];
+    for (int f = 0; f < 4; ++f) {
+      const int o = inc.across(mesh, int(t), f);
+      if (o < 0 || above[t] == above[std::size_t(o)]) continue;
+      Eigen::Vector3d fc = Eigen::Vector3d::Zero();
+      for (int i = 0; i < 4; ++i)
+        if (i != f) fc += mesh.nodes[std::size_t(n[std::size_t(i)])] / 3.0;
+      if (P.contains(fc)) cut.push_back(4 * t + std::size_t(f));
+    }
   }
   return cut;
 }
 
+bool isCut(const std::vector<std::size_t>& cut, std::size_t slot) { return std::binary_search(cut.begin(), cut.end(), slot); }
+
 // Splits each node of a cut face by side: the tets on the side of the node's lowest-numbered tet
 // keep the node, those on the other side take a copy - unless an uncut face holding the node joins
 // tets of both sides (the cut's edge: the node stays shared). Tets of one side that meet only along
-// an edge are not slit apart.
-void splitNodes(MeshCut& out, const std::vector<int>& across, const std::vector<char>& cut, const std::vector<char>& above) {
+// an edge are not slit apart. `in` is the mesh before the cut (out.mesh starts as its copy), whose
+// faces `inc` finds.
+void splitNodes(MeshCut& out, const TetMesh& in, const TetIncidence& inc, const std::vector<std::size_t>& cut, const std::vector<char>& above) {
   TetMesh& m = out.mesh;
-  std::vector<std::vector<int>> tetsOf(m.nodes.size());
-  std::vector<char> onCut(m.nodes.size(), 0);
-  for (std::size_t t = 0; t < m.tets.size(); ++t)
-    for (int i = 0; i < 4; ++i) {
-      tetsOf[std::size_t(m.tets[t][std::size_t(i)])].push_back(int(t));
-      if (cut[4 * t + std::size_t(i)])
-        for (int j = 0; j < 4; ++j)
-          if (j != i) onCut[std::size_t(m.tets[t][std::size_t(j)])] = 1;
-    }
-  const std::size_t inputNodes = m.nodes.size();
-  for (std::size_t v = 0; v < inputNodes; ++v) {
-    if (!onCut[v]) continue;
-    const std::vector<int>& ts = tetsOf[v];  // ascending
+  std::vector<int> onCut;
+  for (std::size_t s : cut)
+    for (int j = 0; j < 4; ++j)
+      if (j != int(s % 4)) onCut.push_back(in.tets[s / 4][std::size_t(j)]);
+  std::sort(onCut.begin(), onCut.end());
+  onCut.erase(std::unique(onCut.begin(), onCut.end()), onCut.end());
+  for (int v : onCut) {
+    const int* ts = inc.tets.data() + inc.first[std::size_t(v)];  // ascending
+    const int* tsEnd = inc.tets.data() + inc.first[std::size_t(v) + 1];
     const char keep = above[std::size_t(ts[0])];
     bool edge = false;
-    for (int t : ts)
+    for (const int* t = ts; t != tsEnd && !edge; ++t)
       for (int f = 0; f < 4 && !edge; ++f) {
-        const std::size_t slot = 4 * std::size_t(t) + std::size_t(f);
-        const int o = across[slot];
-        if (m.tets[std::size_t(t)][std::size_t(f)] == int(v) || o < 0 || cut[slot]) continue;  // the face must hold v
-        edge = above[std::size_t(o)] != above[std::size_t(t)];
+        if (in.tets[std::size_t(*t)][std::size_t(f)] == v || isCut(cut, 4 * std::size_t(*t) + std::size_t(f))) continue;  // the face must hold v
+        const int o = inc.across(in, *t, f);
+        edge = o >= 0 && above[std::size_t(o)] != above[std::size_t(*t)];
       }
     if (edge) continue;
     const int copy = int(m.nodes.size());
-    m.nodes.push_back(m.nodes[v]);
-    out.sourceNode.push_back(out.sourceNode[v]);
-    for (int t : ts)
-      if (above[std::size_t(t)] != keep)
-        for (int& n : m.tets[std::size_t(t)])
-          if (n == int(v)) n = copy;
+    m.nodes.push_back(m.nodes[std::size_t(v)]);
+    out.sourceNode.push_back(out.sourceNode[std::size_t(v)]);
+    for (const int* t = ts; t != tsEnd; ++t)
+      if (above[std::size_t(*t)] != keep)
+        for (int& n : m.tets[std::size_t(*t)])
+          if (n == v) n = copy;
   }
 }
 
-// Whether the face in slot s (4 t + f) is still shared by its two tets (all three nodes) in m.
-bool stillShared(const TetMesh& m, const std::vector<int>& across, std::size_t s) {
-  const int t = int(s / 4), o = across[s];
+// Whether face f of tet t, shared with tet o before the cut (o >= 0), still is in m (all three nodes).
+bool stillShared(const TetMesh& m, int t, int f, int o) {
   if (o < 0) return false;
   const auto& a = m.tets[std::size_t(t)];
+  const auto& b = m.tets[std::size_t(o)];
   int shared = 0;
   for (int i = 0; i < 4; ++i)
-    if (i != int(s % 4)) shared += std::find(m.tets[std::size_t(o)].begin(), m.tets[std::size_t(o)].end(), a[std::size_t(i)]) != m.tets[std::size_t(o)].end();
+    if (i != f) shared += std::find(b.begin(), b.end(), a[std::size_t(i)]) != b.end();
   return shared == 3;
 }
 
 // Faces the cut separated (each once): cut faces whose two tets no longer share all three nodes (a
 // face at the cut's edge keeps them, and so does every face of a quad narrower than the mesh's).
-// Throws when it leaves a tet it touched joined to no other tet.
-std::size_t separatedFaces(const TetMesh& m, const std::vector<int>& across, const std::vector<char>& cut) {
+// Throws when it leaves a tet it touched joined to no other tet. Only the cut faces' tets can be.
+std::size_t separatedFaces(const TetMesh& m, const TetMesh& in, const TetIncidence& inc, const std::vector<std::size_t>& cut) {
+  std::vector<int> cutTets;
+  for (std::size_t s : cut) cutTets.push_back(int(s / 4));
+  cutTets.erase(std::unique(cutTets.begin(), cutTets.end()), cutTets.end());  // ascending already
   std::size_t count = 0;
-  for (std::size_t t = 0; t < m.tets.size(); ++t) {
+  for (int t : cutTets) {
     bool touched = false, joined = false;
-    for (std::size_t s = 4 * t; s < 4 * t + 4; ++s) {
-      const bool shared = stillShared(m, across, s);
-      touched = touched || (cut[s] && !shared);
+    for (int f = 0; f < 4; ++f) {
+      const int o = inc.across(in, t, f);
+      const bool shared = stillShared(m, t, f, o), isCutFace = isCut(cut, 4 * std::size_t(t) + std::size_t(f));
+      touched = touched || (isCutFace && !shared);
       joined = joined || shared;
-      count += cut[s] && !shared && across[s] > int(t);
+      count += isCutFace && !shared && o > t;
     }
     if (touched && !joined) throw Error("cut: it would leave a single tet on its own (cut further from the tissue's edge, or across it)");
   }
@@ -199,16 +222,16 @@ void checkCutQuad(const CutQuad& quad) { planeOf(quad); }
 
 MeshCut cutMesh(const TetMesh& mesh, const CutQuad& quad) {
   const QuadPlane P = planeOf(quad);
-  const std::vector<int> across = faceNeighbours(mesh);
+  const TetIncidence inc(mesh);
   std::vector<char> above(mesh.tets.size());
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) above[t] = P.height(centroid(mesh, int(t))) >= 0.0;
-  const std::vector<char> cut = facesToCut(mesh, P, across, above);
+  const std::vector<std::size_t> cut = facesToCut(mesh, P, inc, above);
   MeshCut out;
   out.mesh = mesh;
   out.sourceNode.resize(mesh.nodes.size());
   std::iota(out.sourceNode.begin(), out.sourceNode.end(), 0);
-  splitNodes(out, across, cut, above);
-  out.cutFaces = separatedFaces(out.mesh, across, cut);
+  splitNodes(out, mesh, inc, cut, above);
+  out.cutFaces = separatedFaces(out.mesh, mesh, inc, cut);
   if (out.cutFaces == 0)
     throw Error("cut: the quad separates no tissue (it misses the mesh, follows an earlier cut, or is narrower than the mesh's faces)");
   return out;

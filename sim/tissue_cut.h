@@ -38,10 +38,16 @@ struct DisjointSets {
   void join(int a, int b);
 };
 
-/// Per tet and local face (slot 4 t + f, the face opposite vertex f): the tet across it, or -1 on
-/// the mesh's boundary and where a cut separated it. Throws handson::Error for a face of more than
-/// two tets.
-std::vector<int> faceNeighbours(const TetMesh& mesh);
+/// Which tets use each node, in compressed rows (the tets of node n are tets[first[n] ..
+/// first[n + 1]), ascending), and through it the tet across a face: built in one pass over the tets,
+/// so a cut looks up only the faces near it.
+struct TetIncidence {
+  std::vector<int> first, tets;
+  explicit TetIncidence(const TetMesh& mesh);
+  /// The tet that shares tet t's face f (the face opposite its vertex f) with it, or -1 on the
+  /// mesh's boundary and where a cut separated it. Throws handson::Error for a face of more than two tets.
+  int across(const TetMesh& mesh, int t, int f) const;
+};
 
 /// The mesh cut by the quad. Throws handson::Error for a bad quad (checkCutQuad), one that separates
 /// no face the mesh still shares, and one that would leave a single tet on its own.

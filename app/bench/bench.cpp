@@ -57,6 +57,7 @@ int cmdBench(const Words& words) {
   if (!words.empty() && words[0] == "mesh") return cmdBenchMesh(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "stability") return cmdBenchStability(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "tissue") return cmdBenchTissue(Words(words.begin() + 1, words.end()));
+  if (!words.empty() && words[0] == "cut") return cmdBenchCut(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "hyperelastic") return cmdBenchHyperelastic(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "visibility") return cmdBenchVisibility(Words(words.begin() + 1, words.end()));
   if (!words.empty() && words[0] == "raymarch") return benchRaymarch(Words(words.begin() + 1, words.end()));

@@ -13,6 +13,7 @@ int cmdBenchDeform(const Words& args);
 int cmdBenchMesh(const Words& args);
 int cmdBenchStability(const Words& args);
 int cmdBenchTissue(const Words& args);
+int cmdBenchCut(const Words& args);
 int cmdBenchHyperelastic(const Words& args);
 int cmdBenchVisibility(const Words& args);
 int cmdBenchSuite(const Words& args);

@@ -19,7 +19,7 @@ using namespace handson;
 
 namespace {
 
-// A 20 x 6 x 6 mm bar along x, 2 mm cells (1,080 tets), E 1 kPa, nu 0.
+// A 20 x 6 x 6 mm bar along x, 2 mm cells (540 tets), E 1 kPa, nu 0.
 constexpr double kE = 1.0, kL = 20.0, kU = 0.05;
 TetMesh bar() { return KuhnGrid({0, 0, 0}, {2, 2, 2}, {10, 3, 3}).mesh(); }
 
@@ -195,4 +195,89 @@ TEST(TissueCut, ACutAcrossAnEarlierOneAndRefusals) {
   pair.nodes = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, -1}};
   pair.tets = {{0, 1, 2, 3}, {0, 2, 1, 4}};
   EXPECT_THROW(cutMesh(pair, {{Eigen::Vector3d(-1, -1, 0), Eigen::Vector3d(2, -1, 0), Eigen::Vector3d(2, 2, 0), Eigen::Vector3d(-1, 2, 0)}}), Error);
+}
+
+namespace {
+
+// The brute-force reference for TetIncidence::across: every tet's faces sorted by their node
+// triples; two equal neighbours share a face. Per slot (4 t + f): the tet across, or -1.
+std::vector<int> acrossBySorting(const TetMesh& m) {
+  std::vector<std::pair<std::array<int, 3>, int>> faces;
+  for (std::size_t t = 0; t < m.tets.size(); ++t)
+    for (int f = 0; f < 4; ++f) {
+      std::array<int, 3> k{};
+      for (int i = 0, j = 0; i < 4; ++i)
+        if (i != f) k[std::size_t(j++)] = m.tets[t][std::size_t(i)];
+      std::sort(k.begin(), k.end());
+      faces.push_back({k, int(4 * t) + f});
+    }
+  std::sort(faces.begin(), faces.end());
+  std::vector<int> across(faces.size(), -1);
+  for (std::size_t i = 0; i + 1 < faces.size(); ++i)
+    if (faces[i].first == faces[i + 1].first) {
+      across[std::size_t(faces[i].second)] = faces[i + 1].second / 4;
+      across[std::size_t(faces[i + 1].second)] = faces[i].second / 4;
+    }
+  return across;
+}
+
+// The bar with its nodes moved off the lattice (deterministically, up to 0.3 of a 2 mm cell along
+// each axis; the end faces' nodes stay on their planes x = 0 and x = L, the sides' on theirs), so
+// its tets differ in shape and size and no face lies in a lattice plane.
+TetMesh unevenBar() {
+  TetMesh m = bar();
+  unsigned state = 12345;
+  auto jitter = [&state] {
+    state = state * 1103515245u + 12345u;
+    return 0.6 * (double((state >> 8) & 0xffff) / 65535.0 - 0.5);
+  };
+  for (Eigen::Vector3d& x : m.nodes)
+    for (int a = 0; a < 3; ++a) {
+      const double extent = a == 0 ? kL : 6.0, j = jitter();
+      if (x[a] > 1e-9 && x[a] < extent - 1e-9) x[a] += j;
+    }
+  return m;
+}
+
+}  // namespace
+
+TEST(TissueCut, TheTetAcrossEachFaceIsTheOneASortOfAllFacesFinds) {
+  // On the bar, on the bar cut through obliquely (its separated faces have none across) and on an
+  // uneven bar: the incidence's answer for every face equals the sort's. A face of three tets throws.
+  const TetMesh m = bar();
+  const double s = std::tan(M_PI / 6);
+  const MeshCut cut = cutMesh(m, {{Eigen::Vector3d(10 - s, -1, -1), Eigen::Vector3d(10 - s, 7, -1), Eigen::Vector3d(10 + 7 * s, 7, 7), Eigen::Vector3d(10 + 7 * s, -1, 7)}});
+  const TetMesh uneven = unevenBar();
+  std::vector<std::size_t> boundaries;
+  for (const TetMesh* mesh : {&m, &cut.mesh, &uneven}) {
+    const TetIncidence inc(*mesh);
+    const std::vector<int> expected = acrossBySorting(*mesh);
+    std::size_t boundary = 0;
+    for (std::size_t slot = 0; slot < expected.size(); ++slot) {
+      EXPECT_EQ(inc.across(*mesh, int(slot / 4), int(slot % 4)), expected[slot]) << "slot " << slot;
+      boundary += expected[slot] < 0;
+    }
+    std::printf("%zu tets, %zu faces with no tet across\n", mesh->tets.size(), boundary);
+    boundaries.push_back(boundary);
+  }
+  EXPECT_EQ(boundaries[1], boundaries[0] + 2 * cut.cutFaces) << "each separated face, on either side";
+  TetMesh three;
+  three.nodes = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, -1}, {0.2, 0.2, 1}};
+  three.tets = {{0, 1, 2, 3}, {0, 2, 1, 4}, {0, 1, 2, 5}};
+  EXPECT_THROW(TetIncidence(three).across(three, 0, 3), Error);
+}
+
+TEST(TissueCut, ACutThroughAMeshOfUnevenTetsSeparatesItFully) {
+  // The cut looks only at tets within the mesh's longest edge of the quad: on tets of uneven size
+  // (the uneven bar) an oblique cut through must still find every face between the sides, or the
+  // bar would transmit force through the one it missed. nu = 0 keeps the uncut answer exact on any
+  // tets (a uniform strain): E A U / L = 0.09. Bounds as for the lattice's bar.
+  const TetMesh m = unevenBar();
+  const double uncut = pull(m, std::vector<char>(m.nodes.size(), 1)).reaction;
+  EXPECT_NEAR(uncut, kE * 36 * kU / kL, 1e-9);
+  const double s = std::tan(M_PI / 6);
+  const MeshCut c = cutMesh(m, {{Eigen::Vector3d(10 - s, -1, -1), Eigen::Vector3d(10 - s, 7, -1), Eigen::Vector3d(10 + 7 * s, 7, 7), Eigen::Vector3d(10 + 7 * s, -1, 7)}});
+  const double force = pull(c.mesh, std::vector<char>(c.mesh.nodes.size(), 1)).reaction;
+  std::printf("uneven bar: uncut %.6f, cut through obliquely %.2e (%zu faces, %zu nodes copied)\n", uncut, force, c.cutFaces, c.mesh.nodes.size() - m.nodes.size());
+  EXPECT_LT(std::abs(force), 1e-6 * uncut);
 }
