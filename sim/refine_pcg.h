@@ -62,17 +62,35 @@ double pcg(Field& r, const std::vector<char>& mask, int iterations, ApplyK&& app
   return r0 > 0 ? std::sqrt(dot(r, r, mask)) / r0 : 0.0;
 }
 
+/// The coarse correction's inputs: the coarse model, its element rotations at the coarse state and,
+/// for a cut fine mesh, each node's source among the model's fine nodes (empty: the same nodes).
+struct CoarseCorrection {
+  const CoarseModel& coarse;
+  const std::vector<Eigen::Matrix3d>& Rc;
+  const std::vector<int>& source;
+};
+
 /// The two-level preconditioner: z = D^-1 res + P A_c^-1 P^T res (block Jacobi plus the coarse
 /// correction through the coarse model's shape functions at the coarse state whose element
-/// rotations are Rc), zero at Dirichlet nodes.
-inline void twoLevelPrecondition(const CoarseModel& coarse, const std::vector<Eigen::Matrix3d>& Rc, const std::vector<Eigen::Matrix3d>& dinv,
-                                 const std::vector<char>& mask, const Field& res, Field& z) {
+/// rotations are Rc), zero at Dirichlet nodes. On a cut mesh P = S P_0, S (copies x the model's
+/// fine nodes) taking each copy its source's row: P^T res sums the copies' residuals into their
+/// source, and each copy takes its source's correction.
+inline void twoLevelPrecondition(const CoarseCorrection& c, const std::vector<Eigen::Matrix3d>& dinv, const std::vector<char>& mask, const Field& res,
+                                 Field& z) {
   const std::size_t n = res.size();
   z.assign(n, Eigen::Vector3d::Zero());
   for (std::size_t i = 0; i < n; ++i)
     if (mask[i]) z[i] = dinv[i] * res[i];
-  const Eigen::VectorXd cc = coarse.coarseSolve(coarse.restrictToCoarse(res, Rc));
-  coarse.prolongAdd(cc, Rc, z);
+  if (c.source.empty()) {
+    c.coarse.prolongAdd(c.coarse.coarseSolve(c.coarse.restrictToCoarse(res, c.Rc)), c.Rc, z);
+  } else {
+    Field onModel(c.coarse.meshes().fine.nodes.size(), Eigen::Vector3d::Zero());
+    for (std::size_t i = 0; i < n; ++i) onModel[std::size_t(c.source[i])] += res[i];
+    const Eigen::VectorXd cc = c.coarse.coarseSolve(c.coarse.restrictToCoarse(onModel, c.Rc));
+    onModel.assign(onModel.size(), Eigen::Vector3d::Zero());
+    c.coarse.prolongAdd(cc, c.Rc, onModel);
+    for (std::size_t i = 0; i < n; ++i) z[i] += onModel[std::size_t(c.source[i])];
+  }
   for (std::size_t i = 0; i < n; ++i)
     if (!mask[i]) z[i].setZero();
 }

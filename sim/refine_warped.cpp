@@ -40,18 +40,32 @@ struct FineRefiner::Warped {
 
 FineRefiner::FineRefiner(const CoarseModel& coarse, const std::vector<Mat12>& fineK) : coarse_(coarse), K_(fineK) {
   options_.method = RefineMethod::Projected;
-  const auto& c = coarse.constraints();
+  solveOn(coarse.meshes().fine, coarse.constraints());
+}
+
+void FineRefiner::solveOn(const TetMesh& fine, const FineConstraints& c) {
+  fine_ = &fine;
+  constraints_ = &c;
+  if (K_.size() != fine.tets.size()) throw Error("refiner: one stiffness per fine tet expected");
+  if (c.handleOf.size() != fine.nodes.size() || c.fixed.size() != fine.nodes.size()) throw Error("refiner: the roles do not match the fine mesh");
   free_.resize(c.handleOf.size());
   for (std::size_t i = 0; i < free_.size(); ++i) free_[i] = !c.fixed[i] && c.handleOf[i] < 0;
-  if (fineK.size() != coarse.meshes().fine.tets.size()) throw Error("refiner: one stiffness per fine tet expected");
 }
 
 FineRefiner::FineRefiner(const CoarseModel& coarse, const std::vector<Mat12>& fineK, const std::vector<double>& youngs, const std::vector<double>& poisson,
                          const RefineOptions& options)
     : FineRefiner(coarse, fineK) {
   options_ = options;
+  if (const RefineCut& cut = options.cut; cut.mesh) {
+    if (!cut.constraints || !cut.sourceNode || cut.sourceNode->size() != cut.mesh->nodes.size() || cut.mesh->tets.size() != coarse.meshes().fine.tets.size())
+      throw Error("refiner: a cut mesh needs its roles and each node's source, and the coarse model's tets");
+    for (int s : *cut.sourceNode)
+      if (s < 0 || std::size_t(s) >= coarse.meshes().fine.nodes.size()) throw Error("refiner: a cut mesh's node copies no node of the coarse model's");
+    solveOn(*cut.mesh, *cut.constraints);
+    source_ = *cut.sourceNode;
+  }
   if (options_.method == RefineMethod::Projected) return;
-  const TetMesh& F = coarse.meshes().fine;
+  const TetMesh& F = *fine_;
   const std::size_t nt = F.tets.size();
   if (youngs.size() != nt || poisson.size() != nt) throw Error("refiner: one material per fine tet expected");
   auto w = std::make_unique<Warped>();
@@ -152,7 +166,7 @@ void FineRefiner::sumThreadBuffers(Field& out) const {
 // the energy at x.
 double FineRefiner::linearizeWarped(const Field& x, Field& r, std::vector<Eigen::Matrix3d>& diag) const {
   const Warped& w = *warped_;
-  const TetMesh& F = coarse_.meshes().fine;
+  const TetMesh& F = *fine_;
   const std::size_t n = F.nodes.size(), nt = F.tets.size();
   const int T = w.threads;
   std::vector<double> energyOf(std::size_t(T), 0.0);
@@ -201,7 +215,7 @@ double FineRefiner::linearizeWarped(const Field& x, Field& r, std::vector<Eigen:
 // The warped stiffness (with the twist term) at the rotations linearizeWarped kept, applied to p.
 void FineRefiner::applyWarped(const Field& p, Field& out) const {
   const Warped& w = *warped_;
-  const TetMesh& F = coarse_.meshes().fine;
+  const TetMesh& F = *fine_;
   const std::size_t n = F.nodes.size();
   parallelChunks(F.tets.size(), w.threads, [&](std::size_t b, std::size_t e, int c) {
     Field& y = w.vec[std::size_t(c)];
@@ -220,7 +234,7 @@ void FineRefiner::applyWarped(const Field& p, Field& out) const {
 // The corotational energy at trial positions (rotations warm-started from x's, not kept).
 double FineRefiner::warpedEnergy(const Field& pos) const {
   const Warped& w = *warped_;
-  const TetMesh& F = coarse_.meshes().fine;
+  const TetMesh& F = *fine_;
   std::vector<double> part(std::size_t(w.threads), 0.0);
   parallelChunks(F.tets.size(), w.threads, [&](std::size_t b, std::size_t e, int c) {
     double s = 0;
@@ -255,7 +269,7 @@ double FineRefiner::stepWarped(const Springs& springs, const std::vector<Eigen::
   };
   const std::vector<Eigen::Matrix3d> Rc = coarse_.elementRotations(xc);
   auto precondition = [&](const Field& res, Field& z) {
-    refine::twoLevelPrecondition(coarse_, Rc, dinv, free_, res, z);
+    refine::twoLevelPrecondition({coarse_, Rc, source_}, dinv, free_, res, z);
     removeNormalParts(springs, z);
   };
   Field dx;
@@ -267,7 +281,7 @@ double FineRefiner::stepWarped(const Springs& springs, const std::vector<Eigen::
 std::vector<Eigen::Vector3d> FineRefiner::product(const std::vector<Eigen::Vector3d>& x, const std::vector<Eigen::Vector3d>& p) const {
   if (!warped_) throw Error("refiner: the matrix-free methods need the fine materials");
   const Warped& w = *warped_;
-  const TetMesh& F = coarse_.meshes().fine;
+  const TetMesh& F = *fine_;
   Field out(F.nodes.size(), Eigen::Vector3d::Zero());
   for (std::size_t t = 0; t < F.tets.size(); ++t) {
     if (w.V[t] == 0) continue;

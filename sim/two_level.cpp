@@ -16,15 +16,28 @@ const char* refineMethodName(RefineMethod m) {
   return m == RefineMethod::Analytic ? "analytic" : m == RefineMethod::Warped ? "warped" : "projected";
 }
 
+std::vector<Eigen::Vector3d> positionsOnCut(const RefineCut& cut, const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x) {
+  if (!cut.mesh || !cut.constraints || !cut.sourceNode || cut.sourceNode->size() != cut.mesh->nodes.size())
+    throw Error("refiner: a cut mesh needs its roles and each node's source");
+  std::vector<char> dirichlet;
+  std::vector<Eigen::Vector3d> out = prescribedPositions(*cut.mesh, *cut.constraints, handles, &dirichlet);
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const auto s = std::size_t((*cut.sourceNode)[i]);
+    if (s >= x.size()) throw Error("refiner: a cut mesh's node copies no node of the positions given");
+    if (!dirichlet[i]) out[i] = x[s];
+  }
+  return out;
+}
+
 double FineRefiner::step(const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
-  if (x.size() != coarse_.meshes().fine.nodes.size()) throw Error("refiner: wrong node count");
-  const Springs springs = slideSprings(coarse_.meshes().fine, coarse_.constraints().slide, handles);
+  if (x.size() != fine_->nodes.size()) throw Error("refiner: wrong node count");
+  const Springs springs = slideSprings(*fine_, constraints_->slide, handles);
   const SingleThreadedBlas blas;  // the coarse correction's small solves (sim/blas_threads.h)
   return options_.method == RefineMethod::Projected ? stepProjected(springs, xc, x, iterations) : stepWarped(springs, xc, x, iterations);
 }
 
 double FineRefiner::stepProjected(const Springs& springs, const std::vector<Eigen::Vector3d>& xc, std::vector<Eigen::Vector3d>& x, int iterations) const {
-  const TetMesh& F = coarse_.meshes().fine;
+  const TetMesh& F = *fine_;
   projectOntoSpringPlanes(springs, x);
   const std::size_t n = F.nodes.size(), nt = F.tets.size();
   // Residual f(x) and the element Hessians (projected to positive semi-definite) at x.
@@ -58,7 +71,7 @@ double FineRefiner::stepProjected(const Springs& springs, const std::vector<Eige
   };
   const std::vector<Eigen::Matrix3d> Rc = coarse_.elementRotations(xc);
   auto precondition = [&](const Field& res, Field& z) {
-    refine::twoLevelPrecondition(coarse_, Rc, dinv, free_, res, z);
+    refine::twoLevelPrecondition({coarse_, Rc, source_}, dinv, free_, res, z);
     removeNormalParts(springs, z);
   };
 

@@ -27,9 +27,27 @@ namespace handson {
 enum class RefineMethod { Analytic, Warped, Projected };
 const char* refineMethodName(RefineMethod m);
 
+/// A cut fine mesh for the refinement to solve on instead of the coarse model's own (cutScene,
+/// docs/cutting.md): the same tets in the same order (the stiffness and materials per tet hold), on
+/// nodes copied where the cut separates them, with their roles. Each node reaches the coarse
+/// correction through the coarse model's fine node it copies (`sourceNode`): the coarse model does
+/// not see the cut, the fine steps do, so the refinement converges to the cut fine answer.
+struct RefineCut {
+  const TetMesh* mesh = nullptr;
+  const FineConstraints* constraints = nullptr;
+  const std::vector<int>* sourceNode = nullptr;
+};
+
+/// Fine positions x on the coarse model's mesh carried to a cut mesh, to start refining from: each
+/// node where x puts its source, and the cut mesh's Dirichlet nodes where their roles put them
+/// (prescribedPositions: a copy of a slide node the cut left on the organ's own tets moves with the
+/// organ, wherever x put its source). Throws handson::Error on sizes that do not match.
+std::vector<Eigen::Vector3d> positionsOnCut(const RefineCut& cut, const std::vector<RigidTransform>& handles, const std::vector<Eigen::Vector3d>& x);
+
 struct RefineOptions {
   RefineMethod method = RefineMethod::Analytic;
   int threads = 0;  ///< Analytic, Warped: threads for the element passes (0: the machine's hardware threads)
+  RefineCut cut;    ///< a cut fine mesh to solve on (its pointees outlive the refiner); none: the coarse model's
 };
 
 class FineRefiner {
@@ -46,6 +64,8 @@ class FineRefiner {
 
   RefineMethod method() const { return options_.method; }
 
+  /// The fine mesh the steps solve on: the coarse model's, or the cut one (RefineOptions::cut).
+  const TetMesh& fineMesh() const { return *fine_; }
   /// One refinement step on fine positions x (Dirichlet nodes must already hold their values) with
   /// the handles at `handles` (their sliding interfaces' planes held exactly, not by the springs:
   /// the slide nodes put on them, the steps projected onto them - a stiff spring slowed the
@@ -69,8 +89,12 @@ class FineRefiner {
   void applyWarped(const Field& p, Field& out) const;
   double warpedEnergy(const Field& pos) const;
 
+  void solveOn(const TetMesh& fine, const FineConstraints& constraints);
   const CoarseModel& coarse_;
   const std::vector<Mat12>& K_;
+  const TetMesh* fine_ = nullptr;                  ///< the mesh solved on
+  const FineConstraints* constraints_ = nullptr;  ///< its roles
+  std::vector<int> source_;                        ///< per node of fine_: the coarse model's fine node (empty: the same)
   std::vector<char> free_;
   RefineOptions options_;
   std::unique_ptr<Warped> warped_;

@@ -97,10 +97,12 @@ const char* const kDeformHelp =
     "                          centroid) the tissue exerts on it, RAS; from the model that was solved (the\n"
     "                          coarse model's own is approximate, far off where bone shares its cells with\n"
     "                          the handle; --refine-steps 2 gives the fine model's within about 5 %)\n"
-    "  --cut-quad X0,Y0,Z0,X1,Y1,Z1,X2,Y2,Z2,X3,Y3,Z3  (repeatable; --model fine only so far) cuts the\n"
-    "                          tissue along a planar convex quad (RAS mm, corners in order) before the\n"
-    "                          handle moves: the fine mesh separates along the faces over the quad\n"
-    "                          between the tets on either side of its plane (docs/cutting.md)\n"
+    "  --cut-quad X0,Y0,Z0,X1,Y1,Z1,X2,Y2,Z2,X3,Y3,Z3  (repeatable) cuts the tissue along a planar convex\n"
+    "                          quad (RAS mm, corners in order) before the handle moves: the fine mesh\n"
+    "                          separates along the faces over the quad between the tets on either side of\n"
+    "                          its plane (docs/cutting.md). Seen by --model fine, and by the coarse\n"
+    "                          model's refinement (--refine-steps N: the coarse answer, which does not\n"
+    "                          see cuts yet, refined on the cut fine mesh)\n"
     "  --mesh-out MESH.vtu     the fine mesh for ParaView: rest positions, point data displacement and\n"
     "                          dirichlet, cell data youngs_modulus, poisson_ratio, coarse_element (the\n"
     "                          coarse model's element: grid cell or coarse tet), strain and\n"
@@ -154,8 +156,9 @@ struct DeformRequest {
   bool coarseOnly() const { return model == "coarse" && refineSteps == 0; }
 };
 
-// --cut-quad: twelve numbers, a planar convex quad; the fine reference alone sees cuts so far.
-std::vector<CutQuad> cutOptions(const Args& args, const std::string& model) {
+// --cut-quad: twelve numbers, a planar convex quad; the fine reference and the refinement see cuts,
+// the coarse model's own answer does not yet.
+std::vector<CutQuad> cutOptions(const Args& args, const std::string& model, int refineSteps) {
   std::vector<CutQuad> cuts;
   for (const std::string& text : args.values("--cut-quad")) {
     const std::vector<double> v = parseNumberList(text, "--cut-quad");
@@ -169,7 +172,8 @@ std::vector<CutQuad> cutOptions(const Args& args, const std::string& model) {
     }
     cuts.push_back(q);
   }
-  if (!cuts.empty() && model != "fine") throw UsageError("--cut-quad: only the fine reference sees cuts so far (--model fine)");
+  if (!cuts.empty() && model != "fine" && refineSteps == 0)
+    throw UsageError("--cut-quad: the coarse model does not see cuts yet: refine its answer on the cut mesh (--refine-steps N) or use --model fine");
   return cuts;
 }
 
@@ -200,7 +204,7 @@ DeformRequest parseDeformRequest(const Args& args) {
   const std::string cacheArg = args.valueOr("--cache-dir", defaultSimulationCacheDir().string());
   r.cacheDir = cacheArg == "off" ? std::filesystem::path() : std::filesystem::path(cacheArg);
   r.quiet = args.flag("--quiet");
-  r.cuts = cutOptions(args, r.model);
+  r.cuts = cutOptions(args, r.model, r.refineSteps);
   return r;
 }
 
@@ -219,12 +223,15 @@ std::vector<SimHandle> loadHandles(const Args& args, const Volume& image, const 
 
 // The scene solved at the requested motion.
 struct DeformSolution {
-  SimScene scene;
+  SimScene scene;                      ///< the scene solved (the coarse model's: uncut)
+  std::unique_ptr<SimScene> cut;       ///< the coarse model's scene cut, whose fine mesh was refined (--cut-quad)
   std::unique_ptr<CoarseModel> model;  ///< null for the fine model
   std::vector<RigidTransform> T;       ///< the handles' poses
   std::vector<Eigen::Vector3d> x, xc;  ///< fine positions; the coarse state (coarse model)
   int steps = 1;                       ///< increments of the motion
   double sceneSeconds = 0, solveSeconds = 0;
+  /// The scene whose fine mesh x is on: the cut one where the refinement solved on it.
+  const SimScene& shown() const { return cut ? *cut : scene; }
 };
 
 DeformSolution solveDeform(const DeformRequest& r, const Volume& image, const std::vector<SimHandle>& handles, const ProgressFn& progress) {
@@ -241,7 +248,15 @@ DeformSolution solveDeform(const DeformRequest& r, const Volume& image, const st
   } else {
     sc = buildSimScene(image, handles, r.settings, progress);
   }
-  const SceneCutStats cut = cutScene(sc, r.cuts);
+  // The fine reference solves the cut scene; the coarse model solves its own and its refinement the
+  // cut copy (refineOnCut).
+  SceneCutStats cut;
+  if (!d.model) {
+    cut = cutScene(sc, r.cuts);
+  } else if (!r.cuts.empty()) {
+    d.cut = std::make_unique<SimScene>(sc);
+    cut = cutScene(*d.cut, r.cuts);
+  }
   d.sceneSeconds = seconds(t0);
   printScene(sc);
   if (!r.cuts.empty()) std::cout << "cut: " << r.cuts.size() << " quad(s), " << cut.cutFaces << " faces separated, " << cut.copiedNodes << " nodes copied\n";
@@ -269,7 +284,12 @@ DeformSolution solveDeform(const DeformRequest& r, const Volume& image, const st
     }
     d.x = m.reconstruct(d.T, d.xc);
     if (r.refineSteps > 0) {
-      FineRefiner refiner(m, sc.fineK, sc.youngs, sc.poisson);
+      RefineOptions o;
+      if (d.cut) {  // from the coarse answer carried to the cut mesh
+        o.cut = {&d.cut->meshes.fine, &d.cut->constraints, &cut.sourceNode};
+        d.x = positionsOnCut(o.cut, d.T, d.x);
+      }
+      FineRefiner refiner(m, sc.fineK, sc.youngs, sc.poisson, o);
       for (int k = 0; k < r.refineSteps; ++k) refiner.step(d.T, d.xc, d.x, 10);
     }
   }
@@ -288,7 +308,7 @@ DeformImage resampleDeform(const Args& args, const DeformRequest& r, const Volum
                            RasterOptions raster) {
   DeformImage im;
   const auto t0 = std::chrono::steady_clock::now();
-  const SimScene& sc = d.scene;
+  const SimScene& sc = d.shown();
   if (r.backend == "cpu") {
     const auto rs = rasterizeDeformed(image, sc.meshes.fine, d.x, {sc.lo, sc.hi, image.valueRange().first}, im.out, raster);
     im.regionVoxels = rs.regionVoxels;
@@ -316,7 +336,7 @@ TissueLimitReport movedHandleLimits(const SimScene& sc, const std::vector<float>
 
 // The run's summary on stdout: timings, the motion, the resampling and the tissue past its limit.
 void printDeformSummary(const DeformRequest& r, const DeformSolution& d, const DeformImage& im, const TissueLimitReport& limits, const std::string& outPath) {
-  const auto& fine = d.scene.meshes.fine;
+  const auto& fine = d.shown().meshes.fine;
   double maxDisp = 0;
   for (std::size_t i = 0; i < d.x.size(); ++i) maxDisp = std::max(maxDisp, (d.x[i] - fine.nodes[i]).norm());
   // The coarse model's preprocessing (scene and coarsening, or their cache) is one step.
@@ -329,7 +349,7 @@ void printDeformSummary(const DeformRequest& r, const DeformSolution& d, const D
 
 // The fine mesh for ParaView (app/io/fine_mesh_vtu.h), each tet's coarse element a grid cell or a coarse tet.
 void writeMesh(const std::string& path, const DeformSolution& d, const std::vector<float>& strain, const std::vector<float>& limits, CoarseElement element) {
-  const SimScene& sc = d.scene;
+  const SimScene& sc = d.shown();
   std::vector<double> coarseEl(sc.meshes.fine.tets.size());
   for (std::size_t t = 0; t < coarseEl.size(); ++t) coarseEl[t] = element == CoarseElement::Cell ? sc.meshes.fineParent[t] / 6 : sc.meshes.fineParent[t];
   writeFineMeshVtu(path, {sc, d.x, strain, limits, coarseEl});
@@ -338,7 +358,7 @@ void writeMesh(const std::string& path, const DeformSolution& d, const std::vect
 // --forces-out: the reactions of the model that was solved: the coarse model's own, or the fine
 // tets' at the fine or refined positions.
 void writeForces(const std::string& path, const DeformRequest& r, const DeformSolution& d) {
-  const SimScene& sc = d.scene;
+  const SimScene& sc = d.shown();
   const auto hyper = r.material == FineMaterial::NeoHookean ? neoHookeanTets(sc.meshes.fine, sc.youngs, sc.poisson) : std::vector<NeoHookeanTet>{};
   writeForcesJson(path,
                   r.coarseOnly() ? d.model->handleReactions(d.T, d.xc)
@@ -364,7 +384,7 @@ int cmdDeform(const Words& words) {
   const std::vector<SimHandle> handles = loadHandles(args, image, r);
   for (const auto& name : r.settings.materials.capped()) std::cerr << "note: material '" << name << "': Poisson ratio capped at " << kMaxPoisson << " (linear tets lock)\n";
   const DeformSolution d = solveDeform(r, image, handles, progress);
-  const SimScene& sc = d.scene;
+  const SimScene& sc = d.shown();
   std::vector<float> strain = tetStrain(sc.meshes.fine, d.x);
   const std::vector<float> limits = tetStrainLimits(sc.band, r.settings.materials);
   hideRigidStrain(strain, limits);  // a sliding handle's own tets: not shown
