@@ -103,12 +103,37 @@ struct RigidHold {
   }
 };
 
-// Throws unless every piece of tissue the cut touched (stiff tets joined through shared faces, so a
-// piece hanging by an edge is a piece of its own) holds three handle's or held nodes off one line.
-// Each piece is searched from a stiff tet of a split node, breadth first, until it has them (the
-// tets it reached are then known held: a search that meets one stops) or has none left to reach.
-void refuseLoosePieces(const TetMesh& m, const CutNodes& cut, const FineConstraints& c) {
+// The nodes of `tets` that the pieces' rule may give to an organ: not held, no handle's yet.
+// A piece held by nothing but its contact with one organ's sliding interface adheres to that organ:
+// its nodes become the handle's, their springs go. Throws for a piece in contact with several organs.
+void adhere(const TetMesh& m, const std::vector<int>& tets, const std::vector<int>& slideOf, std::size_t size, FineConstraints& c) {
+  int organ = -1;
+  for (int t : tets)
+    for (int n : m.tets[std::size_t(t)]) {
+      const int s = slideOf[std::size_t(n)];
+      if (s < 0) continue;
+      const int h = c.slide[std::size_t(s)].handle;
+      if (organ >= 0 && h != organ) throw Error("cut: the cuts leave a piece of tissue (" + std::to_string(size) + " tets) held only between two organs");
+      organ = h;
+    }
+  if (organ < 0)
+    throw Error("cut: the cuts leave a piece of tissue (" + std::to_string(size) +
+                " tets) that nothing holds, or that hangs by a point or an edge; cut it off against a handle or the region's edge");
+  for (int t : tets)
+    for (int n : m.tets[std::size_t(t)])
+      if (!c.fixed[std::size_t(n)] && c.handleOf[std::size_t(n)] < 0) c.handleOf[std::size_t(n)] = organ;
+}
+
+// Every piece of tissue the cut touched (stiff tets joined through shared faces, so a piece hanging
+// by an edge is a piece of its own) must hold three handle's or held nodes off one line, or its
+// position would be undetermined; one that does not adheres to the organ whose sliding interface it
+// touches (adhere), and throws if it touches none. Each piece is searched from a stiff tet of a
+// split node, breadth first, until it is held (the tets it reached are then known held: a search
+// that meets one stops) or has none left to reach.
+void holdLoosePieces(const TetMesh& m, const CutNodes& cut, FineConstraints& c) {
   const TetIncidence inc(m);
+  std::vector<int> slideOf(m.nodes.size(), -1);
+  for (std::size_t i = 0; i < c.slide.size(); ++i) slideOf[std::size_t(c.slide[i].node)] = int(i);
   enum : char { kUnseen, kSearched, kHeld };
   std::vector<char> state(m.tets.size(), kUnseen);
   for (std::size_t start = 0; start < m.tets.size(); ++start) {
@@ -135,11 +160,13 @@ void refuseLoosePieces(const TetMesh& m, const CutNodes& cut, const FineConstrai
         }
       }
     }
-    if (!held)
-      throw Error("cut: the cuts leave a piece of tissue (" + std::to_string(reached.size()) +
-                  " tets) that nothing holds, or that hangs by a point or an edge; cut it off against a handle or the region's edge");
+    if (!held) adhere(m, reached, slideOf, reached.size(), c);
     for (int t : reached) state[std::size_t(t)] = kHeld;
   }
+  std::vector<SlideNode> kept;  // a node that adhered to its organ has no spring
+  for (const SlideNode& sn : c.slide)
+    if (c.handleOf[std::size_t(sn.node)] < 0) kept.push_back(sn);
+  c.slide = std::move(kept);
 }
 
 }  // namespace
@@ -161,7 +188,7 @@ SceneCutStats cutScene(SimScene& scene, const std::vector<CutQuad>& cuts) {
   carryRoles(constraints, source);
   const CutNodes cut = cutNodes(mesh, scene.fineK, std::move(source), scene.meshes.fine.nodes.size());
   rolesBySide(mesh, scene.fineK, cut, constraints);
-  refuseLoosePieces(mesh, cut, constraints);
+  holdLoosePieces(mesh, cut, constraints);
   st.copiedNodes = mesh.nodes.size() - scene.meshes.fine.nodes.size();
   st.sourceNode = cut.source;
   scene.meshes.fine = std::move(mesh);

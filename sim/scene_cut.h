@@ -21,8 +21,11 @@ struct SceneCutStats {
 /// where the handle's own tets are, and is free where the cut took it off them; a slide node keeps
 /// its spring (its stiffness from its own tets) where it has both the organ's and the tissue's
 /// tets, moves with the organ where it has the organ's alone, and is free where it has the tissue's
-/// alone. Throws handson::Error (the scene unchanged) for a bad quad (cutMesh), and when the cuts
-/// leave a piece of tissue not held at three points off one line (its position would be undetermined).
+/// alone. A piece of tissue the cuts leave not held at three points off one line (its position would
+/// be undetermined) but touching one organ's sliding interface adheres to that organ (its nodes
+/// become the handle's, their springs go: a sliver cut off between an incision and the organ).
+/// Throws handson::Error (the scene unchanged) for a bad quad (cutMesh), and for a loose piece that
+/// touches no organ or several.
 SceneCutStats cutScene(SimScene& scene, const std::vector<CutQuad>& cuts);
 
 }  // namespace handson

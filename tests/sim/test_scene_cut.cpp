@@ -301,3 +301,34 @@ TEST(SceneCut, ACutThatLeavesTissueHeldByNothingIsRefusedAndTheSceneStaysAsItWas
   EXPECT_EQ(s.constraints.slide.size(), k.sc.constraints.slide.size());
   EXPECT_NO_THROW(cutScene(s, {box[0]})) << "one face of the box alone holds nothing off";
 }
+
+TEST(SceneCut, APieceLeftOnlyOnAnOrgansSlidingSurfaceAdheresToIt) {
+  // A 20 x 20 mm quad parallel to the sliding kidney's lateral face, 3 mm outside its outermost fine
+  // nodes (4 mm fine cells): its staircase leaves pieces of tissue joined to the rest only along an
+  // edge and held on the kidney's surface only by the interface's normal springs, so they could
+  // slide off (the rule before refused the cut: "a piece of tissue (2 tets)"). Such a piece adheres
+  // to the organ: its nodes become the kidney's (measured 11 with the slide node the cut left on the
+  // kidney's own tets), their springs go, and the scene solves with them moving exactly with it.
+  // Tissue held by nothing at all is still refused (ACutThatLeavesTissueHeldByNothing...).
+  CutKidney k;
+  Eigen::AlignedBox3d organ;
+  for (std::size_t n = 0; n < k.sc.meshes.fine.nodes.size(); ++n)
+    if (k.sc.constraints.handleOf[n] == 0) organ.extend(k.sc.meshes.fine.nodes[n]);
+  for (const SlideNode& sn : k.sc.constraints.slide) organ.extend(k.sc.meshes.fine.nodes[std::size_t(sn.node)]);
+  const double x = organ.max().x() + 3.0;
+  const Eigen::Vector3d c = organ.center();
+  SimScene cut = k.sc;
+  const SceneCutStats st = cutScene(cut, {{{Eigen::Vector3d(x, c.y() - 10, c.z() - 10), Eigen::Vector3d(x, c.y() + 10, c.z() - 10),
+                                             Eigen::Vector3d(x, c.y() + 10, c.z() + 10), Eigen::Vector3d(x, c.y() - 10, c.z() + 10)}}});
+  std::vector<std::size_t> adhered;
+  for (std::size_t n = 0; n < cut.meshes.fine.nodes.size(); ++n)
+    if (cut.constraints.handleOf[n] == 0 && k.sc.constraints.handleOf[std::size_t(st.sourceNode[n])] < 0 && !cut.constraints.fixed[n]) adhered.push_back(n);
+  std::printf("%zu faces separated, %zu nodes copied; %zu nodes adhered to the kidney, %zu -> %zu springs\n", st.cutFaces, st.copiedNodes, adhered.size(),
+              k.sc.constraints.slide.size(), cut.constraints.slide.size());
+  ASSERT_FALSE(adhered.empty());
+  expectRolesBySide(k.sc, cut, st.sourceNode);  // the rules hold for every other node
+  const std::vector<RigidTransform> T{RigidTransform::about(k.sc.handleCentroid[0], Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, 6))};
+  const StaticSolveResult r = solveFineStatic(cut, T);
+  ASSERT_TRUE(r.converged);
+  for (std::size_t n : adhered) EXPECT_LT((r.x[n] - T[0].apply(cut.meshes.fine.nodes[n])).norm(), 1e-9) << "node " << n;
+}
