@@ -327,6 +327,9 @@ TEST(SceneCut, APieceLeftOnlyOnAnOrgansSlidingSurfaceAdheresToIt) {
               k.sc.constraints.slide.size(), cut.constraints.slide.size());
   ASSERT_FALSE(adhered.empty());
   expectRolesBySide(k.sc, cut, st.sourceNode);  // the rules hold for every other node
+#if defined(HANDSON_TEST_SANITIZED)
+  GTEST_SKIP() << "the fine static solve of 32k tets: the release suite runs it";
+#endif
   const std::vector<RigidTransform> T{RigidTransform::about(k.sc.handleCentroid[0], Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, 6))};
   const StaticSolveResult r = solveFineStatic(cut, T);
   ASSERT_TRUE(r.converged);
