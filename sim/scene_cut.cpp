@@ -1,5 +1,7 @@
 #include "sim/scene_cut.h"
 
+#include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <string>
 
@@ -195,6 +197,41 @@ SceneCutStats cutScene(SimScene& scene, const std::vector<CutQuad>& cuts) {
   scene.constraints = std::move(constraints);
   countHandleNodes(scene, scene.handleNodeCount.size());
   return st;
+}
+
+int addLipHandle(SimScene& scene, const CutLip& lip) {
+  if ((lip.side != 1 && lip.side != -1) || !(lip.widthMm > 0.0) || !std::isfinite(lip.widthMm))
+    throw Error("cut lip: its side must be +1 or -1 and its width above 0");
+  const CutPlane P = cutPlane(lip.quad);
+  const TetMesh& m = scene.meshes.fine;
+  FineConstraints& c = scene.constraints;
+  const int handle = c.handleCount;
+  std::vector<int> taken;
+  for (std::size_t t = 0; t < m.tets.size(); ++t) {
+    if (scene.fineK[t].isZero(0.0)) continue;  // a sliding organ's own tets: not tissue
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (int n : m.tets[t]) centroid += 0.25 * m.nodes[std::size_t(n)];
+    const double h = lip.side * P.height(centroid);
+    if (!(h > 0.0) || h > lip.widthMm || !P.contains(centroid)) continue;
+    for (int n : m.tets[t])
+      if (!c.fixed[std::size_t(n)] && c.handleOf[std::size_t(n)] < 0) taken.push_back(n);
+  }
+  std::sort(taken.begin(), taken.end());
+  taken.erase(std::unique(taken.begin(), taken.end()), taken.end());
+  if (taken.empty()) throw Error("cut lip: no free tissue on that side of the cut within " + std::to_string(lip.widthMm) + " mm");
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (int n : taken) {
+    c.handleOf[std::size_t(n)] = handle;
+    centre += m.nodes[std::size_t(n)] / double(taken.size());
+  }
+  std::vector<SlideNode> kept;
+  for (const SlideNode& sn : c.slide)
+    if (c.handleOf[std::size_t(sn.node)] < 0) kept.push_back(sn);
+  c.slide = std::move(kept);
+  c.handleCount = handle + 1;
+  scene.handleCentroid.push_back(centre);
+  countHandleNodes(scene, std::size_t(c.handleCount));
+  return handle;
 }
 
 }  // namespace handson

@@ -28,4 +28,19 @@ struct SceneCutStats {
 /// touches no organ or several.
 SceneCutStats cutScene(SimScene& scene, const std::vector<CutQuad>& cuts);
 
+/// A retractor on a cut's lip: the tissue on one side of a cut, beside it, held as a handle so it
+/// can be pulled away and open the incision.
+struct CutLip {
+  CutQuad quad;           ///< the cut (cutScene applied it)
+  int side = 1;           ///< +1: the side the quad's normal (CutPlane::n) points to; -1: the other
+  double widthMm = 10.0;  ///< how far from the cut's plane the lip reaches
+};
+
+/// Adds the lip as a handle (its index: the scene's handle count before; handleCentroid and
+/// handleNodeCount grow with it): the free nodes of the stiff tets on that side whose centroid lies
+/// within widthMm of the quad's plane and over the quad. Held nodes and other handles' stay theirs;
+/// a slide node taken loses its spring. Throws handson::Error (the scene unchanged) for a side other
+/// than +1 / -1, a width not above 0, or a lip with no free node.
+int addLipHandle(SimScene& scene, const CutLip& lip);
+
 }  // namespace handson

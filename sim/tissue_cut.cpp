@@ -11,32 +11,24 @@ namespace handson {
 
 namespace {
 
-// The quad's plane: centre c, unit normal n (Newell's, so any corner order around it works), and
-// the corners in the plane's coordinates (u, v) with their winding's sign.
-struct QuadPlane {
-  Eigen::Vector3d c, n, u, v;
-  std::array<Eigen::Vector2d, 4> q;
-  double winding = 1.0;
-  double size = 0.0;  // the longer diagonal
-  Eigen::Vector2d in(const Eigen::Vector3d& p) const { return {(p - c).dot(u), (p - c).dot(v)}; }
-  double height(const Eigen::Vector3d& p) const { return (p - c).dot(n); }
-  bool contains(const Eigen::Vector3d& p) const {
-    const Eigen::Vector2d x = in(p);
-    for (int i = 0; i < 4; ++i) {
-      const Eigen::Vector2d e = q[(i + 1) % 4] - q[i], d = x - q[i];
-      if (winding * (e.x() * d.y() - e.y() * d.x()) < -1e-12 * size * size) return false;
-    }
-    return true;
-  }
-};
-
 double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
 
-QuadPlane planeOf(const CutQuad& quad) {
+}  // namespace
+
+bool CutPlane::contains(const Eigen::Vector3d& p) const {
+  const Eigen::Vector2d x = in(p);
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector2d e = q[std::size_t((i + 1) % 4)] - q[std::size_t(i)], d = x - q[std::size_t(i)];
+    if (winding * (e.x() * d.y() - e.y() * d.x()) < -1e-12 * size * size) return false;
+  }
+  return true;
+}
+
+CutPlane cutPlane(const CutQuad& quad) {
   const auto& p = quad.corners;
   for (const auto& x : p)
     if (!x.allFinite()) throw Error("cut: a corner of the quad is not a finite point");
-  QuadPlane P;
+  CutPlane P;
   P.size = std::max((p[2] - p[0]).norm(), (p[3] - p[1]).norm());
   Eigen::Vector3d newell = Eigen::Vector3d::Zero();
   for (int i = 0; i < 4; ++i) newell += p[std::size_t(i)].cross(p[std::size_t((i + 1) % 4)]);
@@ -58,8 +50,6 @@ QuadPlane planeOf(const CutQuad& quad) {
   P.winding = sign > 0.0 ? 1.0 : -1.0;
   return P;
 }
-
-}  // namespace
 
 DisjointSets::DisjointSets(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
 
@@ -119,7 +109,7 @@ double longestEdge(const TetMesh& m) {
 // plane, with their own centroid over the quad. Ascending slots (4 tet + f). Only tets whose
 // centroid lies within the longest edge of the quad's plane and of its outline are looked at: a
 // face's tets have centroids at most half an edge from each other and an edge from the face's.
-std::vector<std::size_t> facesToCut(const TetMesh& mesh, const QuadPlane& P, const TetIncidence& inc, const std::vector<char>& above) {
+std::vector<std::size_t> facesToCut(const TetMesh& mesh, const CutPlane& P, const TetIncidence& inc, const std::vector<char>& above) {
   const double reach = longestEdge(mesh);
   Eigen::Vector2d lo = P.q[0], hi = P.q[0];
   for (const auto& q : P.q) {
@@ -218,10 +208,10 @@ std::size_t separatedFaces(const TetMesh& m, const TetMesh& in, const TetInciden
 
 }  // namespace
 
-void checkCutQuad(const CutQuad& quad) { planeOf(quad); }
+void checkCutQuad(const CutQuad& quad) { cutPlane(quad); }
 
 MeshCut cutMesh(const TetMesh& mesh, const CutQuad& quad) {
-  const QuadPlane P = planeOf(quad);
+  const CutPlane P = cutPlane(quad);
   const TetIncidence inc(mesh);
   std::vector<char> above(mesh.tets.size());
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) above[t] = P.height(centroid(mesh, int(t))) >= 0.0;

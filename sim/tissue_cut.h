@@ -20,8 +20,25 @@ struct CutQuad {
   std::array<Eigen::Vector3d, 4> corners;
 };
 
-/// Throws handson::Error unless the quad is finite, of non-zero area, planar (each corner within
-/// 1e-3 of its longer diagonal from the corners' best plane) and convex.
+/// The quad's plane: centre c, unit normal n (Newell's of the corners in order, so either winding
+/// works), in-plane axes u, v, and the corners in the plane's coordinates (u, v) with their
+/// winding's sign; `size` its longer diagonal.
+struct CutPlane {
+  Eigen::Vector3d c, n, u, v;
+  std::array<Eigen::Vector2d, 4> q;
+  double winding = 1.0;
+  double size = 0.0;
+  Eigen::Vector2d in(const Eigen::Vector3d& p) const { return {(p - c).dot(u), (p - c).dot(v)}; }
+  /// The signed distance of p from the plane, along n.
+  double height(const Eigen::Vector3d& p) const { return (p - c).dot(n); }
+  /// Whether p projects inside the quad.
+  bool contains(const Eigen::Vector3d& p) const;
+};
+
+/// The quad's plane. Throws handson::Error unless the quad is finite, of non-zero area, planar
+/// (each corner within 1e-3 of its longer diagonal from the corners' best plane) and convex.
+CutPlane cutPlane(const CutQuad& quad);
+/// Throws as cutPlane.
 void checkCutQuad(const CutQuad& quad);
 
 struct MeshCut {

@@ -2,13 +2,17 @@
 // beside the handle's organ (on its side away from the body's midline, 10 mm from its surface, in a sagittal plane: length craniocaudal, depth anterior-posterior, centred on the organ),
 // each applied to a fresh copy of the scene: the time of the mesh cut alone (cutMesh) and of the
 // whole scene's cut (cutScene: the mesh, the nodes' roles, the loose-piece check), the faces
-// separated and the nodes copied. Writes cut_timing.csv and, with gnuplot, cut_timing.png.
+// separated and the nodes copied; and the force a retractor needs to pull the cut's outer lip away
+// (the coarse model refined on the cut mesh, the organ held). Writes cut_timing.csv and, with
+// gnuplot, cut_timing.png.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <utility>
 
@@ -16,8 +20,11 @@
 #include "app/cli/args.h"
 #include "app/session/console.h"
 #include "sim/base/error.h"
+#include "sim/coarsening.h"
+#include "sim/handle_reaction.h"
 #include "sim/scene_cut.h"
 #include "sim/sim_scene.h"
+#include "sim/two_level.h"
 
 namespace handson::cli {
 
@@ -25,14 +32,16 @@ namespace {
 
 constexpr const char* kBenchCutHelp =
     "usage: handson bench cut [PATH --handle MASK [--handle-label N]] [--out DIR] [--lengths-mm LIST] [--depths-mm LIST]\n"
-    "        [--repeat N] [--coarse-tets N] [--fine-tets N] [--spacing MM] [--interface sliding|glued]\n"
+    "        [--repeat N] [--retract-mm D] [--coarse-tets N] [--fine-tets N] [--spacing MM] [--interface sliding|glued]\n"
     "  Cuts beside the handle's organ (default: the built-in phantom's right kidney): a sagittal quad on the\n"
     "  organ's side away from the midline, 10 mm from it, each length (default 25,50,100 mm, craniocaudal) by\n"
     "  each depth (default 10,15,30 mm, anterior-posterior), centred on the organ, each on a fresh copy of\n"
     "  the scene: the mesh cut's and the whole scene cut's time (median of N, default 3), the faces\n"
-    "  separated and the nodes copied (a refused cut: said, 0 faces and no time), in DIR/cut_timing.csv (scene, fine_tets, length_mm, depth_mm,\n"
-    "  cut_faces, copied_nodes, mesh_cut_ms, scene_cut_ms) and DIR/cut_timing.png (gnuplot). Meshes\n"
-    "  default to the app's (6000 coarse, 300000 fine tets).\n";
+    "  separated and the nodes copied (a refused cut: said, 0 faces and no time), and the force a retractor\n"
+    "  needs to pull the cut's outer lip (the tissue within 10 mm of it) D mm away (default 10; 0: none),\n"
+    "  the organ held (the coarse model refined 10 steps on the cut mesh), in DIR/cut_timing.csv (scene,\n"
+    "  fine_tets, length_mm, depth_mm, cut_faces, copied_nodes, mesh_cut_ms, scene_cut_ms, retract_force_N)\n"
+    "  and DIR/cut_timing.png (gnuplot). Meshes default to the app's (6000 coarse, 300000 fine tets).\n";
 
 constexpr double kGapMm = 10.0;  ///< between the organ's surface and the cut
 
@@ -111,6 +120,32 @@ CutTiming timeCut(const SimScene& sc, const CutQuad& q, int repeat) {
   return r;
 }
 
+// The force (N) a retractor needs to pull the cut's lip on the side away from the organ `mm`
+// away from the cut, the organ held: the coarse model (built on the uncut scene) at rest, refined
+// `steps` steps on the cut mesh with the lip as a handle of its own.
+struct Retraction {
+  const SimScene& scene;
+  const CoarseModel& model;
+  double mm = 10.0, widthMm = 10.0;
+  int steps = 10;
+};
+
+double retractForce(const Retraction& r, const CutQuad& q) {
+  SimScene cut = r.scene;
+  const SceneCutStats st = cutScene(cut, {q});
+  const CutPlane plane = cutPlane(q);
+  const int side = plane.height(r.scene.handleCentroid[0]) > 0.0 ? -1 : 1;
+  const int lip = addLipHandle(cut, {q, side, r.widthMm});
+  const std::vector<RigidTransform> T{RigidTransform{}, RigidTransform{Eigen::Matrix3d::Identity(), r.mm * side * plane.n}};
+  RefineOptions o;
+  o.cut = {&cut.meshes.fine, &cut.constraints, &st.sourceNode};
+  const std::vector<Eigen::Vector3d> xc = r.model.restState();
+  std::vector<Eigen::Vector3d> x = positionsOnCut(o.cut, T, r.model.reconstruct({T[0]}, xc));
+  const FineRefiner refiner(r.model, r.scene.fineK, r.scene.youngs, r.scene.poisson, o);
+  for (int k = 0; k < r.steps; ++k) refiner.step(T, xc, x, 10);
+  return fineHandleReactions(cut.meshes.fine, cut.fineK, cut.constraints, T, x)[std::size_t(lip)].forceN.norm();
+}
+
 void chart(const std::filesystem::path& out, const std::vector<double>& depths) {
   if (std::system("command -v gnuplot > /dev/null 2>&1") != 0) return;
   const auto gp = out / "cut_timing.gp";
@@ -135,7 +170,7 @@ void chart(const std::filesystem::path& out, const std::vector<double>& depths) 
 }  // namespace
 
 int cmdBenchCut(const Words& words) {
-  Args args(words, {"--handle", "--handle-label", "--out", "--lengths-mm", "--depths-mm", "--repeat", "--coarse-tets", "--fine-tets", "--spacing", "--interface"},
+  Args args(words, {"--handle", "--handle-label", "--out", "--lengths-mm", "--depths-mm", "--repeat", "--retract-mm", "--coarse-tets", "--fine-tets", "--spacing", "--interface"},
             {"--quiet"});
   if (args.help() || args.positional().size() > 1 || (args.positional().size() == 1) != bool(args.value("--handle"))) {
     usageStream(args) << kBenchCutHelp;
@@ -157,22 +192,28 @@ int cmdBenchCut(const Words& words) {
   std::cout << std::fixed << std::setprecision(1) << "cuts beside " << scene << "'s handle (x " << at.organ.min().x() << " to " << at.organ.max().x()
             << " mm; the region " << sc.lo.x() << " to " << sc.hi.x() << ") at x = " << at.x << " mm (" << sc.meshes.fine.tets.size() << " fine tets, median of "
             << repeat << "):\n";
+  const double retractMm = args.number("--retract-mm", 10.0, 0.0, 100.0);
+  std::unique_ptr<CoarseModel> model;
+  if (retractMm > 0.0) model = std::make_unique<CoarseModel>(sc.meshes, sc.fineK, sc.constraints);
   std::ofstream csv(out / "cut_timing.csv");
-  csv << "scene,fine_tets,length_mm,depth_mm,cut_faces,copied_nodes,mesh_cut_ms,scene_cut_ms\n";
+  csv << "scene,fine_tets,length_mm,depth_mm,cut_faces,copied_nodes,mesh_cut_ms,scene_cut_ms,retract_force_N\n";
   for (int d : depths)
     for (int l : lengths) {
+      const CutQuad q = sagittalQuad(at, l, d);
       CutTiming t;
+      double force = std::nan("");
       try {
-        t = timeCut(sc, sagittalQuad(at, l, d), repeat);
+        t = timeCut(sc, q, repeat);
+        if (model) force = retractForce({sc, *model, retractMm}, q);
       } catch (const Error& e) {  // a refused cut is a result (e.g. narrower than the mesh's faces): said, and the rest go on
         std::cout << "  " << l << " x " << d << " mm: refused: " << e.what() << "\n";
-        csv << scene << "," << sc.meshes.fine.tets.size() << "," << l << "," << d << ",0,0,nan,nan\n";
+        csv << scene << "," << sc.meshes.fine.tets.size() << "," << l << "," << d << ",0,0,nan,nan,nan\n";
         continue;
       }
       csv << scene << "," << sc.meshes.fine.tets.size() << "," << l << "," << d << "," << t.faces << "," << t.copied << "," << t.meshMs << "," << t.sceneMs
-          << "\n";
+          << "," << force << "\n";
       std::cout << "  " << l << " x " << d << " mm: " << t.faces << " faces separated, " << t.copied << " nodes copied, mesh cut " << t.meshMs
-                << " ms, scene cut " << t.sceneMs << " ms\n";
+                << " ms, scene cut " << t.sceneMs << " ms; its lip pulled " << retractMm << " mm: " << force << " N\n";
     }
   csv.close();
   chart(out, std::vector<double>(depths.begin(), depths.end()));

@@ -103,6 +103,9 @@ const char* const kDeformHelp =
     "                          its plane (docs/cutting.md). Seen by --model fine, and by the coarse\n"
     "                          model's refinement (--refine-steps N: the coarse answer, which does not\n"
     "                          see cuts yet, refined on the cut fine mesh)\n"
+    "  --retract-mm D          pulls the last cut's lip on the side away from the handle D mm away from\n"
+    "                          the cut (a retractor: the tissue within --retract-width-mm W, default 10,\n"
+    "                          of the cut and over it, a handle of its own, its force in --forces-out)\n"
     "  --mesh-out MESH.vtu     the fine mesh for ParaView: rest positions, point data displacement and\n"
     "                          dirichlet, cell data youngs_modulus, poisson_ratio, coarse_element (the\n"
     "                          coarse model's element: grid cell or coarse tet), strain and\n"
@@ -153,6 +156,7 @@ struct DeformRequest {
   std::filesystem::path cacheDir;  ///< empty: no cache
   bool quiet = false;
   std::vector<CutQuad> cuts;  ///< --cut-quad, in order
+  double retractMm = 0.0, retractWidthMm = 10.0;  ///< --retract-mm, --retract-width-mm: the last cut's lip pulled
   bool coarseOnly() const { return model == "coarse" && refineSteps == 0; }
 };
 
@@ -205,6 +209,9 @@ DeformRequest parseDeformRequest(const Args& args) {
   r.cacheDir = cacheArg == "off" ? std::filesystem::path() : std::filesystem::path(cacheArg);
   r.quiet = args.flag("--quiet");
   r.cuts = cutOptions(args, r.model, r.refineSteps);
+  r.retractMm = args.number("--retract-mm", 0.0, 0.0, 200.0);
+  r.retractWidthMm = args.number("--retract-width-mm", 10.0, 0.1, 200.0);
+  if (r.retractMm > 0.0 && r.cuts.empty()) throw UsageError("--retract-mm pulls a cut's lip: give the cut (--cut-quad)");
   return r;
 }
 
@@ -226,13 +233,25 @@ struct DeformSolution {
   SimScene scene;                      ///< the scene solved (the coarse model's: uncut)
   std::unique_ptr<SimScene> cut;       ///< the coarse model's scene cut, whose fine mesh was refined (--cut-quad)
   std::unique_ptr<CoarseModel> model;  ///< null for the fine model
-  std::vector<RigidTransform> T;       ///< the handles' poses
+  std::vector<RigidTransform> T;       ///< the handles' poses (a retractor's last)
+  std::vector<RigidTransform> drawn;   ///< the poses of the handles given (drawn rigidly where they slide; no retractor)
   std::vector<Eigen::Vector3d> x, xc;  ///< fine positions; the coarse state (coarse model)
   int steps = 1;                       ///< increments of the motion
   double sceneSeconds = 0, solveSeconds = 0;
   /// The scene whose fine mesh x is on: the cut one where the refinement solved on it.
   const SimScene& shown() const { return cut ? *cut : scene; }
 };
+
+// --retract-mm: a retractor on the last cut's lip, on the side away from the moved handle, added to
+// the scene the fine positions are on; its translation (zero: none), away from the cut.
+Eigen::Vector3d addRetractor(SimScene& shown, const DeformRequest& r) {
+  if (!(r.retractMm > 0.0)) return Eigen::Vector3d::Zero();
+  const CutPlane plane = cutPlane(r.cuts.back());
+  const int side = plane.height(shown.handleCentroid[0]) > 0.0 ? -1 : 1;
+  const int lip = addLipHandle(shown, {r.cuts.back(), side, r.retractWidthMm});
+  std::cout << "retractor: the cut's lip (" << shown.handleNodeCount[std::size_t(lip)] << " fine nodes) pulled " << r.retractMm << " mm away from it\n";
+  return r.retractMm * side * plane.n;
+}
 
 DeformSolution solveDeform(const DeformRequest& r, const Volume& image, const std::vector<SimHandle>& handles, const ProgressFn& progress) {
   DeformSolution d;
@@ -260,15 +279,24 @@ DeformSolution solveDeform(const DeformRequest& r, const Volume& image, const st
   d.sceneSeconds = seconds(t0);
   printScene(sc);
   if (!r.cuts.empty()) std::cout << "cut: " << r.cuts.size() << " quad(s), " << cut.cutFaces << " faces separated, " << cut.copiedNodes << " nodes copied\n";
+  const Eigen::Vector3d retract = addRetractor(d.cut ? *d.cut : sc, r);
   // Large motions are applied in increments of at most 30 degrees and 10 mm, each solve starting
   // from the previous one (continuation keeps the Newton and corotational iterations in their basin).
   d.steps = std::max({1, int(std::ceil(r.rotation.norm() / (M_PI / 6))), int(std::ceil(r.translation.norm() / 10.0))});
+  // The handles' poses: the moved one, the fixed one, the retractor (the coarse model has the first two).
   auto transformsAt = [&](double f) {
     std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], f * r.rotation, f * r.translation)};
     if (handles.size() > 1) T.push_back(RigidTransform{});
+    if (retract.squaredNorm() > 0.0) T.push_back(RigidTransform{Eigen::Matrix3d::Identity(), f * retract});
+    return T;
+  };
+  auto coarseAt = [&](double f) {
+    std::vector<RigidTransform> T = transformsAt(f);
+    T.resize(handles.size());
     return T;
   };
   d.T = transformsAt(1.0);
+  d.drawn = coarseAt(1.0);
   t0 = std::chrono::steady_clock::now();
   if (!d.model) {
     d.x = solveFineInIncrements(sc, transformsAt, d.steps, progress, r.material);
@@ -277,12 +305,12 @@ DeformSolution solveDeform(const DeformRequest& r, const Volume& image, const st
     d.xc = m.restState();
     // To convergence, not a frame's budget (kOneOffSolveIterations); a solve that stops short says so.
     for (int k = 1; k <= d.steps; ++k) {
-      const CoarseSolveStats st = m.solve(transformsAt(double(k) / d.steps), d.xc, kOneOffSolveIterations);
+      const CoarseSolveStats st = m.solve(coarseAt(double(k) / d.steps), d.xc, kOneOffSolveIterations);
       if (!st.converged)
         std::cerr << "warning: the coarse model did not converge in " << st.iterations << " iterations (last update " << st.lastUpdate
                   << " mm): its answer is approximate\n";
     }
-    d.x = m.reconstruct(d.T, d.xc);
+    d.x = m.reconstruct(coarseAt(1.0), d.xc);
     if (r.refineSteps > 0) {
       RefineOptions o;
       if (d.cut) {  // from the coarse answer carried to the cut mesh
@@ -318,7 +346,7 @@ DeformImage resampleDeform(const Args& args, const DeformRequest& r, const Volum
     co.device = args.valueOr("--device", "");
     co.validation = args.flag("--validation");
     co.verbose = !r.quiet;
-    GpuResample g = resampleOnNewDevice(co, image, {&sc, d.model.get(), d.T, &d.xc, &d.x, r.coarseOnly(), &rigid});
+    GpuResample g = resampleOnNewDevice(co, image, {&sc, d.model.get(), d.drawn, &d.xc, &d.x, r.coarseOnly(), &rigid});
     im.out = std::move(g.image);
     im.regionVoxels = g.regionVoxels;
     im.covered = g.covered;
@@ -371,7 +399,7 @@ void writeForces(const std::string& path, const DeformRequest& r, const DeformSo
 int cmdDeform(const Words& words) {
   Args args(words,
             {"--frame", "--handle", "--fixed", "--translate-mm", "--rotate-deg", "--model", "--refine-steps", "--coarse-tets", "--fine-tets", "--padding-mm", "--region",
-             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--graded-split", "--fine-mesh", "--adapt-contrast", "--cache-dir", "--forces-out", "--strain-out", "--cut-quad",
+             "--materials", "--backend", "-o", "--mesh-out", "--handle-label", "--fixed-label", "--device", "--coarse-element", "--coarse-solver", "--graded-split", "--fine-mesh", "--adapt-contrast", "--cache-dir", "--forces-out", "--strain-out", "--cut-quad", "--retract-mm", "--retract-width-mm",
              "--handle-nodes", "--bone", "--outer-boundary", "--interface", "--fine-material"},
             {"--whole-volume", "--quiet", "--validation"});
   if (args.help() || args.positional().size() != 1 || !args.value("--handle") || !args.value("--translate-mm") || !args.value("-o")) {
@@ -390,7 +418,7 @@ int cmdDeform(const Words& words) {
   hideRigidStrain(strain, limits);  // a sliding handle's own tets: not shown
   // A sliding handle is drawn where its pose puts it, not smeared by the tets straddling its surface.
   const RigidHandles rigid = rigidHandlesOf(image, handles, sc);
-  const RasterOptions raster = rasterOptions(image, sc, rigid, d.T);
+  const RasterOptions raster = rasterOptions(image, sc, rigid, d.drawn);
   std::vector<std::int32_t> tetOf;  // which tet drew each voxel (the CPU resampling, for the strain)
   const bool wantStrain = args.value("--strain-out").has_value();
   RasterOptions resampling = raster;

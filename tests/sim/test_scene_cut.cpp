@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <limits>
 #include <string>
 #include <tuple>
 
@@ -334,4 +335,78 @@ TEST(SceneCut, APieceLeftOnlyOnAnOrgansSlidingSurfaceAdheresToIt) {
   const StaticSolveResult r = solveFineStatic(cut, T);
   ASSERT_TRUE(r.converged);
   for (std::size_t n : adhered) EXPECT_LT((r.x[n] - T[0].apply(cut.meshes.fine.nodes[n])).norm(), 1e-9) << "node " << n;
+}
+
+TEST(SceneCut, ALipRetractorOpensTheIncisionAndTakesAForceLinearInItsPull) {
+  // A slit cut into the block beside the cube (the plane x = 47, over y in [10, 50] and z from the
+  // top face down 25 mm), its outer lip (x > 47, within 8 mm) held as a second handle and pulled
+  // away along +x while the cube stays: the lip's nodes move exactly with it, the incision opens
+  // (the inner wall's copies follow the pull less than half as far as the same nodes uncut, on
+  // average: held where the slit ends, they follow some), and the force is linear in the pull (the
+  // linear regime: 0.25 and 0.5 mm, within 1 %). The same strip pulled with no cut
+  // takes more force: the cut frees it on one side. Refused: a side that is not +1 / -1, no width,
+  // a lip with no free tissue.
+  const CubeInBlock b;
+  const CutQuad slit{{Eigen::Vector3d(47, 10, 60), Eigen::Vector3d(47, 50, 60), Eigen::Vector3d(47, 50, 35), Eigen::Vector3d(47, 10, 35)}};
+  const CutPlane plane = cutPlane(slit);
+  const int outward = plane.n.x() > 0 ? 1 : -1;  // the lip beyond the slit, away from the cube
+  std::vector<int> source;
+  auto withLip = [&](bool cut) {
+    SimScene s = b.sc;
+    if (cut) source = cutScene(s, {slit}).sourceNode;
+    EXPECT_EQ(addLipHandle(s, {slit, outward, 8.0}), 1);
+    return s;
+  };
+  const SimScene cut = withLip(true), uncut = withLip(false);
+  std::vector<int> copies(b.sc.meshes.fine.nodes.size(), 0);
+  for (int n : source) ++copies[std::size_t(n)];
+  ASSERT_EQ(cut.constraints.handleCount, 2);
+  ASSERT_EQ(cut.handleNodeCount.size(), 2u);
+  EXPECT_GT(cut.handleNodeCount[1], 0u);
+  auto pull = [&](const SimScene& s, double d) {
+    const std::vector<RigidTransform> T{RigidTransform{}, RigidTransform{Eigen::Matrix3d::Identity(), Eigen::Vector3d(d, 0, 0)}};
+    StaticSolveResult r = solveFineStatic(s, T);
+    EXPECT_TRUE(r.converged);
+    const double f = fineHandleReactions(s.meshes.fine, s.fineK, s.constraints, T, r.x)[1].forceN.x();
+    return std::make_pair(f, std::move(r.x));
+  };
+  const auto [f1, x1] = pull(cut, 0.5);
+  const double fHalf = pull(cut, 0.25).first;
+  const auto [fUncut, xUncut] = pull(uncut, 0.5);
+  double inner = 0.0, innerUncut = 0.0;  // the mean pull of the cut's inner wall (copied nodes whose tets are all on the cube's side), cut and uncut
+  std::size_t wall = 0;
+  std::vector<char> outer(cut.meshes.fine.nodes.size(), 0);
+  for (const auto& t : cut.meshes.fine.tets) {
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (int n : t) centroid += 0.25 * cut.meshes.fine.nodes[std::size_t(n)];
+    if (outward * plane.height(centroid) > 0)
+      for (int n : t) outer[std::size_t(n)] = 1;
+  }
+  for (std::size_t n = 0; n < cut.meshes.fine.nodes.size(); ++n) {
+    const Eigen::Vector3d& X = cut.meshes.fine.nodes[n];
+    if (cut.constraints.handleOf[n] == 1) {
+      EXPECT_LT((x1[n] - (X + Eigen::Vector3d(0.5, 0, 0))).norm(), 1e-9) << "lip node " << n;
+    } else if (copies[std::size_t(source[n])] > 1 && !outer[n]) {
+      inner += x1[n].x() - X.x();
+      innerUncut += xUncut[std::size_t(source[n])].x() - X.x();
+      ++wall;
+    }
+  }
+  ASSERT_GT(wall, 0u);
+  inner /= double(wall);
+  innerUncut /= double(wall);
+  std::printf("lip pulled 0.5 mm: %.4f N (0.25 mm: %.4f N; uncut %.4f N); the inner wall's %zu nodes follow %.3f mm on average (uncut %.3f)\n", -f1, -fHalf,
+              -fUncut, wall, inner, innerUncut);
+  EXPECT_LT(f1, 0.0) << "the tissue pulls the lip back";
+  EXPECT_NEAR(fHalf, 0.5 * f1, 0.01 * std::abs(f1));
+  EXPECT_GT(std::abs(fUncut), 1.1 * std::abs(f1));
+  EXPECT_LT(inner, 0.5 * innerUncut);
+  SimScene s = b.sc;
+  cutScene(s, {slit});
+  EXPECT_THROW(addLipHandle(s, {slit, 0, 8.0}), Error);
+  EXPECT_THROW(addLipHandle(s, {slit, outward, 0.0}), Error);
+  EXPECT_THROW(addLipHandle(s, {slit, outward, std::numeric_limits<double>::quiet_NaN()}), Error);
+  const CutQuad far{{Eigen::Vector3d(500, 10, 60), Eigen::Vector3d(500, 50, 60), Eigen::Vector3d(500, 50, 35), Eigen::Vector3d(500, 10, 35)}};
+  EXPECT_THROW(addLipHandle(s, {far, 1, 8.0}), Error);
+  EXPECT_EQ(s.constraints.handleCount, 1) << "refused: the scene unchanged";
 }

@@ -328,7 +328,8 @@ TEST_F(Cli, DeformCutsTheTissueForTheFineReferenceAndRefusesBadCuts) {
   // less force than uncut, and the opening the cut leaves is not covered by the deformed tets; the
   // coarse model refined on the cut mesh (--refine-steps 10) gives the fine reference's force within
   // 1 % and the same opening. Refused: a cut for the coarse model unrefined (its answer does not see
-  // cuts yet), eleven numbers, corners off one plane (usage, 2), a quad that misses the tissue (1).
+  // cuts yet), a retractor with no cut, eleven numbers, corners off one plane (usage, 2), a quad that
+  // misses the tissue (1).
   ASSERT_EQ(runHandson("phantom -o " + p("ct.nii.gz") + " --labels-out " + p("labels.nii.gz") + " --spacing 5 --noise 0").status, 0);
   const std::string common = "deform " + p("ct.nii.gz") + " --handle " + p("labels.nii.gz") +
                              " --handle-label 4 --coarse-tets 300 --fine-tets 8100 --quiet --translate-mm 0,0,6 -o " + p("d.nii.gz") + " ";
@@ -359,7 +360,21 @@ TEST_F(Cli, DeformCutsTheTissueForTheFineReferenceAndRefusesBadCuts) {
   std::printf("refined on the cut mesh: %.3f N\n", refined);
   EXPECT_NEAR(refined, cut, 0.01 * std::abs(cut));
   EXPECT_EQ(std::atol(r.output.c_str() + r.output.find(", covered ") + 10), fineCovered) << r.output;
-  for (const std::string& bad : {std::string("--model coarse") + plane, std::string("--model fine --cut-quad 1,2,3,4,5,6,7,8,9,10,11"),
+  // A retractor on the cut's lip away from the kidney (--retract-mm): a handle of its own, whose
+  // reaction is the second in --forces-out, pulled back by the tissue (along the cut's normal).
+  r = runHandson(common + "--model fine --retract-mm 5 --forces-out " + p("retract.json") + plane);
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(r.has("retractor: the cut's lip (")) << r.output;
+  {
+    std::ifstream f(p("retract.json"));
+    const std::string text((std::istreambuf_iterator<char>(f)), {});
+    const auto second = text.find("\"force_N\": [", text.find("\"force_N\": [") + 1);
+    ASSERT_NE(second, std::string::npos) << text;
+    const double fx = std::strtod(text.c_str() + second + 12, nullptr);
+    std::printf("the lip pulled 5 mm: %.3f N along x\n", fx);
+    EXPECT_GT(std::abs(fx), 0.1) << text;
+  }
+  for (const std::string& bad : {std::string("--model coarse") + plane, std::string("--model fine --retract-mm 5"), std::string("--model fine --cut-quad 1,2,3,4,5,6,7,8,9,10,11"),
                                  std::string("--model fine --cut-quad 80,-300,-300,80,300,-300,90,300,300,80,-300,300")}) {
     r = runHandson(common + bad);
     EXPECT_EQ(r.status, 2) << bad << "\n" << r.output;
