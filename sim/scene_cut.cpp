@@ -105,39 +105,45 @@ struct RigidHold {
   }
 };
 
-// The nodes of `tets` that the pieces' rule may give to an organ: not held, no handle's yet.
 // A piece held by nothing but its contact with one organ's sliding interface adheres to that organ:
-// its nodes become the handle's, their springs go. Throws for a piece in contact with several organs.
-void adhere(const TetMesh& m, const std::vector<int>& tets, const std::vector<int>& slideOf, std::size_t size, FineConstraints& c) {
+// the organ whose slide nodes it holds, and nothing else held in it but that organ's own nodes.
+// Returns the organ; throws for a piece that touches no organ, several, or an organ and something
+// held (the region's edge, the skeleton, another handle: it would be torn between them).
+int organOfLoosePiece(const TetMesh& m, const std::vector<int>& tets, const std::vector<int>& slideOf, const FineConstraints& c) {
   int organ = -1;
+  bool other = false;
   for (int t : tets)
     for (int n : m.tets[std::size_t(t)]) {
       const int s = slideOf[std::size_t(n)];
-      if (s < 0) continue;
-      const int h = c.slide[std::size_t(s)].handle;
-      if (organ >= 0 && h != organ) throw Error("cut: the cuts leave a piece of tissue (" + std::to_string(size) + " tets) held only between two organs");
-      organ = h;
+      if (s >= 0) {
+        const int h = c.slide[std::size_t(s)].handle;
+        other = other || (organ >= 0 && h != organ);
+        organ = h;
+      }
     }
-  if (organ < 0)
-    throw Error("cut: the cuts leave a piece of tissue (" + std::to_string(size) +
-                " tets) that nothing holds, or that hangs by a point or an edge; cut it off against a handle or the region's edge");
   for (int t : tets)
-    for (int n : m.tets[std::size_t(t)])
-      if (!c.fixed[std::size_t(n)] && c.handleOf[std::size_t(n)] < 0) c.handleOf[std::size_t(n)] = organ;
+    for (int n : m.tets[std::size_t(t)]) other = other || c.fixed[std::size_t(n)] || (c.handleOf[std::size_t(n)] >= 0 && c.handleOf[std::size_t(n)] != organ);
+  const std::string piece = "cut: the cuts leave a piece of tissue (" + std::to_string(tets.size()) + " tets) ";
+  if (organ < 0) throw Error(piece + "that nothing holds, or that hangs by a point or an edge; cut it off against a handle or the region's edge");
+  if (other) throw Error(piece + "held at fewer than three points, on an organ's surface and by something else; cut it off against a handle or the region's edge");
+  return organ;
 }
 
 // Every piece of tissue the cut touched (stiff tets joined through shared faces, so a piece hanging
 // by an edge is a piece of its own) must hold three handle's or held nodes off one line, or its
-// position would be undetermined; one that does not adheres to the organ whose sliding interface it
-// touches (adhere), and throws if it touches none. Each piece is searched from a stiff tet of a
-// split node, breadth first, until it is held (the tets it reached are then known held: a search
-// that meets one stops) or has none left to reach.
+// position would be undetermined; one that does not adheres to the organ whose sliding interface
+// alone holds it (organOfLoosePiece; throws otherwise): its free nodes become that handle's and
+// their springs go. Each piece is searched from a stiff tet of a split node, breadth first, until
+// it is held (the tets it reached are then known held: a search that meets one stops) or has none
+// left to reach; the loose pieces adhere after all are found, so the order of the search does not
+// matter, and a node two loose pieces would give to different organs refuses the cut.
 void holdLoosePieces(const TetMesh& m, const CutNodes& cut, FineConstraints& c) {
   const TetIncidence inc(m);
   std::vector<int> slideOf(m.nodes.size(), -1);
   for (std::size_t i = 0; i < c.slide.size(); ++i) slideOf[std::size_t(c.slide[i].node)] = int(i);
   enum : char { kUnseen, kSearched, kHeld };
   std::vector<char> state(m.tets.size(), kUnseen);
+  std::vector<std::vector<int>> loose;
   for (std::size_t start = 0; start < m.tets.size(); ++start) {
     if (state[start] != kUnseen || !cut.stiffTet[start]) continue;
     bool touched = false;
@@ -162,9 +168,21 @@ void holdLoosePieces(const TetMesh& m, const CutNodes& cut, FineConstraints& c) 
         }
       }
     }
-    if (!held) adhere(m, reached, slideOf, reached.size(), c);
-    for (int t : reached) state[std::size_t(t)] = kHeld;
+    if (held) {
+      for (int t : reached) state[std::size_t(t)] = kHeld;
+    } else {
+      loose.push_back(std::move(reached));  // the whole piece: no other search reaches it
+    }
   }
+  std::vector<int> organs;
+  for (const auto& piece : loose) organs.push_back(organOfLoosePiece(m, piece, slideOf, c));
+  for (std::size_t p = 0; p < loose.size(); ++p)
+    for (int t : loose[p])
+      for (int n : m.tets[std::size_t(t)]) {
+        int& h = c.handleOf[std::size_t(n)];
+        if (h >= 0 && h != organs[p]) throw Error("cut: the cuts leave pieces of tissue held only between two organs");
+        if (!c.fixed[std::size_t(n)]) h = organs[p];
+      }
   std::vector<SlideNode> kept;  // a node that adhered to its organ has no spring
   for (const SlideNode& sn : c.slide)
     if (c.handleOf[std::size_t(sn.node)] < 0) kept.push_back(sn);

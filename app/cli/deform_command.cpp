@@ -280,9 +280,10 @@ DeformSolution solveDeform(const DeformRequest& r, const Volume& image, const st
   printScene(sc);
   if (!r.cuts.empty()) std::cout << "cut: " << r.cuts.size() << " quad(s), " << cut.cutFaces << " faces separated, " << cut.copiedNodes << " nodes copied\n";
   const Eigen::Vector3d retract = addRetractor(d.cut ? *d.cut : sc, r);
-  // Large motions are applied in increments of at most 30 degrees and 10 mm, each solve starting
-  // from the previous one (continuation keeps the Newton and corotational iterations in their basin).
-  d.steps = std::max({1, int(std::ceil(r.rotation.norm() / (M_PI / 6))), int(std::ceil(r.translation.norm() / 10.0))});
+  // Large motions are applied in increments of at most 30 degrees and 10 mm (a retractor's pull
+  // too), each solve starting from the previous one (continuation keeps the Newton and corotational
+  // iterations in their basin). The refinement on a cut mesh takes the retractor's whole pull at once.
+  d.steps = std::max({1, int(std::ceil(r.rotation.norm() / (M_PI / 6))), int(std::ceil(r.translation.norm() / 10.0)), int(std::ceil(r.retractMm / 10.0))});
   // The handles' poses: the moved one, the fixed one, the retractor (the coarse model has the first two).
   auto transformsAt = [&](double f) {
     std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], f * r.rotation, f * r.translation)};

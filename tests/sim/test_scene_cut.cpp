@@ -308,7 +308,7 @@ TEST(SceneCut, APieceLeftOnlyOnAnOrgansSlidingSurfaceAdheresToIt) {
   // nodes (4 mm fine cells): its staircase leaves pieces of tissue joined to the rest only along an
   // edge and held on the kidney's surface only by the interface's normal springs, so they could
   // slide off (the rule before refused the cut: "a piece of tissue (2 tets)"). Such a piece adheres
-  // to the organ: its nodes become the kidney's (measured 11 with the slide node the cut left on the
+  // to the organ: its nodes become the kidney's (measured 13 with the slide node the cut left on the
   // kidney's own tets), their springs go, and the scene solves with them moving exactly with it.
   // Tissue held by nothing at all is still refused (ACutThatLeavesTissueHeldByNothing...).
   CutKidney k;
@@ -409,4 +409,36 @@ TEST(SceneCut, ALipRetractorOpensTheIncisionAndTakesAForceLinearInItsPull) {
   const CutQuad far{{Eigen::Vector3d(500, 10, 60), Eigen::Vector3d(500, 50, 60), Eigen::Vector3d(500, 50, 35), Eigen::Vector3d(500, 10, 35)}};
   EXPECT_THROW(addLipHandle(s, {far, 1, 8.0}), Error);
   EXPECT_EQ(s.constraints.handleCount, 1) << "refused: the scene unchanged";
+}
+
+TEST(SceneCut, ASliverOnAnOrganThatIsAlsoHeldElsewhereIsRefused) {
+  // A quad 2 mm off the cube's +x face (the fine nodes' planes x = 40 and 45) leaves slivers on the
+  // cube's sliding face that adhere to it (16 nodes). With one of their nodes held (its copies too: as if the
+  // region's edge or the skeleton reached it), a sliver would be torn between the cube and that
+  // hold: the cut is refused, the scene unchanged.
+  const CubeInBlock b;
+  const CutQuad q{{Eigen::Vector3d(42, 15, 15), Eigen::Vector3d(42, 45, 15), Eigen::Vector3d(42, 45, 45), Eigen::Vector3d(42, 15, 45)}};
+  SimScene adhered = b.sc;
+  const SceneCutStats st = cutScene(adhered, {q});
+  int held = -1;  // a node of a sliver that adhered, not on the cube's surface
+  std::vector<char> slides(b.sc.meshes.fine.nodes.size(), 0);
+  for (const SlideNode& sn : b.sc.constraints.slide) slides[std::size_t(sn.node)] = 1;
+  for (std::size_t n = 0; n < st.sourceNode.size() && held < 0; ++n) {
+    const auto source = std::size_t(st.sourceNode[n]);
+    if (adhered.constraints.handleOf[n] == 0 && b.sc.constraints.handleOf[source] < 0 && !slides[source]) held = int(source);
+  }
+  std::printf("%zu -> %zu handle nodes; node %d held\n", b.sc.handleNodeCount[0], adhered.handleNodeCount[0], held);
+  ASSERT_GE(held, 0);
+  SimScene s = b.sc;
+  s.constraints.fixed[std::size_t(held)] = 1;
+  const SimScene before = s;
+  try {
+    cutScene(s, {q});
+    ADD_FAILURE() << "a sliver held by the cube and by a held node was not refused";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("by something else"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(s.meshes.fine.nodes.size(), before.meshes.fine.nodes.size());
+  EXPECT_EQ(s.constraints.handleOf, before.constraints.handleOf);
+  EXPECT_EQ(s.constraints.slide.size(), before.constraints.slide.size());
 }
