@@ -228,8 +228,11 @@ std::vector<SimHandle> loadHandles(const Args& args, const Volume& image, const 
   return handles;
 }
 
-// The scene solved at the requested motion.
+// The scene solved at the requested motion (not to be moved: its model refers to its scene).
 struct DeformSolution {
+  DeformSolution() = default;
+  DeformSolution(const DeformSolution&) = delete;
+  DeformSolution& operator=(const DeformSolution&) = delete;
   SimScene scene;                      ///< the scene solved (the coarse model's: uncut)
   std::unique_ptr<SimScene> cut;       ///< the coarse model's scene cut, whose fine mesh was refined (--cut-quad)
   std::unique_ptr<CoarseModel> model;  ///< null for the fine model
@@ -253,8 +256,9 @@ Eigen::Vector3d addRetractor(SimScene& shown, const DeformRequest& r) {
   return r.retractMm * side * plane.n;
 }
 
-DeformSolution solveDeform(const DeformRequest& r, const Volume& image, const std::vector<SimHandle>& handles, const ProgressFn& progress) {
-  DeformSolution d;
+// Fills `d` in place: its coarse model keeps a reference to its scene's meshes, so the solution is
+// never moved.
+void solveDeform(const DeformRequest& r, const Volume& image, const std::vector<SimHandle>& handles, const ProgressFn& progress, DeformSolution& d) {
   SimScene& sc = d.scene;
   auto t0 = std::chrono::steady_clock::now();
   // The coarse model comes with its scene from the preprocessing cache when there (built and
@@ -323,7 +327,6 @@ DeformSolution solveDeform(const DeformRequest& r, const Volume& image, const st
     }
   }
   d.solveSeconds = seconds(t0);
-  return d;
 }
 
 // The deformed volume on the chosen backend; with `tetOf` (CPU) which tet wrote each voxel.
@@ -412,7 +415,9 @@ int cmdDeform(const Words& words) {
   const Volume image = loadVolume(args.positional()[0], nullptr, progress, loadOptions(args));
   const std::vector<SimHandle> handles = loadHandles(args, image, r);
   for (const auto& name : r.settings.materials.capped()) std::cerr << "note: material '" << name << "': Poisson ratio capped at " << kMaxPoisson << " (linear tets lock)\n";
-  const DeformSolution d = solveDeform(r, image, handles, progress);
+  DeformSolution solved;
+  solveDeform(r, image, handles, progress, solved);
+  const DeformSolution& d = solved;
   const SimScene& sc = d.shown();
   std::vector<float> strain = tetStrain(sc.meshes.fine, d.x);
   const std::vector<float> limits = tetStrainLimits(sc.band, r.settings.materials);
