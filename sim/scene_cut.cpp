@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 #include <string>
 
 #include "sim/base/error.h"
@@ -194,16 +193,10 @@ void holdLoosePieces(const TetMesh& m, const CutNodes& cut, FineConstraints& c) 
 SceneCutStats cutScene(SimScene& scene, const std::vector<CutQuad>& cuts) {
   SceneCutStats st;
   if (cuts.empty()) return st;
-  TetMesh mesh = scene.meshes.fine;
-  std::vector<int> source(mesh.nodes.size());
-  std::iota(source.begin(), source.end(), 0);
-  for (const CutQuad& q : cuts) {
-    MeshCut c = cutMesh(mesh, q);
-    st.cutFaces += c.cutFaces;
-    for (int& s : c.sourceNode) s = source[std::size_t(s)];  // back to the scene's own nodes
-    mesh = std::move(c.mesh);
-    source = std::move(c.sourceNode);
-  }
+  MeshCut c = cutMeshAlong(scene.meshes.fine, cuts);  // at once: a polyline of quads leaves no seam at its joints
+  st.cutFaces = c.cutFaces;
+  TetMesh mesh = std::move(c.mesh);
+  std::vector<int> source = std::move(c.sourceNode);
   FineConstraints constraints = scene.constraints;
   carryRoles(constraints, source);
   const CutNodes cut = cutNodes(mesh, scene.fineK, std::move(source), scene.meshes.fine.nodes.size());

@@ -15,7 +15,8 @@ struct SceneCutStats {
   std::vector<int> sourceNode;  ///< per node of the cut fine mesh: the scene's node it copies (itself if none)
 };
 
-/// Cuts the scene's fine mesh by each quad in turn. A copy of a node keeps its role as its side
+/// Cuts the scene's fine mesh along the quads at once (cutMeshAlong: crossing cuts and the joints of
+/// a polyline of quads alike). A copy of a node keeps its role as its side
 /// gives it (docs/cutting.md): a held node stays held (the region's boundary, the anchored
 /// skeleton: a cut through bone leaves both sides anchored); a handle's node stays the handle's
 /// where the handle's own tets are, and is free where the cut took it off them; a slide node keeps

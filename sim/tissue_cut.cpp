@@ -138,12 +138,12 @@ std::vector<std::size_t> facesToCut(const TetMesh& mesh, const CutPlane& P, cons
 
 bool isCut(const std::vector<std::size_t>& cut, std::size_t slot) { return std::binary_search(cut.begin(), cut.end(), slot); }
 
-// Splits each node of a cut face by side: the tets on the side of the node's lowest-numbered tet
-// keep the node, those on the other side take a copy - unless an uncut face holding the node joins
-// tets of both sides (the cut's edge: the node stays shared). Tets of one side that meet only along
-// an edge are not slit apart. `in` is the mesh before the cut (out.mesh starts as its copy), whose
-// faces `inc` finds.
-void splitNodes(MeshCut& out, const TetMesh& in, const TetIncidence& inc, const std::vector<std::size_t>& cut, const std::vector<char>& above) {
+// Splits each node of a cut face into the groups of its tets that stay joined around it through
+// uncut faces holding it: the group of its lowest-numbered tet keeps the node, each other group
+// (in the order of its lowest tet) takes a copy at the same rest position. A node at the cut's edge,
+// whose tets an uncut face joins around the cut's end, stays one. `in` is the mesh before the cut
+// (out.mesh starts as its copy), whose faces `inc` finds.
+void splitNodes(MeshCut& out, const TetMesh& in, const TetIncidence& inc, const std::vector<std::size_t>& cut) {
   TetMesh& m = out.mesh;
   std::vector<int> onCut;
   for (std::size_t s : cut)
@@ -153,23 +153,27 @@ void splitNodes(MeshCut& out, const TetMesh& in, const TetIncidence& inc, const 
   onCut.erase(std::unique(onCut.begin(), onCut.end()), onCut.end());
   for (int v : onCut) {
     const int* ts = inc.tets.data() + inc.first[std::size_t(v)];  // ascending
-    const int* tsEnd = inc.tets.data() + inc.first[std::size_t(v) + 1];
-    const char keep = above[std::size_t(ts[0])];
-    bool edge = false;
-    for (const int* t = ts; t != tsEnd && !edge; ++t)
-      for (int f = 0; f < 4 && !edge; ++f) {
-        if (in.tets[std::size_t(*t)][std::size_t(f)] == v || isCut(cut, 4 * std::size_t(*t) + std::size_t(f))) continue;  // the face must hold v
-        const int o = inc.across(in, *t, f);
-        edge = o >= 0 && above[std::size_t(o)] != above[std::size_t(*t)];
+    const int k = inc.first[std::size_t(v) + 1] - inc.first[std::size_t(v)];
+    DisjointSets groups{std::size_t(k)};
+    for (int i = 0; i < k; ++i)
+      for (int f = 0; f < 4; ++f) {
+        if (in.tets[std::size_t(ts[i])][std::size_t(f)] == v || isCut(cut, 4 * std::size_t(ts[i]) + std::size_t(f))) continue;  // the face must hold v
+        const int o = inc.across(in, ts[i], f);
+        if (o >= 0) groups.join(i, int(std::find(ts, ts + k, o) - ts));  // o holds v too: it shares the face
       }
-    if (edge) continue;
-    const int copy = int(m.nodes.size());
-    m.nodes.push_back(m.nodes[std::size_t(v)]);
-    out.sourceNode.push_back(out.sourceNode[std::size_t(v)]);
-    for (const int* t = ts; t != tsEnd; ++t)
-      if (above[std::size_t(*t)] != keep)
-        for (int& n : m.tets[std::size_t(*t)])
-          if (n == v) n = copy;
+    std::vector<int> copyOf(std::size_t(k), -1);  // per group leader: the node its tets take
+    copyOf[std::size_t(groups.find(0))] = v;
+    for (int i = 1; i < k; ++i) {
+      int& node = copyOf[std::size_t(groups.find(i))];
+      if (node < 0) {
+        node = int(m.nodes.size());
+        m.nodes.push_back(m.nodes[std::size_t(v)]);
+        out.sourceNode.push_back(out.sourceNode[std::size_t(v)]);
+      }
+      if (node != v)
+        for (int& n : m.tets[std::size_t(ts[i])])
+          if (n == v) n = node;
+    }
   }
 }
 
@@ -210,17 +214,27 @@ std::size_t separatedFaces(const TetMesh& m, const TetMesh& in, const TetInciden
 
 void checkCutQuad(const CutQuad& quad) { cutPlane(quad); }
 
-MeshCut cutMesh(const TetMesh& mesh, const CutQuad& quad) {
-  const CutPlane P = cutPlane(quad);
+MeshCut cutMesh(const TetMesh& mesh, const CutQuad& quad) { return cutMeshAlong(mesh, std::vector<CutQuad>{quad}); }
+
+MeshCut cutMeshAlong(const TetMesh& mesh, const std::vector<CutQuad>& surface) {
+  if (surface.empty()) throw Error("cut: no quad to cut along");
+  std::vector<CutPlane> planes;
+  for (const CutQuad& q : surface) planes.push_back(cutPlane(q));
   const TetIncidence inc(mesh);
+  std::vector<std::size_t> cut;  // the union of the quads' faces, each quad's sides its own
   std::vector<char> above(mesh.tets.size());
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t) above[t] = P.height(centroid(mesh, int(t))) >= 0.0;
-  const std::vector<std::size_t> cut = facesToCut(mesh, P, inc, above);
+  for (const CutPlane& P : planes) {
+    for (std::size_t t = 0; t < mesh.tets.size(); ++t) above[t] = P.height(centroid(mesh, int(t))) >= 0.0;
+    const std::vector<std::size_t> faces = facesToCut(mesh, P, inc, above);
+    cut.insert(cut.end(), faces.begin(), faces.end());
+  }
+  std::sort(cut.begin(), cut.end());
+  cut.erase(std::unique(cut.begin(), cut.end()), cut.end());
   MeshCut out;
   out.mesh = mesh;
   out.sourceNode.resize(mesh.nodes.size());
   std::iota(out.sourceNode.begin(), out.sourceNode.end(), 0);
-  splitNodes(out, mesh, inc, cut, above);
+  splitNodes(out, mesh, inc, cut);
   out.cutFaces = separatedFaces(out.mesh, mesh, inc, cut);
   if (out.cutFaces == 0)
     throw Error("cut: the quad separates no tissue (it misses the mesh, follows an earlier cut, or is narrower than the mesh's faces)");

@@ -69,5 +69,12 @@ struct TetIncidence {
 /// The mesh cut by the quad. Throws handson::Error for a bad quad (checkCutQuad), one that separates
 /// no face the mesh still shares, and one that would leave a single tet on its own.
 MeshCut cutMesh(const TetMesh& mesh, const CutQuad& quad);
+/// The mesh cut along a surface of several quads at once (a ruled surface: a finger's stroke): the
+/// union of the faces each quad separates (each by its own plane's sides), each node of them split
+/// into the groups of its tets joined around it through uncut faces. Quads applied one after another
+/// would leave a seam where a joint between two runs along a plane of faces (a face on it, the
+/// earlier quad's, keeps its nodes joined through the later quad's faces, and is not over the later
+/// quad). cutMesh(mesh, q) is cutMeshAlong(mesh, {q}). Throws as cutMesh, and for no quad.
+MeshCut cutMeshAlong(const TetMesh& mesh, const std::vector<CutQuad>& surface);
 
 }  // namespace handson

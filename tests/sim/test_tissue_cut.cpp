@@ -281,3 +281,52 @@ TEST(TissueCut, ACutThroughAMeshOfUnevenTetsSeparatesItFully) {
   std::printf("uneven bar: uncut %.6f, cut through obliquely %.2e (%zu faces, %zu nodes copied)\n", uncut, force, c.cutFaces, c.mesh.nodes.size() - m.nodes.size());
   EXPECT_LT(std::abs(force), 1e-6 * uncut);
 }
+
+TEST(TissueCut, ARuledSurfaceOfQuadsCutAtOnceLeavesNoSeam) {
+  // The cut a finger's stroke makes (docs/cutting.md): the view rays from an eye 200 mm above a 40 x
+  // 20 x 20 mm block of 2 mm Kuhn cells, along x = 11.3 from y = -5 to 23 every 4 mm, each pair of
+  // rays a quad from the top face (z = 20) to 15 mm past the first ray's surface distance (down to
+  // z = 4.4-5.0). Their joints slant from y = 12 at the top to 12.16 at the bottom, along the
+  // lattice's plane y = 12 (and 16). Applied one after another the quads leave a seam there: faces on
+  // the joint, the earlier quad's, whose nodes stayed joined through the later quad's faces (measured
+  // 14 tet-node incidences joining the two sides above z = 6; 104 with the earlier split by sides).
+  // Cut at once (cutMeshAlong) none join them, as one big quad in the same plane leaves none.
+  const TetMesh block = KuhnGrid({0, 0, 0}, {2, 2, 2}, {20, 10, 10}).mesh();
+  const Eigen::Vector3d eye(11.3, 10, 220);
+  auto surfaceAt = [&](double y) { return Eigen::Vector3d(11.3, y, 20); };
+  const double bottom = (surfaceAt(-5) - eye).norm() + 15.0;
+  std::vector<CutQuad> surface;
+  for (double y = -5; y < 23 - 1e-9; y += 4) {
+    const Eigen::Vector3d a = surfaceAt(y), b = surfaceAt(y + 4);
+    surface.push_back({{a, b, eye + bottom * (b - eye).normalized(), eye + bottom * (a - eye).normalized()}});
+  }
+  const CutPlane plane = cutPlane(surface.front());
+  auto joined = [&](const TetMesh& m) {  // tet-node incidences joining the two sides above z = 6
+    std::vector<int> side(m.nodes.size(), 0);
+    int count = 0;
+    for (const auto& t : m.tets) {
+      const Eigen::Vector3d c = 0.25 * (m.nodes[std::size_t(t[0])] + m.nodes[std::size_t(t[1])] + m.nodes[std::size_t(t[2])] + m.nodes[std::size_t(t[3])]);
+      if (c.z() < 6.0) continue;
+      const int s = plane.height(c) >= 0.0 ? 1 : -1;
+      for (int n : t) {
+        count += side[std::size_t(n)] == -s && m.nodes[std::size_t(n)].z() > 6.0;
+        side[std::size_t(n)] = s;
+      }
+    }
+    return count;
+  };
+  TetMesh inTurn = block;
+  for (const CutQuad& q : surface) {
+    try {
+      inTurn = cutMesh(inTurn, q).mesh;
+    } catch (const Error&) {  // the quads off the block separate nothing
+    }
+  }
+  const MeshCut atOnce = cutMeshAlong(block, surface);
+  const int seam = joined(inTurn), none = joined(atOnce.mesh);
+  std::printf("quads in turn: %d joining incidences; at once: %d (%zu faces, %zu nodes copied)\n", seam, none, atOnce.cutFaces,
+              atOnce.mesh.nodes.size() - block.nodes.size());
+  EXPECT_GT(seam, 0) << "the seam this cut exists to close";
+  EXPECT_EQ(none, 0);
+  EXPECT_THROW(cutMeshAlong(block, {}), Error);
+}
