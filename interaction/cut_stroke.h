@@ -1,0 +1,44 @@
+#pragma once
+// A cut drawn by one finger (docs/cutting.md, "The stroke"): each sample of the stroke is the view
+// ray under the finger and the distance along it to the surface the pick found there. The cut is the
+// ruled surface of the rays between the picked surface and a depth below the surface the stroke
+// started on: along each ray from its surface point A = o + s d to its bottom B = o + (s0 + depth) d,
+// s0 the first sample's surface distance. Two consecutive rays from one eye (or parallel ones) span a
+// plane, so each pair of kept samples gives one planar quad A_i, A_j, B_j, B_i (sim/tissue_cut.h),
+// convex since both segments run the same way along their rays.
+#include <Eigen/Core>
+#include <cstddef>
+#include <vector>
+
+#include "sim/tissue_cut.h"
+
+namespace handson {
+
+struct StrokeSample {
+  Eigen::Vector3d origin{0, 0, 0};     ///< the view ray's origin (world mm)
+  Eigen::Vector3d direction{0, 0, 1};  ///< its unit direction
+  double surfaceMm = 0.0;              ///< distance along it to the picked surface; NaN: the pick missed
+};
+
+struct CutStrokeOptions {
+  double depthMm = 15.0;      ///< the cut's bottom below the surface the stroke starts on
+  /// Samples closer than this (their surface points) to the last one kept are skipped, so each quad
+  /// spans at least a fine tet's faces (a narrower quad separates nothing): the stroke's end within
+  /// it of the last kept sample is left uncut.
+  double minSegmentMm = 4.0;
+};
+
+struct CutStroke {
+  std::vector<CutQuad> quads;  ///< in the stroke's order
+  /// Segments left out: a sample whose pick missed, or whose surface lies at or below the cut's
+  /// bottom, has no cut beneath it.
+  std::size_t skipped = 0;
+};
+
+/// The stroke's cut. Throws handson::Error for fewer than two samples, a stroke whose first pick
+/// missed, a depth or segment length that is not a positive finite number, a sample that is not
+/// finite or whose direction is not unit, and a stroke that leaves no quad (it did not move, or
+/// nothing under it lies above the cut's bottom).
+CutStroke cutAlongStroke(const std::vector<StrokeSample>& samples, const CutStrokeOptions& options = {});
+
+}  // namespace handson
