@@ -13,7 +13,7 @@ void checkSamples(const std::vector<StrokeSample>& samples, const CutStrokeOptio
   if (!(o.depthMm > 0.0) || !std::isfinite(o.depthMm) || !(o.minSegmentMm > 0.0) || !std::isfinite(o.minSegmentMm))
     throw Error("cut: the depth and the segment length must be positive");
   for (const StrokeSample& s : samples)
-    if (!s.origin.allFinite() || !s.direction.allFinite() || std::abs(s.direction.norm() - 1.0) > 1e-6 || std::isinf(s.surfaceMm))
+    if (!s.origin.allFinite() || !s.direction.allFinite() || std::abs(s.direction.norm() - 1.0) > 1e-6 || std::isinf(s.surfaceMm) || s.surfaceMm < 0.0)
       throw Error("cut: a stroke sample is not a finite ray with a unit direction");
   if (!std::isfinite(samples.front().surfaceMm)) throw Error("cut: the stroke must start on the tissue (its first pick missed)");
 }
@@ -42,10 +42,10 @@ CutStroke cutAlongStroke(const std::vector<StrokeSample>& samples, const CutStro
     try {
       checkCutQuad(q);
       out.quads.push_back(q);
-    } catch (const Error&) {  // the two rays span no plane (no common eye, not parallel) or no area
+      last = i;
+    } catch (const Error&) {  // the two rays span no plane (no common eye, not parallel): the next sample may, with the same start
       ++out.skipped;
     }
-    last = i;
   }
   if (out.quads.empty()) throw Error("cut: the stroke leaves nothing to cut (it did not move, or no tissue under it lies above the cut's bottom)");
   return out;

@@ -30,14 +30,16 @@ struct CutStrokeOptions {
 
 struct CutStroke {
   std::vector<CutQuad> quads;  ///< in the stroke's order
-  /// Segments left out: a sample whose pick missed, or whose surface lies at or below the cut's
-  /// bottom, has no cut beneath it.
+  /// Samples left out: one whose pick missed, or whose surface lies at or below the cut's bottom,
+  /// has no cut beneath it (the samples within minSegmentMm before such a gap are left uncut too);
+  /// and one whose ray spans no plane with the last kept sample's (no common eye): the next may.
   std::size_t skipped = 0;
 };
 
 /// The stroke's cut. Throws handson::Error for fewer than two samples, a stroke whose first pick
 /// missed, a depth or segment length that is not a positive finite number, a sample that is not
-/// finite or whose direction is not unit, and a stroke that leaves no quad (it did not move, or
+/// finite, whose direction is not unit or whose surface distance is negative, and a stroke that
+/// leaves no quad (it did not move, or
 /// nothing under it lies above the cut's bottom).
 CutStroke cutAlongStroke(const std::vector<StrokeSample>& samples, const CutStrokeOptions& options = {});
 

@@ -194,6 +194,9 @@ SceneCutStats cutScene(SimScene& scene, const std::vector<CutQuad>& cuts) {
   SceneCutStats st;
   if (cuts.empty()) return st;
   MeshCut c = cutMeshAlong(scene.meshes.fine, cuts);  // at once: a polyline of quads leaves no seam at its joints
+  for (std::size_t q = 0; q < c.quadFaces.size(); ++q)
+    if (c.quadFaces[q] == 0)
+      throw Error("cut: quad " + std::to_string(q + 1) + " separates no tissue the others do not (it misses the mesh, repeats or lies within another, or is narrower than the mesh's faces)");
   st.cutFaces = c.cutFaces;
   TetMesh mesh = std::move(c.mesh);
   std::vector<int> source = std::move(c.sourceNode);

@@ -25,8 +25,8 @@ struct SceneCutStats {
 /// alone. A piece of tissue the cuts leave not held at three points off one line (its position would
 /// be undetermined) but touching one organ's sliding interface adheres to that organ (its nodes
 /// become the handle's, their springs go: a sliver cut off between an incision and the organ).
-/// Throws handson::Error (the scene unchanged) for a bad quad (cutMesh), and for a loose piece that
-/// touches no organ or several.
+/// Throws handson::Error (the scene unchanged) for a bad quad (cutMesh), a quad that separates no
+/// face the others do not, and for a loose piece that touches no organ or several.
 SceneCutStats cutScene(SimScene& scene, const std::vector<CutQuad>& cuts);
 
 /// A retractor on a cut's lip: the tissue on one side of a cut, beside it, held as a handle so it

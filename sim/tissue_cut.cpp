@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <numeric>
 
 #include "sim/base/error.h"
@@ -107,10 +108,9 @@ double longestEdge(const TetMesh& m) {
 
 // The faces the quad separates: shared, between tets whose centroids lie on either side of its
 // plane, with their own centroid over the quad. Ascending slots (4 tet + f). Only tets whose
-// centroid lies within the longest edge of the quad's plane and of its outline are looked at: a
-// face's tets have centroids at most half an edge from each other and an edge from the face's.
-std::vector<std::size_t> facesToCut(const TetMesh& mesh, const CutPlane& P, const TetIncidence& inc, const std::vector<char>& above) {
-  const double reach = longestEdge(mesh);
+// centroid lies within `reach` (the mesh's longest edge) of the quad's plane and of its outline are
+// looked at: a face's tets have centroids at most half an edge from each other and an edge from the face's.
+std::vector<std::size_t> facesToCut(const TetMesh& mesh, const CutPlane& P, const TetIncidence& inc, const std::vector<char>& above, double reach) {
   Eigen::Vector2d lo = P.q[0], hi = P.q[0];
   for (const auto& q : P.q) {
     lo = lo.cwiseMin(q);
@@ -221,21 +221,31 @@ MeshCut cutMeshAlong(const TetMesh& mesh, const std::vector<CutQuad>& surface) {
   std::vector<CutPlane> planes;
   for (const CutQuad& q : surface) planes.push_back(cutPlane(q));
   const TetIncidence inc(mesh);
-  std::vector<std::size_t> cut;  // the union of the quads' faces, each quad's sides its own
+  const double reach = longestEdge(mesh);
+  std::vector<std::size_t> cut;                     // the union of the quads' faces, each quad's sides its own
+  std::vector<std::vector<std::size_t>> ownFaces;  // per quad: its faces no earlier quad has
   std::vector<char> above(mesh.tets.size());
   for (const CutPlane& P : planes) {
     for (std::size_t t = 0; t < mesh.tets.size(); ++t) above[t] = P.height(centroid(mesh, int(t))) >= 0.0;
-    const std::vector<std::size_t> faces = facesToCut(mesh, P, inc, above);
-    cut.insert(cut.end(), faces.begin(), faces.end());
+    std::vector<std::size_t> faces = facesToCut(mesh, P, inc, above, reach);
+    std::sort(cut.begin(), cut.end());
+    std::vector<std::size_t> own;
+    std::set_difference(faces.begin(), faces.end(), cut.begin(), cut.end(), std::back_inserter(own));
+    cut.insert(cut.end(), own.begin(), own.end());
+    ownFaces.push_back(std::move(own));
   }
   std::sort(cut.begin(), cut.end());
-  cut.erase(std::unique(cut.begin(), cut.end()), cut.end());
   MeshCut out;
   out.mesh = mesh;
   out.sourceNode.resize(mesh.nodes.size());
   std::iota(out.sourceNode.begin(), out.sourceNode.end(), 0);
   splitNodes(out, mesh, inc, cut);
   out.cutFaces = separatedFaces(out.mesh, mesh, inc, cut);
+  for (const auto& own : ownFaces) {  // the faces each quad separated that no earlier quad had
+    std::size_t n = 0;
+    for (std::size_t slot : own) n += !stillShared(out.mesh, int(slot / 4), int(slot % 4), inc.across(mesh, int(slot / 4), int(slot % 4)));
+    out.quadFaces.push_back(n);
+  }
   if (out.cutFaces == 0)
     throw Error("cut: the quad separates no tissue (it misses the mesh, follows an earlier cut, or is narrower than the mesh's faces)");
   return out;

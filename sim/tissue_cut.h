@@ -45,6 +45,7 @@ struct MeshCut {
   TetMesh mesh;                 ///< the same tets in the same order, on copied nodes where the cut separates them
   std::vector<int> sourceNode;  ///< per node of `mesh`: the input node it copies (an input node is its own)
   std::size_t cutFaces = 0;     ///< faces separated by this cut
+  std::vector<std::size_t> quadFaces;  ///< per quad (cutMeshAlong): the faces it separated that no earlier quad had
 };
 
 /// Disjoint sets over 0..n-1 (path halving; the smallest index of a set leads it).

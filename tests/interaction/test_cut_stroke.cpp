@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "interaction/cut_stroke.h"
@@ -112,7 +113,7 @@ TEST(CutStroke, AStrokeDrawnAcrossABlockCutsItThrough) {
 
 TEST(CutStroke, BadStrokesAreRefused) {
   // One sample, a first pick that missed, no depth, a NaN depth, a direction that is not unit, a
-  // stroke that never moves 4 mm: refused with a message, never a quad.
+  // surface behind the eye, a stroke that never moves 4 mm: refused with a message, never a quad.
   const StrokeSample a = fromEye(0, 0, 0), b = fromEye(10, 0, 0);
   EXPECT_THROW(cutAlongStroke({a}), Error);
   StrokeSample missed = a;
@@ -123,6 +124,9 @@ TEST(CutStroke, BadStrokesAreRefused) {
   StrokeSample skewed = b;
   skewed.direction *= 2.0;
   EXPECT_THROW(cutAlongStroke({a, skewed}), Error);
+  StrokeSample behind = b;
+  behind.surfaceMm = -1.0;
+  EXPECT_THROW(cutAlongStroke({a, behind}), Error);
   EXPECT_THROW(cutAlongStroke({a, fromEye(1, 0, 0), fromEye(2, 0, 0)}), Error);
   EXPECT_EQ(cutAlongStroke({a, b}).quads.size(), 1u);
 }

@@ -269,6 +269,29 @@ TEST(SceneCut, ACutAlongAnOrgansFaceDetachesItThere) {
   EXPECT_LT(cutForce, uncutForce);
 }
 
+TEST(SceneCut, AQuadThatAddsNothingToTheOthersIsRefused) {
+  // The quads of a scene's cut are cut at once: the same quad twice, or one lying within another,
+  // separates no face the others do not, and is refused (the scene unchanged), as a quad that
+  // misses the tissue is.
+  CutKidney k;
+  const CutQuad across = k.acrossAt(k.sc.handleCentroid[0].x());
+  CutQuad within = across;
+  const Eigen::Vector3d c = 0.25 * (across.corners[0] + across.corners[1] + across.corners[2] + across.corners[3]);
+  for (auto& p : within.corners) p = c + 0.5 * (p - c);
+  CutQuad missing = across;
+  for (auto& p : missing.corners) p.x() += 1000.0;
+  for (const std::vector<CutQuad>& cuts : {std::vector<CutQuad>{across, across}, std::vector<CutQuad>{across, within}, std::vector<CutQuad>{across, missing}}) {
+    SimScene s = k.sc;
+    try {
+      cutScene(s, cuts);
+      ADD_FAILURE() << "not refused";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("quad 2 separates no tissue"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(s.meshes.fine.nodes.size(), k.sc.meshes.fine.nodes.size());
+  }
+}
+
 TEST(SceneCut, ACutThatLeavesTissueHeldByNothingIsRefusedAndTheSceneStaysAsItWas) {
   // Six quads around a 24 mm cube of tissue in front of the kidney (1,500 coarse tets: fine cells
   // of about 5.8 mm), each reaching 8 mm past the cube's edges so that their staircases of faces

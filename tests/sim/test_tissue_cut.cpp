@@ -284,19 +284,19 @@ TEST(TissueCut, ACutThroughAMeshOfUnevenTetsSeparatesItFully) {
 
 TEST(TissueCut, ARuledSurfaceOfQuadsCutAtOnceLeavesNoSeam) {
   // The cut a finger's stroke makes (docs/cutting.md): the view rays from an eye 200 mm above a 40 x
-  // 20 x 20 mm block of 2 mm Kuhn cells, along x = 11.3 from y = -5 to 23 every 4 mm, each pair of
+  // 20 x 20 mm block of 2 mm Kuhn cells, along x = 11.3 from y = -4 to 24 every 4 mm, each pair of
   // rays a quad from the top face (z = 20) to 15 mm past the first ray's surface distance (down to
-  // z = 4.4-5.0). Their joints slant from y = 12 at the top to 12.16 at the bottom, along the
-  // lattice's plane y = 12 (and 16). Applied one after another the quads leave a seam there: faces on
-  // the joint, the earlier quad's, whose nodes stayed joined through the later quad's faces (measured
-  // 14 tet-node incidences joining the two sides above z = 6; 104 with the earlier split by sides).
-  // Cut at once (cutMeshAlong) none join them, as one big quad in the same plane leaves none.
+  // z = 4.4-5.0). Their joints start on the lattice's planes y = 0, 4, ..., 20 at the top and slant
+  // along them (y = 12 to 12.16 at the bottom). Applied one after another the quads leave a seam
+  // there: faces on a joint, the earlier quad's, whose nodes stayed joined through the later quad's
+  // faces (measured 104 tet-node incidences joining the two sides above z = 6). Cut at once
+  // (cutMeshAlong) none join them, as one big quad in the same plane leaves none.
   const TetMesh block = KuhnGrid({0, 0, 0}, {2, 2, 2}, {20, 10, 10}).mesh();
   const Eigen::Vector3d eye(11.3, 10, 220);
   auto surfaceAt = [&](double y) { return Eigen::Vector3d(11.3, y, 20); };
-  const double bottom = (surfaceAt(-5) - eye).norm() + 15.0;
+  const double bottom = (surfaceAt(-4) - eye).norm() + 15.0;
   std::vector<CutQuad> surface;
-  for (double y = -5; y < 23 - 1e-9; y += 4) {
+  for (double y = -4; y < 24 - 1e-9; y += 4) {
     const Eigen::Vector3d a = surfaceAt(y), b = surfaceAt(y + 4);
     surface.push_back({{a, b, eye + bottom * (b - eye).normalized(), eye + bottom * (a - eye).normalized()}});
   }
