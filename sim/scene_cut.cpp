@@ -104,6 +104,14 @@ struct RigidHold {
   }
 };
 
+// Drops the spring of every slide node that a handle now moves (it adhered, or a retractor took it).
+void dropSpringsOfHandleNodes(FineConstraints& c) {
+  std::vector<SlideNode> kept;
+  for (const SlideNode& sn : c.slide)
+    if (c.handleOf[std::size_t(sn.node)] < 0) kept.push_back(sn);
+  c.slide = std::move(kept);
+}
+
 // A piece held by nothing but its contact with one organ's sliding interface adheres to that organ:
 // the organ whose slide nodes it holds, and nothing else held in it but that organ's own nodes.
 // Returns the organ; throws for a piece that touches no organ, several, or an organ and something
@@ -182,10 +190,7 @@ void holdLoosePieces(const TetMesh& m, const CutNodes& cut, FineConstraints& c) 
         if (h >= 0 && h != organs[p]) throw Error("cut: the cuts leave pieces of tissue held only between two organs");
         if (!c.fixed[std::size_t(n)]) h = organs[p];
       }
-  std::vector<SlideNode> kept;  // a node that adhered to its organ has no spring
-  for (const SlideNode& sn : c.slide)
-    if (c.handleOf[std::size_t(sn.node)] < 0) kept.push_back(sn);
-  c.slide = std::move(kept);
+  dropSpringsOfHandleNodes(c);
 }
 
 }  // namespace
@@ -238,14 +243,15 @@ int addLipHandle(SimScene& scene, const CutLip& lip) {
     c.handleOf[std::size_t(n)] = handle;
     centre += m.nodes[std::size_t(n)] / double(taken.size());
   }
-  std::vector<SlideNode> kept;
-  for (const SlideNode& sn : c.slide)
-    if (c.handleOf[std::size_t(sn.node)] < 0) kept.push_back(sn);
-  c.slide = std::move(kept);
+  dropSpringsOfHandleNodes(c);
   c.handleCount = handle + 1;
   scene.handleCentroid.push_back(centre);
   countHandleNodes(scene, std::size_t(c.handleCount));
   return handle;
+}
+
+CutLip lipAwayFrom(const CutQuad& quad, const Eigen::Vector3d& organ, double widthMm) {
+  return {quad, cutPlane(quad).height(organ) > 0.0 ? -1 : 1, widthMm};
 }
 
 }  // namespace handson

@@ -44,4 +44,7 @@ struct CutLip {
 /// than +1 / -1, a width not above 0, or a lip with no free node.
 int addLipHandle(SimScene& scene, const CutLip& lip);
 
+/// The lip of the cut on the side away from `organ` (a point: the organ's centroid), `widthMm` wide.
+CutLip lipAwayFrom(const CutQuad& quad, const Eigen::Vector3d& organ, double widthMm);
+
 }  // namespace handson

@@ -110,7 +110,8 @@ double longestEdge(const TetMesh& m) {
 // plane, with their own centroid over the quad. Ascending slots (4 tet + f). Only tets whose
 // centroid lies within `reach` (the mesh's longest edge) of the quad's plane and of its outline are
 // looked at: a face's tets have centroids at most half an edge from each other and an edge from the face's.
-std::vector<std::size_t> facesToCut(const TetMesh& mesh, const CutPlane& P, const TetIncidence& inc, const std::vector<char>& above, double reach) {
+std::vector<std::size_t> facesToCut(const TetMesh& mesh, const CutPlane& P, const TetIncidence& inc, const std::vector<Eigen::Vector3d>& centroids,
+                                    const std::vector<char>& above, double reach) {
   Eigen::Vector2d lo = P.q[0], hi = P.q[0];
   for (const auto& q : P.q) {
     lo = lo.cwiseMin(q);
@@ -120,7 +121,7 @@ std::vector<std::size_t> facesToCut(const TetMesh& mesh, const CutPlane& P, cons
   hi.array() += reach;
   std::vector<std::size_t> cut;
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-    const Eigen::Vector3d c = centroid(mesh, int(t));
+    const Eigen::Vector3d& c = centroids[t];
     const Eigen::Vector2d inPlane = P.in(c);
     if (std::abs(P.height(c)) > reach || (inPlane.array() < lo.array()).any() || (inPlane.array() > hi.array()).any()) continue;
     const auto& n = mesh.tets[t];
@@ -224,10 +225,12 @@ MeshCut cutMeshAlong(const TetMesh& mesh, const std::vector<CutQuad>& surface) {
   const double reach = longestEdge(mesh);
   std::vector<std::size_t> cut;                     // the union of the quads' faces, each quad's sides its own
   std::vector<std::vector<std::size_t>> ownFaces;  // per quad: its faces no earlier quad has
+  std::vector<Eigen::Vector3d> centroids(mesh.tets.size());
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) centroids[t] = centroid(mesh, int(t));
   std::vector<char> above(mesh.tets.size());
   for (const CutPlane& P : planes) {
-    for (std::size_t t = 0; t < mesh.tets.size(); ++t) above[t] = P.height(centroid(mesh, int(t))) >= 0.0;
-    std::vector<std::size_t> faces = facesToCut(mesh, P, inc, above, reach);
+    for (std::size_t t = 0; t < mesh.tets.size(); ++t) above[t] = P.height(centroids[t]) >= 0.0;
+    std::vector<std::size_t> faces = facesToCut(mesh, P, inc, centroids, above, reach);
     std::sort(cut.begin(), cut.end());
     std::vector<std::size_t> own;
     std::set_difference(faces.begin(), faces.end(), cut.begin(), cut.end(), std::back_inserter(own));

@@ -133,17 +133,16 @@ struct Retraction {
 double retractForce(const Retraction& r, const CutQuad& q) {
   SimScene cut = r.scene;
   const SceneCutStats st = cutScene(cut, {q});
-  const CutPlane plane = cutPlane(q);
-  const int side = plane.height(r.scene.handleCentroid[0]) > 0.0 ? -1 : 1;
-  const int lip = addLipHandle(cut, {q, side, r.widthMm});
-  const std::vector<RigidTransform> T{RigidTransform{}, RigidTransform{Eigen::Matrix3d::Identity(), r.mm * side * plane.n}};
+  const CutLip lip = lipAwayFrom(q, r.scene.handleCentroid[0], r.widthMm);
+  const int handle = addLipHandle(cut, lip);
+  const std::vector<RigidTransform> T{RigidTransform{}, RigidTransform{Eigen::Matrix3d::Identity(), r.mm * lip.side * cutPlane(q).n}};
   RefineOptions o;
   o.cut = {&cut.meshes.fine, &cut.constraints, &st.sourceNode};
   const std::vector<Eigen::Vector3d> xc = r.model.restState();
   std::vector<Eigen::Vector3d> x = positionsOnCut(o.cut, T, r.model.reconstruct({T[0]}, xc));
   const FineRefiner refiner(r.model, r.scene.fineK, r.scene.youngs, r.scene.poisson, o);
   for (int k = 0; k < r.steps; ++k) refiner.step(T, xc, x, 10);
-  return fineHandleReactions(cut.meshes.fine, cut.fineK, cut.constraints, T, x)[std::size_t(lip)].forceN.norm();
+  return fineHandleReactions(cut.meshes.fine, cut.fineK, cut.constraints, T, x)[std::size_t(handle)].forceN.norm();
 }
 
 void chart(const std::filesystem::path& out, const std::vector<double>& depths) {

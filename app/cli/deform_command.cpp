@@ -249,11 +249,10 @@ struct DeformSolution {
 // the scene the fine positions are on; its translation (zero: none), away from the cut.
 Eigen::Vector3d addRetractor(SimScene& shown, const DeformRequest& r) {
   if (!(r.retractMm > 0.0)) return Eigen::Vector3d::Zero();
-  const CutPlane plane = cutPlane(r.cuts.back());
-  const int side = plane.height(shown.handleCentroid[0]) > 0.0 ? -1 : 1;
-  const int lip = addLipHandle(shown, {r.cuts.back(), side, r.retractWidthMm});
-  std::cout << "retractor: the cut's lip (" << shown.handleNodeCount[std::size_t(lip)] << " fine nodes) pulled " << r.retractMm << " mm away from it\n";
-  return r.retractMm * side * plane.n;
+  const CutLip lip = lipAwayFrom(r.cuts.back(), shown.handleCentroid[0], r.retractWidthMm);
+  const int handle = addLipHandle(shown, lip);
+  std::cout << "retractor: the cut's lip (" << shown.handleNodeCount[std::size_t(handle)] << " fine nodes) pulled " << r.retractMm << " mm away from it\n";
+  return r.retractMm * lip.side * cutPlane(lip.quad).n;
 }
 
 // Fills `d` in place: its coarse model keeps a reference to its scene's meshes, so the solution is
