@@ -14,16 +14,17 @@
 
 namespace handson::cli {
 
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
 namespace {
 
 struct Sample {
   double wallMs, gpuMs;
 };
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
 
 Sample measure(HeadlessScene& scene, int repeat) {
   std::vector<double> wall, gpu;

@@ -3,7 +3,12 @@
 // own file. Exit status and errors as for every command (app/cli/commands.h).
 #include "app/cli/args.h"
 
+#include <vector>
+
 namespace handson::cli {
+
+/// The median of the samples (the mean of the middle two for an even count); 0 for none.
+double median(std::vector<double> v);
 
 int cmdBench(const Words& args);
 int cmdBenchSelection(const Words& args);

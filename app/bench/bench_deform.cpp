@@ -52,12 +52,6 @@ bool haveTsOf(const vk::Context& ctx) { return ctx.timestampPeriodNs() > 0; }
 
 double since(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(); }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
 // The resampling passes (the interpolation is timed on its own).
 const std::initializer_list<PassId> kResamplePasses = {PassId::DeformReset, PassId::DeformBounds, PassId::DeformBricks, PassId::DeformArgs, PassId::DeformClear, PassId::DeformClaim, PassId::DeformResolve};
 

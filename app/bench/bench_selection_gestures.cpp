@@ -12,6 +12,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "app/bench/bench.h"
 #include "app/io/nifti_io.h"
 #include "app/tools/selection_gestures.h"
 #include "sim/base/error.h"
@@ -49,12 +50,6 @@ double worstDrop(const OrganGestures& o) {
   double worst = 0.0;
   for (std::size_t i = 1; i < o.steps.size(); ++i) worst = std::max(worst, o.steps[i - 1].dice - o.steps[i].dice);
   return worst;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
 void writeCsvRows(std::ostream& csv, const OrganGestures& o) {
