@@ -110,7 +110,7 @@ void CoarseModel::buildGradedLeaves(const CoarseGrading& grading, std::vector<st
 }
 
 Eigen::Matrix<double, 8, 1> CoarseModel::elementWeights(int e, const Eigen::Vector3d& p, bool* onBoundary) const {
-  if (!graded_) return meshes_.coarseGrid.cellWeights(e, p, onBoundary);
+  if (!graded_) return meshes_.coarseGrid.cellWeights(cut_ ? cut_->cell[std::size_t(e)] : e, p, onBoundary);
   const Leaf& L = leaves_[std::size_t(e)];
   const KuhnGrid& FG = meshes_.fineGrid;
   const KuhnGrid cube(FG.nodePosition(FG.nodeIndex(L.lo.x(), L.lo.y(), L.lo.z())), FG.cell() * double(L.size), Eigen::Vector3i::Ones());

@@ -14,7 +14,8 @@ CoarseModel::SlideShares CoarseModel::slideShares(const std::vector<std::vector<
   s.slideOf.assign(F.nodes.size(), -1);
   for (std::size_t i = 0; i < constraints_.slide.size(); ++i) s.slideOf[std::size_t(constraints_.slide[i].node)] = int(i);
   s.coarseNode.assign(F.nodes.size(), 0);
-  for (const int f : nodeFine_) s.coarseNode[std::size_t(f)] = 1;
+  for (const int f : nodeFine_)
+    if (f >= 0) s.coarseNode[std::size_t(f)] = 1;
   s.rigidTet.assign(F.tets.size(), 0);
   for (std::size_t t = 0; t < F.tets.size(); ++t) s.rigidTet[t] = fineK[t].isZero(0.0);
   s.elementCount.assign(F.nodes.size(), 0);

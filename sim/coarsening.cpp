@@ -71,6 +71,7 @@ void CoarseModel::setPcgOptions(const PcgOptions& o) {
 
 int CoarseModel::elementOfFineTet(std::size_t t) const {
   if (graded_) return leafOfFineTet_[t];
+  if (cut_) return cut_->elementOfTet[t];
   const int p = meshes_.fineParent[t];
   return kind_ == CoarseElement::Tet ? p : p / 6;
 }
@@ -91,25 +92,42 @@ CoarseModel::CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& f
   // The outer boundary wins over a handle on it: those nodes stay fixed.
   for (std::size_t i = 0; i < F.nodes.size(); ++i)
     if (constraints_.fixed[i]) constraints_.handleOf[i] = -1;
-  const auto& handleOf = constraints_.handleOf;
 
   std::vector<std::vector<int>> tetsOf;
+  const bool cutMesh = !meshes.cutSource.empty();
+  if (cutMesh && (grading.graded() || kind_ != CoarseElement::Cell))
+    throw Error("coarsening: on a cut mesh only the uniform cell elements (the default) split where the cut passes; graded cells and tet elements do not see cuts");
   if (grading.graded()) {
     buildGradedLeaves(grading, tetsOf);
   } else {
-    tetsOf.resize(kind_ == CoarseElement::Tet ? C.tets.size() : meshes.coarseGrid.cellCount());
-    for (std::size_t t = 0; t < F.tets.size(); ++t) {
-      if (meshes.fineParent[t] < 0 || std::size_t(meshes.fineParent[t]) >= C.tets.size()) throw Error("coarsening: a fine tet lies outside the coarse mesh");
-      tetsOf[std::size_t(elementOfFineTet(t))].push_back(int(t));
-    }
+    tetsOf = ungradedTets();
+    if (cutMesh) separateCutCells(tetsOf);
   }
   buildConforming(fineK, tetsOf, progress);
-  // Coarse Dirichlet roles and the free dofs' system.
+  stiffenVirtualCorners();
+  finishBuild(progress);
+}
+
+std::vector<std::vector<int>> CoarseModel::ungradedTets() const {
+  const TetMesh& F = meshes_.fine;
+  std::vector<std::vector<int>> tetsOf(kind_ == CoarseElement::Tet ? meshes_.coarse.tets.size() : meshes_.coarseGrid.cellCount());
+  for (std::size_t t = 0; t < F.tets.size(); ++t) {
+    if (meshes_.fineParent[t] < 0 || std::size_t(meshes_.fineParent[t]) >= meshes_.coarse.tets.size())
+      throw Error("coarsening: a fine tet lies outside the coarse mesh");
+    tetsOf[std::size_t(kind_ == CoarseElement::Tet ? meshes_.fineParent[t] : meshes_.fineParent[t] / 6)].push_back(int(t));
+  }
+  return tetsOf;
+}
+
+// Coarse Dirichlet roles and the free dofs' system.
+void CoarseModel::finishBuild(const ProgressFn& progress) {
+  const auto& handleOf = constraints_.handleOf;
   coarseRole_.assign(nodes_.size(), -1);
   dof_.assign(nodes_.size(), -1);
   for (std::size_t v = 0; v < nodes_.size(); ++v) {
     const int f = nodeFine_[v];
-    if (constraints_.fixed[std::size_t(f)]) coarseRole_[v] = -2;
+    if (f < 0) dof_[v] = (dofCount_ += 3) - 3;  // a cut's virtual node: free
+    else if (constraints_.fixed[std::size_t(f)]) coarseRole_[v] = -2;
     else if (handleOf[std::size_t(f)] >= 0) coarseRole_[v] = handleOf[std::size_t(f)];
     else if (graded_ && !hang_[v].empty()) coarseRole_[v] = -3;
     else dof_[v] = (dofCount_ += 3) - 3;
@@ -141,25 +159,32 @@ struct CoarseModel::ElementSystem {
   bool slides = false;  ///< it holds springs or slide nodes on its faces
 };
 
-void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::vector<std::vector<int>>& tetsOf, const ProgressFn& progress) {
+void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::vector<std::vector<int>>& tetsOf, const ProgressFn& progress,
+                                  const std::vector<char>* only) {
   const std::size_t elementCount = tetsOf.size();
   ConformingBuild b{fineK, tetsOf, slideShares(tetsOf, fineK), {}, {}, {}};
   // A fine node takes its position from one record; coarse nodes are their own (graded: a hanging
   // node also lies on a whole cell's face, and is condensed there as a face node, not recorded).
   b.recorded.assign(meshes_.fine.nodes.size(), 0);
-  for (const int f : nodeFine_) b.recorded[std::size_t(f)] = 1;
+  for (const int f : nodeFine_)
+    if (f >= 0) b.recorded[std::size_t(f)] = 1;
+  for (const auto& in : interior_) b.recorded[std::size_t(in.fine)] = 1;  // kept from an uncut model (sim/coarse_cut.cpp)
+  for (const auto& bn : boundary_) b.recorded[std::size_t(bn.fine)] = 1;
   elements_.resize(elementCount);
   for (std::size_t e = 0; e < elementCount; ++e) {
+    if (only && !(*only)[e]) continue;
     if (e % 256 == 0) reportProgress(progress, double(e) / double(elementCount), "coarsening");
     Element& el = elements_[e];
     if (kind_ == CoarseElement::Tet)
       for (int c = 0; c < 4; ++c) el.node[std::size_t(c)] = meshes_.coarse.tets[e][std::size_t(c)];
     else if (graded_)
       el.node = leaves_[e].node;
+    else if (cut_)
+      el.node = cut_->node[e];
     else
       el.node = meshes_.coarseGrid.cellNodes(int(e));
     const std::vector<int> nodes = localNodes(int(e), el, b);
-    if (std::all_of(nodes.begin(), nodes.end(), [&](int f) { return constraints_.fixed[std::size_t(f)] != 0; })) {
+    if (std::all_of(nodes.begin(), nodes.end(), [&](int f) { return f < 0 || constraints_.fixed[std::size_t(f)] != 0; })) {
       // Held whole (outside a shaped region): no energy, its fine nodes at rest.
       el.Kh = Mat::Zero(3 * nc_, 3 * nc_);
       finishElement(el);
@@ -174,12 +199,14 @@ void CoarseModel::buildConforming(const std::vector<Mat12>& fineK, const std::ve
   }
 }
 
-// Element e's fine nodes, corners first, and b.local mapping them to their local indices.
+// Element e's fine nodes, corners first, and b.local mapping them to their local indices. A cut's
+// virtual corner has no fine node: a placeholder -1 - c, without stiffness, in its place.
 std::vector<int> CoarseModel::localNodes(int e, const Element& el, ConformingBuild& b) const {
   b.local.clear();
   std::vector<int> nodes;
   for (int c = 0; c < nc_; ++c) {
-    const int f = nodeFine_[std::size_t(el.node[std::size_t(c)])];
+    int f = cut_ ? cut_->fine[std::size_t(e)][std::size_t(c)] : nodeFine_[std::size_t(el.node[std::size_t(c)])];
+    if (f < 0) f = -1 - c;
     b.local.emplace(f, int(nodes.size()));
     nodes.push_back(f);
   }
@@ -356,7 +383,7 @@ CoarseModel::ElementNodes CoarseModel::classifyNodes(int e, const Element& el, c
 
 bool CoarseModel::onHeldCorners(const Element& el, const Eigen::Matrix<double, 8, 1>& w) const {
   for (int c = 0; c < nc_; ++c)
-    if (w[c] > 1e-12 && !constraints_.fixed[std::size_t(nodeFine_[std::size_t(el.node[std::size_t(c)])])]) return false;
+    if (const int f = nodeFine_[std::size_t(el.node[std::size_t(c)])]; w[c] > 1e-12 && (f < 0 || !constraints_.fixed[std::size_t(f)])) return false;
   return true;
 }
 
@@ -419,6 +446,7 @@ void CoarseModel::buildAssembler() {
 
 void CoarseModel::save(std::ostream& os) const {
   if (graded_) throw Error("coarsening: graded cells are not cached");
+  if (cut_) throw Error("coarsening: a model of a cut mesh is not cached (its cells split where the cut passes)");
   bin::Writer w{os};
   w.pod(std::uint32_t(kind_));
   w.podVector(constraints_.handleOf);
@@ -573,7 +601,8 @@ FineInterpolationData CoarseModel::interpolationData() const {
   // Same precedence as reconstruct(): handle, then corner, boundary, interior records overwrite.
   for (std::size_t f = 0; f < F.nodes.size(); ++f)
     if (constraints_.handleOf[f] >= 0) d.node[f] = {FineInterpolationData::Handle, std::uint32_t(constraints_.handleOf[f]), 0, 0};
-  for (std::size_t v = 0; v < nodes_.size(); ++v) d.node[std::size_t(nodeFine_[v])] = {FineInterpolationData::Corner, std::uint32_t(v), 0, 0};
+  for (std::size_t v = 0; v < nodes_.size(); ++v)
+    if (nodeFine_[v] >= 0) d.node[std::size_t(nodeFine_[v])] = {FineInterpolationData::Corner, std::uint32_t(v), 0, 0};
   auto push3 = [&](const Eigen::Matrix3d& m) {
     for (int c = 0; c < 3; ++c) d.blocks.emplace_back(float(m(0, c)), float(m(1, c)), float(m(2, c)), 0.0f);
   };
@@ -652,7 +681,6 @@ CoarseSolveStats CoarseModel::solve(const std::vector<RigidTransform>& given, st
 
 CoarseSolveStats CoarseModel::solveAssembled(const std::vector<RigidTransform>& handles, std::vector<Eigen::Vector3d>& x, int maxIterations, double tol) {
   if (graded_) throw Error("coarse solve: the assembled solver takes the uniform grid only (use pcg with graded cells)");
-  const TetMesh& C = meshes_.coarse;
   using Clock = std::chrono::steady_clock;
   auto ms = [](Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); };
   CoarseSolveStats st;
@@ -712,7 +740,7 @@ CoarseSolveStats CoarseModel::solveAssembled(const std::vector<RigidTransform>& 
     }
     t0 = Clock::now();
     Eigen::VectorXd xf(dofCount_);
-    for (std::size_t v = 0; v < C.nodes.size(); ++v)
+    for (std::size_t v = 0; v < nodes_.size(); ++v)  // a cut's copies after the mesh's nodes
       if (dof_[v] >= 0) xf.segment<3>(dof_[v]) = x[v];
     const Eigen::VectorXd r = rhs - assembler_->matrix().selfadjointView<Eigen::Lower>() * xf;
     st.productMs += ms(t0);
@@ -721,7 +749,7 @@ CoarseSolveStats CoarseModel::solveAssembled(const std::vector<RigidTransform>& 
     st.backSolveMs += ms(t0);
     if (!dx.allFinite()) throw Error("coarse solve: diverged (non-finite update)");  // std::max would hide a NaN
     double update = 0.0;
-    for (std::size_t v = 0; v < C.nodes.size(); ++v)
+    for (std::size_t v = 0; v < nodes_.size(); ++v)
       if (dof_[v] >= 0) {
         x[v] += relax * dx.segment<3>(dof_[v]);
         update = std::max(update, relax * dx.segment<3>(dof_[v]).norm());
@@ -756,7 +784,8 @@ std::vector<Eigen::Vector3d> CoarseModel::reconstruct(const std::vector<RigidTra
     const int h = constraints_.handleOf[f];
     if (h >= 0) out[f] = handles[std::size_t(h)].apply(F.nodes[f]);
   }
-  for (std::size_t v = 0; v < C.size(); ++v) out[std::size_t(nodeFine_[v])] = x[v];
+  for (std::size_t v = 0; v < C.size(); ++v)
+    if (nodeFine_[v] >= 0) out[std::size_t(nodeFine_[v])] = x[v];
   for (const auto& b : boundary_) {
     const Element& el = elements_[std::size_t(b.element)];
     Eigen::Vector3d p = Eigen::Vector3d::Zero();
@@ -791,7 +820,8 @@ Eigen::VectorXd CoarseModel::restrictToCoarse(const std::vector<Eigen::Vector3d>
       for (const auto& [m, w] : hang_[std::size_t(coarseNode)])
         if (const int dm = dof_[std::size_t(m)]; dm >= 0) out.segment<3>(dm) += w * v;
   };
-  for (std::size_t v = 0; v < nodes_.size(); ++v) add(int(v), r[std::size_t(nodeFine_[v])]);
+  for (std::size_t v = 0; v < nodes_.size(); ++v)
+    if (nodeFine_[v] >= 0) add(int(v), r[std::size_t(nodeFine_[v])]);
   for (const auto& b : boundary_) {
     if (constraints_.fixed[std::size_t(b.fine)]) continue;
     for (int c = 0; c < nc_; ++c) add(elementCorner(b.element, c), b.N[c] * r[std::size_t(b.fine)]);
@@ -813,7 +843,8 @@ void CoarseModel::prolongAdd(const Eigen::VectorXd& cv, const std::vector<Eigen:
         if (const int dm = dof_[std::size_t(m)]; dm >= 0) v += w * cv.segment<3>(dm);
     return v;
   };
-  for (std::size_t v = 0; v < nodes_.size(); ++v) out[std::size_t(nodeFine_[v])] += val(int(v));
+  for (std::size_t v = 0; v < nodes_.size(); ++v)
+    if (nodeFine_[v] >= 0) out[std::size_t(nodeFine_[v])] += val(int(v));
   for (const auto& b : boundary_) {
     if (constraints_.fixed[std::size_t(b.fine)]) continue;
     for (int c = 0; c < nc_; ++c) out[std::size_t(b.fine)] += b.N[c] * val(elementCorner(b.element, c));

@@ -127,8 +127,17 @@ struct CoarseGrading {
 class CoarseModel {
  public:
   /// Precomputes the condensed elements. `fineK`: rest stiffness per fine tet.
+  CoarseModel(const CoarseModel&) = delete;
   CoarseModel(const NestedMeshes& meshes, const std::vector<Mat12>& fineK, const FineConstraints& constraints, const ProgressFn& progress = {},
               CoarseElement element = CoarseElement::Cell, const CoarseGrading& grading = {});
+  /// The model of a cut scene from the model of the scene before the cut (uniform cells, uncut,
+  /// built on the same meshes before cutScene changed them): only the cells holding a fine node the
+  /// cuts split, copied or gave another role are condensed again, split into their pieces
+  /// (sim/coarse_cut.cpp); the rest is taken from `uncut`. The same model as built whole, but for
+  /// the order of its records. Throws handson::Error for a model that is not uncut uniform cells, or
+  /// a scene that does not fit it.
+  CoarseModel(const CoarseModel& uncut, const NestedMeshes& meshes, const std::vector<Mat12>& fineK, const FineConstraints& constraints,
+              const ProgressFn& progress = {});
 
   /// The precomputed model, for the on-disk cache (sim/scene_cache.h).
   void save(std::ostream& os) const;
@@ -137,7 +146,6 @@ class CoarseModel {
   static std::unique_ptr<CoarseModel> load(std::istream& is, std::uint64_t bytes, const NestedMeshes& meshes);
 
   ~CoarseModel();
-  CoarseModel(const CoarseModel&) = delete;
   CoarseModel& operator=(const CoarseModel&) = delete;
 
   CoarseElement elementKind() const { return kind_; }
@@ -157,6 +165,9 @@ class CoarseModel {
   int elementCorner(int e, int c) const { return elements_[std::size_t(e)].node[std::size_t(c)]; }
   /// The element each fine tet belongs to.
   int elementOfFineTet(std::size_t t) const;
+  /// Built on a cut fine mesh: cells the cut separates are one element per piece of their tissue
+  /// (so there are more elements than cells, and coarse nodes with copies; docs/cutting.md).
+  bool cut() const { return cut_ != nullptr; }
 
   /// Coarse node positions at rest: the coarse mesh's nodes, then (graded) the half-size cells'
   /// other corners. A state x holds one position per coarse node, hanging ones included.
@@ -210,6 +221,25 @@ class CoarseModel {
   /// Graded: the leaves (half-size cells near the handles, whole cells elsewhere), their corner
   /// nodes (nodes_ grows) and the hanging nodes' weights (sim/coarse_grading.cpp).
   void buildGradedLeaves(const CoarseGrading& grading, std::vector<std::vector<int>>& tetsOf);
+  /// A cut fine mesh (NestedMeshes::cutSource; uniform cell elements): the cells a cut separates
+  /// split into one element per piece of their tissue, each piece's corners its own side's coarse
+  /// nodes, copies of the grid's (the virtual node algorithm, sim/coarse_cut.cpp).
+  struct CutCells {
+    std::vector<int> cell;                  ///< per element: its grid cell
+    std::vector<int> elementOfTet;          ///< per fine tet: its element
+    std::vector<std::array<int, 8>> node;   ///< per element: its corners' coarse nodes (cellNodes order)
+    std::vector<std::array<int, 8>> fine;   ///< per element: each corner's fine node in its piece, -1 where the piece holds none (virtual)
+  };
+  /// Replaces the cells' tets (tetsOf) by the elements', sets cut_ and adds the corners' copies to
+  /// nodes_ and nodeFine_ (-1: a virtual node).
+  void separateCutCells(std::vector<std::vector<int>>& tetsOf);
+  void assignCutCorners(CutCells& cut, const std::vector<int>& group, const std::vector<std::vector<int>>& copies);
+  /// The incremental build's untouched cells, from the uncut model (sim/coarse_cut.cpp).
+  void takeUntouched(const CoarseModel& uncut, const std::vector<char>& touchedCell);
+  /// The springs that give a virtual corner a stiffness (sim/coarse_cut.cpp), after the elements are built.
+  void stiffenVirtualCorners();
+  /// Their stiffness against the model's mean corner stiffness.
+  static constexpr double kVirtualCornerStiffness = 1e-3;
   /// The Kuhn interpolation weights of element e's corners at p (its cell's, or its leaf's).
   Eigen::Matrix<double, 8, 1> elementWeights(int e, const Eigen::Vector3d& p, bool* onBoundary) const;
   /// Hanging nodes take their masters' weighted positions.
@@ -218,8 +248,14 @@ class CoarseModel {
   SparseMatrix restStiffness() const { return warpedStiffness(nullptr); }
   /// sum_e R_e K_h R_e^T over the free dofs (hanging corners through their masters); R null: the rest.
   SparseMatrix warpedStiffness(const std::vector<Eigen::Matrix3d>* R) const;
-  /// The per-element condensation of Tet and Cell elements (linear faces).
-  void buildConforming(const std::vector<Mat12>& fineK, const std::vector<std::vector<int>>& tetsOf, const ProgressFn& progress);
+  /// The per-element condensation of Tet and Cell elements (linear faces); `only`: the elements to
+  /// condense (the others, and the records of their nodes, are in place already).
+  void buildConforming(const std::vector<Mat12>& fineK, const std::vector<std::vector<int>>& tetsOf, const ProgressFn& progress,
+                       const std::vector<char>* only = nullptr);
+  /// Each ungraded element's fine tets (a coarse tet's, or a grid cell's).
+  std::vector<std::vector<int>> ungradedTets() const;
+  /// The coarse nodes' Dirichlet roles, the free dofs and their assembler, the handles' centroids.
+  void finishBuild(const ProgressFn& progress);
   struct ConformingBuild;
   struct ElementSystem;
   /// Sets the Dirichlet coarse nodes of x and returns the convergence threshold (mm).
@@ -378,7 +414,7 @@ class CoarseModel {
   const NestedMeshes& meshes_;
   FineConstraints constraints_;
   std::vector<Eigen::Vector3d> nodes_;  ///< coarse node rest positions (the coarse mesh's, then graded extras)
-  std::vector<int> nodeFine_;           ///< fine node of each coarse node
+  std::vector<int> nodeFine_;           ///< fine node of each coarse node (-1: a cut's virtual node)
   bool graded_ = false;
   struct Leaf {
     Eigen::Vector3i lo;  ///< fine grid node of its lowest corner
@@ -386,6 +422,7 @@ class CoarseModel {
     std::array<int, 8> node;  ///< coarse corner nodes, in KuhnGrid::cellNodes order
   };
   std::vector<Leaf> leaves_;                                   ///< graded: element e's cube
+  std::unique_ptr<CutCells> cut_;                              ///< a cut fine mesh's elements (null: uncut)
   std::vector<int> leafOfFineTet_;                             ///< graded: the element of each fine tet
   std::vector<std::vector<std::pair<int, double>>> hang_;      ///< per coarse node: masters and weights (hanging only)
   std::vector<int> hangingNodes_;

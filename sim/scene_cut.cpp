@@ -212,6 +212,10 @@ SceneCutStats cutScene(SimScene& scene, const std::vector<CutQuad>& cuts) {
   holdLoosePieces(mesh, cut, constraints);
   st.copiedNodes = mesh.nodes.size() - scene.meshes.fine.nodes.size();
   st.sourceNode = cut.source;
+  std::vector<int>& original = scene.meshes.cutSource;  // composed over the cuts so far
+  std::vector<int> composed(cut.source.size());
+  for (std::size_t v = 0; v < composed.size(); ++v) composed[v] = original.empty() ? cut.source[v] : original[std::size_t(cut.source[v])];
+  original = std::move(composed);
   scene.meshes.fine = std::move(mesh);
   scene.constraints = std::move(constraints);
   countHandleNodes(scene, scene.handleNodeCount.size());

@@ -1,7 +1,8 @@
 #pragma once
 // Cuts applied to a scene's fine mesh (docs/cutting.md): the mesh cut (sim/tissue_cut.h) and the
-// fine nodes' roles carried to their copies, so the fine reference (solveFineStatic) sees the cut.
-// The coarse model does not yet: a cut scene is for the fine reference alone.
+// fine nodes' roles carried to their copies, so the fine reference (solveFineStatic) sees the cut,
+// and each node's source recorded (NestedMeshes::cutSource), so a coarse model built on the cut
+// scene splits the cells the cut crosses (sim/coarse_cut.cpp).
 #include <cstddef>
 #include <vector>
 

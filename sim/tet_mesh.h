@@ -73,6 +73,10 @@ struct NestedMeshes {
   /// fine tets.
   bool regularFine = true;
   std::vector<int> cellTetStart, cellTets;
+  /// A cut fine mesh (sim/scene_cut.h): per fine node, the node of the uncut mesh it copies (itself
+  /// where it is no copy); empty while the mesh was never cut. The coarse model splits the cells a
+  /// cut separates by it (CoarseModel, docs/cutting.md "The coarse model sees the cut").
+  std::vector<int> cutSource;
 
   /// The fine tet containing p (within 1e-9 of the cell size), -1 outside the box.
   int locateFine(const Eigen::Vector3d& p) const;

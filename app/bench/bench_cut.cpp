@@ -2,9 +2,9 @@
 // beside the handle's organ (on its side away from the body's midline, 10 mm from its surface, in a sagittal plane: length craniocaudal, depth anterior-posterior, centred on the organ),
 // each applied to a fresh copy of the scene: the time of the mesh cut alone (cutMesh) and of the
 // whole scene's cut (cutScene: the mesh, the nodes' roles, the loose-piece check), the faces
-// separated and the nodes copied; and the force a retractor needs to pull the cut's outer lip away
-// (the coarse model refined on the cut mesh, the organ held). Writes cut_timing.csv and, with
-// gnuplot, cut_timing.png.
+// separated and the nodes copied; the coarse model of the cut scene (built whole and updated where
+// the cut passes, its frame against the uncut model's); and the force a retractor needs to pull the cut's outer lip away (that model,
+// the lip a handle, refined; the organ held). Writes cut_timing.csv and, with gnuplot, cut_timing.png.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -37,11 +37,16 @@ constexpr const char* kBenchCutHelp =
     "  organ's side away from the midline, 10 mm from it, each length (default 25,50,100 mm, craniocaudal) by\n"
     "  each depth (default 10,15,30 mm, anterior-posterior), centred on the organ, each on a fresh copy of\n"
     "  the scene: the mesh cut's and the whole scene cut's time (median of N, default 3), the faces\n"
-    "  separated and the nodes copied (a refused cut: said, 0 faces and no time), and the force a retractor\n"
-    "  needs to pull the cut's outer lip (the tissue within 10 mm of it) D mm away (default 10; 0: none),\n"
-    "  the organ held (the coarse model refined 10 steps on the cut mesh), in DIR/cut_timing.csv (scene,\n"
-    "  fine_tets, length_mm, depth_mm, cut_faces, copied_nodes, mesh_cut_ms, scene_cut_ms, retract_force_N)\n"
-    "  and DIR/cut_timing.png (gnuplot). Meshes default to the app's (6000 coarse, 300000 fine tets).\n";
+    "  separated and the nodes copied (a refused cut: said, 0 faces and no time); the coarse model of the\n"
+    "  cut scene built whole and updated from the uncut one where the cut passes (each factorized), the\n"
+    "  elements and coarse nodes the cut added, and its frame (the organ dragged 1 mm a frame, 3\n"
+    "  iterations) against the uncut model's; and the force a retractor needs to pull the cut's outer lip\n"
+    "  (the tissue within 10 mm of it) D mm away (default 10; 0: none), the organ held (the cut scene's\n"
+    "  coarse model refined 10 steps), in DIR/cut_timing.csv (scene, fine_tets, length_mm,\n"
+    "  depth_mm, cut_faces, copied_nodes, mesh_cut_ms, scene_cut_ms, coarse_build_ms, coarse_update_ms,\n"
+    "  added_elements, added_coarse_nodes, frame_ms, uncut_frame_ms, retract_force_N) and\n"
+    "  DIR/cut_timing.png (gnuplot).\n"
+    "  Meshes default to the app's (6000 coarse, 300000 fine tets).\n";
 
 constexpr double kGapMm = 10.0;  ///< between the organ's surface and the cut
 
@@ -86,11 +91,6 @@ CutQuad sagittalQuad(const CutPlacement& p, double lengthMm, double depthMm) {
   return CutQuad{{Eigen::Vector3d(p.x, y0, z0), Eigen::Vector3d(p.x, y1, z0), Eigen::Vector3d(p.x, y1, z1), Eigen::Vector3d(p.x, y0, z1)}};
 }
 
-double medianOf(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
 double millisecondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -115,33 +115,68 @@ CutTiming timeCut(const SimScene& sc, const CutQuad& q, int repeat) {
     r.faces = st.cutFaces;
     r.copied = st.copiedNodes;
   }
-  r.meshMs = medianOf(meshMs);
-  r.sceneMs = medianOf(sceneMs);
+  r.meshMs = median(meshMs);
+  r.sceneMs = median(sceneMs);
   return r;
 }
 
-// The force (N) a retractor needs to pull the cut's lip on the side away from the organ `mm`
-// away from the cut, the organ held: the coarse model (built on the uncut scene) at rest, refined
-// `steps` steps on the cut mesh with the lip as a handle of its own.
-struct Retraction {
-  const SimScene& scene;
-  const CoarseModel& model;
-  double mm = 10.0, widthMm = 10.0;
-  int steps = 10;
+// The coarse model of the cut scene, built whole and updated from the uncut scene's where the cut
+// passes (each with its preconditioner's factor: ready for a frame; docs/cutting.md), and the
+// updated one's frames against the uncut one's: the organ dragged craniocaudally 1 mm a frame,
+// three iterations a frame (the app's), the median of frames 3-12.
+struct CoarseCut {
+  double buildMs = 0, updateMs = 0, frameMs = 0;
+  std::size_t addedElements = 0, addedNodes = 0;
 };
 
-double retractForce(const Retraction& r, const CutQuad& q) {
-  SimScene cut = r.scene;
-  const SceneCutStats st = cutScene(cut, {q});
-  const CutLip lip = lipAwayFrom(q, r.scene.handleCentroid[0], r.widthMm);
+double frameMs(CoarseModel& model, const Eigen::Vector3d& organ) {
+  model.prepareSolve();
+  std::vector<Eigen::Vector3d> xc = model.restState();
+  std::vector<double> ms;
+  for (int k = 1; k <= 12; ++k) {
+    const std::vector<RigidTransform> T{RigidTransform::about(organ, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, k))};
+    const auto t0 = std::chrono::steady_clock::now();
+    model.solve(T, xc, 3);
+    if (k > 2) ms.push_back(millisecondsSince(t0));
+  }
+  return median(ms);
+}
+
+CoarseCut coarseOfCut(const CoarseModel& uncut, const SimScene& sc, const CutQuad& q) {
+  SimScene cut = sc;
+  cutScene(cut, {q});
+  CoarseCut r;
+  auto t0 = std::chrono::steady_clock::now();
+  {
+    CoarseModel whole(cut.meshes, cut.fineK, cut.constraints);
+    whole.prepareSolve();
+    r.buildMs = millisecondsSince(t0);
+  }
+  t0 = std::chrono::steady_clock::now();
+  CoarseModel model(uncut, cut.meshes, cut.fineK, cut.constraints);
+  model.prepareSolve();
+  r.updateMs = millisecondsSince(t0);
+  r.addedElements = model.elementCount() - cut.meshes.coarseGrid.cellCount();
+  r.addedNodes = model.restState().size() - cut.meshes.coarse.nodes.size();
+  r.frameMs = frameMs(model, sc.handleCentroid[0]);
+  return r;
+}
+
+// The force (N) a retractor needs to pull the cut's lip on the side away from the organ `mm` away
+// from the cut, the organ held: the coarse model of the cut scene with the lip a handle of its own,
+// refined `steps` steps.
+double retractForce(const CoarseModel& uncut, const SimScene& sc, const CutQuad& q, double mm, int steps = 10) {
+  SimScene cut = sc;
+  cutScene(cut, {q});
+  const CutLip lip = lipAwayFrom(q, sc.handleCentroid[0], 10.0);
   const int handle = addLipHandle(cut, lip);
-  const std::vector<RigidTransform> T{RigidTransform{}, RigidTransform{Eigen::Matrix3d::Identity(), r.mm * lip.side * cutPlane(q).n}};
-  RefineOptions o;
-  o.cut = {&cut.meshes.fine, &cut.constraints, &st.sourceNode};
-  const std::vector<Eigen::Vector3d> xc = r.model.restState();
-  std::vector<Eigen::Vector3d> x = positionsOnCut(o.cut, T, r.model.reconstruct({T[0]}, xc));
-  const FineRefiner refiner(r.model, r.scene.fineK, r.scene.youngs, r.scene.poisson, o);
-  for (int k = 0; k < r.steps; ++k) refiner.step(T, xc, x, 10);
+  const std::vector<RigidTransform> T{RigidTransform{}, RigidTransform{Eigen::Matrix3d::Identity(), mm * lip.side * cutPlane(q).n}};
+  CoarseModel model(uncut, cut.meshes, cut.fineK, cut.constraints);
+  std::vector<Eigen::Vector3d> xc = model.restState();
+  model.solve(T, xc, kOneOffSolveIterations);
+  std::vector<Eigen::Vector3d> x = model.reconstruct(T, xc);
+  const FineRefiner refiner(model, cut.fineK, cut.youngs, cut.poisson);
+  for (int k = 0; k < steps; ++k) refiner.step(T, xc, x, 10);
   return fineHandleReactions(cut.meshes.fine, cut.fineK, cut.constraints, T, x)[std::size_t(handle)].forceN.norm();
 }
 
@@ -192,34 +227,37 @@ int cmdBenchCut(const Words& words) {
             << " mm; the region " << sc.lo.x() << " to " << sc.hi.x() << ") at x = " << at.x << " mm (" << sc.meshes.fine.tets.size() << " fine tets, median of "
             << repeat << "):\n";
   const double retractMm = args.number("--retract-mm", 10.0, 0.0, 100.0);
-  std::unique_ptr<CoarseModel> model;
-  if (retractMm > 0.0) {  // at rest, factorized there: the refinement's coarse correction
-    model = std::make_unique<CoarseModel>(sc.meshes, sc.fineK, sc.constraints);
-    model->prepareSolve();
-  }
+  CoarseModel uncut(sc.meshes, sc.fineK, sc.constraints);  // sc stays uncut: each cut is made on a copy
+  const double uncutFrameMs = frameMs(uncut, sc.handleCentroid[0]);
+  std::cout << "  the uncut coarse model's frame: " << std::setprecision(2) << uncutFrameMs << " ms\n" << std::setprecision(1);
   std::ofstream csv(out / "cut_timing.csv");
-  csv << "scene,fine_tets,length_mm,depth_mm,cut_faces,copied_nodes,mesh_cut_ms,scene_cut_ms,retract_force_N\n";
+  csv << "scene,fine_tets,length_mm,depth_mm,cut_faces,copied_nodes,mesh_cut_ms,scene_cut_ms,coarse_build_ms,coarse_update_ms,added_elements,added_coarse_nodes,frame_ms,"
+         "uncut_frame_ms,retract_force_N\n";
   for (int d : depths)
     for (int l : lengths) {
       const CutQuad q = sagittalQuad(at, l, d);
       CutTiming t;
+      CoarseCut c;
       double force = std::nan("");
       try {
         t = timeCut(sc, q, repeat);
       } catch (const Error& e) {  // a refused cut is a result (e.g. narrower than the mesh's faces): said, and the rest go on
         std::cout << "  " << l << " x " << d << " mm: refused: " << e.what() << "\n";
-        csv << scene << "," << sc.meshes.fine.tets.size() << "," << l << "," << d << ",0,0,nan,nan,nan\n";
+        csv << scene << "," << sc.meshes.fine.tets.size() << "," << l << "," << d << ",0,0,nan,nan,nan,nan,0,0,nan," << uncutFrameMs << ",nan\n";
         continue;
       }
+      c = coarseOfCut(uncut, sc, q);  // the cut is made: its coarse model is a result, not a refusal
       try {
-        if (model) force = retractForce({sc, *model, retractMm}, q);
+        if (retractMm > 0.0) force = retractForce(uncut, sc, q, retractMm);
       } catch (const Error& e) {  // the cut stands; its lip could not be retracted (no free tissue there)
         std::cout << "  " << l << " x " << d << " mm: no retractor: " << e.what() << "\n";
       }
       csv << scene << "," << sc.meshes.fine.tets.size() << "," << l << "," << d << "," << t.faces << "," << t.copied << "," << t.meshMs << "," << t.sceneMs
-          << "," << force << "\n";
+          << "," << c.buildMs << "," << c.updateMs << "," << c.addedElements << "," << c.addedNodes << "," << c.frameMs << "," << uncutFrameMs << "," << force << "\n";
       std::cout << "  " << l << " x " << d << " mm: " << t.faces << " faces separated, " << t.copied << " nodes copied, mesh cut " << t.meshMs
-                << " ms, scene cut " << t.sceneMs << " ms; its lip pulled " << retractMm << " mm: " << force << " N\n";
+                << " ms, scene cut " << t.sceneMs << " ms; coarse model " << c.updateMs << " ms updated (" << c.buildMs << " built whole; " << c.addedElements << " elements added by split cells, " << c.addedNodes
+                << " coarse nodes added), frame " << std::setprecision(2) << c.frameMs << " ms (" << c.frameMs / uncutFrameMs << "x)"
+                << std::setprecision(1) << "; its lip pulled " << retractMm << " mm: " << force << " N\n";
     }
   csv.close();
   chart(out, std::vector<double>(depths.begin(), depths.end()));

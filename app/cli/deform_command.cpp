@@ -100,9 +100,8 @@ const char* const kDeformHelp =
     "  --cut-quad X0,Y0,Z0,X1,Y1,Z1,X2,Y2,Z2,X3,Y3,Z3  (repeatable) cuts the tissue along a planar convex\n"
     "                          quad (RAS mm, corners in order) before the handle moves: the fine mesh\n"
     "                          separates along the faces over the quad between the tets on either side of\n"
-    "                          its plane (docs/cutting.md). Seen by --model fine, and by the coarse\n"
-    "                          model's refinement (--refine-steps N: the coarse answer, which does not\n"
-    "                          see cuts yet, refined on the cut fine mesh)\n"
+    "                          its plane (docs/cutting.md). Seen by --model fine and by the coarse model\n"
+    "                          (built on the cut scene, not cached: its cells split where the cut passes)\n"
     "  --retract-mm D          pulls the last cut's lip on the side away from the handle D mm away from\n"
     "                          the cut (a retractor: the tissue within --retract-width-mm W, default 10,\n"
     "                          of the cut and over it, a handle of its own, its force in --forces-out)\n"
@@ -160,9 +159,8 @@ struct DeformRequest {
   bool coarseOnly() const { return model == "coarse" && refineSteps == 0; }
 };
 
-// --cut-quad: twelve numbers, a planar convex quad; the fine reference and the refinement see cuts,
-// the coarse model's own answer does not yet.
-std::vector<CutQuad> cutOptions(const Args& args, const std::string& model, int refineSteps) {
+// --cut-quad: twelve numbers, a planar convex quad.
+std::vector<CutQuad> cutOptions(const Args& args) {
   std::vector<CutQuad> cuts;
   for (const std::string& text : args.values("--cut-quad")) {
     const std::vector<double> v = parseNumberList(text, "--cut-quad");
@@ -176,8 +174,6 @@ std::vector<CutQuad> cutOptions(const Args& args, const std::string& model, int 
     }
     cuts.push_back(q);
   }
-  if (!cuts.empty() && model != "fine" && refineSteps == 0)
-    throw UsageError("--cut-quad: the coarse model does not see cuts yet: refine its answer on the cut mesh (--refine-steps N) or use --model fine");
   return cuts;
 }
 
@@ -208,7 +204,7 @@ DeformRequest parseDeformRequest(const Args& args) {
   const std::string cacheArg = args.valueOr("--cache-dir", defaultSimulationCacheDir().string());
   r.cacheDir = cacheArg == "off" ? std::filesystem::path() : std::filesystem::path(cacheArg);
   r.quiet = args.flag("--quiet");
-  r.cuts = cutOptions(args, r.model, r.refineSteps);
+  r.cuts = cutOptions(args);
   r.retractMm = args.number("--retract-mm", 0.0, 0.0, 200.0);
   r.retractWidthMm = args.number("--retract-width-mm", 10.0, 0.1, 200.0);
   if (r.retractMm > 0.0 && r.cuts.empty()) throw UsageError("--retract-mm pulls a cut's lip: give the cut (--cut-quad)");
@@ -233,16 +229,13 @@ struct DeformSolution {
   DeformSolution() = default;
   DeformSolution(const DeformSolution&) = delete;
   DeformSolution& operator=(const DeformSolution&) = delete;
-  SimScene scene;                      ///< the scene solved (the coarse model's: uncut)
-  std::unique_ptr<SimScene> cut;       ///< the coarse model's scene cut, whose fine mesh was refined (--cut-quad)
+  SimScene scene;                      ///< the scene solved, cut (--cut-quad) and with its retractor (--retract-mm)
   std::unique_ptr<CoarseModel> model;  ///< null for the fine model
   std::vector<RigidTransform> T;       ///< the handles' poses (a retractor's last)
   std::vector<RigidTransform> drawn;   ///< the poses of the handles given (drawn rigidly where they slide; no retractor)
   std::vector<Eigen::Vector3d> x, xc;  ///< fine positions; the coarse state (coarse model)
   int steps = 1;                       ///< increments of the motion
   double sceneSeconds = 0, solveSeconds = 0;
-  /// The scene whose fine mesh x is on: the cut one where the refinement solved on it.
-  const SimScene& shown() const { return cut ? *cut : scene; }
 };
 
 // --retract-mm: a retractor on the last cut's lip, on the side away from the moved handle, added to
@@ -260,9 +253,11 @@ Eigen::Vector3d addRetractor(SimScene& shown, const DeformRequest& r) {
 void solveDeform(const DeformRequest& r, const Volume& image, const std::vector<SimHandle>& handles, const ProgressFn& progress, DeformSolution& d) {
   SimScene& sc = d.scene;
   auto t0 = std::chrono::steady_clock::now();
-  // The coarse model comes with its scene from the preprocessing cache when there (built and
-  // saved otherwise); the fine model needs only the scene.
-  if (r.model == "coarse") {
+  // The coarse model of an uncut scene comes with it from the preprocessing cache when there (built
+  // and saved otherwise); a cut scene's is built on the cut scene, its cells split where the cut
+  // passes (docs/cutting.md); the fine model needs only the scene.
+  const bool cached = r.model == "coarse" && r.cuts.empty();
+  if (cached) {
     CacheOutcome co;
     d.model = buildOrLoadSimulation(image, handles, r.settings, sc, {r.cacheDir, &co}, progress);
     if (co.hit) std::cout << "preprocessing loaded from the cache in " << r.cacheDir.string() << "\n";
@@ -270,37 +265,31 @@ void solveDeform(const DeformRequest& r, const Volume& image, const std::vector<
   } else {
     sc = buildSimScene(image, handles, r.settings, progress);
   }
-  // The fine reference solves the cut scene; the coarse model solves its own and its refinement the
-  // cut copy (refineOnCut).
-  SceneCutStats cut;
-  if (!d.model) {
-    cut = cutScene(sc, r.cuts);
-  } else if (!r.cuts.empty()) {
-    d.cut = std::make_unique<SimScene>(sc);
-    cut = cutScene(*d.cut, r.cuts);
-  }
-  d.sceneSeconds = seconds(t0);
+  const SceneCutStats cut = cutScene(sc, r.cuts);
   printScene(sc);
   if (!r.cuts.empty()) std::cout << "cut: " << r.cuts.size() << " quad(s), " << cut.cutFaces << " faces separated, " << cut.copiedNodes << " nodes copied\n";
-  const Eigen::Vector3d retract = addRetractor(d.cut ? *d.cut : sc, r);
+  const Eigen::Vector3d retract = addRetractor(sc, r);
+  if (r.model == "coarse" && !cached) {
+    d.model = std::make_unique<CoarseModel>(sc.meshes, sc.fineK, sc.constraints, progress, r.settings.element, r.settings.grading);
+    d.model->setSolver(r.settings.coarseSolver);
+    std::cout << "coarse model of the cut scene: " << d.model->elementCount() << " elements on " << sc.meshes.coarseGrid.cellCount() << " cells, "
+              << d.model->restState().size() << " coarse nodes (" << sc.meshes.coarse.nodes.size() << " uncut)\n";
+  }
+  d.sceneSeconds = seconds(t0);
   // Large motions are applied in increments of at most 30 degrees and 10 mm (a retractor's pull
   // too), each solve starting from the previous one (continuation keeps the Newton and corotational
-  // iterations in their basin). The refinement on a cut mesh takes the retractor's whole pull at once.
+  // iterations in their basin).
   d.steps = std::max({1, int(std::ceil(r.rotation.norm() / (M_PI / 6))), int(std::ceil(r.translation.norm() / 10.0)), int(std::ceil(r.retractMm / 10.0))});
-  // The handles' poses: the moved one, the fixed one, the retractor (the coarse model has the first two).
+  // The handles' poses: the moved one, the fixed one, the retractor.
   auto transformsAt = [&](double f) {
     std::vector<RigidTransform> T{RigidTransform::about(sc.handleCentroid[0], f * r.rotation, f * r.translation)};
     if (handles.size() > 1) T.push_back(RigidTransform{});
     if (retract.squaredNorm() > 0.0) T.push_back(RigidTransform{Eigen::Matrix3d::Identity(), f * retract});
     return T;
   };
-  auto coarseAt = [&](double f) {
-    std::vector<RigidTransform> T = transformsAt(f);
-    T.resize(handles.size());
-    return T;
-  };
   d.T = transformsAt(1.0);
-  d.drawn = coarseAt(1.0);
+  d.drawn = transformsAt(1.0);
+  d.drawn.resize(handles.size());
   t0 = std::chrono::steady_clock::now();
   if (!d.model) {
     d.x = solveFineInIncrements(sc, transformsAt, d.steps, progress, r.material);
@@ -309,19 +298,14 @@ void solveDeform(const DeformRequest& r, const Volume& image, const std::vector<
     d.xc = m.restState();
     // To convergence, not a frame's budget (kOneOffSolveIterations); a solve that stops short says so.
     for (int k = 1; k <= d.steps; ++k) {
-      const CoarseSolveStats st = m.solve(coarseAt(double(k) / d.steps), d.xc, kOneOffSolveIterations);
+      const CoarseSolveStats st = m.solve(transformsAt(double(k) / d.steps), d.xc, kOneOffSolveIterations);
       if (!st.converged)
         std::cerr << "warning: the coarse model did not converge in " << st.iterations << " iterations (last update " << st.lastUpdate
                   << " mm): its answer is approximate\n";
     }
-    d.x = m.reconstruct(coarseAt(1.0), d.xc);
+    d.x = m.reconstruct(d.T, d.xc);
     if (r.refineSteps > 0) {
-      RefineOptions o;
-      if (d.cut) {  // from the coarse answer carried to the cut mesh
-        o.cut = {&d.cut->meshes.fine, &d.cut->constraints, &cut.sourceNode};
-        d.x = positionsOnCut(o.cut, d.T, d.x);
-      }
-      FineRefiner refiner(m, sc.fineK, sc.youngs, sc.poisson, o);
+      FineRefiner refiner(m, sc.fineK, sc.youngs, sc.poisson);
       for (int k = 0; k < r.refineSteps; ++k) refiner.step(d.T, d.xc, d.x, 10);
     }
   }
@@ -339,7 +323,7 @@ DeformImage resampleDeform(const Args& args, const DeformRequest& r, const Volum
                            RasterOptions raster) {
   DeformImage im;
   const auto t0 = std::chrono::steady_clock::now();
-  const SimScene& sc = d.shown();
+  const SimScene& sc = d.scene;
   if (r.backend == "cpu") {
     const auto rs = rasterizeDeformed(image, sc.meshes.fine, d.x, {sc.lo, sc.hi, image.valueRange().first}, im.out, raster);
     im.regionVoxels = rs.regionVoxels;
@@ -349,7 +333,7 @@ DeformImage resampleDeform(const Args& args, const DeformRequest& r, const Volum
     co.device = args.valueOr("--device", "");
     co.validation = args.flag("--validation");
     co.verbose = !r.quiet;
-    GpuResample g = resampleOnNewDevice(co, image, {&sc, d.model.get(), d.drawn, &d.xc, &d.x, r.coarseOnly(), &rigid});
+    GpuResample g = resampleOnNewDevice(co, image, {&sc, d.model.get(), d.drawn, &d.xc, &d.x, r.coarseOnly(), &rigid, d.T});
     im.out = std::move(g.image);
     im.regionVoxels = g.regionVoxels;
     im.covered = g.covered;
@@ -367,7 +351,7 @@ TissueLimitReport movedHandleLimits(const SimScene& sc, const std::vector<float>
 
 // The run's summary on stdout: timings, the motion, the resampling and the tissue past its limit.
 void printDeformSummary(const DeformRequest& r, const DeformSolution& d, const DeformImage& im, const TissueLimitReport& limits, const std::string& outPath) {
-  const auto& fine = d.shown().meshes.fine;
+  const auto& fine = d.scene.meshes.fine;
   double maxDisp = 0;
   for (std::size_t i = 0; i < d.x.size(); ++i) maxDisp = std::max(maxDisp, (d.x[i] - fine.nodes[i]).norm());
   // The coarse model's preprocessing (scene and coarsening, or their cache) is one step.
@@ -378,18 +362,20 @@ void printDeformSummary(const DeformRequest& r, const DeformSolution& d, const D
             << outPath << "\n";
 }
 
-// The fine mesh for ParaView (app/io/fine_mesh_vtu.h), each tet's coarse element a grid cell or a coarse tet.
+// The fine mesh for ParaView (app/io/fine_mesh_vtu.h), each tet's coarse element a grid cell or a
+// coarse tet (the model's own: a cut splits cells into elements).
 void writeMesh(const std::string& path, const DeformSolution& d, const std::vector<float>& strain, const std::vector<float>& limits, CoarseElement element) {
-  const SimScene& sc = d.shown();
+  const SimScene& sc = d.scene;
   std::vector<double> coarseEl(sc.meshes.fine.tets.size());
-  for (std::size_t t = 0; t < coarseEl.size(); ++t) coarseEl[t] = element == CoarseElement::Cell ? sc.meshes.fineParent[t] / 6 : sc.meshes.fineParent[t];
+  for (std::size_t t = 0; t < coarseEl.size(); ++t)
+    coarseEl[t] = d.model ? d.model->elementOfFineTet(t) : element == CoarseElement::Cell ? sc.meshes.fineParent[t] / 6 : sc.meshes.fineParent[t];
   writeFineMeshVtu(path, {sc, d.x, strain, limits, coarseEl});
 }
 
 // --forces-out: the reactions of the model that was solved: the coarse model's own, or the fine
 // tets' at the fine or refined positions.
 void writeForces(const std::string& path, const DeformRequest& r, const DeformSolution& d) {
-  const SimScene& sc = d.shown();
+  const SimScene& sc = d.scene;
   const auto hyper = r.material == FineMaterial::NeoHookean ? neoHookeanTets(sc.meshes.fine, sc.youngs, sc.poisson) : std::vector<NeoHookeanTet>{};
   writeForcesJson(path,
                   r.coarseOnly() ? d.model->handleReactions(d.T, d.xc)
@@ -417,7 +403,7 @@ int cmdDeform(const Words& words) {
   DeformSolution solved;
   solveDeform(r, image, handles, progress, solved);
   const DeformSolution& d = solved;
-  const SimScene& sc = d.shown();
+  const SimScene& sc = d.scene;
   std::vector<float> strain = tetStrain(sc.meshes.fine, d.x);
   const std::vector<float> limits = tetStrainLimits(sc.band, r.settings.materials);
   hideRigidStrain(strain, limits);  // a sliding handle's own tets: not shown

@@ -74,15 +74,19 @@ GpuResample resampleOnGpu(const vk::Context& ctx, const Volume& image, const Gpu
   setup.background = q.toNormalized(image.valueRange().first);  // as on the CPU path
   setup.worldToIndex = g.worldToIndex();
   setup.commitVoxels = 0.0;
+  const std::vector<RigidTransform>& stateT = in.modelT.empty() ? in.T : in.modelT;
   if (rigid) {
     setup.rigidIds = in.rigid->ids;
     setup.rigidRestBoxes = in.rigid->boxes;
+    // Handles the model has beyond those drawn (a retractor) are drawn by their tets (id 0).
+    setup.rigidIds.resize(std::max(setup.rigidIds.size(), stateT.size()), 0);
+    setup.rigidRestBoxes.resize(setup.rigidIds.size(), setup.rigidRestBoxes.front());
   }
   vk::GpuDeformer gpu(ctx, volume, mask, setup, 1);
-  if (rigid) gpu.setHandlePoses(worldPoses(in.T));
+  if (rigid) gpu.setHandlePoses(worldPoses(stateT));
   vk::DeformFrameStats st;
   if (in.fromCoarseState) {
-    st = gpu.runFrame(packFrameState(*in.xc, in.model->elementRotations(*in.xc), in.T), vk::Redo::Region);
+    st = gpu.runFrame(packFrameState(*in.xc, in.model->elementRotations(*in.xc), stateT), vk::Redo::Region);
   } else {
     std::vector<Eigen::Vector4f> idx(in.x->size());
     const Eigen::Matrix4d w2i = g.worldToIndex();

@@ -31,11 +31,13 @@ RasterOptions rasterOptions(const Volume& image, const SimScene& scene, const Ri
 struct GpuResampleInput {
   const SimScene* scene = nullptr;
   const CoarseModel* model = nullptr;
-  std::vector<RigidTransform> T;
+  std::vector<RigidTransform> T;  ///< the handles drawn rigidly
   const std::vector<Eigen::Vector3d>* xc = nullptr;
   const std::vector<Eigen::Vector3d>* x = nullptr;
   bool fromCoarseState = false;
   const RigidHandles* rigid = nullptr;
+  /// The coarse state's handles where the model has more than those drawn (a retractor); empty: T.
+  std::vector<RigidTransform> modelT;
 };
 
 struct GpuResample {

@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <string>
+#include <utility>
 
 #include "deform_fixture.h"
 #include "gpu_test_env.h"
@@ -20,6 +22,7 @@
 #include "sim/coarsening.h"
 #include "sim/base/error.h"
 #include "sim/phantom.h"
+#include "sim/scene_cut.h"
 #include "sim/quantized_volume.h"
 #include "sim/sim_scene.h"
 #include "sim/tet_raster.h"
@@ -86,15 +89,24 @@ class DeformGpu : public test::GpuTest {};
 TEST_F(DeformGpu, InterpolationPassMatchesItsCpuReference) {
   const Fixture& f = fixture();
   const Images im = upload(f.q, f.mask);
-  // Both coarse element kinds: cells (8 corners, the default) and the spec's tets (4 corners).
-  for (CoarseElement kind : {CoarseElement::Cell, CoarseElement::Tet}) {
-    SCOPED_TRACE(coarseElementName(kind));
-    CoarseModel model(f.scene.meshes, f.scene.fineK, f.scene.constraints, {}, kind);
+  // Both coarse element kinds: cells (8 corners, the default) and the spec's tets (4 corners); and
+  // the cells of a scene cut across the kidney through its cells (one element per piece of a cell
+  // the cut crosses, corners copied, some with no fine node: docs/cutting.md).
+  SimScene cut = f.scene;
+  const double x = f.scene.handleCentroid[0].x() + 5.3;
+  cutScene(cut, {{{Eigen::Vector3d(x, cut.lo.y() - 5, cut.lo.z() - 5), Eigen::Vector3d(x, cut.hi.y() + 5, cut.lo.z() - 5),
+                   Eigen::Vector3d(x, cut.hi.y() + 5, cut.hi.z() + 5), Eigen::Vector3d(x, cut.lo.y() - 5, cut.hi.z() + 5)}}});
+  for (const auto& [sc, kind] : {std::pair<const SimScene*, CoarseElement>{&f.scene, CoarseElement::Cell}, {&f.scene, CoarseElement::Tet}, {&cut, CoarseElement::Cell}}) {
+    SCOPED_TRACE(std::string(coarseElementName(kind)) + (sc == &cut ? ", cut" : ""));
+    CoarseModel model(sc->meshes, sc->fineK, sc->constraints, {}, kind);
+    if (sc == &cut) {
+      ASSERT_GT(model.elementCount(), sc->meshes.coarseGrid.cellCount());
+    }
     const FineInterpolationData data = model.interpolationData();
     ASSERT_EQ(data.cornersPerElement, kind == CoarseElement::Cell ? 8u : 4u);
-    vk::GpuDeformer gpu(test::gpuContext(), im.volume, im.mask, setupFor(f, data, f.scene.meshes.fine.tets, f.scene.lo, f.scene.hi));
+    vk::GpuDeformer gpu(test::gpuContext(), im.volume, im.mask, setupFor(f, data, sc->meshes.fine.tets, sc->lo, sc->hi));
     const std::vector<RigidTransform> T = {
-        RigidTransform::about(f.scene.handleCentroid[0], Eigen::Vector3d(0, 0, 30 * M_PI / 180), Eigen::Vector3d(10, 0, 0))};
+        RigidTransform::about(sc->handleCentroid[0], Eigen::Vector3d(0, 0, 30 * M_PI / 180), Eigen::Vector3d(10, 0, 0))};
     auto xc = model.restState();
     model.solve(T, xc, 20);
     const CoarseFrameState st = packFrameState(xc, model.elementRotations(xc), T);
