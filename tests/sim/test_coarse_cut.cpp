@@ -61,6 +61,29 @@ CoarseAnswer solveCoarse(CoarseModel& model, const std::vector<RigidTransform>& 
   return {model.handleReactions(T, xc)[0].forceN.norm(), model.reconstruct(T, xc)};
 }
 
+// The phantom's sliding kidney: 4 mm voxels, 500 / 32,000 tets; built once.
+const SimScene& kidneyScene() {
+  static const SimScene scene = [] {
+    PhantomOptions po;
+    po.spacingMm = 4.0;
+    const Phantom ph = makePhantom(po);
+    SimHandle h;
+    h.voxels = voxelsLabelled(ph.labels, label::kKidneyRight);
+    SimSettings st;
+    st.coarseTets = 500;
+    st.fineTets = 64 * 500;
+    return buildSimScene(ph.ct, {h}, st);
+  }();
+  return scene;
+}
+
+// A plane across the whole region through the kidney, 5.3 mm off its centre: through the cells.
+CutQuad acrossTheKidney(const SimScene& s) {
+  const double x = s.handleCentroid[0].x() + 5.3;
+  return {{Eigen::Vector3d(x, s.lo.y() - 5, s.lo.z() - 5), Eigen::Vector3d(x, s.hi.y() + 5, s.lo.z() - 5), Eigen::Vector3d(x, s.hi.y() + 5, s.hi.z() + 5),
+           Eigen::Vector3d(x, s.lo.y() - 5, s.hi.z() + 5)}};
+}
+
 }  // namespace
 
 TEST(CoarseCut, ACutAcrossTheBoxLeavesItsFarSideExactlyAtRest) {
@@ -152,19 +175,9 @@ TEST(CoarseCut, ThePhantomsKidneyCutThroughItsCellsAndItsRefinementConvergeToThe
   // to 3.64 (the model's ratio to the fine 1.41, uncut 1.28); its refinement (on its own, cut,
   // mesh) ends 0.0075 mm from the cut fine answer after 10 steps (start 2.82 mm). Bounds: the coarse
   // force falls; the refinement within 0.02 mm and 0.5 % of the fine force.
-  PhantomOptions po;
-  po.spacingMm = 4.0;
-  const Phantom ph = makePhantom(po);
-  SimHandle h;
-  h.voxels = voxelsLabelled(ph.labels, label::kKidneyRight);
-  SimSettings st;
-  st.coarseTets = 500;
-  st.fineTets = 64 * 500;
-  const SimScene uncut = buildSimScene(ph.ct, {h}, st);
+  const SimScene& uncut = kidneyScene();
   SimScene cut = uncut;
-  const double x = uncut.handleCentroid[0].x() + 5.3;
-  cutScene(cut, {{{Eigen::Vector3d(x, uncut.lo.y() - 5, uncut.lo.z() - 5), Eigen::Vector3d(x, uncut.hi.y() + 5, uncut.lo.z() - 5),
-                   Eigen::Vector3d(x, uncut.hi.y() + 5, uncut.hi.z() + 5), Eigen::Vector3d(x, uncut.lo.y() - 5, uncut.hi.z() + 5)}}});
+  cutScene(cut, {acrossTheKidney(uncut)});
   const std::vector<RigidTransform> T{RigidTransform::about(uncut.handleCentroid[0], Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, 6))};
   CoarseModel plain(uncut.meshes, uncut.fineK, uncut.constraints);
   CoarseModel model(cut.meshes, cut.fineK, cut.constraints);
@@ -199,19 +212,9 @@ TEST(CoarseCut, UpdatingTheUncutModelWhereTheCutPassesGivesTheModelBuiltWhole) {
   // elements and coarse nodes, the same answer (to rounding: the records' order differs), on the
   // phantom's sliding kidney cut through its cells, and with a retractor on the cut's lip (a handle
   // added with the cut: the anchored skeleton's handle index moves).
-  PhantomOptions po;
-  po.spacingMm = 4.0;
-  const Phantom ph = makePhantom(po);
-  SimHandle h;
-  h.voxels = voxelsLabelled(ph.labels, label::kKidneyRight);
-  SimSettings st;
-  st.coarseTets = 500;
-  st.fineTets = 64 * 500;
-  const SimScene uncut = buildSimScene(ph.ct, {h}, st);
+  const SimScene& uncut = kidneyScene();
   const CoarseModel before(uncut.meshes, uncut.fineK, uncut.constraints);
-  const double x = uncut.handleCentroid[0].x() + 5.3;
-  const CutQuad q{{Eigen::Vector3d(x, uncut.lo.y() - 5, uncut.lo.z() - 5), Eigen::Vector3d(x, uncut.hi.y() + 5, uncut.lo.z() - 5), Eigen::Vector3d(x, uncut.hi.y() + 5, uncut.hi.z() + 5),
-                   Eigen::Vector3d(x, uncut.lo.y() - 5, uncut.hi.z() + 5)}};
+  const CutQuad q = acrossTheKidney(uncut);
   for (const bool retractor : {false, true}) {
     SCOPED_TRACE(retractor ? "with a retractor" : "the cut alone");
     SimScene cut = uncut;
