@@ -1,6 +1,8 @@
 #include "interaction/cut_stroke.h"
 
+#include <charconv>
 #include <cmath>
+#include <string>
 
 #include "sim/base/error.h"
 
@@ -49,6 +51,45 @@ CutStroke cutAlongStroke(const std::vector<StrokeSample>& samples, const CutStro
   }
   if (out.quads.empty()) throw Error("cut: the stroke leaves nothing to cut (it did not move, or no tissue under it lies above the cut's bottom)");
   return out;
+}
+
+std::string formatCutQuads(const std::vector<CutQuad>& quads) {
+  std::string out;
+  char num[32];
+  for (std::size_t q = 0; q < quads.size(); ++q)
+    for (int c = 0; c < 4; ++c)
+      for (int a = 0; a < 3; ++a) {
+        const auto r = std::to_chars(num, num + sizeof num, quads[q].corners[std::size_t(c)][a]);  // shortest round-trip form
+        out += (q == 0 && c == 0 && a == 0) ? "" : (c == 0 && a == 0) ? ";" : ",";
+        out.append(num, r.ptr);
+      }
+  return out;
+}
+
+std::vector<CutQuad> parseCutQuads(std::string_view text) {
+  std::vector<CutQuad> quads;
+  while (true) {
+    const std::size_t end = std::min(text.find(';'), text.size());
+    const std::string_view quad = text.substr(0, end);
+    std::vector<double> v;
+    for (std::size_t at = 0; at <= quad.size();) {
+      const std::size_t comma = std::min(quad.find(',', at), quad.size());
+      double x = 0.0;
+      const char* first = quad.data() + at;
+      const char* last = quad.data() + comma;
+      const auto r = std::from_chars(first, last, x);
+      if (r.ec != std::errc() || r.ptr != last) throw Error("a cut: \"" + std::string(quad.substr(at, comma - at)) + "\" is not a number");
+      v.push_back(x);
+      at = comma + 1;
+    }
+    if (v.size() != 12) throw Error("a cut: a quad takes twelve numbers, its four corners X,Y,Z in order (" + std::to_string(v.size()) + " given)");
+    CutQuad q;
+    for (int c = 0; c < 4; ++c) q.corners[std::size_t(c)] = Eigen::Vector3d(v[std::size_t(3 * c)], v[std::size_t(3 * c + 1)], v[std::size_t(3 * c + 2)]);
+    checkCutQuad(q);
+    quads.push_back(q);
+    if (end == text.size()) return quads;
+    text.remove_prefix(end + 1);
+  }
 }
 
 }  // namespace handson

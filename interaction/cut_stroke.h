@@ -8,6 +8,8 @@
 // convex since both segments run the same way along their rays.
 #include <Eigen/Core>
 #include <cstddef>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "sim/tissue_cut.h"
@@ -42,5 +44,13 @@ struct CutStroke {
 /// leaves no quad (it did not move, or
 /// nothing under it lies above the cut's bottom).
 CutStroke cutAlongStroke(const std::vector<StrokeSample>& samples, const CutStrokeOptions& options = {});
+
+/// A cut's quads as a session script records them (the "cut" action's value): each quad's twelve
+/// corner coordinates (RAS mm, X0,Y0,Z0,...,Z3) separated by commas, quads by semicolons, every
+/// number written to round-trip exactly (replays are bit-identical).
+std::string formatCutQuads(const std::vector<CutQuad>& quads);
+/// Reads that form back. Throws handson::Error for no quad, a quad of other than twelve numbers, a
+/// number that is not one, or a quad checkCutQuad refuses (not planar and convex, no area).
+std::vector<CutQuad> parseCutQuads(std::string_view text);
 
 }  // namespace handson

@@ -19,6 +19,7 @@
 #include "sim/region_shape.h"
 #include "sim/sliding_interface.h"
 #include "sim/scene_cache.h"
+#include "sim/scene_cut.h"
 #include "sim/strain.h"
 #include "sim/tet_raster.h"
 #include "sim/tissue_limits.h"
@@ -36,6 +37,8 @@ struct DeformationController::Model {
   std::unique_ptr<SimWorker> worker;
   double seconds = 0.0;
   CacheOutcome cache;  // loaded from the on-disk cache, or a note about it
+  std::vector<std::size_t> refusedCuts;  // the session's cuts the scene refused (their indices)
+  std::string cutNote;                   // what the cuts did
 };
 
 DeformationController::DeformationController(const Volume& image, const QuantizedVolume& quantized, VolumeRenderer& renderer, DeformationOptions options)
@@ -150,7 +153,7 @@ void DeformationController::startBuild(const HandleSet& handles) {
     buildStage_ = "starting";
     buildFraction_ = 0.0;
   }
-  builder_ = std::thread([this, gen, done = builderDone_, sim = std::move(sim)] {
+  builder_ = std::thread([this, gen, done = builderDone_, sim = std::move(sim), cuts = cuts_] {
     struct MarkDone {
       std::shared_ptr<std::atomic<bool>> flag;
       ~MarkDone() { flag->store(true); }
@@ -165,6 +168,7 @@ void DeformationController::startBuild(const HandleSet& handles) {
     try {
       auto m = std::make_unique<Model>();
       m->model = buildOrLoadSimulation(image_, sim, options_.sim, m->scene, {options_.cacheDir, &m->cache}, progress);
+      cutBuilt(*m, cuts, progress, m->refusedCuts);
       m->data = m->model->interpolationData();
       m->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::lock_guard<std::mutex> lock(mutex_);
@@ -212,6 +216,8 @@ void DeformationController::adoptBuilt() {
   }
   if (!m) return;
   if (builder_.joinable()) builder_.join();  // it has finished: it handed its model over
+  // Built with the cuts as they are now (a change restarts the build): the refused ones go.
+  for (auto i = m->refusedCuts.rbegin(); i != m->refusedCuts.rend(); ++i) cuts_.erase(cuts_.begin() + std::ptrdiff_t(*i));
   SimWorkerOptions wo;
   wo.coarseIterations = options_.coarseIterations;
   wo.idleIterations = options_.idleIterations;
@@ -303,6 +309,50 @@ void DeformationController::pull() {
       unconverged_ = !s->stats.converged;
     }
   }
+}
+
+// The uncut scene's model becomes the cut one's: the scene cut group by group on a copy (cutScene
+// leaves it unchanged when it refuses a group), then the coarse model updated from the uncut one
+// where the cuts pass (sim/coarse_cut.cpp), which reads only its own data once its scene is the
+// cut one.
+void DeformationController::cutBuilt(Model& m, const std::vector<std::vector<CutQuad>>& cuts, const ProgressFn& progress,
+                                     std::vector<std::size_t>& refused) const {
+  if (cuts.empty()) return;
+  reportProgress(progress, 0.0, "cutting");
+  std::string why = "graded cells and tet elements do not see cuts";
+  SimScene cut = m.scene;
+  std::size_t faces = 0;
+  const bool cells = m.model->elementKind() == CoarseElement::Cell && !m.model->graded();
+  for (std::size_t i = 0; i < cuts.size(); ++i) try {
+      if (!cells) throw Error(why);
+      faces += cutScene(cut, cuts[i]).cutFaces;
+    } catch (const Error& e) {
+      refused.push_back(i);
+      why = e.what();
+    }
+  std::ostringstream note;
+  if (refused.size() < cuts.size()) {
+    m.scene = std::move(cut);
+    m.model = std::make_unique<CoarseModel>(*m.model, m.scene.meshes, m.scene.fineK, m.scene.constraints, progress);
+    m.model->setSolver(options_.sim.coarseSolver);
+    note << cuts.size() - refused.size() << (cuts.size() - refused.size() == 1 ? " cut, " : " cuts, ") << faces << " faces separated, "
+         << m.model->elementCount() - m.scene.meshes.coarseGrid.cellCount() << " coarse elements added";
+  }
+  if (!refused.empty()) note << (refused.size() < cuts.size() ? "; " : "") << "a cut refused: " << why;
+  m.cutNote = note.str();
+}
+
+bool DeformationController::addCut(const std::vector<CutQuad>& quads) {
+  if (quads.empty()) return false;
+  cuts_.push_back(quads);
+  rebuild_ = true;
+  return true;
+}
+
+void DeformationController::clearCuts() {
+  if (cuts_.empty()) return;
+  cuts_.clear();
+  rebuild_ = true;
 }
 
 void DeformationController::setInterface(SimSettings::Interface i) {
@@ -448,7 +498,7 @@ std::string DeformationController::status() const {
                       ", last update " + formatMm(shownStats_.lastUpdate) + " mm): showing the last state it reached"
                 : ", " + modelState())
         << (lastError_.empty() ? "" : "; last pose refused: " + lastError_) << (model_->cache.hit ? " (preprocessing from the cache)" : "")
-        << (model_->cache.note.empty() ? "" : " [" + model_->cache.note + "]");
+        << (model_->cache.note.empty() ? "" : " [" + model_->cache.note + "]") << (model_->cutNote.empty() ? "" : "; " + model_->cutNote);
       return s.str();
   }
   return "";

@@ -20,6 +20,7 @@
 #include "render/volume_renderer.h"
 #include "sim/handle_reaction.h"
 #include "sim/sim_scene.h"
+#include "sim/tissue_cut.h"
 #include "sim/sim_worker.h"
 #include "sim/tissue_limits.h"
 #include "sim/volume.h"
@@ -73,6 +74,16 @@ class DeformationController {
   /// changed handle set does.
   void setInterface(SimSettings::Interface i);
   SimSettings::Interface interface() const { return options_.sim.interface; }
+  /// Cuts the tissue along the quads, at once (the "cut" action; docs/cutting.md): the model is
+  /// rebuilt on the next frame with every cut so far, its coarse model updated from the uncut one
+  /// where the cuts pass. A cut the scene refuses (it separates nothing, or leaves tissue held by
+  /// nothing) is dropped when the build says so, the others kept; status() names it. False (nothing
+  /// changes) for no quad.
+  bool addCut(const std::vector<CutQuad>& quads);
+  /// Every cut undone (the "clear-cuts" action): rebuilt on the next frame.
+  void clearCuts();
+  /// The cuts kept so far (each a group of quads cut at once).
+  const std::vector<std::vector<CutQuad>>& cuts() const { return cuts_; }
 
   State state() const;
   /// "" when off; else the build's stage and progress, the model's size, or the failure.
@@ -131,6 +142,9 @@ class DeformationController {
   void startBuild(const HandleSet& handles);
   void stopAll();
   void adoptBuilt();
+  /// The cuts applied to a freshly built model (on the builder thread): those the scene refuses are
+  /// left out and listed in `refused`.
+  void cutBuilt(Model& m, const std::vector<std::vector<CutQuad>>& cuts, const ProgressFn& progress, std::vector<std::size_t>& refused) const;
   bool outgrown(const std::vector<RigidTransform>& poses) const;
   void pull();  // the worker's newest snapshot into state_
 
@@ -141,6 +155,7 @@ class DeformationController {
   DeformationOptions options_;
   Key key_;
   bool rebuild_ = false;  // the settings changed: rebuild on the next frame
+  std::vector<std::vector<CutQuad>> cuts_;  // applied by every build, in order
   std::vector<int> simIds_;  // handle ids in simulation order (active, then fixed)
   std::vector<bool> simActive_;
   std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> restBoxes_;  // world box of each simulated handle at rest

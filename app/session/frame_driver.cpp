@@ -1,6 +1,8 @@
 #include "app/session/frame_driver.h"
 
+#include "interaction/cut_stroke.h"
 #include "render/auto_window.h"
+#include "sim/base/error.h"
 #include "render/transfer_function.h"
 
 #include <algorithm>
@@ -12,6 +14,15 @@ namespace handson {
 
 bool FrameDriver::applyUi(const ScriptEvent& e) {
   if (e.action == UiAction::AutoWindow) return applyAutoWindow();
+  if (e.action == UiAction::ClearCuts) {
+    deform_.clearCuts();
+    return true;
+  }
+  if (e.action == UiAction::Cut) try {
+      return deform_.addCut(parseCutQuads(e.value));
+    } catch (const Error&) {
+      return false;  // refused: not a cut's quads
+    }
   if (e.action != UiAction::SetInterface) return false;
   const auto i = parseInterface(e.value);
   if (!i) return false;  // refused: an unknown interface

@@ -98,7 +98,8 @@ class FrameDriver {
   void setFrameBudget(double budgetMs) { budget_ = FrameBudget(budgetMs); }
   const FrameBudget& frameBudget() const { return budget_; }
   /// The UI actions that need the volume or the simulation: "set-interface" sliding|glued
-  /// (DeformationController::setInterface) and "auto-window" (the session's window fitted to the
+  /// (DeformationController::setInterface), "cut" and "clear-cuts" (addCut, clearCuts: a value that
+  /// is no cut's quads is refused) and "auto-window" (the session's window fitted to the
   /// soft tissue of what the clip leaves: render/auto_window.h; refused where there is none).
   bool applyUi(const ScriptEvent& e);
   /// True once for each new simulation failure (a refused pose, no convergence, a failed build);

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "interaction/cut_stroke.h"
 #include "interaction/gesture.h"
 #include "sim/base/atomic_file.h"
 #include "sim/base/error.h"
@@ -157,6 +158,11 @@ SessionScript parseSessionScript(const std::string& text, const std::string& nam
       if (ev.action == UiAction::SetMode && !parseMode(ev.value, m)) p.fail(where + ": unknown mode \"" + ev.value + "\"");
       if (ev.action == UiAction::SetInterface && !parseInterface(ev.value))
         p.fail(where + ": the interface must be sliding or glued, not \"" + ev.value + "\"");
+      if (ev.action == UiAction::Cut) try {
+          parseCutQuads(ev.value);
+        } catch (const Error& err) {
+          p.fail(where + ": " + err.what());
+        }
     }
     s.events.push_back(std::move(ev));
   }

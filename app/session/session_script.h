@@ -27,6 +27,8 @@
 //     {"t": 0.85, "ui": "toggle-strain"},  // the strain overlay on / off (while deforming)
 //     {"t": 0.86, "ui": "toggle-limits"},  // the highlight of tissue past its strain limit on / off
 //     {"t": 0.87, "ui": "set-interface", "value": "sliding"},  // the handles' interface: sliding | glued
+//     {"t": 0.88, "ui": "cut", "value": "X0,Y0,Z0,...,Z3;..."},  // cut the tissue along planar quads (RAS mm,
+//                                                               // docs/cutting.md); clear-cuts undoes every cut
 //     {"t": 0.90, "ui": "export"},  // session, deformed volume, mesh, screenshot (app/session/session_export.h)
 //   ]
 // }

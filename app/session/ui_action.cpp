@@ -33,6 +33,8 @@ constexpr std::array<const char*, std::size_t(UiAction::Count)> kNames = {
     "pinch-op",
     "toggle-lock",
     "set-interface",
+    "cut",
+    "clear-cuts",
     "export",
 };
 static_assert(kNames.back() != nullptr, "a name for every action");

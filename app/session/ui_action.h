@@ -37,6 +37,8 @@ enum class UiAction : std::uint8_t {
   ToggleLock,   ///< a manipulation lock
   // The simulation and the session.
   SetInterface,  ///< sliding | glued
+  Cut,           ///< a cut's quads (interaction/cut_stroke.h, formatCutQuads), applied at once
+  ClearCuts,     ///< every cut undone
   Export,
   Count
 };

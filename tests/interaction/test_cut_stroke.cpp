@@ -3,9 +3,11 @@
 // segment, checked against the rays' own geometry; and the cut it makes in a block of tets.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <string>
 
 #include "interaction/cut_stroke.h"
 #include "sim/base/error.h"
@@ -129,4 +131,22 @@ TEST(CutStroke, BadStrokesAreRefused) {
   EXPECT_THROW(cutAlongStroke({a, behind}), Error);
   EXPECT_THROW(cutAlongStroke({a, fromEye(1, 0, 0), fromEye(2, 0, 0)}), Error);
   EXPECT_EQ(cutAlongStroke({a, b}).quads.size(), 1u);
+}
+
+TEST(CutStroke, ACutsQuadsAsAScriptRecordsThemReadBackExactly) {
+  // The "cut" action's value: twelve numbers a quad, quads by semicolons, each number in its
+  // shortest exact form, so a replay cuts along the very same quads.
+  const std::vector<CutQuad> quads{{{Eigen::Vector3d(0.1, -2.0 / 3.0, 1e-7), Eigen::Vector3d(10.25, -2.0 / 3.0, 1e-7), Eigen::Vector3d(10.25, 30, 1e-7),
+                                     Eigen::Vector3d(0.1, 30, 1e-7)}},
+                                   {{Eigen::Vector3d(5, 5, 5), Eigen::Vector3d(5, 6, 5), Eigen::Vector3d(5, 6, 6), Eigen::Vector3d(5, 5, 6)}}};
+  const std::string text = formatCutQuads(quads);
+  EXPECT_EQ(text.find(' '), std::string::npos) << text;
+  EXPECT_EQ(std::count(text.begin(), text.end(), ';'), 1) << text;
+  const std::vector<CutQuad> back = parseCutQuads(text);
+  ASSERT_EQ(back.size(), 2u);
+  for (std::size_t q = 0; q < 2; ++q)
+    for (std::size_t c = 0; c < 4; ++c) EXPECT_EQ(back[q].corners[c], quads[q].corners[c]) << text;
+  for (const char* bad : {"", "1,2,3", "0,0,0,1,0,0,1,1,0,0,1,0;", "0,0,0,1,0,0,1,1,0,0,1,x", "0,0,0,1,0,0,1,1,0,0,1,0,7", "0,0,0,1,0,0,1,1,0,0,1,5",
+                          "0,0,0,0,0,0,0,0,0,0,0,0", "nan,0,0,1,0,0,1,1,0,0,1,0"})
+    EXPECT_THROW(parseCutQuads(bad), Error) << bad;
 }

@@ -261,3 +261,49 @@ TEST(DeformationController, ChangesDuringABuildAndShutdownNeverBlockForLong) {
   EXPECT_LT(std::chrono::duration<double>(Clock::now() - t0).count(), 30.0);
   EXPECT_FALSE(s.renderer->deforming());
 }
+
+TEST(DeformationController, ACutRebuildsTheModelOnTheCutSceneAndARefusedCutIsDropped) {
+  // The kidney moved 8 mm away from a plane 8 mm beyond it, across the whole region (the "cut"
+  // action): the model is rebuilt on the cut scene, its coarse model updated where the cut passes,
+  // and the tissue between follows the kidney while the far side stays: the opening shows air (the
+  // image's lowest value) where uncut there was tissue. A second cut that misses the tissue is
+  // refused by the build and dropped, the first kept; clearing the cuts gives the uncut tissue back.
+  Scene s;
+  HandleSet handles;
+  const int id = handles.add(s.kidney);
+  double kidneyMaxX = -1e300;
+  for (std::uint32_t v : s.kidney) kidneyMaxX = std::max(kidneyMaxX, s.q.geometry.toWorld(s.q.geometry.voxelOf(v).cast<double>()).x());
+  RigidTransform pose;
+  pose.t = Eigen::Vector3d(-8, 0, 0);
+  handles.setPose(id, pose, false);
+  DeformationController dc(s.phantom.ct, s.q, *s.renderer, small());
+  const float air = s.phantom.ct.valueRange().first;
+  auto airVoxels = [&] {
+    FrameRequest req;
+    req.params = s.params;
+    EXPECT_TRUE(dc.prepareFrameSettled(req, handles)) << dc.status();
+    s.renderer->submit(req);
+    s.renderer->waitLast();
+    Volume out;
+    EXPECT_TRUE(dc.exportDeformed(out));
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < out.voxelCount(); ++i) n += out.value(i) <= air ? 1 : 0;
+    return n;
+  };
+  const std::size_t uncut = airVoxels();
+  const double x = kidneyMaxX + 8.0;
+  ASSERT_TRUE(dc.addCut({{{Eigen::Vector3d(x, -1000, -1000), Eigen::Vector3d(x, 1000, -1000), Eigen::Vector3d(x, 1000, 1000), Eigen::Vector3d(x, -1000, 1000)}}}));
+  const std::size_t cut = airVoxels();
+  EXPECT_NE(dc.status().find("; 1 cut, "), std::string::npos) << dc.status();
+  std::printf("air voxels: uncut %zu, cut %zu; %s\n", uncut, cut, dc.status().c_str());
+  EXPECT_GT(cut, uncut + 10) << "the opening";
+  ASSERT_TRUE(dc.addCut({{{Eigen::Vector3d(5000, 0, 0), Eigen::Vector3d(5000, 10, 0), Eigen::Vector3d(5000, 10, 10), Eigen::Vector3d(5000, 0, 10)}}}));
+  EXPECT_EQ(airVoxels(), cut) << "the refused cut changes nothing";
+  EXPECT_EQ(dc.cuts().size(), 1u);
+  EXPECT_NE(dc.status().find("a cut refused: "), std::string::npos) << dc.status();
+  EXPECT_FALSE(dc.addCut({}));
+  dc.clearCuts();
+  EXPECT_EQ(airVoxels(), uncut);
+  EXPECT_EQ(dc.status().find("cut"), std::string::npos) << dc.status();
+  EXPECT_EQ(s.ctx->validationMessageCount(), 0u);
+}
