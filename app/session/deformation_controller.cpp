@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <numeric>
 #include <sstream>
 
 #include "render/deform_pass.h"
@@ -153,7 +154,8 @@ void DeformationController::startBuild(const HandleSet& handles) {
     buildStage_ = "starting";
     buildFraction_ = 0.0;
   }
-  builder_ = std::thread([this, gen, done = builderDone_, sim = std::move(sim), cuts = cuts_] {
+  // The builder takes its own copy of the settings and the cuts: the render thread may change them.
+  builder_ = std::thread([this, gen, done = builderDone_, sim = std::move(sim), cuts = cuts_, settings = options_.sim, cacheDir = options_.cacheDir] {
     struct MarkDone {
       std::shared_ptr<std::atomic<bool>> flag;
       ~MarkDone() { flag->store(true); }
@@ -167,8 +169,8 @@ void DeformationController::startBuild(const HandleSet& handles) {
     };
     try {
       auto m = std::make_unique<Model>();
-      m->model = buildOrLoadSimulation(image_, sim, options_.sim, m->scene, {options_.cacheDir, &m->cache}, progress);
-      cutBuilt(*m, cuts, progress, m->refusedCuts);
+      m->model = buildOrLoadSimulation(image_, sim, settings, m->scene, {cacheDir, &m->cache}, progress);
+      cutBuilt(*m, {cuts, settings.coarseSolver, progress});
       m->data = m->model->interpolationData();
       m->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::lock_guard<std::mutex> lock(mutex_);
@@ -216,8 +218,12 @@ void DeformationController::adoptBuilt() {
   }
   if (!m) return;
   if (builder_.joinable()) builder_.join();  // it has finished: it handed its model over
-  // Built with the cuts as they are now (a change restarts the build): the refused ones go.
-  for (auto i = m->refusedCuts.rbegin(); i != m->refusedCuts.rend(); ++i) cuts_.erase(cuts_.begin() + std::ptrdiff_t(*i));
+  // Built with the cuts as they are now (a change restarts the build). A cut refused by the first
+  // build after it was made goes; one that an earlier build took stays (refused here by this
+  // build's region, which follows the handles, it may be taken again by a later one).
+  for (auto i = m->refusedCuts.rbegin(); i != m->refusedCuts.rend(); ++i)
+    if (*i >= confirmedCuts_ && *i < cuts_.size()) cuts_.erase(cuts_.begin() + std::ptrdiff_t(*i));
+  confirmedCuts_ = cuts_.size();
   SimWorkerOptions wo;
   wo.coarseIterations = options_.coarseIterations;
   wo.idleIterations = options_.idleIterations;
@@ -313,37 +319,44 @@ void DeformationController::pull() {
 
 // The uncut scene's model becomes the cut one's: the scene cut group by group on a copy (cutScene
 // leaves it unchanged when it refuses a group), then the coarse model updated from the uncut one
-// where the cuts pass (sim/coarse_cut.cpp), which reads only its own data once its scene is the
-// cut one.
-void DeformationController::cutBuilt(Model& m, const std::vector<std::vector<CutQuad>>& cuts, const ProgressFn& progress,
-                                     std::vector<std::size_t>& refused) const {
-  if (cuts.empty()) return;
-  reportProgress(progress, 0.0, "cutting");
+// where the cuts pass (sim/coarse_cut.cpp). The uncut model reads only its own data in that update,
+// so the scenes are swapped first (the cut model refers to the Model's scene) and back if the
+// update fails, which refuses every cut of this build and keeps the uncut model.
+void DeformationController::cutBuilt(Model& m, const CutBuild& b) {
+  if (b.cuts.empty()) return;
   std::string why = "graded cells and tet elements do not see cuts";
   SimScene cut = m.scene;
   std::size_t faces = 0;
   const bool cells = m.model->elementKind() == CoarseElement::Cell && !m.model->graded();
-  for (std::size_t i = 0; i < cuts.size(); ++i) try {
+  for (std::size_t i = 0; i < b.cuts.size(); ++i) try {
+      reportProgress(b.progress, double(i) / double(b.cuts.size()), "cutting");  // a newer build cancels this one here
       if (!cells) throw Error(why);
-      faces += cutScene(cut, cuts[i]).cutFaces;
+      faces += cutScene(cut, b.cuts[i]).cutFaces;
     } catch (const Error& e) {
-      refused.push_back(i);
+      m.refusedCuts.push_back(i);
       why = e.what();
     }
   std::ostringstream note;
-  if (refused.size() < cuts.size()) {
-    m.scene = std::move(cut);
-    m.model = std::make_unique<CoarseModel>(*m.model, m.scene.meshes, m.scene.fineK, m.scene.constraints, progress);
-    m.model->setSolver(options_.sim.coarseSolver);
-    note << cuts.size() - refused.size() << (cuts.size() - refused.size() == 1 ? " cut, " : " cuts, ") << faces << " faces separated, "
-         << m.model->elementCount() - m.scene.meshes.coarseGrid.cellCount() << " coarse elements added";
+  if (m.refusedCuts.size() < b.cuts.size()) {
+    std::swap(m.scene, cut);  // `cut` holds the uncut scene now
+    try {
+      m.model = std::make_unique<CoarseModel>(*m.model, m.scene.meshes, m.scene.fineK, m.scene.constraints, b.progress);
+      m.model->setSolver(b.solver);
+      note << b.cuts.size() - m.refusedCuts.size() << (b.cuts.size() - m.refusedCuts.size() == 1 ? " cut, " : " cuts, ") << faces << " faces separated, "
+           << m.model->elementCount() - m.scene.meshes.coarseGrid.cellCount() << " coarse elements added";
+    } catch (const Error& e) {
+      std::swap(m.scene, cut);
+      m.refusedCuts.resize(b.cuts.size());
+      std::iota(m.refusedCuts.begin(), m.refusedCuts.end(), std::size_t{0});
+      why = std::string("the coarse model could not be updated: ") + e.what();
+    }
   }
-  if (!refused.empty()) note << (refused.size() < cuts.size() ? "; " : "") << "a cut refused: " << why;
+  if (!m.refusedCuts.empty()) note << (m.refusedCuts.size() < b.cuts.size() ? "; " : "") << m.refusedCuts.size() << " refused: " << why;
   m.cutNote = note.str();
 }
 
 bool DeformationController::addCut(const std::vector<CutQuad>& quads) {
-  if (quads.empty()) return false;
+  if (quads.empty() || quads.size() > kMaxCutQuads) return false;
   cuts_.push_back(quads);
   rebuild_ = true;
   return true;
@@ -352,6 +365,7 @@ bool DeformationController::addCut(const std::vector<CutQuad>& quads) {
 void DeformationController::clearCuts() {
   if (cuts_.empty()) return;
   cuts_.clear();
+  confirmedCuts_ = 0;
   rebuild_ = true;
 }
 

@@ -77,9 +77,10 @@ class DeformationController {
   /// Cuts the tissue along the quads, at once (the "cut" action; docs/cutting.md): the model is
   /// rebuilt on the next frame with every cut so far, its coarse model updated from the uncut one
   /// where the cuts pass. A cut the scene refuses (it separates nothing, or leaves tissue held by
-  /// nothing) is dropped when the build says so, the others kept; status() names it. False (nothing
-  /// changes) for no quad.
+  /// nothing) is dropped by the first build after it, the others kept; status() names it. False (nothing
+  /// changes) for no quad or more than kMaxCutQuads (a stroke across the body at 4 mm is ~100).
   bool addCut(const std::vector<CutQuad>& quads);
+  static constexpr std::size_t kMaxCutQuads = 1024;
   /// Every cut undone (the "clear-cuts" action): rebuilt on the next frame.
   void clearCuts();
   /// The cuts kept so far (each a group of quads cut at once).
@@ -143,8 +144,13 @@ class DeformationController {
   void stopAll();
   void adoptBuilt();
   /// The cuts applied to a freshly built model (on the builder thread): those the scene refuses are
-  /// left out and listed in `refused`.
-  void cutBuilt(Model& m, const std::vector<std::vector<CutQuad>>& cuts, const ProgressFn& progress, std::vector<std::size_t>& refused) const;
+  /// left out and listed in the model's refusedCuts.
+  struct CutBuild {
+    const std::vector<std::vector<CutQuad>>& cuts;
+    CoarseSolver solver;
+    const ProgressFn& progress;
+  };
+  static void cutBuilt(Model& m, const CutBuild& b);
   bool outgrown(const std::vector<RigidTransform>& poses) const;
   void pull();  // the worker's newest snapshot into state_
 
@@ -156,6 +162,7 @@ class DeformationController {
   Key key_;
   bool rebuild_ = false;  // the settings changed: rebuild on the next frame
   std::vector<std::vector<CutQuad>> cuts_;  // applied by every build, in order
+  std::size_t confirmedCuts_ = 0;            // the first ones, taken by an adopted build
   std::vector<int> simIds_;  // handle ids in simulation order (active, then fixed)
   std::vector<bool> simActive_;
   std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> restBoxes_;  // world box of each simulated handle at rest
