@@ -95,11 +95,13 @@ void CoarseModel::separateCutCells(std::vector<std::vector<int>>& tetsOf) {
   };
   // The copies each entry holds, the entries at each grid node, and the joins.
   std::vector<std::vector<int>> copies(8 * ne);
+  std::vector<int> gridOf(8 * ne);  // per entry: its grid node
   std::vector<std::vector<int>> entriesAt(nodes_.size());
   for (std::size_t k = 0; k < ne; ++k) {
     const std::array<int, 8> g = meshes_.coarseGrid.cellNodes(cut->cell[k]);
     for (int c = 0; c < 8; ++c) {
       const int original = nodeFine_[std::size_t(g[std::size_t(c)])];
+      gridOf[8 * k + std::size_t(c)] = g[std::size_t(c)];
       entriesAt[std::size_t(g[std::size_t(c)])].push_back(int(8 * k) + c);
       if (!touched[k]) {
         copies[8 * k + std::size_t(c)] = {original};
@@ -122,7 +124,7 @@ void CoarseModel::separateCutCells(std::vector<std::vector<int>>& tetsOf) {
     }
   std::vector<int> group(copies.size());
   for (std::size_t e = 0; e < group.size(); ++e) group[e] = groups.find(int(e));
-  assignCutCorners(*cut, group, copies);
+  assignCutCorners(*cut, {group, gridOf, copies});
   cut->elementOfTet.assign(F.tets.size(), -1);
   for (std::size_t k = 0; k < ne; ++k)
     for (const int t : pieces[k]) cut->elementOfTet[std::size_t(t)] = int(k);
@@ -132,24 +134,23 @@ void CoarseModel::separateCutCells(std::vector<std::vector<int>>& tetsOf) {
 
 // Each group of entries becomes one coarse node (above); each element's corner takes the group's
 // node, and its fine node where the element's piece holds the node's copy (else -1: virtual there).
-void CoarseModel::assignCutCorners(CutCells& cut, const std::vector<int>& group, const std::vector<std::vector<int>>& copies) {
+void CoarseModel::assignCutCorners(CutCells& cut, const CutEntries& in) {
+  const std::vector<int>& group = in.group;
+  const std::vector<std::vector<int>>& copies = in.copies;
   const std::size_t entries = group.size(), ne = entries / 8;
   std::vector<int> chosen(entries, -2);  // per group root: the fine node of its coarse node (-1: virtual)
-  std::vector<int> gridOf(entries, -1);
   for (std::size_t e = 0; e < entries; ++e) {
-    const int r = group[e];
-    const int g = meshes_.coarseGrid.cellNodes(cut.cell[e / 8])[e % 8];
-    gridOf[std::size_t(r)] = g;
+    const int g = in.grid[e];
     const int original = nodeFine_[std::size_t(g)];
-    int& ch = chosen[std::size_t(r)];
+    int& ch = chosen[std::size_t(group[e])];
     for (const int v : copies[e])
       if (ch < 0 || v == original || (ch != original && v < ch)) ch = v;
     if (ch == -2) ch = -1;
   }
   std::vector<int> nodeOfGroup(entries, -1);
   for (std::size_t r = 0; r < entries; ++r) {
-    if (chosen[r] == -2 || gridOf[r] < 0 || group[r] != int(r)) continue;
-    const int g = gridOf[r];
+    if (group[r] != int(r)) continue;  // a root's entry is its own: its grid node is the group's
+    const int g = in.grid[r];
     if (chosen[r] == nodeFine_[std::size_t(g)]) {
       nodeOfGroup[r] = g;
     } else {

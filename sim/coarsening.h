@@ -233,7 +233,14 @@ class CoarseModel {
   /// Replaces the cells' tets (tetsOf) by the elements', sets cut_ and adds the corners' copies to
   /// nodes_ and nodeFine_ (-1: a virtual node).
   void separateCutCells(std::vector<std::vector<int>>& tetsOf);
-  void assignCutCorners(CutCells& cut, const std::vector<int>& group, const std::vector<std::vector<int>>& copies);
+  /// Per corner entry 8k + c of element k: its group's root, its grid node, the copies of the
+  /// grid node's fine node its piece holds.
+  struct CutEntries {
+    const std::vector<int>& group;
+    const std::vector<int>& grid;
+    const std::vector<std::vector<int>>& copies;
+  };
+  void assignCutCorners(CutCells& cut, const CutEntries& entries);
   /// The incremental build's untouched cells, from the uncut model (sim/coarse_cut.cpp).
   void takeUntouched(const CoarseModel& uncut, const std::vector<char>& touchedCell);
   /// The springs that give a virtual corner a stiffness (sim/coarse_cut.cpp), after the elements are built.

@@ -142,9 +142,7 @@ double frameMs(CoarseModel& model, const Eigen::Vector3d& organ) {
   return median(ms);
 }
 
-CoarseCut coarseOfCut(const CoarseModel& uncut, const SimScene& sc, const CutQuad& q) {
-  SimScene cut = sc;
-  cutScene(cut, {q});
+CoarseCut coarseOfCut(const CoarseModel& uncut, const SimScene& cut) {
   CoarseCut r;
   auto t0 = std::chrono::steady_clock::now();
   {
@@ -158,17 +156,15 @@ CoarseCut coarseOfCut(const CoarseModel& uncut, const SimScene& sc, const CutQua
   r.updateMs = millisecondsSince(t0);
   r.addedElements = model.elementCount() - cut.meshes.coarseGrid.cellCount();
   r.addedNodes = model.restState().size() - cut.meshes.coarse.nodes.size();
-  r.frameMs = frameMs(model, sc.handleCentroid[0]);
+  r.frameMs = frameMs(model, cut.handleCentroid[0]);
   return r;
 }
 
 // The force (N) a retractor needs to pull the cut's lip on the side away from the organ `mm` away
-// from the cut, the organ held: the coarse model of the cut scene with the lip a handle of its own,
-// refined `steps` steps.
-double retractForce(const CoarseModel& uncut, const SimScene& sc, const CutQuad& q, double mm, int steps = 10) {
-  SimScene cut = sc;
-  cutScene(cut, {q});
-  const CutLip lip = lipAwayFrom(q, sc.handleCentroid[0], 10.0);
+// from the cut, the organ held: the coarse model of the cut scene (`cut`, which takes the lip as a
+// handle of its own), refined `steps` steps.
+double retractForce(const CoarseModel& uncut, SimScene& cut, const CutQuad& q, double mm, int steps = 10) {
+  const CutLip lip = lipAwayFrom(q, cut.handleCentroid[0], 10.0);
   const int handle = addLipHandle(cut, lip);
   const std::vector<RigidTransform> T{RigidTransform{}, RigidTransform{Eigen::Matrix3d::Identity(), mm * lip.side * cutPlane(q).n}};
   CoarseModel model(uncut, cut.meshes, cut.fineK, cut.constraints);
@@ -246,9 +242,11 @@ int cmdBenchCut(const Words& words) {
         csv << scene << "," << sc.meshes.fine.tets.size() << "," << l << "," << d << ",0,0,nan,nan,nan,nan,0,0,nan," << uncutFrameMs << ",nan\n";
         continue;
       }
-      c = coarseOfCut(uncut, sc, q);  // the cut is made: its coarse model is a result, not a refusal
+      SimScene cut = sc;  // the cut is made: its coarse model is a result, not a refusal
+      cutScene(cut, {q});
+      c = coarseOfCut(uncut, cut);
       try {
-        if (retractMm > 0.0) force = retractForce(uncut, sc, q, retractMm);
+        if (retractMm > 0.0) force = retractForce(uncut, cut, q, retractMm);  // the last use of `cut`: its lip becomes a handle
       } catch (const Error& e) {  // the cut stands; its lip could not be retracted (no free tissue there)
         std::cout << "  " << l << " x " << d << " mm: no retractor: " << e.what() << "\n";
       }

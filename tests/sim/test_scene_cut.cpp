@@ -48,6 +48,16 @@ struct CutKidney {
   }
 };
 
+// cutScene refuses the cuts with a message naming `mention`.
+void expectCutRefused(SimScene& s, const std::vector<CutQuad>& cuts, const std::string& mention) {
+  try {
+    cutScene(s, cuts);
+    ADD_FAILURE() << "not refused (expected: " << mention << ")";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(mention), std::string::npos) << e.what();
+  }
+}
+
 // The roles of the cut scene's nodes against the rules (sim/scene_cut.h), from the uncut scene and
 // each node's source: held nodes stay held; a split handle node stays the handle's only beside its
 // own tets; every slide node is free, on both the organ's and the tissue's tets when it was split,
@@ -282,12 +292,7 @@ TEST(SceneCut, AQuadThatAddsNothingToTheOthersIsRefused) {
   for (auto& p : missing.corners) p.x() += 1000.0;
   for (const std::vector<CutQuad>& cuts : {std::vector<CutQuad>{across, across}, std::vector<CutQuad>{across, within}, std::vector<CutQuad>{across, missing}}) {
     SimScene s = k.sc;
-    try {
-      cutScene(s, cuts);
-      ADD_FAILURE() << "not refused";
-    } catch (const Error& e) {
-      EXPECT_NE(std::string(e.what()).find("quad 2 separates no tissue"), std::string::npos) << e.what();
-    }
+    expectCutRefused(s, cuts, "quad 2 separates no tissue");
     EXPECT_EQ(s.meshes.fine.nodes.size(), k.sc.meshes.fine.nodes.size());
   }
 }
@@ -314,12 +319,7 @@ TEST(SceneCut, ACutThatLeavesTissueHeldByNothingIsRefusedAndTheSceneStaysAsItWas
       }
       box.push_back(q);
     }
-  try {
-    cutScene(s, box);
-    ADD_FAILURE() << "the cut-out cube was not refused";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("nothing holds"), std::string::npos) << e.what();
-  }
+  expectCutRefused(s, box, "nothing holds");  // the cut-out cube
   EXPECT_EQ(s.meshes.fine.nodes.size(), k.sc.meshes.fine.nodes.size());
   EXPECT_EQ(s.constraints.handleOf, k.sc.constraints.handleOf);
   EXPECT_EQ(s.constraints.slide.size(), k.sc.constraints.slide.size());
@@ -455,12 +455,7 @@ TEST(SceneCut, ASliverOnAnOrganThatIsAlsoHeldElsewhereIsRefused) {
   SimScene s = b.sc;
   s.constraints.fixed[std::size_t(held)] = 1;
   const SimScene before = s;
-  try {
-    cutScene(s, {q});
-    ADD_FAILURE() << "a sliver held by the cube and by a held node was not refused";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("by something else"), std::string::npos) << e.what();
-  }
+  expectCutRefused(s, {q}, "by something else");  // a sliver held by the cube and by a held node
   EXPECT_EQ(s.meshes.fine.nodes.size(), before.meshes.fine.nodes.size());
   EXPECT_EQ(s.constraints.handleOf, before.constraints.handleOf);
   EXPECT_EQ(s.constraints.slide.size(), before.constraints.slide.size());
